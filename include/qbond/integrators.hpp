@@ -1,0 +1,125 @@
+#pragma once
+/// Integrators (DESIGN §5). Every integrator, explicit or implicit, only *projects* a step: it
+/// returns the change of position and velocity of every quanta without moving anything, so that
+/// heuristics can edit the projection before the step applies it (DESIGN §4).
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "qbond/math.hpp"
+#include "qbond/world.hpp"
+
+namespace qbond {
+
+/// What one step is asked to do.
+struct StepContext {
+  double h = 1e-3;        ///< timestep [s]
+  double t = 0;           ///< time at the start of the step [s]
+  std::uint64_t step = 0; ///< index of the step being taken
+};
+
+/// The change a step will make (Eqs. 8–9): dx = Δp, dv = Δv for every quanta.
+struct Projection {
+  std::vector<Vec3> dx;  ///< [m] (n)
+  std::vector<Vec3> dv;  ///< [m/s] (n)
+  void resize(std::size_t n) {
+    dx.assign(n, Vec3::Zero());
+    dv.assign(n, Vec3::Zero());
+  }
+};
+
+/// Which integrator.
+enum class IntegratorType : std::uint8_t {
+  explicit_euler,    ///< the particle method: x += h v, v += h a(x, v)
+  symplectic_euler,  ///< v += h a(x, v), then x += h v_new
+  velocity_verlet,   ///< second order, symplectic when undamped
+  rk4,               ///< classical fourth-order Runge–Kutta
+  hybrid_implicit,   ///< Eqs. 11–12: one 3×3 solve per quanta (see NeighbourModel)
+  coupled_implicit,  ///< Eq. 13 linearised (Baraff–Witkin): one global linear solve
+};
+
+/// How the hybrid integrator treats a quanta's neighbours while solving for it.
+enum class NeighbourModel : std::uint8_t {
+  frozen,  ///< the paper literally: neighbours held at their start positions and at rest
+  sweep,   ///< block Gauss–Seidel on the coupled system, in graph-colour order
+  jacobi,  ///< block Jacobi on the coupled system (for comparison)
+};
+
+/// Linear solver of the coupled implicit integrator.
+enum class CoupledSolver : std::uint8_t {
+  dense,  ///< dense Gaussian elimination (partial pivoting): the paper's cubic-cost method
+  ldlt,   ///< sparse LDLᵀ (Eigen SimplicialLDLT)
+  cg,     ///< matrix-free conjugate gradient, block-Jacobi preconditioned
+};
+
+/// Initial guess of the iterative solvers (sweep, jacobi, cg).
+enum class WarmStart : std::uint8_t {
+  zero,      ///< dv = 0
+  external,  ///< dv = h f_ext / m: exact for a free body under uniform gravity
+  previous,  ///< the previous step's dv
+};
+
+/// Every option of every integrator; each integrator reads the ones that concern it.
+struct IntegratorConfig {
+  IntegratorType type = IntegratorType::coupled_implicit;
+  NeighbourModel neighbours = NeighbourModel::sweep;  ///< hybrid only
+  CoupledSolver solver = CoupledSolver::cg;           ///< coupled only
+  int iterations = 1;        ///< sweep/jacobi: sweeps per step (≥ 1)
+  int max_iterations = 0;    ///< cg: iteration cap (0: three times the free unknowns)
+  double tolerance = 1e-8;   ///< relative residual ‖b - A dv‖/‖b‖ at which sweeps and cg stop
+  double chebyshev_rho = 0;  ///< sweep: spectral radius estimate for Chebyshev acceleration (0 = off)
+  WarmStart warm_start = WarmStart::external;
+  bool restore_momentum = true;  ///< iterative solvers: give each free component its exact
+                                 ///< momentum change h Σ f_ext (see docs/integrators.md)
+};
+
+/// The defaults qbond ships (chosen from the measurements in docs/integrators.md).
+IntegratorConfig default_integrator();
+
+/// Statistics of the last projection (iterative solvers fill them).
+struct SolveStats {
+  int iterations = 0;        ///< sweeps or CG iterations taken
+  double residual = 0;       ///< final relative residual ‖b - A dv‖ / ‖b‖ (0 for direct solvers)
+};
+
+/// An integrator: owns its options and its scratch buffers (no allocation once warmed up).
+class Integrator {
+ public:
+  virtual ~Integrator() = default;
+  /// Projects one step of length ctx.h from `state` into `out` (resized to the quanta count).
+  /// `f_ext` holds the external force on every quanta for this step [N].
+  virtual void project(const Model& model, const State& state, const Adjacency& adj,
+                       const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) = 0;
+  /// Fraction θ of the step's velocity change at which this integrator evaluates damping forces
+  /// (0: start of step, 1: end, ½: between). The energy ledger charges damping work at v + θ dv.
+  virtual double damping_theta() const = 0;
+  const IntegratorConfig& config() const { return config_; }
+  const SolveStats& stats() const { return stats_; }
+
+ protected:
+  explicit Integrator(const IntegratorConfig& c) : config_(c) {}
+  IntegratorConfig config_;
+  SolveStats stats_;
+};
+
+/// Creates the integrator a configuration names. Throws std::invalid_argument on bad options.
+std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& config);
+
+/// Scene-file names.
+std::string_view to_string(IntegratorType t);
+std::string_view to_string(NeighbourModel m);
+std::string_view to_string(CoupledSolver s);
+std::string_view to_string(WarmStart w);
+/// Parses scene-file names; throw std::invalid_argument listing the accepted names.
+IntegratorType parse_integrator_type(std::string_view s);
+NeighbourModel parse_neighbour_model(std::string_view s);
+CoupledSolver parse_coupled_solver(std::string_view s);
+WarmStart parse_warm_start(std::string_view s);
+
+/// Fills the kinematic quanta's rows of a projection with their prescribed motion over
+/// [ctx.t, ctx.t + h] (free rows untouched). Every integrator calls it first.
+void project_kinematic(const Model& model, const State& state, const StepContext& ctx,
+                       Projection& out);
+
+}  // namespace qbond

@@ -1,0 +1,91 @@
+#pragma once
+/// The step pipeline (DESIGN §4): gather external forces → project → heuristics → apply →
+/// observers. Same inputs, same bits: nothing here depends on timing or thread count.
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "qbond/heuristics.hpp"
+#include "qbond/integrators.hpp"
+#include "qbond/world.hpp"
+
+namespace qbond {
+
+/// Limits past which a step counts as a blow-up.
+struct BlowupLimits {
+  double max_speed = 1e5;  ///< [m/s] any free quanta faster than this
+  /// Kinetic + bond energy may not exceed this factor times the energy the system could have
+  /// gained (initial kinetic + bond energy + |gravity work| + |load and anchor work|).
+  double energy_growth = 1e3;
+  double energy_floor = 1e-9;  ///< [J] absolute slack so that systems at rest don't trip it
+};
+
+/// Outcome of one step.
+struct StepReport {
+  enum class Status { ok, blowup } status = Status::ok;
+  std::string message;      ///< set on blow-up: what, where and when
+  Index worst = 0;          ///< quanta with the worst value on blow-up
+};
+
+/// Something that looks at the world after every applied step (diagnostics, outputs, viewer).
+class Observer {
+ public:
+  virtual ~Observer() = default;
+  virtual void observe(const Model& model, const State& state, const StepContext& ctx) = 0;
+};
+
+/// A world, the integrator that steps it, its heuristics and observers.
+class Simulation {
+ public:
+  Simulation(World world, const IntegratorConfig& config, double h);
+
+  /// One whole step. On blow-up the world keeps the last good state when the projection
+  /// itself is bad (non-finite or too fast); an energy runaway is caught right after applying.
+  StepReport step();
+  /// Split step for interactive use: `begin_step` gathers forces and projects; the caller may
+  /// add forces before it or edit the projection after it; `end_step` runs heuristics, applies,
+  /// checks and notifies observers.
+  void begin_step();
+  StepReport end_step();
+
+  /// Adds a force [N] to quanta i for the next step only (viewer drags, scripted pushes).
+  void add_force(Index i, const Vec3& f);
+  /// Appends a heuristic to the ordered list.
+  void add_heuristic(std::unique_ptr<Heuristic> h) { heuristics_.push_back(std::move(h)); }
+  void add_observer(Observer* o) { observers_.push_back(o); }
+  /// Replaces the integrator (keeps the world).
+  void set_integrator(const IntegratorConfig& config);
+
+  World& world() { return world_; }
+  const World& world() const { return world_; }
+  const Integrator& integrator() const { return *integrator_; }
+  const Projection& projection() const { return projection_; }
+  double timestep() const { return h_; }
+  void set_timestep(double h) { h_ = h; }
+  BlowupLimits& limits() { return limits_; }
+  /// Whether the energy ledger is updated every step (costs one pass over the bonds).
+  void set_track_energy(bool on) { track_energy_ = on; }
+  const Adjacency& adjacency();
+
+ private:
+  void gather_external_forces();
+  void update_ledger();
+  StepReport check_projection() const;
+  StepReport check_energy() const;
+
+  World world_;
+  std::unique_ptr<Integrator> integrator_;
+  std::vector<std::unique_ptr<Heuristic>> heuristics_;
+  std::vector<Observer*> observers_;
+  double h_;
+  BlowupLimits limits_;
+  bool track_energy_ = true;
+  Adjacency adj_;
+  std::vector<Vec3> f_ext_;    ///< external force of this step [N] (n)
+  std::vector<Vec3> f_user_;   ///< one-step forces queued by add_force [N] (n)
+  Projection projection_;
+  StepContext ctx_;
+};
+
+}  // namespace qbond

@@ -1,0 +1,79 @@
+#include "qbond/analysis.hpp"
+
+#include <cmath>
+
+namespace qbond {
+
+Energies energies(const Model& model, const State& state) {
+  Energies e;
+  for (std::size_t i = 0; i < model.num_quanta(); ++i) {
+    if (model.is_kinematic(static_cast<Index>(i))) continue;
+    e.kinetic += 0.5 * model.mass[i] * state.v[i].squaredNorm();
+    e.gravity -= model.mass[i] * model.gravity.dot(state.x[i]);
+  }
+  for (std::size_t b = 0; b < model.num_bonds(); ++b) {
+    if (!state.alive[b]) continue;
+    const double r = (state.x[model.bond_j[b]] - state.x[model.bond_i[b]]).norm();
+    e.bonds += evaluate_law(model.law[b], r, state.rest[b], model.stiffness[b], model.eps[b]).U;
+  }
+  return e;
+}
+
+Vec3 linear_momentum(const Model& model, const State& state) {
+  Vec3 p = Vec3::Zero();
+  for (std::size_t i = 0; i < model.num_quanta(); ++i)
+    if (!model.is_kinematic(static_cast<Index>(i))) p += model.mass[i] * state.v[i];
+  return p;
+}
+
+Vec3 angular_momentum(const Model& model, const State& state) {
+  Vec3 l = Vec3::Zero();
+  for (std::size_t i = 0; i < model.num_quanta(); ++i)
+    if (!model.is_kinematic(static_cast<Index>(i))) l += model.mass[i] * state.x[i].cross(state.v[i]);
+  return l;
+}
+
+std::pair<double, Index> max_speed(const Model& model, const State& state) {
+  double best = 0;
+  Index who = static_cast<Index>(model.num_quanta());
+  for (std::size_t i = 0; i < model.num_quanta(); ++i) {
+    if (model.is_kinematic(static_cast<Index>(i))) continue;
+    const double s = state.v[i].norm();
+    if (!(s <= best)) {  // also catches NaN, which then names the quanta
+      best = s;
+      who = static_cast<Index>(i);
+      if (std::isnan(s)) break;
+    }
+  }
+  return {best, who};
+}
+
+void bond_tension_strain(const Model& model, const State& state, std::vector<double>& tension,
+                         std::vector<double>& strain) {
+  const std::size_t nb = model.num_bonds();
+  tension.assign(nb, 0.0);
+  strain.assign(nb, 0.0);
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (!state.alive[b]) continue;
+    const double r = (state.x[model.bond_j[b]] - state.x[model.bond_i[b]]).norm();
+    const double L = state.rest[b];
+    tension[b] = evaluate_law(model.law[b], r, L, model.stiffness[b], model.eps[b]).T;
+    strain[b] = L > 0 ? (r - L) / L : 0.0;
+  }
+}
+
+EnergyBudget energy_budget(const Model& model, const State& state) {
+  EnergyBudget b;
+  const EnergyLedger& l = state.energy;
+  b.now = energies(model, state);
+  b.initial_total = l.initial_total;
+  b.work_loads = l.work_loads;
+  b.work_anchors = l.work_anchors;
+  b.dissipated_damping = l.dissipated_damping;
+  b.dissipated_heuristics = l.dissipated_heuristics;
+  b.dissipated_numerical = l.work_loads + l.work_anchors - l.dissipated_damping -
+                           l.dissipated_heuristics - (b.now.total() - l.initial_total);
+  return b;
+}
+
+}  // namespace qbond

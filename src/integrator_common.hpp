@@ -1,0 +1,38 @@
+#pragma once
+// Pieces shared by the integrator implementations (not public API).
+#include <memory>
+#include <vector>
+
+#include "coloring.hpp"
+#include "qbond/integrators.hpp"
+
+namespace qbond {
+
+std::unique_ptr<Integrator> make_explicit_integrator(const IntegratorConfig& config);
+std::unique_ptr<Integrator> make_hybrid_integrator(const IntegratorConfig& config);
+std::unique_ptr<Integrator> make_coupled_implicit_integrator(const IntegratorConfig& config);
+
+// Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0).
+void initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
+                   const std::vector<Vec3>& previous, std::vector<Vec3>& y);
+
+// Caches what depends only on topology (colours, free components), rebuilt when it changes.
+struct TopologyCache {
+  std::uint64_t version = ~0ull;
+  std::size_t num_quanta = 0;
+  Coloring coloring;
+  FreeComponents components;
+  void update(const Model& model, const Adjacency& adj);
+};
+
+// Gives every free component (no bond to a kinematic quanta) its exact momentum change over the
+// step, h Σ f_ext, by a uniform velocity shift: an iterative solve stopped early leaves a small
+// momentum error that would otherwise accumulate (a free body creeping or falling too slowly).
+void restore_component_momentum(const Model& model, const FreeComponents& comps,
+                                const std::vector<Vec3>& f_ext, double h, std::vector<Vec3>& dv);
+
+// Writes the free quanta's rows of a projection from Δv: dx = h (v + Δv) (Eq. 10).
+void write_free_rows(const Model& model, const State& state, double h, const std::vector<Vec3>& dv,
+                     Projection& out);
+
+}  // namespace qbond

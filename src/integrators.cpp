@@ -1,0 +1,161 @@
+#include <array>
+#include <stdexcept>
+#include <string>
+
+#include "integrator_common.hpp"
+
+namespace qbond {
+
+IntegratorConfig default_integrator() {
+  IntegratorConfig c;  // the struct's defaults are the shipped defaults; see docs/integrators.md
+  return c;
+}
+
+std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& c) {
+  if (c.iterations < 1) throw std::invalid_argument("integrator.iterations: must be >= 1");
+  if (c.max_iterations < 0) throw std::invalid_argument("integrator.max_iterations: must be >= 0");
+  if (!(c.tolerance >= 0)) throw std::invalid_argument("integrator.tolerance: must be >= 0");
+  if (!(c.chebyshev_rho >= 0 && c.chebyshev_rho < 1))
+    throw std::invalid_argument("integrator.chebyshev_rho: must be in [0, 1)");
+  switch (c.type) {
+    case IntegratorType::explicit_euler:
+    case IntegratorType::symplectic_euler:
+    case IntegratorType::velocity_verlet:
+    case IntegratorType::rk4:
+      return make_explicit_integrator(c);
+    case IntegratorType::hybrid_implicit:
+      return make_hybrid_integrator(c);
+    case IntegratorType::coupled_implicit:
+      return make_coupled_implicit_integrator(c);
+  }
+  throw std::invalid_argument("unknown integrator type");
+}
+
+namespace {
+template <class E, std::size_t N>
+E parse_name(std::string_view s, const std::array<E, N>& all, const char* what) {
+  std::string names;
+  for (E e : all) {
+    if (to_string(e) == s) return e;
+    names += (names.empty() ? "" : ", ") + std::string(to_string(e));
+  }
+  throw std::invalid_argument(std::string("unknown ") + what + " '" + std::string(s) +
+                              "' (expected one of: " + names + ")");
+}
+}  // namespace
+
+std::string_view to_string(IntegratorType t) {
+  switch (t) {
+    case IntegratorType::explicit_euler: return "explicit_euler";
+    case IntegratorType::symplectic_euler: return "symplectic_euler";
+    case IntegratorType::velocity_verlet: return "velocity_verlet";
+    case IntegratorType::rk4: return "rk4";
+    case IntegratorType::hybrid_implicit: return "hybrid_implicit";
+    case IntegratorType::coupled_implicit: return "coupled_implicit";
+  }
+  return "?";
+}
+std::string_view to_string(NeighbourModel m) {
+  switch (m) {
+    case NeighbourModel::frozen: return "frozen";
+    case NeighbourModel::sweep: return "sweep";
+    case NeighbourModel::jacobi: return "jacobi";
+  }
+  return "?";
+}
+std::string_view to_string(CoupledSolver s) {
+  switch (s) {
+    case CoupledSolver::dense: return "dense";
+    case CoupledSolver::ldlt: return "ldlt";
+    case CoupledSolver::cg: return "cg";
+  }
+  return "?";
+}
+std::string_view to_string(WarmStart w) {
+  switch (w) {
+    case WarmStart::zero: return "zero";
+    case WarmStart::external: return "external";
+    case WarmStart::previous: return "previous";
+  }
+  return "?";
+}
+
+IntegratorType parse_integrator_type(std::string_view s) {
+  return parse_name(s,
+                    std::array{IntegratorType::explicit_euler, IntegratorType::symplectic_euler,
+                               IntegratorType::velocity_verlet, IntegratorType::rk4,
+                               IntegratorType::hybrid_implicit, IntegratorType::coupled_implicit},
+                    "integrator");
+}
+NeighbourModel parse_neighbour_model(std::string_view s) {
+  return parse_name(s, std::array{NeighbourModel::frozen, NeighbourModel::sweep, NeighbourModel::jacobi},
+                    "neighbour model");
+}
+CoupledSolver parse_coupled_solver(std::string_view s) {
+  return parse_name(s, std::array{CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg},
+                    "solver");
+}
+WarmStart parse_warm_start(std::string_view s) {
+  return parse_name(s, std::array{WarmStart::zero, WarmStart::external, WarmStart::previous},
+                    "warm start");
+}
+
+void project_kinematic(const Model& model, const State& state, const StepContext& ctx,
+                       Projection& out) {
+  for (const Motion& m : model.motions) {
+    for (std::size_t k = 0; k < m.quanta.size(); ++k) {
+      const Index i = m.quanta[k];
+      Vec3 x1, v1;
+      m.at(k, ctx.t + ctx.h, x1, v1);
+      out.dx[i] = x1 - state.x[i];
+      out.dv[i] = v1 - state.v[i];
+    }
+  }
+}
+
+void initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
+                   const std::vector<Vec3>& previous, std::vector<Vec3>& y) {
+  const std::size_t n = model.num_quanta();
+  y.assign(n, Vec3::Zero());
+  for (std::size_t i = 0; i < n; ++i) {
+    if (model.is_kinematic(static_cast<Index>(i))) continue;
+    switch (mode) {
+      case WarmStart::zero: break;
+      case WarmStart::external: y[i] = (h * model.inv_mass[i]) * f_ext[i]; break;
+      case WarmStart::previous: if (previous.size() == n) y[i] = previous[i]; break;
+    }
+  }
+}
+
+void TopologyCache::update(const Model& model, const Adjacency& adj) {
+  if (adj.version == version && model.num_quanta() == num_quanta) return;
+  color_free_quanta(model, adj, coloring);
+  free_components(model, adj, components);
+  version = adj.version;
+  num_quanta = model.num_quanta();
+}
+
+void restore_component_momentum(const Model& model, const FreeComponents& comps,
+                                const std::vector<Vec3>& f_ext, double h, std::vector<Vec3>& dv) {
+  for (std::size_t c = 0; c + 1 < comps.offset.size(); ++c) {
+    Vec3 wanted = Vec3::Zero(), got = Vec3::Zero();
+    for (Index k = comps.offset[c]; k < comps.offset[c + 1]; ++k) {
+      const Index i = comps.quanta[k];
+      wanted += h * f_ext[i];
+      got += model.mass[i] * dv[i];
+    }
+    const Vec3 shift = (wanted - got) / comps.mass[c];
+    for (Index k = comps.offset[c]; k < comps.offset[c + 1]; ++k) dv[comps.quanta[k]] += shift;
+  }
+}
+
+void write_free_rows(const Model& model, const State& state, double h, const std::vector<Vec3>& dv,
+                     Projection& out) {
+  for (std::size_t i = 0; i < model.num_quanta(); ++i) {
+    if (model.is_kinematic(static_cast<Index>(i))) continue;
+    out.dv[i] = dv[i];
+    out.dx[i] = h * (state.v[i] + dv[i]);
+  }
+}
+
+}  // namespace qbond

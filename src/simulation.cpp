@@ -1,0 +1,183 @@
+#include "qbond/simulation.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "qbond/analysis.hpp"
+
+namespace qbond {
+
+Simulation::Simulation(World world, const IntegratorConfig& config, double h)
+    : world_(std::move(world)), integrator_(make_integrator(config)), h_(h) {
+  const std::size_t n = world_.num_quanta();
+  f_ext_.assign(n, Vec3::Zero());
+  f_user_.assign(n, Vec3::Zero());
+  EnergyLedger& l = world_.state.energy;
+  if (!l.initialised) {
+    const Energies e = energies(world_.model, world_.state);
+    l.initial_total = e.total();
+    l.initial_gravity = e.gravity;
+    l.initialised = true;
+  }
+}
+
+void Simulation::set_integrator(const IntegratorConfig& config) { integrator_ = make_integrator(config); }
+
+const Adjacency& Simulation::adjacency() {
+  if (adj_.version != world_.state.topology_version) build_adjacency(world_.model, world_.state, adj_);
+  return adj_;
+}
+
+void Simulation::add_force(Index i, const Vec3& f) { f_user_.at(i) += f; }
+
+void Simulation::gather_external_forces() {
+  const Model& m = world_.model;
+  const std::size_t n = m.num_quanta();
+  f_ext_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) f_ext_[i] = m.mass[i] * m.gravity + f_user_[i];
+  for (const Load& load : m.loads) {
+    if (load.quanta.empty()) continue;
+    const Vec3 share = load.force / static_cast<double>(load.quanta.size());
+    for (Index i : load.quanta) f_ext_[i] += share;
+  }
+}
+
+void Simulation::begin_step() {
+  const Adjacency& adj = adjacency();
+  gather_external_forces();
+  ctx_ = {h_, world_.state.time, world_.state.step};
+  integrator_->project(world_.model, world_.state, adj, f_ext_, ctx_, projection_);
+}
+
+StepReport Simulation::step() {
+  begin_step();
+  return end_step();
+}
+
+StepReport Simulation::check_projection() const {
+  const Model& m = world_.model;
+  const State& s = world_.state;
+  double worst = -1;
+  Index who = 0;
+  bool finite = true;
+  for (std::size_t i = 0; i < m.num_quanta(); ++i) {
+    const Vec3 v1 = s.v[i] + projection_.dv[i];
+    const Vec3 x1 = s.x[i] + projection_.dx[i];
+    if (!v1.allFinite() || !x1.allFinite()) {
+      finite = false;
+      who = static_cast<Index>(i);
+      break;
+    }
+    const double speed = v1.norm();
+    if (!m.is_kinematic(static_cast<Index>(i)) && speed > worst) {
+      worst = speed;
+      who = static_cast<Index>(i);
+    }
+  }
+  StepReport r;
+  if (finite && worst <= limits_.max_speed) return r;
+  std::ostringstream msg;
+  msg.precision(6);
+  msg << "blow-up at step " << ctx_.step << " (t = " << ctx_.t << " s): ";
+  if (!finite)
+    msg << "quanta " << who << " would get a non-finite position or velocity";
+  else
+    msg << "quanta " << who << " would reach speed " << worst << " m/s (limit " << limits_.max_speed
+        << " m/s)";
+  msg << "; the world keeps the state before this step";
+  r.status = StepReport::Status::blowup;
+  r.message = msg.str();
+  r.worst = who;
+  return r;
+}
+
+StepReport Simulation::check_energy() const {
+  StepReport r;
+  if (!track_energy_) return r;
+  const Model& m = world_.model;
+  const State& s = world_.state;
+  const EnergyLedger& l = s.energy;
+  const Energies e = energies(m, s);
+  const double available = (l.initial_total - l.initial_gravity) + std::abs(e.gravity - l.initial_gravity) +
+                           std::abs(l.work_loads) + std::abs(l.work_anchors);
+  const double held = e.kinetic + e.bonds;
+  if (held <= limits_.energy_growth * available + limits_.energy_floor) return r;
+  const auto [speed, who] = max_speed(m, s);
+  std::ostringstream msg;
+  msg.precision(6);
+  msg << "blow-up at step " << s.step << " (t = " << s.time << " s): energy runaway, kinetic + bond energy "
+      << held << " J exceeds " << limits_.energy_growth << " x the " << available
+      << " J the system could have gained; fastest quanta " << who << " at " << speed << " m/s";
+  r.status = StepReport::Status::blowup;
+  r.message = msg.str();
+  r.worst = who;
+  return r;
+}
+
+void Simulation::update_ledger() {
+  // Charges this step's work and damping losses before the projection is applied. Loads are
+  // constant over the step (their work is exact); anchors' bond forces use the trapezoid rule;
+  // dampers are charged at the velocity v + θ Δv at which the integrator evaluated them.
+  const Model& m = world_.model;
+  const State& s = world_.state;
+  const Projection& p = projection_;
+  EnergyLedger& l = world_.state.energy;
+  const double h = ctx_.h, theta = integrator_->damping_theta();
+  double loads = 0, anchors = 0, damping = 0;
+  for (std::size_t i = 0; i < m.num_quanta(); ++i)
+    if (!m.is_kinematic(static_cast<Index>(i))) loads += (f_ext_[i] - m.mass[i] * m.gravity).dot(p.dx[i]);
+  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
+    if (!s.alive[b]) continue;
+    const Index i = m.bond_i[b], j = m.bond_j[b];
+    const Vec3 d0 = s.x[j] - s.x[i];
+    const double r0 = d0.norm();
+    if (!(r0 > 0)) continue;
+    const Vec3 u0 = d0 / r0;
+    const Vec3 w = (s.v[j] + theta * p.dv[j]) - (s.v[i] + theta * p.dv[i]);
+    const double D = m.damping[b];
+    const bool axial = m.damping_model[b] == DampingModel::axial;
+    damping += h * D * (axial ? w.dot(u0) * w.dot(u0) : w.squaredNorm());
+    const bool ki = m.is_kinematic(i), kj = m.is_kinematic(j);
+    if (!ki && !kj) continue;
+    // Force of the bond on i, averaged over the step; the bond pushes j with the opposite force.
+    const Vec3 d1 = d0 + p.dx[j] - p.dx[i];
+    const double r1 = d1.norm();
+    const double T0 = evaluate_law(m.law[b], r0, s.rest[b], m.stiffness[b], m.eps[b]).T;
+    const double T1 = evaluate_law(m.law[b], r1, s.rest[b], m.stiffness[b], m.eps[b]).T;
+    Vec3 fi = 0.5 * (T0 * u0 + (r1 > 0 ? Vec3(T1 * d1 / r1) : Vec3::Zero()));
+    fi += axial ? Vec3(D * w.dot(u0) * u0) : Vec3(D * w);
+    // A prescribed quanta does on the structure the work the bond's force on it resists.
+    if (ki) anchors -= fi.dot(p.dx[i]);
+    if (kj) anchors += fi.dot(p.dx[j]);
+  }
+  l.work_loads += loads;
+  l.work_anchors += anchors;
+  l.dissipated_damping += damping;
+}
+
+StepReport Simulation::end_step() {
+  State& s = world_.state;
+  for (auto& h : heuristics_) h->apply(world_.model, s, projection_, ctx_);
+  if (StepReport r = check_projection(); r.status != StepReport::Status::ok) return r;
+  if (track_energy_) update_ledger();
+
+  const Model& m = world_.model;
+  for (std::size_t i = 0; i < m.num_quanta(); ++i) {
+    s.x[i] += projection_.dx[i];
+    s.v[i] += projection_.dv[i];
+  }
+  const double t1 = ctx_.t + ctx_.h;
+  // Kinematic quanta land exactly on their prescribed path (no round-off drift).
+  for (const Motion& motion : m.motions)
+    for (std::size_t k = 0; k < motion.quanta.size(); ++k)
+      motion.at(k, t1, s.x[motion.quanta[k]], s.v[motion.quanta[k]]);
+  s.time = t1;
+  s.step = ctx_.step + 1;
+  std::fill(f_user_.begin(), f_user_.end(), Vec3::Zero());
+
+  StepReport r = check_energy();
+  for (Observer* o : observers_) o->observe(m, s, ctx_);
+  return r;
+}
+
+}  // namespace qbond
