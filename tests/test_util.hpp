@@ -1,0 +1,92 @@
+#pragma once
+// Small scenes and helpers shared by the tests.
+#include <cmath>
+#include <vector>
+
+#include "qbond/analysis.hpp"
+#include "qbond/builders.hpp"
+#include "qbond/integrators.hpp"
+#include "qbond/simulation.hpp"
+
+namespace qbond::test {
+
+// Two quanta of mass m on one linear bond along x, stretched by s0 from rest length L, with
+// relative velocity w0 along the bond. Relative motion is harmonic with ω = sqrt(2k/m).
+inline World two_quanta(double m, double k, double L, double s0, double w0, double D = 0) {
+  World w;
+  w.add_quanta(Vec3(0, 0, 0), Vec3(-0.5 * w0, 0, 0), m);
+  w.add_quanta(Vec3(L + s0, 0, 0), Vec3(0.5 * w0, 0, 0), m);
+  w.add_bond(0, 1, {.law = Law::linear, .stiffness = k, .damping = D, .rest_length = L});
+  return w;
+}
+
+// A simple-cubic block (face diagonals), optionally anchored on its x = 0 face.
+inline World lattice(int nx, int ny, int nz, double k, double m, double D, bool anchored,
+                     Vec3 gravity = Vec3::Zero(), Law law = Law::linear) {
+  World w;
+  w.model.gravity = gravity;
+  CubicLattice lat;
+  lat.size = {nx, ny, nz};
+  lat.spacing = 0.01;
+  lat.quanta_mass = m;
+  lat.bond = {.law = law, .stiffness = k, .damping = D};
+  const auto ids = add_cubic_lattice(w, lat);
+  if (anchored) {
+    std::vector<Index> face;
+    for (Index i : ids)
+      if (w.state.x[i].x() == 0.0) face.push_back(i);
+    w.prescribe(face, Motion{});
+  }
+  return w;
+}
+
+// Deterministic pseudo-random perturbation of positions (± dx) and velocities (± dv) of free quanta.
+inline void perturb(World& w, double dx, double dv, std::uint64_t seed = 7) {
+  Rng rng{seed};
+  auto r = [&] { return 2 * rng.uniform() - 1; };
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) {
+    if (w.model.is_kinematic(static_cast<Index>(i))) continue;
+    w.state.x[i] += dx * Vec3(r(), r(), r());
+    w.state.v[i] += dv * Vec3(r(), r(), r());
+  }
+}
+
+inline IntegratorConfig config(IntegratorType t) {
+  IntegratorConfig c;
+  c.type = t;
+  return c;
+}
+inline IntegratorConfig hybrid(NeighbourModel nm, int iterations = 1) {
+  IntegratorConfig c;
+  c.type = IntegratorType::hybrid_implicit;
+  c.neighbours = nm;
+  c.iterations = iterations;
+  return c;
+}
+inline IntegratorConfig coupled(CoupledSolver s, double tol = 1e-8) {
+  IntegratorConfig c;
+  c.type = IntegratorType::coupled_implicit;
+  c.solver = s;
+  c.tolerance = tol;
+  return c;
+}
+
+// Projects one step of `w` with `cfg` (no heuristics), without applying it.
+inline Projection project_once(const World& w, const IntegratorConfig& cfg, double h) {
+  Simulation sim(w, cfg, h);
+  sim.begin_step();
+  return sim.projection();
+}
+
+inline double max_norm_diff(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  double d = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) d = std::max(d, (a[i] - b[i]).norm());
+  return d;
+}
+inline double max_norm(const std::vector<Vec3>& a) {
+  double d = 0;
+  for (const Vec3& x : a) d = std::max(d, x.norm());
+  return d;
+}
+
+}  // namespace qbond::test
