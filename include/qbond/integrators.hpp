@@ -69,7 +69,8 @@ struct IntegratorConfig {
   int max_iterations = 0;    ///< cg: iteration cap (0: three times the free unknowns)
   double tolerance = 1e-8;   ///< relative residual ‖b - A dv‖/‖b‖ at which sweeps and cg stop
   double chebyshev_rho = 0;  ///< sweep: spectral radius estimate for Chebyshev acceleration (0 = off)
-  WarmStart warm_start = WarmStart::external;
+  WarmStart warm_start = WarmStart::zero;  ///< sweeps from `previous` blow up, from `external`
+                                           ///< they pump energy into anchored bodies
   bool restore_momentum = true;  ///< iterative solvers: give each free component its exact
                                  ///< momentum change h Σ f_ext (see docs/integrators.md)
 };
