@@ -1,0 +1,182 @@
+// The step pipeline, the world's bookkeeping and kinematic motion.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <string>
+
+#include "qbond/samples.hpp"
+#include "test_util.hpp"
+
+namespace qbond {
+namespace {
+
+// Records when it runs and what the projection looked like; optionally edits it.
+class Recorder final : public Heuristic {
+ public:
+  Recorder(std::string name, std::vector<std::string>& log, bool zero_first) : name_(std::move(name)), log_(log), zero_first_(zero_first) {}
+  std::string_view name() const override { return name_; }
+  void apply(const Model&, State& state, Projection& p, const StepContext& ctx) override {
+    // Heuristics run after the projection and before it is applied: the state is still at t.
+    EXPECT_EQ(state.time, ctx.t);
+    log_.push_back(name_ + "@" + std::to_string(ctx.step));
+    if (zero_first_) {
+      p.dv[0].setZero();
+      p.dx[0].setZero();
+    }
+  }
+
+ private:
+  std::string name_;
+  std::vector<std::string>& log_;
+  bool zero_first_;
+};
+
+TEST(Pipeline, HeuristicsRunInOrderBetweenProjectionAndApplication) {
+  std::vector<std::string> log;
+  World w = test::lattice(2, 2, 2, 100, 1e-3, 0, false, Vec3(0, 0, -9.81));
+  Simulation sim(std::move(w), default_integrator(), 1e-3);
+  sim.add_heuristic(std::make_unique<Recorder>("first", log, false));
+  sim.add_heuristic(std::make_unique<Recorder>("second", log, true));
+  const Vec3 x0 = sim.world().state.x[0];
+  for (int n = 0; n < 2; ++n) sim.step();
+  EXPECT_EQ(log, (std::vector<std::string>{"first@0", "second@0", "first@1", "second@1"}));
+  // The second heuristic's edit is what the step applied: quanta 0 never moved.
+  EXPECT_EQ(sim.world().state.x[0], x0);
+  EXPECT_NE(sim.world().state.x[1], w.state.x[1]);
+}
+
+TEST(Pipeline, SameInputsSameBits) {
+  auto run = [] {
+    SampleScene s = find_sample("pendulum").build();
+    Simulation sim(std::move(s.world), s.integrator, s.timestep);
+    for (int n = 0; n < 300; ++n) sim.step();
+    return sim.world().state;
+  };
+  const State a = run(), b = run();
+  ASSERT_EQ(a.x.size(), b.x.size());
+  EXPECT_EQ(std::memcmp(a.x.data(), b.x.data(), a.x.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(a.v.data(), b.v.data(), a.v.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(&a.energy, &b.energy, sizeof(EnergyLedger)), 0);
+}
+
+TEST(Pipeline, UserForceActsForOneStepOnly) {
+  World w;
+  w.add_quanta(Vec3::Zero(), Vec3::Zero(), 2.0);
+  Simulation sim(std::move(w), default_integrator(), 0.1);
+  sim.add_force(0, Vec3(4, 0, 0));
+  sim.step();
+  EXPECT_NEAR(sim.world().state.v[0].x(), 0.1 * 4 / 2.0, 1e-15);
+  sim.step();
+  EXPECT_NEAR(sim.world().state.v[0].x(), 0.2, 1e-15);
+}
+
+TEST(Pipeline, LoadIsSpreadEvenlyAndGravityActsOnFreeQuanta) {
+  World w;
+  for (int i = 0; i < 4; ++i) w.add_quanta(Vec3(i, 0, 0), Vec3::Zero(), 0.5);
+  w.model.gravity = Vec3(0, 0, -10);
+  w.add_load({0, 1}, Vec3(2, 0, 0));  // 1 N on each of the two
+  Simulation sim(std::move(w), test::coupled(CoupledSolver::ldlt), 0.01);
+  sim.step();
+  const auto& v = sim.world().state.v;
+  EXPECT_NEAR(v[0].x(), 0.01 * 1.0 / 0.5, 1e-15);
+  EXPECT_NEAR(v[1].x(), 0.02, 1e-15);
+  EXPECT_EQ(v[2].x(), 0.0);
+  for (const Vec3& vi : v) EXPECT_NEAR(vi.z(), -0.1, 1e-15);
+}
+
+TEST(Kinematics, PrescribedMotionsAreFollowedExactly) {
+  World w;
+  const Index fixed = w.add_quanta(Vec3(0, 0, 0), Vec3(5, 5, 5), 1.0);
+  const Index slide = w.add_quanta(Vec3(1, 0, 0), Vec3::Zero(), 1.0);
+  const Index spin = w.add_quanta(Vec3(2, 1, 0), Vec3::Zero(), 1.0);
+  const Index free = w.add_quanta(Vec3(1, 1, 0), Vec3::Zero(), 1.0);
+  for (Index k : {fixed, slide, spin}) w.add_bond(free, k, {.law = Law::linear, .stiffness = 10, .damping = 0.1});
+  w.prescribe({fixed}, Motion{});
+  Motion m;
+  m.type = MotionType::translate;
+  m.velocity = Vec3(0, 0.5, 0);
+  w.prescribe({slide}, m);
+  Motion r;
+  r.type = MotionType::rotate;
+  r.axis = Vec3(0, 0, 2);  // normalised on entry
+  r.center = Vec3(2, 0, 0);
+  r.rate = 0.25;
+  w.prescribe({spin}, r);
+  EXPECT_EQ(w.state.v[fixed], Vec3::Zero());
+  for (IntegratorConfig cfg : {default_integrator(), test::config(IntegratorType::rk4), test::hybrid(NeighbourModel::frozen)}) {
+    Simulation sim(w, cfg, 0.01);
+    for (int n = 0; n < 400; ++n) sim.step();
+    const State& s = sim.world().state;
+    const double t = s.time;
+    EXPECT_NEAR(t, 4.0, 1e-12);
+    EXPECT_EQ(s.x[fixed], Vec3(0, 0, 0));
+    EXPECT_LE((s.x[slide] - Vec3(1, 0.5 * t, 0)).norm(), 1e-14);
+    const double a = 0.25 * t;
+    EXPECT_LE((s.x[spin] - Vec3(2 - std::sin(a), std::cos(a), 0)).norm(), 1e-14);
+    EXPECT_LE((s.v[spin] - 0.25 * Vec3(-std::cos(a), -std::sin(a), 0)).norm(), 1e-14);
+    EXPECT_EQ(sim.world().model.inv_mass[spin], 0.0);
+  }
+}
+
+TEST(World, AdjacencyFollowsTheAliveBonds) {
+  World w = test::lattice(3, 2, 2, 1, 1, 0, false);
+  Adjacency adj;
+  build_adjacency(w.model, w.state, adj);
+  ASSERT_EQ(adj.offset.size(), w.num_quanta() + 1);
+  EXPECT_EQ(adj.offset.back(), 2 * w.num_bonds());
+  for (std::size_t i = 0; i < w.num_quanta(); ++i)
+    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+      const Index b = adj.bond[e];
+      EXPECT_TRUE(w.model.bond_i[b] == i || w.model.bond_j[b] == i);
+      EXPECT_EQ(adj.other[e], w.model.bond_i[b] == i ? w.model.bond_j[b] : w.model.bond_i[b]);
+    }
+  const auto version = w.state.topology_version;
+  w.break_bond(0);
+  EXPECT_GT(w.state.topology_version, version);
+  build_adjacency(w.model, w.state, adj);
+  EXPECT_EQ(adj.offset.back(), 2 * (w.num_bonds() - 1));
+  EXPECT_EQ(w.num_alive_bonds(), w.num_bonds() - 1);
+  for (Index b : adj.bond) EXPECT_NE(b, 0u);
+}
+
+TEST(World, BrokenBondLeavesTheSolverAtOnce) {
+  // Two quanta pulled apart by a stretched bond; once broken, nothing pulls them.
+  World w = test::two_quanta(1, 100, 1, 0.2, 0);
+  w.break_bond(0);
+  Simulation sim(std::move(w), default_integrator(), 0.01);
+  sim.step();
+  EXPECT_EQ(sim.world().state.v[0], Vec3::Zero());
+  EXPECT_EQ(sim.world().state.v[1], Vec3::Zero());
+}
+
+TEST(Builders, CanonicalLatticeHasTheIssuesBondCount) {
+  // n³ quanta; nearest 3n²(n-1) and face diagonals 6n(n-1)² bonds (552 240 at n = 40).
+  for (int n : {2, 3, 5}) {
+    const SampleScene s = canonical_lattice(n);
+    EXPECT_EQ(s.world.num_quanta(), static_cast<std::size_t>(n * n * n));
+    EXPECT_EQ(s.world.num_bonds(), static_cast<std::size_t>(3 * n * n * (n - 1) + 6 * n * (n - 1) * (n - 1)));
+    std::size_t anchored = 0;
+    for (double im : s.world.model.inv_mass) anchored += im == 0.0;
+    EXPECT_EQ(anchored, static_cast<std::size_t>(n * n));
+  }
+  World w;
+  CubicLattice lat;
+  lat.size = {3, 3, 3};
+  lat.shells = Shells::body_diagonal;
+  add_cubic_lattice(w, lat);
+  EXPECT_EQ(w.num_bonds(), 3u * 9 * 2 + 6u * 3 * 4 + 4u * 8);
+  lat.size = {0, 1, 1};
+  EXPECT_THROW(add_cubic_lattice(w, lat), std::invalid_argument);
+}
+
+TEST(Samples, EveryBuiltInSceneRunsWithoutBlowup) {
+  for (const Sample& s : samples()) {
+    SampleScene scene = s.build();
+    Simulation sim(std::move(scene.world), scene.integrator, scene.timestep);
+    for (int n = 0; n < 50; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok) << s.name;
+  }
+  EXPECT_THROW(find_sample("nope"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace qbond
