@@ -67,7 +67,7 @@ struct IntegratorConfig {
   CoupledSolver solver = CoupledSolver::cg;           ///< coupled only
   int iterations = 1;        ///< sweep/jacobi: sweeps per step (≥ 1)
   int max_iterations = 0;    ///< cg: iteration cap (0: three times the free unknowns)
-  double tolerance = 1e-8;   ///< relative residual ‖b - A dv‖/‖b‖ at which sweeps and cg stop
+  double tolerance = 1e-6;   ///< relative residual ‖b - A dv‖/‖b‖ at which sweeps and cg stop
   double chebyshev_rho = 0;  ///< sweep: spectral radius estimate for Chebyshev acceleration (0 = off)
   WarmStart warm_start = WarmStart::zero;  ///< sweeps from `previous` blow up, from `external`
                                            ///< they pump energy into anchored bodies
