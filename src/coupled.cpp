@@ -19,10 +19,7 @@ class CoupledIntegrator final : public Integrator {
 
   void project(const Model& model, const State& state, const Adjacency& adj,
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
-    const std::size_t n = model.num_quanta();
-    out.resize(n);
-    project_kinematic(model, state, ctx, out);
-    build_implicit_system(model, state, f_ext, ctx, out, /*frozen=*/false, sys_);
+    begin_implicit_step(model, state, f_ext, ctx, /*frozen=*/false, out, sys_);
     stats_ = {};
     switch (config_.solver) {
       case CoupledSolver::dense:

@@ -20,10 +20,8 @@ class HybridIntegrator final : public Integrator {
   void project(const Model& model, const State& state, const Adjacency& adj,
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
     const std::size_t n = model.num_quanta();
-    out.resize(n);
-    project_kinematic(model, state, ctx, out);
     const bool frozen = config_.neighbours == NeighbourModel::frozen;
-    build_implicit_system(model, state, f_ext, ctx, out, frozen, sys_);
+    begin_implicit_step(model, state, f_ext, ctx, frozen, out, sys_);
     stats_ = {};
     if (frozen) {
       y_.assign(n, Vec3::Zero());

@@ -4,10 +4,11 @@
 
 namespace qbond {
 
-void build_implicit_system(const Model& model, const State& state,
-                           const std::vector<Vec3>& f_ext, const StepContext& ctx,
-                           const Projection& kin, bool frozen, ImplicitSystem& sys) {
+void begin_implicit_step(const Model& model, const State& state, const std::vector<Vec3>& f_ext,
+                         const StepContext& ctx, bool frozen, Projection& kin, ImplicitSystem& sys) {
   const std::size_t n = model.num_quanta(), nb = model.num_bonds();
+  kin.resize(n);
+  project_kinematic(model, state, ctx, kin);
   const double h = ctx.h;
   linearise_bonds(model, state, sys.bonds);
   sys.B.resize(nb);

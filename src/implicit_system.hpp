@@ -26,11 +26,10 @@ struct ImplicitSystem {
   double rhs_norm = 0;         // ‖b‖ over free quanta
 };
 
-// Builds A's blocks and b for one step. `kin` holds the kinematic quanta's prescribed rows.
-// With `frozen`, b omits the neighbours' motion (Eq. 12 literally).
-void build_implicit_system(const Model& model, const State& state,
-                           const std::vector<Vec3>& f_ext, const StepContext& ctx,
-                           const Projection& kin, bool frozen, ImplicitSystem& sys);
+// Starts an implicit step: sizes `out` and fills its kinematic rows (project_kinematic), then
+// builds A's blocks and b. With `frozen`, b omits the neighbours' motion (Eq. 12 literally).
+void begin_implicit_step(const Model& model, const State& state, const std::vector<Vec3>& f_ext,
+                         const StepContext& ctx, bool frozen, Projection& out, ImplicitSystem& sys);
 
 // out = A y over free quanta (y's kinematic rows are ignored; out's kinematic rows are 0).
 void apply_system(const Model& model, const ImplicitSystem& sys, const std::vector<Vec3>& y,
