@@ -1,0 +1,62 @@
+# Shared by scripts/bootstrap and scripts/test; source it, don't run it.
+# Provides: QBOND_ROOT (the repository's top directory), qbond_log, qbond_run,
+# qbond_install_deps and qbond_build.
+
+QBOND_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+QBOND_PACKAGES_FILE="$QBOND_ROOT/scripts/packages.txt"
+
+qbond_log() { printf '==> %s\n' "$*"; }
+
+# Prints a command, then runs it.
+qbond_run() {
+  printf '+ %s\n' "$*"
+  "$@"
+}
+
+# The packages listed in scripts/packages.txt, comments and blank lines removed.
+qbond_packages() {
+  sed -e 's/#.*//' -e 's/[[:space:]]\+/\n/g' "$QBOND_PACKAGES_FILE" | sed '/^$/d'
+}
+
+qbond_is_installed() {
+  dpkg -s "$1" 2>/dev/null | grep -q '^Status: install ok installed$'
+}
+
+# Installs the packages of scripts/packages.txt that are missing, with apt-get (through sudo
+# when not root). Runs 'apt-get update' only when something is to be installed.
+qbond_install_deps() {
+  if ! command -v dpkg >/dev/null || ! command -v apt-get >/dev/null; then
+    qbond_log "no dpkg/apt-get: not Debian; skipping the install (scripts/packages.txt lists what is needed)"
+    return 0
+  fi
+  local pkg missing=()
+  while read -r pkg; do
+    qbond_is_installed "$pkg" || missing+=("$pkg")
+  done < <(qbond_packages)
+  if [ ${#missing[@]} -eq 0 ]; then
+    qbond_log "Debian packages: all $(qbond_packages | wc -l) of scripts/packages.txt installed"
+    return 0
+  fi
+  local sudo=()
+  if [ "$(id -u)" -ne 0 ]; then
+    if ! command -v sudo >/dev/null; then
+      qbond_log "missing packages (${missing[*]}) and not root, without sudo: run this script as root"
+      return 1
+    fi
+    sudo=(sudo)
+  fi
+  qbond_log "Debian packages to install: ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  qbond_run "${sudo[@]}" apt-get update
+  qbond_run "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive \
+    apt-get install -y --no-install-recommends "${missing[@]}"
+}
+
+# qbond_build DIR [CMAKE ARGS...]: configures DIR from the repository and builds it on every core.
+qbond_build() {
+  local dir=$1
+  shift
+  qbond_log "configuring and building $dir/"
+  qbond_run cmake -S "$QBOND_ROOT" -B "$QBOND_ROOT/$dir" "$@"
+  qbond_run cmake --build "$QBOND_ROOT/$dir" -j"$(nproc)"
+}
