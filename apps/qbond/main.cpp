@@ -1,5 +1,5 @@
-// The `qbond` program. This first version runs the built-in scenes; scene files, outputs and the
-// other subcommands arrive with their issues (see docs/cli.md).
+// The `qbond` program. `qbond run` steps the built-in scenes of samples.hpp; scene files and
+// outputs come with the scenes issue (README, "Running").
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <iostream>
