@@ -68,6 +68,7 @@ struct Model {
 struct EnergyLedger {
   double initial_total = 0;         ///< E(0) = kinetic + bond + gravity potential [J]
   double initial_gravity = 0;       ///< gravity potential at t = 0 [J]
+  double initial_time = 0;          ///< time at which the accounts were opened [s]
   double work_loads = 0;            ///< work of loads and user forces on free quanta [J]
   double work_anchors = 0;          ///< work done on the structure by prescribed quanta [J]
   double dissipated_damping = 0;    ///< energy removed by bond dampers [J]
