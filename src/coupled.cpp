@@ -52,34 +52,26 @@ class CoupledIntegrator final : public Integrator {
     y_.assign(n, Vec3::Zero());
     if (nf == 0) return;
 
+    // One assembly serves both direct solvers.
+    triplets_.clear();
+    auto add_block = [&](Eigen::Index p, Eigen::Index q, const Mat3& m) {
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) triplets_.emplace_back(p + r, q + c, m(r, c));
+    };
+    for (std::size_t i = 0; i < n; ++i)
+      if (dof_[i] >= 0) add_block(dof_[i], dof_[i], sys_.diag[i]);
+    for (std::size_t b2 = 0; b2 < model.num_bonds(); ++b2) {
+      const auto p = dof_[model.bond_i[b2]], q = dof_[model.bond_j[b2]];
+      if (!state.alive[b2] || p < 0 || q < 0) continue;
+      add_block(p, q, -sys_.B[b2]);
+      add_block(q, p, -sys_.B[b2]);
+    }
+    Eigen::SparseMatrix<double> A(3 * nf, 3 * nf);
+    A.setFromTriplets(triplets_.begin(), triplets_.end());
     Eigen::VectorXd sol;
     if (config_.solver == CoupledSolver::dense) {
-      Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * nf, 3 * nf);
-      for (std::size_t i = 0; i < n; ++i)
-        if (dof_[i] >= 0) A.block<3, 3>(dof_[i], dof_[i]) = sys_.diag[i];
-      for (std::size_t b2 = 0; b2 < model.num_bonds(); ++b2) {
-        const auto p = dof_[model.bond_i[b2]], q = dof_[model.bond_j[b2]];
-        if (!state.alive[b2] || p < 0 || q < 0) continue;
-        A.block<3, 3>(p, q) -= sys_.B[b2];
-        A.block<3, 3>(q, p) -= sys_.B[b2];
-      }
-      sol = A.partialPivLu().solve(b);  // Gaussian elimination with partial pivoting
+      sol = Eigen::MatrixXd(A).partialPivLu().solve(b);  // Gaussian elimination, partial pivoting
     } else {
-      triplets_.clear();
-      auto add_block = [&](Eigen::Index p, Eigen::Index q, const Mat3& m) {
-        for (int r = 0; r < 3; ++r)
-          for (int c = 0; c < 3; ++c) triplets_.emplace_back(p + r, q + c, m(r, c));
-      };
-      for (std::size_t i = 0; i < n; ++i)
-        if (dof_[i] >= 0) add_block(dof_[i], dof_[i], sys_.diag[i]);
-      for (std::size_t b2 = 0; b2 < model.num_bonds(); ++b2) {
-        const auto p = dof_[model.bond_i[b2]], q = dof_[model.bond_j[b2]];
-        if (!state.alive[b2] || p < 0 || q < 0) continue;
-        add_block(p, q, -sys_.B[b2]);
-        add_block(q, p, -sys_.B[b2]);
-      }
-      Eigen::SparseMatrix<double> A(3 * nf, 3 * nf);
-      A.setFromTriplets(triplets_.begin(), triplets_.end());
       ldlt_.compute(A);
       sol = ldlt_.solve(b);
     }
