@@ -28,11 +28,11 @@ class CoupledIntegrator final : public Integrator {
         break;
       case CoupledSolver::cg:
         topo_.update(model, adj);
-        initial_guess(config_.warm_start, model, f_ext, ctx.h, previous_, y_);
+        initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, y_);
         conjugate_gradient(model);
         if (config_.restore_momentum)
           restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
-        previous_ = y_;
+        if (config_.warm_start == WarmStart::previous) out.warm = y_;
         break;
     }
     write_free_rows(model, state, ctx.h, y_, out);
@@ -126,7 +126,7 @@ class CoupledIntegrator final : public Integrator {
 
   ImplicitSystem sys_;
   TopologyCache topo_;
-  std::vector<Vec3> y_, previous_, r_, z_, p_, Ap_;
+  std::vector<Vec3> y_, r_, z_, p_, Ap_;
   std::vector<Eigen::Index> dof_;
   std::vector<Eigen::Triplet<double>> triplets_;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt_;

@@ -30,13 +30,13 @@ class HybridIntegrator final : public Integrator {
       stats_.iterations = 1;
     } else {
       topo_.update(model, adj);
-      initial_guess(config_.warm_start, model, f_ext, ctx.h, previous_, y_);
+      initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, y_);
       if (config_.neighbours == NeighbourModel::sweep)
         gauss_seidel(model, adj);
       else
         jacobi(model, adj);
       if (config_.restore_momentum) restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
-      previous_ = y_;
+      if (config_.warm_start == WarmStart::previous) out.warm = y_;
     }
     write_free_rows(model, state, ctx.h, y_, out);
   }
@@ -103,7 +103,7 @@ class HybridIntegrator final : public Integrator {
 
   ImplicitSystem sys_;
   TopologyCache topo_;
-  std::vector<Vec3> y_, previous_, prev_, older_, next_;
+  std::vector<Vec3> y_, prev_, older_, next_;
 };
 
 }  // namespace

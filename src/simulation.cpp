@@ -181,6 +181,7 @@ StepReport Simulation::end_step() {
       motion.at(k, t1, s.x[motion.quanta[k]], s.v[motion.quanta[k]]);
   s.time = t1;
   s.step = ctx_.step + 1;
+  s.warm.swap(projection_.warm);
   std::fill(f_user_.begin(), f_user_.end(), Vec3::Zero());
 
   StepReport r = check_energy();

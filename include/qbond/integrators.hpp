@@ -23,9 +23,13 @@ struct StepContext {
 struct Projection {
   std::vector<Vec3> dx;  ///< [m] (n)
   std::vector<Vec3> dv;  ///< [m/s] (n)
+  /// The solver's solution to keep as State::warm when the step applies (WarmStart::previous
+  /// only; empty otherwise). Kept apart from dv, which round-off makes differ from it.
+  std::vector<Vec3> warm;
   void resize(std::size_t n) {
     dx.assign(n, Vec3::Zero());
     dv.assign(n, Vec3::Zero());
+    warm.clear();
   }
 };
 

@@ -87,6 +87,9 @@ struct State {
   Rng rng;
   EnergyLedger energy;
   std::uint64_t topology_version = 0;  ///< bumped whenever bonds appear or break
+  /// The last step's solver solution (velocity change of every quanta), the initial guess of
+  /// WarmStart::previous; empty unless that warm start is in use.
+  std::vector<Vec3> warm;
 };
 
 /// CSR adjacency of alive bonds, derived from the bond list (never edited by hand).
