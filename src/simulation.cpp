@@ -165,8 +165,12 @@ void Simulation::update_ledger() {
 
 StepReport Simulation::end_step() {
   State& s = world_.state;
+  if (keep_last_good_) last_good_ = s;  // before heuristics and ledger: a rollback undoes both
   for (auto& h : heuristics_) h->apply(world_.model, s, projection_, ctx_);
-  if (StepReport r = check_projection(); r.status != StepReport::Status::ok) return r;
+  if (StepReport r = check_projection(); r.status != StepReport::Status::ok) {
+    if (keep_last_good_) s = last_good_;  // heuristics may have edited bonds already
+    return r;
+  }
   if (track_energy_) update_ledger();
 
   const Model& m = world_.model;
@@ -185,7 +189,12 @@ StepReport Simulation::end_step() {
   std::fill(f_user_.begin(), f_user_.end(), Vec3::Zero());
 
   StepReport r = check_energy();
-  for (Observer* o : observers_) o->observe(m, s, ctx_);
+  if (r.status != StepReport::Status::ok && keep_last_good_) {
+    s = last_good_;
+    r.message += "; the world keeps the state before this step";
+  }
+  if (r.status == StepReport::Status::ok)
+    for (Observer* o : observers_) o->observe(m, s, ctx_);
   return r;
 }
 

@@ -58,6 +58,32 @@ TEST(Pipeline, SameInputsSameBits) {
   EXPECT_EQ(std::memcmp(&a.energy, &b.energy, sizeof(EnergyLedger)), 0);
 }
 
+// Explicit Euler on a stiff lattice gains energy every step; with keep_last_good the step that
+// trips the runaway check is undone, so the world holds exactly the state before it.
+TEST(Pipeline, EnergyRunawayIsRolledBackToTheLastGoodState) {
+  World w = test::lattice(3, 3, 3, 1000, 1e-3, 0.0, false);
+  test::perturb(w, 1e-4, 0.0);
+  Simulation sim(std::move(w), test::config(IntegratorType::explicit_euler), 0.005);
+  sim.limits().energy_growth = 2.0;
+  sim.set_keep_last_good(true);
+  for (int n = 0; n < 10000; ++n) {
+    const State before = sim.world().state;
+    const StepReport r = sim.step();
+    if (r.status == StepReport::Status::ok) continue;
+    EXPECT_NE(r.message.find("energy runaway"), std::string::npos) << r.message;
+    const State& after = sim.world().state;
+    EXPECT_EQ(after.step, before.step);
+    EXPECT_EQ(after.time, before.time);
+    EXPECT_EQ(after.energy.dissipated_damping, before.energy.dissipated_damping);
+    for (std::size_t i = 0; i < after.x.size(); ++i) {
+      EXPECT_EQ(after.x[i], before.x[i]);
+      EXPECT_EQ(after.v[i], before.v[i]);
+    }
+    return;
+  }
+  FAIL() << "explicit Euler at h sqrt(k/m) = 5 should run away";
+}
+
 TEST(Pipeline, UserForceActsForOneStepOnly) {
   World w;
   w.add_quanta(Vec3::Zero(), Vec3::Zero(), 2.0);

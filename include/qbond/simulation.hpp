@@ -41,7 +41,8 @@ class Simulation {
   Simulation(World world, const IntegratorConfig& config, double h);
 
   /// One whole step. On blow-up the world keeps the last good state when the projection
-  /// itself is bad (non-finite or too fast); an energy runaway is caught right after applying.
+  /// itself is bad (non-finite or too fast); an energy runaway is caught right after applying,
+  /// and rolled back too when set_keep_last_good(true).
   StepReport step();
   /// Split step for interactive use: `begin_step` gathers forces and projects; the caller may
   /// add forces before it or edit the projection after it; `end_step` runs heuristics, applies,
@@ -66,6 +67,10 @@ class Simulation {
   BlowupLimits& limits() { return limits_; }
   /// Whether the energy ledger is updated every step (costs one pass over the bonds).
   void set_track_energy(bool on) { track_energy_ = on; }
+  /// Whether each step first copies the state so that an energy runaway, found only after the
+  /// step applied, can be undone (costs one state copy per step; runs that save the last good
+  /// state on blow-up turn it on).
+  void set_keep_last_good(bool on) { keep_last_good_ = on; }
   const Adjacency& adjacency();
 
  private:
@@ -81,6 +86,8 @@ class Simulation {
   double h_;
   BlowupLimits limits_;
   bool track_energy_ = true;
+  bool keep_last_good_ = false;
+  State last_good_;
   Adjacency adj_;
   std::vector<Vec3> f_ext_;    ///< external force of this step [N] (n)
   std::vector<Vec3> f_user_;   ///< one-step forces queued by add_force [N] (n)
