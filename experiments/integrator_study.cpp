@@ -50,7 +50,7 @@ std::vector<Candidate> candidates() {
 }
 
 World cube(int n, bool anchored, Vec3 gravity) {
-  SampleScene s = canonical_lattice(n);
+  Scene s = canonical_lattice(n);
   if (!anchored) {
     for (std::size_t i = 0; i < s.world.num_quanta(); ++i) s.world.model.inv_mass[i] = 1.0 / s.world.model.mass[i];
     s.world.model.motions.clear();
@@ -116,7 +116,7 @@ int main() {
   const double base_cost = cost(cands[6].cfg, dummy);
   // Energy the swinging pendulum loses in 3 s (physical damping plus numerical dissipation) [J].
   auto swing_loss = [&](const IntegratorConfig& cfg) -> double {
-    SampleScene p = find_sample("pendulum").build();
+    Scene p = builtin_scene("pendulum");
     Simulation sim(std::move(p.world), cfg, 1.0 / 60);
     const double e0 = energies(sim.world().model, sim.world().state).total();
     if (!run(sim, 180)) return NAN;

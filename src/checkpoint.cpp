@@ -1,1 +1,168 @@
-// placeholder until this module lands (issue 4)
+#include "qbond/checkpoint.hpp"
+
+#include <cstring>
+
+#include "qbond/files.hpp"
+
+namespace qbond {
+namespace {
+
+// A new State field must be saved here: update serialize_state, deserialize_state and this size.
+static_assert(sizeof(State) == 3 * sizeof(std::vector<Vec3>) + sizeof(std::vector<double>) +
+                                   sizeof(std::vector<std::uint8_t>) + 2 * 8 + sizeof(Rng) +
+                                   sizeof(EnergyLedger) + 8,
+              "State changed: checkpoints must save the new field");
+
+constexpr char kMagic[8] = {'Q', 'B', 'O', 'N', 'D', 'C', 'K', 'P'};
+
+std::uint64_t fnv1a(std::string_view bytes) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+class Writer {
+ public:
+  template <class T>
+  void pod(const T& v) {
+    out.append(reinterpret_cast<const char*>(&v), sizeof v);
+  }
+  template <class T>
+  void vec(const std::vector<T>& v) {
+    pod<std::uint64_t>(v.size());
+    out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  std::string out;
+};
+
+class Reader {
+ public:
+  explicit Reader(std::string_view b) : bytes(b) {}
+  template <class T>
+  T pod() {
+    T v;
+    need(sizeof v);
+    std::memcpy(&v, bytes.data(), sizeof v);
+    bytes.remove_prefix(sizeof v);
+    return v;
+  }
+  template <class T>
+  std::vector<T> vec() {
+    const auto n = pod<std::uint64_t>();
+    if (n > bytes.size() / sizeof(T)) throw CheckpointError("state: a vector runs past the end");
+    std::vector<T> v(n);
+    std::memcpy(static_cast<void*>(v.data()), bytes.data(), n * sizeof(T));  // T is plain data (doubles)
+    bytes.remove_prefix(n * sizeof(T));
+    return v;
+  }
+  void need(std::size_t n) const {
+    if (bytes.size() < n) throw CheckpointError("truncated: the file ends inside its header");
+  }
+  std::string_view bytes;
+};
+
+}  // namespace
+
+std::string serialize_state(const State& s) {
+  Writer w;
+  w.vec(s.x);
+  w.vec(s.v);
+  w.vec(s.rest);
+  w.vec(s.alive);
+  w.pod(s.time);
+  w.pod(s.step);
+  w.pod(s.rng);
+  const EnergyLedger& e = s.energy;
+  for (double d : {e.initial_total, e.initial_gravity, e.initial_time, e.work_loads, e.work_anchors,
+                   e.dissipated_damping, e.dissipated_heuristics})
+    w.pod(d);
+  w.pod<std::uint8_t>(e.initialised);
+  w.pod(s.topology_version);
+  w.vec(s.warm);
+  return std::move(w.out);
+}
+
+State deserialize_state(std::string_view bytes) {
+  Reader r(bytes);
+  State s;
+  s.x = r.vec<Vec3>();
+  s.v = r.vec<Vec3>();
+  s.rest = r.vec<double>();
+  s.alive = r.vec<std::uint8_t>();
+  s.time = r.pod<double>();
+  s.step = r.pod<std::uint64_t>();
+  s.rng = r.pod<Rng>();
+  EnergyLedger& e = s.energy;
+  for (double* d : {&e.initial_total, &e.initial_gravity, &e.initial_time, &e.work_loads, &e.work_anchors,
+                    &e.dissipated_damping, &e.dissipated_heuristics})
+    *d = r.pod<double>();
+  e.initialised = r.pod<std::uint8_t>() != 0;
+  s.topology_version = r.pod<std::uint64_t>();
+  s.warm = r.vec<Vec3>();
+  if (!r.bytes.empty()) throw CheckpointError("state: " + std::to_string(r.bytes.size()) + " unexpected bytes at the end");
+  if (s.v.size() != s.x.size() || s.alive.size() != s.rest.size() || (!s.warm.empty() && s.warm.size() != s.x.size()))
+    throw CheckpointError("state: inconsistent array lengths");
+  return s;
+}
+
+void save_checkpoint(const std::filesystem::path& path, std::string_view metadata, const State& state) {
+  Writer w;
+  w.out.append(kMagic, sizeof kMagic);
+  w.pod(kCheckpointVersion);
+  w.pod<std::uint32_t>(0);
+  w.pod<std::uint64_t>(metadata.size());
+  w.out.append(metadata);
+  const std::string s = serialize_state(state);
+  w.pod<std::uint64_t>(s.size());
+  w.out.append(s);
+  w.pod(fnv1a(w.out));
+  write_file_atomic(path, w.out);
+}
+
+Checkpoint load_checkpoint(const std::filesystem::path& path) {
+  std::string bytes;
+  try {
+    bytes = read_file(path);
+  } catch (const std::exception& e) {
+    throw CheckpointError(e.what());
+  }
+  const std::string name = path.string() + ": ";
+  if (bytes.size() < 8 || std::memcmp(bytes.data(), kMagic, 8) != 0)
+    throw CheckpointError(name + "not a qbond checkpoint (no QBONDCKP header)");
+  try {
+    Reader r(std::string_view(bytes).substr(8));
+    const auto version = r.pod<std::uint32_t>();
+    if (version != kCheckpointVersion)
+      throw CheckpointError("unsupported checkpoint version " + std::to_string(version) + " (this build reads " +
+                            std::to_string(kCheckpointVersion) + ")");
+    r.pod<std::uint32_t>();
+    const auto m = r.pod<std::uint64_t>();
+    const std::size_t meta_at = bytes.size() - r.bytes.size();
+    // Sizes come from the file; check them against its length before trusting them.
+    auto expect = [&](std::uint64_t length, std::uint64_t at_least) {
+      if (length > bytes.size() || at_least > bytes.size())
+        throw CheckpointError("truncated: expected at least " + std::to_string(at_least) + " bytes, got " +
+                              std::to_string(bytes.size()));
+    };
+    expect(m, meta_at + m + 8);
+    std::uint64_t s = 0;
+    std::memcpy(&s, bytes.data() + meta_at + m, 8);
+    const std::size_t state_at = meta_at + m + 8;
+    expect(s, state_at + s + 8);
+    if (bytes.size() != state_at + s + 8)
+      throw CheckpointError("corrupted: " + std::to_string(bytes.size() - (state_at + s + 8)) +
+                            " bytes after the checksum");
+    std::uint64_t sum = 0;
+    std::memcpy(&sum, bytes.data() + state_at + s, 8);
+    if (sum != fnv1a(std::string_view(bytes).substr(0, state_at + s)))
+      throw CheckpointError("corrupted: checksum mismatch");
+    Checkpoint c;
+    c.metadata = bytes.substr(meta_at, m);
+    c.state = deserialize_state(std::string_view(bytes).substr(state_at, s));
+    return c;
+  } catch (const CheckpointError& e) {
+    throw CheckpointError(name + e.what());
+  }
+}
+
+}  // namespace qbond

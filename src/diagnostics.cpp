@@ -1,1 +1,72 @@
-// placeholder until this module lands (issue 4)
+#include "qbond/diagnostics.hpp"
+
+#include <cstdio>
+
+#include "qbond/analysis.hpp"
+
+namespace qbond {
+namespace {
+
+void put(std::string& out, double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, ",%.17g", v);
+  out += buf;
+}
+
+void put_count(std::string& out, std::size_t v) {
+  out += ',';
+  out += std::to_string(v);
+}
+
+void put(std::string& out, const Vec3& v) {
+  for (int k = 0; k < 3; ++k) put(out, v[k]);
+}
+
+}  // namespace
+
+Diagnostics::Diagnostics(const Model& model, std::vector<Probe> probes) : probes_(std::move(probes)) {
+  for (const Probe& p : probes_) reaction_.push_back(has_reaction(model, p));
+}
+
+std::string Diagnostics::header() const {
+  std::string h = "step,time,kinetic,potential,dissipated,total,px,py,pz,lx,ly,lz,max_speed,bonds_alive,bonds_broken";
+  for (std::size_t k = 0; k < probes_.size(); ++k) {
+    for (const char* c : {"_x", "_y", "_z"}) h += "," + probes_[k].name + c;
+    if (reaction_[k])
+      for (const char* c : {"_fx", "_fy", "_fz", "_tx", "_ty", "_tz"}) h += "," + probes_[k].name + c;
+  }
+  return h + ",work,numerical,iterations,residual";
+}
+
+std::string Diagnostics::row(const Model& model, const State& state, const SolveStats& stats) const {
+  const EnergyBudget b = energy_budget(model, state);
+  const double potential = b.now.bonds + b.now.gravity;
+  std::size_t alive = 0;
+  for (std::uint8_t a : state.alive) alive += a;
+  std::string r = std::to_string(state.step);
+  put(r, state.time);
+  put(r, b.now.kinetic);
+  put(r, potential);
+  put(r, b.dissipated_damping + b.dissipated_heuristics);
+  put(r, b.now.kinetic + potential);
+  put(r, linear_momentum(model, state));
+  put(r, angular_momentum(model, state));
+  put(r, max_speed(model, state).first);
+  put_count(r, alive);
+  put_count(r, model.num_bonds() - alive);
+  for (std::size_t k = 0; k < probes_.size(); ++k) {
+    const ProbeValue v = measure_probe(model, state, probes_[k]);
+    put(r, v.mean);
+    if (reaction_[k]) {
+      put(r, v.force);
+      put(r, v.torque);
+    }
+  }
+  put(r, b.work_loads + b.work_anchors);
+  put(r, b.dissipated_numerical);
+  put_count(r, static_cast<std::size_t>(stats.iterations));
+  put(r, stats.residual);
+  return r;
+}
+
+}  // namespace qbond

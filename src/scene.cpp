@@ -1,1 +1,802 @@
-// placeholder until this module lands (issue 4)
+#include "qbond/scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <initializer_list>
+#include <map>
+#include <sstream>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "qbond/builders.hpp"
+#include "qbond/files.hpp"
+#include "qbond/selection.hpp"
+
+namespace qbond {
+using json = nlohmann::json;
+
+SceneError::SceneError(const std::string& source, std::string p, std::string r)
+    : std::runtime_error(source + ": " + (p.empty() ? "" : p + ": ") + r), path(std::move(p)), rule(std::move(r)) {}
+
+namespace {
+
+constexpr double kMaxQuanta = 5e7;  // a scene larger than this is a typo, not a simulation
+
+/// Thrown inside the parser; parse_scene adds the source name.
+struct Bad {
+  std::string path, rule;
+};
+[[noreturn]] void bad(const std::string& path, const std::string& rule) { throw Bad{path, rule}; }
+
+std::string num_str(double v) {
+  std::ostringstream s;
+  s.precision(10);
+  s << v;
+  return s.str();
+}
+
+std::string type_name(const json& j) {
+  if (j.is_number()) return "a number";
+  if (j.is_boolean()) return "a boolean";
+  if (j.is_string()) return "a string";
+  if (j.is_array()) return "an array";
+  if (j.is_object()) return "an object";
+  return "null";
+}
+
+std::string join(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
+double number(const json& j, const std::string& path) {
+  if (!j.is_number()) bad(path, "expected a number, got " + type_name(j));
+  const double v = j.get<double>();
+  if (!std::isfinite(v)) bad(path, "must be finite");
+  return v;
+}
+double positive(const json& j, const std::string& path) {
+  const double v = number(j, path);
+  if (!(v > 0)) bad(path, "must be > 0, got " + num_str(v));
+  return v;
+}
+double non_negative(const json& j, const std::string& path) {
+  const double v = number(j, path);
+  if (v < 0) bad(path, "must be >= 0, got " + num_str(v));
+  return v;
+}
+std::uint64_t integer(const json& j, const std::string& path, std::int64_t min) {
+  if (!j.is_number_integer()) bad(path, "expected an integer, got " + (j.is_number() ? "a fractional number" : type_name(j)));
+  if (j.is_number_unsigned()) {
+    const auto v = j.get<std::uint64_t>();
+    if (min > 0 && v < static_cast<std::uint64_t>(min)) bad(path, "must be >= " + std::to_string(min) + ", got " + std::to_string(v));
+    return v;
+  }
+  const auto v = j.get<std::int64_t>();
+  if (v < min) bad(path, "must be >= " + std::to_string(min) + ", got " + std::to_string(v));
+  return static_cast<std::uint64_t>(v);
+}
+bool boolean(const json& j, const std::string& path) {
+  if (!j.is_boolean()) bad(path, "expected true or false, got " + type_name(j));
+  return j.get<bool>();
+}
+std::string string(const json& j, const std::string& path) {
+  if (!j.is_string()) bad(path, "expected a string, got " + type_name(j));
+  return j.get<std::string>();
+}
+Vec3 vec3(const json& j, const std::string& path) {
+  if (!j.is_array() || j.size() != 3) bad(path, "expected an array of 3 numbers, got " + (j.is_array() ? "an array of " + std::to_string(j.size()) : type_name(j)));
+  return {number(j[0], path + "[0]"), number(j[1], path + "[1]"), number(j[2], path + "[2]")};
+}
+Vec3 direction(const json& j, const std::string& path) {
+  const Vec3 v = vec3(j, path);
+  if (!(v.norm() > 0)) bad(path, "must be a non-zero vector");
+  return v.normalized();
+}
+const json& array(const json& j, const std::string& path) {
+  if (!j.is_array()) bad(path, "expected an array, got " + type_name(j));
+  return j;
+}
+/// One of a fixed set of names.
+template <class T>
+T choice(const json& j, const std::string& path, std::initializer_list<std::pair<const char*, T>> names) {
+  const std::string s = string(j, path);
+  std::vector<std::string> all;
+  for (const auto& [n, v] : names) {
+    if (s == n) return v;
+    all.emplace_back(n);
+  }
+  bad(path, "unknown value '" + s + "' (accepted: " + join(all) + ")");
+}
+
+/// An object whose keys are checked against the accepted ones.
+class Obj {
+ public:
+  Obj(const json& j, std::string path, std::initializer_list<const char*> keys) : j_(j), path_(std::move(path)) {
+    if (!j.is_object()) bad(path_, "expected an object, got " + type_name(j));
+    for (const auto& [k, v] : j.items())
+      if (std::find_if(keys.begin(), keys.end(), [&](const char* a) { return k == a; }) == keys.end()) {
+        std::vector<std::string> all(keys.begin(), keys.end());
+        bad(at(k), "unknown key (accepted: " + join(all) + ")");
+      }
+  }
+  bool has(const char* k) const { return j_.contains(k); }
+  const json& operator[](const char* k) const { return j_.at(k); }
+  const json& required(const char* k) const {
+    if (!has(k)) bad(at(k), "required key missing");
+    return j_.at(k);
+  }
+  std::string at(const std::string& k) const { return path_.empty() ? k : path_ + "." + k; }
+  const std::string& path() const { return path_; }
+  /// Exactly one of two keys; returns whether it is the first.
+  bool one_of(const char* a, const char* b) const {
+    if (has(a) == has(b))
+      bad(path_.empty() ? std::string(a) : path_, has(a) ? std::string("give either '") + a + "' or '" + b + "', not both"
+                                                       : std::string("one of '") + a + "' or '" + b + "' is required");
+    return has(a);
+  }
+
+ private:
+  const json& j_;
+  std::string path_;
+};
+
+std::string item(const std::string& path, std::size_t k) { return path + "[" + std::to_string(k) + "]"; }
+
+/// Visits every pair (a, b) with a from `from`, b from `to`, a != b and |x_a − x_b| <= radius,
+/// using a uniform grid of cell `radius` (cost linear in the quanta for bounded density). Pairs
+/// come in increasing a, then increasing b.
+template <class F>
+void pairs_within(const std::vector<Vec3>& x, const std::vector<Index>& from, const std::vector<Index>& to,
+                  double radius, F&& visit) {
+  auto cell = [&](const Vec3& p) {
+    return std::array<std::int64_t, 3>{static_cast<std::int64_t>(std::floor(p.x() / radius)),
+                                       static_cast<std::int64_t>(std::floor(p.y() / radius)),
+                                       static_cast<std::int64_t>(std::floor(p.z() / radius))};
+  };
+  auto key = [](std::int64_t a, std::int64_t b, std::int64_t c) {
+    return static_cast<std::uint64_t>(a) * 73856093u ^ static_cast<std::uint64_t>(b) * 19349663u ^
+           static_cast<std::uint64_t>(c) * 83492791u;
+  };
+  std::unordered_map<std::uint64_t, std::vector<Index>> grid;
+  for (Index b : to) {
+    const auto c = cell(x[b]);
+    grid[key(c[0], c[1], c[2])].push_back(b);
+  }
+  std::vector<Index> near;
+  for (Index a : from) {
+    const auto c = cell(x[a]);
+    near.clear();
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+          if (auto it = grid.find(key(c[0] + dx, c[1] + dy, c[2] + dz)); it != grid.end())
+            near.insert(near.end(), it->second.begin(), it->second.end());
+    std::sort(near.begin(), near.end());
+    near.erase(std::unique(near.begin(), near.end()), near.end());  // hash collisions repeat cells
+    for (Index b : near)
+      if (b != a && (x[a] - x[b]).norm() <= radius) visit(a, b);
+  }
+}
+
+std::uint64_t pair_key(Index a, Index b) {
+  return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+}
+
+struct Material {
+  BondSpec bond;
+};
+
+class Builder {
+ public:
+  Builder(const json& root, std::string default_name) : root_(root), default_name_(std::move(default_name)) {}
+
+  Scene build() {
+    Scene s;
+    json res = root_;
+    Obj top(root_, "",
+            {"name", "description", "seed", "timestep", "steps", "duration", "gravity", "integrator", "limits",
+             "materials", "bodies", "bonds", "anchors", "loads", "output"});
+    s.name = top.has("name") ? string(top["name"], "name") : default_name_;
+    s.description = top.has("description") ? string(top["description"], "description") : "";
+    s.seed = top.has("seed") ? integer(top["seed"], "seed", 0) : 1;
+    s.timestep = positive(top.required("timestep"), "timestep");
+    if (top.one_of("steps", "duration")) {
+      s.steps = integer(top["steps"], "steps", 0);
+    } else {
+      const double d = positive(top["duration"], "duration");
+      s.steps = static_cast<std::uint64_t>(std::ceil(d / s.timestep - 1e-9));
+    }
+    World& w = s.world;
+    w.model.gravity = top.has("gravity") ? vec3(top["gravity"], "gravity") : Vec3::Zero();
+    w.state.rng = Rng{s.seed};
+    s.integrator = integrator(top.has("integrator") ? top["integrator"] : json::object());
+    s.limits = limits(top.has("limits") ? top["limits"] : json::object());
+    if (top.has("materials")) materials(top["materials"], res["materials"]);
+    bodies(top.required("bodies"), res["bodies"], w);
+    if (top.has("bonds")) bonds(array(top["bonds"], "bonds"), w);
+    check_overlaps(w);
+    if (top.has("anchors")) anchors(array(top["anchors"], "anchors"), w);
+    if (top.has("loads")) loads(array(top["loads"], "loads"), w);
+    s.output = output(top.has("output") ? top["output"] : json::object(), s.steps, w);
+
+    res["name"] = s.name;
+    res["description"] = s.description;
+    res["seed"] = s.seed;
+    res["steps"] = s.steps;
+    res.erase("duration");
+    res["gravity"] = {w.model.gravity.x(), w.model.gravity.y(), w.model.gravity.z()};
+    const IntegratorConfig& c = s.integrator;
+    res["integrator"] = {{"type", to_string(c.type)},          {"neighbours", to_string(c.neighbours)},
+                         {"solver", to_string(c.solver)},      {"iterations", c.iterations},
+                         {"max_iterations", c.max_iterations}, {"tolerance", c.tolerance},
+                         {"chebyshev_rho", c.chebyshev_rho},   {"warm_start", to_string(c.warm_start)},
+                         {"restore_momentum", c.restore_momentum}};
+    res["limits"] = {{"max_speed", s.limits.max_speed}, {"energy_growth", s.limits.energy_growth}};
+    json& out = res["output"];
+    if (!out.is_object()) out = json::object();
+    out["dir"] = s.output.dir;
+    out["every"] = s.output.every;
+    out["vtk"] = s.output.vtk;
+    out["checkpoint_every"] = s.output.checkpoint_every;
+    s.resolved = std::move(res);
+    return s;
+  }
+
+ private:
+  IntegratorConfig integrator(const json& j) {
+    Obj o(j, "integrator",
+          {"type", "neighbours", "solver", "iterations", "max_iterations", "tolerance", "chebyshev_rho", "warm_start",
+           "restore_momentum"});
+    IntegratorConfig c = default_integrator();
+    auto parse = [&](const char* key, auto fn, auto& field) {
+      if (!o.has(key)) return;
+      try {
+        field = fn(string(o[key], o.at(key)));
+      } catch (const std::invalid_argument& e) {
+        bad(o.at(key), e.what());
+      }
+    };
+    parse("type", parse_integrator_type, c.type);
+    parse("neighbours", parse_neighbour_model, c.neighbours);
+    parse("solver", parse_coupled_solver, c.solver);
+    parse("warm_start", parse_warm_start, c.warm_start);
+    if (o.has("iterations")) c.iterations = static_cast<int>(integer(o["iterations"], o.at("iterations"), 1));
+    if (o.has("max_iterations"))
+      c.max_iterations = static_cast<int>(integer(o["max_iterations"], o.at("max_iterations"), 0));
+    if (o.has("tolerance")) c.tolerance = positive(o["tolerance"], o.at("tolerance"));
+    if (o.has("chebyshev_rho")) {
+      c.chebyshev_rho = non_negative(o["chebyshev_rho"], o.at("chebyshev_rho"));
+      if (c.chebyshev_rho >= 1) bad(o.at("chebyshev_rho"), "must be < 1, got " + num_str(c.chebyshev_rho));
+    }
+    if (o.has("restore_momentum")) c.restore_momentum = boolean(o["restore_momentum"], o.at("restore_momentum"));
+    return c;
+  }
+
+  BlowupLimits limits(const json& j) {
+    Obj o(j, "limits", {"max_speed", "energy_growth"});
+    BlowupLimits l;
+    if (o.has("max_speed")) l.max_speed = positive(o["max_speed"], o.at("max_speed"));
+    if (o.has("energy_growth")) l.energy_growth = positive(o["energy_growth"], o.at("energy_growth"));
+    return l;
+  }
+
+  void materials(const json& j, json& res) {
+    if (!j.is_object()) bad("materials", "expected an object (material name -> parameters), got " + type_name(j));
+    for (const auto& [name, mj] : j.items()) {
+      Obj o(mj, "materials." + name, {"law", "stiffness", "damping", "damping_model", "eps"});
+      Material m;
+      BondSpec& b = m.bond;
+      b.law = o.has("law") ? choice<Law>(o["law"], o.at("law"), {{"linear", Law::linear}, {"inverse", Law::inverse}})
+                           : Law::linear;
+      b.stiffness = positive(o.required("stiffness"), o.at("stiffness"));
+      b.damping = o.has("damping") ? non_negative(o["damping"], o.at("damping")) : 0.0;
+      b.damping_model = o.has("damping_model")
+                            ? choice<DampingModel>(o["damping_model"], o.at("damping_model"),
+                                                   {{"axial", DampingModel::axial}, {"isotropic", DampingModel::isotropic}})
+                            : DampingModel::axial;
+      if (o.has("eps")) {
+        if (b.law != Law::inverse) bad(o.at("eps"), "only the inverse law has a regularisation length");
+        b.eps = positive(o["eps"], o.at("eps"));
+      }
+      materials_[name] = m;
+      json& r = res[name];
+      r["law"] = to_string(b.law);
+      r["damping"] = b.damping;
+      r["damping_model"] = to_string(b.damping_model);
+    }
+  }
+
+  const Material& material(const json& j, const std::string& path) {
+    const std::string name = string(j, path);
+    if (auto it = materials_.find(name); it != materials_.end()) return it->second;
+    std::vector<std::string> names;
+    for (const auto& [k, v] : materials_) names.push_back(k);
+    bad(path, "unknown material '" + name + "' (defined: " + (names.empty() ? "none" : join(names)) + ")");
+  }
+
+  void bodies(const json& j, json& res, World& w) {
+    if (!array(j, "bodies").size()) bad("bodies", "must hold at least one body");
+    for (std::size_t k = 0; k < j.size(); ++k) body(j[k], item("bodies", k), res[k], w);
+  }
+
+  void body(const json& j, const std::string& path, json& res, World& w) {
+    if (!j.is_object()) bad(path, "expected an object, got " + type_name(j));
+    const std::string type = j.contains("type") ? string(j["type"], path + ".type") : "";
+    static const std::initializer_list<const char*> common = {"name", "type", "origin", "rotation", "velocity",
+                                                              "angular_velocity"};
+    auto keys = [&](std::initializer_list<const char*> extra) {
+      std::vector<const char*> all(common);
+      all.insert(all.end(), extra);
+      return all;
+    };
+    std::vector<const char*> accepted;
+    if (type == "lattice")
+      accepted = keys({"cell", "size", "spacing", "neighbors", "material", "quanta_mass", "total_mass"});
+    else if (type == "sheet")
+      accepted = keys({"size", "spacing", "neighbors", "bending", "material", "quanta_mass", "total_mass"});
+    else if (type == "chain")
+      accepted = keys({"start", "end", "count", "material", "quanta_mass", "total_mass"});
+    else if (type == "quanta")
+      accepted = keys({"positions", "masses", "mass", "velocities"});
+    else if (type.empty())
+      bad(path + ".type", "required key missing");
+    else
+      bad(path + ".type", "unknown body type '" + type + "' (accepted: lattice, sheet, chain, quanta)");
+    for (const auto& [key, v] : j.items())
+      if (std::find(accepted.begin(), accepted.end(), key) == accepted.end()) {
+        std::vector<std::string> names(accepted.begin(), accepted.end());
+        bad(path + "." + key, "unknown key for a " + type + " body (accepted: " + join(names) + ")");
+      }
+    auto req = [&](const char* key) -> const json& {
+      if (!j.contains(key)) bad(path + "." + key, "required key missing");
+      return j[key];
+    };
+    auto at = [&](const char* key) { return path + "." + key; };
+    const std::string name = string(req("name"), at("name"));
+    if (auto it = body_index_.find(name); it != body_index_.end())
+      bad(at("name"), "duplicate body name '" + name + "' (also bodies[" + std::to_string(it->second) + "])");
+    const Index id = w.add_body(name);
+    body_index_[name] = id;
+
+    // Sizes first, so that a typo does not allocate a billion quanta.
+    auto sizes = [&](std::size_t dims) {
+      const json& s = req("size");
+      if (!s.is_array() || s.size() != dims)
+        bad(at("size"), "expected an array of " + std::to_string(dims) + " integers for this cell");
+      std::array<int, 3> n{1, 1, 1};
+      double total = 1;
+      for (std::size_t d = 0; d < dims; ++d) {
+        const auto v = integer(s[d], item(at("size"), d), 1);
+        if (static_cast<double>(v) > kMaxQuanta) bad(item(at("size"), d), "is too large");
+        n[d] = static_cast<int>(v);
+        total *= static_cast<double>(v);
+      }
+      return std::pair{n, total};
+    };
+    auto mass_of = [&](double count) {
+      const bool per = j.contains("quanta_mass");
+      if (per == j.contains("total_mass"))
+        bad(path, per ? "give either 'quanta_mass' or 'total_mass', not both"
+                      : "one of 'quanta_mass' or 'total_mass' is required");
+      return per ? positive(j["quanta_mass"], at("quanta_mass")) : positive(j["total_mass"], at("total_mass")) / count;
+    };
+    auto too_many = [&](double count) {
+      if (count > kMaxQuanta)
+        bad(at("size"), "would make " + num_str(count) + " quanta (limit " + num_str(kMaxQuanta) + ")");
+    };
+    std::vector<Index> ids;
+    if (type == "lattice") {
+      const std::string cell = choice<std::string>(req("cell"), at("cell"),
+                                                   {{"square", "square"}, {"cubic", "cubic"}, {"fcc", "fcc"}});
+      const double a = positive(req("spacing"), at("spacing"));
+      const BondSpec bond = material(req("material"), at("material")).bond;
+      if (cell == "square") {
+        const auto [n, count] = sizes(2);
+        too_many(count);
+        SquareLattice l{{n[0], n[1]}, a, mass_of(count), true, false, bond};
+        if (j.contains("neighbors"))
+          l.diagonals = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"diagonal", true}});
+        res["neighbors"] = l.diagonals ? "diagonal" : "nearest";
+        ids = add_square_lattice(w, l, id);
+      } else if (cell == "cubic") {
+        const auto [n, count] = sizes(3);
+        too_many(count);
+        CubicLattice l;
+        l.size = n;
+        l.spacing = a;
+        l.quanta_mass = mass_of(count);
+        l.bond = bond;
+        if (j.contains("neighbors"))
+          l.shells = choice<Shells>(j["neighbors"], at("neighbors"),
+                                    {{"nearest", Shells::nearest},
+                                     {"face_diagonal", Shells::face_diagonal},
+                                     {"body_diagonal", Shells::body_diagonal}});
+        res["neighbors"] = l.shells == Shells::nearest         ? "nearest"
+                           : l.shells == Shells::face_diagonal ? "face_diagonal"
+                                                               : "body_diagonal";
+        ids = add_cubic_lattice(w, l, id);
+      } else {
+        const auto [n, cells] = sizes(3);
+        const double count = std::ceil((2.0 * n[0] + 1) * (2.0 * n[1] + 1) * (2.0 * n[2] + 1) / 2);
+        too_many(count);
+        FccLattice l{n, a, mass_of(count), false, bond};
+        if (j.contains("neighbors"))
+          l.second_shell = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"second", true}});
+        res["neighbors"] = l.second_shell ? "second" : "nearest";
+        // total_mass must divide by the real site count: rebuild the mass once it is known.
+        ids = add_fcc_lattice(w, l, id);
+        if (j.contains("total_mass"))
+          for (Index i : ids) {
+            w.model.mass[i] = j["total_mass"].get<double>() / static_cast<double>(ids.size());
+            w.model.inv_mass[i] = 1 / w.model.mass[i];
+          }
+      }
+    } else if (type == "sheet") {
+      const auto [n, count] = sizes(2);
+      too_many(count);
+      SquareLattice l{{n[0], n[1]}, positive(req("spacing"), at("spacing")), mass_of(count), true, false,
+                      material(req("material"), at("material")).bond};
+      if (j.contains("neighbors"))
+        l.diagonals = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"diagonal", true}});
+      if (j.contains("bending")) l.bending = boolean(j["bending"], at("bending"));
+      res["neighbors"] = l.diagonals ? "diagonal" : "nearest";
+      res["bending"] = l.bending;
+      ids = add_square_lattice(w, l, id);
+    } else if (type == "chain") {
+      Chain c;
+      c.start = vec3(req("start"), at("start"));
+      c.end = vec3(req("end"), at("end"));
+      if (!((c.end - c.start).norm() > 0)) bad(at("end"), "must differ from start");
+      const auto count = integer(req("count"), at("count"), 2);
+      too_many(static_cast<double>(count));
+      c.count = static_cast<int>(count);
+      c.quanta_mass = mass_of(static_cast<double>(count));
+      c.bond = material(req("material"), at("material")).bond;
+      ids = add_chain(w, c, id);
+    } else {
+      const json& pos = array(req("positions"), at("positions"));
+      if (pos.empty()) bad(at("positions"), "must hold at least one position");
+      too_many(static_cast<double>(pos.size()));
+      const bool per = j.contains("masses");
+      if (per == j.contains("mass"))
+        bad(path, per ? "give either 'masses' or 'mass', not both" : "one of 'masses' or 'mass' is required");
+      if (per && (!j["masses"].is_array() || j["masses"].size() != pos.size()))
+        bad(at("masses"), "expected an array of " + std::to_string(pos.size()) + " masses (one per position)");
+      const double mass = per ? 0.0 : positive(j["mass"], at("mass"));
+      for (std::size_t k = 0; k < pos.size(); ++k)
+        ids.push_back(w.add_quanta(vec3(pos[k], item(at("positions"), k)), Vec3::Zero(),
+                                   per ? positive(j["masses"][k], item(at("masses"), k)) : mass, id));
+    }
+    // Placement: rotate, translate, then the rigid velocity field.
+    Placement p;
+    if (j.contains("origin")) p.origin = vec3(j["origin"], at("origin"));
+    if (j.contains("rotation")) {
+      Obj r(j["rotation"], at("rotation"), {"axis", "angle"});
+      p.axis = direction(r.required("axis"), r.at("axis"));
+      p.angle = number(r.required("angle"), r.at("angle"));
+    }
+    if (j.contains("velocity")) p.velocity = vec3(j["velocity"], at("velocity"));
+    if (j.contains("angular_velocity")) p.angular_velocity = vec3(j["angular_velocity"], at("angular_velocity"));
+    place_body(w, ids, p);
+    if (type == "quanta" && j.contains("velocities")) {
+      const json& vs = j["velocities"];
+      if (!vs.is_array() || vs.size() != ids.size())
+        bad(at("velocities"), "expected an array of " + std::to_string(ids.size()) + " velocities (one per position)");
+      for (std::size_t k = 0; k < ids.size(); ++k) w.state.v[ids[k]] += vec3(vs[k], item(at("velocities"), k));
+    }
+    res["origin"] = {p.origin.x(), p.origin.y(), p.origin.z()};
+    res["velocity"] = {p.velocity.x(), p.velocity.y(), p.velocity.z()};
+    res["angular_velocity"] = {p.angular_velocity.x(), p.angular_velocity.y(), p.angular_velocity.z()};
+  }
+
+  std::vector<Index> selection(const json& j, const std::string& path, const World& w) {
+    Obj o(j, path, {"ids", "body", "box", "sphere", "half_space", "all"});
+    Selection s;
+    if (o.has("body")) {
+      const std::string name = string(o["body"], o.at("body"));
+      auto it = body_index_.find(name);
+      if (it == body_index_.end()) {
+        std::vector<std::string> names;
+        for (const auto& [k, v] : body_index_) names.push_back(k);
+        bad(o.at("body"), "unknown body '" + name + "' (defined: " + join(names) + ")");
+      }
+      s.body = it->second;
+    }
+    if (o.has("ids")) {
+      std::vector<Index> ids;
+      const json& a = array(o["ids"], o.at("ids"));
+      for (std::size_t k = 0; k < a.size(); ++k) {
+        const auto v = integer(a[k], item(o.at("ids"), k), 0);
+        ids.push_back(static_cast<Index>(std::min<std::uint64_t>(v, ~Index{0})));
+      }
+      s.ids = ids;
+    }
+    if (o.has("box")) {
+      const json& b = o["box"];
+      if (!b.is_array() || b.size() != 2) bad(o.at("box"), "expected [[xmin, ymin, zmin], [xmax, ymax, zmax]]");
+      s.box = {vec3(b[0], o.at("box") + "[0]"), vec3(b[1], o.at("box") + "[1]")};
+      if ((s.box->first.array() > s.box->second.array()).any()) bad(o.at("box"), "min must be <= max in every axis");
+    }
+    if (o.has("sphere")) {
+      Obj sp(o["sphere"], o.at("sphere"), {"center", "radius"});
+      s.sphere = {vec3(sp.required("center"), sp.at("center")), positive(sp.required("radius"), sp.at("radius"))};
+    }
+    if (o.has("half_space")) {
+      Obj h(o["half_space"], o.at("half_space"), {"point", "normal"});
+      s.half_space = {vec3(h.required("point"), h.at("point")), direction(h.required("normal"), h.at("normal"))};
+    }
+    if (o.has("all")) {
+      if (!boolean(o["all"], o.at("all"))) bad(o.at("all"), "must be true when given");
+      s.all = true;
+    }
+    if (j.empty()) bad(path, "needs at least one criterion (ids, body, box, sphere, half_space, all)");
+    std::vector<Index> q;
+    try {
+      q = select(w, s);
+    } catch (const std::out_of_range& e) {
+      bad(o.at("ids"), std::string(e.what()) + (s.body ? " of the body" : ""));
+    }
+    if (q.empty()) bad(path, "selects no quanta");
+    return q;
+  }
+
+  void bonds(const json& j, World& w) {
+    std::unordered_set<std::uint64_t> existing;
+    for (std::size_t b = 0; b < w.num_bonds(); ++b) existing.insert(pair_key(w.model.bond_i[b], w.model.bond_j[b]));
+    for (std::size_t k = 0; k < j.size(); ++k) {
+      const std::string path = item("bonds", k);
+      if (!j[k].is_object()) bad(path, "expected an object, got " + type_name(j[k]));
+      if (j[k].contains("between")) {
+        Obj o(j[k], path, {"between", "body", "material", "rest_length"});
+        const json& ends = o["between"];
+        if (!ends.is_array() || ends.size() != 2) bad(o.at("between"), "expected two quanta ids [i, j]");
+        json ids = json::object();
+        ids["ids"] = ends;
+        if (o.has("body")) ids["body"] = o["body"];
+        // Reuse the selection rules (ranges, body-local ids) on the pair, keeping its order.
+        const std::vector<Index> q = selection(ids, path, w);
+        if (q.size() != 2) bad(o.at("between"), "a bond needs two different quanta");
+        Index a = q[0], b = q[1];
+        if (ends[0].get<std::uint64_t>() > ends[1].get<std::uint64_t>()) std::swap(a, b);
+        BondSpec spec = material(o.required("material"), o.at("material")).bond;
+        if (o.has("rest_length")) spec.rest_length = non_negative(o["rest_length"], o.at("rest_length"));
+        if (!existing.insert(pair_key(a, b)).second)
+          bad(o.at("between"), "quanta " + std::to_string(a) + " and " + std::to_string(b) + " are already bonded");
+        w.add_bond(a, b, spec);
+      } else {
+        Obj o(j[k], path, {"from", "to", "within", "material", "rest_length"});
+        const std::vector<Index> from = selection(o.required("from"), o.at("from"), w);
+        const std::vector<Index> to = selection(o.required("to"), o.at("to"), w);
+        const double r = positive(o.required("within"), o.at("within"));
+        BondSpec spec = material(o.required("material"), o.at("material")).bond;
+        if (o.has("rest_length")) spec.rest_length = non_negative(o["rest_length"], o.at("rest_length"));
+        std::size_t made = 0;
+        pairs_within(w.state.x, from, to, r, [&](Index a, Index b) {
+          if (!existing.insert(pair_key(a, b)).second) return;
+          w.add_bond(a, b, spec);
+          ++made;
+        });
+        if (made == 0) bad(o.at("within"), "no unbonded pair of quanta lies within " + num_str(r) + " m");
+      }
+    }
+  }
+
+  void check_overlaps(const World& w) {
+    double shortest = INFINITY;
+    for (std::size_t b = 0; b < w.num_bonds(); ++b)
+      if (w.state.rest[b] > 0) shortest = std::min(shortest, w.state.rest[b]);
+    const double limit = std::isfinite(shortest) ? 0.01 * shortest : 1e-9;
+    std::vector<Index> all(w.num_quanta());
+    for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<Index>(i);
+    pairs_within(w.state.x, all, all, limit, [&](Index a, Index b) {
+      if (a > b) return;
+      const auto& names = w.model.body_names;
+      bad("bodies", "quanta " + std::to_string(a) + " (body '" + names[w.model.body[a]] + "') and quanta " +
+                        std::to_string(b) + " (body '" + names[w.model.body[b]] + "') overlap: " +
+                        num_str((w.state.x[a] - w.state.x[b]).norm()) + " m apart (limit " + num_str(limit) +
+                        " m, 1% of the shortest bond)");
+    });
+  }
+
+  void anchors(const json& j, World& w) {
+    std::unordered_map<Index, std::size_t> by;
+    for (std::size_t k = 0; k < j.size(); ++k) {
+      Obj o(j[k], item("anchors", k), {"select", "motion"});
+      const std::vector<Index> q = selection(o.required("select"), o.at("select"), w);
+      for (Index i : q)
+        if (auto [it, fresh] = by.emplace(i, k); !fresh)
+          bad(o.at("select"), "quanta " + std::to_string(i) + " is already anchored by anchors[" +
+                                  std::to_string(it->second) + "]");
+      Motion m;
+      if (o.has("motion")) {
+        const json& mj = o["motion"];
+        const std::string path = o.at("motion");
+        if (!mj.is_object() || mj.size() != 1)
+          bad(path, "expected one of {\"fixed\": {}}, {\"translate\": {...}}, {\"rotate\": {...}}");
+        const std::string kind = mj.begin().key();
+        const std::string at = path + "." + kind;
+        if (kind == "fixed") {
+          Obj(mj[kind], at, {});
+        } else if (kind == "translate") {
+          Obj t(mj[kind], at, {"velocity"});
+          m.type = MotionType::translate;
+          m.velocity = vec3(t.required("velocity"), t.at("velocity"));
+        } else if (kind == "rotate") {
+          Obj r(mj[kind], at, {"axis", "center", "rate"});
+          m.type = MotionType::rotate;
+          m.axis = direction(r.required("axis"), r.at("axis"));
+          m.center = vec3(r.required("center"), r.at("center"));
+          m.rate = number(r.required("rate"), r.at("rate"));
+        } else {
+          bad(at, "unknown motion (accepted: fixed, translate, rotate)");
+        }
+      }
+      w.prescribe(q, m);
+    }
+  }
+
+  void loads(const json& j, World& w) {
+    for (std::size_t k = 0; k < j.size(); ++k) {
+      Obj o(j[k], item("loads", k), {"select", "force"});
+      const std::vector<Index> q = selection(o.required("select"), o.at("select"), w);
+      const Vec3 f = vec3(o.required("force"), o.at("force"));
+      for (Index i : q)
+        if (w.model.is_kinematic(i))
+          bad(o.at("select"), "selects anchored quanta " + std::to_string(i) + ": a load on it would do nothing");
+      w.add_load(q, f);
+    }
+  }
+
+  OutputSpec output(const json& j, std::uint64_t steps, const World& w) {
+    Obj o(j, "output", {"dir", "every", "vtk", "checkpoint_every", "probes"});
+    OutputSpec out;
+    if (o.has("dir")) out.dir = string(o["dir"], o.at("dir"));
+    if (out.dir.empty()) bad(o.at("dir"), "must not be empty");
+    out.every = o.has("every") ? integer(o["every"], o.at("every"), 1) : std::max<std::uint64_t>(1, steps / 100);
+    if (o.has("vtk")) out.vtk = boolean(o["vtk"], o.at("vtk"));
+    if (o.has("checkpoint_every")) out.checkpoint_every = integer(o["checkpoint_every"], o.at("checkpoint_every"), 0);
+    if (o.has("probes")) {
+      const json& a = array(o["probes"], o.at("probes"));
+      std::map<std::string, std::size_t> seen;
+      for (std::size_t k = 0; k < a.size(); ++k) {
+        Obj p(a[k], item(o.at("probes"), k), {"name", "select", "about"});
+        ProbeSpec s;
+        s.name = string(p.required("name"), p.at("name"));
+        if (s.name.empty() || !std::all_of(s.name.begin(), s.name.end(), [](char c) {
+              return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+            }))
+          bad(p.at("name"), "must be letters, digits and '_' only (it names CSV columns), got '" + s.name + "'");
+        if (auto [it, fresh] = seen.emplace(s.name, k); !fresh)
+          bad(p.at("name"), "duplicate probe name '" + s.name + "' (also probes[" + std::to_string(it->second) + "])");
+        s.quanta = selection(p.required("select"), p.at("select"), w);
+        if (p.has("about")) s.about = vec3(p["about"], p.at("about"));
+        out.probes.push_back(std::move(s));
+      }
+    }
+    return out;
+  }
+
+  const json& root_;
+  std::string default_name_;
+  std::map<std::string, Material> materials_;
+  std::map<std::string, Index> body_index_;
+};
+
+/// Parses JSON, refusing duplicate keys (the JSON library would keep the last one silently).
+json parse_strict(std::string_view text) {
+  struct Level {
+    explicit Level(bool a) : array(a) {}
+    bool array;
+    std::size_t index = 0;
+    std::string key;
+    std::unordered_set<std::string> keys;
+  };
+  std::vector<Level> stack;
+  auto path = [&] {
+    std::string p;
+    for (std::size_t d = 0; d + 1 < stack.size(); ++d)
+      p += stack[d].array ? "[" + std::to_string(stack[d].index) + "]" : (p.empty() ? "" : ".") + stack[d].key;
+    return p;
+  };
+  auto element_done = [&] {
+    if (!stack.empty() && stack.back().array) ++stack.back().index;
+  };
+  using E = json::parse_event_t;
+  return json::parse(text, [&](int, E e, json& parsed) {
+    switch (e) {
+      case E::object_start: stack.emplace_back(false); break;
+      case E::array_start: stack.emplace_back(true); break;
+      case E::key: {
+        Level& l = stack.back();
+        l.key = parsed.get<std::string>();
+        if (!l.keys.insert(l.key).second) {
+          stack.emplace_back(false);  // so that path() includes this key
+          bad(path(), "duplicate key (JSON would silently keep only the last one)");
+        }
+        break;
+      }
+      case E::object_end:
+      case E::array_end:
+        stack.pop_back();
+        element_done();
+        break;
+      case E::value: element_done(); break;
+    }
+    return true;
+  });
+}
+
+}  // namespace
+
+Scene parse_scene(std::string_view text, const std::string& source) {
+  try {
+    json root;
+    try {
+      root = parse_strict(text);
+    } catch (const json::parse_error& e) {
+      throw SceneError(source, "", std::string("invalid JSON: ") + e.what());
+    }
+    if (!root.is_object()) throw SceneError(source, "", "a scene is a JSON object, got " + type_name(root));
+    return Builder(root, std::filesystem::path(source).stem().string()).build();
+  } catch (const Bad& b) {
+    throw SceneError(source, b.path, b.rule);
+  }
+}
+
+Scene load_scene(const std::filesystem::path& file) {
+  std::string text;
+  try {
+    text = read_file(file);
+  } catch (const std::exception& e) {
+    throw SceneError(file.string(), "", e.what());
+  }
+  return parse_scene(text, file.string());
+}
+
+double explicit_step_hint(const World& w) {
+  const Model& m = w.model;
+  std::vector<double> k_sum(m.num_quanta(), 0.0);
+  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
+    if (!w.state.alive[b]) continue;
+    const double k = m.law[b] == Law::linear ? m.stiffness[b] : m.stiffness[b] / (m.eps[b] * m.eps[b]);
+    k_sum[m.bond_i[b]] += k;
+    k_sum[m.bond_j[b]] += k;
+  }
+  double w2 = 0;
+  for (std::size_t i = 0; i < m.num_quanta(); ++i) w2 = std::max(w2, 2 * k_sum[i] * m.inv_mass[i]);
+  return w2 > 0 ? 2 / std::sqrt(w2) : INFINITY;
+}
+
+std::string scene_summary(const Scene& s) {
+  const World& w = s.world;
+  const Model& m = w.model;
+  std::size_t kinematic = 0;
+  double mass = 0;
+  Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
+  for (std::size_t i = 0; i < m.num_quanta(); ++i) {
+    kinematic += m.is_kinematic(static_cast<Index>(i));
+    mass += m.mass[i];
+    lo = lo.cwiseMin(w.state.x[i]);
+    hi = hi.cwiseMax(w.state.x[i]);
+  }
+  const double hint = explicit_step_hint(w);
+  std::ostringstream o;
+  o.precision(6);
+  o << "  scene      " << s.name << (s.description.empty() ? "" : ": " + s.description) << "\n"
+    << "  quanta     " << m.num_quanta() << " (" << m.num_quanta() - kinematic << " free, " << kinematic
+    << " anchored or prescribed)\n"
+    << "  bonds      " << m.num_bonds() << "\n"
+    << "  bodies     " << m.body_names.size() << "\n"
+    << "  mass       " << mass << " kg\n"
+    << "  box        [" << lo.x() << ", " << lo.y() << ", " << lo.z() << "] .. [" << hi.x() << ", " << hi.y() << ", "
+    << hi.z() << "] m\n"
+    << "  timestep   " << s.timestep << " s x " << s.steps << " steps = " << s.timestep * static_cast<double>(s.steps)
+    << " s, integrator " << to_string(s.integrator.type) << "\n"
+    << "  explicit   stable below h = " << hint << " s (symplectic Euler, undamped); this step is "
+    << s.timestep / hint << " x that";
+  return o.str();
+}
+
+}  // namespace qbond

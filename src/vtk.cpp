@@ -1,1 +1,124 @@
-// placeholder until this module lands (issue 4)
+#include "qbond/vtk.hpp"
+
+#include <cstdio>
+#include <cstring>
+
+#include "qbond/analysis.hpp"
+#include "qbond/files.hpp"
+
+namespace qbond {
+namespace {
+
+// Builds the XML header and the appended binary block side by side: each array is declared with
+// its offset into the block, where its bytes follow a UInt64 byte count.
+class Appended {
+ public:
+  template <class T>
+  void array(std::string& xml, const char* type, const std::string& name, int components, const T* data,
+             std::size_t count) {
+    xml += "<DataArray type=\"" + std::string(type) + "\"";
+    if (!name.empty()) xml += " Name=\"" + name + "\"";
+    xml += " NumberOfComponents=\"" + std::to_string(components) + "\" format=\"appended\" offset=\"" +
+           std::to_string(block.size()) + "\"/>\n";
+    const std::uint64_t bytes = count * sizeof(T);
+    block.append(reinterpret_cast<const char*>(&bytes), sizeof bytes);
+    block.append(reinterpret_cast<const char*>(data), bytes);
+  }
+  std::string block;
+};
+
+std::string escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+void write_vtp(const std::filesystem::path& path, const Model& model, const State& state,
+               std::span<const PointArray> extra) {
+  const std::size_t n = model.num_quanta();
+  std::vector<double> tension, strain;
+  bond_tension_strain(model, state, tension, strain);
+  std::vector<std::int64_t> line_conn, line_off, vert_conn(n), vert_off(n);
+  std::vector<double> cell_strain(n, 0.0), cell_tension(n, 0.0);
+  std::vector<std::int64_t> cell_bond(n, -1);
+  for (std::size_t i = 0; i < n; ++i) {
+    vert_conn[i] = static_cast<std::int64_t>(i);
+    vert_off[i] = static_cast<std::int64_t>(i + 1);
+  }
+  for (std::size_t b = 0; b < model.num_bonds(); ++b) {
+    if (!state.alive[b]) continue;
+    line_conn.push_back(model.bond_i[b]);
+    line_conn.push_back(model.bond_j[b]);
+    line_off.push_back(static_cast<std::int64_t>(line_conn.size()));
+    cell_strain.push_back(strain[b]);
+    cell_tension.push_back(tension[b]);
+    cell_bond.push_back(static_cast<std::int64_t>(b));
+  }
+  std::vector<std::int64_t> id(n);
+  std::vector<std::int32_t> body(n);
+  std::vector<std::uint8_t> kinematic(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    id[i] = static_cast<std::int64_t>(i);
+    body[i] = static_cast<std::int32_t>(model.body[i]);
+    kinematic[i] = model.is_kinematic(static_cast<Index>(i));
+  }
+  static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 must be three packed doubles");
+
+  Appended a;
+  std::string xml =
+      "<?xml version=\"1.0\"?>\n"
+      "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
+      "<PolyData>\n<Piece NumberOfPoints=\"" +
+      std::to_string(n) + "\" NumberOfVerts=\"" + std::to_string(n) + "\" NumberOfLines=\"" +
+      std::to_string(line_off.size()) + "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
+  xml += "<PointData Scalars=\"mass\" Vectors=\"velocity\">\n";
+  a.array(xml, "Float64", "velocity", 3, reinterpret_cast<const double*>(state.v.data()), 3 * n);
+  a.array(xml, "Float64", "mass", 1, model.mass.data(), n);
+  a.array(xml, "Int64", "id", 1, id.data(), n);
+  a.array(xml, "Int32", "body", 1, body.data(), n);
+  a.array(xml, "UInt8", "kinematic", 1, kinematic.data(), n);
+  for (const PointArray& p : extra) a.array(xml, "Float64", escape(p.name), p.components, p.values.data(), p.values.size());
+  xml += "</PointData>\n<CellData Scalars=\"tension\">\n";
+  a.array(xml, "Float64", "strain", 1, cell_strain.data(), cell_strain.size());
+  a.array(xml, "Float64", "tension", 1, cell_tension.data(), cell_tension.size());
+  a.array(xml, "Int64", "bond", 1, cell_bond.data(), cell_bond.size());
+  xml += "</CellData>\n<Points>\n";
+  a.array(xml, "Float64", "", 3, reinterpret_cast<const double*>(state.x.data()), 3 * n);
+  xml += "</Points>\n<Verts>\n";
+  a.array(xml, "Int64", "connectivity", 1, vert_conn.data(), n);
+  a.array(xml, "Int64", "offsets", 1, vert_off.data(), n);
+  xml += "</Verts>\n<Lines>\n";
+  a.array(xml, "Int64", "connectivity", 1, line_conn.data(), line_conn.size());
+  a.array(xml, "Int64", "offsets", 1, line_off.data(), line_off.size());
+  xml += "</Lines>\n</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">\n_";
+  xml += a.block;
+  xml += "\n</AppendedData>\n</VTKFile>\n";
+  write_file_atomic(path, xml);
+}
+
+void PvdSeries::add(double time, std::string file) { frames_.emplace_back(time, std::move(file)); }
+
+void PvdSeries::write(const std::filesystem::path& pvd) const {
+  std::string xml =
+      "<?xml version=\"1.0\"?>\n"
+      "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n<Collection>\n";
+  char t[32];
+  for (const auto& [time, file] : frames_) {
+    std::snprintf(t, sizeof t, "%.17g", time);
+    xml += "<DataSet timestep=\"" + std::string(t) + "\" group=\"\" part=\"0\" file=\"" + escape(file) + "\"/>\n";
+  }
+  xml += "</Collection>\n</VTKFile>\n";
+  write_file_atomic(pvd, xml);
+}
+
+}  // namespace qbond

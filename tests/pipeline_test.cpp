@@ -46,7 +46,7 @@ TEST(Pipeline, HeuristicsRunInOrderBetweenProjectionAndApplication) {
 
 TEST(Pipeline, SameInputsSameBits) {
   auto run = [] {
-    SampleScene s = find_sample("pendulum").build();
+    Scene s = builtin_scene("pendulum");
     Simulation sim(std::move(s.world), s.integrator, s.timestep);
     for (int n = 0; n < 300; ++n) sim.step();
     return sim.world().state;
@@ -177,7 +177,7 @@ TEST(World, BrokenBondLeavesTheSolverAtOnce) {
 TEST(Builders, CanonicalLatticeHasTheIssuesBondCount) {
   // n³ quanta; nearest 3n²(n-1) and face diagonals 6n(n-1)² bonds (552 240 at n = 40).
   for (int n : {2, 3, 5}) {
-    const SampleScene s = canonical_lattice(n);
+    const Scene s = canonical_lattice(n);
     EXPECT_EQ(s.world.num_quanta(), static_cast<std::size_t>(n * n * n));
     EXPECT_EQ(s.world.num_bonds(), static_cast<std::size_t>(3 * n * n * (n - 1) + 6 * n * (n - 1) * (n - 1)));
     std::size_t anchored = 0;
@@ -195,12 +195,16 @@ TEST(Builders, CanonicalLatticeHasTheIssuesBondCount) {
 }
 
 TEST(Samples, EveryBuiltInSceneRunsWithoutBlowup) {
-  for (const Sample& s : samples()) {
-    SampleScene scene = s.build();
+  ASSERT_GE(builtin_scenes().size(), 8u);
+  for (const BuiltinScene& s : builtin_scenes()) {
+    Scene scene = builtin_scene(s.name);
+    EXPECT_EQ(scene.name, s.name);
     Simulation sim(std::move(scene.world), scene.integrator, scene.timestep);
+    sim.limits() = scene.limits;
     for (int n = 0; n < 50; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok) << s.name;
   }
-  EXPECT_THROW(find_sample("nope"), std::invalid_argument);
+  EXPECT_NO_THROW(builtin_scene(kDefaultScene));
+  EXPECT_THROW(builtin_scene("nope"), std::invalid_argument);
 }
 
 }  // namespace

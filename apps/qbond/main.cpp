@@ -1,96 +1,288 @@
-// The `qbond` program. `qbond run` steps the built-in scenes of samples.hpp; scene files and
-// outputs come with the scenes issue (README, "Running").
+// The `qbond` program (DESIGN §11): `run` a scene with its outputs, `validate` scene files.
+// The work is done by the library (scene.hpp, runner.hpp); this file holds what only a program
+// has: options, the progress display, signals and exit codes.
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
+#include <atomic>
+#include <cmath>
+#include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 
 #include "qbond/analysis.hpp"
+#include "qbond/checkpoint.hpp"
+#include "qbond/runner.hpp"
 #include "qbond/samples.hpp"
-#include "qbond/simulation.hpp"
 
 namespace {
+namespace fs = std::filesystem;
 
-struct RunOptions {
+// Exit codes (README, "Running a scene").
+constexpr int kExitFailure = 1;   // an output could not be written, or another runtime failure
+constexpr int kExitBadInput = 2;  // bad scene, checkpoint or option; nothing was written
+constexpr int kExitBlowup = 3;    // the simulation blew up; the last good state was written
+
+// The one piece of process-wide state a signal handler needs; the first SIGINT/SIGTERM asks the
+// run to stop after the current step, a second one kills the process as usual.
+volatile std::sig_atomic_t g_signal = 0;
+
+extern "C" void on_signal(int sig) {
+  g_signal = sig;
+  std::signal(sig, SIG_DFL);
+}
+
+struct Options {
   std::string scene;
+  std::string resume;
   long long steps = -1;
+  double duration = -1;
   double timestep = -1;
+  std::string out;
+  long long every = -1;
+  long long checkpoint_every = -1;
+  bool no_vtk = false;
   std::string integrator, neighbours, solver;
   int iterations = -1;
-  int every = 0;
+  double tolerance = -1;
   bool list = false;
   bool quiet = false;
 };
 
-int run(const RunOptions& o) {
+/// A scene from a file path, or a built-in scene by name (the default one when none is given).
+qbond::Scene load_any(const std::string& arg) {
+  if (arg.empty()) return qbond::builtin_scene(qbond::kDefaultScene);
+  if (fs::exists(arg) || fs::path(arg).extension() == ".json") return qbond::load_scene(arg);
+  return qbond::builtin_scene(arg);
+}
+
+/// Applies the command line's overrides to a scene and its run settings, keeping the scene's
+/// resolved JSON in step (it is what run.json and checkpoints record).
+void apply(const Options& o, qbond::Scene& scene, qbond::RunSettings& rs) {
+  using namespace qbond;
+  nlohmann::json& j = scene.resolved;
+  if (o.timestep > 0) {
+    // A new step keeps the run's simulated length unless a length is given too.
+    const double length = static_cast<double>(rs.steps) * scene.timestep;
+    scene.timestep = o.timestep;
+    rs.steps = static_cast<std::uint64_t>(std::ceil(length / o.timestep - 1e-9));
+    j["timestep"] = o.timestep;
+  }
+  if (o.steps >= 0) rs.steps = static_cast<std::uint64_t>(o.steps);
+  if (o.duration > 0) rs.steps = static_cast<std::uint64_t>(std::ceil(o.duration / scene.timestep - 1e-9));
+  scene.steps = rs.steps;
+  j["steps"] = rs.steps;
+  j.erase("duration");
+  IntegratorConfig& c = scene.integrator;
+  if (!o.integrator.empty()) c.type = parse_integrator_type(o.integrator);
+  if (!o.neighbours.empty()) c.neighbours = parse_neighbour_model(o.neighbours);
+  if (!o.solver.empty()) c.solver = parse_coupled_solver(o.solver);
+  if (o.iterations > 0) c.iterations = o.iterations;
+  if (o.tolerance > 0) c.tolerance = o.tolerance;
+  j["integrator"]["type"] = to_string(c.type);
+  j["integrator"]["neighbours"] = to_string(c.neighbours);
+  j["integrator"]["solver"] = to_string(c.solver);
+  j["integrator"]["iterations"] = c.iterations;
+  j["integrator"]["tolerance"] = c.tolerance;
+  if (!o.out.empty()) rs.out_dir = o.out;
+  if (o.every > 0) rs.every = static_cast<std::uint64_t>(o.every);
+  if (o.checkpoint_every >= 0) rs.checkpoint_every = static_cast<std::uint64_t>(o.checkpoint_every);
+  if (o.no_vtk) rs.vtk = false;
+  j["output"]["dir"] = rs.out_dir.string();
+  j["output"]["every"] = rs.every;
+  j["output"]["checkpoint_every"] = rs.checkpoint_every;
+  j["output"]["vtk"] = rs.vtk;
+}
+
+std::string clock(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "--:--";
+  const auto s = static_cast<long long>(seconds + 0.5);
+  char buf[32];
+  if (s >= 3600)
+    std::snprintf(buf, sizeof buf, "%lld:%02lld:%02lld", s / 3600, s / 60 % 60, s % 60);
+  else
+    std::snprintf(buf, sizeof buf, "%lld:%02lld", s / 60, s % 60);
+  return buf;
+}
+
+/// Progress on stderr: a bar redrawn in place on a terminal, plain lines every 10 % (or every
+/// 30 s) otherwise, so that logs stay readable.
+class Progress {
+ public:
+  explicit Progress(bool quiet) : quiet_(quiet), tty_(isatty(STDERR_FILENO) == 1) {}
+  void operator()(const qbond::RunProgress& p) {
+    if (quiet_) return;
+    const double total = static_cast<double>(p.last_step - p.first_step);
+    const double done = static_cast<double>(p.step - p.first_step);
+    const double frac = total > 0 ? done / total : 1.0;
+    const bool last = p.step == p.last_step;
+    if (tty_) {
+      if (!last && p.wall_seconds - shown_ < 0.1) return;
+    } else if (!last && frac - shown_frac_ < 0.1 && p.wall_seconds - shown_ < 30) {
+      return;
+    }
+    shown_ = p.wall_seconds;
+    shown_frac_ = frac;
+    const double rate = p.wall_seconds > 0 ? done / p.wall_seconds : 0;
+    const double eta = rate > 0 ? (total - done) / rate : -1;
+    char line[160];
+    std::snprintf(line, sizeof line, "%5.1f%%  step %llu/%llu  t = %.6g s  %.4g steps/s  ETA %s", 100 * frac,
+                  static_cast<unsigned long long>(p.step), static_cast<unsigned long long>(p.last_step), p.time, rate,
+                  clock(eta).c_str());
+    if (tty_) {
+      constexpr int kWidth = 24;
+      const int filled = static_cast<int>(frac * kWidth);
+      std::fprintf(stderr, "\r[%s%s] %s\033[K", std::string(filled, '#').c_str(),
+                   std::string(kWidth - filled, '-').c_str(), line);
+      if (last) std::fputc('\n', stderr);
+      open_line_ = !last;
+    } else {
+      std::fprintf(stderr, "%s\n", line);
+    }
+    std::fflush(stderr);
+  }
+  /// Ends a bar left mid-line (stop, blow-up) so that messages start on their own line.
+  void finish() {
+    if (open_line_) std::fputc('\n', stderr);
+    open_line_ = false;
+  }
+
+ private:
+  bool quiet_, tty_;
+  bool open_line_ = false;
+  double shown_ = -1e9, shown_frac_ = -1;
+};
+
+int run(const Options& o) {
   using namespace qbond;
   if (o.list) {
-    for (const Sample& s : samples()) std::printf("%-12s %s\n", s.name.c_str(), s.description.c_str());
+    for (const BuiltinScene& s : builtin_scenes())
+      std::printf("%-18s %s%s\n", std::string(s.name).c_str(), std::string(s.description).c_str(),
+                  s.name == kDefaultScene ? " (default)" : "");
     return 0;
   }
-  const Sample& sample = o.scene.empty() ? samples().front() : find_sample(o.scene);
-  SampleScene scene = sample.build();
-  IntegratorConfig cfg = scene.integrator;
-  if (!o.integrator.empty()) cfg.type = parse_integrator_type(o.integrator);
-  if (!o.neighbours.empty()) cfg.neighbours = parse_neighbour_model(o.neighbours);
-  if (!o.solver.empty()) cfg.solver = parse_coupled_solver(o.solver);
-  if (o.iterations > 0) cfg.iterations = o.iterations;
-  const double h = o.timestep > 0 ? o.timestep : scene.timestep;
-  const std::uint64_t steps = o.steps >= 0 ? static_cast<std::uint64_t>(o.steps) : scene.steps;
-  Simulation sim(std::move(scene.world), cfg, h);
-  const World& w = sim.world();
-  if (!o.quiet)
-    std::printf("scene %s: %zu quanta, %zu bonds, h = %g s, %llu steps, integrator %s\n", sample.name.c_str(),
-                w.num_quanta(), w.num_bonds(), h, static_cast<unsigned long long>(steps),
-                std::string(to_string(cfg.type)).c_str());
-  const std::uint64_t every = o.every > 0 ? static_cast<std::uint64_t>(o.every) : std::max<std::uint64_t>(1, steps / 10);
-  auto print = [&] {
-    if (o.quiet) return;
-    const EnergyBudget b = energy_budget(w.model, w.state);
-    const Vec3 p = linear_momentum(w.model, w.state);
-    std::printf("step %8llu  t %9.4f s  kinetic %11.4e  potential %11.4e  total %11.4e  "
-                "damping %10.3e  numerical %10.3e  |p| %10.3e\n",
-                static_cast<unsigned long long>(w.state.step), w.state.time, b.now.kinetic,
-                b.now.bonds + b.now.gravity, b.now.total(), b.dissipated_damping, b.dissipated_numerical,
-                p.norm());
-  };
-  print();
-  for (std::uint64_t k = 0; k < steps; ++k) {
-    const StepReport r = sim.step();
-    if (r.status != StepReport::Status::ok) {
-      std::fprintf(stderr, "qbond: %s\n", r.message.c_str());
-      return 3;
-    }
-    if ((k + 1) % every == 0 || k + 1 == steps) print();
+  // Everything that can be wrong with the input is found before anything is written.
+  std::optional<Runner> runner;
+  if (!o.resume.empty()) {
+    if (!o.scene.empty()) throw std::invalid_argument("--resume continues a checkpoint's own scene; give no SCENE");
+    runner.emplace(Runner::resume(o.resume, [&](Scene& s, RunSettings& rs) { apply(o, s, rs); }));
+  } else {
+    Scene scene = load_any(o.scene);
+    RunSettings rs = settings_of(scene);
+    apply(o, scene, rs);
+    runner.emplace(std::move(scene), std::move(rs));
   }
-  return 0;
+  const Scene& scene = runner->scene();
+  const RunSettings& rs = runner->settings();
+  const World& w = runner->simulation().world();
+  if (!o.quiet) {
+    std::printf("%s %s: %zu quanta, %zu bonds, h = %g s, steps %llu -> %llu, integrator %s\n",
+                o.resume.empty() ? "running" : "resuming", scene.name.c_str(), w.num_quanta(), w.num_bonds(),
+                scene.timestep, static_cast<unsigned long long>(w.state.step),
+                static_cast<unsigned long long>(rs.steps), std::string(to_string(scene.integrator.type)).c_str());
+    std::printf("output: %s\n", rs.out_dir.c_str());
+    std::fflush(stdout);
+  }
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  Progress progress(o.quiet);
+  const RunResult r = runner->run([] { return g_signal != 0; }, std::ref(progress));
+  progress.finish();
+  if (!o.quiet) {
+    const EnergyBudget b = energy_budget(w.model, w.state);
+    std::printf("%llu steps in %.3g s (%.4g steps/s); t = %.6g s; energy %.6g J (damping %.3g J, numerical %.3g J)\n",
+                static_cast<unsigned long long>(r.steps_taken), r.wall_seconds,
+                r.wall_seconds > 0 ? r.steps_taken / r.wall_seconds : 0.0, w.state.time, b.now.total(),
+                b.dissipated_damping, b.dissipated_numerical);
+  }
+  switch (r.status) {
+    case RunStatus::completed: return 0;
+    case RunStatus::stopped:
+      std::fprintf(stderr, "qbond: stopped by signal %d at step %llu; resume with: qbond run --resume %s\n",
+                   static_cast<int>(g_signal), static_cast<unsigned long long>(w.state.step),
+                   (rs.out_dir / "checkpoint.qbc").c_str());
+      return 128 + static_cast<int>(g_signal);
+    case RunStatus::blowup:
+      std::fprintf(stderr, "qbond: %s\nqbond: the last good state is in %s\n", r.message.c_str(),
+                   (rs.out_dir / "checkpoint.qbc").c_str());
+      return kExitBlowup;
+  }
+  return kExitFailure;
+}
+
+int validate(const std::vector<std::string>& scenes) {
+  int bad = 0;
+  for (const std::string& arg : scenes) {
+    try {
+      const qbond::Scene s = load_any(arg);
+      std::printf("%s: ok\n%s\n", arg.c_str(), qbond::scene_summary(s).c_str());
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "qbond: %s\n", e.what());
+      ++bad;
+    }
+  }
+  return bad ? kExitBadInput : 0;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"qbond — the quanta-bond method: deformable, breakable solids, stepped implicitly"};
+  CLI::App app{"qbond: the quanta-bond method. Deformable, breakable solids, stepped implicitly."};
   app.set_version_flag("--version", std::string("qbond ") + QBOND_VERSION);
   app.require_subcommand(1);
-  RunOptions o;
-  CLI::App* run_cmd = app.add_subcommand("run", "run a built-in scene (default: the pendulum)");
-  run_cmd->add_option("scene", o.scene, "built-in scene name (see --list)");
+  Options o;
+  CLI::App* run_cmd = app.add_subcommand("run", "run a scene file or a built-in scene (default: the pendulum)");
+  run_cmd->add_option("scene", o.scene, "scene file (.json) or built-in scene name (see --list)");
   run_cmd->add_flag("--list", o.list, "list the built-in scenes");
-  run_cmd->add_option("--steps", o.steps, "number of steps (default: the scene's)");
-  run_cmd->add_option("--dt", o.timestep, "timestep [s] (default: the scene's)");
-  run_cmd->add_option("--integrator", o.integrator, "integrator override");
+  run_cmd->add_option("--resume", o.resume, "continue from a checkpoint (e.g. out/checkpoint.qbc)");
+  auto* steps = run_cmd->add_option("--steps", o.steps, "run until this step count (default: the scene's)")
+                    ->check(CLI::NonNegativeNumber);
+  run_cmd->add_option("--duration", o.duration, "run until this simulated time [s]")
+      ->check(CLI::PositiveNumber)
+      ->excludes(steps);
+  run_cmd->add_option("--dt", o.timestep, "timestep [s] (default: the scene's)")->check(CLI::PositiveNumber);
+  run_cmd->add_option("-o,--out", o.out, "output directory (default: the scene's output.dir)");
+  run_cmd->add_option("--every", o.every, "steps between output rows and frames")->check(CLI::PositiveNumber);
+  run_cmd->add_option("--checkpoint-every", o.checkpoint_every, "steps between checkpoints (0: at the end only)")
+      ->check(CLI::NonNegativeNumber);
+  run_cmd->add_flag("--no-vtk", o.no_vtk, "write no ParaView frames");
+  run_cmd->add_option("--integrator", o.integrator, "integrator override (e.g. hybrid_implicit)");
   run_cmd->add_option("--neighbours", o.neighbours, "hybrid neighbour model: frozen, sweep, jacobi");
   run_cmd->add_option("--solver", o.solver, "coupled solver: dense, ldlt, cg");
-  run_cmd->add_option("--iterations", o.iterations, "sweeps per step (hybrid sweep/jacobi)");
-  run_cmd->add_option("--every", o.every, "print every N steps");
+  run_cmd->add_option("--iterations", o.iterations, "sweeps per step (hybrid sweep/jacobi)")
+      ->check(CLI::PositiveNumber);
+  run_cmd->add_option("--tolerance", o.tolerance, "relative residual of the iterative solvers")
+      ->check(CLI::PositiveNumber);
   run_cmd->add_flag("-q,--quiet", o.quiet, "print nothing but errors");
+
+  std::vector<std::string> to_validate;
+  CLI::App* validate_cmd = app.add_subcommand("validate", "check scene files and print their summaries");
+  validate_cmd->add_option("scenes", to_validate, "scene files or built-in scene names")->required();
   try {
     app.parse(argc, argv);
-    if (run_cmd->parsed()) return run(o);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    const int code = app.exit(e);  // prints help, version or the error
+    return code == 0 ? 0 : kExitBadInput;
+  }
+  try {
+    if (run_cmd->parsed()) return run(o);
+    if (validate_cmd->parsed()) return validate(to_validate);
+  } catch (const qbond::SceneError& e) {
+    std::fprintf(stderr, "qbond: %s\n", e.what());
+    return kExitBadInput;
+  } catch (const qbond::CheckpointError& e) {
+    std::fprintf(stderr, "qbond: %s\n", e.what());
+    return kExitBadInput;
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "qbond: %s\n", e.what());
+    return kExitBadInput;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "qbond: %s\n", e.what());
-    return 2;
+    return kExitFailure;
   }
   return 0;
 }

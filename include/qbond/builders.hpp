@@ -40,4 +40,43 @@ struct Chain {
 };
 std::vector<Index> add_chain(World& world, const Chain& spec, Index body = 0);
 
+/// A 2D square lattice of size[0]×size[1] quanta in the xy plane (the paper's Figure 1), bonded to
+/// the 4 nearest neighbours, with `diagonals` also to the 4 diagonal ones; `bending` adds bonds to
+/// the second neighbours along rows and columns (distance 2a), which give a sheet bending
+/// stiffness. Ids run x fastest.
+struct SquareLattice {
+  std::array<int, 2> size{2, 2};
+  double spacing = 0.01;      ///< a [m]
+  double quanta_mass = 1e-3;  ///< [kg]
+  bool diagonals = true;
+  bool bending = false;
+  BondSpec bond;
+};
+std::vector<Index> add_square_lattice(World& world, const SquareLattice& spec, Index body = 0);
+
+/// A face-centred cubic block of cells[0]×cells[1]×cells[2] cubic cells of side a: every FCC
+/// site inside [0, cells·a] per axis (corners and face centres, no duplicates), bonded to its 12
+/// nearest neighbours (a/√2) and, with `second_shell`, to its 6 second neighbours (a). Ids follow
+/// the sites sorted by z, then y, then x.
+struct FccLattice {
+  std::array<int, 3> cells{1, 1, 1};
+  double spacing = 0.01;      ///< cubic cell side a [m]
+  double quanta_mass = 1e-3;  ///< [kg]
+  bool second_shell = false;
+  BondSpec bond;
+};
+std::vector<Index> add_fcc_lattice(World& world, const FccLattice& spec, Index body = 0);
+
+/// Where a body built at the origin goes, and how it moves.
+struct Placement {
+  Vec3 origin = Vec3::Zero();          ///< translation [m], applied after the rotation
+  Vec3 axis = Vec3::UnitZ();           ///< rotation axis (unit)
+  double angle = 0;                    ///< rotation angle about the body-frame origin [rad]
+  Vec3 velocity = Vec3::Zero();        ///< velocity of the centre of mass [m/s]
+  Vec3 angular_velocity = Vec3::Zero();  ///< [rad/s]: v_i = velocity + ω × (x_i − x_cm)
+};
+/// Rotates and translates the quanta `ids` (rest lengths are unchanged: the motion is rigid) and
+/// gives them the rigid velocity field of the placement.
+void place_body(World& world, const std::vector<Index>& ids, const Placement& p);
+
 }  // namespace qbond

@@ -1,0 +1,214 @@
+#!/usr/bin/python3
+"""End-to-end tests of the `qbond` program: what a user types, what lands on disk.
+
+Usage: cli_test.py QBOND_EXE SOURCE_DIR WORK_DIR TEST
+Run with Debian's /usr/bin/python3 (ctest does); TEST is one of the functions named test_*.
+"""
+import csv
+import json
+import os
+import shutil
+import signal
+import struct
+import subprocess
+import sys
+import time
+
+QBOND, SOURCE, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
+BAD_SCENES = os.path.join(SOURCE, "tests", "bad_scenes")
+
+
+def qbond(*args, check_code=None, **kw):
+    r = subprocess.run([QBOND, *args], capture_output=True, text=True, **kw)
+    if check_code is not None and r.returncode != check_code:
+        sys.exit(f"qbond {' '.join(args)}: exit {r.returncode}, expected {check_code}\n"
+                 f"stdout:\n{r.stdout}\nstderr:\n{r.stderr}")
+    return r
+
+
+def fresh(name):
+    d = os.path.join(WORK, name)
+    shutil.rmtree(d, ignore_errors=True)
+    return d
+
+
+def fail(msg):
+    sys.exit("FAIL: " + msg)
+
+
+def state_bytes(checkpoint):
+    """The State part of a checkpoint (format: include/qbond/checkpoint.hpp)."""
+    data = open(checkpoint, "rb").read()
+    if data[:8] != b"QBONDCKP":
+        fail(f"{checkpoint}: bad magic")
+    off = 16
+    (meta_len,) = struct.unpack_from("<Q", data, off)
+    off += 8 + meta_len
+    (state_len,) = struct.unpack_from("<Q", data, off)
+    off += 8
+    return data[off:off + state_len]
+
+
+def read_csv(path):
+    text = open(path).read()
+    if not text.endswith("\n"):
+        fail(f"{path}: ends with a partial line")
+    rows = list(csv.reader(text.splitlines()))
+    width = len(rows[0])
+    for k, r in enumerate(rows):
+        if len(r) != width:
+            fail(f"{path}: row {k} has {len(r)} fields, the header {width}")
+    return text, rows
+
+
+def test_list():
+    r = qbond("run", "--list", check_code=0)
+    for name in ("pendulum", "two_quanta", "four_quanta", "series_parallel", "anchored_block",
+                 "twisted_bar", "cantilever", "hanging_rope"):
+        if name not in r.stdout:
+            fail(f"--list does not show {name}:\n{r.stdout}")
+    if "(default)" not in r.stdout.split("pendulum", 1)[1].splitlines()[0]:
+        fail("--list does not mark the pendulum as the default")
+
+
+def test_bad_scenes():
+    """Each bad scene: exit 2, the expected path + rule on stderr, nothing written."""
+    expected = {}
+    for line in open(os.path.join(BAD_SCENES, "expected.txt")):
+        if line.strip() and not line.startswith("#"):
+            name, text = line.rstrip("\n").split("\t", 1)
+            expected[name] = text
+    if len(expected) < 25:
+        fail(f"only {len(expected)} bad scenes")
+    for name, text in sorted(expected.items()):
+        out = fresh("bad_" + name)
+        r = qbond("run", os.path.join(BAD_SCENES, name), "--out", out, "--steps", "5")
+        if r.returncode != 2:
+            fail(f"{name}: exit {r.returncode}, expected 2\n{r.stderr}")
+        if text not in r.stderr:
+            fail(f"{name}: stderr lacks {text!r}:\n{r.stderr}")
+        if os.path.exists(out):
+            fail(f"{name}: {out} was created although the scene is bad")
+        v = qbond("validate", os.path.join(BAD_SCENES, name))
+        if v.returncode != 2 or text not in v.stderr:
+            fail(f"validate {name}: exit {v.returncode}\n{v.stderr}")
+
+
+def test_bad_options():
+    for args in (["run", "--steps", "-3"], ["run", "--dt", "0"], ["run", "--integrator", "magic"],
+                 ["run", "no_such_scene"], ["run", "--resume", os.path.join(SOURCE, "README.md")]):
+        r = qbond(*args, "--out", fresh("bad_option"))
+        if r.returncode != 2 or not r.stderr.strip():
+            fail(f"qbond {' '.join(args)}: exit {r.returncode}, stderr {r.stderr!r}")
+
+
+def test_outputs_and_vtk():
+    """The default scene's outputs: CSV columns, run.json, and frames read by VTK itself."""
+    out = fresh("pendulum")
+    qbond("run", "--steps", "40", "--every", "10", "--out", out, "-q", check_code=0)
+    _, rows = read_csv(os.path.join(out, "diagnostics.csv"))
+    header = rows[0]
+    standard = ("step,time,kinetic,potential,dissipated,total,px,py,pz,lx,ly,lz,max_speed,"
+                "bonds_alive,bonds_broken").split(",")
+    if header[:len(standard)] != standard:
+        fail(f"diagnostics.csv columns {header}")
+    for col in ("cube_x", "cube_y", "cube_z", "pivot_fx", "pivot_tz"):
+        if col not in header:
+            fail(f"diagnostics.csv lacks probe column {col}")
+    if [r[0] for r in rows[1:]] != ["0", "10", "20", "30", "40"]:
+        fail(f"rows at steps {[r[0] for r in rows[1:]]}")
+    run = json.load(open(os.path.join(out, "run.json")))
+    for key in ("qbond_version", "scene", "status", "wall_seconds", "steps_per_second", "run"):
+        if key not in run:
+            fail(f"run.json lacks {key}")
+    if run["status"] != "completed" or run["scene"]["name"] != "pendulum":
+        fail(f"run.json: {run['status']}, {run['scene'].get('name')}")
+    pvd = os.path.join(out, "series.pvd")
+    r = subprocess.run(["/usr/bin/python3", os.path.join(SOURCE, "tests", "vtk_readback.py"), pvd,
+                        "--frames", "5", "--points", str(run["quanta"]), "--lines", str(run["bonds_alive"]),
+                        "--point-arrays", "velocity,mass,id,body,kinematic",
+                        "--cell-arrays", "strain,tension,bond"], capture_output=True, text=True)
+    if r.returncode != 0:
+        fail(f"VTK could not read the series back:\n{r.stdout}\n{r.stderr}")
+
+
+def test_resume_is_bit_for_bit():
+    """N steps in one go == N/2, checkpoint, resume, N/2: same state bytes, same CSV rows."""
+    whole, halves = fresh("resume_whole"), fresh("resume_halves")
+    common = ["cantilever", "--every", "30", "--no-vtk", "-q"]
+    qbond("run", *common, "--steps", "200", "--out", whole, check_code=0)
+    qbond("run", *common, "--steps", "100", "--out", halves, check_code=0)
+    qbond("run", "--resume", os.path.join(halves, "checkpoint.qbc"), "--steps", "200", "-q", check_code=0)
+    a = state_bytes(os.path.join(whole, "checkpoint.qbc"))
+    b = state_bytes(os.path.join(halves, "checkpoint.qbc"))
+    if a != b:
+        fail("resumed state differs from the uninterrupted one")
+    ta, _ = read_csv(os.path.join(whole, "diagnostics.csv"))
+    tb, _ = read_csv(os.path.join(halves, "diagnostics.csv"))
+    if ta != tb:
+        fail(f"diagnostics differ:\n{ta}\n---\n{tb}")
+
+
+def test_corrupt_checkpoint():
+    out = fresh("corrupt")
+    qbond("run", "two_quanta", "--steps", "10", "--out", out, "-q", check_code=0)
+    ck = os.path.join(out, "checkpoint.qbc")
+    data = bytearray(open(ck, "rb").read())
+    for name, blob, needle in (("truncated", data[:len(data) // 2], "truncated"),
+                               ("flipped", data[:-20] + bytes([data[-20] ^ 1]) + data[-19:], "checksum")):
+        bad = os.path.join(out, name + ".qbc")
+        open(bad, "wb").write(blob)
+        r = qbond("run", "--resume", bad, "-q")
+        if r.returncode != 2 or needle not in r.stderr:
+            fail(f"{name} checkpoint: exit {r.returncode}, stderr {r.stderr!r}")
+
+
+def test_sigint_leaves_a_resumable_run():
+    out = fresh("sigint")
+    p = subprocess.Popen([QBOND, "run", "cantilever", "--steps", "10000000", "--every", "5", "--no-vtk",
+                          "--out", out], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    csv_path = os.path.join(out, "diagnostics.csv")
+    deadline = time.time() + 120
+    while time.time() < deadline:
+        if os.path.exists(csv_path) and open(csv_path).read().count("\n") >= 4:
+            break
+        time.sleep(0.05)
+    p.send_signal(signal.SIGINT)
+    stdout, stderr = p.communicate(timeout=120)
+    if p.returncode != 130:
+        fail(f"exit {p.returncode} after SIGINT, expected 130\n{stderr}")
+    if "resume" not in stderr:
+        fail(f"no resume hint on stderr: {stderr!r}")
+    _, rows = read_csv(csv_path)
+    last = int(rows[-1][0])
+    run = json.load(open(os.path.join(out, "run.json")))
+    if run["status"] != "stopped" or run["last_step"] != last:
+        fail(f"run.json says {run['status']} at {run['last_step']}, CSV ends at {last}")
+    qbond("run", "--resume", os.path.join(out, "checkpoint.qbc"), "--steps", str(last + 10), "-q", check_code=0)
+    _, rows = read_csv(csv_path)
+    if int(rows[-1][0]) != last + 10:
+        fail(f"resumed run ends at {rows[-1][0]}, expected {last + 10}")
+
+
+def test_blowup_stops_with_a_message():
+    out = fresh("blowup")
+    r = qbond("run", "cantilever", "--integrator", "explicit_euler", "--dt", "0.01", "--steps", "1000",
+              "--out", out, "-q")
+    if r.returncode != 3:
+        fail(f"exit {r.returncode}, expected 3\n{r.stderr}")
+    for word in ("blow-up at step", "t =", "quanta"):
+        if word not in r.stderr:
+            fail(f"blow-up message lacks {word!r}: {r.stderr}")
+    run = json.load(open(os.path.join(out, "run.json")))
+    if run["status"] != "blowup" or not os.path.exists(os.path.join(out, "checkpoint.qbc")):
+        fail(f"run.json status {run['status']}, or no checkpoint")
+    _, rows = read_csv(os.path.join(out, "diagnostics.csv"))
+    for v in rows[-1][1:]:
+        if v in ("nan", "-nan", "inf", "-inf"):
+            fail(f"the last row is not the last good state: {rows[-1]}")
+
+
+if __name__ == "__main__":
+    os.makedirs(WORK, exist_ok=True)
+    globals()["test_" + sys.argv[4]]()
+    print("ok")
