@@ -1,1 +1,151 @@
+// Checkpoints, probes, diagnostics rows and VTK frames.
 #include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "qbond/checkpoint.hpp"
+#include "qbond/diagnostics.hpp"
+#include "qbond/files.hpp"
+#include "qbond/probes.hpp"
+#include "qbond/vtk.hpp"
+#include "test_util.hpp"
+
+namespace qbond {
+namespace {
+namespace fs = std::filesystem;
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("qbond_output_test_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+State distinctive_state() {
+  State s;
+  s.x = {Vec3(1, 2, 3), Vec3(-4, 5e-300, 6)};
+  s.v = {Vec3(0.1, 0.2, 0.3), Vec3(7, 8, 9)};
+  s.rest = {1.5, 2.5, 3.5};
+  s.alive = {1, 0, 1};
+  s.time = 0.125;
+  s.step = 1234567890123ull;
+  s.rng.state = 0xDEADBEEFCAFEF00Dull;
+  s.energy = {1, 2, 3, 4, 5, 6, 7, true};
+  s.topology_version = 42;
+  s.warm = {Vec3(1e-3, 2e-3, 3e-3), Vec3(-1, -2, -3)};
+  return s;
+}
+
+TEST(Checkpoint, RoundTripIsExact) {
+  const State s = distinctive_state();
+  const std::string bytes = serialize_state(s);
+  EXPECT_EQ(serialize_state(deserialize_state(bytes)), bytes);
+  const fs::path f = temp_dir("roundtrip") / "c.qbc";
+  save_checkpoint(f, "{\"k\": 1}", s);
+  const Checkpoint c = load_checkpoint(f);
+  EXPECT_EQ(c.metadata, "{\"k\": 1}");
+  EXPECT_EQ(serialize_state(c.state), bytes);
+  EXPECT_EQ(std::distance(fs::directory_iterator(f.parent_path()), fs::directory_iterator{}), 1)
+      << "no temporary file is left behind";
+}
+
+TEST(Checkpoint, EveryTruncationAndEveryFlippedByteIsRefused) {
+  const fs::path dir = temp_dir("corrupt");
+  const fs::path f = dir / "c.qbc", bad = dir / "bad.qbc";
+  save_checkpoint(f, "{}", distinctive_state());
+  const std::string bytes = read_file(f);
+  for (std::size_t n = 0; n < bytes.size(); ++n) {
+    write_file_atomic(bad, bytes.substr(0, n));
+    EXPECT_THROW(load_checkpoint(bad), CheckpointError) << "prefix of " << n << " bytes";
+  }
+  for (std::size_t k = 8; k < bytes.size(); ++k) {
+    std::string b = bytes;
+    b[k] ^= 0x10;
+    write_file_atomic(bad, b);
+    EXPECT_THROW(load_checkpoint(bad), CheckpointError) << "byte " << k;
+  }
+  std::string b = bytes;
+  b[0] = 'X';
+  write_file_atomic(bad, b);
+  try {
+    load_checkpoint(bad);
+    FAIL();
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a qbond checkpoint"), std::string::npos) << e.what();
+  }
+  b = bytes;
+  b[8] = 9;  // version 9
+  write_file_atomic(bad, b);
+  try {
+    load_checkpoint(bad);
+    FAIL();
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find("unsupported checkpoint version 9"), std::string::npos) << e.what();
+  }
+}
+
+// A mass m hanging at rest from an anchored quanta on one bond stretched by m g / k: the support
+// holds it with m g upward, and the torque about a point d to the side is d × (m g).
+TEST(Probes, ReactionOfAHangingMassIsItsWeight) {
+  World w;
+  const double m = 2.0, k = 500.0, g = 9.81;
+  w.model.gravity = Vec3(0, 0, -g);
+  w.add_quanta(Vec3(0, 0, 0), Vec3::Zero(), 1.0);
+  w.add_quanta(Vec3(0, 0, -(1.0 + m * g / k)), Vec3::Zero(), m);
+  w.add_bond(0, 1, {.stiffness = k, .damping = 3.0, .rest_length = 1.0});
+  w.prescribe({0}, Motion{});
+  const Probe support{"support", {0}, Vec3(0.5, 0, 0)};
+  const ProbeValue v = measure_probe(w.model, w.state, support);
+  ASSERT_TRUE(v.has_reaction);
+  EXPECT_NEAR((v.force - Vec3(0, 0, m * g)).norm(), 0, 1e-12 * m * g);
+  // Torque about c of the force at x = 0: (0 - c) × F.
+  EXPECT_NEAR((v.torque - Vec3(-0.5, 0, 0).cross(Vec3(0, 0, m * g))).norm(), 0, 1e-12 * m * g);
+  EXPECT_FALSE(measure_probe(w.model, w.state, {"mass", {1}, {}}).has_reaction);
+  EXPECT_EQ(measure_probe(w.model, w.state, {"mass", {1}, {}}).mean, w.state.x[1]);
+  // Moving apart at 1 m/s along the bond, the damper adds D·1 m/s to the pull.
+  w.state.v[1] = Vec3(0, 0, -1);
+  EXPECT_NEAR(measure_probe(w.model, w.state, support).force.z(), m * g + 3.0, 1e-12);
+}
+
+TEST(Diagnostics, HeaderAndRowMatchTheAnalysis) {
+  World w = test::two_quanta(1.0, 100.0, 1.0, 0.1, 0.5);
+  w.prescribe({0}, Motion{});
+  const Diagnostics d(w.model, {{"a", {0}, {}}, {"b", {1}, {}}});
+  EXPECT_EQ(d.header(),
+            "step,time,kinetic,potential,dissipated,total,px,py,pz,lx,ly,lz,max_speed,bonds_alive,bonds_broken,"
+            "a_x,a_y,a_z,a_fx,a_fy,a_fz,a_tx,a_ty,a_tz,b_x,b_y,b_z,work,numerical,iterations,residual");
+  const std::string row = d.row(w.model, w.state, {3, 1e-7});
+  std::vector<std::string> f;
+  for (std::size_t p = 0, q; p <= row.size(); p = q + 1) {
+    q = row.find(',', p);
+    if (q == std::string::npos) q = row.size();
+    f.push_back(row.substr(p, q - p));
+  }
+  ASSERT_EQ(f.size(), 31u);
+  const Energies e = energies(w.model, w.state);
+  EXPECT_EQ(std::stod(f[2]), e.kinetic);
+  EXPECT_EQ(std::stod(f[3]), e.bonds + e.gravity);
+  EXPECT_NEAR(std::stod(f[18]), -10.0, 1e-12);  // a_fx: the stretched bond pulls the anchor by k s = 10 N
+  EXPECT_EQ(f[13], "1");
+  EXPECT_EQ(f[29], "3");
+}
+
+TEST(Vtk, FrameDeclaresItsCountsAndSeriesListsFrames) {
+  World w = test::lattice(2, 2, 1, 100, 1e-3, 0, false);
+  w.break_bond(0);
+  const fs::path dir = temp_dir("vtk");
+  write_vtp(dir / "f.vtp", w.model, w.state);
+  const std::string text = read_file(dir / "f.vtp");
+  EXPECT_EQ(text.rfind("<?xml", 0), 0u);
+  EXPECT_NE(text.find("NumberOfPoints=\"4\" NumberOfVerts=\"4\" NumberOfLines=\"" +
+                      std::to_string(w.num_bonds() - 1) + "\""),
+            std::string::npos);
+  PvdSeries s;
+  s.add(0.5, "f.vtp");
+  s.write(dir / "s.pvd");
+  EXPECT_NE(read_file(dir / "s.pvd").find("<DataSet timestep=\"0.5\" group=\"\" part=\"0\" file=\"f.vtp\"/>"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace qbond

@@ -1,1 +1,193 @@
+// Scene files, builders and selections.
 #include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "qbond/analysis.hpp"
+#include "qbond/builders.hpp"
+#include "qbond/files.hpp"
+#include "qbond/scene.hpp"
+#include "qbond/selection.hpp"
+
+namespace qbond {
+namespace {
+
+const std::filesystem::path kBad = std::filesystem::path(__FILE__).parent_path() / "bad_scenes";
+
+// Reference bond count: pairs closer than `cut`, by brute force.
+std::size_t pairs_closer(const World& w, double cut) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < w.num_quanta(); ++i)
+    for (std::size_t j = i + 1; j < w.num_quanta(); ++j) n += (w.state.x[i] - w.state.x[j]).norm() < cut;
+  return n;
+}
+
+TEST(Builders, SquareLatticeBondsNearestAndDiagonals) {
+  for (bool diagonals : {false, true}) {
+    World w;
+    const int nx = 5, ny = 3;
+    add_square_lattice(w, {{nx, ny}, 0.1, 1.0, diagonals, false, {.stiffness = 1}});
+    EXPECT_EQ(w.num_quanta(), 15u);
+    const std::size_t expected = nx * (ny - 1) + ny * (nx - 1) + (diagonals ? 2 * (nx - 1) * (ny - 1) : 0);
+    EXPECT_EQ(w.num_bonds(), expected);
+    EXPECT_EQ(w.num_bonds(), pairs_closer(w, diagonals ? 0.15 : 0.11));
+    EXPECT_EQ(w.state.x[1], Vec3(0.1, 0, 0));  // ids run x fastest
+  }
+  World w;
+  add_square_lattice(w, {{4, 4}, 0.1, 1.0, false, true, {.stiffness = 1}});
+  EXPECT_EQ(w.num_bonds(), 24u + 16u);  // nearest + second neighbours along rows and columns
+}
+
+TEST(Builders, FccHasTwelveNeighboursInside) {
+  World w;
+  const double a = 0.1;
+  add_fcc_lattice(w, {{3, 3, 3}, a, 1.0, false, {.stiffness = 1}});
+  EXPECT_EQ(w.num_quanta(), 172u);  // half-spacing grid 7³ = 343 points, those with i + j + k even
+  EXPECT_EQ(w.num_bonds(), pairs_closer(w, a / std::sqrt(2.0) * 1.01));
+  std::vector<int> degree(w.num_quanta(), 0);
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) {
+    ++degree[w.model.bond_i[b]];
+    ++degree[w.model.bond_j[b]];
+    EXPECT_NEAR(w.state.rest[b], a / std::sqrt(2.0), 1e-15);
+  }
+  // The interior face centre (1.5a, 1.5a, a) has all 12 neighbours.
+  for (std::size_t i = 0; i < w.num_quanta(); ++i)
+    if ((w.state.x[i] - Vec3(1.5 * a, 1.5 * a, a)).norm() < 1e-12) {
+      EXPECT_EQ(degree[i], 12);
+    }
+  World w2;
+  add_fcc_lattice(w2, {{2, 2, 2}, a, 1.0, true, {.stiffness = 1}});
+  EXPECT_EQ(w2.num_bonds(), pairs_closer(w2, a * 1.01));
+}
+
+TEST(Builders, PlacementIsRigidAndGivesTheRigidVelocityField) {
+  World w;
+  CubicLattice l;
+  l.size = {3, 2, 2};
+  l.quanta_mass = 0.5;
+  l.bond.stiffness = 1;
+  const auto ids = add_cubic_lattice(w, l);
+  const std::vector<double> rest = w.state.rest;
+  Placement p;
+  p.origin = Vec3(1, 2, 3);
+  p.axis = Vec3(1, 1, 0).normalized();
+  p.angle = 0.7;
+  p.velocity = Vec3(0.1, -0.2, 0.3);
+  p.angular_velocity = Vec3(0, 0, 2);
+  place_body(w, ids, p);
+  for (std::size_t b = 0; b < w.num_bonds(); ++b)
+    EXPECT_NEAR((w.state.x[w.model.bond_j[b]] - w.state.x[w.model.bond_i[b]]).norm(), rest[b], 1e-14);
+  const double M = 0.5 * 12;
+  EXPECT_LT((linear_momentum(w.model, w.state) - M * p.velocity).norm(), 1e-13);
+  // Angular momentum about the centre of mass = I ω, with I summed explicitly.
+  Vec3 cm = Vec3::Zero();
+  for (Index i : ids) cm += w.state.x[i] / 12.0;
+  Mat3 I = Mat3::Zero();
+  Vec3 L = Vec3::Zero();
+  for (Index i : ids) {
+    const Vec3 r = w.state.x[i] - cm;
+    I += 0.5 * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
+    L += 0.5 * r.cross(w.state.v[i]);
+  }
+  EXPECT_LT((L - I * p.angular_velocity).norm(), 1e-13);
+}
+
+TEST(Selections, CriteriaIntersectAndBodyIdsAreLocal) {
+  World w;
+  const Index a = w.add_body("a"), b = w.add_body("b");
+  for (int k = 0; k < 4; ++k) w.add_quanta(Vec3(k, 0, 0), Vec3::Zero(), 1, a);
+  for (int k = 0; k < 4; ++k) w.add_quanta(Vec3(k, 1, 0), Vec3::Zero(), 1, b);
+  Selection s;
+  s.body = b;
+  s.ids = std::vector<Index>{0, 3};
+  EXPECT_EQ(select(w, s), (std::vector<Index>{4, 7}));
+  s = {};
+  s.box = {Vec3(0.5, -1, -1), Vec3(2.5, 2, 1)};
+  EXPECT_EQ(select(w, s), (std::vector<Index>{1, 2, 5, 6}));
+  s.half_space = {Vec3(0, 0.5, 0), Vec3(0, 1, 0)};
+  EXPECT_EQ(select(w, s), (std::vector<Index>{5, 6}));
+  s = {};
+  s.sphere = {Vec3(0, 0, 0), 1.0};
+  EXPECT_EQ(select(w, s), (std::vector<Index>{0, 1, 4}));
+  s = {};
+  s.ids = std::vector<Index>{8};
+  EXPECT_THROW(select(w, s), std::out_of_range);
+}
+
+TEST(Scenes, EveryBadSceneFailsWithItsPathAndRule) {
+  std::map<std::string, std::string> expected;
+  std::ifstream in(kBad / "expected.txt");
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line[0] != '#') expected[line.substr(0, line.find('\t'))] = line.substr(line.find('\t') + 1);
+  ASSERT_GE(expected.size(), 25u);
+  std::size_t files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(kBad)) {
+    if (e.path().extension() != ".json") continue;
+    ++files;
+    const std::string name = e.path().filename().string();
+    ASSERT_TRUE(expected.count(name)) << name << " has no expectation";
+    try {
+      load_scene(e.path());
+      ADD_FAILURE() << name << " loaded";
+    } catch (const SceneError& err) {
+      EXPECT_NE(std::string(err.what()).find(expected[name]), std::string::npos)
+          << name << ": " << err.what() << "\nexpected: " << expected[name];
+      EXPECT_EQ(std::string(err.what()).rfind(e.path().string(), 0), 0u) << "the message starts with the file";
+    }
+  }
+  EXPECT_EQ(files, expected.size());
+}
+
+TEST(Scenes, ResolvedSceneRebuildsTheSameWorld) {
+  const std::string text = R"({
+    "timestep": 0.001, "duration": 0.0105, "gravity": [0, 0, -9.81], "seed": 7,
+    "materials": {"m": {"stiffness": 100, "damping": 0.5}, "i": {"law": "inverse", "stiffness": 2, "eps": 0.001}},
+    "bodies": [
+      {"name": "block", "type": "lattice", "cell": "fcc", "size": [1, 2, 1], "spacing": 0.1, "total_mass": 1,
+       "material": "m", "rotation": {"axis": [0, 0, 1], "angle": 0.3}, "angular_velocity": [0, 0, 1]},
+      {"name": "rope", "type": "chain", "start": [0, 0, 1], "end": [0, 0, 2], "count": 4, "quanta_mass": 0.1,
+       "material": "i", "velocity": [1, 0, 0]},
+      {"name": "cloth", "type": "sheet", "size": [3, 3], "spacing": 0.05, "bending": true, "quanta_mass": 0.01,
+       "material": "m", "origin": [2, 0, 0]}
+    ],
+    "bonds": [{"from": {"body": "rope", "ids": [0]}, "to": {"body": "block"}, "within": 1.0, "material": "m"}],
+    "anchors": [{"select": {"body": "rope", "ids": [3]}, "motion": {"translate": {"velocity": [0, 1, 0]}}}],
+    "loads": [{"select": {"body": "cloth"}, "force": [0, 0, 1]}],
+    "output": {"probes": [{"name": "top", "select": {"body": "rope", "ids": [3]}}]}
+  })";
+  const Scene a = parse_scene(text, "a.json");
+  EXPECT_EQ(a.steps, 11u);  // ceil(0.0105 / 0.001)
+  EXPECT_EQ(a.name, "a");
+  EXPECT_FALSE(a.resolved.contains("duration"));
+  const Scene b = parse_scene(a.resolved.dump(), "b.json");
+  EXPECT_EQ(b.name, "a");
+  ASSERT_EQ(a.world.num_quanta(), b.world.num_quanta());
+  ASSERT_EQ(a.world.num_bonds(), b.world.num_bonds());
+  EXPECT_EQ(a.world.state.x, b.world.state.x);
+  EXPECT_EQ(a.world.state.v, b.world.state.v);
+  EXPECT_EQ(a.world.state.rest, b.world.state.rest);
+  EXPECT_EQ(a.world.model.mass, b.world.model.mass);
+  EXPECT_EQ(a.world.model.bond_i, b.world.model.bond_i);
+  EXPECT_EQ(a.world.model.stiffness, b.world.model.stiffness);
+  EXPECT_EQ(a.world.model.motions.size(), 1u);
+  EXPECT_EQ(a.world.state.rng.state, 7u);
+  EXPECT_EQ(a.output.probes.at(0).quanta, std::vector<Index>{a.world.model.motions[0].quanta[0]});
+  double total = 0;
+  for (Index i = 0; i < a.world.num_quanta(); ++i)
+    if (a.world.model.body[i] == 0) total += a.world.model.mass[i];
+  EXPECT_NEAR(total, 1.0, 1e-12);  // total_mass spread over the FCC sites
+}
+
+TEST(Scenes, ExplicitStepHintIsTheHarmonicLimit) {
+  // Two quanta (m) on one bond (k): ω² = 2k/m, and the Gershgorin bound 2 Σk/m is exact here.
+  const Scene s = parse_scene(R"({"timestep": 0.01, "steps": 1, "materials": {"s": {"stiffness": 100}},
+    "bodies": [{"name": "p", "type": "quanta", "positions": [[0,0,0],[1,0,0]], "mass": 1}],
+    "bonds": [{"between": [0, 1], "material": "s"}]})");
+  EXPECT_DOUBLE_EQ(explicit_step_hint(s.world), 2 / std::sqrt(200.0));
+  EXPECT_NE(scene_summary(s).find("quanta     2"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace qbond
