@@ -30,7 +30,7 @@ class Writer {
   template <class T>
   void vec(const std::vector<T>& v) {
     pod<std::uint64_t>(v.size());
-    out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    if (!v.empty()) out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
   }
   std::string out;
 };
@@ -51,7 +51,7 @@ class Reader {
     const auto n = pod<std::uint64_t>();
     if (n > bytes.size() / sizeof(T)) throw CheckpointError("state: a vector runs past the end");
     std::vector<T> v(n);
-    std::memcpy(static_cast<void*>(v.data()), bytes.data(), n * sizeof(T));  // T is plain data (doubles)
+    if (n > 0) std::memcpy(static_cast<void*>(v.data()), bytes.data(), n * sizeof(T));  // T is plain data (doubles)
     bytes.remove_prefix(n * sizeof(T));
     return v;
   }

@@ -74,6 +74,8 @@ struct EnergyLedger {
   double dissipated_damping = 0;    ///< energy removed by bond dampers [J]
   double dissipated_heuristics = 0; ///< energy removed by heuristics (plastic work, contacts) [J]
   bool initialised = false;
+
+  bool operator==(const EnergyLedger&) const = default;
 };
 
 /// Everything a step changes; a checkpoint of this continues a run bit for bit.
