@@ -2,20 +2,25 @@
 
 #include <cmath>
 
+#include "parallel.hpp"
+
 namespace qbond {
 
-Energies energies(const Model& model, const State& state) {
+Energies energies(const Model& model, const State& state, int threads) {
+  const std::size_t n = model.num_quanta();
+  auto free = [&](std::size_t i) { return !model.is_kinematic(static_cast<Index>(i)); };
   Energies e;
-  for (std::size_t i = 0; i < model.num_quanta(); ++i) {
-    if (model.is_kinematic(static_cast<Index>(i))) continue;
-    e.kinetic += 0.5 * model.mass[i] * state.v[i].squaredNorm();
-    e.gravity -= model.mass[i] * model.gravity.dot(state.x[i]);
-  }
-  for (std::size_t b = 0; b < model.num_bonds(); ++b) {
-    if (!state.alive[b]) continue;
+  e.kinetic = deterministic_sum(n, threads, [&](std::size_t i) {
+    return free(i) ? 0.5 * model.mass[i] * state.v[i].squaredNorm() : 0.0;
+  });
+  e.gravity = -deterministic_sum(n, threads, [&](std::size_t i) {
+    return free(i) ? model.mass[i] * model.gravity.dot(state.x[i]) : 0.0;
+  });
+  e.bonds = deterministic_sum(model.num_bonds(), threads, [&](std::size_t b) {
+    if (!state.alive[b]) return 0.0;
     const double r = (state.x[model.bond_j[b]] - state.x[model.bond_i[b]]).norm();
-    e.bonds += evaluate_law(model.law[b], r, state.rest[b], model.stiffness[b], model.eps[b]).U;
-  }
+    return evaluate_law(model.law[b], r, state.rest[b], model.stiffness[b], model.eps[b]).U;
+  });
   return e;
 }
 

@@ -1,20 +1,27 @@
 #pragma once
-// Bond-centric force and linearisation passes shared by every integrator and by analysis.
+// Bond-centric force and linearisation passes shared by every integrator and by analysis: each
+// bond's force is computed once and applied to both ends (Newton's third law, exactly).
 #include <vector>
 
 #include "qbond/world.hpp"
 
 namespace qbond {
 
-// f += Σ over alive bonds of the bond force (law + damping) at positions x, velocities v.
-// Each bond is visited once and its force applied to both ends (Newton's third law, exactly).
-void add_bond_forces(const Model& model, const State& state, const std::vector<Vec3>& x,
-                     const std::vector<Vec3>& v, std::vector<Vec3>& f);
+// Force of every bond on its first quanta bond_i (the force on bond_j is its exact negative), law
+// plus damping, at positions x and velocities v; 0 for broken bonds.
+void bond_forces(const Model& model, const State& state, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
+                 int threads, std::vector<Vec3>& force);
 
-// a = (f_bonds(x, v) + f_ext) / m for free quanta, 0 for kinematic ones.
-void accelerations(const Model& model, const State& state, const std::vector<Vec3>& x,
-                   const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext,
-                   std::vector<Vec3>& a);
+// f_i += Σ over i's alive bonds of ±force[b], gathered in bond order: the same sums a serial pass
+// over the bonds would make, for any thread count.
+void gather_bond_forces(const Model& model, const Adjacency& adj, const std::vector<Vec3>& force, int threads,
+                        std::vector<Vec3>& f);
+
+// a = (f_bonds(x, v) + f_ext) / m for free quanta, 0 for kinematic ones; `scratch` holds the
+// per-bond forces.
+void accelerations(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& x,
+                   const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads,
+                   std::vector<Vec3>& scratch, std::vector<Vec3>& a);
 
 // Per-bond linearisation at the state's positions: the force on i (f_i = -f_j), the stiffness
 // block K_b (clamped positive semi-definite, see laws.hpp) and the damping block C_b.
@@ -24,6 +31,6 @@ struct BondLinearisation {
   std::vector<Mat3> K;      // [N/m] (nb)
   std::vector<Mat3> C;      // [N·s/m] (nb)
 };
-void linearise_bonds(const Model& model, const State& state, BondLinearisation& out);
+void linearise_bonds(const Model& model, const State& state, BondLinearisation& out, int threads = 1);
 
 }  // namespace qbond

@@ -7,6 +7,7 @@
 
 #include "implicit_system.hpp"
 #include "integrator_common.hpp"
+#include "parallel.hpp"
 
 namespace qbond {
 namespace {
@@ -21,12 +22,13 @@ class HybridIntegrator final : public Integrator {
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
     const std::size_t n = model.num_quanta();
     const bool frozen = config_.neighbours == NeighbourModel::frozen;
-    begin_implicit_step(model, state, f_ext, ctx, frozen, out, sys_);
+    const int threads = config_.threads;
+    begin_implicit_step(model, state, adj, f_ext, ctx, frozen, threads, out, sys_);
     stats_ = {};
     if (frozen) {
-      y_.assign(n, Vec3::Zero());
-      for (std::size_t i = 0; i < n; ++i)
-        if (!model.is_kinematic(static_cast<Index>(i))) y_[i] = sys_.diag_inv[i] * sys_.rhs[i];
+      y_.resize(n);
+      // Kinematic rows: diag_inv = I and rhs = 0, so they get 0.
+      parallel_for(n, threads, [&](std::size_t i) { y_[i] = sys_.diag_inv[i] * sys_.rhs[i]; });
       stats_.iterations = 1;
     } else {
       topo_.update(model, adj);
@@ -57,53 +59,67 @@ class HybridIntegrator final : public Integrator {
     return config_.tolerance > 0 && stats_.residual <= config_.tolerance;
   }
 
+  // Σ of the per-block residuals res_[k], k over the free quanta in colour order.
+  double residual2() const {
+    return deterministic_sum(res_.size(), config_.threads, [&](std::size_t k) { return res_[k]; });
+  }
+
   void gauss_seidel(const Model& model, const Adjacency& adj) {
     const Coloring& col = topo_.coloring;
+    const int threads = config_.threads;
     const double rho = config_.chebyshev_rho;
     double omega = 1;
     if (rho > 0) older_ = y_;
+    res_.resize(col.quanta.size());
     for (int it = 0; it < config_.iterations; ++it) {
       if (rho > 0) prev_ = y_;
       // The residual of each block just before its update; summed, the usual in-sweep estimate.
-      double res2 = 0;
       for (std::size_t c = 0; c < col.num_colors(); ++c) {
-        // Quanta of one colour share no bond: their updates are independent (parallel-safe).
-        for (Index k = col.offset[c]; k < col.offset[c + 1]; ++k) {
+        // Quanta of one colour share no bond: their updates are independent.
+        const Index begin = col.offset[c];
+        parallel_for(col.offset[c + 1] - begin, threads, [&](std::size_t q) {
+          const Index k = begin + static_cast<Index>(q);
           const Index i = col.quanta[k];
           const Vec3 r = gathered_rhs(model, adj, i, y_);
-          res2 += (r - sys_.diag[i] * y_[i]).squaredNorm();
+          res_[k] = (r - sys_.diag[i] * y_[i]).squaredNorm();
           y_[i] = sys_.diag_inv[i] * r;
-        }
+        });
       }
       if (rho > 0) {
         // Chebyshev semi-iteration: y ← ω (ŷ - y_{k-1}) + y_{k-1}.
         omega = it == 0 ? 1.0 : it == 1 ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * omega);
-        for (Index i : col.quanta) y_[i] = omega * (y_[i] - older_[i]) + older_[i];
+        parallel_for(col.quanta.size(), threads, [&](std::size_t k) {
+          const Index i = col.quanta[k];
+          y_[i] = omega * (y_[i] - older_[i]) + older_[i];
+        });
         older_.swap(prev_);
       }
       stats_.iterations = it + 1;
-      if (converged(res2)) break;
+      if (converged(residual2())) break;
     }
   }
 
   void jacobi(const Model& model, const Adjacency& adj) {
+    const std::vector<Index>& free = topo_.coloring.quanta;
+    res_.resize(free.size());
     for (int it = 0; it < config_.iterations; ++it) {
       next_ = y_;
-      double res2 = 0;
-      for (Index i : topo_.coloring.quanta) {
+      parallel_for(free.size(), config_.threads, [&](std::size_t k) {
+        const Index i = free[k];
         const Vec3 r = gathered_rhs(model, adj, i, y_);
-        res2 += (r - sys_.diag[i] * y_[i]).squaredNorm();
+        res_[k] = (r - sys_.diag[i] * y_[i]).squaredNorm();
         next_[i] = sys_.diag_inv[i] * r;
-      }
+      });
       y_.swap(next_);
       stats_.iterations = it + 1;
-      if (converged(res2)) break;
+      if (converged(residual2())) break;
     }
   }
 
   ImplicitSystem sys_;
   TopologyCache topo_;
   std::vector<Vec3> y_, prev_, older_, next_;
+  std::vector<double> res_;  // residual² of each free quanta's block, in colour order
 };
 
 }  // namespace

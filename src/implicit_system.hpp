@@ -20,6 +20,7 @@ namespace qbond {
 struct ImplicitSystem {
   BondLinearisation bonds;
   std::vector<Mat3> B;         // h C_b + h² K_b (nb)
+  std::vector<Vec3> g;         // bond b's right-hand-side term on bond_i (bond_j gets -g) (nb)
   std::vector<Mat3> diag;      // A_ii (n); identity for kinematic quanta
   std::vector<Mat3> diag_inv;  // A_ii⁻¹ (n)
   std::vector<Vec3> rhs;       // b (n); 0 for kinematic quanta
@@ -27,16 +28,14 @@ struct ImplicitSystem {
 };
 
 // Starts an implicit step: sizes `out` and fills its kinematic rows (project_kinematic), then
-// builds A's blocks and b. With `frozen`, b omits the neighbours' motion (Eq. 12 literally).
-void begin_implicit_step(const Model& model, const State& state, const std::vector<Vec3>& f_ext,
-                         const StepContext& ctx, bool frozen, Projection& out, ImplicitSystem& sys);
+// builds A's blocks and b (each quanta gathers its bonds in bond order, so any thread count gives
+// the same bits). With `frozen`, b omits the neighbours' motion (Eq. 12 literally).
+void begin_implicit_step(const Model& model, const State& state, const Adjacency& adj,
+                         const std::vector<Vec3>& f_ext, const StepContext& ctx, bool frozen, int threads,
+                         Projection& out, ImplicitSystem& sys);
 
 // out = A y over free quanta (y's kinematic rows are ignored; out's kinematic rows are 0).
-void apply_system(const Model& model, const ImplicitSystem& sys, const std::vector<Vec3>& y,
-                  std::vector<Vec3>& out);
-
-// ‖b - A y‖ / ‖b‖ (0 when b = 0 and the residual is 0).
-double relative_residual(const Model& model, const ImplicitSystem& sys, const std::vector<Vec3>& y,
-                         std::vector<Vec3>& scratch);
+void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, const std::vector<Vec3>& y,
+                  int threads, std::vector<Vec3>& out);
 
 }  // namespace qbond

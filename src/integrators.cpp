@@ -13,6 +13,7 @@ IntegratorConfig default_integrator() {
 
 std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& c) {
   if (c.iterations < 1) throw std::invalid_argument("integrator.iterations: must be >= 1");
+  if (c.threads < 0) throw std::invalid_argument("integrator.threads: must be >= 0 (0: all cores)");
   if (c.max_iterations < 0) throw std::invalid_argument("integrator.max_iterations: must be >= 0");
   if (!(c.tolerance >= 0)) throw std::invalid_argument("integrator.tolerance: must be >= 0");
   if (!(c.chebyshev_rho >= 0 && c.chebyshev_rho < 1))

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "qbond/analysis.hpp"
+#include "parallel.hpp"
 
 namespace qbond {
 
@@ -98,14 +99,15 @@ StepReport Simulation::check_energy() const {
   const Model& m = world_.model;
   const State& s = world_.state;
   const EnergyLedger& l = s.energy;
-  const Energies e = energies(m, s);
+  const int threads = integrator_->config().threads;
+  const Energies e = energies(m, s, threads);
   // External forces can also give energy before they have done measurable work (a step from
   // rest changes velocity before position): allow the kinetic energy their impulse over the
   // elapsed time would give each free quanta, Σ |f_ext t|² / (2 m).
   const double t = s.time - l.initial_time;
-  double impulse = 0;
-  for (std::size_t i = 0; i < m.num_quanta(); ++i)
-    impulse += 0.5 * m.inv_mass[i] * (t * f_ext_[i]).squaredNorm();
+  const double impulse = deterministic_sum(m.num_quanta(), threads, [&](std::size_t i) {
+    return 0.5 * m.inv_mass[i] * (t * f_ext_[i]).squaredNorm();
+  });
   const double available = (l.initial_total - l.initial_gravity) + std::abs(e.gravity - l.initial_gravity) +
                            std::abs(l.work_loads) + std::abs(l.work_anchors) + impulse;
   const double held = e.kinetic + e.bonds;
@@ -131,33 +133,46 @@ void Simulation::update_ledger() {
   const Projection& p = projection_;
   EnergyLedger& l = world_.state.energy;
   const double h = ctx_.h, theta = integrator_->damping_theta();
-  double loads = 0, anchors = 0, damping = 0;
-  for (std::size_t i = 0; i < m.num_quanta(); ++i)
-    if (!m.is_kinematic(static_cast<Index>(i))) loads += (f_ext_[i] - m.mass[i] * m.gravity).dot(p.dx[i]);
-  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
-    if (!s.alive[b]) continue;
+  const int threads = integrator_->config().threads;
+  const double loads = deterministic_sum(m.num_quanta(), threads, [&](std::size_t i) {
+    return m.is_kinematic(static_cast<Index>(i)) ? 0.0 : (f_ext_[i] - m.mass[i] * m.gravity).dot(p.dx[i]);
+  });
+  auto relative_velocity = [&](Index i, Index j) -> Vec3 {
+    return (s.v[j] + theta * p.dv[j]) - (s.v[i] + theta * p.dv[i]);
+  };
+  const double damping = deterministic_sum(m.num_bonds(), threads, [&](std::size_t b) {
+    if (!s.alive[b]) return 0.0;
     const Index i = m.bond_i[b], j = m.bond_j[b];
     const Vec3 d0 = s.x[j] - s.x[i];
     const double r0 = d0.norm();
-    if (!(r0 > 0)) continue;
-    const Vec3 u0 = d0 / r0;
-    const Vec3 w = (s.v[j] + theta * p.dv[j]) - (s.v[i] + theta * p.dv[i]);
-    const double D = m.damping[b];
-    const bool axial = m.damping_model[b] == DampingModel::axial;
-    damping += h * D * (axial ? w.dot(u0) * w.dot(u0) : w.squaredNorm());
+    if (!(r0 > 0)) return 0.0;
+    const Vec3 w = relative_velocity(i, j);
+    const double wu = w.dot(d0 / r0);
+    return h * m.damping[b] * (m.damping_model[b] == DampingModel::axial ? wu * wu : w.squaredNorm());
+  });
+  const double anchors = deterministic_sum(m.num_bonds(), threads, [&](std::size_t b) {
+    const Index i = m.bond_i[b], j = m.bond_j[b];
     const bool ki = m.is_kinematic(i), kj = m.is_kinematic(j);
-    if (!ki && !kj) continue;
+    if (!s.alive[b] || (!ki && !kj)) return 0.0;
+    const Vec3 d0 = s.x[j] - s.x[i];
+    const double r0 = d0.norm();
+    if (!(r0 > 0)) return 0.0;
+    const Vec3 u0 = d0 / r0;
+    const Vec3 w = relative_velocity(i, j);
+    const double D = m.damping[b];
     // Force of the bond on i, averaged over the step; the bond pushes j with the opposite force.
     const Vec3 d1 = d0 + p.dx[j] - p.dx[i];
     const double r1 = d1.norm();
     const double T0 = evaluate_law(m.law[b], r0, s.rest[b], m.stiffness[b], m.eps[b]).T;
     const double T1 = evaluate_law(m.law[b], r1, s.rest[b], m.stiffness[b], m.eps[b]).T;
     Vec3 fi = 0.5 * (T0 * u0 + (r1 > 0 ? Vec3(T1 * d1 / r1) : Vec3::Zero()));
-    fi += axial ? Vec3(D * w.dot(u0) * u0) : Vec3(D * w);
+    fi += m.damping_model[b] == DampingModel::axial ? Vec3(D * w.dot(u0) * u0) : Vec3(D * w);
     // A prescribed quanta does on the structure the work the bond's force on it resists.
-    if (ki) anchors -= fi.dot(p.dx[i]);
-    if (kj) anchors += fi.dot(p.dx[j]);
-  }
+    double work = 0;
+    if (ki) work -= fi.dot(p.dx[i]);
+    if (kj) work += fi.dot(p.dx[j]);
+    return work;
+  });
   l.work_loads += loads;
   l.work_anchors += anchors;
   l.dissipated_damping += damping;
@@ -174,10 +189,10 @@ StepReport Simulation::end_step() {
   if (track_energy_) update_ledger();
 
   const Model& m = world_.model;
-  for (std::size_t i = 0; i < m.num_quanta(); ++i) {
+  parallel_for(m.num_quanta(), integrator_->config().threads, [&](std::size_t i) {
     s.x[i] += projection_.dx[i];
     s.v[i] += projection_.dv[i];
-  }
+  });
   const double t1 = ctx_.t + ctx_.h;
   // Kinematic quanta land exactly on their prescribed path (no round-off drift).
   for (const Motion& motion : m.motions)

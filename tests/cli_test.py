@@ -96,6 +96,7 @@ def test_bad_scenes():
 
 def test_bad_options():
     for args in (["run", "--steps", "-3"], ["run", "--dt", "0"], ["run", "--integrator", "magic"],
+                 ["run", "--threads", "-1"],
                  ["run", "no_such_scene"], ["run", "--resume", os.path.join(SOURCE, "README.md")]):
         r = qbond(*args, "--out", fresh("bad_option"))
         if r.returncode != 2 or not r.stderr.strip():
@@ -105,7 +106,7 @@ def test_bad_options():
 def test_outputs_and_vtk():
     """The default scene's outputs: CSV columns, run.json, and frames read by VTK itself."""
     out = fresh("pendulum")
-    qbond("run", "--steps", "40", "--every", "10", "--out", out, "-q", check_code=0)
+    qbond("run", "--steps", "40", "--every", "10", "--threads", "2", "--out", out, "-q", check_code=0)
     _, rows = read_csv(os.path.join(out, "diagnostics.csv"))
     header = rows[0]
     standard = ("step,time,kinetic,potential,dissipated,total,px,py,pz,lx,ly,lz,max_speed,"
@@ -123,6 +124,8 @@ def test_outputs_and_vtk():
             fail(f"run.json lacks {key}")
     if run["status"] != "completed" or run["scene"]["name"] != "pendulum":
         fail(f"run.json: {run['status']}, {run['scene'].get('name')}")
+    if run["scene"]["integrator"]["threads"] != 2:
+        fail(f"run.json does not record --threads 2: {run['scene']['integrator']}")
     pvd = os.path.join(out, "series.pvd")
     r = subprocess.run(["/usr/bin/python3", os.path.join(SOURCE, "tests", "vtk_readback.py"), pvd,
                         "--frames", "5", "--points", str(run["quanta"]), "--lines", str(run["bonds_alive"]),

@@ -45,6 +45,7 @@ struct Options {
   bool no_vtk = false;
   std::string integrator, neighbours, solver;
   int iterations = -1;
+  int threads = -1;
   double tolerance = -1;
   bool list = false;
   bool quiet = false;
@@ -80,11 +81,13 @@ void apply(const Options& o, qbond::Scene& scene, qbond::RunSettings& rs) {
   if (!o.solver.empty()) c.solver = parse_coupled_solver(o.solver);
   if (o.iterations > 0) c.iterations = o.iterations;
   if (o.tolerance > 0) c.tolerance = o.tolerance;
+  if (o.threads >= 0) c.threads = o.threads;
   j["integrator"]["type"] = to_string(c.type);
   j["integrator"]["neighbours"] = to_string(c.neighbours);
   j["integrator"]["solver"] = to_string(c.solver);
   j["integrator"]["iterations"] = c.iterations;
   j["integrator"]["tolerance"] = c.tolerance;
+  j["integrator"]["threads"] = c.threads;
   if (!o.out.empty()) rs.out_dir = o.out;
   if (o.every > 0) rs.every = static_cast<std::uint64_t>(o.every);
   if (o.checkpoint_every >= 0) rs.checkpoint_every = static_cast<std::uint64_t>(o.checkpoint_every);
@@ -257,6 +260,10 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   run_cmd->add_option("--tolerance", o.tolerance, "relative residual of the iterative solvers")
       ->check(CLI::PositiveNumber);
+  run_cmd->add_option("-j,--threads", o.threads,
+                      "threads (0: all cores; default: the scene's integrator.threads); the results are the "
+                      "same bits for any count")
+      ->check(CLI::NonNegativeNumber);
   run_cmd->add_flag("-q,--quiet", o.quiet, "print nothing but errors");
 
   std::vector<std::string> to_validate;

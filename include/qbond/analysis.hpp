@@ -15,8 +15,9 @@ struct Energies {
   double total() const { return kinetic + bonds + gravity; }
 };
 
-/// Kinetic, bond and gravity energies of the state.
-Energies energies(const Model& model, const State& state);
+/// Kinetic, bond and gravity energies of the state; `threads` as IntegratorConfig::threads (the
+/// same bits for any count).
+Energies energies(const Model& model, const State& state, int threads = 1);
 
 /// Σ m v over free quanta [kg·m/s].
 Vec3 linear_momentum(const Model& model, const State& state);

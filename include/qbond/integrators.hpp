@@ -75,6 +75,8 @@ struct IntegratorConfig {
   double chebyshev_rho = 0;  ///< sweep: spectral radius estimate for Chebyshev acceleration (0 = off)
   WarmStart warm_start = WarmStart::zero;  ///< sweeps from `previous` blow up, from `external`
                                            ///< they pump energy into anchored bodies
+  int threads = 0;  ///< OpenMP threads (0: OpenMP's default, OMP_NUM_THREADS or every core);
+                    ///< results are the same bits for any count
   bool restore_momentum = true;  ///< iterative solvers: give each free component its exact
                                  ///< momentum change h Σ f_ext (see docs/integrators.md)
 };
