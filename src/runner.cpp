@@ -24,6 +24,33 @@ constexpr const char* kCsv = "diagnostics.csv";
 constexpr const char* kPvd = "series.pvd";
 constexpr const char* kCheckpoint = "checkpoint.qbc";
 constexpr const char* kRunJson = "run.json";
+constexpr const char* kEvents = "events.csv";
+constexpr const char* kEventsHeader = "step,time,event,reason,bond,i,j,strain,tension";
+
+std::string event_row(const BondEvent& e) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "%llu,%.17g,%s,%s,%llu,%llu,%llu,%.17g,%.17g", static_cast<unsigned long long>(e.step),
+                e.time, std::string(to_string(e.kind)).c_str(), std::string(to_string(e.reason)).c_str(),
+                static_cast<unsigned long long>(e.bond), static_cast<unsigned long long>(e.i),
+                static_cast<unsigned long long>(e.j), e.strain, e.tension);
+  return buf;
+}
+
+// Keeps the lines of a CSV file (after its header) for which keep(line) holds; returns them.
+std::vector<std::string> kept_lines(const std::string& text, const std::string& header,
+                                    const std::function<bool(const std::string&)>& keep) {
+  std::vector<std::string> kept;
+  std::istringstream lines(text);
+  std::string line;
+  if (!std::getline(lines, line) || line != header) return kept;
+  while (std::getline(lines, line)) {
+    if (line.empty() || lines.eof()) break;  // a partial last line has no newline
+    if (keep(line)) kept.push_back(line);
+  }
+  return kept;
+}
+
+std::uint64_t leading_step(const std::string& line) { return std::stoull(line.substr(0, line.find(','))); }
 
 std::string frame_name(std::uint64_t step) {
   char buf[48];
@@ -91,6 +118,7 @@ struct Runner::Impl {
   Simulation sim;
   Diagnostics diagnostics;
   std::unique_ptr<LineFile> csv;
+  std::unique_ptr<LineFile> events;
   PvdSeries series;
   std::uint64_t last_row = ~0ull;  ///< step of the last diagnostics row written
   std::string started_at = utc_now();
@@ -106,6 +134,7 @@ struct Runner::Impl {
     settings.out_dir = fs::absolute(settings.out_dir);
     sim.limits() = scene.limits;
     sim.set_keep_last_good(true);
+    for (const HeuristicSpec& h : scene.heuristics) sim.add_heuristic(make_heuristic(h));
     first_step = sim.world().state.step;
   }
 
@@ -143,7 +172,10 @@ struct Runner::Impl {
               {"simulated_time", s.time},
               {"run", to_json(settings)},
               {"outputs",
-               {{"diagnostics", kCsv}, {"series", settings.vtk ? json(kPvd) : json()}, {"checkpoint", kCheckpoint}}},
+               {{"diagnostics", kCsv},
+                {"events", kEvents},
+                {"series", settings.vtk ? json(kPvd) : json()},
+                {"checkpoint", kCheckpoint}}},
               {"machine", {{"hardware_threads", std::thread::hardware_concurrency()}}},
               {"scene", scene.resolved}};
     if (!resumed_from.empty()) j["resumed_from"] = resumed_from;
@@ -177,6 +209,8 @@ Runner::Runner(Scene scene, RunSettings settings)
   r.write_run_json("running", nullptr);
   r.csv = std::make_unique<LineFile>(r.out(kCsv), /*truncate=*/true);
   r.csv->write_line(r.diagnostics.header());
+  r.events = std::make_unique<LineFile>(r.out(kEvents), /*truncate=*/true);
+  r.events->write_line(kEventsHeader);
   r.output();
 }
 
@@ -205,35 +239,37 @@ Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene
   // Keep the rows (and their frames) a run that never stopped would have written up to here:
   // those on the output schedule up to the checkpoint's step; drop the rest.
   const std::uint64_t at = r.sim.world().state.step;
-  std::vector<std::string> kept;
-  std::string csv_text;
-  try {
-    csv_text = read_file(r.out(kCsv));
-  } catch (const std::exception&) {
-    csv_text.clear();  // a new directory: the rows before the checkpoint are not there to keep
-  }
-  std::istringstream lines(csv_text);
-  std::string line;
-  const std::string header = r.diagnostics.header();
-  if (std::getline(lines, line) && line == header) {
-    while (std::getline(lines, line)) {
-      if (line.empty() || lines.eof()) break;  // a partial last line has no newline
-      const std::uint64_t step = std::stoull(line.substr(0, line.find(',')));
-      const bool keep = step <= at && (step % r.settings.every == 0);
-      if (keep) {
-        kept.push_back(line);
-        if (r.settings.vtk && fs::exists(r.out(frame_name(step))))
-          r.series.add(std::strtod(line.c_str() + line.find(',') + 1, nullptr), frame_name(step));
-        r.last_row = step;
-      } else if (r.settings.vtk) {
-        fs::remove(r.out(frame_name(step)));
-      }
+  auto text_of = [&](const char* name) {
+    try {
+      return read_file(r.out(name));
+    } catch (const std::exception&) {
+      return std::string();  // a new directory: the rows before the checkpoint are not there to keep
     }
-  }
+  };
+  const std::string header = r.diagnostics.header();
+  const std::vector<std::string> kept = kept_lines(text_of(kCsv), header, [&](const std::string& line) {
+    const std::uint64_t step = leading_step(line);
+    const bool keep = step <= at && (step % r.settings.every == 0);
+    if (keep) {
+      if (r.settings.vtk && fs::exists(r.out(frame_name(step))))
+        r.series.add(std::strtod(line.c_str() + line.find(',') + 1, nullptr), frame_name(step));
+      r.last_row = step;
+    } else if (r.settings.vtk) {
+      fs::remove(r.out(frame_name(step)));
+    }
+    return keep;
+  });
   std::string text = header + "\n";
   for (const std::string& k : kept) text += k + "\n";
   write_file_atomic(r.out(kCsv), text);
   if (r.settings.vtk) r.series.write(r.out(kPvd));
+  // Events of steps the checkpoint's state has taken (an event's step is the one it happened in).
+  std::string events = std::string(kEventsHeader) + "\n";
+  for (const std::string& k : kept_lines(text_of(kEvents), kEventsHeader,
+                                         [&](const std::string& line) { return leading_step(line) < at; }))
+    events += k + "\n";
+  write_file_atomic(r.out(kEvents), events);
+  r.events = std::make_unique<LineFile>(r.out(kEvents), /*truncate=*/false);
   r.csv = std::make_unique<LineFile>(r.out(kCsv), /*truncate=*/false);
   r.write_run_json("running", nullptr);
   return Runner(std::move(impl));
@@ -255,6 +291,7 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
       result.message = rep.message;
       break;
     }
+    for (const BondEvent& e : r.sim.events()) r.events->write_line(event_row(e));
     const State& s = r.sim.world().state;
     if (s.step % r.settings.every == 0) r.output();
     if (r.settings.checkpoint_every && s.step % r.settings.checkpoint_every == 0) r.checkpoint();

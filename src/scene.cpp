@@ -4,6 +4,7 @@
 #include <cmath>
 #include <initializer_list>
 #include <map>
+#include <numeric>
 #include <sstream>
 #include <unordered_map>
 #include <unordered_set>
@@ -113,7 +114,9 @@ T choice(const json& j, const std::string& path, std::initializer_list<std::pair
 /// An object whose keys are checked against the accepted ones.
 class Obj {
  public:
-  Obj(const json& j, std::string path, std::initializer_list<const char*> keys) : j_(j), path_(std::move(path)) {
+  Obj(const json& j, std::string path, std::initializer_list<const char*> keys)
+      : Obj(j, std::move(path), std::vector<const char*>(keys)) {}
+  Obj(const json& j, std::string path, const std::vector<const char*>& keys) : j_(j), path_(std::move(path)) {
     if (!j.is_object()) bad(path_, "expected an object, got " + type_name(j));
     for (const auto& [k, v] : j.items())
       if (std::find_if(keys.begin(), keys.end(), [&](const char* a) { return k == a; }) == keys.end()) {
@@ -197,7 +200,7 @@ class Builder {
     json res = root_;
     Obj top(root_, "",
             {"name", "description", "seed", "timestep", "steps", "duration", "gravity", "integrator", "limits",
-             "materials", "bodies", "bonds", "anchors", "loads", "output"});
+             "materials", "bodies", "bonds", "anchors", "loads", "heuristics", "output"});
     s.name = top.has("name") ? string(top["name"], "name") : default_name_;
     s.description = top.has("description") ? string(top["description"], "description") : "";
     s.seed = top.has("seed") ? integer(top["seed"], "seed", 0) : 1;
@@ -219,6 +222,7 @@ class Builder {
     check_overlaps(w);
     if (top.has("anchors")) anchors(array(top["anchors"], "anchors"), w);
     if (top.has("loads")) loads(array(top["loads"], "loads"), w);
+    if (top.has("heuristics")) s.heuristics = heuristics(array(top["heuristics"], "heuristics"), w);
     s.output = output(top.has("output") ? top["output"] : json::object(), s.steps, w);
 
     res["name"] = s.name;
@@ -648,6 +652,126 @@ class Builder {
           bad(o.at("select"), "selects anchored quanta " + std::to_string(i) + ": a load on it would do nothing");
       w.add_load(q, f);
     }
+  }
+
+  // Per bond: 1 when both ends are in the entry's `select` (every bond without one).
+  std::vector<std::uint8_t> bond_mask(const Obj& o, const World& w) {
+    if (!o.has("select")) return {};
+    std::vector<std::uint8_t> in(w.num_quanta(), 0), mask(w.num_bonds(), 0);
+    for (Index i : selection(o["select"], o.at("select"), w)) in[i] = 1;
+    for (std::size_t b = 0; b < w.num_bonds(); ++b) mask[b] = in[w.model.bond_i[b]] && in[w.model.bond_j[b]];
+    return mask;
+  }
+
+  ContactMaterial contact_material(const Obj& o) {
+    ContactMaterial c;
+    if (o.has("restitution")) {
+      c.restitution = non_negative(o["restitution"], o.at("restitution"));
+      if (c.restitution > 1) bad(o.at("restitution"), "must be <= 1, got " + num_str(c.restitution));
+    }
+    if (o.has("friction")) c.friction = non_negative(o["friction"], o.at("friction"));
+    return c;
+  }
+
+  std::vector<HeuristicSpec> heuristics(const json& j, const World& w) {
+    std::vector<HeuristicSpec> out;
+    for (std::size_t k = 0; k < j.size(); ++k) {
+      const std::string path = item("heuristics", k);
+      if (!j[k].is_object() || !j[k].contains("type"))
+        bad(path, "expected an object with a \"type\" (break, plastic, ground, plane, sphere, box, contact)");
+      const std::string type = string(j[k]["type"], path + ".type");
+      if (type == "break") {
+        Obj o(j[k], path, {"type", "max_strain", "max_compression", "max_tension", "probability", "select"});
+        BreakRule r;
+        if (o.has("max_strain")) r.max_strain = positive(o["max_strain"], o.at("max_strain"));
+        if (o.has("max_compression")) r.max_compression = positive(o["max_compression"], o.at("max_compression"));
+        if (o.has("max_tension")) r.max_tension = positive(o["max_tension"], o.at("max_tension"));
+        if (!o.has("max_strain") && !o.has("max_compression") && !o.has("max_tension"))
+          bad(path, "give at least one of max_strain, max_compression, max_tension");
+        if (o.has("probability")) {
+          r.probability = positive(o["probability"], o.at("probability"));
+          if (r.probability > 1) bad(o.at("probability"), "must be <= 1, got " + num_str(r.probability));
+        }
+        r.bonds = bond_mask(o, w);
+        out.emplace_back(std::move(r));
+      } else if (type == "plastic") {
+        Obj o(j[k], path, {"type", "yield_strain", "hardening", "max_plastic_strain", "select"});
+        PlasticRule r;
+        r.yield_strain = positive(o.required("yield_strain"), o.at("yield_strain"));
+        if (o.has("hardening")) {
+          r.hardening = non_negative(o["hardening"], o.at("hardening"));
+          if (r.hardening >= 1) bad(o.at("hardening"), "must be < 1, got " + num_str(r.hardening));
+        }
+        if (o.has("max_plastic_strain")) r.max_plastic_strain = positive(o["max_plastic_strain"], o.at("max_plastic_strain"));
+        r.bonds = bond_mask(o, w);
+        out.emplace_back(std::move(r));
+      } else if (type == "ground" || type == "plane" || type == "sphere" || type == "box") {
+        static const std::initializer_list<const char*> common = {"type", "restitution", "friction", "margin"};
+        std::vector<const char*> keys(common);
+        if (type == "ground") keys.push_back("height");
+        if (type == "plane") keys.insert(keys.end(), {"point", "normal"});
+        if (type == "sphere") keys.insert(keys.end(), {"center", "radius"});
+        if (type == "box") keys.insert(keys.end(), {"center", "size", "rotation"});
+        Obj o(j[k], path, keys);
+        Obstacle ob;
+        ob.material = contact_material(o);
+        if (o.has("margin")) ob.margin = non_negative(o["margin"], o.at("margin"));
+        if (type == "ground") {
+          ob.center = Vec3(0, 0, o.has("height") ? number(o["height"], o.at("height")) : 0.0);
+        } else if (type == "plane") {
+          ob.center = vec3(o.required("point"), o.at("point"));
+          ob.normal = direction(o.required("normal"), o.at("normal"));
+        } else if (type == "sphere") {
+          ob.shape = Obstacle::Shape::sphere;
+          ob.center = vec3(o.required("center"), o.at("center"));
+          ob.radius = positive(o.required("radius"), o.at("radius"));
+        } else {
+          ob.shape = Obstacle::Shape::box;
+          ob.center = vec3(o.required("center"), o.at("center"));
+          const Vec3 size = vec3(o.required("size"), o.at("size"));
+          if (!(size.minCoeff() > 0)) bad(o.at("size"), "every edge must be > 0");
+          ob.half_extents = 0.5 * size;
+          if (o.has("rotation")) {
+            Obj r(o["rotation"], o.at("rotation"), {"axis", "angle"});
+            ob.rotation = Eigen::AngleAxisd(number(r.required("angle"), r.at("angle")),
+                                            direction(r.required("axis"), r.at("axis")))
+                              .toRotationMatrix();
+          }
+        }
+        out.emplace_back(ob);
+      } else if (type == "contact") {
+        Obj o(j[k], path, {"type", "radius", "restitution", "friction", "iterations", "same_body"});
+        QuantaContactRule r;
+        r.radius = positive(o.required("radius"), o.at("radius"));
+        r.material = contact_material(o);
+        if (o.has("iterations")) r.iterations = static_cast<int>(integer(o["iterations"], o.at("iterations"), 1));
+        if (o.has("same_body")) r.same_body = boolean(o["same_body"], o.at("same_body"));
+        check_contact_radius(r, o, w);
+        out.emplace_back(r);
+      } else {
+        bad(path + ".type", "unknown heuristic '" + type + "' (accepted: break, plastic, ground, plane, sphere, box, contact)");
+      }
+    }
+    return out;
+  }
+
+  // Quanta that share no bond but start closer than two contact radii would be pushed apart on
+  // the first step: a radius too large for the lattice.
+  void check_contact_radius(const QuantaContactRule& r, const Obj& o, const World& w) {
+    std::unordered_set<std::uint64_t> bonded;
+    for (std::size_t b = 0; b < w.num_bonds(); ++b) bonded.insert(pair_key(w.model.bond_i[b], w.model.bond_j[b]));
+    std::vector<Index> all(w.num_quanta());
+    std::iota(all.begin(), all.end(), Index{0});
+    pairs_within(w.state.x, all, all, 2 * r.radius, [&](Index a, Index b) {
+      if (a > b || bonded.count(pair_key(a, b))) return;
+      if (!r.same_body && w.model.body[a] == w.model.body[b]) return;
+      if (w.model.is_kinematic(a) && w.model.is_kinematic(b)) return;
+      const double d = (w.state.x[a] - w.state.x[b]).norm();
+      if (d < 2 * r.radius)
+        bad(o.at("radius"), "2 x radius = " + num_str(2 * r.radius) + " m exceeds the distance " + num_str(d) +
+                                " m of quanta " + std::to_string(a) + " and " + std::to_string(b) +
+                                ", which share no bond: they would be pushed apart at once");
+    });
   }
 
   OutputSpec output(const json& j, std::uint64_t steps, const World& w) {

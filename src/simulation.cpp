@@ -181,9 +181,16 @@ void Simulation::update_ledger() {
 StepReport Simulation::end_step() {
   State& s = world_.state;
   if (keep_last_good_) last_good_ = s;  // before heuristics and ledger: a rollback undoes both
-  for (auto& h : heuristics_) h->apply(world_.model, s, projection_, ctx_);
+  events_.clear();
+  if (!heuristics_.empty()) {
+    const HeuristicContext hc{ctx_, adjacency(), integrator_->config().threads, events_};
+    for (auto& h : heuristics_) h->apply(world_, projection_, hc);
+  }
   if (StepReport r = check_projection(); r.status != StepReport::Status::ok) {
-    if (keep_last_good_) s = last_good_;  // heuristics may have edited bonds already
+    if (keep_last_good_) {
+      s = last_good_;  // heuristics may have edited bonds already
+      events_.clear();
+    }
     return r;
   }
   if (track_energy_) update_ledger();
@@ -206,6 +213,7 @@ StepReport Simulation::end_step() {
   StepReport r = check_energy();
   if (r.status != StepReport::Status::ok && keep_last_good_) {
     s = last_good_;
+    events_.clear();
     r.message += "; the world keeps the state before this step";
   }
   if (r.status == StepReport::Status::ok)

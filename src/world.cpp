@@ -81,6 +81,7 @@ Index World::add_bond(Index i, Index j, const BondSpec& s) {
   model.stiffness.push_back(s.stiffness);
   model.damping.push_back(s.damping);
   model.eps.push_back(s.eps > 0 ? s.eps : kDefaultInverseEpsFraction * (L > 0 ? L : 1.0));
+  model.rest0.push_back(L);
   state.rest.push_back(L);
   state.alive.push_back(1);
   ++state.topology_version;

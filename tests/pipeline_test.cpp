@@ -5,6 +5,7 @@
 #include <string>
 
 #include "qbond/samples.hpp"
+#include "qbond/scene.hpp"
 #include "test_util.hpp"
 
 namespace qbond {
@@ -15,10 +16,10 @@ class Recorder final : public Heuristic {
  public:
   Recorder(std::string name, std::vector<std::string>& log, bool zero_first) : name_(std::move(name)), log_(log), zero_first_(zero_first) {}
   std::string_view name() const override { return name_; }
-  void apply(const Model&, State& state, Projection& p, const StepContext& ctx) override {
+  void apply(World& world, Projection& p, const HeuristicContext& ctx) override {
     // Heuristics run after the projection and before it is applied: the state is still at t.
-    EXPECT_EQ(state.time, ctx.t);
-    log_.push_back(name_ + "@" + std::to_string(ctx.step));
+    EXPECT_EQ(world.state.time, ctx.step.t);
+    log_.push_back(name_ + "@" + std::to_string(ctx.step.step));
     if (zero_first_) {
       p.dv[0].setZero();
       p.dx[0].setZero();
@@ -235,6 +236,7 @@ TEST(Samples, EveryBuiltInSceneRunsWithoutBlowup) {
     EXPECT_EQ(scene.name, s.name);
     Simulation sim(std::move(scene.world), scene.integrator, scene.timestep);
     sim.limits() = scene.limits;
+    for (const HeuristicSpec& h : scene.heuristics) sim.add_heuristic(make_heuristic(h));
     for (int n = 0; n < 50; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok) << s.name;
   }
   EXPECT_NO_THROW(builtin_scene(kDefaultScene));

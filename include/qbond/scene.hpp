@@ -8,8 +8,11 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <variant>
 #include <vector>
 
+#include "qbond/contacts.hpp"
+#include "qbond/fracture.hpp"
 #include "qbond/integrators.hpp"
 #include "qbond/simulation.hpp"
 #include "qbond/world.hpp"
@@ -41,6 +44,11 @@ struct OutputSpec {
   std::vector<ProbeSpec> probes;
 };
 
+/// One entry of the scene's `heuristics` list.
+using HeuristicSpec = std::variant<BreakRule, PlasticRule, Obstacle, QuantaContactRule>;
+/// Creates the heuristic an entry describes.
+std::unique_ptr<Heuristic> make_heuristic(const HeuristicSpec& spec);
+
 /// A loaded scene: the world built, the run's parameters, and the scene with every default
 /// filled in (`resolved`: what run.json and checkpoints record; it rebuilds the same world).
 struct Scene {
@@ -51,6 +59,7 @@ struct Scene {
   IntegratorConfig integrator;
   BlowupLimits limits;
   World world;
+  std::vector<HeuristicSpec> heuristics;  ///< in the order the step applies them
   OutputSpec output;
   nlohmann::json resolved;
 };

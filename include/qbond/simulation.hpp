@@ -62,6 +62,8 @@ class Simulation {
   const World& world() const { return world_; }
   const Integrator& integrator() const { return *integrator_; }
   const Projection& projection() const { return projection_; }
+  /// Topology changes the heuristics made during the last step (cleared when a step begins).
+  const std::vector<BondEvent>& events() const { return events_; }
   double timestep() const { return h_; }
   void set_timestep(double h) { h_ = h; }
   BlowupLimits& limits() { return limits_; }
@@ -93,6 +95,7 @@ class Simulation {
   std::vector<Vec3> f_user_;   ///< one-step forces queued by add_force [N] (n)
   Projection projection_;
   StepContext ctx_;
+  std::vector<BondEvent> events_;
 };
 
 }  // namespace qbond

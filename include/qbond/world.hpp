@@ -52,6 +52,8 @@ struct Model {
   std::vector<double> stiffness;  ///< k [N/m] for linear, F [N] for inverse (nb)
   std::vector<double> damping;    ///< D [N·s/m] (nb)
   std::vector<double> eps;        ///< inverse-law regularisation length [m] (nb)
+  std::vector<double> rest0;      ///< rest length the bond was made with [m] (nb); plastic strain
+                                  ///< is measured from it (State::rest is the current one)
   // environment
   Vec3 gravity = Vec3::Zero();    ///< [m/s²]
   std::vector<Load> loads;

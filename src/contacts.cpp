@@ -1,0 +1,326 @@
+#include "qbond/contacts.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace qbond {
+namespace {
+
+// Snapshots the projection rows of the quanta a contact edits, to charge the energy the edits
+// remove: kinetic, gravity and bond energy of the projected end-of-step state, before minus after.
+class EditLedger {
+ public:
+  void begin(std::size_t n) {
+    if (touched_.size() != n) {
+      touched_.assign(n, 0);
+      slot_.resize(n);
+    }
+    list_.clear();
+    old_dx_.clear();
+    old_dv_.clear();
+  }
+  void touch(Index i, const Projection& p) {
+    if (touched_[i]) return;
+    touched_[i] = 1;
+    slot_[i] = static_cast<Index>(list_.size());
+    list_.push_back(i);
+    old_dx_.push_back(p.dx[i]);
+    old_dv_.push_back(p.dv[i]);
+  }
+  // Energy the edits removed [J]; clears the marks.
+  double released(const World& w, const Projection& p, const Adjacency& adj) {
+    const Model& m = w.model;
+    const State& s = w.state;
+    double e = 0;
+    for (std::size_t k = 0; k < list_.size(); ++k) {
+      const Index i = list_[k];
+      const Vec3 v_old = s.v[i] + old_dv_[k], v_new = s.v[i] + p.dv[i];
+      e += 0.5 * m.mass[i] * (v_old.squaredNorm() - v_new.squaredNorm());
+      e -= m.mass[i] * m.gravity.dot(old_dx_[k] - p.dx[i]);
+    }
+    // Old end-of-step position of any quanta (touched ones from the snapshot).
+    auto old_pos = [&](Index j) -> Vec3 { return touched_[j] ? Vec3(s.x[j] + old_dx_[slot_[j]]) : projected(s, p, j); };
+    for (std::size_t k = 0; k < list_.size(); ++k) {
+      const Index i = list_[k];
+      for (Index a = adj.offset[i]; a < adj.offset[i + 1]; ++a) {
+        const Index b = adj.bond[a], j = adj.other[a];
+        if (!s.alive[b] || (touched_[j] && j < i)) continue;  // each bond once
+        const double r_old = (old_pos(j) - (s.x[i] + old_dx_[k])).norm();
+        const double r_new = (projected(s, p, j) - projected(s, p, i)).norm();
+        e += evaluate_law(m.law[b], r_old, s.rest[b], m.stiffness[b], m.eps[b]).U -
+             evaluate_law(m.law[b], r_new, s.rest[b], m.stiffness[b], m.eps[b]).U;
+      }
+    }
+    for (Index i : list_) touched_[i] = 0;
+    return e;
+  }
+  /// The quanta touched so far, in the order they were first touched.
+  const std::vector<Index>& touched() const { return list_; }
+
+ private:
+  std::vector<std::uint8_t> touched_;
+  std::vector<Index> list_;
+  std::vector<Index> slot_;  // per quanta: its index in list_ while touched
+  std::vector<Vec3> old_dx_, old_dv_;
+};
+
+// Velocity change of a contact with unit normal n (pointing at the body receiving it), for the
+// relative velocity w1 at the end of the step and w0 at its start (of the body, relative to the
+// other side). Restitution applies to the approach speed the body brought into the step, never
+// to the speed the step's own forces pressed it in with (a resting contact must not bounce, or it
+// would pump energy); Coulomb friction is bounded by μ times the normal change. Zero unless w1
+// approaches (w1·n < 0).
+Vec3 contact_velocity_change(const Vec3& w1, const Vec3& w0, const Vec3& n, const ContactMaterial& mat) {
+  const double vn = w1.dot(n);
+  if (!(vn < 0)) return Vec3::Zero();
+  const double dvn = mat.restitution * std::max(0.0, -w0.dot(n)) - vn;
+  const Vec3 vt = w1 - vn * n;
+  const double slide = vt.norm();
+  Vec3 dv = dvn * n;
+  if (slide > 0) dv -= std::min(slide, mat.friction * dvn) / slide * vt;
+  return dv;
+}
+
+// Smallest t in [0, 1] at which a + t (b - a) enters the obstacle inflated by its margin, given
+// that a is outside; negative when the segment does not enter.
+double entry(const Obstacle& o, const Vec3& a, const Vec3& b) {
+  const Vec3 d = b - a;
+  switch (o.shape) {
+    case Obstacle::Shape::plane: {
+      const double da = o.normal.dot(a - o.center) - o.margin, db = o.normal.dot(b - o.center) - o.margin;
+      return db < 0 ? std::clamp(da / (da - db), 0.0, 1.0) : -1.0;
+    }
+    case Obstacle::Shape::sphere: {
+      const double R = o.radius + o.margin;
+      const Vec3 q = a - o.center;
+      const double A = d.squaredNorm(), B = q.dot(d), C = q.squaredNorm() - R * R;
+      if (C <= 0) return 0.0;
+      if (A == 0) return -1.0;
+      const double disc = B * B - A * C;
+      if (disc < 0) return -1.0;
+      const double t = (-B - std::sqrt(disc)) / A;
+      return t >= 0 && t <= 1 ? t : -1.0;
+    }
+    case Obstacle::Shape::box: {
+      // Slabs of the box grown by the margin, in the box's axes.
+      const Vec3 qa = o.rotation.transpose() * (a - o.center), qd = o.rotation.transpose() * d;
+      double t0 = 0, t1 = 1;
+      for (int k = 0; k < 3; ++k) {
+        const double h = o.half_extents[k] + o.margin;
+        if (qd[k] == 0) {
+          if (std::abs(qa[k]) > h) return -1.0;
+          continue;
+        }
+        double ta = (-h - qa[k]) / qd[k], tb = (h - qa[k]) / qd[k];
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+        if (t0 > t1) return -1.0;
+      }
+      return t0;
+    }
+  }
+  return -1.0;
+}
+
+class ObstacleHeuristic final : public Heuristic {
+ public:
+  explicit ObstacleHeuristic(std::vector<Obstacle> o) : obstacles_(std::move(o)) {}
+  std::string_view name() const override { return "obstacles"; }
+
+  void apply(World& w, Projection& p, const HeuristicContext& ctx) override {
+    const Model& m = w.model;
+    const State& s = w.state;
+    ledger_.begin(m.num_quanta());
+    for (std::size_t q = 0; q < m.num_quanta(); ++q) {
+      const auto i = static_cast<Index>(q);
+      if (m.is_kinematic(i)) continue;
+      for (const Obstacle& o : obstacles_) {
+        Vec3 n;
+        const Vec3 x1 = s.x[i] + p.dx[i];
+        const bool start_outside = o.distance(s.x[i], n) >= o.margin;
+        Vec3 target;
+        if (start_outside) {
+          // Swept: stop where the path enters; keep the motion along the surface there.
+          const double t = entry(o, s.x[i], x1);
+          if (t < 0) continue;
+          const Vec3 at = s.x[i] + t * p.dx[i];
+          o.distance(at, n);
+          target = x1 + std::max(0.0, n.dot(at - x1)) * n;
+        } else {
+          const double d = o.distance(x1, n) - o.margin;
+          if (d >= 0) continue;
+          target = x1 - d * n;
+        }
+        // A curved surface can leave the target slightly inside: finish along the local normal.
+        Vec3 n2;
+        const double left = o.distance(target, n2) - o.margin;
+        if (left < 0) target -= left * n2;
+        ledger_.touch(i, p);
+        p.dx[i] = target - s.x[i];
+        p.dv[i] += contact_velocity_change(s.v[i] + p.dv[i], s.v[i], n, o.material);
+      }
+    }
+    if (!ledger_.touched().empty()) w.state.energy.dissipated_heuristics += ledger_.released(w, p, ctx.adj);
+  }
+
+ private:
+  std::vector<Obstacle> obstacles_;
+  EditLedger ledger_;
+};
+
+class QuantaContactHeuristic final : public Heuristic {
+ public:
+  explicit QuantaContactHeuristic(QuantaContactRule r) : rule_(r) {}
+  std::string_view name() const override { return "contact"; }
+
+  void apply(World& w, Projection& p, const HeuristicContext& ctx) override {
+    const Model& m = w.model;
+    const State& s = w.state;
+    const std::size_t n = m.num_quanta();
+    pos_.resize(n);
+    vel_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      pos_[i] = s.x[i] + p.dx[i];
+      vel_[i] = s.v[i] + p.dv[i];
+    }
+    find_pairs(m, ctx.adj);
+    if (pairs_.empty()) return;
+    ledger_.begin(n);
+    impulse_done_.assign(pairs_.size(), 0);
+    const double contact = 2 * rule_.radius;
+    for (int it = 0; it < rule_.iterations; ++it) {
+      for (std::size_t k = 0; k < pairs_.size(); ++k) {
+        const auto [i, j] = pairs_[k];
+        const Vec3 d = pos_[j] - pos_[i];
+        const double dist = d.norm();
+        if (dist >= contact) continue;
+        const double wi = m.inv_mass[i], wj = m.inv_mass[j], wsum = wi + wj;
+        // Coincident centres have no line between them: separate along z, deterministically.
+        const Vec3 nrm = dist > 0 ? Vec3(d / dist) : Vec3::UnitZ();
+        const double depth = contact - dist;
+        ledger_.touch(i, p);
+        ledger_.touch(j, p);
+        pos_[i] -= (wi / wsum * depth) * nrm;
+        pos_[j] += (wj / wsum * depth) * nrm;
+        if (impulse_done_[k]) continue;
+        impulse_done_[k] = 1;
+        // Velocity change of j relative to i, split as equal and opposite impulses.
+        const Vec3 dw = contact_velocity_change(vel_[j] - vel_[i], s.v[j] - s.v[i], nrm, rule_.material);
+        const Vec3 impulse = dw / wsum;
+        vel_[i] -= wi * impulse;
+        vel_[j] += wj * impulse;
+      }
+    }
+    if (ledger_.touched().empty()) return;
+    for (Index i : ledger_.touched()) {
+      if (m.is_kinematic(i)) continue;
+      p.dx[i] = pos_[i] - s.x[i];
+      p.dv[i] = vel_[i] - s.v[i];
+    }
+    w.state.energy.dissipated_heuristics += ledger_.released(w, p, ctx.adj);
+  }
+
+ private:
+  // Pairs (i < j) closer than 2 radius at their projected positions that share no bond, in
+  // increasing i then scan order: a uniform grid of cell 2 radius, hashed into a table of about
+  // 2n buckets filled by counting sort (linear in the quanta).
+  void find_pairs(const Model& m, const Adjacency& adj) {
+    const std::size_t n = m.num_quanta();
+    const double cell = 2 * rule_.radius;
+    pairs_.clear();
+    std::size_t table = 1;
+    while (table < 2 * n) table <<= 1;
+    cells_.resize(n);
+    auto hash = [&](const std::array<std::int64_t, 3>& c) {
+      return static_cast<std::size_t>((static_cast<std::uint64_t>(c[0]) * 73856093u) ^
+                                      (static_cast<std::uint64_t>(c[1]) * 19349663u) ^
+                                      (static_cast<std::uint64_t>(c[2]) * 83492791u)) &
+             (table - 1);
+    };
+    start_.assign(table + 1, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int k = 0; k < 3; ++k) cells_[i][k] = static_cast<std::int64_t>(std::floor(pos_[i][k] / cell));
+      ++start_[hash(cells_[i]) + 1];
+    }
+    for (std::size_t b = 0; b < table; ++b) start_[b + 1] += start_[b];
+    bucket_.resize(n);
+    fill_.assign(start_.begin(), start_.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) bucket_[fill_[hash(cells_[i])]++] = static_cast<Index>(i);
+
+    for (std::size_t q = 0; q < n; ++q) {
+      const auto i = static_cast<Index>(q);
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const std::array<std::int64_t, 3> c{cells_[i][0] + dx, cells_[i][1] + dy, cells_[i][2] + dz};
+            const std::size_t h = hash(c);
+            for (Index k = start_[h]; k < start_[h + 1]; ++k) {
+              const Index j = bucket_[k];
+              if (j <= i || cells_[j] != c) continue;  // other cells sharing the bucket
+              if (m.is_kinematic(i) && m.is_kinematic(j)) continue;
+              if (!rule_.same_body && m.body[i] == m.body[j]) continue;
+              if ((pos_[j] - pos_[i]).squaredNorm() >= cell * cell) continue;
+              bool bonded = false;
+              for (Index e = adj.offset[i]; e < adj.offset[i + 1] && !bonded; ++e) bonded = adj.other[e] == j;
+              if (!bonded) pairs_.emplace_back(i, j);
+            }
+          }
+    }
+  }
+
+  QuantaContactRule rule_;
+  EditLedger ledger_;
+  std::vector<Vec3> pos_, vel_;
+  std::vector<std::array<std::int64_t, 3>> cells_;
+  std::vector<Index> start_, fill_, bucket_;
+  std::vector<std::pair<Index, Index>> pairs_;
+  std::vector<std::uint8_t> impulse_done_;
+};
+
+}  // namespace
+
+double Obstacle::distance(const Vec3& p, Vec3& n) const {
+  switch (shape) {
+    case Shape::plane:
+      n = normal;
+      return normal.dot(p - center);
+    case Shape::sphere: {
+      const Vec3 q = p - center;
+      const double len = q.norm();
+      n = len > 0 ? Vec3(q / len) : Vec3::UnitZ();
+      return len - radius;
+    }
+    case Shape::box: {
+      const Vec3 q = rotation.transpose() * (p - center);
+      const Vec3 d = q.cwiseAbs() - half_extents;
+      const Vec3 sign(q.x() < 0 ? -1 : 1, q.y() < 0 ? -1 : 1, q.z() < 0 ? -1 : 1);
+      const Vec3 out = d.cwiseMax(0.0);
+      const double outside = out.norm();
+      Vec3 local;
+      if (outside > 0) {
+        local = sign.cwiseProduct(out) / outside;
+      } else {
+        Eigen::Index k;
+        d.maxCoeff(&k);
+        local = Vec3::Zero();
+        local[k] = sign[k];
+      }
+      n = rotation * local;
+      return outside > 0 ? outside : d.maxCoeff();
+    }
+  }
+  n = Vec3::UnitZ();
+  return 0;
+}
+
+std::unique_ptr<Heuristic> make_obstacle_heuristic(std::vector<Obstacle> obstacles) {
+  return std::make_unique<ObstacleHeuristic>(std::move(obstacles));
+}
+
+std::unique_ptr<Heuristic> make_quanta_contact_heuristic(QuantaContactRule rule) {
+  return std::make_unique<QuantaContactHeuristic>(rule);
+}
+
+}  // namespace qbond

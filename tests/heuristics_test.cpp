@@ -1,0 +1,313 @@
+// Heuristics: fracture, plasticity and collisions, against their stated rules and the
+// conservation laws they must keep.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "qbond/contacts.hpp"
+#include "qbond/fracture.hpp"
+#include "qbond/scene.hpp"
+#include "test_util.hpp"
+
+namespace qbond {
+namespace {
+
+// A chain of n quanta along x (spacing a), the first anchored, the last pulled along +x at speed
+// u; bond `weak` has half the stiffness of the others.
+World pulled_chain(int n, double a, double k, double u, std::size_t weak) {
+  World w;
+  for (int q = 0; q < n; ++q) w.add_quanta(Vec3(q * a, 0, 0), Vec3::Zero(), 1e-3);
+  for (int q = 0; q + 1 < n; ++q)
+    w.add_bond(q, q + 1, {.stiffness = static_cast<std::size_t>(q) == weak ? k / 2 : k, .damping = 0.05});
+  w.prescribe({0}, Motion{});
+  Motion pull;
+  pull.type = MotionType::translate;
+  pull.velocity = Vec3(u, 0, 0);
+  w.prescribe({static_cast<Index>(n - 1)}, pull);
+  return w;
+}
+
+double strain_of(const World& w, std::size_t b) {
+  const double r = (w.state.x[w.model.bond_j[b]] - w.state.x[w.model.bond_i[b]]).norm();
+  return (r - w.state.rest[b]) / w.state.rest[b];
+}
+
+TEST(Break, ABarBreaksWhereTheStrainFirstPassesTheThreshold) {
+  const double eps_max = 0.05;
+  Simulation sim(pulled_chain(12, 0.01, 100, 0.01, 7), test::coupled(CoupledSolver::ldlt), 1e-3);
+  sim.add_heuristic(make_break_heuristic({.max_strain = eps_max}));
+  std::vector<BondEvent> events;
+  for (int n = 0; n < 4000 && events.empty(); ++n) {
+    // Before the break no bond was past the threshold at the end of a step.
+    for (std::size_t b = 0; b < sim.world().num_bonds(); ++b) ASSERT_LE(strain_of(sim.world(), b), eps_max);
+    ASSERT_EQ(sim.step().status, StepReport::Status::ok);
+    events = sim.events();
+  }
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].bond, 7u);  // the soft bond carries the same tension at twice the strain
+  EXPECT_EQ(events[0].reason, BondEvent::Reason::strain);
+  EXPECT_GT(events[0].strain, eps_max);
+  EXPECT_FALSE(sim.world().state.alive[7]);
+  EXPECT_EQ(sim.world().num_alive_bonds(), 10u);
+  // The energy the break released is on the books: U = k/2 (ε L)² with k/2 the soft stiffness.
+  const double U = 0.5 * 50 * std::pow(events[0].strain * 0.01, 2);
+  EXPECT_NEAR(sim.world().state.energy.dissipated_heuristics, U, 1e-12);
+}
+
+TEST(Break, RandomBreakingDependsOnTheSeedOnly) {
+  auto cracks = [](std::uint64_t seed) {
+    World w = test::lattice(10, 4, 1, 200, 1e-3, 0.05, true);
+    w.state.rng = Rng{seed};
+    std::vector<Index> end;
+    for (std::size_t i = 0; i < w.num_quanta(); ++i)
+      if (w.state.x[i].x() > 0.085) end.push_back(static_cast<Index>(i));
+    Motion pull;
+    pull.type = MotionType::translate;
+    pull.velocity = Vec3(0.05, 0, 0);
+    w.prescribe(end, pull);
+    Simulation sim(std::move(w), default_integrator(), 1e-3);
+    sim.add_heuristic(make_break_heuristic({.max_strain = 0.02, .probability = 0.05}));
+    std::vector<Index> broken;
+    for (int n = 0; n < 400; ++n) {
+      EXPECT_EQ(sim.step().status, StepReport::Status::ok);
+      for (const BondEvent& e : sim.events()) broken.push_back(e.bond);
+    }
+    return broken;
+  };
+  const std::vector<Index> a = cracks(1), b = cracks(1), c = cracks(2);
+  ASSERT_GT(a.size(), 5u);
+  EXPECT_EQ(a, b);
+  EXPECT_NE(a, c);
+}
+
+TEST(Plastic, RestLengthFollowsTheBilinearRule) {
+  // Perfectly plastic: |r - L| stays at ε_y L₀. Hardening α: tangent α k, set (1-α)(ε - ε_y).
+  const PlasticRule perfect{.yield_strain = 0.01};
+  EXPECT_EQ(plastic_rest_length(perfect, 1.005, 1.0, 1.0), 1.0);  // elastic
+  EXPECT_NEAR(plastic_rest_length(perfect, 1.05, 1.0, 1.0), 1.04, 1e-15);
+  EXPECT_NEAR(plastic_rest_length(perfect, 0.95, 1.0, 1.0), 0.96, 1e-15);
+  const PlasticRule hard{.yield_strain = 0.01, .hardening = 0.25};
+  EXPECT_NEAR(plastic_rest_length(hard, 1.05, 1.0, 1.0) - 1.0, 0.75 * (0.05 - 0.01), 1e-15);
+}
+
+TEST(Plastic, ALoadedUnloadedBondKeepsThePermanentSetTheoryPredicts) {
+  // One bond, anchored at 0, an overdamped mass at the other end loaded by F = 1.8 T_y, then
+  // unloaded. With kinematic hardening c = α/(1-α) = 1, loading stops flowing at
+  // e - c p = ε_y with e = F/(k L₀), so p = (F/(k L₀) - ε_y)/c; unloading is elastic (c p < ε_y).
+  const double k = 100, L0 = 0.01, m = 1e-3, ey = 0.01, alpha = 0.5;
+  const double F = 1.8 * k * ey * L0;
+  World w;
+  w.add_quanta(Vec3::Zero(), Vec3::Zero(), m);
+  w.add_quanta(Vec3(L0, 0, 0), Vec3::Zero(), m);
+  w.add_bond(0, 1, {.stiffness = k, .damping = 5 * std::sqrt(k * m)});
+  w.prescribe({0}, Motion{});
+  w.add_load({1}, Vec3(F, 0, 0));
+  Simulation sim(std::move(w), test::coupled(CoupledSolver::ldlt), 1e-3);
+  sim.add_heuristic(make_plastic_heuristic({.yield_strain = ey, .hardening = alpha}));
+  for (int n = 0; n < 5000; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
+  const double c = alpha / (1 - alpha);
+  const double p = (F / (k * L0) - ey) / c;
+  EXPECT_NEAR(sim.world().state.rest[0], L0 * (1 + p), 1e-9 * L0);
+  sim.world().model.loads.clear();
+  for (int n = 0; n < 5000; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
+  const World& done = sim.world();
+  EXPECT_NEAR(done.state.rest[0], L0 * (1 + p), 1e-9 * L0);  // no reverse yielding
+  EXPECT_NEAR(done.state.x[1].x(), L0 * (1 + p), 1e-9 * L0);  // at rest at its new length
+  // The plastic work is what the books say: ∫ T dL = k L₀² (ε_y p + c p²/2) along the flow.
+  const double work = k * L0 * L0 * (ey * p + 0.5 * c * p * p);
+  EXPECT_NEAR(done.state.energy.dissipated_heuristics, work, 0.01 * work);
+}
+
+TEST(Plastic, PastTheDuctilityLimitTheBondBreaks) {
+  Simulation sim(pulled_chain(2, 0.01, 100, 0.01, 99), test::coupled(CoupledSolver::ldlt), 1e-3);
+  sim.add_heuristic(make_plastic_heuristic({.yield_strain = 0.01, .max_plastic_strain = 0.1}));
+  for (int n = 0; n < 200 && sim.events().empty(); ++n) sim.step();
+  ASSERT_EQ(sim.events().size(), 1u);
+  EXPECT_EQ(sim.events()[0].reason, BondEvent::Reason::ductility);
+  // Broken when its plastic strain passed 0.1: at a total strain of about 0.11.
+  const double stretch = sim.world().state.x[1].x() / 0.01 - 1;
+  EXPECT_NEAR(stretch, 0.11, 0.002);
+}
+
+Obstacle ground(double restitution, double friction) {
+  Obstacle g;
+  g.material = {restitution, friction};
+  return g;
+}
+
+// A 4×4×4 cube falling at 10 m/s onto the ground. At h = 1 ms a step moves it one spacing: no
+// quanta may end a step below the ground and the cube comes to rest on it. The contact acts on the
+// projection after the solve, so the layers above the stopped one learn of the impact only a step
+// later: at this step they land on it and the cube is crushed, and the contact's position edit
+// stores energy in the crushed bonds (docs/heuristics.md, "Limits"). At h = 0.1 ms (0.1 spacing
+// per step) the impact only takes energy away and the cube lands whole.
+void drop_cube(double h, double seconds, bool small_step) {
+  World w = test::lattice(4, 4, 4, 1e4, 1e-3, 5, false, Vec3(0, 0, -9.81));
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) {
+    w.state.x[i].z() += 0.05;
+    w.state.v[i] = Vec3(0, 0, -10);
+  }
+  const double e0 = energies(w.model, w.state).total();
+  Simulation sim(std::move(w), default_integrator(), h);
+  sim.add_heuristic(make_obstacle_heuristic({ground(0.2, 0.5)}));
+  const int steps = static_cast<int>(seconds / h);
+  for (int n = 0; n < steps; ++n) {
+    ASSERT_EQ(sim.step().status, StepReport::Status::ok);
+    for (const Vec3& x : sim.world().state.x) ASSERT_GE(x.z(), -1e-12) << "h " << h << ", step " << n;
+    if (small_step) {
+      ASSERT_LE(energies(sim.world().model, sim.world().state).total(), e0) << "step " << n;
+    }
+  }
+  EXPECT_LT(max_speed(sim.world().model, sim.world().state).first, 0.01) << "h " << h;
+  double top = -INFINITY;
+  for (const Vec3& x : sim.world().state.x) top = std::max(top, x.z());
+  if (small_step) {
+    EXPECT_NEAR(top, 0.03, 0.001);  // on its bottom face, 3 spacings tall
+  }
+}
+
+TEST(Obstacles, ACubeDroppedAt10MetresPerSecondComesToRestOnTheGround) {
+  drop_cube(1e-3, 1.5, false);
+  drop_cube(1e-4, 1.2, true);
+}
+
+TEST(Obstacles, AFastQuantaCannotPassThroughAThinBoxOrASphere) {
+  for (Obstacle::Shape shape : {Obstacle::Shape::box, Obstacle::Shape::sphere}) {
+    Obstacle o;
+    o.shape = shape;
+    o.center = Vec3(0.5, 0, 0);
+    o.half_extents = Vec3(0.001, 1, 1);  // a 2 mm wall
+    o.radius = 0.01;
+    World w;
+    w.add_quanta(Vec3(0, 0, 0), Vec3(100, 0, 0), 1);  // 1 m per step at h = 0.01
+    Simulation sim(std::move(w), default_integrator(), 0.01);
+    sim.add_heuristic(make_obstacle_heuristic({o}));
+    for (int n = 0; n < 5; ++n) sim.step();
+    EXPECT_LE(sim.world().state.x[0].x(), 0.5) << int(shape);
+    Vec3 nrm;
+    EXPECT_GE(o.distance(sim.world().state.x[0], nrm), -1e-12) << int(shape);
+  }
+}
+
+TEST(Obstacles, FrictionStopsASlidingQuantaAtTheCoulombDistance) {
+  // Sliding on the ground at v₀ with friction μ under gravity: it stops after v₀²/(2 μ g) (to
+  // first order in h, the velocity each step loses is μ g h).
+  const double v0 = 1, mu = 0.5, g = 9.81, h = 1e-4;
+  World w;
+  w.model.gravity = Vec3(0, 0, -g);
+  w.add_quanta(Vec3::Zero(), Vec3(v0, 0, 0), 1);
+  Simulation sim(std::move(w), default_integrator(), h);
+  sim.add_heuristic(make_obstacle_heuristic({ground(0, mu)}));
+  for (int n = 0; n < 4000; ++n) sim.step();
+  EXPECT_EQ(sim.world().state.v[0].x(), 0.0);
+  EXPECT_NEAR(sim.world().state.x[0].x(), v0 * v0 / (2 * mu * g), 2 * v0 * h);
+}
+
+TEST(Contacts, TwoCollidingBodiesConserveLinearMomentum) {
+  World w = test::lattice(3, 3, 3, 1000, 1e-3, 0.05, false);
+  const std::size_t n1 = w.num_quanta();
+  CubicLattice other;
+  other.size = {3, 3, 3};
+  other.spacing = 0.01;
+  other.quanta_mass = 2e-3;
+  other.bond = {.stiffness = 1000, .damping = 0.05};
+  add_cubic_lattice(w, other, w.add_body("b"));
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) {
+    if (i >= n1) w.state.x[i] += Vec3(0.035, 0.005, 0);
+    w.state.v[i] = Vec3(i < n1 ? 1.0 : -0.5, 0, 0);
+  }
+  const Vec3 p0 = linear_momentum(w.model, w.state);
+  Simulation sim(std::move(w), default_integrator(), 1e-4);
+  sim.add_heuristic(make_quanta_contact_heuristic({.radius = 0.004, .material = {0.5, 0.3}}));
+  for (int n = 0; n < 400; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
+  const World& done = sim.world();
+  const Vec3 p1 = linear_momentum(done.model, done.state);
+  double scale = 0;  // Σ m |v|: the momenta that cancel in p0
+  for (std::size_t i = 0; i < done.num_quanta(); ++i) scale += done.model.mass[i] * (i < n1 ? 1.0 : 0.5);
+  EXPECT_LE((p1 - p0).norm(), 1e-14 * scale);
+  // They met and bounced: the first body now moves slower than it came, or backwards.
+  Vec3 v1 = Vec3::Zero();
+  for (std::size_t i = 0; i < n1; ++i) v1 += done.state.v[i];
+  EXPECT_LT(v1.x() / static_cast<double>(n1), 0.5);
+}
+
+// Smallest distance between two quanta that share no bond.
+double closest_unbonded(const World& w) {
+  double best = INFINITY;
+  std::vector<std::vector<Index>> nb(w.num_quanta());
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) {
+    nb[w.model.bond_i[b]].push_back(w.model.bond_j[b]);
+    nb[w.model.bond_j[b]].push_back(w.model.bond_i[b]);
+  }
+  for (std::size_t i = 0; i < w.num_quanta(); ++i)
+    for (std::size_t j = i + 1; j < w.num_quanta(); ++j) {
+      if (std::find(nb[i].begin(), nb[i].end(), j) != nb[i].end()) continue;
+      best = std::min(best, (w.state.x[i] - w.state.x[j]).norm());
+    }
+  return best;
+}
+
+TEST(Contacts, ADroppedSheetFoldsOnItselfWithoutPassingThroughItself) {
+  // A soft sheet standing on its edge falls over onto the ground and crumples: its layers meet,
+  // and no two unbonded quanta ever come closer than the contact allows.
+  World w;
+  w.model.gravity = Vec3(0, 0, -9.81);
+  SquareLattice sheet;
+  sheet.size = {16, 16};
+  sheet.spacing = 0.01;
+  sheet.quanta_mass = 1e-3;
+  sheet.diagonals = true;
+  sheet.bending = true;
+  sheet.bond = {.stiffness = 50, .damping = 0.01};
+  const auto ids = add_square_lattice(w, sheet);
+  // Stand it in the x-z plane, tilted, 1 cm above the ground.
+  for (Index i : ids) {
+    const Vec3 p = w.state.x[i];
+    w.state.x[i] = Vec3(p.x(), 0.3 * p.y(), p.y() + 0.01);
+  }
+  const double R = 0.0045;
+  Simulation sim(std::move(w), default_integrator(), 1e-3);
+  sim.add_heuristic(make_obstacle_heuristic({ground(0, 0.5)}));
+  sim.add_heuristic(make_quanta_contact_heuristic({.radius = R, .material = {0, 0.3}}));
+  double closest = INFINITY;
+  for (int n = 0; n < 1500; ++n) {
+    ASSERT_EQ(sim.step().status, StepReport::Status::ok);
+    if (n % 50 == 49) closest = std::min(closest, closest_unbonded(sim.world()));
+  }
+  // The sheet lies crumpled on the ground: its top is far below its standing height.
+  double top = -INFINITY;
+  for (const Vec3& x : sim.world().state.x) top = std::max(top, x.z());
+  EXPECT_LT(top, 0.08);
+  EXPECT_GE(closest, 1.5 * R);  // layers touched (contacts active) but never passed through
+}
+
+TEST(Heuristics, SceneKeysBuildTheRules) {
+  const Scene s = parse_scene(R"({
+    "timestep": 0.001, "steps": 10,
+    "bodies": [{"name": "bar", "type": "lattice", "cell": "cubic", "size": [4, 2, 2], "spacing": 0.01,
+                "quanta_mass": 0.001, "material": "m"}],
+    "materials": {"m": {"stiffness": 100}},
+    "heuristics": [{"type": "break", "max_strain": 0.1, "probability": 0.5, "select": {"box": [[0, -1, -1], [0.015, 1, 1]]}},
+                   {"type": "plastic", "yield_strain": 0.01, "hardening": 0.2},
+                   {"type": "ground", "height": -0.1, "restitution": 0.3, "friction": 0.4},
+                   {"type": "box", "center": [0, 0, -1], "size": [1, 1, 0.1], "rotation": {"axis": [0, 0, 1], "angle": 0.3}},
+                   {"type": "contact", "radius": 0.004}]})",
+                              "h.json");
+  ASSERT_EQ(s.heuristics.size(), 5u);
+  const auto& br = std::get<BreakRule>(s.heuristics[0]);
+  EXPECT_EQ(br.max_strain, 0.1);
+  EXPECT_EQ(br.probability, 0.5);
+  ASSERT_EQ(br.bonds.size(), s.world.num_bonds());
+  std::size_t selected = 0;
+  for (auto b : br.bonds) selected += b;
+  EXPECT_GT(selected, 0u);
+  EXPECT_LT(selected, s.world.num_bonds());
+  EXPECT_EQ(std::get<PlasticRule>(s.heuristics[1]).hardening, 0.2);
+  EXPECT_EQ(std::get<Obstacle>(s.heuristics[2]).center.z(), -0.1);
+  EXPECT_EQ(std::get<Obstacle>(s.heuristics[3]).half_extents, Vec3(0.5, 0.5, 0.05));
+  EXPECT_EQ(std::get<QuantaContactRule>(s.heuristics[4]).radius, 0.004);
+}
+
+}  // namespace
+}  // namespace qbond
