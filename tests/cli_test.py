@@ -152,6 +152,23 @@ def test_resume_is_bit_for_bit():
         fail(f"diagnostics differ:\n{ta}\n---\n{tb}")
 
 
+def test_events_resume_with_the_run():
+    """Fracture events: a resumed run's events.csv equals the uninterrupted run's."""
+    whole, halves = fresh("events_whole"), fresh("events_halves")
+    common = ["fracture_bar", "--every", "50", "--no-vtk", "-q"]
+    qbond("run", *common, "--steps", "400", "--out", whole, check_code=0)
+    qbond("run", *common, "--steps", "200", "--out", halves, check_code=0)
+    qbond("run", "--resume", os.path.join(halves, "checkpoint.qbc"), "--steps", "400", "-q", check_code=0)
+    ta = open(os.path.join(whole, "events.csv")).read()
+    tb = open(os.path.join(halves, "events.csv")).read()
+    if not ta.startswith("step,time,event,reason,bond,i,j,strain,tension\n") or ta.count("\n") < 10:
+        fail(f"events.csv of the whole run has too few breaks:\n{ta[:400]}")
+    if ta != tb:
+        fail("events.csv of the resumed run differs from the uninterrupted one")
+    if state_bytes(os.path.join(whole, "checkpoint.qbc")) != state_bytes(os.path.join(halves, "checkpoint.qbc")):
+        fail("resumed state differs from the uninterrupted one")
+
+
 def test_corrupt_checkpoint():
     out = fresh("corrupt")
     qbond("run", "two_quanta", "--steps", "10", "--out", out, "-q", check_code=0)

@@ -1,0 +1,91 @@
+#!/usr/bin/python3
+"""Runs the heuristics' scenes and draws their outcomes into docs/images/heuristics_*.png.
+
+Usage: scripts/heuristics_figures.py [BUILD_DIR]   (default: build; needs build/qbond)
+Reads the runs' ParaView frames back with VTK and draws bonds (coloured by strain) and quanta
+with matplotlib; uses Debian's python3-vtk9 and python3-matplotlib.
+"""
+import os
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+from mpl_toolkits.mplot3d.art3d import Line3DCollection
+import numpy as np
+from vtkmodules.util.numpy_support import vtk_to_numpy
+from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BUILD = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "build")
+OUT = os.path.join(ROOT, "docs", "images")
+RUNS = os.path.join(BUILD, "heuristics_runs")
+
+# scene, frames to draw (fractions of the run), view (elevation, azimuth), title
+FIGURES = [
+    ("fracture_bar", [0.0, 0.5, 1.0], (60, -90), "break: a notched bar pulled apart (crack from the notch)"),
+    ("plastic_beam", [0.0, 0.3, 1.0], (10, -90), "plastic: a cantilever keeps a permanent sag"),
+    ("cube_drop", [0.0, 0.1, 1.0], (15, -60), "ground: a cube thrown down at 10 m/s comes to rest"),
+    ("sheet_fold", [0.0, 0.4, 1.0], (25, -60), "sphere + contact: a sheet folds without passing through itself"),
+    ("collision", [0.0, 0.5, 1.0], (70, -90), "contact: two blocks collide (momentum conserved)"),
+]
+
+
+def frames(run):
+    pvd = ET.parse(os.path.join(run, "series.pvd")).getroot()
+    return [(float(d.get("timestep")), os.path.join(run, d.get("file"))) for d in pvd.iter("DataSet")]
+
+
+def read(path):
+    r = vtkXMLPolyDataReader()
+    r.SetFileName(path)
+    r.Update()
+    poly = r.GetOutput()
+    x = vtk_to_numpy(poly.GetPoints().GetData())
+    lines = vtk_to_numpy(poly.GetLines().GetConnectivityArray()).reshape(-1, 2)
+    n_verts = poly.GetNumberOfVerts()
+    strain = vtk_to_numpy(poly.GetCellData().GetArray("strain"))[n_verts:]
+    return x, lines, strain
+
+
+def main():
+    os.makedirs(OUT, exist_ok=True)
+    for name, picks, (elev, azim), title in FIGURES:
+        run = os.path.join(RUNS, name)
+        subprocess.run([os.path.join(BUILD, "qbond"), "run", os.path.join(ROOT, "scenes", name + ".json"),
+                        "-q", "--out", run], check=True)
+        series = frames(run)
+        fig = plt.figure(figsize=(4.2 * len(picks), 4.2))
+        all_x = np.vstack([read(f)[0] for _, f in series])
+        lo, hi = all_x.min(axis=0), all_x.max(axis=0)
+        span = (hi - lo).max() / 2
+        mid = (hi + lo) / 2
+        for k, frac in enumerate(picks):
+            t, f = series[round(frac * (len(series) - 1))]
+            x, lines, strain = read(f)
+            ax = fig.add_subplot(1, len(picks), k + 1, projection="3d")
+            segs = x[lines]
+            lim = max(1e-3, np.abs(strain).max())
+            lc = Line3DCollection(segs, cmap="coolwarm", linewidths=0.6)
+            lc.set_array(np.clip(strain, -lim, lim))
+            lc.set_clim(-lim, lim)
+            ax.add_collection3d(lc)
+            ax.scatter(x[:, 0], x[:, 1], x[:, 2], s=1.5, c="k", depthshade=False)
+            for a, (m, setter) in enumerate(zip(mid, (ax.set_xlim, ax.set_ylim, ax.set_zlim))):
+                setter(m - span, m + span)
+            ax.set_box_aspect((1, 1, 1))
+            ax.view_init(elev, azim)
+            ax.set_title(f"t = {t:.3g} s, {len(lines)} bonds", fontsize=9)
+            ax.tick_params(labelsize=6)
+        fig.suptitle(title + "  (bonds coloured by strain)", fontsize=10)
+        fig.tight_layout()
+        path = os.path.join(OUT, f"heuristics_{name}.png")
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        print("wrote", path)
+
+
+if __name__ == "__main__":
+    main()
