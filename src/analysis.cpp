@@ -19,7 +19,7 @@ Energies energies(const Model& model, const State& state, int threads) {
   e.bonds = deterministic_sum(model.num_bonds(), threads, [&](std::size_t b) {
     if (!state.alive[b]) return 0.0;
     const double r = (state.x[model.bond_j[b]] - state.x[model.bond_i[b]]).norm();
-    return evaluate_law(model.law[b], r, state.rest[b], model.stiffness[b], model.eps[b]).U;
+    return model.law_at(b, r, state.rest[b]).U;
   });
   return e;
 }
@@ -62,7 +62,7 @@ void bond_tension_strain(const Model& model, const State& state, std::vector<dou
     if (!state.alive[b]) continue;
     const double r = (state.x[model.bond_j[b]] - state.x[model.bond_i[b]]).norm();
     const double L = state.rest[b];
-    tension[b] = evaluate_law(model.law[b], r, L, model.stiffness[b], model.eps[b]).T;
+    tension[b] = model.law_at(b, r, L).T;
     strain[b] = L > 0 ? (r - L) / L : 0.0;
   }
 }

@@ -48,8 +48,8 @@ class EditLedger {
         if (!s.alive[b] || (touched_[j] && j < i)) continue;  // each bond once
         const double r_old = (old_pos(j) - (s.x[i] + old_dx_[k])).norm();
         const double r_new = (projected(s, p, j) - projected(s, p, i)).norm();
-        e += evaluate_law(m.law[b], r_old, s.rest[b], m.stiffness[b], m.eps[b]).U -
-             evaluate_law(m.law[b], r_new, s.rest[b], m.stiffness[b], m.eps[b]).U;
+        e += m.law_at(b, r_old, s.rest[b]).U -
+             m.law_at(b, r_new, s.rest[b]).U;
       }
     }
     for (Index i : list_) touched_[i] = 0;

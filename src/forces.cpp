@@ -58,7 +58,7 @@ void linearise_bonds(const Model& model, const State& state, BondLinearisation& 
     const double r = d.norm();
     if (!(r > 0)) return;  // a zero-length bond has no direction: no force, no coupling
     const Vec3 u = d / r;
-    const LawValue lv = evaluate_law(model.law[b], r, state.rest[b], model.stiffness[b], model.eps[b]);
+    const LawValue lv = model.law_at(b, r, state.rest[b]);
     const Vec3 w = state.v[j] - state.v[i];
     out.force[b] = lv.T * u + (model.damping_model[b] == DampingModel::axial
                                    ? Vec3(model.damping[b] * w.dot(u) * u)

@@ -18,18 +18,14 @@ Stretch stretch(const Model& m, const State& s, const Projection& p, std::size_t
   st.r = (projected(s, p, m.bond_j[b]) - projected(s, p, m.bond_i[b])).norm();
   const double L = s.rest[b];
   st.strain = L > 0 ? (st.r - L) / L : 0.0;
-  st.tension = evaluate_law(m.law[b], st.r, L, m.stiffness[b], m.eps[b]).T;
+  st.tension = m.law_at(b, st.r, L).T;
   return st;
-}
-
-double stored_energy(const Model& m, std::size_t b, double r, double L) {
-  return evaluate_law(m.law[b], r, L, m.stiffness[b], m.eps[b]).U;
 }
 
 // Breaks bond b at the end of this step: records the event and charges its stored energy.
 void break_now(World& w, const HeuristicContext& ctx, std::size_t b, const Stretch& st, BondEvent::Reason why) {
   const Model& m = w.model;
-  w.state.energy.dissipated_heuristics += stored_energy(m, b, st.r, w.state.rest[b]);
+  w.state.energy.dissipated_heuristics += m.law_at(b, st.r, w.state.rest[b]).U;
   w.break_bond(static_cast<Index>(b));
   BondEvent e;
   e.kind = BondEvent::Kind::broken;
@@ -99,7 +95,7 @@ class PlasticHeuristic final : public Heuristic {
       if (L1 == L) return 0.0;
       s.rest[b] = L1;
       ductile_[b] = std::abs(L1 - L0) > rule_.max_plastic_strain * L0;
-      return stored_energy(m, b, st.r, L) - stored_energy(m, b, st.r, L1);
+      return m.law_at(b, st.r, L).U - m.law_at(b, st.r, L1).U;
     });
     s.energy.dissipated_heuristics += released;
     for (std::size_t b = 0; b < nb; ++b)

@@ -3,8 +3,8 @@
 // iterations write disjoint data, and sums over fixed chunks added in chunk order. Any thread
 // count, including one, gives the same bits.
 #include <algorithm>
+#include <array>
 #include <cstddef>
-#include <vector>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -13,8 +13,10 @@ namespace qbond {
 
 // Below this many iterations a loop runs on the calling thread (starting threads costs more).
 inline constexpr std::size_t kParallelMin = 4096;
-// Terms per partial sum of deterministic_sum; fixed, so the summation order is too.
+// Partial sums of deterministic_sum: each adds at least kSumChunk terms, and there are at most
+// kMaxPartials of them (so they live on the stack). Both depend on the term count only.
 inline constexpr std::size_t kSumChunk = 1024;
+inline constexpr std::size_t kMaxPartials = 256;
 
 // Threads a parallel region gets: `threads` > 0 as asked, 0 for OpenMP's default.
 inline int thread_count(int threads) {
@@ -42,23 +44,24 @@ void parallel_for(std::size_t n, int threads, Body&& body, std::size_t min_paral
 #endif
 }
 
-// Σ term(i) for i in [0, n), summed in chunks of kSumChunk (each in index order), then the chunk
-// sums in chunk order: the same bits for any thread count. Up to kSumChunk terms it is the plain
-// left-to-right sum.
+// Σ term(i) for i in [0, n), summed in chunks (each in index order) whose size depends on n
+// only, then the chunk sums in chunk order: the same bits for any thread count, and no
+// allocation. Up to kSumChunk terms it is the plain left-to-right sum.
 template <class Term>
 double deterministic_sum(std::size_t n, int threads, Term&& term) {
+  const std::size_t chunk = std::max(kSumChunk, (n + kMaxPartials - 1) / kMaxPartials);
   auto chunk_sum = [&](std::size_t c) {
     double s = 0;
-    const std::size_t end = std::min(n, (c + 1) * kSumChunk);
-    for (std::size_t i = c * kSumChunk; i < end; ++i) s += term(i);
+    const std::size_t end = std::min(n, (c + 1) * chunk);
+    for (std::size_t i = c * chunk; i < end; ++i) s += term(i);
     return s;
   };
-  const std::size_t chunks = (n + kSumChunk - 1) / kSumChunk;
+  const std::size_t chunks = (n + chunk - 1) / chunk;
   if (chunks <= 1) return chunks == 1 ? chunk_sum(0) : 0.0;
-  std::vector<double> partial(chunks);
+  std::array<double, kMaxPartials> partial;
   parallel_for(chunks, threads, [&](std::size_t c) { partial[c] = chunk_sum(c); }, kParallelMin / kSumChunk);
   double s = 0;
-  for (double p : partial) s += p;
+  for (std::size_t c = 0; c < chunks; ++c) s += partial[c];
   return s;
 }
 

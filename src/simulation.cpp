@@ -163,8 +163,8 @@ void Simulation::update_ledger() {
     // Force of the bond on i, averaged over the step; the bond pushes j with the opposite force.
     const Vec3 d1 = d0 + p.dx[j] - p.dx[i];
     const double r1 = d1.norm();
-    const double T0 = evaluate_law(m.law[b], r0, s.rest[b], m.stiffness[b], m.eps[b]).T;
-    const double T1 = evaluate_law(m.law[b], r1, s.rest[b], m.stiffness[b], m.eps[b]).T;
+    const double T0 = m.law_at(b, r0, s.rest[b]).T;
+    const double T1 = m.law_at(b, r1, s.rest[b]).T;
     Vec3 fi = 0.5 * (T0 * u0 + (r1 > 0 ? Vec3(T1 * d1 / r1) : Vec3::Zero()));
     fi += m.damping_model[b] == DampingModel::axial ? Vec3(D * w.dot(u0) * u0) : Vec3(D * w);
     // A prescribed quanta does on the structure the work the bond's force on it resists.

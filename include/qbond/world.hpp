@@ -62,6 +62,8 @@ struct Model {
   std::size_t num_quanta() const { return mass.size(); }
   std::size_t num_bonds() const { return bond_i.size(); }
   bool is_kinematic(Index i) const { return inv_mass[i] == 0.0; }
+  /// Bond b's law at length r for rest length L.
+  LawValue law_at(std::size_t b, double r, double L) const { return evaluate_law(law[b], r, L, stiffness[b], eps[b]); }
 };
 
 /// Running energy accounts (DESIGN §8); with the current energies they close the budget
