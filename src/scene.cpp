@@ -11,6 +11,7 @@
 
 #include "qbond/builders.hpp"
 #include "qbond/files.hpp"
+#include "qbond/materials.hpp"
 #include "qbond/selection.hpp"
 
 namespace qbond {
@@ -188,7 +189,9 @@ std::uint64_t pair_key(Index a, Index b) {
 }
 
 struct Material {
-  BondSpec bond;
+  BondSpec bond;              ///< stiffness 0 when the material is given by a modulus
+  double youngs_modulus = 0;  ///< [Pa]; > 0: bond stiffness from the body's lattice (materials.hpp)
+  double density = 0;         ///< [kg/m³]; > 0: quanta masses from the body's lattice
 };
 
 class Builder {
@@ -290,12 +293,21 @@ class Builder {
   void materials(const json& j, json& res) {
     if (!j.is_object()) bad("materials", "expected an object (material name -> parameters), got " + type_name(j));
     for (const auto& [name, mj] : j.items()) {
-      Obj o(mj, "materials." + name, {"law", "stiffness", "damping", "damping_model", "eps"});
+      Obj o(mj, "materials." + name,
+            {"law", "stiffness", "youngs_modulus", "density", "damping", "damping_model", "eps"});
       Material m;
       BondSpec& b = m.bond;
       b.law = o.has("law") ? choice<Law>(o["law"], o.at("law"), {{"linear", Law::linear}, {"inverse", Law::inverse}})
                            : Law::linear;
-      b.stiffness = positive(o.required("stiffness"), o.at("stiffness"));
+      if (o.has("stiffness") == o.has("youngs_modulus"))
+        bad("materials." + name, o.has("stiffness") ? "give either 'stiffness' or 'youngs_modulus', not both"
+                                                    : "one of 'stiffness' or 'youngs_modulus' is required");
+      if (o.has("stiffness")) b.stiffness = positive(o["stiffness"], o.at("stiffness"));
+      if (o.has("youngs_modulus")) {
+        if (b.law != Law::linear) bad(o.at("youngs_modulus"), "calibrates linear bonds only (law is " + std::string(to_string(b.law)) + ")");
+        m.youngs_modulus = positive(o["youngs_modulus"], o.at("youngs_modulus"));
+      }
+      if (o.has("density")) m.density = positive(o["density"], o.at("density"));
       b.damping = o.has("damping") ? non_negative(o["damping"], o.at("damping")) : 0.0;
       b.damping_model = o.has("damping_model")
                             ? choice<DampingModel>(o["damping_model"], o.at("damping_model"),
@@ -311,6 +323,15 @@ class Builder {
       r["damping"] = b.damping;
       r["damping_model"] = to_string(b.damping_model);
     }
+  }
+
+  // A material for a single bond: it must say its stiffness (a modulus needs a lattice).
+  BondSpec bond_material(const json& j, const std::string& path) {
+    const Material& m = material(j, path);
+    if (m.youngs_modulus > 0)
+      bad(path, "material '" + j.get<std::string>() +
+                    "' is given by youngs_modulus, which calibrates lattices and chains; a single bond needs 'stiffness'");
+    return m.bond;
   }
 
   const Material& material(const json& j, const std::string& path) {
@@ -338,13 +359,13 @@ class Builder {
     };
     std::vector<const char*> accepted;
     if (type == "lattice")
-      accepted = keys({"cell", "size", "spacing", "neighbors", "material", "quanta_mass", "total_mass"});
+      accepted = keys({"cell", "size", "spacing", "neighbors", "thickness", "material", "quanta_mass", "total_mass"});
     else if (type == "sheet")
-      accepted = keys({"size", "spacing", "neighbors", "bending", "material", "quanta_mass", "total_mass"});
+      accepted = keys({"size", "spacing", "neighbors", "bending", "thickness", "material", "quanta_mass", "total_mass"});
     else if (type == "chain")
-      accepted = keys({"start", "end", "count", "material", "quanta_mass", "total_mass"});
+      accepted = keys({"start", "end", "count", "area", "material", "quanta_mass", "total_mass"});
     else if (type == "quanta")
-      accepted = keys({"positions", "masses", "mass", "velocities"});
+      accepted = keys({"positions", "masses", "mass", "velocities", "volume"});
     else if (type.empty())
       bad(path + ".type", "required key missing");
     else
@@ -380,30 +401,69 @@ class Builder {
       }
       return std::pair{n, total};
     };
-    auto mass_of = [&](double count) {
+    // A material given by a modulus or a density fixes the bonds' stiffness or the quanta's
+    // mass from the body's geometry (materials.hpp); the resolved scene records the numbers.
+    const Material* mat = nullptr;
+    if (type != "quanta") mat = &material(req("material"), at("material"));
+    auto mass_of = [&](double count, double calibrated) {
       const bool per = j.contains("quanta_mass");
+      if (calibrated > 0) {
+        if (per || j.contains("total_mass"))
+          bad(path, "the mass comes from material '" + j["material"].get<std::string>() +
+                        "''s density; drop 'quanta_mass'/'total_mass'");
+        res["quanta_mass"] = calibrated;
+        return calibrated;
+      }
       if (per == j.contains("total_mass"))
         bad(path, per ? "give either 'quanta_mass' or 'total_mass', not both"
                       : "one of 'quanta_mass' or 'total_mass' is required");
       return per ? positive(j["quanta_mass"], at("quanta_mass")) : positive(j["total_mass"], at("total_mass")) / count;
     };
+    auto lattice_bond = [&](const LatticeCell& cell, double a, double thickness) {
+      BondSpec bond = mat->bond;
+      if (mat->youngs_modulus > 0) {
+        bond.stiffness = calibrated_stiffness(cell, mat->youngs_modulus, a, thickness);
+        res["stiffness"] = bond.stiffness;
+      }
+      return bond;
+    };
+    auto lattice_mass = [&](const LatticeCell& cell, double a, double thickness) {
+      return mat->density > 0 ? calibrated_mass(cell, mat->density, a, thickness) : 0.0;
+    };
     auto too_many = [&](double count) {
       if (count > kMaxQuanta)
         bad(at("size"), "would make " + num_str(count) + " quanta (limit " + num_str(kMaxQuanta) + ")");
     };
+    // A square cell is a sheet of some thickness (default: the spacing), which turns its
+    // stiffness per length into a modulus and its area per quanta into a volume.
+    auto thickness = [&](double a, bool square) {
+      if (!j.contains("thickness")) return a;
+      if (!square) bad(at("thickness"), "only square (2D) cells have a thickness");
+      return positive(j["thickness"], at("thickness"));
+    };
     std::vector<Index> ids;
-    if (type == "lattice") {
-      const std::string cell = choice<std::string>(req("cell"), at("cell"),
-                                                   {{"square", "square"}, {"cubic", "cubic"}, {"fcc", "fcc"}});
+    if (type == "lattice" || type == "sheet") {
+      const std::string cell = type == "sheet" ? "square"
+                                               : choice<std::string>(req("cell"), at("cell"),
+                                                                     {{"square", "square"}, {"cubic", "cubic"}, {"fcc", "fcc"}});
       const double a = positive(req("spacing"), at("spacing"));
-      const BondSpec bond = material(req("material"), at("material")).bond;
+      const double t = thickness(a, cell == "square");
       if (cell == "square") {
         const auto [n, count] = sizes(2);
         too_many(count);
-        SquareLattice l{{n[0], n[1]}, a, mass_of(count), true, false, bond};
+        SquareLattice l;
+        l.size = {n[0], n[1]};
+        l.spacing = a;
+        l.thickness = t;
         if (j.contains("neighbors"))
           l.diagonals = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"diagonal", true}});
+        if (j.contains("bending")) l.bending = boolean(j["bending"], at("bending"));
+        const LatticeCell c = square_cell(l.diagonals, l.bending);
+        l.bond = lattice_bond(c, a, t);
+        l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
         res["neighbors"] = l.diagonals ? "diagonal" : "nearest";
+        if (type == "sheet") res["bending"] = l.bending;
+        res["thickness"] = t;
         ids = add_square_lattice(w, l, id);
       } else if (cell == "cubic") {
         const auto [n, count] = sizes(3);
@@ -411,13 +471,14 @@ class Builder {
         CubicLattice l;
         l.size = n;
         l.spacing = a;
-        l.quanta_mass = mass_of(count);
-        l.bond = bond;
         if (j.contains("neighbors"))
           l.shells = choice<Shells>(j["neighbors"], at("neighbors"),
                                     {{"nearest", Shells::nearest},
                                      {"face_diagonal", Shells::face_diagonal},
                                      {"body_diagonal", Shells::body_diagonal}});
+        const LatticeCell c = cubic_cell(l.shells);
+        l.bond = lattice_bond(c, a, t);
+        l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
         res["neighbors"] = l.shells == Shells::nearest         ? "nearest"
                            : l.shells == Shells::face_diagonal ? "face_diagonal"
                                                                : "body_diagonal";
@@ -426,9 +487,14 @@ class Builder {
         const auto [n, cells] = sizes(3);
         const double count = std::ceil((2.0 * n[0] + 1) * (2.0 * n[1] + 1) * (2.0 * n[2] + 1) / 2);
         too_many(count);
-        FccLattice l{n, a, mass_of(count), false, bond};
+        FccLattice l;
+        l.cells = n;
+        l.spacing = a;
         if (j.contains("neighbors"))
           l.second_shell = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"second", true}});
+        const LatticeCell c = fcc_cell(l.second_shell);
+        l.bond = lattice_bond(c, a, t);
+        l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
         res["neighbors"] = l.second_shell ? "second" : "nearest";
         // total_mass must divide by the real site count: rebuild the mass once it is known.
         ids = add_fcc_lattice(w, l, id);
@@ -438,17 +504,6 @@ class Builder {
             w.model.inv_mass[i] = 1 / w.model.mass[i];
           }
       }
-    } else if (type == "sheet") {
-      const auto [n, count] = sizes(2);
-      too_many(count);
-      SquareLattice l{{n[0], n[1]}, positive(req("spacing"), at("spacing")), mass_of(count), true, false,
-                      material(req("material"), at("material")).bond};
-      if (j.contains("neighbors"))
-        l.diagonals = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"diagonal", true}});
-      if (j.contains("bending")) l.bending = boolean(j["bending"], at("bending"));
-      res["neighbors"] = l.diagonals ? "diagonal" : "nearest";
-      res["bending"] = l.bending;
-      ids = add_square_lattice(w, l, id);
     } else if (type == "chain") {
       Chain c;
       c.start = vec3(req("start"), at("start"));
@@ -457,8 +512,19 @@ class Builder {
       const auto count = integer(req("count"), at("count"), 2);
       too_many(static_cast<double>(count));
       c.count = static_cast<int>(count);
-      c.quanta_mass = mass_of(static_cast<double>(count));
-      c.bond = material(req("material"), at("material")).bond;
+      const double segment = (c.end - c.start).norm() / static_cast<double>(count - 1);
+      c.bond = mat->bond;
+      const bool calibrated = mat->youngs_modulus > 0 || mat->density > 0;
+      if (j.contains("area"))
+        c.area = positive(j["area"], at("area"));
+      else if (calibrated)
+        bad(at("area"), "required: material '" + j["material"].get<std::string>() +
+                            "' is given by a modulus or density, which a chain turns into k = E A / segment, m = ρ A segment");
+      if (mat->youngs_modulus > 0) {
+        c.bond.stiffness = mat->youngs_modulus * c.area / segment;
+        res["stiffness"] = c.bond.stiffness;
+      }
+      c.quanta_mass = mass_of(static_cast<double>(count), mat->density > 0 ? mat->density * c.area * segment : 0.0);
       ids = add_chain(w, c, id);
     } else {
       const json& pos = array(req("positions"), at("positions"));
@@ -470,9 +536,10 @@ class Builder {
       if (per && (!j["masses"].is_array() || j["masses"].size() != pos.size()))
         bad(at("masses"), "expected an array of " + std::to_string(pos.size()) + " masses (one per position)");
       const double mass = per ? 0.0 : positive(j["mass"], at("mass"));
+      const double volume = j.contains("volume") ? positive(j["volume"], at("volume")) : 0.0;
       for (std::size_t k = 0; k < pos.size(); ++k)
         ids.push_back(w.add_quanta(vec3(pos[k], item(at("positions"), k)), Vec3::Zero(),
-                                   per ? positive(j["masses"][k], item(at("masses"), k)) : mass, id));
+                                   per ? positive(j["masses"][k], item(at("masses"), k)) : mass, id, volume));
     }
     // Placement: rotate, translate, then the rigid velocity field.
     Placement p;
@@ -565,7 +632,7 @@ class Builder {
         if (q.size() != 2) bad(o.at("between"), "a bond needs two different quanta");
         Index a = q[0], b = q[1];
         if (ends[0].get<std::uint64_t>() > ends[1].get<std::uint64_t>()) std::swap(a, b);
-        BondSpec spec = material(o.required("material"), o.at("material")).bond;
+        BondSpec spec = bond_material(o.required("material"), o.at("material"));
         if (o.has("rest_length")) spec.rest_length = non_negative(o["rest_length"], o.at("rest_length"));
         if (!existing.insert(pair_key(a, b)).second)
           bad(o.at("between"), "quanta " + std::to_string(a) + " and " + std::to_string(b) + " are already bonded");
@@ -575,7 +642,7 @@ class Builder {
         const std::vector<Index> from = selection(o.required("from"), o.at("from"), w);
         const std::vector<Index> to = selection(o.required("to"), o.at("to"), w);
         const double r = positive(o.required("within"), o.at("within"));
-        BondSpec spec = material(o.required("material"), o.at("material")).bond;
+        BondSpec spec = bond_material(o.required("material"), o.at("material"));
         if (o.has("rest_length")) spec.rest_length = non_negative(o["rest_length"], o.at("rest_length"));
         std::size_t made = 0;
         pairs_within(w.state.x, from, to, r, [&](Index a, Index b) {

@@ -59,11 +59,13 @@ Index World::add_body(std::string name) {
   return static_cast<Index>(model.body_names.size() - 1);
 }
 
-Index World::add_quanta(const Vec3& x, const Vec3& v, double mass, Index body) {
+Index World::add_quanta(const Vec3& x, const Vec3& v, double mass, Index body, double volume) {
   if (!(mass >= 0)) throw std::invalid_argument("quanta mass must be >= 0");
+  if (!(volume >= 0)) throw std::invalid_argument("quanta volume must be >= 0");
   model.mass.push_back(mass);
   model.inv_mass.push_back(mass > 0 ? 1.0 / mass : 0.0);
   model.body.push_back(body);
+  model.volume.push_back(volume);
   state.x.push_back(x);
   state.v.push_back(v);
   return static_cast<Index>(model.mass.size() - 1);

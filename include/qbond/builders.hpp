@@ -14,6 +14,23 @@ enum class Shells : std::uint8_t {
   body_diagonal = 3,  ///< + 8 at a√3
 };
 
+/// One site of a Bravais lattice as the builders lay its bonds and lattice elasticity
+/// (materials.hpp) counts them: half of each neighbour shell (so every pair is bonded once) as
+/// integer offsets in units of `unit` × spacing, and the volume a site stands for, in spacing³
+/// (for 2D lattices: area per site in spacing², times the sheet's thickness).
+struct LatticeCell {
+  std::vector<std::array<int, 3>> offsets;
+  double unit = 1;
+  double site_volume = 1;
+  int dims = 3;
+};
+/// Simple cubic with the given shells.
+LatticeCell cubic_cell(Shells shells);
+/// Face-centred cubic, spacing = the cubic cell's side (offsets in half spacings, 4 sites a cell).
+LatticeCell fcc_cell(bool second_shell);
+/// 2D square in the xy plane.
+LatticeCell square_cell(bool diagonals, bool bending);
+
 /// A simple-cubic block of size[0]×size[1]×size[2] quanta.
 struct CubicLattice {
   std::array<int, 3> size{2, 2, 2};
@@ -36,6 +53,7 @@ struct Chain {
   Vec3 end = Vec3::UnitX();
   double quanta_mass = 1e-3;  ///< [kg]
   Vec3 velocity = Vec3::Zero();
+  double area = -1;           ///< cross-section [m²], for quanta volumes; negative: segment²
   BondSpec bond;
 };
 std::vector<Index> add_chain(World& world, const Chain& spec, Index body = 0);
@@ -51,6 +69,7 @@ struct SquareLattice {
   bool diagonals = true;
   bool bending = false;
   BondSpec bond;
+  double thickness = -1;  ///< [m] of the sheet, for its quanta volumes; negative: the spacing
 };
 std::vector<Index> add_square_lattice(World& world, const SquareLattice& spec, Index body = 0);
 

@@ -44,6 +44,8 @@ struct Model {
   std::vector<double> mass;      ///< [kg] (n)
   std::vector<double> inv_mass;  ///< [1/kg] (n); 0 = kinematic (anchored or prescribed)
   std::vector<Index> body;       ///< body id (n)
+  std::vector<double> volume;    ///< volume the quanta stands for [m³] (n); 0 = unknown, then
+                                 ///< it has no stress (stress.hpp). Builders set it.
   std::vector<std::string> body_names;  ///< (bodies)
   // bonds (nb)
   std::vector<Index> bond_i, bond_j;         ///< endpoints (nb)
@@ -126,8 +128,9 @@ struct World {
 
   /// Adds a body name and returns its id.
   Index add_body(std::string name);
-  /// Adds a quanta; mass 0 or `kinematic` makes it kinematic (inverse mass 0). Returns its id.
-  Index add_quanta(const Vec3& x, const Vec3& v, double mass, Index body = 0);
+  /// Adds a quanta standing for `volume` m³ (0: unknown); mass 0 makes it kinematic (inverse
+  /// mass 0). Returns its id.
+  Index add_quanta(const Vec3& x, const Vec3& v, double mass, Index body = 0, double volume = 0);
   /// Adds a bond between quanta i and j. Returns its id.
   Index add_bond(Index i, Index j, const BondSpec& spec);
   /// Makes quanta kinematic with a prescribed motion, starting from their current positions at
