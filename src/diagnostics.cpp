@@ -1,8 +1,10 @@
 #include "qbond/diagnostics.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
 #include "qbond/analysis.hpp"
+#include "qbond/stress.hpp"
 
 namespace qbond {
 namespace {
@@ -25,7 +27,10 @@ void put(std::string& out, const Vec3& v) {
 }  // namespace
 
 Diagnostics::Diagnostics(const Model& model, std::vector<Probe> probes) : probes_(std::move(probes)) {
-  for (const Probe& p : probes_) reaction_.push_back(has_reaction(model, p));
+  for (const Probe& p : probes_) {
+    reaction_.push_back(has_reaction(model, p));
+    stress_.push_back(has_stress(model, p));
+  }
 }
 
 std::string Diagnostics::header() const {
@@ -34,6 +39,8 @@ std::string Diagnostics::header() const {
     for (const char* c : {"_x", "_y", "_z"}) h += "," + probes_[k].name + c;
     if (reaction_[k])
       for (const char* c : {"_fx", "_fy", "_fz", "_tx", "_ty", "_tz"}) h += "," + probes_[k].name + c;
+    if (stress_[k])
+      for (const char* c : {"_sxx", "_syy", "_szz", "_syz", "_sxz", "_sxy", "_von_mises_max"}) h += "," + probes_[k].name + c;
   }
   return h + ",work,numerical,iterations,residual";
 }
@@ -54,12 +61,18 @@ std::string Diagnostics::row(const Model& model, const State& state, const Solve
   put(r, max_speed(model, state).first);
   put_count(r, alive);
   put_count(r, model.num_bonds() - alive);
+  std::vector<Mat3> sigma;
+  if (std::find(stress_.begin(), stress_.end(), true) != stress_.end()) virial_stress(model, state, sigma);
   for (std::size_t k = 0; k < probes_.size(); ++k) {
-    const ProbeValue v = measure_probe(model, state, probes_[k]);
+    const ProbeValue v = measure_probe(model, state, probes_[k], sigma);
     put(r, v.mean);
     if (reaction_[k]) {
       put(r, v.force);
       put(r, v.torque);
+    }
+    if (stress_[k]) {
+      const Mat3& s = v.stress;
+      for (double c : {s(0, 0), s(1, 1), s(2, 2), s(1, 2), s(0, 2), s(0, 1), v.von_mises_max}) put(r, c);
     }
   }
   put(r, b.work_loads + b.work_anchors);

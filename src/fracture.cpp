@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "parallel.hpp"
+#include "qbond/stress.hpp"
 
 namespace qbond {
 namespace {
@@ -51,6 +52,17 @@ class BreakHeuristic final : public Heuristic {
     // Which bonds are over a threshold is independent per bond (parallel); the draws and breaks
     // then go in bond order, so the outcome depends on the seed only.
     why_.resize(nb);
+    const bool by_stress = std::isfinite(rule_.max_stress) || std::isfinite(rule_.max_von_mises);
+    if (by_stress) {
+      const std::size_t n = m.num_quanta();
+      x_.resize(n);
+      v_.resize(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        x_[i] = w.state.x[i] + p.dx[i];
+        v_[i] = w.state.v[i] + p.dv[i];
+      }
+      virial_stress(m, w.state, x_, v_, sigma_);
+    }
     parallel_for(nb, ctx.threads, [&](std::size_t b) {
       why_[b] = kNone;
       if (!w.state.alive[b] || !applies(rule_.bonds, b)) return;
@@ -61,6 +73,14 @@ class BreakHeuristic final : public Heuristic {
         why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::compression);
       else if (st.tension > rule_.max_tension)
         why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::tension);
+      else if (by_stress) {
+        const Index i = m.bond_i[b], j = m.bond_j[b];
+        const Vec3 n = (x_[j] - x_[i]).normalized();
+        if (0.5 * n.dot((sigma_[i] + sigma_[j]) * n) > rule_.max_stress)
+          why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::stress);
+        else if (0.5 * (von_mises(sigma_[i]) + von_mises(sigma_[j])) > rule_.max_von_mises)
+          why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::von_mises);
+      }
     });
     for (std::size_t b = 0; b < nb; ++b) {
       if (why_[b] == kNone) continue;
@@ -73,6 +93,8 @@ class BreakHeuristic final : public Heuristic {
   static constexpr std::uint8_t kNone = 0xff;
   BreakRule rule_;
   std::vector<std::uint8_t> why_;  // per bond: the reason it is over a threshold, or kNone
+  std::vector<Vec3> x_, v_;        // projected state, for the stress criteria
+  std::vector<Mat3> sigma_;
 };
 
 class PlasticHeuristic final : public Heuristic {

@@ -17,6 +17,8 @@ std::string_view to_string(BondEvent::Reason r) {
     case BondEvent::Reason::compression: return "compression";
     case BondEvent::Reason::tension: return "tension";
     case BondEvent::Reason::ductility: return "ductility";
+    case BondEvent::Reason::stress: return "stress";
+    case BondEvent::Reason::von_mises: return "von_mises";
   }
   return "?";
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "qbond/laws.hpp"
+#include "qbond/stress.hpp"
 
 namespace qbond {
 
@@ -11,11 +12,25 @@ bool has_reaction(const Model& model, const Probe& probe) {
          std::all_of(probe.quanta.begin(), probe.quanta.end(), [&](Index i) { return model.is_kinematic(i); });
 }
 
-ProbeValue measure_probe(const Model& model, const State& state, const Probe& probe) {
+bool has_stress(const Model& model, const Probe& probe) {
+  return std::any_of(probe.quanta.begin(), probe.quanta.end(), [&](Index i) { return model.volume[i] > 0; });
+}
+
+ProbeValue measure_probe(const Model& model, const State& state, const Probe& probe, std::span<const Mat3> sigma) {
   ProbeValue v;
   if (probe.quanta.empty()) return v;
   for (Index i : probe.quanta) v.mean += state.x[i];
   v.mean /= static_cast<double>(probe.quanta.size());
+  v.has_stress = has_stress(model, probe);
+  if (v.has_stress) {
+    std::vector<Mat3> own;
+    if (sigma.empty()) {
+      virial_stress(model, state, own);
+      sigma = own;
+    }
+    v.stress = mean_stress(model, sigma, probe.quanta);
+    for (Index i : probe.quanta) v.von_mises_max = std::max(v.von_mises_max, von_mises(sigma[i]));
+  }
   v.has_reaction = has_reaction(model, probe);
   if (!v.has_reaction) return v;
   std::vector<std::uint8_t> in(model.num_quanta(), 0);

@@ -748,13 +748,25 @@ class Builder {
         bad(path, "expected an object with a \"type\" (break, plastic, ground, plane, sphere, box, contact)");
       const std::string type = string(j[k]["type"], path + ".type");
       if (type == "break") {
-        Obj o(j[k], path, {"type", "max_strain", "max_compression", "max_tension", "probability", "select"});
+        static const std::initializer_list<const char*> limits = {"max_strain", "max_compression", "max_tension",
+                                                                  "max_stress", "max_von_mises"};
+        std::vector<const char*> keys(limits);
+        keys.insert(keys.end(), {"type", "probability", "select"});
+        Obj o(j[k], path, keys);
         BreakRule r;
-        if (o.has("max_strain")) r.max_strain = positive(o["max_strain"], o.at("max_strain"));
-        if (o.has("max_compression")) r.max_compression = positive(o["max_compression"], o.at("max_compression"));
-        if (o.has("max_tension")) r.max_tension = positive(o["max_tension"], o.at("max_tension"));
-        if (!o.has("max_strain") && !o.has("max_compression") && !o.has("max_tension"))
-          bad(path, "give at least one of max_strain, max_compression, max_tension");
+        double* fields[] = {&r.max_strain, &r.max_compression, &r.max_tension, &r.max_stress, &r.max_von_mises};
+        bool any = false;
+        for (std::size_t f = 0; f < limits.size(); ++f) {
+          const char* key = limits.begin()[f];
+          if (!o.has(key)) continue;
+          *fields[f] = positive(o[key], o.at(key));
+          any = true;
+        }
+        if (!any) bad(path, "give at least one of " + join(std::vector<std::string>(limits.begin(), limits.end())));
+        if ((o.has("max_stress") || o.has("max_von_mises")) &&
+            std::none_of(w.model.volume.begin(), w.model.volume.end(), [](double v) { return v > 0; }))
+          bad(path, "stress limits need quanta with volumes (lattice, sheet and chain bodies have them; "
+                    "give 'quanta' bodies a 'volume')");
         if (o.has("probability")) {
           r.probability = positive(o["probability"], o.at("probability"));
           if (r.probability > 1) bad(o.at("probability"), "must be <= 1, got " + num_str(r.probability));

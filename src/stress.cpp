@@ -30,7 +30,7 @@ double von_mises(const Mat3& s) {
   return std::sqrt(1.5 * dev.cwiseProduct(dev).sum());
 }
 
-Mat3 mean_stress(const Model& model, const std::vector<Mat3>& sigma, const std::vector<Index>& quanta) {
+Mat3 mean_stress(const Model& model, std::span<const Mat3> sigma, std::span<const Index> quanta) {
   Mat3 sum = Mat3::Zero();
   double volume = 0;
   for (Index i : quanta) {

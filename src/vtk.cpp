@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "qbond/analysis.hpp"
+#include "qbond/stress.hpp"
 #include "qbond/files.hpp"
 
 namespace qbond {
@@ -73,6 +74,12 @@ void write_vtp(const std::filesystem::path& path, const Model& model, const Stat
     kinematic[i] = model.is_kinematic(static_cast<Index>(i));
   }
   static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 must be three packed doubles");
+  static_assert(sizeof(Mat3) == 9 * sizeof(double), "Mat3 must be nine packed doubles");
+  // Stress where volumes are known (stress.hpp); 0 elsewhere.
+  std::vector<Mat3> sigma;
+  virial_stress(model, state, sigma);
+  std::vector<double> mises(n);
+  for (std::size_t i = 0; i < n; ++i) mises[i] = von_mises(sigma[i]);
 
   Appended a;
   std::string xml =
@@ -87,6 +94,8 @@ void write_vtp(const std::filesystem::path& path, const Model& model, const Stat
   a.array(xml, "Int64", "id", 1, id.data(), n);
   a.array(xml, "Int32", "body", 1, body.data(), n);
   a.array(xml, "UInt8", "kinematic", 1, kinematic.data(), n);
+  a.array(xml, "Float64", "von_mises", 1, mises.data(), n);
+  a.array(xml, "Float64", "stress", 9, reinterpret_cast<const double*>(sigma.data()), 9 * n);
   for (const PointArray& p : extra) a.array(xml, "Float64", escape(p.name), p.components, p.values.data(), p.values.size());
   xml += "</PointData>\n<CellData Scalars=\"tension\">\n";
   a.array(xml, "Float64", "strain", 1, cell_strain.data(), cell_strain.size());

@@ -129,7 +129,7 @@ def test_outputs_and_vtk():
     pvd = os.path.join(out, "series.pvd")
     r = subprocess.run(["/usr/bin/python3", os.path.join(SOURCE, "tests", "vtk_readback.py"), pvd,
                         "--frames", "5", "--points", str(run["quanta"]), "--lines", str(run["bonds_alive"]),
-                        "--point-arrays", "velocity,mass,id,body,kinematic",
+                        "--point-arrays", "velocity,mass,id,body,kinematic,von_mises,stress",
                         "--cell-arrays", "strain,tension,bond"], capture_output=True, text=True)
     if r.returncode != 0:
         fail(f"VTK could not read the series back:\n{r.stdout}\n{r.stderr}")

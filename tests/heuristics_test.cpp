@@ -81,6 +81,34 @@ TEST(Break, RandomBreakingDependsOnTheSeedOnly) {
   EXPECT_NE(a, c);
 }
 
+// The stress criteria: one bond of tension T between quanta of volume V has n·σ·n = T r/(2V) at
+// each end (stress.hpp), uniaxial, so its von Mises stress is the same number.
+TEST(Break, StressCriteriaBreakAtTheVirialStress) {
+  const double k = 100, L = 1, s0 = 0.1, V = 0.5;
+  const double stress = k * s0 * (L + s0) / (2 * V);
+  struct Case {
+    BreakRule rule;
+    bool breaks;
+    BondEvent::Reason reason;
+  };
+  const Case cases[] = {{{.max_stress = 0.99 * stress}, true, BondEvent::Reason::stress},
+                        {{.max_stress = 1.01 * stress}, false, {}},
+                        {{.max_von_mises = 0.99 * stress}, true, BondEvent::Reason::von_mises},
+                        {{.max_von_mises = 1.01 * stress}, false, {}}};
+  for (const Case& c : cases) {
+    World w = test::two_quanta(1, k, L, s0, 0);
+    w.model.volume = {V, V};
+    w.prescribe({0, 1}, Motion{});  // held, so the projected state is the initial one
+    Simulation sim(std::move(w), default_integrator(), 1e-3);
+    sim.add_heuristic(make_break_heuristic(c.rule));
+    sim.step();
+    ASSERT_EQ(sim.events().size(), c.breaks ? 1u : 0u);
+    if (c.breaks) {
+      EXPECT_EQ(sim.events()[0].reason, c.reason);
+    }
+  }
+}
+
 TEST(Plastic, RestLengthFollowsTheBilinearRule) {
   // Perfectly plastic: |r - L| stays at ε_y L₀. Hardening α: tangent α k, set (1-α)(ε - ε_y).
   const PlasticRule perfect{.yield_strain = 0.01};

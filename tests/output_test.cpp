@@ -107,6 +107,37 @@ TEST(Probes, ReactionOfAHangingMassIsItsWeight) {
   EXPECT_NEAR(measure_probe(w.model, w.state, support).force.z(), m * g + 3.0, 1e-12);
 }
 
+// A probe over a uniformly stretched lattice's interior reads its Cauchy–Born stress C : ε, and
+// the diagnostics row carries it.
+TEST(Probes, StressOfAUniformlyStrainedInteriorIsCauchyBorn) {
+  const double k = 100, a = 0.01, e = 1e-6;
+  World w = test::lattice(5, 5, 5, k, 1e-3, 0, false);
+  std::vector<Index> inner;
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) {
+    const Vec3 g = w.state.x[i] / a;
+    if ((g.array() > 0.5).all() && (g.array() < 3.5).all()) inner.push_back(static_cast<Index>(i));
+    w.state.x[i].x() *= 1 + e;
+  }
+  ASSERT_EQ(inner.size(), 27u);
+  const Probe probe{"core", inner, {}};
+  const ProbeValue v = measure_probe(w.model, w.state, probe);
+  ASSERT_TRUE(v.has_stress);
+  // Cubic lattice with face diagonals: σ_xx = C11 ε = 3k/a ε, σ_yy = σ_zz = C12 ε = k/a ε, up to
+  // the geometric terms of relative size ε (T r grows as ε (1 + ε)).
+  const double tol = 3 * e * 3 * k / a * e;
+  EXPECT_NEAR(v.stress(0, 0), 3 * k / a * e, tol);
+  EXPECT_NEAR(v.stress(1, 1), k / a * e, tol);
+  EXPECT_NEAR(v.stress(0, 1), 0, tol);
+  EXPECT_NEAR(v.von_mises_max, 2 * k / a * e, tol);  // σ_xx − σ_yy for this state
+  const Diagnostics d(w.model, {probe});
+  EXPECT_NE(d.header().find("core_z,core_sxx,core_syy,core_szz,core_syz,core_sxz,core_sxy,core_von_mises_max,work"),
+            std::string::npos);
+  const std::string row = d.row(w.model, w.state, {});
+  char sxx[32];
+  std::snprintf(sxx, sizeof sxx, "%.17g", v.stress(0, 0));
+  EXPECT_NE(row.find(sxx), std::string::npos);
+}
+
 TEST(Diagnostics, HeaderAndRowMatchTheAnalysis) {
   World w = test::two_quanta(1.0, 100.0, 1.0, 0.1, 0.5);
   w.prescribe({0}, Motion{});

@@ -9,7 +9,8 @@
 namespace qbond {
 
 /// Formats the rows of diagnostics.csv: DESIGN §10's fifteen columns, then per probe its mean
-/// position (and its reaction force and torque when anchored), then work, numerical
+/// position, its reaction force and torque when anchored, its mean stress tensor and largest
+/// von Mises stress when its quanta have volumes (stress.hpp), then work, numerical
 /// dissipation and the last step's solver iterations and residual. Numbers are printed with 17
 /// significant digits so that they read back exactly.
 class Diagnostics {
@@ -22,7 +23,7 @@ class Diagnostics {
 
  private:
   std::vector<Probe> probes_;
-  std::vector<bool> reaction_;
+  std::vector<bool> reaction_, stress_;
 };
 
 }  // namespace qbond

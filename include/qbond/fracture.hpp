@@ -10,13 +10,18 @@
 namespace qbond {
 
 /// Bond breaking: a bond whose strain (r - L)/L, compression (L - r)/L or tension at the
-/// projected positions passes its threshold breaks, with `probability` per step (the paper's
+/// projected positions passes its threshold breaks, or one whose ends are over-stressed (virial
+/// stress of stress.hpp at the projected state, mean of the two ends: its normal stress along
+/// the bond n·σ·n, a Rankine criterion that opens cracks across the largest principal stress, or
+/// its von Mises stress), with `probability` per step (the paper's
 /// random breaking under extreme stress; drawn from State::rng in bond order, so the cracks
 /// depend on the seed only). The bond's stored energy at that length is charged as dissipated.
 struct BreakRule {
   double max_strain = std::numeric_limits<double>::infinity();
   double max_compression = std::numeric_limits<double>::infinity();
   double max_tension = std::numeric_limits<double>::infinity();  ///< [N]
+  double max_stress = std::numeric_limits<double>::infinity();     ///< n·σ·n [Pa]
+  double max_von_mises = std::numeric_limits<double>::infinity();  ///< [Pa]
   double probability = 1;  ///< chance per step that an over-threshold bond breaks, in (0, 1]
   /// Per bond: 1 when the rule applies (empty: every bond).
   std::vector<std::uint8_t> bonds{};

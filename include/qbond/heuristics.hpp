@@ -14,7 +14,7 @@ namespace qbond {
 struct BondEvent {
   enum class Kind : std::uint8_t { broken };
   /// Why: which threshold the bond passed.
-  enum class Reason : std::uint8_t { strain, compression, tension, ductility };
+  enum class Reason : std::uint8_t { strain, compression, tension, ductility, stress, von_mises };
   Kind kind = Kind::broken;
   Reason reason = Reason::strain;
   std::uint64_t step = 0;  ///< index of the step during which it happened

@@ -1,5 +1,6 @@
 #pragma once
 /// Stress (DESIGN §8): the per-quanta virial stress tensor and its von Mises equivalent.
+#include <span>
 #include <vector>
 
 #include "qbond/world.hpp"
@@ -21,6 +22,6 @@ void virial_stress(const Model& model, const State& state, std::vector<Mat3>& si
 double von_mises(const Mat3& sigma);
 
 /// Σ V_i σ_i / Σ V_i over `quanta`: the mean stress of a region [Pa] (0 when no volume is known).
-Mat3 mean_stress(const Model& model, const std::vector<Mat3>& sigma, const std::vector<Index>& quanta);
+Mat3 mean_stress(const Model& model, std::span<const Mat3> sigma, std::span<const Index> quanta);
 
 }  // namespace qbond

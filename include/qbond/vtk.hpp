@@ -17,7 +17,8 @@ struct PointArray {
 };
 
 /// Writes one frame atomically as VTK XML PolyData (binary, appended raw): points are the quanta
-/// (arrays velocity, mass, id, body, kinematic and `extra`), drawn as vertex cells; lines are the
+/// (arrays velocity, mass, id, body, kinematic, von_mises, stress — the virial stress tensor of
+/// stress.hpp, 0 where the volume is unknown — and `extra`), drawn as vertex cells; lines are the
 /// alive bonds. Cell arrays strain, tension and bond (the bond id) cover the vertex cells first
 /// (0, 0, -1), then the lines, as VTK orders cells.
 void write_vtp(const std::filesystem::path& path, const Model& model, const State& state,
