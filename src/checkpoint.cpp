@@ -8,9 +8,9 @@ namespace qbond {
 namespace {
 
 // A new State field must be saved here: update serialize_state, deserialize_state and this size.
-static_assert(sizeof(State) == 3 * sizeof(std::vector<Vec3>) + sizeof(std::vector<double>) +
-                                   sizeof(std::vector<std::uint8_t>) + 2 * 8 + sizeof(Rng) +
-                                   sizeof(EnergyLedger) + 8,
+static_assert(sizeof(State) == 3 * sizeof(std::vector<Vec3>) + 2 * sizeof(std::vector<double>) +
+                                   sizeof(std::vector<std::uint8_t>) + sizeof(std::vector<FormedBond>) + 2 * 8 +
+                                   sizeof(Rng) + sizeof(EnergyLedger) + 8,
               "State changed: checkpoints must save the new field");
 
 constexpr char kMagic[8] = {'Q', 'B', 'O', 'N', 'D', 'C', 'K', 'P'};
@@ -69,6 +69,16 @@ std::string serialize_state(const State& s) {
   w.vec(s.v);
   w.vec(s.rest);
   w.vec(s.alive);
+  w.vec(s.bond_time);
+  // Field by field: FormedBond has padding, whose bytes are not data.
+  w.pod<std::uint64_t>(s.formed.size());
+  for (const FormedBond& f : s.formed) {
+    w.pod(f.i);
+    w.pod(f.j);
+    w.pod(f.law);
+    w.pod(f.damping_model);
+    for (double d : {f.stiffness, f.damping, f.eps, f.rest0}) w.pod(d);
+  }
   w.pod(s.time);
   w.pod(s.step);
   w.pod(s.rng);
@@ -89,6 +99,20 @@ State deserialize_state(std::string_view bytes) {
   s.v = r.vec<Vec3>();
   s.rest = r.vec<double>();
   s.alive = r.vec<std::uint8_t>();
+  s.bond_time = r.vec<double>();
+  const auto formed = r.pod<std::uint64_t>();
+  if (formed > s.rest.size()) throw CheckpointError("state: more formed bonds than bonds");
+  s.formed.resize(formed);
+  for (FormedBond& f : s.formed) {
+    f.i = r.pod<Index>();
+    f.j = r.pod<Index>();
+    f.law = r.pod<Law>();
+    f.damping_model = r.pod<DampingModel>();
+    for (double* d : {&f.stiffness, &f.damping, &f.eps, &f.rest0}) *d = r.pod<double>();
+    if (f.i == f.j || f.i >= s.x.size() || f.j >= s.x.size() || static_cast<int>(f.law) > 1 ||
+        static_cast<int>(f.damping_model) > 1)
+      throw CheckpointError("state: a formed bond is invalid");
+  }
   s.time = r.pod<double>();
   s.step = r.pod<std::uint64_t>();
   s.rng = r.pod<Rng>();
@@ -100,7 +124,8 @@ State deserialize_state(std::string_view bytes) {
   s.topology_version = r.pod<std::uint64_t>();
   s.warm = r.vec<Vec3>();
   if (!r.bytes.empty()) throw CheckpointError("state: " + std::to_string(r.bytes.size()) + " unexpected bytes at the end");
-  if (s.v.size() != s.x.size() || s.alive.size() != s.rest.size() || (!s.warm.empty() && s.warm.size() != s.x.size()))
+  if (s.v.size() != s.x.size() || s.alive.size() != s.rest.size() || s.bond_time.size() != s.rest.size() ||
+      (!s.warm.empty() && s.warm.size() != s.x.size()))
     throw CheckpointError("state: inconsistent array lengths");
   return s;
 }

@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 
+#include "spatial_hash.hpp"
+
 namespace qbond {
 namespace {
 
@@ -224,57 +226,23 @@ class QuantaContactHeuristic final : public Heuristic {
 
  private:
   // Pairs (i < j) closer than 2 radius at their projected positions that share no bond, in
-  // increasing i then scan order: a uniform grid of cell 2 radius, hashed into a table of about
-  // 2n buckets filled by counting sort (linear in the quanta).
+  // increasing i then scan order.
   void find_pairs(const Model& m, const Adjacency& adj) {
-    const std::size_t n = m.num_quanta();
-    const double cell = 2 * rule_.radius;
     pairs_.clear();
-    std::size_t table = 1;
-    while (table < 2 * n) table <<= 1;
-    cells_.resize(n);
-    auto hash = [&](const std::array<std::int64_t, 3>& c) {
-      return static_cast<std::size_t>((static_cast<std::uint64_t>(c[0]) * 73856093u) ^
-                                      (static_cast<std::uint64_t>(c[1]) * 19349663u) ^
-                                      (static_cast<std::uint64_t>(c[2]) * 83492791u)) &
-             (table - 1);
-    };
-    start_.assign(table + 1, 0);
-    for (std::size_t i = 0; i < n; ++i) {
-      for (int k = 0; k < 3; ++k) cells_[i][k] = static_cast<std::int64_t>(std::floor(pos_[i][k] / cell));
-      ++start_[hash(cells_[i]) + 1];
-    }
-    for (std::size_t b = 0; b < table; ++b) start_[b + 1] += start_[b];
-    bucket_.resize(n);
-    fill_.assign(start_.begin(), start_.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) bucket_[fill_[hash(cells_[i])]++] = static_cast<Index>(i);
-
-    for (std::size_t q = 0; q < n; ++q) {
-      const auto i = static_cast<Index>(q);
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const std::array<std::int64_t, 3> c{cells_[i][0] + dx, cells_[i][1] + dy, cells_[i][2] + dz};
-            const std::size_t h = hash(c);
-            for (Index k = start_[h]; k < start_[h + 1]; ++k) {
-              const Index j = bucket_[k];
-              if (j <= i || cells_[j] != c) continue;  // other cells sharing the bucket
-              if (m.is_kinematic(i) && m.is_kinematic(j)) continue;
-              if (!rule_.same_body && m.body[i] == m.body[j]) continue;
-              if ((pos_[j] - pos_[i]).squaredNorm() >= cell * cell) continue;
-              bool bonded = false;
-              for (Index e = adj.offset[i]; e < adj.offset[i + 1] && !bonded; ++e) bonded = adj.other[e] == j;
-              if (!bonded) pairs_.emplace_back(i, j);
-            }
-          }
-    }
+    grid_.build(pos_, 2 * rule_.radius);
+    grid_.pairs(pos_, [&](Index i, Index j) {
+      if (m.is_kinematic(i) && m.is_kinematic(j)) return;
+      if (!rule_.same_body && m.body[i] == m.body[j]) return;
+      for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e)
+        if (adj.other[e] == j) return;
+      pairs_.emplace_back(i, j);
+    });
   }
 
   QuantaContactRule rule_;
   EditLedger ledger_;
   std::vector<Vec3> pos_, vel_;
-  std::vector<std::array<std::int64_t, 3>> cells_;
-  std::vector<Index> start_, fill_, bucket_;
+  SpatialHash grid_;
   std::vector<std::pair<Index, Index>> pairs_;
   std::vector<std::uint8_t> impulse_done_;
 };

@@ -8,7 +8,11 @@
 namespace qbond {
 namespace {
 
-bool applies(const std::vector<std::uint8_t>& mask, std::size_t b) { return mask.empty() || mask[b]; }
+// Whether a rule selecting `quanta` covers bond b (both ends selected). Masks are per quanta, so
+// they hold for bonds formed during the run too.
+bool applies(const std::vector<std::uint8_t>& quanta, const Model& m, std::size_t b) {
+  return quanta.empty() || (quanta[m.bond_i[b]] && quanta[m.bond_j[b]]);
+}
 
 // Length, strain and elastic tension of bond b at the projected end-of-step positions.
 struct Stretch {
@@ -65,7 +69,7 @@ class BreakHeuristic final : public Heuristic {
     }
     parallel_for(nb, ctx.threads, [&](std::size_t b) {
       why_[b] = kNone;
-      if (!w.state.alive[b] || !applies(rule_.bonds, b)) return;
+      if (!w.state.alive[b] || !applies(rule_.quanta, m, b)) return;
       const Stretch st = stretch(m, w.state, p, b);
       if (st.strain > rule_.max_strain)
         why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::strain);
@@ -110,7 +114,7 @@ class PlasticHeuristic final : public Heuristic {
     // Each bond's flow is its own; the energy it releases is summed in a fixed order.
     const double released = deterministic_sum(nb, ctx.threads, [&](std::size_t b) {
       ductile_[b] = 0;
-      if (!s.alive[b] || !applies(rule_.bonds, b)) return 0.0;
+      if (!s.alive[b] || !applies(rule_.quanta, m, b)) return 0.0;
       const double L0 = m.rest0[b], L = s.rest[b];
       const Stretch st = stretch(m, s, p, b);
       const double L1 = plastic_rest_length(rule_, st.r, L, L0);

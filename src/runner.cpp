@@ -226,11 +226,13 @@ Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene
   Scene scene = parse_scene(meta.at("scene").dump(), checkpoint.string());
   RunSettings settings = settings_from_json(meta.at("run"));
   if (adjust) adjust(scene, settings);
-  if (ck.state.x.size() != scene.world.num_quanta() || ck.state.rest.size() != scene.world.num_bonds())
+  if (ck.state.x.size() != scene.world.num_quanta() ||
+      ck.state.rest.size() - ck.state.formed.size() != scene.world.num_bonds())
     throw std::runtime_error(checkpoint.string() + ": state does not match its scene (" +
-                             std::to_string(ck.state.x.size()) + " quanta, " + std::to_string(ck.state.rest.size()) +
-                             " bonds saved)");
+                             std::to_string(ck.state.x.size()) + " quanta, " +
+                             std::to_string(ck.state.rest.size() - ck.state.formed.size()) + " scene bonds saved)");
   scene.world.state = std::move(ck.state);
+  scene.world.sync_formed_bonds();
   auto impl = std::make_unique<Impl>(std::move(scene), std::move(settings));
   Impl& r = *impl;
   r.resumed_from = fs::absolute(checkpoint).string();

@@ -722,12 +722,12 @@ class Builder {
   }
 
   // Per bond: 1 when both ends are in the entry's `select` (every bond without one).
-  std::vector<std::uint8_t> bond_mask(const Obj& o, const World& w) {
+  // A rule's `select`: per quanta, 1 when selected (empty: all).
+  std::vector<std::uint8_t> quanta_mask(const Obj& o, const World& w) {
     if (!o.has("select")) return {};
-    std::vector<std::uint8_t> in(w.num_quanta(), 0), mask(w.num_bonds(), 0);
+    std::vector<std::uint8_t> in(w.num_quanta(), 0);
     for (Index i : selection(o["select"], o.at("select"), w)) in[i] = 1;
-    for (std::size_t b = 0; b < w.num_bonds(); ++b) mask[b] = in[w.model.bond_i[b]] && in[w.model.bond_j[b]];
-    return mask;
+    return in;
   }
 
   ContactMaterial contact_material(const Obj& o) {
@@ -771,7 +771,7 @@ class Builder {
           r.probability = positive(o["probability"], o.at("probability"));
           if (r.probability > 1) bad(o.at("probability"), "must be <= 1, got " + num_str(r.probability));
         }
-        r.bonds = bond_mask(o, w);
+        r.quanta = quanta_mask(o, w);
         out.emplace_back(std::move(r));
       } else if (type == "plastic") {
         Obj o(j[k], path, {"type", "yield_strain", "hardening", "max_plastic_strain", "select"});
@@ -782,7 +782,7 @@ class Builder {
           if (r.hardening >= 1) bad(o.at("hardening"), "must be < 1, got " + num_str(r.hardening));
         }
         if (o.has("max_plastic_strain")) r.max_plastic_strain = positive(o["max_plastic_strain"], o.at("max_plastic_strain"));
-        r.bonds = bond_mask(o, w);
+        r.quanta = quanta_mask(o, w);
         out.emplace_back(std::move(r));
       } else if (type == "ground" || type == "plane" || type == "sphere" || type == "box") {
         static const std::initializer_list<const char*> common = {"type", "restitution", "friction", "margin"};

@@ -189,6 +189,7 @@ StepReport Simulation::end_step() {
   if (StepReport r = check_projection(); r.status != StepReport::Status::ok) {
     if (keep_last_good_) {
       s = last_good_;  // heuristics may have edited bonds already
+      world_.sync_formed_bonds();
       events_.clear();
     }
     return r;
@@ -213,6 +214,7 @@ StepReport Simulation::end_step() {
   StepReport r = check_energy();
   if (r.status != StepReport::Status::ok && keep_last_good_) {
     s = last_good_;
+    world_.sync_formed_bonds();
     events_.clear();
     r.message += "; the world keeps the state before this step";
   }

@@ -86,8 +86,62 @@ Index World::add_bond(Index i, Index j, const BondSpec& s) {
   model.rest0.push_back(L);
   state.rest.push_back(L);
   state.alive.push_back(1);
+  state.bond_time.push_back(0.0);
   ++state.topology_version;
   return static_cast<Index>(model.bond_i.size() - 1);
+}
+
+namespace {
+
+// Writes a formed bond's entries into the model at slot b (appending when b is the end).
+void put_formed(Model& m, std::size_t b, const FormedBond& f) {
+  if (b == m.num_bonds()) {
+    for (auto* v : {&m.bond_i, &m.bond_j}) v->emplace_back();
+    m.law.emplace_back();
+    m.damping_model.emplace_back();
+    for (auto* v : {&m.stiffness, &m.damping, &m.eps, &m.rest0}) v->emplace_back();
+  }
+  m.bond_i[b] = f.i;
+  m.bond_j[b] = f.j;
+  m.law[b] = f.law;
+  m.damping_model[b] = f.damping_model;
+  m.stiffness[b] = f.stiffness;
+  m.damping[b] = f.damping;
+  m.eps[b] = f.eps;
+  m.rest0[b] = f.rest0;
+}
+
+}  // namespace
+
+Index World::form_bond(Index i, Index j, const BondSpec& s, double L, Index slot) {
+  const std::size_t nb = num_bonds(), first = nb - state.formed.size();
+  assert(i < num_quanta() && j < num_quanta() && i != j);
+  assert(slot == nb || (slot >= first && slot < nb && !state.alive[slot]));
+  const FormedBond f{i, j, s.law, s.damping_model, s.stiffness, s.damping,
+                     s.eps > 0 ? s.eps : kDefaultInverseEpsFraction * (L > 0 ? L : 1.0), L};
+  put_formed(model, slot, f);
+  if (slot == nb) {
+    state.formed.push_back(f);
+    state.rest.push_back(L);
+    state.alive.push_back(1);
+    state.bond_time.push_back(state.time);
+  } else {
+    state.formed[slot - first] = f;
+    state.rest[slot] = L;
+    state.alive[slot] = 1;
+    state.bond_time[slot] = state.time;
+  }
+  ++state.topology_version;
+  return slot;
+}
+
+void World::sync_formed_bonds() {
+  const std::size_t first = state.rest.size() - state.formed.size();
+  for (auto* v : {&model.bond_i, &model.bond_j}) v->resize(first);
+  model.law.resize(first);
+  model.damping_model.resize(first);
+  for (auto* v : {&model.stiffness, &model.damping, &model.eps, &model.rest0}) v->resize(first);
+  for (std::size_t k = 0; k < state.formed.size(); ++k) put_formed(model, first + k, state.formed[k]);
 }
 
 void World::prescribe(std::vector<Index> quanta, Motion motion) {
@@ -121,6 +175,7 @@ void World::break_bond(Index b) {
   assert(b < num_bonds());
   if (state.alive[b]) {
     state.alive[b] = 0;
+    state.bond_time[b] = state.time;
     ++state.topology_version;
   }
 }

@@ -326,11 +326,11 @@ TEST(Heuristics, SceneKeysBuildTheRules) {
   const auto& br = std::get<BreakRule>(s.heuristics[0]);
   EXPECT_EQ(br.max_strain, 0.1);
   EXPECT_EQ(br.probability, 0.5);
-  ASSERT_EQ(br.bonds.size(), s.world.num_bonds());
+  ASSERT_EQ(br.quanta.size(), s.world.num_quanta());
   std::size_t selected = 0;
-  for (auto b : br.bonds) selected += b;
+  for (auto q : br.quanta) selected += q;
   EXPECT_GT(selected, 0u);
-  EXPECT_LT(selected, s.world.num_bonds());
+  EXPECT_LT(selected, s.world.num_quanta());
   EXPECT_EQ(std::get<PlasticRule>(s.heuristics[1]).hardening, 0.2);
   EXPECT_EQ(std::get<Obstacle>(s.heuristics[2]).center.z(), -0.1);
   EXPECT_EQ(std::get<Obstacle>(s.heuristics[3]).half_extents, Vec3(0.5, 0.5, 0.05));

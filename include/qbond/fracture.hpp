@@ -23,8 +23,8 @@ struct BreakRule {
   double max_stress = std::numeric_limits<double>::infinity();     ///< n·σ·n [Pa]
   double max_von_mises = std::numeric_limits<double>::infinity();  ///< [Pa]
   double probability = 1;  ///< chance per step that an over-threshold bond breaks, in (0, 1]
-  /// Per bond: 1 when the rule applies (empty: every bond).
-  std::vector<std::uint8_t> bonds{};
+  /// Per quanta: 1 when selected; the rule applies to bonds with both ends selected (empty: all).
+  std::vector<std::uint8_t> quanta{};
 };
 
 /// Bilinear elastoplastic bonds with linear kinematic hardening. In strain units from the
@@ -38,8 +38,8 @@ struct PlasticRule {
   double yield_strain = 0;  ///< ε_y > 0
   double hardening = 0;     ///< α in [0, 1): tangent stiffness past yield over the elastic one
   double max_plastic_strain = std::numeric_limits<double>::infinity();
-  /// Per bond: 1 when the rule applies (empty: every bond).
-  std::vector<std::uint8_t> bonds{};
+  /// Per quanta: 1 when selected; the rule applies to bonds with both ends selected (empty: all).
+  std::vector<std::uint8_t> quanta{};
 };
 
 /// Rest length a bond flows to (PlasticRule), or L itself while within the yield surface.

@@ -84,12 +84,26 @@ struct EnergyLedger {
   bool operator==(const EnergyLedger&) const = default;
 };
 
+/// A bond made during the run (bond formation): its Model entries, kept in the State so that a
+/// checkpoint carries them.
+struct FormedBond {
+  Index i = 0, j = 0;
+  Law law = Law::linear;
+  DampingModel damping_model = DampingModel::axial;
+  double stiffness = 0, damping = 0, eps = 0, rest0 = 0;
+};
+
 /// Everything a step changes; a checkpoint of this continues a run bit for bit.
 struct State {
   std::vector<Vec3> x;           ///< position [m] (n)
   std::vector<Vec3> v;           ///< velocity [m/s] (n)
   std::vector<double> rest;      ///< rest length L [m] (nb); plasticity edits it
   std::vector<std::uint8_t> alive;  ///< 1 while the bond holds (nb)
+  std::vector<double> bond_time; ///< [s] when the bond was last made or broken (nb; 0 for the
+                                 ///< scene's bonds until they break)
+  /// The bonds made during the run: the model's last formed.size() bonds (the first
+  /// rest.size() - formed.size() come from the scene). Their slots are reused once broken.
+  std::vector<FormedBond> formed;
   double time = 0;               ///< [s]
   std::uint64_t step = 0;
   Rng rng;
@@ -138,8 +152,14 @@ struct World {
   void prescribe(std::vector<Index> quanta, Motion motion);
   /// Adds a constant load (total force spread evenly over `quanta`).
   void add_load(std::vector<Index> quanta, const Vec3& total_force);
-  /// Marks a bond broken; it leaves the solver from the next adjacency build.
+  /// Marks a bond broken at the current time; it leaves the solver from the next adjacency build.
   void break_bond(Index b);
+  /// Makes a bond during the run (bond formation): rest length and rest0 = `rest_length`, in
+  /// formed slot `slot` (a broken one to reuse), or appended when slot == num_bonds().
+  Index form_bond(Index i, Index j, const BondSpec& spec, double rest_length, Index slot);
+  /// Makes the model's formed bonds those of state.formed again (after the state was replaced:
+  /// a rollback or a resumed checkpoint).
+  void sync_formed_bonds();
 
   std::size_t num_quanta() const { return model.num_quanta(); }
   std::size_t num_bonds() const { return model.num_bonds(); }

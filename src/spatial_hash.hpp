@@ -1,0 +1,69 @@
+#pragma once
+// A uniform grid hashed into a table of about 2n buckets, filled by counting sort: finding the
+// pairs of points closer than the cell size costs time linear in the points (bounded density),
+// with no allocation once the buffers have grown. Used by contacts and bond formation.
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "qbond/math.hpp"
+
+namespace qbond {
+
+class SpatialHash {
+ public:
+  // Bins `pos` into cells of side `cell` (> 0).
+  void build(const std::vector<Vec3>& pos, double cell) {
+    const std::size_t n = pos.size();
+    cell_ = cell;
+    table_ = 1;
+    while (table_ < 2 * n) table_ <<= 1;
+    cells_.resize(n);
+    start_.assign(table_ + 1, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int k = 0; k < 3; ++k) cells_[i][k] = static_cast<std::int64_t>(std::floor(pos[i][k] / cell));
+      ++start_[hash(cells_[i]) + 1];
+    }
+    for (std::size_t b = 0; b < table_; ++b) start_[b + 1] += start_[b];
+    bucket_.resize(n);
+    fill_.assign(start_.begin(), start_.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) bucket_[fill_[hash(cells_[i])]++] = static_cast<Index>(i);
+  }
+
+  // Calls visit(i, j) for every pair i < j closer than the cell size, in increasing i, then in
+  // the grid's scan order (deterministic for given points).
+  template <class F>
+  void pairs(const std::vector<Vec3>& pos, F&& visit) const {
+    for (std::size_t q = 0; q < cells_.size(); ++q) {
+      const auto i = static_cast<Index>(q);
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const std::array<std::int64_t, 3> c{cells_[i][0] + dx, cells_[i][1] + dy, cells_[i][2] + dz};
+            const std::size_t h = hash(c);
+            for (Index k = start_[h]; k < start_[h + 1]; ++k) {
+              const Index j = bucket_[k];
+              if (j <= i || cells_[j] != c) continue;  // other cells sharing the bucket
+              if ((pos[j] - pos[i]).squaredNorm() >= cell_ * cell_) continue;
+              visit(i, j);
+            }
+          }
+    }
+  }
+
+ private:
+  std::size_t hash(const std::array<std::int64_t, 3>& c) const {
+    return static_cast<std::size_t>((static_cast<std::uint64_t>(c[0]) * 73856093u) ^
+                                    (static_cast<std::uint64_t>(c[1]) * 19349663u) ^
+                                    (static_cast<std::uint64_t>(c[2]) * 83492791u)) &
+           (table_ - 1);
+  }
+
+  double cell_ = 1;
+  std::size_t table_ = 1;
+  std::vector<std::array<std::int64_t, 3>> cells_;
+  std::vector<Index> start_, fill_, bucket_;
+};
+
+}  // namespace qbond
