@@ -745,7 +745,7 @@ class Builder {
     for (std::size_t k = 0; k < j.size(); ++k) {
       const std::string path = item("heuristics", k);
       if (!j[k].is_object() || !j[k].contains("type"))
-        bad(path, "expected an object with a \"type\" (break, plastic, ground, plane, sphere, box, contact)");
+        bad(path, "expected an object with a \"type\" (break, plastic, ground, plane, sphere, box, contact, form, liquid)");
       const std::string type = string(j[k]["type"], path + ".type");
       if (type == "break") {
         static const std::initializer_list<const char*> limits = {"max_strain", "max_compression", "max_tension",
@@ -827,8 +827,42 @@ class Builder {
         if (o.has("same_body")) r.same_body = boolean(o["same_body"], o.at("same_body"));
         check_contact_radius(r, o, w);
         out.emplace_back(r);
+      } else if (type == "form") {
+        Obj o(j[k], path, {"type", "capture_radius", "pairs", "max_bonds", "min_age", "rest_length", "material", "select"});
+        FormRule r;
+        r.capture_radius = positive(o.required("capture_radius"), o.at("capture_radius"));
+        if (o.has("pairs"))
+          r.pairs = choice<FormPairs>(o["pairs"], o.at("pairs"),
+                                      {{"any", FormPairs::any},
+                                       {"same_body", FormPairs::same_body},
+                                       {"other_body", FormPairs::other_body}});
+        if (o.has("max_bonds")) r.max_bonds = static_cast<int>(integer(o["max_bonds"], o.at("max_bonds"), 1));
+        if (o.has("min_age")) r.min_age = non_negative(o["min_age"], o.at("min_age"));
+        if (o.has("rest_length")) r.rest_length = positive(o["rest_length"], o.at("rest_length"));
+        r.bond = bond_material(o.required("material"), o.at("material"));
+        r.quanta = quanta_mask(o, w);
+        out.emplace_back(std::move(r));
+      } else if (type == "liquid") {
+        // A preset: bonds break past max_strain and form again within the capture radius, at the
+        // rest length `spacing` the liquid keeps between its quanta (its density).
+        Obj o(j[k], path, {"type", "spacing", "max_strain", "capture_radius", "max_bonds", "material", "select"});
+        const double a = positive(o.required("spacing"), o.at("spacing"));
+        BreakRule br;
+        br.max_strain = o.has("max_strain") ? positive(o["max_strain"], o.at("max_strain")) : 0.3;
+        FormRule fr;
+        fr.capture_radius = o.has("capture_radius") ? positive(o["capture_radius"], o.at("capture_radius")) : 1.2 * a;
+        if (fr.capture_radius >= a * (1 + br.max_strain))
+          bad(o.at("capture_radius"), "must be below spacing x (1 + max_strain) = " + num_str(a * (1 + br.max_strain)) +
+                                          " m, or new bonds would break at once");
+        fr.max_bonds = o.has("max_bonds") ? static_cast<int>(integer(o["max_bonds"], o.at("max_bonds"), 1)) : 12;
+        fr.rest_length = a;
+        fr.bond = bond_material(o.required("material"), o.at("material"));
+        br.quanta = fr.quanta = quanta_mask(o, w);
+        out.emplace_back(std::move(br));
+        out.emplace_back(std::move(fr));
       } else {
-        bad(path + ".type", "unknown heuristic '" + type + "' (accepted: break, plastic, ground, plane, sphere, box, contact)");
+        bad(path + ".type", "unknown heuristic '" + type +
+                                "' (accepted: break, plastic, ground, plane, sphere, box, contact, form, liquid)");
       }
     }
     return out;

@@ -6,6 +6,8 @@
 #include <cmath>
 
 #include "qbond/contacts.hpp"
+#include "qbond/formation.hpp"
+#include "qbond/checkpoint.hpp"
 #include "qbond/fracture.hpp"
 #include "qbond/scene.hpp"
 #include "test_util.hpp"
@@ -335,6 +337,158 @@ TEST(Heuristics, SceneKeysBuildTheRules) {
   EXPECT_EQ(std::get<Obstacle>(s.heuristics[2]).center.z(), -0.1);
   EXPECT_EQ(std::get<Obstacle>(s.heuristics[3]).half_extents, Vec3(0.5, 0.5, 0.05));
   EXPECT_EQ(std::get<QuantaContactRule>(s.heuristics[4]).radius, 0.004);
+}
+
+// Three free quanta on the x axis: 0 and 1 of body 0 at distance d01, 2 of body 1 approaching 1.
+World approaching(double d01, double gap, double speed) {
+  World w;
+  w.add_body("one");
+  const Index b1 = w.add_body("other");
+  w.add_quanta(Vec3(0, 0, 0), Vec3::Zero(), 1e-3);
+  w.add_quanta(Vec3(d01, 0, 0), Vec3::Zero(), 1e-3);
+  w.add_quanta(Vec3(d01 + gap, 0, 0), Vec3(-speed, 0, 0), 1e-3, b1);
+  return w;
+}
+
+TEST(Form, QuantaWithinTheCaptureRadiusBondAtTheirDistance) {
+  const double h = 1e-3, speed = 1.0, capture = 0.012;
+  Simulation sim(approaching(0.03, 0.02, speed), default_integrator(), h);
+  sim.add_heuristic(make_form_heuristic({.capture_radius = capture, .bond = {.stiffness = 50}}));
+  std::vector<BondEvent> formed;
+  double distance_before = 0;
+  for (int n = 0; n < 12 && formed.empty(); ++n) {
+    const World& w = sim.world();
+    distance_before = (w.state.x[2] - w.state.x[1]).norm();
+    sim.step();
+    for (const BondEvent& e : sim.events()) formed.push_back(e);
+  }
+  ASSERT_EQ(formed.size(), 1u);  // 0 and 1 are 0.03 apart: never within 0.012
+  const BondEvent& e = formed[0];
+  EXPECT_EQ(e.kind, BondEvent::Kind::formed);
+  EXPECT_EQ(e.reason, BondEvent::Reason::capture);
+  EXPECT_EQ(std::min(e.i, e.j), 1u);
+  EXPECT_EQ(std::max(e.i, e.j), 2u);
+  const World& w = sim.world();
+  const double r = (w.state.x[2] - w.state.x[1]).norm();
+  EXPECT_LT(r, capture);
+  EXPECT_GE(distance_before, capture - h * speed);  // it formed in the first step that came within
+  EXPECT_DOUBLE_EQ(w.state.rest[e.bond], r);        // rest length: the distance at formation
+  EXPECT_EQ(w.state.formed.size(), 1u);
+  EXPECT_EQ(w.num_bonds(), 1u);
+}
+
+TEST(Form, PairRulesAndBondCountsLimitWhoBonds) {
+  // Five quanta in a tight row; body 0: quanta 0-2, body 1: quanta 3-4, all within the radius.
+  auto bonds_made = [](FormRule rule) {
+    World w;
+    w.add_body("b0");
+    const Index b1 = w.add_body("b1");
+    for (int q = 0; q < 5; ++q) w.add_quanta(Vec3(0.001 * q, 0, 0), Vec3::Zero(), 1e-3, q < 3 ? 0 : b1);
+    Simulation sim(std::move(w), default_integrator(), 1e-3);
+    rule.capture_radius = 0.0105;
+    rule.bond.stiffness = 10;
+    sim.add_heuristic(make_form_heuristic(rule));
+    sim.step();
+    std::vector<std::pair<Index, Index>> pairs;
+    for (const BondEvent& e : sim.events()) pairs.emplace_back(e.i, e.j);
+    return pairs;
+  };
+  EXPECT_EQ(bonds_made({}).size(), 10u);  // every pair
+  for (const auto& [i, j] : bonds_made({.pairs = FormPairs::same_body})) {
+    EXPECT_EQ(i < 3, j < 3);
+  }
+  EXPECT_EQ(bonds_made({.pairs = FormPairs::same_body}).size(), 3u + 1u);
+  for (const auto& [i, j] : bonds_made({.pairs = FormPairs::other_body})) {
+    EXPECT_NE(i < 3, j < 3);
+  }
+  EXPECT_EQ(bonds_made({.pairs = FormPairs::other_body}).size(), 6u);
+  // At most one bond each: a matching, made in order (0-1, then 2-3).
+  const auto matched = bonds_made({.max_bonds = 1});
+  EXPECT_EQ(matched, (std::vector<std::pair<Index, Index>>{{0, 1}, {2, 3}}));
+  // Only selected quanta bond.
+  EXPECT_EQ(bonds_made({.quanta = {1, 1, 0, 0, 0}}).size(), 1u);
+}
+
+// A bond that breaks is not made again within min_age, and its slot is reused after.
+TEST(Form, BrokenPairsWaitMinAgeAndSlotsAreReused) {
+  World w;
+  w.add_quanta(Vec3(0, 0, 0), Vec3::Zero(), 1e-3);
+  w.add_quanta(Vec3(0.005, 0, 0), Vec3::Zero(), 1e-3);
+  Simulation sim(std::move(w), default_integrator(), 1e-3);
+  sim.add_heuristic(make_form_heuristic({.capture_radius = 0.01, .min_age = 0.0045, .bond = {.stiffness = 10}}));
+  sim.step();
+  ASSERT_EQ(sim.world().num_bonds(), 1u);
+  sim.world().break_bond(0);  // at t = 1 ms
+  int rebond_step = -1;
+  for (int n = 1; n < 10 && rebond_step < 0; ++n) {
+    sim.step();
+    if (!sim.events().empty()) rebond_step = n;
+  }
+  // Broken at t = 1 ms; the step starting at t bonds once t > 1 ms + 4.5 ms: the one from 6 ms.
+  EXPECT_EQ(rebond_step, 6);
+  EXPECT_EQ(sim.world().num_bonds(), 1u);  // the broken slot, reused
+  EXPECT_TRUE(sim.world().state.alive[0]);
+}
+
+// What a rollback and a resume do: the model's formed bonds follow the state that carries them.
+TEST(Form, TheModelFollowsTheStateThatCarriesFormedBonds) {
+  Simulation sim(approaching(0.03, 0.001, 0.0), default_integrator(), 1e-3);
+  sim.add_heuristic(make_form_heuristic({.capture_radius = 0.002, .bond = {.stiffness = 10}}));
+  sim.step();
+  ASSERT_EQ(sim.world().num_bonds(), 1u);
+  // A state from before the bond was formed: syncing drops the model's bond with it.
+  World copy = sim.world();
+  copy.state.formed.clear();
+  copy.state.rest.clear();
+  copy.state.alive.clear();
+  copy.state.bond_time.clear();
+  copy.sync_formed_bonds();
+  EXPECT_EQ(copy.num_bonds(), 0u);
+  // And a saved state brings it back into a world built without it.
+  World fresh = approaching(0.03, 0.001, 0.0);
+  fresh.state = deserialize_state(serialize_state(sim.world().state));
+  fresh.sync_formed_bonds();
+  ASSERT_EQ(fresh.num_bonds(), 1u);
+  EXPECT_EQ(fresh.model.bond_i[0], sim.world().model.bond_i[0]);
+  EXPECT_EQ(fresh.model.stiffness[0], 10.0);
+}
+
+// Welding: a block moving into an anchored one welds to it on contact and then hangs from it;
+// formation changes no momentum.
+TEST(Form, WeldedBlocksHoldTogetherAndKeepMomentum) {
+  World w;
+  w.add_body("upper");
+  CubicLattice top;
+  top.size = {3, 3, 3};
+  top.bond = {.stiffness = 200, .damping = 0.05};
+  const auto upper = add_cubic_lattice(w, top);
+  CubicLattice low = top;
+  low.origin = Vec3(0, 0, -0.03);
+  low.velocity = Vec3(0, 0, 0.2);
+  const Index b1 = w.add_body("lower");
+  const auto lower = add_cubic_lattice(w, low, b1);
+  const Vec3 p0 = linear_momentum(w.model, w.state);
+  Simulation sim(std::move(w), default_integrator(), 1e-3);
+  sim.add_heuristic(make_form_heuristic({.capture_radius = 0.0105, .pairs = FormPairs::other_body,
+                                         .bond = {.stiffness = 200, .damping = 0.05}}));
+  std::size_t welds = 0;
+  for (int n = 0; n < 200; ++n) {
+    sim.step();
+    welds += sim.events().size();
+  }
+  EXPECT_GE(welds, 9u);  // the 3x3 facing quanta at least
+  EXPECT_NEAR((linear_momentum(sim.world().model, sim.world().state) - p0).norm(), 0, 1e-15);
+  // Now anchor the top and let gravity pull: the lower block hangs on the weld.
+  World& ww = sim.world();
+  std::vector<Index> top_face;
+  for (Index i : upper)
+    if (ww.state.x[i].z() > 0.015) top_face.push_back(i);
+  ww.prescribe(top_face, Motion{});
+  ww.model.gravity = Vec3(0, 0, -9.81);
+  for (int n = 0; n < 1000; ++n) sim.step();
+  double lowest = 0;
+  for (Index i : lower) lowest = std::min(lowest, ww.state.x[i].z());
+  EXPECT_GT(lowest, -0.06);  // still hanging (a free fall of 1 s would be ~5 m)
 }
 
 }  // namespace

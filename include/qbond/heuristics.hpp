@@ -12,9 +12,9 @@ namespace qbond {
 
 /// A change of topology, recorded for events.csv.
 struct BondEvent {
-  enum class Kind : std::uint8_t { broken };
-  /// Why: which threshold the bond passed.
-  enum class Reason : std::uint8_t { strain, compression, tension, ductility, stress, von_mises };
+  enum class Kind : std::uint8_t { broken, formed };
+  /// Why: which threshold a broken bond passed, or `capture` for a formed one.
+  enum class Reason : std::uint8_t { strain, compression, tension, ductility, stress, von_mises, capture };
   Kind kind = Kind::broken;
   Reason reason = Reason::strain;
   std::uint64_t step = 0;  ///< index of the step during which it happened
@@ -44,7 +44,7 @@ class Heuristic {
   /// Name used in scene files and logs.
   virtual std::string_view name() const = 0;
   /// Edits the projection and/or the state's bonds. Topology changes must go through
-  /// World::break_bond (which bumps state.topology_version).
+  /// World::break_bond or World::form_bond (which bump state.topology_version).
   virtual void apply(World& world, Projection& projection, const HeuristicContext& ctx) = 0;
 };
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "qbond/contacts.hpp"
+#include "qbond/formation.hpp"
 #include "qbond/fracture.hpp"
 #include "qbond/integrators.hpp"
 #include "qbond/simulation.hpp"
@@ -45,7 +46,7 @@ struct OutputSpec {
 };
 
 /// One entry of the scene's `heuristics` list.
-using HeuristicSpec = std::variant<BreakRule, PlasticRule, Obstacle, QuantaContactRule>;
+using HeuristicSpec = std::variant<BreakRule, PlasticRule, Obstacle, QuantaContactRule, FormRule>;
 /// Creates the heuristic an entry describes.
 std::unique_ptr<Heuristic> make_heuristic(const HeuristicSpec& spec);
 
