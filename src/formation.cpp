@@ -27,14 +27,20 @@ class FormHeuristic final : public Heuristic {
       build_adjacency(m, s, own_adj_);
       adj = &own_adj_;
     }
-    degree_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) degree_[i] = adj->offset[i + 1] - adj->offset[i];
-    // Pairs whose bond broke within min_age, and the broken formed slots to reuse (in order).
+    // Per quanta, its alive formed bonds; pairs whose bond broke within min_age; the broken
+    // formed slots to reuse, in order.
+    degree_.assign(n, 0);
     recent_.clear();
     free_.clear();
     const std::size_t first_formed = m.num_bonds() - s.formed.size();
     for (std::size_t b = 0; b < m.num_bonds(); ++b) {
-      if (s.alive[b]) continue;
+      if (s.alive[b]) {
+        if (b >= first_formed) {
+          ++degree_[m.bond_i[b]];
+          ++degree_[m.bond_j[b]];
+        }
+        continue;
+      }
       if (rule_.min_age > 0 && s.bond_time[b] > s.time - rule_.min_age) recent_.insert(pair_key(m.bond_i[b], m.bond_j[b]));
       if (b >= first_formed) free_.push_back(static_cast<Index>(b));
     }

@@ -24,7 +24,8 @@ enum class FormPairs : std::uint8_t {
 struct FormRule {
   double capture_radius = 0;  ///< [m]
   FormPairs pairs = FormPairs::any;
-  int max_bonds = 0;     ///< alive bonds a quanta may have for this rule to add one; 0: no limit
+  int max_bonds = 0;     ///< bonds made during the run a quanta may hold (the scene's own bonds
+                         ///< do not count); 0: no limit
   double min_age = 0;    ///< [s] a pair whose bond broke less than this ago does not bond again
   double rest_length = -1;  ///< [m]; negative: the distance at formation
   BondSpec bond{};          ///< law, stiffness, damping of the new bonds
