@@ -168,6 +168,19 @@ def test_events_resume_with_the_run():
         fail("events.csv of the resumed run differs from the uninterrupted one")
 
 
+def test_formed_bonds_resume_with_the_run():
+    """Bonds formed (and slots reused) before a checkpoint come back on resume: a liquid splash
+    resumed at its midpoint ends in the same bytes and the same events as the uninterrupted run."""
+    whole, halves = whole_and_halves("formed", "liquid_blob", 1200, 100)
+    ta = open(os.path.join(whole, "events.csv")).read()
+    tb = open(os.path.join(halves, "events.csv")).read()
+    kept = [l for l in ta.splitlines()[1:] if int(l.split(",")[0]) < 600]
+    if sum(",formed," in l for l in kept) < 10 or sum(",broken," in l for l in kept) < 10:
+        fail("liquid_blob forms and breaks too few bonds before the checkpoint to test anything")
+    if ta != tb:
+        fail("events.csv of the resumed run differs from the uninterrupted one")
+
+
 def test_corrupt_checkpoint():
     out = fresh("corrupt")
     qbond("run", "two_quanta", "--steps", "10", "--out", out, "-q", check_code=0)
