@@ -409,8 +409,8 @@ class Builder {
       const bool per = j.contains("quanta_mass");
       if (calibrated > 0) {
         if (per || j.contains("total_mass"))
-          bad(path, "the mass comes from material '" + j["material"].get<std::string>() +
-                        "''s density; drop 'quanta_mass'/'total_mass'");
+          bad(path, "the mass comes from the density of material '" + j["material"].get<std::string>() +
+                        "'; drop 'quanta_mass'/'total_mass'");
         res["quanta_mass"] = calibrated;
         return calibrated;
       }
