@@ -4,13 +4,16 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 
+#include "experiment.hpp"
 #include "qbond/analysis.hpp"
 #include "qbond/checkpoint.hpp"
 #include "qbond/runner.hpp"
@@ -231,6 +234,51 @@ int validate(const std::vector<std::string>& scenes) {
   return bad ? kExitBadInput : 0;
 }
 
+// `qbond experiment`: runs the paper's experiments (experiments/), writes their CSVs and
+// summaries, draws their plots with experiments/plot.py; exit 1 when a claim fails its check.
+struct ExperimentArgs {
+  std::vector<std::string> names;
+  bool fast = false, list = false, plots = true;
+  std::string out = "experiments/results";
+};
+
+int experiment(const ExperimentArgs& a) {
+  namespace ex = qbond::experiments;
+  if (a.list) {
+    for (const ex::Experiment& e : ex::all()) std::printf("%-10s %s\n", e.name, e.title);
+    return 0;
+  }
+  std::vector<const ex::Experiment*> chosen;
+  for (const std::string& n : a.names) {
+    if (n == "all") {
+      for (const ex::Experiment& e : ex::all()) chosen.push_back(&e);
+      continue;
+    }
+    const auto it = std::find_if(ex::all().begin(), ex::all().end(), [&](const ex::Experiment& e) { return n == e.name; });
+    if (it == ex::all().end()) throw std::invalid_argument("unknown experiment '" + n + "' (see --list)");
+    chosen.push_back(&*it);
+  }
+  int failed = 0;
+  for (const ex::Experiment* e : chosen) {
+    std::printf("%s: %s%s\n", e->name, e->title, a.fast ? " (fast)" : "");
+    const std::filesystem::path dir = std::filesystem::path(a.out) / e->name;
+    ex::Report rep(dir);
+    e->run({a.fast, dir}, rep);
+    rep.write(e->title);
+    if (!rep.passed()) ++failed;
+    if (a.plots) {
+      const std::string cmd = std::string(QBOND_PYTHON) + " " + QBOND_SOURCE_DIR + "/experiments/plot.py " + e->name +
+                              " '" + dir.string() + "'";
+      if (std::system(cmd.c_str()) != 0) {
+        std::fprintf(stderr, "qbond: %s: drawing the plots failed (%s)\n", e->name, cmd.c_str());
+        ++failed;
+      }
+    }
+    std::printf("  -> %s\n", dir.string().c_str());
+  }
+  return failed ? kExitFailure : 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -269,6 +317,13 @@ int main(int argc, char** argv) {
   std::vector<std::string> to_validate;
   CLI::App* validate_cmd = app.add_subcommand("validate", "check scene files and print their summaries");
   validate_cmd->add_option("scenes", to_validate, "scene files or built-in scene names")->required();
+  ExperimentArgs ea;
+  CLI::App* experiment_cmd = app.add_subcommand("experiment", "reproduce the paper's experiments (docs/experiments.md)");
+  experiment_cmd->add_option("names", ea.names, "experiments to run, or 'all'");
+  experiment_cmd->add_flag("--list", ea.list, "list the experiments");
+  experiment_cmd->add_flag("--fast", ea.fast, "smaller sizes and fewer steps (what CI runs)");
+  experiment_cmd->add_option("-o,--out", ea.out, "results directory (default: experiments/results)");
+  experiment_cmd->add_flag("!--no-plots", ea.plots, "write the CSVs and summaries only");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -278,6 +333,10 @@ int main(int argc, char** argv) {
   try {
     if (run_cmd->parsed()) return run(o);
     if (validate_cmd->parsed()) return validate(to_validate);
+    if (experiment_cmd->parsed()) {
+      if (ea.names.empty() && !ea.list) throw std::invalid_argument("name an experiment (or 'all'; see --list)");
+      return experiment(ea);
+    }
   } catch (const qbond::SceneError& e) {
     std::fprintf(stderr, "qbond: %s\n", e.what());
     return kExitBadInput;

@@ -1,0 +1,64 @@
+#include "experiment.hpp"
+
+#include <cstdio>
+
+#include "qbond/files.hpp"
+
+namespace qbond::experiments {
+
+void Report::table(const std::string& name, const std::string& header) { tables_.emplace_back(name, header + "\n"); }
+
+void Report::row(std::initializer_list<double> values) {
+  std::string& t = tables_.back().second;
+  char buf[32];
+  bool first = true;
+  for (double v : values) {
+    std::snprintf(buf, sizeof buf, first ? "%.17g" : ",%.17g", v);
+    t += buf;
+    first = false;
+  }
+  t += '\n';
+}
+
+void Report::row(const std::string& label, std::initializer_list<double> values) {
+  std::string& t = tables_.back().second;
+  t += label;
+  char buf[32];
+  for (double v : values) {
+    std::snprintf(buf, sizeof buf, ",%.17g", v);
+    t += buf;
+  }
+  t += '\n';
+}
+
+void Report::note(const std::string& line) { lines_.push_back(line); }
+
+void Report::check(const std::string& claim, bool ok) {
+  lines_.push_back(std::string(ok ? "- **pass**: " : "- **FAIL**: ") + claim);
+  if (!ok) ++failed_;
+  std::printf("  %s %s\n", ok ? "pass" : "FAIL", claim.c_str());
+}
+
+void Report::write(const std::string& title) const {
+  std::filesystem::create_directories(out_);
+  for (const auto& [name, content] : tables_) write_file_atomic(out_ / name, content);
+  std::string md = "# " + title + "\n\n";
+  for (const std::string& l : lines_) md += l + "\n";
+  write_file_atomic(out_ / "summary.md", md);
+}
+
+std::span<const Experiment> all() {
+  static const Experiment list[] = {
+      {"fig4_5", "Figures 4-5: two bonded quanta against the exact solution", fig4_5},
+      {"fig6_7", "Figures 6-7: energy of four bonded quanta", fig6_7},
+  };
+  return list;
+}
+
+std::string num(double v, int digits) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+
+}  // namespace qbond::experiments

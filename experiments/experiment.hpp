@@ -1,0 +1,58 @@
+#pragma once
+// The paper's experiments (docs/experiments.md): each one computes its data, writes it as CSV
+// into its output directory with a summary.md of its claims, and checks each claim against
+// theory or the paper with a number; experiments/plot.py draws the PNGs from the CSVs.
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace qbond::experiments {
+
+struct Options {
+  bool fast = false;              ///< smaller sizes and fewer steps (CI)
+  std::filesystem::path out;      ///< where the CSVs and summary.md go
+};
+
+/// What an experiment found: CSV tables, notes and checked claims, written to `out`.
+class Report {
+ public:
+  explicit Report(std::filesystem::path out) : out_(std::move(out)) {}
+  /// Starts a CSV file `name` (in the output directory) with this header line.
+  void table(const std::string& name, const std::string& header);
+  /// Appends a row of numbers (17 significant digits) to the last table started.
+  void row(std::initializer_list<double> values);
+  /// Appends a row whose first field is text.
+  void row(const std::string& label, std::initializer_list<double> values);
+  /// A line of the summary (Markdown).
+  void note(const std::string& line);
+  /// A claim and whether the numbers bear it out; failed claims fail the experiment.
+  void check(const std::string& claim, bool ok);
+  bool passed() const { return failed_ == 0; }
+  /// Writes the tables and summary.md (title, notes, checks) atomically.
+  void write(const std::string& title) const;
+
+ private:
+  std::filesystem::path out_;
+  std::vector<std::pair<std::string, std::string>> tables_;  // file name, content
+  std::vector<std::string> lines_;
+  int failed_ = 0;
+};
+
+struct Experiment {
+  const char* name;
+  const char* title;
+  void (*run)(const Options&, Report&);
+};
+
+/// Every experiment, in the order of the paper.
+std::span<const Experiment> all();
+
+// The experiments (one file each, or one per pair of figures).
+void fig4_5(const Options&, Report&);
+void fig6_7(const Options&, Report&);
+
+/// "%.4g"-style formatting for summaries.
+std::string num(double v, int digits = 4);
+
+}  // namespace qbond::experiments

@@ -1,0 +1,69 @@
+#!/usr/bin/python3
+"""Draws the plots of an experiment from its CSVs: experiments/plot.py NAME DIR.
+
+Run by `qbond experiment`; uses Debian's python3-matplotlib.
+"""
+import csv
+import os
+import sys
+from collections import defaultdict
+
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+
+def series(path, x, y, key="method"):
+    """Rows of a CSV grouped by `key`: {key: (xs, ys)}."""
+    out = defaultdict(lambda: ([], []))
+    with open(path) as f:
+        for r in csv.DictReader(f):
+            xs, ys = out[r[key]]
+            xs.append(float(r[x]))
+            ys.append(float(r[y]))
+    return out
+
+
+def save(fig, d, name):
+    fig.tight_layout()
+    fig.savefig(os.path.join(d, name), dpi=110)
+    plt.close(fig)
+
+
+def fig4_5(d):
+    for fig_no, title in (("4", "small timestep (h = 1 ms)"), ("5", "large timestep (h = 0.25 s)")):
+        data = series(os.path.join(d, f"fig{fig_no}_velocity.csv"), "time", "relative_velocity")
+        with open(os.path.join(d, f"fig{fig_no}_exact.csv")) as f:
+            exact = [(float(r["time"]), float(r["relative_velocity"])) for r in csv.DictReader(f)]
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        ax.plot([t for t, _ in exact], [e for _, e in exact], "k-", lw=2.5, alpha=0.35, label="exact")
+        amp = max(abs(e) for _, e in exact)
+        sparse = fig_no == "5"  # a few steps per period: mark the samples
+        for m, (t, w) in data.items():
+            ax.plot(t, w, "o-" if sparse else "-", ms=3, lw=1, label=m)
+        ax.set_ylim(-2.5 * amp, 2.5 * amp)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("relative velocity [m/s]")
+        ax.set_title(f"Figure {fig_no}: two bonded quanta, {title}")
+        ax.legend(fontsize=8, loc="upper right")
+        save(fig, d, f"fig{fig_no}.png")
+
+
+def fig6_7(d):
+    for fig_no, title in (("6", "small timestep (h = 1 ms)"), ("7", "large timestep (h = 0.1 s)")):
+        data = series(os.path.join(d, f"fig{fig_no}_energy.csv"), "time", "total_energy")
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        e0 = next(iter(data.values()))[1][0]
+        for m, (t, e) in data.items():
+            ax.plot(t, e, lw=1, label=m)
+        ax.set_ylim(0, 1.6 * e0)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("total energy [J]")
+        ax.set_title(f"Figure {fig_no}: four bonded quanta, {title}")
+        ax.legend(fontsize=8, loc="upper right")
+        save(fig, d, f"fig{fig_no}.png")
+
+
+if __name__ == "__main__":
+    name, d = sys.argv[1], sys.argv[2]
+    globals()[name](d)
