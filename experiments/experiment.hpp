@@ -51,6 +51,8 @@ std::span<const Experiment> all();
 // The experiments (one file each, or one per pair of figures).
 void fig4_5(const Options&, Report&);
 void fig6_7(const Options&, Report&);
+void eq14_15(const Options&, Report&);
+void cantilever(const Options&, Report&);
 
 /// "%.4g"-style formatting for summaries.
 std::string num(double v, int digits = 4);

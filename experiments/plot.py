@@ -64,6 +64,34 @@ def fig6_7(d):
         save(fig, d, f"fig{fig_no}.png")
 
 
+def eq14_15(d):
+    with open(os.path.join(d, "dynamics.csv")) as f:
+        rows = [(float(r["time"]), float(r["full_end"]), float(r["reduced_end"])) for r in csv.DictReader(f)]
+    fig, ax = plt.subplots(figsize=(8, 4))
+    ax.plot([r[0] for r in rows], [1e3 * r[1] for r in rows], lw=3, alpha=0.4, label="chain of 5 bonds (full)")
+    ax.plot([r[0] for r in rows], [1e3 * r[2] for r in rows], "k--", lw=1, label="one bond, Eq. 14 + Rayleigh end mass")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("end displacement [mm]")
+    ax.set_title("Eq. 14: a series chain and the one bond that replaces it, free vibration")
+    ax.legend(fontsize=8)
+    save(fig, d, "eq14_15.png")
+
+
+def cantilever(d):
+    with open(os.path.join(d, "deflection.csv")) as f:
+        rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+    n = [r["quanta_across"] for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(n, [1e6 * r["lattice"] for r in rows], "o-", label="lattice (exact static, K u = f)")
+    ax.axhline(1e6 * rows[0]["timoshenko"], color="k", ls="--", lw=1, label="Timoshenko")
+    ax.axhline(1e6 * rows[0]["euler_bernoulli"], color="gray", ls=":", lw=1, label="Euler-Bernoulli")
+    ax.set_xlabel("quanta across the section")
+    ax.set_ylabel("tip deflection [µm]")
+    ax.set_title("Cantilever: calibrated steel lattice vs beam theory")
+    ax.legend(fontsize=8)
+    save(fig, d, "cantilever.png")
+
+
 if __name__ == "__main__":
     name, d = sys.argv[1], sys.argv[2]
     globals()[name](d)
