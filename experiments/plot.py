@@ -92,6 +92,35 @@ def cantilever(d):
     save(fig, d, "cantilever.png")
 
 
+def drag(d):
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    for ax, (name, title, ylabel) in zip(axes[:2], (("fall", "free fall under gravity", "downward velocity [m/s]"),
+                                                    ("thrown", "thrown sideways at 1 m/s", "velocity [m/s]"))):
+        data = series(os.path.join(d, f"{name}.csv"), "time", "velocity")
+        for m, (t, v) in data.items():
+            ax.plot(t, v, lw=1.5 if m == "hybrid_frozen" else 1, ls="-" if m != "velocity_verlet" else "--", label=m)
+        if name == "fall":
+            t = next(iter(data.values()))[0]
+            ax.plot(t, [9.81 * x for x in t], "k:", lw=1, label="g t")
+        ax.set_title(title)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel(ylabel)
+        ax.legend(fontsize=7)
+    ax = axes[2]
+    with open(os.path.join(d, "pendulum.csv")) as f:
+        rows = list(csv.DictReader(f))
+    for key in sorted({(r["method"], r["timestep"]) for r in rows}, key=lambda k: (float(k[1]), k[0])):
+        pts = [(float(r["time"]), float(r["energy_fraction"])) for r in rows if (r["method"], r["timestep"]) == key]
+        ax.plot([p[0] for p in pts], [p[1] for p in pts], lw=1, ls="-" if float(key[1]) < 1e-3 else "--",
+                label=f"{key[0]}, h = {float(key[1]):.3g} s")
+    ax.set_ylim(0, 1.3)
+    ax.set_title("pendulum: swing energy left")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("E / E(0)")
+    ax.legend(fontsize=7)
+    save(fig, d, "drag.png")
+
+
 if __name__ == "__main__":
     name, d = sys.argv[1], sys.argv[2]
     globals()[name](d)
