@@ -121,6 +121,21 @@ def drag(d):
     save(fig, d, "drag.png")
 
 
+def fig10(d):
+    x = series(os.path.join(d, "trajectory.csv"), "time", "cube_x")
+    ln = series(os.path.join(d, "trajectory.csv"), "time", "rope_length")
+    fig, (a, b) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    for m in x:
+        a.plot(*x[m], lw=1, label=m)
+        b.plot(*ln[m], lw=1, label=m)
+    a.set_ylabel("cube x [m]")
+    a.set_title("Figure 10: the pendulum swinging, then tugged down (scripted force)")
+    b.set_ylabel("pivot-cube distance [m]")
+    b.set_xlabel("time [s]")
+    a.legend(fontsize=8)
+    save(fig, d, "fig10.png")
+
+
 if __name__ == "__main__":
     name, d = sys.argv[1], sys.argv[2]
     globals()[name](d)
