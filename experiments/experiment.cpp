@@ -53,6 +53,7 @@ std::span<const Experiment> all() {
       {"fig4_5", "Figures 4-5: two bonded quanta against the exact solution", fig4_5},
       {"fig6_7", "Figures 6-7: energy of four bonded quanta", fig6_7},
       {"eq14_15", "Eqs. 14-15: bonds in series and in parallel reduced to one", eq14_15},
+      {"fig9", "Figure 9: von Mises stress in a loaded block", fig9},
       {"fig10", "Figure 10: the pendulum, swinging and tugged", fig10},
       {"cantilever", "Cantilever: a calibrated lattice beam against beam theory", cantilever},
   };

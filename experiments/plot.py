@@ -136,6 +136,27 @@ def fig10(d):
     save(fig, d, "fig10.png")
 
 
+def fig9(d):
+    with open(os.path.join(d, "midplane.csv")) as f:
+        pts = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+    with open(os.path.join(d, "bending.csv")) as f:
+        bend = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+    fig, (a, b) = plt.subplots(2, 1, figsize=(9, 6.5))
+    sc = a.scatter([p["x"] for p in pts], [p["z"] for p in pts], c=[p["von_mises"] / 1e6 for p in pts],
+                   cmap="jet", s=30, marker="s")
+    fig.colorbar(sc, ax=a, label="von Mises [MPa]")
+    a.set_aspect("equal")
+    a.set_title("Figure 9: von Mises stress, mid-plane of a block clamped at x = 0, loaded down at the right")
+    a.set_xlabel("x [m]")
+    a.set_ylabel("z [m]")
+    b.plot([r["x"] for r in bend], [r["lattice_sxx"] / 1e6 for r in bend], "o", ms=3, label="lattice (second layer from top)")
+    b.plot([r["x"] for r in bend], [r["beam_theory"] / 1e6 for r in bend], "k-", lw=1, label="beam theory M z / I")
+    b.set_xlabel("x [m]")
+    b.set_ylabel("sigma_xx [MPa]")
+    b.legend(fontsize=8)
+    save(fig, d, "fig9.png")
+
+
 if __name__ == "__main__":
     name, d = sys.argv[1], sys.argv[2]
     globals()[name](d)

@@ -29,6 +29,8 @@ double free_norm(const Model& model, const std::vector<Vec3>& f) {
   return std::sqrt(s);
 }
 
+constexpr Eigen::Index kDirectLimit = 60000;
+
 }  // namespace
 
 Eigen::SparseMatrix<double> stiffness_matrix(const Model& model, const State& state, std::vector<Eigen::Index>& dof) {
@@ -89,17 +91,19 @@ StaticResult solve_static(World& world, double tolerance, int max_iterations) {
     Eigen::VectorXd rhs(K.rows());
     for (std::size_t i = 0; i < n; ++i)
       if (dof[i] >= 0) rhs.segment<3>(dof[i]) = f[i];
-    // K dx = f, so that f(x + dx) ≈ f - K dx = 0. Preconditioned CG first (fast on large
-    // blocks); where K is not positive definite (compressed bonds' geometric stiffness, loose
-    // directions) it fails and LDLᵀ takes over, with a shift far below any physical stiffness so
-    // that directions that resist nothing and carry no force (a straight chain sideways) stay put.
-    cg.setTolerance(std::max(0.01 * tolerance, 1e-15));
-    cg.compute(K);
-    Eigen::VectorXd dx = cg.solve(rhs);
-    if (cg.info() != Eigen::Success || !dx.allFinite()) {
+    // K dx = f, so that f(x + dx) ≈ f - K dx = 0. Sparse LDLᵀ up to kDirectLimit unknowns (fast
+    // and exact there, and indefinite K from compressed bonds is fine), with a shift far below
+    // any physical stiffness so that directions that resist nothing and carry no force (a
+    // straight chain sideways) stay put; beyond, whose fill-in would not fit, preconditioned CG.
+    Eigen::VectorXd dx;
+    if (K.rows() <= kDirectLimit) {
       ldlt.setShift(1e-12 * K.diagonal().cwiseAbs().maxCoeff());
       ldlt.compute(K);
       dx = ldlt.solve(rhs);
+    } else {
+      cg.setTolerance(std::max(0.01 * tolerance, 1e-15));
+      cg.compute(K);
+      dx = cg.solve(rhs);
     }
     if (!dx.allFinite()) break;
     // Backtrack until the residual drops (large rotations can overshoot a full Newton step).
