@@ -55,6 +55,7 @@ std::span<const Experiment> all() {
       {"eq14_15", "Eqs. 14-15: bonds in series and in parallel reduced to one", eq14_15},
       {"fig9", "Figure 9: von Mises stress in a loaded block", fig9},
       {"fig10", "Figure 10: the pendulum, swinging and tugged", fig10},
+      {"fig11", "Figure 11: the twisted bar against GetFEM and Saint-Venant", fig11},
       {"cantilever", "Cantilever: a calibrated lattice beam against beam theory", cantilever},
   };
   return list;

@@ -12,6 +12,8 @@ namespace qbond::experiments {
 struct Options {
   bool fast = false;              ///< smaller sizes and fewer steps (CI)
   std::filesystem::path out;      ///< where the CSVs and summary.md go
+  std::string python;             ///< Debian's Python, for the experiments that drive a Python tool
+  std::filesystem::path scripts;  ///< the experiments/ source directory (its Python scripts)
 };
 
 /// What an experiment found: CSV tables, notes and checked claims, written to `out`.
@@ -56,6 +58,7 @@ void eq14_15(const Options&, Report&);
 void cantilever(const Options&, Report&);
 void fig9(const Options&, Report&);
 void fig10(const Options&, Report&);
+void fig11(const Options&, Report&);
 
 /// "%.4g"-style formatting for summaries.
 std::string num(double v, int digits = 4);

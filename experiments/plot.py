@@ -157,6 +157,42 @@ def fig9(d):
     save(fig, d, "fig9.png")
 
 
+def fig11(d):
+    def rows(name):
+        with open(os.path.join(d, name)) as f:
+            return [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+    fem = rows("getfem.csv")[-1]["torque"]
+    theta = 0.01
+    ta, ref = rows("torque_angle.csv"), rows("refinement.csv")
+    site, at = rows("lattice_displacement.csv"), rows("getfem_at_sites.csv")
+    fig, (a, b, c) = plt.subplots(1, 3, figsize=(15, 4.2))
+    a.plot([r["theta"] for r in ta], [r["lattice_torque"] for r in ta], "o-", label="lattice (finest)")
+    a.plot([0, ta[-1]["theta"]], [0, fem / theta * ta[-1]["theta"]], "k--", lw=1, label="GetFEM (linear elasticity)")
+    a.set_xlabel("twist angle [rad]")
+    a.set_ylabel("torque [N m]")
+    a.set_title("Figure 11: torque against twist")
+    a.legend(fontsize=8)
+    n = [r["quanta_across"] for r in ref]
+    b.loglog(n, [abs(r["lattice_stiffness"] / (fem / theta) - 1) for r in ref], "o-", label="|T_lattice / T_GetFEM - 1|")
+    e0 = abs(ref[0]["lattice_stiffness"] / (fem / theta) - 1)
+    b.loglog(n, [e0 * n[0] / x for x in n], "k:", lw=1, label="slope 1/n")
+    b.set_xlabel("quanta across")
+    b.set_ylabel("relative torque error")
+    b.set_title("refinement")
+    b.legend(fontsize=8)
+    # The end section's displacement (quanta at the largest x), lattice arrows over GetFEM's.
+    xmax = max(r["x"] for r in site)
+    for s_, f_ in zip(site, at):
+        if abs(s_["x"] - 0.5 * xmax) < 1e-9 or abs(s_["x"] - xmax / 2) < (xmax / 100):
+            c.arrow(s_["y"], s_["z"], 20 * f_["uy"], 20 * f_["uz"], color="0.6", width=1e-5, head_width=4e-4)
+            c.arrow(s_["y"], s_["z"], 20 * s_["uy"], 20 * s_["uz"], color="C0", width=4e-6, head_width=2e-4)
+    c.set_aspect("equal")
+    c.set_title("mid-length section, displacement x20\n(blue: lattice, grey: GetFEM)", fontsize=10)
+    c.set_xlabel("y [m]")
+    c.set_ylabel("z [m]")
+    save(fig, d, "fig11.png")
+
+
 if __name__ == "__main__":
     name, d = sys.argv[1], sys.argv[2]
     globals()[name](d)

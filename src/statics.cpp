@@ -2,6 +2,7 @@
 
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/SparseCholesky>
+#include <algorithm>
 #include <cmath>
 
 namespace qbond {
@@ -74,12 +75,14 @@ StaticResult solve_static(World& world, double tolerance, int max_iterations) {
   for (std::size_t i = 0; i < n; ++i) f_ext[i] = model.mass[i] * model.gravity;
   for (const Load& load : model.loads)
     for (Index i : load.quanta) f_ext[i] += load.force / static_cast<double>(load.quanta.size());
-  const double scale = std::max(free_norm(model, f_ext), 1e-300);
   for (std::size_t i = 0; i < n; ++i)
     if (!model.is_kinematic(static_cast<Index>(i))) state.v[i].setZero();
 
   StaticResult res;
   net_forces(model, state, f_ext, f);
+  // Relative to the loads, or, when there are none (a structure strained by its anchors), to
+  // the net force the start state has.
+  const double scale = std::max({free_norm(model, f_ext), free_norm(model, f), 1e-300});
   res.residual = free_norm(model, f) / scale;
   std::vector<Eigen::Index> dof;
   Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper,

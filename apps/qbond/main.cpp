@@ -263,7 +263,7 @@ int experiment(const ExperimentArgs& a) {
     std::printf("%s: %s%s\n", e->name, e->title, a.fast ? " (fast)" : "");
     const std::filesystem::path dir = std::filesystem::path(a.out) / e->name;
     ex::Report rep(dir);
-    e->run({a.fast, dir}, rep);
+    e->run({a.fast, dir, QBOND_PYTHON, std::filesystem::path(QBOND_SOURCE_DIR) / "experiments"}, rep);
     rep.write(e->title);
     if (!rep.passed()) ++failed;
     if (a.plots) {

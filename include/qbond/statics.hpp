@@ -17,7 +17,8 @@ Eigen::SparseMatrix<double> stiffness_matrix(const Model& model, const State& st
 /// How solve_static ended.
 struct StaticResult {
   int iterations = 0;
-  double residual = 0;  ///< ‖net force on free quanta‖ / ‖external force‖ at the end
+  double residual = 0;  ///< ‖net force on free quanta‖ at the end over the larger of ‖external
+                        ///< force‖ and the start's ‖net force‖
   bool converged = false;
 };
 
