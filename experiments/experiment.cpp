@@ -50,6 +50,7 @@ void Report::write(const std::string& title) const {
 std::span<const Experiment> all() {
   static const Experiment list[] = {
       {"drag", "Drag: the paper's hybrid is not Galilean invariant", drag},
+      {"fig3", "Figure 3: time per step against the number of quanta", fig3},
       {"fig4_5", "Figures 4-5: two bonded quanta against the exact solution", fig4_5},
       {"fig6_7", "Figures 6-7: energy of four bonded quanta", fig6_7},
       {"eq14_15", "Eqs. 14-15: bonds in series and in parallel reduced to one", eq14_15},

@@ -52,6 +52,7 @@ std::span<const Experiment> all();
 
 // The experiments (one file each, or one per pair of figures).
 void drag(const Options&, Report&);
+void fig3(const Options&, Report&);
 void fig4_5(const Options&, Report&);
 void fig6_7(const Options&, Report&);
 void eq14_15(const Options&, Report&);

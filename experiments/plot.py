@@ -193,6 +193,19 @@ def fig11(d):
     save(fig, d, "fig11.png")
 
 
+def fig3(d):
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    for ax, name, title in ((axes[0], "chain", "chain grown by 2 quanta (the paper's run)"),
+                            (axes[1], "lattice", "3D lattices")):
+        for m, (n, t) in series(os.path.join(d, f"{name}.csv"), "quanta", "seconds_per_step").items():
+            ax.loglog(n, [1e3 * x for x in t], "o-", ms=3, lw=1, label=m)
+        ax.set_xlabel("quanta")
+        ax.set_ylabel("time per step [ms]")
+        ax.set_title(f"Figure 3: {title}")
+        ax.legend(fontsize=8)
+    save(fig, d, "fig3.png")
+
+
 if __name__ == "__main__":
     name, d = sys.argv[1], sys.argv[2]
     globals()[name](d)
