@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "lattice.hpp"
+
 namespace qbond {
 
 std::vector<Index> add_cubic_lattice(World& world, const CubicLattice& s, Index body) {
@@ -15,12 +17,7 @@ std::vector<Index> add_cubic_lattice(World& world, const CubicLattice& s, Index 
       for (int x = 0; x < nx; ++x)
         ids.push_back(world.add_quanta(s.origin + s.spacing * Vec3(x, y, z), s.velocity, s.quanta_mass, body));
   auto id = [&](int x, int y, int z) { return ids[static_cast<std::size_t>((z * ny + y) * nx + x)]; };
-  // Half of each shell's offsets, so every pair is bonded once.
-  std::vector<std::array<int, 3>> offsets = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  if (s.shells >= Shells::face_diagonal)
-    offsets.insert(offsets.end(), {{1, 1, 0}, {1, -1, 0}, {1, 0, 1}, {1, 0, -1}, {0, 1, 1}, {0, 1, -1}});
-  if (s.shells >= Shells::body_diagonal)
-    offsets.insert(offsets.end(), {{1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {1, -1, -1}});
+  const std::vector<std::array<int, 3>> offsets = half_shell_offsets(s.shells);
   BondSpec spec = s.bond;
   spec.rest_length = -1;
   for (int z = 0; z < nz; ++z)
