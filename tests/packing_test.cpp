@@ -1,5 +1,5 @@
 // Packings and geometry (packing.hpp): Poisson-disk and random points, bonds within a radius,
-// the OBJ/STL readers, the closed-mesh check, voxelisation.
+// the OBJ/STL readers, the closed-mesh check, voxelisation, and the scene's packing/mesh bodies.
 #include "qbond/packing.hpp"
 
 #include <gtest/gtest.h>
@@ -14,6 +14,8 @@
 #include <numbers>
 
 #include "qbond/files.hpp"
+#include "qbond/samples.hpp"
+#include "qbond/scene.hpp"
 
 namespace qbond {
 namespace {
@@ -505,10 +507,110 @@ TEST(MeshLattice, TheProjectsTorusFillsItsVolume) {
   }
 }
 
-TEST(MeshLattice, TheProjectsMeshesAreClosed) {
+TEST(MeshLattice, TheProjectsMeshesAreClosedAndBuiltIn) {
+  std::size_t found = 0;
   for (const char* name : {"torus.obj", "tetrahedron.stl", "blob.stl"}) {
-    EXPECT_NO_THROW(check_closed(read_mesh(kScenes / "meshes" / name), name));
+    const fs::path file = kScenes / "meshes" / name;
+    EXPECT_NO_THROW(check_closed(read_mesh(file), name));
+    for (const BuiltinFile& f : builtin_files())
+      if (f.path == std::string("meshes/") + name) {
+        ++found;
+        EXPECT_EQ(f.data, read_file(file)) << name << ": the built-in copy differs from the file";
+      }
   }
+  EXPECT_EQ(found, 3u);
+}
+
+// -------------------------------------------------------------------------------------- scenes
+
+const char* kPackingScene = R"({
+  "timestep": 0.001, "steps": 10, "seed": 4,
+  "materials": {"m": {"stiffness": 100}},
+  "bodies": [
+    {"name": "block", "type": "packing", "points": "poisson", "size": [0.1, 0.05, 0.05], "min_distance": 0.01,
+     "bond_radius": 0.017, "material": "m", "total_mass": 0.2, "origin": [0, 0, 1]},
+    {"name": "flat", "type": "packing", "points": "random", "size": [0.1, 0.1, 0], "count": 40,
+     "min_distance": 0.005, "bond_radius": 0.04, "isolated": "keep", "seed": 9, "material": "m", "quanta_mass": 0.01}
+  ]
+})";
+
+TEST(PackingScene, BuildsThePackingAndItsResolvedSceneRebuildsIt) {
+  const Scene s = parse_scene(kPackingScene);
+  const World& w = s.world;
+  PointPacking p = poisson(Vec3(0.1, 0.05, 0.05), 0.01, 4);  // the scene's seed
+  const auto x = sample_points(p);
+  std::size_t block = 0, mass_sum_ok = 0;
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) block += w.model.body[i] == 0;
+  ASSERT_EQ(block, x.size());
+  for (std::size_t i = 0; i < block; ++i) {
+    EXPECT_EQ(w.state.x[i], x[i] + Vec3(0, 0, 1));
+    mass_sum_ok += std::abs(w.model.mass[i] - 0.2 / static_cast<double>(block)) < 1e-15;
+  }
+  EXPECT_EQ(mass_sum_ok, block);
+  EXPECT_EQ(w.num_quanta() - block, 40u);  // "keep": all 40 random points
+  const nlohmann::json& r = s.resolved["bodies"];
+  EXPECT_EQ(r[0]["seed"], 4);
+  EXPECT_EQ(r[0]["isolated"], "drop");
+  EXPECT_EQ(r[0]["count"], 0);
+  EXPECT_EQ(r[1]["seed"], 9);
+  const Scene again = parse_scene(s.resolved.dump());
+  ASSERT_EQ(again.world.num_quanta(), w.num_quanta());
+  ASSERT_EQ(again.world.num_bonds(), w.num_bonds());
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) EXPECT_EQ(again.world.state.x[i], w.state.x[i]);
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) EXPECT_EQ(again.world.state.rest[b], w.state.rest[b]);
+}
+
+TEST(MeshScene, FileIsRelativeToTheSceneAndResolvedToAnAbsolutePath) {
+  const fs::path d = temp_dir("scene");
+  fs::create_directories(d / "shapes");
+  write(d / "shapes" / "cube.stl", binary_stl(unit_cube(0.1), "cube"));
+  write(d / "drop.json", R"({
+    "timestep": 0.001, "steps": 10,
+    "materials": {"m": {"stiffness": 100}},
+    "bodies": [{"name": "cube", "type": "mesh", "file": "shapes/cube.stl", "spacing": 0.01,
+                "neighbors": "nearest", "material": "m", "total_mass": 1}]
+  })");
+  const Scene s = load_scene(d / "drop.json");
+  EXPECT_EQ(s.world.num_quanta(), 1000u);
+  EXPECT_EQ(s.world.num_bonds(), 3u * 10 * 10 * 9);
+  EXPECT_DOUBLE_EQ(s.world.model.mass[0], 1e-3);
+  const std::string file = s.resolved["bodies"][0]["file"];
+  EXPECT_EQ(fs::path(file), fs::absolute(d / "shapes" / "cube.stl").lexically_normal());
+  EXPECT_EQ(s.resolved["bodies"][0]["scale"], 1.0);
+  EXPECT_EQ(s.resolved["bodies"][0]["neighbors"], "nearest");
+  // The resolved scene (what run.json and checkpoints keep) loads from anywhere.
+  EXPECT_EQ(parse_scene(s.resolved.dump()).world.num_bonds(), s.world.num_bonds());
+  // From a string, relative paths are relative to the current directory: not found here.
+  const std::string text = read_file(d / "drop.json");
+  const std::string e = error_of<SceneError>([&] { parse_scene(text, "drop"); });
+  EXPECT_TRUE(contains(e, "bodies[0].file: cannot read 'shapes/cube.stl': no such file (looked for ")) << e;
+  fs::remove_all(d);
+}
+
+TEST(MeshScene, BuiltInScenesReadTheBuiltInMeshes) {
+  const Scene s = builtin_scene("mesh_drop");
+  EXPECT_GT(s.world.num_quanta(), 100u);
+  bool mesh = false;
+  for (const auto& b : s.resolved["bodies"])
+    if (b["type"] == "mesh") {
+      mesh = true;
+      EXPECT_TRUE(b["file"].get<std::string>().starts_with("builtin:meshes/")) << b["file"];
+    }
+  EXPECT_TRUE(mesh);
+  // The resolved scene names the built-in file, so a resumed run finds it from anywhere.
+  EXPECT_EQ(parse_scene(s.resolved.dump()).world.num_quanta(), s.world.num_quanta());
+  // And the same scene from its file reads scenes/meshes/ on disk: the same world.
+  const Scene f = load_scene(kScenes / "mesh_drop.json");
+  ASSERT_EQ(f.world.num_quanta(), s.world.num_quanta());
+  for (std::size_t i = 0; i < s.world.num_quanta(); ++i) EXPECT_EQ(f.world.state.x[i], s.world.state.x[i]);
+  const std::string e = error_of<SceneError>([] {
+    parse_scene(R"({"timestep": 1, "steps": 1, "materials": {"m": {"stiffness": 1}},
+      "bodies": [{"name": "b", "type": "mesh", "file": "builtin:meshes/cow.obj", "spacing": 0.01,
+                  "material": "m", "quanta_mass": 1}]})");
+  });
+  EXPECT_TRUE(
+      contains(e, "bodies[0].file: no built-in file 'meshes/cow.obj' (built-in files, from scenes/: "))
+      << e;
 }
 
 }  // namespace
