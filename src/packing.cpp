@@ -38,16 +38,20 @@ std::size_t pick(Rng& rng, std::size_t n) {
   return std::min(n - 1, static_cast<std::size_t>(rng.uniform() * static_cast<double>(n)));
 }
 
-/// A dense background grid of cell r over the box, for "is an accepted point closer than r to
-/// p?": such a point lies in the 27 cells around p's. Each cell heads a list of its points
-/// (4 bytes a cell and a point).
+/// A dense background grid over the box for "is an accepted point closer than r to p?": with
+/// cells of at least r such a point lies in the 27 cells around p's. Each cell heads a list of
+/// its points (4 bytes a cell and a point). The cell size changes the speed, never the answer.
 class DiskGrid {
  public:
-  DiskGrid(const Vec3& size, double cell, bool flat) : cell_(cell) {
+  /// Cells of side max(r, the side that gives about one cell per expected point).
+  DiskGrid(const Vec3& size, double r, double expected_points, bool flat) {
+    const double volume = flat ? size.x() * size.y() : size.prod();
+    const double per_point = volume / std::max(1.0, expected_points);
+    cell_ = std::max(r, flat ? std::sqrt(per_point) : std::cbrt(per_point));
     for (int d = 0; d < 3; ++d)
       n_[d] = (flat && d == 2)
                   ? 1
-                  : std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(size[d] / cell)));
+                  : std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(size[d] / cell_)));
     head_.assign(static_cast<std::size_t>(n_[0] * n_[1] * n_[2]), -1);
   }
   bool occupied(const std::vector<Vec3>& x, const Vec3& p, double r) const {
@@ -78,7 +82,7 @@ class DiskGrid {
   std::size_t slot(std::int64_t i, std::int64_t j, std::int64_t k) const {
     return static_cast<std::size_t>((k * n_[1] + j) * n_[0] + i);
   }
-  double cell_;
+  double cell_ = 0;
   std::array<std::int64_t, 3> n_{};
   std::vector<std::int32_t> head_;  // first point of each cell, -1: none
   std::vector<std::int32_t> next_;  // next point in the same cell, -1: none
@@ -131,7 +135,7 @@ std::vector<Vec3> sample_points(const PointPacking& s) {
       return x;
     }
     // Dart throwing: a grid of cell r holds every point within r of a dart in the 27 cells around.
-    DiskGrid grid(s.size, r, flat);
+    DiskGrid grid(s.size, r, static_cast<double>(s.count), flat);
     const std::size_t attempts = 100 * s.count + 1000;
     for (std::size_t a = 0; a < attempts && x.size() < s.count; ++a) {
       const Vec3 p = uniform_in_box();
@@ -151,7 +155,7 @@ std::vector<Vec3> sample_points(const PointPacking& s) {
   // r to; a point whose k candidates all fail retires. (Bridson's grid has cells of r/√d holding
   // one point each; cells of r and lists visit 27 cells instead of 125.)
   constexpr int kCandidates = 30;
-  DiskGrid grid(s.size, r, flat);
+  DiskGrid grid(s.size, r, max_points(s), flat);
   std::vector<Index> active;
   auto accept = [&](const Vec3& p) {
     grid.insert(p);
@@ -666,14 +670,15 @@ std::vector<Index> add_mesh_lattice(World& world, const MeshLattice& s, Index bo
   const std::vector<std::uint8_t> inside = inside_sites(scaled, g, s.spacing);
 
   // Sites inside, x fastest; then bonds to the neighbour shells as add_cubic_lattice makes them.
-  std::vector<std::int64_t> site(inside.size(), -1);
+  constexpr Index kOutside = ~Index{0};
+  std::vector<Index> site(inside.size(), kOutside);  // quanta of each grid site
   std::vector<Vec3> x;
   for (std::int64_t k = 0; k < nz; ++k)
     for (std::int64_t j = 0; j < ny; ++j)
       for (std::int64_t i = 0; i < nx; ++i) {
         const auto c = static_cast<std::size_t>((k * ny + j) * nx + i);
         if (!inside[c]) continue;
-        site[c] = static_cast<std::int64_t>(x.size());
+        site[c] = static_cast<Index>(x.size());
         x.push_back(g.first +
                     s.spacing * Vec3(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k)));
       }
@@ -682,13 +687,13 @@ std::vector<Index> add_mesh_lattice(World& world, const MeshLattice& s, Index bo
   for (std::int64_t k = 0; k < nz; ++k)
     for (std::int64_t j = 0; j < ny; ++j)
       for (std::int64_t i = 0; i < nx; ++i) {
-        const std::int64_t a = site[static_cast<std::size_t>((k * ny + j) * nx + i)];
-        if (a < 0) continue;
+        const Index a = site[static_cast<std::size_t>((k * ny + j) * nx + i)];
+        if (a == kOutside) continue;
         for (const auto& o : offsets) {
           const std::int64_t I = i + o[0], J = j + o[1], K = k + o[2];
           if (I < 0 || J < 0 || K < 0 || I >= nx || J >= ny || K >= nz) continue;
-          const std::int64_t b = site[static_cast<std::size_t>((K * ny + J) * nx + I)];
-          if (b >= 0) pairs.emplace_back(static_cast<Index>(a), static_cast<Index>(b));
+          const Index b = site[static_cast<std::size_t>((K * ny + J) * nx + I)];
+          if (b != kOutside) pairs.emplace_back(a, b);
         }
       }
   if (x.empty())

@@ -146,6 +146,8 @@ TEST(RandomPacking, UniformPointsWithOptionalRejection) {
   x = sample_points(p);
   ASSERT_EQ(x.size(), 500u);
   EXPECT_GE(closest_pair(x), 0.1);
+  p.min_distance = 1e-9;  // a grid of cells 1e-9 m would not fit in memory: cells follow the count
+  EXPECT_EQ(sample_points(p).size(), 500u);
   p.min_distance = 0.5;  // 500 points 0.5 apart do not fit in 1 x 2 x 3
   EXPECT_TRUE(contains(error_of<std::invalid_argument>([&] { sample_points(p); }), "could place only"));
 }
