@@ -8,7 +8,7 @@ namespace qbond {
 Scene builtin_scene(std::string_view name) {
   std::string names;
   for (const BuiltinScene& s : builtin_scenes()) {
-    if (s.name == name) return parse_scene(s.json, std::string(s.name) + ".json (built-in)");
+    if (s.name == name) return parse_scene(s.json, std::string(s.name) + ".json (built-in)", {.builtin = true});
     names += (names.empty() ? "" : ", ") + std::string(s.name);
   }
   throw std::invalid_argument("unknown built-in scene '" + std::string(name) + "' (built-in scenes: " + names +

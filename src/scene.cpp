@@ -12,6 +12,8 @@
 #include "qbond/builders.hpp"
 #include "qbond/files.hpp"
 #include "qbond/materials.hpp"
+#include "qbond/packing.hpp"
+#include "qbond/samples.hpp"
 #include "qbond/selection.hpp"
 
 namespace qbond {
@@ -196,7 +198,8 @@ struct Material {
 
 class Builder {
  public:
-  Builder(const json& root, std::string default_name) : root_(root), default_name_(std::move(default_name)) {}
+  Builder(const json& root, std::string default_name, SceneFiles files = {})
+      : root_(root), default_name_(std::move(default_name)), files_(std::move(files)) {}
 
   Scene build() {
     Scene s;
@@ -366,10 +369,15 @@ class Builder {
       accepted = keys({"start", "end", "count", "area", "material", "quanta_mass", "total_mass"});
     else if (type == "quanta")
       accepted = keys({"positions", "masses", "mass", "velocities", "volume"});
+    else if (type == "packing")
+      accepted = keys({"points", "size", "min_distance", "count", "bond_radius", "isolated", "seed", "material",
+                       "quanta_mass", "total_mass"});
+    else if (type == "mesh")
+      accepted = keys({"file", "scale", "spacing", "neighbors", "isolated", "material", "quanta_mass", "total_mass"});
     else if (type.empty())
       bad(path + ".type", "required key missing");
     else
-      bad(path + ".type", "unknown body type '" + type + "' (accepted: lattice, sheet, chain, quanta)");
+      bad(path + ".type", "unknown body type '" + type + "' (accepted: lattice, sheet, chain, quanta, packing, mesh)");
     for (const auto& [key, v] : j.items())
       if (std::find(accepted.begin(), accepted.end(), key) == accepted.end()) {
         std::vector<std::string> names(accepted.begin(), accepted.end());
@@ -526,6 +534,10 @@ class Builder {
       }
       c.quanta_mass = mass_of(static_cast<double>(count), mat->density > 0 ? mat->density * c.area * segment : 0.0);
       ids = add_chain(w, c, id);
+    } else if (type == "packing") {
+      ids = packing_body(j, path, res, w, id, mass_of, *mat);
+    } else if (type == "mesh") {
+      ids = mesh_body(j, path, res, w, id, mass_of, *mat);
     } else {
       const json& pos = array(req("positions"), at("positions"));
       if (pos.empty()) bad(at("positions"), "must hold at least one position");
@@ -561,6 +573,177 @@ class Builder {
     res["origin"] = {p.origin.x(), p.origin.y(), p.origin.z()};
     res["velocity"] = {p.velocity.x(), p.velocity.y(), p.velocity.z()};
     res["angular_velocity"] = {p.angular_velocity.x(), p.angular_velocity.y(), p.angular_velocity.z()};
+  }
+
+  /// What a packing or mesh body does with quanta left without a bond.
+  Isolated isolated(const json& j, const std::string& path, json& res) {
+    const Isolated v = j.contains("isolated") ? choice<Isolated>(j["isolated"], path + ".isolated",
+                                                                 {{"drop", Isolated::drop},
+                                                                  {"keep", Isolated::keep},
+                                                                  {"error", Isolated::error}})
+                                              : Isolated::drop;
+    res["isolated"] = v == Isolated::drop ? "drop" : v == Isolated::keep ? "keep" : "error";
+    return v;
+  }
+
+  /// Builders that learn their quanta count only once built take the mass afterwards: a
+  /// placeholder of 1 kg, then `mass_of(count, ρ V)` (which also checks the mass keys, done
+  /// first), and the volume each quanta stands for.
+  template <class MassOf>
+  void set_masses(World& w, const std::vector<Index>& ids, const MassOf& mass_of, const Material& mat, double volume) {
+    const double m = mass_of(static_cast<double>(ids.size()), mat.density * volume);
+    for (Index i : ids) {
+      w.model.mass[i] = m;
+      w.model.inv_mass[i] = 1 / m;
+      w.model.volume[i] = volume;
+    }
+  }
+
+  /// A `packing` body: Poisson-disk or random points bonded within a radius (packing.hpp).
+  template <class MassOf>
+  std::vector<Index> packing_body(const json& j, const std::string& path, json& res, World& w, Index id,
+                                  const MassOf& mass_of, const Material& mat) {
+    auto at = [&](const char* key) { return path + "." + key; };
+    auto req = [&](const char* key) -> const json& {
+      if (!j.contains(key)) bad(at(key), "required key missing");
+      return j[key];
+    };
+    PointPacking p;
+    p.kind = choice<PointPacking::Kind>(req("points"), at("points"),
+                                        {{"poisson", PointPacking::poisson}, {"random", PointPacking::random}});
+    const bool poisson = p.kind == PointPacking::poisson;
+    p.size = vec3(req("size"), at("size"));
+    if (!(p.size.x() > 0 && p.size.y() > 0)) bad(at("size"), "x and y must be > 0");
+    if (p.size.z() < 0) bad(at("size"), "z must be >= 0 (0: a flat, 2D packing)");
+    if (poisson)
+      p.min_distance = positive(req("min_distance"), at("min_distance"));
+    else
+      p.min_distance = j.contains("min_distance") ? non_negative(j["min_distance"], at("min_distance")) : 0.0;
+    if (!poisson || j.contains("count")) {
+      const auto n = integer(req("count"), at("count"), poisson ? 0 : 1);
+      if (static_cast<double>(n) > kMaxQuanta)
+        bad(at("count"), "would make " + std::to_string(n) + " quanta (limit " + num_str(kMaxQuanta) + ")");
+      p.count = static_cast<std::size_t>(n);
+    }
+    if (poisson && max_points(p) > kMaxQuanta)
+      bad(at("min_distance"), "would make up to " + num_str(std::round(max_points(p))) + " quanta (limit " +
+                                  num_str(kMaxQuanta) + ")");
+    p.bond_radius = positive(req("bond_radius"), at("bond_radius"));
+    if (poisson && !(p.bond_radius > p.min_distance))
+      bad(at("bond_radius"), "must be > min_distance (" + num_str(p.min_distance) +
+                                 " m), or no two points are close enough to bond");
+    p.seed = j.contains("seed") ? integer(j["seed"], at("seed"), 0)
+                                : (root_.contains("seed") ? root_["seed"].get<std::uint64_t>() : 1);
+    p.isolated = isolated(j, path, res);
+    if (mat.youngs_modulus > 0)
+      bad(at("material"), "a modulus calibrates lattices and chains, which have an elasticity theory; give a "
+                          "packing's material a 'stiffness'");
+    p.bond = mat.bond;
+    mass_of(1.0, mat.density);  // the mass keys' errors before the sampling's
+    p.quanta_mass = 1;
+    std::vector<Index> ids;
+    try {
+      ids = add_point_packing(w, p, id);
+    } catch (const std::invalid_argument& e) {
+      bad(path, e.what());
+    }
+    if (ids.empty())
+      bad(at("bond_radius"), "no two points lie within " + num_str(p.bond_radius) + " m: every point is isolated");
+    // Each point stands for the box's volume over the points (a flat packing: a layer one mean
+    // spacing thick).
+    const double per = p.size.x() * p.size.y() / static_cast<double>(ids.size());
+    set_masses(w, ids, mass_of, mat, p.size.z() > 0 ? per * p.size.z() : per * std::sqrt(per));
+    res["points"] = poisson ? "poisson" : "random";
+    res["size"] = {p.size.x(), p.size.y(), p.size.z()};
+    res["min_distance"] = p.min_distance;
+    res["count"] = p.count;
+    res["seed"] = p.seed;
+    return ids;
+  }
+
+  /// The bytes of a file the scene names, and how the resolved scene names it: an absolute path,
+  /// or "builtin:REL" for a file compiled in from scenes/ (which a resumed run finds again).
+  std::pair<std::string, std::string> scene_file(const std::string& file, const std::string& path) {
+    constexpr std::string_view kBuiltin = "builtin:";
+    const bool named_builtin = file.starts_with(kBuiltin);
+    if (named_builtin || (files_.builtin && std::filesystem::path(file).is_relative())) {
+      const std::string rel = named_builtin ? file.substr(kBuiltin.size()) : file;
+      std::vector<std::string> all;
+      for (const BuiltinFile& f : builtin_files()) {
+        if (f.path == rel) return {std::string(f.data), "builtin:" + rel};
+        all.emplace_back(f.path);
+      }
+      bad(path, "no built-in file '" + rel + "' (built-in files, from scenes/: " + (all.empty() ? "none" : join(all)) +
+                    ")");
+    }
+    std::filesystem::path p(file);
+    if (p.is_relative() && !files_.dir.empty()) p = files_.dir / p;
+    const std::string where = std::filesystem::absolute(p).lexically_normal().string();
+    std::error_code ec;
+    if (!std::filesystem::exists(p, ec)) bad(path, "cannot read '" + file + "': no such file (looked for " + where + ")");
+    if (!std::filesystem::is_regular_file(p, ec)) bad(path, "cannot read '" + file + "': not a regular file (" + where + ")");
+    try {
+      return {read_file(p), where};
+    } catch (const std::exception& e) {
+      bad(path, "cannot read '" + file + "': " + e.what());
+    }
+  }
+
+  /// A `mesh` body: a closed OBJ/STL mesh voxelised into a simple-cubic lattice (packing.hpp).
+  template <class MassOf>
+  std::vector<Index> mesh_body(const json& j, const std::string& path, json& res, World& w, Index id,
+                               const MassOf& mass_of, const Material& mat) {
+    auto at = [&](const char* key) { return path + "." + key; };
+    auto req = [&](const char* key) -> const json& {
+      if (!j.contains(key)) bad(at(key), "required key missing");
+      return j[key];
+    };
+    const std::string file = string(req("file"), at("file"));
+    std::string ext = std::filesystem::path(file).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (ext != ".obj" && ext != ".stl")
+      bad(at("file"), "unknown mesh format '" + ext + "' (accepted: .obj, .stl)");
+    MeshLattice m;
+    m.spacing = positive(req("spacing"), at("spacing"));
+    if (j.contains("scale")) m.scale = positive(j["scale"], at("scale"));
+    if (j.contains("neighbors"))
+      m.shells = choice<Shells>(j["neighbors"], at("neighbors"),
+                                {{"nearest", Shells::nearest},
+                                 {"face_diagonal", Shells::face_diagonal},
+                                 {"body_diagonal", Shells::body_diagonal}});
+    m.isolated = isolated(j, path, res);
+    m.bond = mat.bond;
+    if (mat.youngs_modulus > 0) {
+      m.bond.stiffness = calibrated_stiffness(cubic_cell(m.shells), mat.youngs_modulus, m.spacing);
+      res["stiffness"] = m.bond.stiffness;
+    }
+    mass_of(1.0, mat.density);  // the mass keys' errors before the file's
+    const auto [bytes, resolved] = scene_file(file, at("file"));
+    try {
+      m.mesh = parse_mesh(bytes, file);
+      check_closed(m.mesh, file);
+    } catch (const std::runtime_error& e) {
+      bad(at("file"), e.what());
+    }
+    const MeshGrid g = mesh_grid(m);
+    const double sites = static_cast<double>(g.cells[0]) * static_cast<double>(g.cells[1]) * static_cast<double>(g.cells[2]);
+    if (sites > kMaxQuanta)
+      bad(at("spacing"), "the mesh's bounding box would hold " + num_str(sites) + " lattice sites (limit " +
+                             num_str(kMaxQuanta) + ")");
+    m.quanta_mass = 1;
+    std::vector<Index> ids;
+    try {
+      ids = add_mesh_lattice(w, m, id);
+    } catch (const std::invalid_argument& e) {
+      bad(path, e.what());
+    }
+    set_masses(w, ids, mass_of, mat, m.spacing * m.spacing * m.spacing);
+    res["file"] = resolved;
+    res["scale"] = m.scale;
+    res["neighbors"] = m.shells == Shells::nearest         ? "nearest"
+                       : m.shells == Shells::face_diagonal ? "face_diagonal"
+                                                           : "body_diagonal";
+    return ids;
   }
 
   std::vector<Index> selection(const json& j, const std::string& path, const World& w) {
@@ -920,6 +1103,7 @@ class Builder {
   std::string default_name_;
   std::map<std::string, Material> materials_;
   std::map<std::string, Index> body_index_;
+  SceneFiles files_;
 };
 
 /// Parses JSON, refusing duplicate keys (the JSON library would keep the last one silently).
@@ -968,7 +1152,7 @@ json parse_strict(std::string_view text) {
 
 }  // namespace
 
-Scene parse_scene(std::string_view text, const std::string& source) {
+Scene parse_scene(std::string_view text, const std::string& source, const SceneFiles& files) {
   try {
     json root;
     try {
@@ -977,7 +1161,7 @@ Scene parse_scene(std::string_view text, const std::string& source) {
       throw SceneError(source, "", std::string("invalid JSON: ") + e.what());
     }
     if (!root.is_object()) throw SceneError(source, "", "a scene is a JSON object, got " + type_name(root));
-    return Builder(root, std::filesystem::path(source).stem().string()).build();
+    return Builder(root, std::filesystem::path(source).stem().string(), files).build();
   } catch (const Bad& b) {
     throw SceneError(source, b.path, b.rule);
   }
@@ -990,7 +1174,7 @@ Scene load_scene(const std::filesystem::path& file) {
   } catch (const std::exception& e) {
     throw SceneError(file.string(), "", e.what());
   }
-  return parse_scene(text, file.string());
+  return parse_scene(text, file.string(), {.dir = file.parent_path()});
 }
 
 double explicit_step_hint(const World& w) {

@@ -18,10 +18,21 @@ struct BuiltinScene {
 /// Every scene of scenes/, sorted by name (generated at build time by cmake/embed_scenes.cmake).
 std::span<const BuiltinScene> builtin_scenes();
 
+/// A file in a subdirectory of scenes/ (the meshes of scenes/meshes/) compiled into the library,
+/// so that built-in scenes find the files they name.
+struct BuiltinFile {
+  std::string_view path;  ///< relative to scenes/, e.g. "meshes/torus.obj"
+  std::string_view data;  ///< the file's bytes
+};
+
+/// Every file in a subdirectory of scenes/, sorted by path (generated with builtin_scenes()).
+std::span<const BuiltinFile> builtin_files();
+
 /// The scene `qbond run` and `qbond view` use when given none: the paper's Figure 10 pendulum.
 inline constexpr std::string_view kDefaultScene = "pendulum";
 
-/// Parses a built-in scene. Throws std::invalid_argument listing the names when unknown.
+/// Parses a built-in scene (its relative file paths name builtin_files()). Throws
+/// std::invalid_argument listing the names when unknown.
 Scene builtin_scene(std::string_view name);
 
 /// The performance issue's canonical workload: n×n×n simple-cubic lattice, spacing 0.01 m,

@@ -65,9 +65,16 @@ struct Scene {
   nlohmann::json resolved;
 };
 
+/// Where the files a scene names (a mesh body's `file`) are read from.
+struct SceneFiles {
+  std::filesystem::path dir{};  ///< relative paths are relative to it (empty: to the current directory)
+  bool builtin = false;       ///< relative paths name the files of scenes/ compiled in (built-in scenes)
+};
+
 /// Parses a scene from JSON text; `source` names it in errors. Throws SceneError.
-Scene parse_scene(std::string_view json_text, const std::string& source = "<string>");
-/// Loads a scene file; its name defaults to the file's stem. Throws SceneError.
+Scene parse_scene(std::string_view json_text, const std::string& source = "<string>", const SceneFiles& files = {});
+/// Loads a scene file; its name defaults to the file's stem, and the files it names are relative
+/// to its directory. Throws SceneError.
 Scene load_scene(const std::filesystem::path& file);
 
 /// Largest stable step of symplectic Euler for the scene's bonds: 2/ω_max, with ω_max² bounded
