@@ -57,6 +57,7 @@ std::span<const Experiment> all() {
       {"fig9", "Figure 9: von Mises stress in a loaded block", fig9},
       {"fig10", "Figure 10: the pendulum, swinging and tugged", fig10},
       {"fig11", "Figure 11: the twisted bar against GetFEM and Saint-Venant", fig11},
+      {"fig12", "Figure 12: symmetric and asymmetric lattices tearing", fig12},
       {"cantilever", "Cantilever: a calibrated lattice beam against beam theory", cantilever},
   };
   return list;

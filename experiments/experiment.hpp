@@ -60,6 +60,7 @@ void cantilever(const Options&, Report&);
 void fig9(const Options&, Report&);
 void fig10(const Options&, Report&);
 void fig11(const Options&, Report&);
+void fig12(const Options&, Report&);
 
 /// "%.4g"-style formatting for summaries.
 std::string num(double v, int digits = 4);

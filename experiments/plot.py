@@ -206,6 +206,35 @@ def fig3(d):
     save(fig, d, "fig3.png")
 
 
+def fig12(d):
+    from matplotlib.collections import LineCollection
+    segs = defaultdict(list)
+    with open(os.path.join(d, "torn_bonds.csv")) as f:
+        for r in csv.DictReader(f):
+            segs[r["layout"]].append(((float(r["x0"]), float(r["y0"])), (float(r["x1"]), float(r["y1"]))))
+    fig, axes = plt.subplots(1, len(segs), figsize=(3.2 * len(segs), 6.5))
+    for ax, (name, s) in zip(axes, segs.items()):
+        ax.add_collection(LineCollection(s, lw=0.5, colors="k"))
+        ax.autoscale()
+        ax.set_aspect("equal")
+        kind, phi = name.split("_")
+        ax.set_title(f"{kind} lattice turned {phi} deg" if kind == "square" else "Poisson-disk packing", fontsize=9)
+        ax.tick_params(labelsize=6)
+    with open(os.path.join(d, "cracks.csv")) as f:
+        rows = list(csv.DictReader(f))
+    fig.suptitle("Figure 12: strips pulled down until they tear (seed 1 of each; alive bonds)", fontsize=10)
+    save(fig, d, "fig12.png")
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for key in dict.fromkeys((r["layout"], r["phi_degrees"]) for r in rows):
+        a = [float(r["crack_angle_degrees"]) for r in rows if (r["layout"], r["phi_degrees"]) == key and r["torn"] == "1"]
+        label = f"square, turned {float(key[1]):g} deg" if key[0] == "square" else "Poisson-disk packing"
+        ax.hist(a, bins=range(-90, 91, 5), alpha=0.5, label=label)
+    ax.set_xlabel("crack angle from the horizontal [deg]")
+    ax.set_ylabel("seeds")
+    ax.legend(fontsize=8)
+    save(fig, d, "fig12_angles.png")
+
+
 if __name__ == "__main__":
     name, d = sys.argv[1], sys.argv[2]
     globals()[name](d)
