@@ -14,11 +14,6 @@
 namespace qbond::experiments {
 namespace {
 
-struct Method {
-  const char* name;
-  IntegratorConfig config;
-};
-
 std::vector<Method> methods() {
   IntegratorConfig frozen, sweep, verlet;
   frozen.type = sweep.type = IntegratorType::hybrid_implicit;

@@ -1,8 +1,11 @@
 #include "experiment.hpp"
 
+#include <cmath>
 #include <cstdio>
 
+#include "qbond/builders.hpp"
 #include "qbond/files.hpp"
+#include "qbond/materials.hpp"
 
 namespace qbond::experiments {
 
@@ -67,6 +70,31 @@ std::string num(double v, int digits) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.*g", digits, v);
   return buf;
+}
+
+std::size_t index_of(const std::vector<Method>& methods, std::string_view name) {
+  for (std::size_t k = 0; k < methods.size(); ++k)
+    if (methods[k].name == name) return k;
+  return methods.size();
+}
+
+SteelBar steel_bar(int n, double L, double b, double E) {
+  SteelBar bar;
+  bar.spacing = b / n;
+  const double a = bar.spacing;
+  const int nx = static_cast<int>(std::lround(L / a)) + 1;
+  CubicLattice lat;
+  lat.size = {nx, n, n};
+  lat.spacing = a;
+  lat.bond = {.stiffness = calibrated_stiffness(cubic_cell(lat.shells), E, a)};
+  lat.quanta_mass = calibrated_mass(cubic_cell(lat.shells), 7850, a);
+  bar.ids = add_cubic_lattice(bar.world, lat);
+  for (Index i : bar.ids) {
+    if (bar.world.state.x[i].x() < 0.5 * a) bar.clamp.push_back(i);
+    if (bar.world.state.x[i].x() > (nx - 1.5) * a) bar.end.push_back(i);
+  }
+  bar.world.prescribe(bar.clamp, Motion{});
+  return bar;
 }
 
 }  // namespace qbond::experiments

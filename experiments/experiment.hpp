@@ -5,7 +5,11 @@
 #include <filesystem>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
+
+#include "qbond/integrators.hpp"
+#include "qbond/world.hpp"
 
 namespace qbond::experiments {
 
@@ -61,6 +65,25 @@ void fig9(const Options&, Report&);
 void fig10(const Options&, Report&);
 void fig11(const Options&, Report&);
 void fig12(const Options&, Report&);
+
+/// An integrator under test, named as in the tables and CSVs.
+struct Method {
+  const char* name;
+  IntegratorConfig config;
+};
+
+/// The position of the method called `name` in `methods` (methods.size() when absent).
+std::size_t index_of(const std::vector<Method>& methods, std::string_view name);
+
+/// A steel bar (E given, 7850 kg/m³) along x, length L and square side b, calibrated at n quanta
+/// across on the default cubic lattice; `clamp` is the x = 0 layer (anchored), `end` the x = L
+/// layer (free: the experiment loads or turns it).
+struct SteelBar {
+  World world;
+  std::vector<Index> ids, clamp, end;
+  double spacing = 0;
+};
+SteelBar steel_bar(int n, double L, double b, double E);
 
 /// "%.4g"-style formatting for summaries.
 std::string num(double v, int digits = 4);

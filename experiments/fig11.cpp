@@ -41,23 +41,11 @@ struct Twist {
 // The bar at n quanta across (calibrated steel, default cubic lattice), x = 0 layer clamped,
 // x = L layer turned by θ about the axis, solved for static equilibrium.
 Twist twist_lattice(int n, double theta) {
-  const double a = kB / n;
-  const int nx = static_cast<int>(std::lround(kL / a)) + 1;
-  World w;
-  CubicLattice lat;
-  lat.size = {nx, n, n};
-  lat.spacing = a;
-  lat.bond = {.stiffness = calibrated_stiffness(cubic_cell(lat.shells), kE, a)};
-  lat.quanta_mass = calibrated_mass(cubic_cell(lat.shells), 7850, a);
-  const auto ids = add_cubic_lattice(w, lat);
-  const double c = 0.5 * (n - 1) * a;
-  std::vector<Index> clamp, end;
-  for (Index i : ids) {
-    if (w.state.x[i].x() < 0.5 * a) clamp.push_back(i);
-    if (w.state.x[i].x() > (nx - 1.5) * a) end.push_back(i);
-  }
+  SteelBar bar = steel_bar(n, kL, kB, kE);
+  World& w = bar.world;
+  const double a = bar.spacing, c = 0.5 * (n - 1) * a;
+  const std::vector<Index>&ids = bar.ids, &end = bar.end;
   const std::vector<Vec3> x0 = w.state.x;
-  w.prescribe(clamp, Motion{});
   w.prescribe(end, Motion{});
   const Mat3 R = Eigen::AngleAxisd(theta, Vec3::UnitX()).toRotationMatrix();
   const Vec3 axis_point(0, c, c);

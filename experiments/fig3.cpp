@@ -13,11 +13,6 @@
 namespace qbond::experiments {
 namespace {
 
-struct Method {
-  const char* name;
-  IntegratorConfig config;
-};
-
 IntegratorConfig coupled(CoupledSolver s) {
   IntegratorConfig c;
   c.type = IntegratorType::coupled_implicit;

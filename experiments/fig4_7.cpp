@@ -11,11 +11,6 @@
 namespace qbond::experiments {
 namespace {
 
-struct Method {
-  const char* name;
-  IntegratorConfig config;
-};
-
 std::vector<Method> methods() {
   auto with = [](IntegratorType t) {
     IntegratorConfig c;
@@ -120,13 +115,8 @@ void fig4_5(const Options&, Report& rep) {
   }
   rep.note("");
   const auto ms = methods();
-  auto idx = [&](const char* n) {
-    for (std::size_t k = 0; k < ms.size(); ++k)
-      if (std::string(ms[k].name) == n) return k;
-    return ms.size();
-  };
-  const auto fe = idx("explicit_euler"), rk = idx("rk4"), fr = idx("hybrid_frozen"), cd = idx("coupled_dense"),
-             qd = idx("qbond_default");
+  const auto fe = index_of(ms, "explicit_euler"), rk = index_of(ms, "rk4"), fr = index_of(ms, "hybrid_frozen"),
+             cd = index_of(ms, "coupled_dense"), qd = index_of(ms, "qbond_default");
   rep.check("small step: the paper's implicit methods (hybrid, coupled) and qbond's track the exact solution (RMS "
             "error < 5% of the amplitude: " + num(rms[0][fr], 3) + ", " + num(rms[0][cd], 3) + ", " + num(rms[0][qd], 3) + ")",
             rms[0][fr] < 0.05 && rms[0][cd] < 0.05 && rms[0][qd] < 0.05);
@@ -211,13 +201,8 @@ void fig6_7(const Options& opt, Report& rep) {
   }
   rep.note("");
   const auto ms = methods();
-  auto at = [&](const char* n) {
-    for (std::size_t k = 0; k < ms.size(); ++k)
-      if (std::string(ms[k].name) == n) return k;
-    return ms.size();
-  };
-  const auto fe = at("explicit_euler"), vv = at("velocity_verlet"), fr = at("hybrid_frozen"), cd = at("coupled_dense"),
-             qd = at("qbond_default");
+  const auto fe = index_of(ms, "explicit_euler"), vv = index_of(ms, "velocity_verlet"),
+             fr = index_of(ms, "hybrid_frozen"), cd = index_of(ms, "coupled_dense"), qd = index_of(ms, "qbond_default");
   const double cm = E_cm / E0;
   rep.check("small step: velocity Verlet conserves energy (max drift " + num(peak[0][vv] - 1, 3) + " < 1e-3)",
             std::abs(peak[0][vv] - 1) < 1e-3 && std::abs(end[0][vv] - 1) < 1e-3);

@@ -13,22 +13,12 @@ namespace qbond::experiments {
 void fig9(const Options& opt, Report& rep) {
   const int n = opt.fast ? 6 : 10;  // quanta across
   const double b = 0.02, L = 0.2, E = 200e9, P = 2000;
-  const double a = b / n;
+  SteelBar bar = steel_bar(n, L, b, E);
+  World& w = bar.world;
+  const double a = bar.spacing;
   const int nx = static_cast<int>(std::lround(L / a)) + 1;
-  World w;
-  CubicLattice lat;
-  lat.size = {nx, n, n};
-  lat.spacing = a;
-  lat.bond = {.stiffness = calibrated_stiffness(cubic_cell(lat.shells), E, a)};
-  lat.quanta_mass = calibrated_mass(cubic_cell(lat.shells), 7850, a);
-  const auto ids = add_cubic_lattice(w, lat);
-  std::vector<Index> clamp, tip;
-  for (Index i : ids) {
-    if (w.state.x[i].x() < 0.5 * a) clamp.push_back(i);
-    if (w.state.x[i].x() > (nx - 1.5) * a) tip.push_back(i);
-  }
-  w.prescribe(clamp, Motion{});
-  w.add_load(tip, Vec3(0, 0, -P));
+  const std::vector<Index>& ids = bar.ids;
+  w.add_load(bar.end, Vec3(0, 0, -P));
   const std::vector<Vec3> x0 = w.state.x;
   const StaticResult st = solve_static(w, 1e-10);
   std::vector<Mat3> sigma;

@@ -114,21 +114,9 @@ struct Beam {
 // quanta anchored), calibrated (E, ρ) at n quanta across; a tip load P down, spread over the
 // last layer.
 Beam cantilever_beam(int n, double L, double b, double E, double P, bool relax) {
-  const double a = b / n;
-  const int nx = static_cast<int>(std::lround(L / a)) + 1;
-  World w;
-  CubicLattice lat;
-  lat.size = {nx, n, n};
-  lat.spacing = a;
-  lat.bond = {.stiffness = calibrated_stiffness(cubic_cell(lat.shells), E, a)};
-  lat.quanta_mass = calibrated_mass(cubic_cell(lat.shells), 7850, a);
-  const auto ids = add_cubic_lattice(w, lat);
-  std::vector<Index> clamp, tip;
-  for (Index i : ids) {
-    if (w.state.x[i].x() < 0.5 * a) clamp.push_back(i);
-    if (w.state.x[i].x() > (nx - 1.5) * a) tip.push_back(i);
-  }
-  w.prescribe(clamp, Motion{});
+  SteelBar bar = steel_bar(n, L, b, E);
+  World& w = bar.world;
+  const std::vector<Index>& tip = bar.end;
   w.add_load(tip, Vec3(0, 0, -P));
   auto tip_z = [&](const World& x) {
     double z = 0;
