@@ -24,6 +24,12 @@ def series(path, x, y, key="method"):
     return out
 
 
+def numbers(path):
+    """Every row of an all-numeric CSV as a dict of floats."""
+    with open(path) as f:
+        return [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+
+
 def save(fig, d, name):
     fig.tight_layout()
     fig.savefig(os.path.join(d, name), dpi=110)
@@ -33,8 +39,7 @@ def save(fig, d, name):
 def fig4_5(d):
     for fig_no, title in (("4", "small timestep (h = 1 ms)"), ("5", "large timestep (h = 0.25 s)")):
         data = series(os.path.join(d, f"fig{fig_no}_velocity.csv"), "time", "relative_velocity")
-        with open(os.path.join(d, f"fig{fig_no}_exact.csv")) as f:
-            exact = [(float(r["time"]), float(r["relative_velocity"])) for r in csv.DictReader(f)]
+        exact = [(r["time"], r["relative_velocity"]) for r in numbers(os.path.join(d, f"fig{fig_no}_exact.csv"))]
         fig, ax = plt.subplots(figsize=(8, 4.5))
         ax.plot([t for t, _ in exact], [e for _, e in exact], "k-", lw=2.5, alpha=0.35, label="exact")
         amp = max(abs(e) for _, e in exact)
@@ -65,11 +70,11 @@ def fig6_7(d):
 
 
 def eq14_15(d):
-    with open(os.path.join(d, "dynamics.csv")) as f:
-        rows = [(float(r["time"]), float(r["full_end"]), float(r["reduced_end"])) for r in csv.DictReader(f)]
+    rows = numbers(os.path.join(d, "dynamics.csv"))
+    t = [r["time"] for r in rows]
     fig, ax = plt.subplots(figsize=(8, 4))
-    ax.plot([r[0] for r in rows], [1e3 * r[1] for r in rows], lw=3, alpha=0.4, label="chain of 5 bonds (full)")
-    ax.plot([r[0] for r in rows], [1e3 * r[2] for r in rows], "k--", lw=1, label="one bond, Eq. 14 + Rayleigh end mass")
+    ax.plot(t, [1e3 * r["full_end"] for r in rows], lw=3, alpha=0.4, label="chain of 5 bonds (full)")
+    ax.plot(t, [1e3 * r["reduced_end"] for r in rows], "k--", lw=1, label="one bond, Eq. 14 + Rayleigh end mass")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("end displacement [mm]")
     ax.set_title("Eq. 14: a series chain and the one bond that replaces it, free vibration")
@@ -78,8 +83,7 @@ def eq14_15(d):
 
 
 def cantilever(d):
-    with open(os.path.join(d, "deflection.csv")) as f:
-        rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+    rows = numbers(os.path.join(d, "deflection.csv"))
     n = [r["quanta_across"] for r in rows]
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(n, [1e6 * r["lattice"] for r in rows], "o-", label="lattice (exact static, K u = f)")
@@ -137,10 +141,8 @@ def fig10(d):
 
 
 def fig9(d):
-    with open(os.path.join(d, "midplane.csv")) as f:
-        pts = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
-    with open(os.path.join(d, "bending.csv")) as f:
-        bend = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+    pts = numbers(os.path.join(d, "midplane.csv"))
+    bend = numbers(os.path.join(d, "bending.csv"))
     fig, (a, b) = plt.subplots(2, 1, figsize=(9, 6.5))
     sc = a.scatter([p["x"] for p in pts], [p["z"] for p in pts], c=[p["von_mises"] / 1e6 for p in pts],
                    cmap="jet", s=30, marker="s")
@@ -159,8 +161,7 @@ def fig9(d):
 
 def fig11(d):
     def rows(name):
-        with open(os.path.join(d, name)) as f:
-            return [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+        return numbers(os.path.join(d, name))
     fem = rows("getfem.csv")[-1]["torque"]
     theta = 0.01
     ta, ref = rows("torque_angle.csv"), rows("refinement.csv")

@@ -12,7 +12,6 @@ import os
 import struct
 import subprocess
 import sys
-import xml.etree.ElementTree as ET
 
 import matplotlib
 matplotlib.use("Agg")
@@ -20,8 +19,8 @@ import matplotlib.pyplot as plt
 from matplotlib.collections import LineCollection
 from mpl_toolkits.mplot3d.art3d import Line3DCollection
 import numpy as np
-from vtkmodules.util.numpy_support import vtk_to_numpy
-from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+
+from qbond_frames import frames, read
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BUILD = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "build")
@@ -53,19 +52,7 @@ def run(name, scene, *args):
     with open(path, "w") as f:
         json.dump(scene, f, indent=1)
     subprocess.run([QBOND, "run", path, "-q", "--out", out, *args], check=True)
-    pvd = ET.parse(os.path.join(out, "series.pvd")).getroot()
-    return [(float(d.get("timestep")), os.path.join(out, d.get("file"))) for d in pvd.iter("DataSet")]
-
-
-def read(path):
-    r = vtkXMLPolyDataReader()
-    r.SetFileName(path)
-    r.Update()
-    poly = r.GetOutput()
-    x = vtk_to_numpy(poly.GetPoints().GetData())
-    lines = vtk_to_numpy(poly.GetLines().GetConnectivityArray()).reshape(-1, 2)
-    strain = vtk_to_numpy(poly.GetCellData().GetArray("strain"))[poly.GetNumberOfVerts():]
-    return x, lines, strain
+    return frames(out)
 
 
 def obj_edges(path, scale):

@@ -9,15 +9,14 @@ with matplotlib; uses Debian's python3-vtk9 and python3-matplotlib.
 import os
 import subprocess
 import sys
-import xml.etree.ElementTree as ET
 
 import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 from mpl_toolkits.mplot3d.art3d import Line3DCollection
 import numpy as np
-from vtkmodules.util.numpy_support import vtk_to_numpy
-from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+
+from qbond_frames import frames, read
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BUILD = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "build")
@@ -37,23 +36,6 @@ FIGURES = [
     ("cohesion", [0.0, 0.1, 0.3, 1.0], (90, -90), "liquid: two drops meet and merge into one spinning body"),
     ("liquid_blob", [0.112, 0.125, 0.15, 0.3, 1.0], (50, -60), "liquid: a blob falls into a tank, splashes, and its drops merge again"),
 ]
-
-
-def frames(run):
-    pvd = ET.parse(os.path.join(run, "series.pvd")).getroot()
-    return [(float(d.get("timestep")), os.path.join(run, d.get("file"))) for d in pvd.iter("DataSet")]
-
-
-def read(path):
-    r = vtkXMLPolyDataReader()
-    r.SetFileName(path)
-    r.Update()
-    poly = r.GetOutput()
-    x = vtk_to_numpy(poly.GetPoints().GetData())
-    lines = vtk_to_numpy(poly.GetLines().GetConnectivityArray()).reshape(-1, 2)
-    n_verts = poly.GetNumberOfVerts()
-    strain = vtk_to_numpy(poly.GetCellData().GetArray("strain"))[n_verts:]
-    return x, lines, strain
 
 
 def pieces(n, lines):
