@@ -240,6 +240,32 @@ def test_blowup_stops_with_a_message():
             fail(f"the last row is not the last good state: {rows[-1]}")
 
 
+def test_bench_quick():
+    """`qbond bench --quick` (what CI runs so the suite cannot rot): one table row per integrator,
+    the same rows in the JSON, every figure finite and positive, counts those of the workload."""
+    os.makedirs(fresh("bench"))
+    path = os.path.join(WORK, "bench", "bench.json")
+    r = qbond("bench", "--quick", "--json", path, check_code=0)
+    if "x bound" not in r.stdout or "GB/s" not in r.stdout:
+        fail(f"no table printed:\n{r.stdout}")
+    doc = json.load(open(path))
+    names = sorted(row["integrator"] for row in doc["rows"])
+    if names != ["default", "hybrid_frozen", "hybrid_sweep", "velocity_verlet"]:
+        fail(f"rows {names}")
+    for row in doc["rows"]:
+        # n = 10: 1000 quanta; bonds along x, y, z (3 * 10 * 10 * 9) and face diagonals (6 * 10 * 9 * 9).
+        if row["quanta"] != 1000 or row["bonds"] != 2700 + 4860:
+            fail(f"workload counts {row}")
+        for key in ("seconds_per_step", "ns_per_bond_step", "ratio_to_bandwidth_bound", "bytes_per_quanta_step"):
+            if not (0 < row[key] < 1e9):
+                fail(f"{key} = {row[key]}")
+    if not doc["triad_bytes_per_second"] > 1e8:
+        fail(f"bandwidth {doc['triad_bytes_per_second']} B/s")
+    r = qbond("bench", "--quick", "--integrators", "nonsense")
+    if r.returncode == 0 or "unknown integrator 'nonsense'" not in r.stderr:
+        fail(f"an unknown integrator was accepted: {r.returncode} {r.stderr}")
+
+
 if __name__ == "__main__":
     os.makedirs(WORK, exist_ok=True)
     globals()["test_" + sys.argv[4]]()

@@ -1,4 +1,5 @@
-// The `qbond` program (DESIGN §11): `run` a scene with its outputs, `validate` scene files.
+// The `qbond` program (DESIGN §11): `run` a scene with its outputs, `validate` scene files,
+// `experiment` (the paper's experiments), `bench` (the performance suite).
 // The work is done by the library (scene.hpp, runner.hpp); this file holds what only a program
 // has: options, the progress display, signals and exit codes.
 #include <unistd.h>
@@ -13,6 +14,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "bench.hpp"
 #include "experiment.hpp"
 #include "qbond/analysis.hpp"
 #include "qbond/checkpoint.hpp"
@@ -324,6 +326,17 @@ int main(int argc, char** argv) {
   experiment_cmd->add_flag("--fast", ea.fast, "smaller sizes and fewer steps (what CI runs)");
   experiment_cmd->add_option("-o,--out", ea.out, "results directory (default: experiments/results)");
   experiment_cmd->add_flag("!--no-plots", ea.plots, "write the CSVs and summaries only");
+  qbond::cli::BenchArgs ba;
+  CLI::App* bench_cmd = app.add_subcommand("bench", "measure the canonical workload against the memory-bandwidth bound "
+                                                    "(docs/performance.md)");
+  bench_cmd->add_flag("--quick", ba.quick, "n = 10, one short repetition (what CI runs)");
+  bench_cmd->add_option("-n,--sizes", ba.sizes, "lattice sizes n, comma-separated (default: 10,20,40)");
+  bench_cmd->add_option("-j,--threads", ba.threads, "thread counts, comma-separated (default: 1)");
+  bench_cmd->add_option("--integrators", ba.integrators,
+                        "comma-separated subset of hybrid_frozen, hybrid_sweep, velocity_verlet, default");
+  bench_cmd->add_option("--repetitions", ba.repetitions, "repetitions; the median is reported (default: 3)")
+      ->check(CLI::PositiveNumber);
+  bench_cmd->add_option("--json", ba.json, "also write the table as JSON to this file");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -333,6 +346,7 @@ int main(int argc, char** argv) {
   try {
     if (run_cmd->parsed()) return run(o);
     if (validate_cmd->parsed()) return validate(to_validate);
+    if (bench_cmd->parsed()) return qbond::cli::bench(ba);
     if (experiment_cmd->parsed()) {
       if (ea.names.empty() && !ea.list) throw std::invalid_argument("name an experiment (or 'all'; see --list)");
       return experiment(ea);

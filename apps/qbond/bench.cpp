@@ -1,0 +1,126 @@
+#include "bench.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "qbond/files.hpp"
+
+namespace qbond::cli {
+namespace {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// qbond_bench is built next to qbond (bench/CMakeLists.txt).
+fs::path bench_program() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  const fs::path p = (ec ? fs::path(".") : self.parent_path()) / "qbond_bench";
+  if (!fs::exists(p))
+    throw std::runtime_error("qbond bench: " + p.string() + " not found (build the qbond_bench target)");
+  return p;
+}
+
+std::string quoted(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+double seconds(const json& b) {
+  const std::string unit = b.value("time_unit", "ns");
+  const double scale = unit == "ms" ? 1e-3 : unit == "us" ? 1e-6 : unit == "s" ? 1.0 : 1e-9;
+  return b.at("real_time").get<double>() * scale;
+}
+
+bool is_triad(const json& b) { return b.at("run_name").get<std::string>().rfind("triad", 0) == 0; }
+
+std::string machine() {
+  char host[256] = "unknown";
+  gethostname(host, sizeof host - 1);
+  return std::string(host) + ", " + std::to_string(sysconf(_SC_NPROCESSORS_ONLN)) + " cores";
+}
+
+}  // namespace
+
+int bench(const BenchArgs& a) {
+  const fs::path program = bench_program();
+  const fs::path out = fs::temp_directory_path() / ("qbond_bench_" + std::to_string(getpid()) + ".json");
+  std::string cmd = quoted(program.string()) + " --benchmark_out=" + quoted(out.string()) +
+                    " --benchmark_out_format=json --benchmark_format=console";
+  const int reps = a.quick ? 1 : std::max(1, a.repetitions);
+  cmd += " --benchmark_min_time=" + std::string(a.quick ? "0.01" : "0.3");
+  if (reps > 1) cmd += " --benchmark_repetitions=" + std::to_string(reps) + " --benchmark_report_aggregates_only=true";
+  cmd += " --n=" + quoted(a.sizes.empty() ? (a.quick ? "10" : "10,20,40") : a.sizes);
+  cmd += " --threads=" + quoted(a.threads);
+  if (!a.integrators.empty()) cmd += " --integrators=" + quoted(a.integrators);
+  cmd += " >&2";  // Google Benchmark's own report goes to stderr, the table to stdout
+  if (std::system(cmd.c_str()) != 0) {
+    fs::remove(out);
+    throw std::runtime_error("qbond bench: qbond_bench failed (" + cmd + ")");
+  }
+  const json report = json::parse(read_file(out));
+  fs::remove(out);
+
+  // The median of the repetitions (or the single run).
+  auto wanted = [&](const json& b) {
+    return reps > 1 ? b.value("aggregate_name", "") == "median" : b.value("run_type", "iteration") == "iteration";
+  };
+  double bandwidth = 0;  // [B/s]
+  for (const json& b : report.at("benchmarks"))
+    if (wanted(b) && is_triad(b)) bandwidth = b.at("bytes_per_iteration").get<double>() / seconds(b);
+  if (!(bandwidth > 0)) throw std::runtime_error("qbond bench: the triad did not run");
+
+  json rows = json::array();
+  std::printf("qbond bench: canonical workload (n^3 cubic lattice, face diagonals, x = 0 anchored, h = 1e-4 s)\n");
+  std::printf("memory bandwidth (STREAM triad, this run): %.2f GB/s; bound = bytes a step must move / bandwidth\n\n",
+              bandwidth * 1e-9);
+  std::printf("%-10s %-16s %8s %8s %7s %10s %11s %12s %11s %9s\n", "workload", "integrator", "quanta", "bonds", "threads",
+              "ms/step", "ns/bond", "ns/quanta", "bytes/qnt", "x bound");
+  for (const json& b : report.at("benchmarks")) {
+    if (!wanted(b) || is_triad(b)) continue;
+    if (b.contains("error_occurred") && b["error_occurred"].get<bool>())
+      throw std::runtime_error("qbond bench: " + b.at("run_name").get<std::string>() + ": " +
+                               b.value("error_message", "failed"));
+    // run_name: step/INTEGRATOR/n:N/threads:T/real_time
+    const std::string name = b.at("run_name");
+    const auto s1 = name.find('/'), s2 = name.find('/', s1 + 1), s3 = name.find('/', s2 + 1);
+    const std::string integrator = name.substr(s1 + 1, s2 - s1 - 1), n = name.substr(s2 + 3, s3 - s2 - 3);
+    const double t = seconds(b), quanta = b.at("quanta"), bonds = b.at("bonds"), threads = b.at("threads"),
+                 bytes = b.at("bytes_per_step");
+    const double ratio = t / (bytes / bandwidth);
+    std::printf("%-10s %-16s %8.0f %8.0f %7.0f %10.4f %11.3f %12.2f %11.1f %9.2f\n", ("n=" + n).c_str(),
+                integrator.c_str(), quanta, bonds, threads, t * 1e3, t / bonds * 1e9, t / quanta * 1e9, bytes / quanta,
+                ratio);
+    rows.push_back({{"workload", "lattice n=" + n},
+                    {"integrator", integrator},
+                    {"quanta", std::llround(quanta)},
+                    {"bonds", std::llround(bonds)},
+                    {"threads", std::llround(threads)},
+                    {"seconds_per_step", t},
+                    {"ns_per_bond_step", t / bonds * 1e9},
+                    {"ns_per_quanta_step", t / quanta * 1e9},
+                    {"bytes_per_quanta_step", bytes / quanta},
+                    {"ratio_to_bandwidth_bound", ratio}});
+  }
+  if (!a.json.empty()) {
+    const std::time_t now = std::time(nullptr);
+    char date[32];
+    std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+    const json doc = {{"date", date},
+                      {"machine", machine()},
+                      {"repetitions", reps},
+                      {"triad_bytes_per_second", bandwidth},
+                      {"rows", rows}};
+    write_file_atomic(a.json, doc.dump(1) + "\n");
+  }
+  return 0;
+}
+
+}  // namespace qbond::cli

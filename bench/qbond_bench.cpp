@@ -1,0 +1,154 @@
+// qbond's performance suite (Google Benchmark), run by `qbond bench` (docs/performance.md).
+//
+//   qbond_bench [benchmark flags] [--n=10,20,40] [--threads=1,2] [--integrators=a,b,...]
+//
+// Registers, for each integrator, lattice size n and thread count, the time of one step of the
+// canonical workload (samples.hpp: n³ simple-cubic lattice, face diagonals, x = 0 face anchored,
+// gravity, h = 1e-4 s), and a STREAM-style triad measuring this machine's memory bandwidth in the
+// same run, so that a step's time can be set against the bandwidth bound of the bytes it must
+// move. Counters: quanta, bonds, threads, bytes_per_step (the traffic model below).
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "qbond/samples.hpp"
+#include "qbond/simulation.hpp"
+
+namespace {
+
+using namespace qbond;
+
+struct NamedIntegrator {
+  std::string name;
+  IntegratorConfig config;
+};
+
+std::vector<NamedIntegrator> known_integrators() {
+  IntegratorConfig frozen, sweep, verlet;
+  frozen.type = sweep.type = IntegratorType::hybrid_implicit;
+  frozen.neighbours = NeighbourModel::frozen;
+  sweep.neighbours = NeighbourModel::sweep;
+  sweep.iterations = 1;
+  sweep.tolerance = 0;
+  verlet.type = IntegratorType::velocity_verlet;
+  return {{"hybrid_frozen", frozen}, {"hybrid_sweep", sweep}, {"velocity_verlet", verlet}, {"default", default_integrator()}};
+}
+
+// The bytes one step must move at the least, streaming every array once: per bond its two end
+// indices (2 × 4 B) and stiffness, rest length and damping (3 × 8 B); per quanta position and
+// velocity read (2 × 24 B), mass read (8 B), position and velocity change written (2 × 24 B).
+// A step that passes over the data several times (sweeps, CG iterations) is bounded by this
+// times its passes; the ratio reported is against this single pass.
+double bytes_per_step(std::size_t quanta, std::size_t bonds) {
+  return 32.0 * static_cast<double>(bonds) + 104.0 * static_cast<double>(quanta);
+}
+
+void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, int threads) {
+  Scene scene = canonical_lattice(n);
+  IntegratorConfig cfg = integ.config;
+  cfg.threads = threads;
+  const std::size_t quanta = scene.world.num_quanta(), bonds = scene.world.num_bonds();
+  Simulation sim(std::move(scene.world), cfg, scene.timestep);
+  sim.set_track_energy(false);
+  sim.set_keep_last_good(false);
+  for (int k = 0; k < 3; ++k) sim.step();  // buffers grown, caches warm
+  for (auto _ : st) {
+    const StepReport r = sim.step();
+    if (r.status != StepReport::Status::ok) {
+      st.SkipWithError("the step failed");
+      break;
+    }
+  }
+  st.counters["quanta"] = static_cast<double>(quanta);
+  st.counters["bonds"] = static_cast<double>(bonds);
+  st.counters["threads"] = threads;
+  st.counters["bytes_per_step"] = bytes_per_step(quanta, bonds);
+}
+
+// STREAM's triad a = b + s c over arrays far larger than the caches; bytes counted as STREAM
+// does (two reads and one write of 8 B per element).
+void triad_benchmark(benchmark::State& st) {
+  const std::size_t n = std::size_t{1} << 24;  // 3 × 128 MiB
+  std::vector<double> a(n, 0.0), b(n, 1.0), c(n, 2.0);
+  const double s = 3.0;
+  for (auto _ : st) {
+    for (std::size_t i = 0; i < n; ++i) a[i] = b[i] + s * c[i];
+    benchmark::DoNotOptimize(a.data());
+    benchmark::ClobberMemory();
+  }
+  st.counters["bytes_per_iteration"] = 24.0 * static_cast<double>(n);
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+std::vector<int> split_ints(const std::string& s, const char* flag) {
+  std::vector<int> out;
+  for (const std::string& t : split(s)) {
+    char* end = nullptr;
+    const long v = std::strtol(t.c_str(), &end, 10);
+    if (*end != '\0' || v < 1 || v > 1000) {
+      std::fprintf(stderr, "qbond_bench: %s: '%s' is not a positive integer\n", flag, t.c_str());
+      std::exit(2);
+    }
+    out.push_back(static_cast<int>(v));
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  std::vector<int> sizes{10, 20, 40}, threads{1};
+  std::vector<std::string> names{"hybrid_frozen", "hybrid_sweep", "velocity_verlet", "default"};
+  for (int k = 1; k < argc; ++k) {
+    const std::string a = argv[k];
+    auto value = [&](const char* flag) -> const char* {
+      const std::string f = std::string(flag) + "=";
+      return a.rfind(f, 0) == 0 ? argv[k] + f.size() : nullptr;
+    };
+    if (const char* v = value("--n"))
+      sizes = split_ints(v, "--n");
+    else if (const char* v2 = value("--threads"))
+      threads = split_ints(v2, "--threads");
+    else if (const char* v3 = value("--integrators"))
+      names = split(v3);
+    else {
+      std::fprintf(stderr, "qbond_bench: unknown argument '%s' (--n=LIST --threads=LIST --integrators=LIST, "
+                   "and Google Benchmark's --benchmark_* flags)\n", argv[k]);
+      return 2;
+    }
+  }
+  const auto all = known_integrators();
+  benchmark::RegisterBenchmark("triad", triad_benchmark)->UseRealTime()->Unit(benchmark::kMillisecond);
+  for (const std::string& name : names) {
+    const NamedIntegrator* integ = nullptr;
+    for (const auto& i : all)
+      if (i.name == name) integ = &i;
+    if (!integ) {
+      std::fprintf(stderr, "qbond_bench: unknown integrator '%s' (hybrid_frozen, hybrid_sweep, velocity_verlet, default)\n",
+                   name.c_str());
+      return 2;
+    }
+    for (int n : sizes)
+      for (int t : threads)
+        benchmark::RegisterBenchmark(("step/" + name + "/n:" + std::to_string(n) + "/threads:" + std::to_string(t)).c_str(),
+                                     [integ, n, t](benchmark::State& st) { step_benchmark(st, *integ, n, t); })
+            ->UseRealTime()
+            ->Unit(benchmark::kMillisecond);
+  }
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
