@@ -143,12 +143,12 @@ def fig10(d):
 def fig9(d):
     pts = numbers(os.path.join(d, "midplane.csv"))
     bend = numbers(os.path.join(d, "bending.csv"))
-    fig, (a, b) = plt.subplots(2, 1, figsize=(9, 6.5))
+    fig, (a, b) = plt.subplots(2, 1, figsize=(10, 6.5), gridspec_kw={"height_ratios": [1, 2]})
     sc = a.scatter([p["x"] for p in pts], [p["z"] for p in pts], c=[p["von_mises"] / 1e6 for p in pts],
-                   cmap="jet", s=30, marker="s")
-    fig.colorbar(sc, ax=a, label="von Mises [MPa]")
+                   cmap="jet", s=12, marker="s")
+    fig.colorbar(sc, ax=a, label="von Mises [MPa]", orientation="horizontal", pad=0.35, aspect=50)
     a.set_aspect("equal")
-    a.set_title("Figure 9: von Mises stress, mid-plane of a block clamped at x = 0, loaded down at the right")
+    a.set_title("Figure 9: von Mises stress on the mid-plane (clamped at x = 0, pushed down at x = L)")
     a.set_xlabel("x [m]")
     a.set_ylabel("z [m]")
     b.plot([r["x"] for r in bend], [r["lattice_sxx"] / 1e6 for r in bend], "o", ms=3, label="lattice (second layer from top)")
