@@ -1,10 +1,10 @@
 // qbond's performance suite (Google Benchmark), run by `qbond bench` (docs/performance.md).
 //
-//   qbond_bench [benchmark flags] [--n=10,20,40] [--threads=1,2] [--integrators=a,b,...]
+//   qbond_bench [benchmark flags] [--n=10,20,40] [--threads=1,2] [--integrators=a,b,...] [--dt=H]
 //
 // Registers, for each integrator, lattice size n and thread count, the time of one step of the
 // canonical workload (samples.hpp: n³ simple-cubic lattice, face diagonals, x = 0 face anchored,
-// gravity, h = 1e-4 s), and a STREAM-style triad measuring this machine's memory bandwidth in the
+// gravity, h = 1e-4 s unless --dt says otherwise), and a STREAM-style triad measuring this machine's memory bandwidth in the
 // same run, so that a step's time can be set against the bandwidth bound of the bytes it must
 // move. Counters: quanta, bonds, threads, bytes_per_step (the traffic model below).
 #include <benchmark/benchmark.h>
@@ -48,8 +48,9 @@ double bytes_per_step(std::size_t quanta, std::size_t bonds) {
   return 32.0 * static_cast<double>(bonds) + 104.0 * static_cast<double>(quanta);
 }
 
-void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, int threads) {
+void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, int threads, double dt) {
   Scene scene = canonical_lattice(n);
+  if (dt > 0) scene.timestep = dt;
   IntegratorConfig cfg = integ.config;
   cfg.threads = threads;
   const std::size_t quanta = scene.world.num_quanta(), bonds = scene.world.num_bonds();
@@ -67,6 +68,7 @@ void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, i
   st.counters["quanta"] = static_cast<double>(quanta);
   st.counters["bonds"] = static_cast<double>(bonds);
   st.counters["threads"] = threads;
+  st.counters["timestep"] = dt > 0 ? dt : scene.timestep;
   st.counters["bytes_per_step"] = bytes_per_step(quanta, bonds);
 }
 
@@ -112,6 +114,7 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   std::vector<int> sizes{10, 20, 40}, threads{1};
   std::vector<std::string> names{"hybrid_frozen", "hybrid_sweep", "velocity_verlet", "default"};
+  double dt = 0;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
     auto value = [&](const char* flag) -> const char* {
@@ -124,8 +127,16 @@ int main(int argc, char** argv) {
       threads = split_ints(v2, "--threads");
     else if (const char* v3 = value("--integrators"))
       names = split(v3);
+    else if (const char* v4 = value("--dt")) {
+      char* end = nullptr;
+      dt = std::strtod(v4, &end);
+      if (*end != '\0' || !(dt > 0 && dt < 10)) {
+        std::fprintf(stderr, "qbond_bench: --dt: '%s' is not a timestep in (0, 10) s\n", v4);
+        return 2;
+      }
+    }
     else {
-      std::fprintf(stderr, "qbond_bench: unknown argument '%s' (--n=LIST --threads=LIST --integrators=LIST, "
+      std::fprintf(stderr, "qbond_bench: unknown argument '%s' (--n=LIST --threads=LIST --integrators=LIST --dt=H, "
                    "and Google Benchmark's --benchmark_* flags)\n", argv[k]);
       return 2;
     }
@@ -144,7 +155,7 @@ int main(int argc, char** argv) {
     for (int n : sizes)
       for (int t : threads)
         benchmark::RegisterBenchmark(("step/" + name + "/n:" + std::to_string(n) + "/threads:" + std::to_string(t)).c_str(),
-                                     [integ, n, t](benchmark::State& st) { step_benchmark(st, *integ, n, t); })
+                                     [integ, n, t, dt](benchmark::State& st) { step_benchmark(st, *integ, n, t, dt); })
             ->UseRealTime()
             ->Unit(benchmark::kMillisecond);
   }

@@ -11,6 +11,7 @@ struct BenchArgs {
   std::string sizes;           ///< lattice sizes n, e.g. "10,20,40" (default: 10,20,40; quick: 10)
   std::string threads = "1";   ///< thread counts, e.g. "1,2"
   std::string integrators;     ///< subset of hybrid_frozen,hybrid_sweep,velocity_verlet,default
+  double dt = 0;                ///< timestep [s] (0: the workload's 1e-4 s)
   int repetitions = 3;         ///< the median of this many is reported
   std::string json;            ///< also write the table as JSON here (atomically)
 };
