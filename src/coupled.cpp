@@ -64,8 +64,10 @@ class CoupledIntegrator final : public Integrator {
     for (std::size_t b2 = 0; b2 < model.num_bonds(); ++b2) {
       const auto p = dof_[model.bond_i[b2]], q = dof_[model.bond_j[b2]];
       if (!state.alive[b2] || p < 0 || q < 0) continue;
-      add_block(p, q, -sys_.B[b2]);
-      add_block(q, p, -sys_.B[b2]);
+      const BondBlock& bb = sys_.bonds[b2];
+      const Mat3 B = block_matrix(bb.u, bb.Ba, bb.Bb);
+      add_block(p, q, -B);
+      add_block(q, p, -B);
     }
     Eigen::SparseMatrix<double> A(3 * nf, 3 * nf);
     A.setFromTriplets(triplets_.begin(), triplets_.end());

@@ -43,29 +43,4 @@ void accelerations(const Model& model, const State& state, const Adjacency& adj,
   for (std::size_t i = 0; i < a.size(); ++i) a[i] *= model.inv_mass[i];
 }
 
-void linearise_bonds(const Model& model, const State& state, BondLinearisation& out, int threads) {
-  const std::size_t nb = model.num_bonds();
-  out.force.resize(nb);
-  out.K.resize(nb);
-  out.C.resize(nb);
-  parallel_for(nb, threads, [&](std::size_t b) {
-    out.force[b].setZero();
-    out.K[b].setZero();
-    out.C[b].setZero();
-    if (!state.alive[b]) return;
-    const Index i = model.bond_i[b], j = model.bond_j[b];
-    const Vec3 d = state.x[j] - state.x[i];
-    const double r = d.norm();
-    if (!(r > 0)) return;  // a zero-length bond has no direction: no force, no coupling
-    const Vec3 u = d / r;
-    const LawValue lv = model.law_at(b, r, state.rest[b]);
-    const Vec3 w = state.v[j] - state.v[i];
-    out.force[b] = lv.T * u + (model.damping_model[b] == DampingModel::axial
-                                   ? Vec3(model.damping[b] * w.dot(u) * u)
-                                   : Vec3(model.damping[b] * w));
-    out.K[b] = stiffness_block(lv.T, lv.dT, r, u, /*clamp_for_solver=*/true);
-    out.C[b] = damping_block(model.damping_model[b], model.damping[b], u);
-  });
-}
-
 }  // namespace qbond

@@ -1,5 +1,5 @@
 #pragma once
-// Bond-centric force and linearisation passes shared by every integrator and by analysis: each
+// Bond-centric force passes shared by the explicit integrators and by analysis: each
 // bond's force is computed once and applied to both ends (Newton's third law, exactly).
 #include <vector>
 
@@ -22,15 +22,5 @@ void gather_bond_forces(const Model& model, const Adjacency& adj, const std::vec
 void accelerations(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& x,
                    const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads,
                    std::vector<Vec3>& scratch, std::vector<Vec3>& a);
-
-// Per-bond linearisation at the state's positions: the force on i (f_i = -f_j), the stiffness
-// block K_b (clamped positive semi-definite, see laws.hpp) and the damping block C_b.
-// Broken or zero-length bonds get zero blocks.
-struct BondLinearisation {
-  std::vector<Vec3> force;  // force on bond_i [N] (nb)
-  std::vector<Mat3> K;      // [N/m] (nb)
-  std::vector<Mat3> C;      // [N·s/m] (nb)
-};
-void linearise_bonds(const Model& model, const State& state, BondLinearisation& out, int threads = 1);
 
 }  // namespace qbond

@@ -49,7 +49,8 @@ class HybridIntegrator final : public Integrator {
     Vec3 r = sys_.rhs[i];
     for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
       const Index j = adj.other[e];
-      if (!model.is_kinematic(j)) r += sys_.B[adj.bond[e]] * y[j];
+      const BondBlock& bb = sys_.bonds[adj.bond[e]];
+      if (!model.is_kinematic(j)) r += block_times(bb.u, bb.Ba, bb.Bb, y[j]);
     }
     return r;
   }

@@ -1,5 +1,6 @@
 #include "implicit_system.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "parallel.hpp"
@@ -13,24 +14,47 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
   kin.resize(n);
   project_kinematic(model, state, ctx, kin);
   const double h = ctx.h;
-  linearise_bonds(model, state, sys.bonds, threads);
 
   // Δx₀ and Δv_k, the motion already known before solving (see the header).
   auto dx0 = [&](Index i) -> Vec3 { return model.is_kinematic(i) ? kin.dx[i] : Vec3(h * state.v[i]); };
   auto dvk = [&](Index i) -> Vec3 { return model.is_kinematic(i) ? kin.dv[i] : Vec3::Zero(); };
 
-  // Per bond: B_b and its right-hand-side term g_b (on i; j gets -g_b). With `frozen` the
-  // neighbours sit at their start positions and at rest, so g_b = h f and each end adds its own
-  // -h K Δx₀ when gathering.
-  sys.B.resize(nb);
-  sys.g.resize(nb);
+  // Per bond: u, B_b's coefficients and the right-hand-side term g_b (on i; j gets -g_b). With
+  // `frozen` the neighbours sit at their start positions and at rest, so g_b = h f and each end
+  // adds its own -h K Δx₀ when gathering (hence K's coefficients).
+  sys.bonds.resize(nb);
   parallel_for(nb, threads, [&](std::size_t b) {
-    const Mat3& K = sys.bonds.K[b];
-    const Mat3& C = sys.bonds.C[b];
-    sys.B[b] = h * C + (h * h) * K;
+    Vec3 u = Vec3::Zero(), f = Vec3::Zero();
+    double ka = 0, kb = 0, ca = 0, cb = 0;  // K_b = ka uuᵀ + kb I, C_b = ca uuᵀ + cb I
     const Index i = model.bond_i[b], j = model.bond_j[b];
-    sys.g[b] = frozen ? Vec3(h * sys.bonds.force[b])
-                      : Vec3(h * sys.bonds.force[b] - h * (K * (dx0(i) - dx0(j))) - h * (C * (dvk(i) - dvk(j))));
+    const Vec3 d = state.x[j] - state.x[i];
+    const double r = d.norm();
+    if (state.alive[b] && r > 0) {  // a zero-length bond has no direction: no force, no coupling
+      u = d / r;
+      const LawValue lv = model.law_at(b, r, state.rest[b]);
+      const Vec3 w = state.v[j] - state.v[i];
+      const double D = model.damping[b];
+      const bool axial = model.damping_model[b] == DampingModel::axial;
+      f = lv.T * u + (axial ? Vec3(D * w.dot(u) * u) : Vec3(D * w));
+      // Clamped at 0 so that A stays positive definite (laws.hpp, stiffness_block).
+      const double k_axial = std::max(lv.dT, 0.0), k_transverse = std::max(lv.T / r, 0.0);
+      ka = k_axial - k_transverse;
+      kb = k_transverse;
+      (axial ? ca : cb) = D;
+    }
+    BondBlock& bb = sys.bonds[b];
+    bb.u = u;
+    bb.Ba = h * ca + (h * h) * ka;
+    bb.Bb = h * cb + (h * h) * kb;
+    bb.Ka = ka;
+    bb.Kb = kb;
+    bb.i = i;
+    if (frozen) {
+      bb.g = h * f;
+    } else {
+      const Vec3 dx = dx0(i) - dx0(j), dv = dvk(i) - dvk(j);
+      bb.g = h * f - h * block_times(u, ka, kb, dx) - h * block_times(u, ca, cb, dv);
+    }
   });
   // Per quanta, gathered over its bonds in bond order: A_ii = m I + Σ B_b, b_i = h f_ext + Σ ±g_b.
   sys.diag.resize(n);
@@ -46,16 +70,17 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
     }
     Mat3 d = model.mass[i] * Mat3::Identity();
     Vec3 r = h * f_ext[i];
+    const Vec3 dxi = dx0(i);
     for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
-      const Index b = adj.bond[e];
-      d += sys.B[b];
-      const bool first = model.bond_i[b] == i;
+      const BondBlock& bb = sys.bonds[adj.bond[e]];
+      d += block_matrix(bb.u, bb.Ba, bb.Bb);
+      const bool first = bb.i == i;
       if (frozen)
-        r += (first ? sys.g[b] : Vec3(-sys.g[b])) - h * (sys.bonds.K[b] * dx0(i));
+        r += (first ? bb.g : Vec3(-bb.g)) - h * block_times(bb.u, bb.Ka, bb.Kb, dxi);
       else if (first)
-        r += sys.g[b];
+        r += bb.g;
       else
-        r -= sys.g[b];
+        r -= bb.g;
     }
     sys.diag[i] = d;
     sys.rhs[i] = r;
@@ -77,7 +102,8 @@ void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem
     Vec3 a = sys.diag[i] * y[i];
     for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
       const Index j = adj.other[e];
-      if (!model.is_kinematic(j)) a -= sys.B[adj.bond[e]] * y[j];  // kinematic unknowns eliminated
+      const BondBlock& bb = sys.bonds[adj.bond[e]];
+      if (!model.is_kinematic(j)) a -= block_times(bb.u, bb.Ba, bb.Bb, y[j]);  // kinematic unknowns eliminated
     }
     out[i] = a;
   });
