@@ -1,12 +1,17 @@
 // qbond's performance suite (Google Benchmark), run by `qbond bench` (docs/performance.md).
 //
 //   qbond_bench [benchmark flags] [--n=10,20,40] [--threads=1,2] [--integrators=a,b,...] [--dt=H]
+//   qbond_bench [benchmark flags] --solve [--n=20,40]
 //
 // Registers, for each integrator, lattice size n and thread count, the time of one step of the
 // canonical workload (samples.hpp: n³ simple-cubic lattice, face diagonals, x = 0 face anchored,
 // gravity, h = 1e-4 s unless --dt says otherwise), and a STREAM-style triad measuring this machine's memory bandwidth in the
 // same run, so that a step's time can be set against the bandwidth bound of the bytes it must
 // move. Counters: quanta, bonds, threads, bytes_per_step (the traffic model below).
+//
+// With --solve: the time to reach the backward-Euler solution of one step at h = 1/60 s to a
+// relative residual of 1e-6, by qbond's default (matrix-free CG, 3×3 block-Jacobi) and by Eigen's
+// CG (diagonal preconditioner) and sparse Cholesky (SimplicialLLT) on the same assembled system.
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -16,6 +21,10 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/IterativeLinearSolvers>
+#include <Eigen/SparseCholesky>
+
+#include "implicit_system.hpp"  // internal: the linear system the implicit integrators solve
 #include "qbond/samples.hpp"
 #include "qbond/simulation.hpp"
 
@@ -86,6 +95,87 @@ void triad_benchmark(benchmark::State& st) {
   st.counters["bytes_per_iteration"] = 24.0 * static_cast<double>(n);
 }
 
+constexpr double kSolveStep = 1.0 / 60, kSolveTolerance = 1e-6;
+
+// qbond's default step at h = 1/60 s, CG to a relative residual of 1e-6 (linearisation included).
+void solve_qbond(benchmark::State& st, int n) {
+  Scene scene = canonical_lattice(n);
+  IntegratorConfig cfg = default_integrator();
+  cfg.threads = 1;
+  cfg.tolerance = kSolveTolerance;
+  const std::size_t quanta = scene.world.num_quanta();
+  for (auto _ : st) {
+    st.PauseTiming();
+    Simulation sim(scene.world, cfg, kSolveStep);  // every solve from the same state
+    sim.set_track_energy(false);
+    sim.set_keep_last_good(false);
+    st.ResumeTiming();
+    sim.begin_step();
+    st.counters["iterations"] = sim.integrator().stats().iterations;
+    st.counters["residual"] = sim.integrator().stats().residual;
+  }
+  st.counters["quanta"] = static_cast<double>(quanta);
+}
+
+// The same system (begin_implicit_step, as the integrators build it) assembled into a sparse
+// matrix of the free unknowns and solved by Eigen: CG or SimplicialLLT.
+void solve_eigen(benchmark::State& st, int n, bool cholesky) {
+  Scene scene = canonical_lattice(n);
+  const World& w = scene.world;
+  const Model& m = w.model;
+  Adjacency adj;
+  build_adjacency(m, w.state, adj);
+  std::vector<Vec3> f_ext(w.num_quanta());
+  for (std::size_t i = 0; i < f_ext.size(); ++i) f_ext[i] = m.mass[i] * m.gravity;
+  ImplicitSystem sys;
+  Projection kin;
+  std::vector<Eigen::Index> dof(w.num_quanta(), -1);
+  Eigen::Index nf = 0;
+  for (std::size_t i = 0; i < dof.size(); ++i)
+    if (!m.is_kinematic(static_cast<Index>(i))) dof[i] = 3 * nf++;
+  std::vector<Eigen::Triplet<double>> t;
+  auto add = [&](Eigen::Index p, Eigen::Index q, const Mat3& a) {
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) t.emplace_back(p + r, q + c, a(r, c));
+  };
+  double iterations = 0, residual = 0;
+  for (auto _ : st) {
+    begin_implicit_step(m, w.state, adj, f_ext, {.h = kSolveStep}, false, 1, kin, sys);
+    t.clear();
+    Eigen::VectorXd b(3 * nf);
+    for (std::size_t i = 0; i < dof.size(); ++i)
+      if (dof[i] >= 0) {
+        add(dof[i], dof[i], sys.diag[i]);
+        b.segment<3>(dof[i]) = sys.rhs[i];
+      }
+    for (std::size_t k = 0; k < sys.bonds.size(); ++k) {
+      const Eigen::Index p = dof[m.bond_i[k]], q = dof[m.bond_j[k]];
+      if (p < 0 || q < 0) continue;
+      const BondBlock& bb = sys.bonds[k];
+      const Mat3 B = block_matrix(bb.u, bb.Ba, bb.Bb);
+      add(p, q, -B);
+      add(q, p, -B);
+    }
+    Eigen::SparseMatrix<double> A(3 * nf, 3 * nf);
+    A.setFromTriplets(t.begin(), t.end());
+    Eigen::VectorXd y;
+    if (cholesky) {
+      Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt(A);
+      y = llt.solve(b);
+    } else {
+      Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper> cg(A);
+      cg.setTolerance(kSolveTolerance);
+      y = cg.solve(b);
+      iterations = static_cast<double>(cg.iterations());
+    }
+    residual = (b - A * y).norm() / b.norm();
+    benchmark::DoNotOptimize(y.data());
+  }
+  st.counters["iterations"] = iterations;
+  st.counters["residual"] = residual;
+  st.counters["quanta"] = static_cast<double>(w.num_quanta());
+}
+
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> out;
   std::stringstream in(s);
@@ -115,6 +205,7 @@ int main(int argc, char** argv) {
   std::vector<int> sizes{10, 20, 40}, threads{1};
   std::vector<std::string> names{"hybrid_frozen", "hybrid_sweep", "velocity_verlet", "default"};
   double dt = 0;
+  bool solve = false;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
     auto value = [&](const char* flag) -> const char* {
@@ -127,6 +218,8 @@ int main(int argc, char** argv) {
       threads = split_ints(v2, "--threads");
     else if (const char* v3 = value("--integrators"))
       names = split(v3);
+    else if (a == "--solve")
+      solve = true;
     else if (const char* v4 = value("--dt")) {
       char* end = nullptr;
       dt = std::strtod(v4, &end);
@@ -140,6 +233,24 @@ int main(int argc, char** argv) {
                    "and Google Benchmark's --benchmark_* flags)\n", argv[k]);
       return 2;
     }
+  }
+  if (solve) {
+    for (int n : sizes) {
+      const std::string tail = "/n:" + std::to_string(n);
+      benchmark::RegisterBenchmark(("solve/qbond_cg" + tail).c_str(), [n](benchmark::State& st) { solve_qbond(st, n); })
+          ->UseRealTime()->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark(("solve/eigen_cg" + tail).c_str(),
+                                   [n](benchmark::State& st) { solve_eigen(st, n, false); })
+          ->UseRealTime()->Unit(benchmark::kMillisecond);
+      // SimplicialLLT's fill-in on a 3D lattice: minutes and gigabytes past 20³ (docs/performance.md).
+      if (n <= 20)
+        benchmark::RegisterBenchmark(("solve/eigen_cholesky" + tail).c_str(),
+                                     [n](benchmark::State& st) { solve_eigen(st, n, true); })
+            ->UseRealTime()->Unit(benchmark::kMillisecond);
+    }
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
   }
   const auto all = known_integrators();
   benchmark::RegisterBenchmark("triad", triad_benchmark)->UseRealTime()->Unit(benchmark::kMillisecond);

@@ -261,6 +261,14 @@ def test_bench_quick():
                 fail(f"{key} = {row[key]}")
     if not doc["triad_bytes_per_second"] > 1e8:
         fail(f"bandwidth {doc['triad_bytes_per_second']} B/s")
+    # The solver comparison: the same system solved by each, to the stated residual.
+    qbond("bench", "--quick", "--solve", "--json", path, check_code=0)
+    rows = {row["solver"]: row for row in json.load(open(path))["rows"]}
+    if sorted(rows) != ["eigen_cg", "eigen_cholesky", "qbond_cg"]:
+        fail(f"solve rows {sorted(rows)}")
+    for name, row in rows.items():
+        if not row["relative_residual"] <= (1e-10 if name == "eigen_cholesky" else 1e-6) or not row["seconds"] > 0:
+            fail(f"{name}: {row}")
     r = qbond("bench", "--quick", "--integrators", "nonsense")
     if r.returncode == 0 or "unknown integrator 'nonsense'" not in r.stderr:
         fail(f"an unknown integrator was accepted: {r.returncode} {r.stderr}")

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -47,53 +48,20 @@ std::string machine() {
   return std::string(host) + ", " + std::to_string(sysconf(_SC_NPROCESSORS_ONLN)) + " cores";
 }
 
-}  // namespace
-
-int bench(const BenchArgs& a) {
-  const fs::path program = bench_program();
-  const fs::path out = fs::temp_directory_path() / ("qbond_bench_" + std::to_string(getpid()) + ".json");
-  std::string cmd = quoted(program.string()) + " --benchmark_out=" + quoted(out.string()) +
-                    " --benchmark_out_format=json --benchmark_format=console";
-  const int reps = a.quick ? 1 : std::max(1, a.repetitions);
-  cmd += " --benchmark_min_time=" + std::string(a.quick ? "0.01" : "0.3");
-  if (reps > 1) cmd += " --benchmark_repetitions=" + std::to_string(reps) + " --benchmark_report_aggregates_only=true";
-  cmd += " --n=" + quoted(a.sizes.empty() ? (a.quick ? "10" : "10,20,40") : a.sizes);
-  cmd += " --threads=" + quoted(a.threads);
-  if (!a.integrators.empty()) cmd += " --integrators=" + quoted(a.integrators);
-  if (a.dt > 0) {
-    char h[40];
-    std::snprintf(h, sizeof h, "%.17g", a.dt);
-    cmd += std::string(" --dt=") + h;
-  }
-  cmd += " >&2";  // Google Benchmark's own report goes to stderr, the table to stdout
-  if (std::system(cmd.c_str()) != 0) {
-    fs::remove(out);
-    throw std::runtime_error("qbond bench: qbond_bench failed (" + cmd + ")");
-  }
-  const json report = json::parse(read_file(out));
-  fs::remove(out);
-
-  // The median of the repetitions (or the single run).
-  auto wanted = [&](const json& b) {
-    return reps > 1 ? b.value("aggregate_name", "") == "median" : b.value("run_type", "iteration") == "iteration";
-  };
-  double bandwidth = 0;  // [B/s]
+// Rows "step/INTEGRATOR/n:N/threads:T": time per step against the bandwidth bound (sets `bandwidth`).
+template <class Wanted>
+json step_table(const json& report, const Wanted& wanted, double h, double& bandwidth) {
   for (const json& b : report.at("benchmarks"))
     if (wanted(b) && is_triad(b)) bandwidth = b.at("bytes_per_iteration").get<double>() / seconds(b);
   if (!(bandwidth > 0)) throw std::runtime_error("qbond bench: the triad did not run");
-
-  json rows = json::array();
-  std::printf("qbond bench: canonical workload (n^3 cubic lattice, face diagonals, x = 0 anchored, h = %g s)\n",
-              a.dt > 0 ? a.dt : 1e-4);
+  std::printf("qbond bench: canonical workload (n^3 cubic lattice, face diagonals, x = 0 anchored, h = %g s)\n", h);
   std::printf("memory bandwidth (STREAM triad, this run): %.2f GB/s; bound = bytes a step must move / bandwidth\n\n",
               bandwidth * 1e-9);
   std::printf("%-10s %-16s %8s %8s %7s %10s %11s %12s %11s %9s\n", "workload", "integrator", "quanta", "bonds", "threads",
               "ms/step", "ns/bond", "ns/quanta", "bytes/qnt", "x bound");
+  json rows = json::array();
   for (const json& b : report.at("benchmarks")) {
     if (!wanted(b) || is_triad(b)) continue;
-    if (b.contains("error_occurred") && b["error_occurred"].get<bool>())
-      throw std::runtime_error("qbond bench: " + b.at("run_name").get<std::string>() + ": " +
-                               b.value("error_message", "failed"));
     // run_name: step/INTEGRATOR/n:N/threads:T/real_time
     const std::string name = b.at("run_name");
     const auto s1 = name.find('/'), s2 = name.find('/', s1 + 1), s3 = name.find('/', s2 + 1);
@@ -116,6 +84,80 @@ int bench(const BenchArgs& a) {
                     {"bytes_per_quanta_step", bytes / quanta},
                     {"ratio_to_bandwidth_bound", ratio}});
   }
+  return rows;
+}
+
+// Rows "solve/SOLVER/n:N": one backward-Euler step at h = 1/60 s to a relative residual of 1e-6.
+template <class Wanted>
+json solve_table(const json& report, const Wanted& wanted) {
+  std::printf("qbond bench --solve: one backward-Euler step of the canonical workload at h = 1/60 s, solved to a\n"
+              "relative residual of 1e-6 (Cholesky: exact), the system's assembly included; ratio = time / qbond_cg's\n\n");
+  std::printf("%-8s %-16s %8s %11s %12s %12s %8s\n", "workload", "solver", "quanta", "iterations", "residual", "ms",
+              "ratio");
+  json rows = json::array();
+  std::map<std::string, double> qbond_time;  // by n
+  for (const json& b : report.at("benchmarks"))
+    if (wanted(b) && b.at("run_name").get<std::string>().rfind("solve/qbond_cg/", 0) == 0)
+      qbond_time[b.at("run_name").get<std::string>().substr(15)] = seconds(b);
+  for (const json& b : report.at("benchmarks")) {
+    if (!wanted(b)) continue;
+    const std::string name = b.at("run_name");  // solve/SOLVER/n:N[/real_time]
+    const auto s1 = name.find('/'), s2 = name.find('/', s1 + 1), s3 = name.find('/', s2 + 1);
+    const std::string solver = name.substr(s1 + 1, s2 - s1 - 1), n = name.substr(s2 + 3, s3 - s2 - 3);
+    const double t = seconds(b), t_q = qbond_time[name.substr(s2 + 1)];
+    std::printf("%-8s %-16s %8.0f %11.0f %12.3g %12.3f %8.2f\n", ("n=" + n).c_str(), solver.c_str(),
+                b.at("quanta").get<double>(), b.at("iterations").get<double>(), b.at("residual").get<double>(), t * 1e3,
+                t_q > 0 ? t / t_q : NAN);
+    rows.push_back({{"workload", "lattice n=" + n},
+                    {"solver", solver},
+                    {"quanta", std::llround(b.at("quanta").get<double>())},
+                    {"iterations", b.at("iterations").get<double>()},
+                    {"relative_residual", b.at("residual").get<double>()},
+                    {"seconds", t},
+                    {"ratio_to_qbond_cg", t_q > 0 ? t / t_q : NAN}});
+  }
+  return rows;
+}
+
+}  // namespace
+
+int bench(const BenchArgs& a) {
+  const fs::path program = bench_program();
+  const fs::path out = fs::temp_directory_path() / ("qbond_bench_" + std::to_string(getpid()) + ".json");
+  std::string cmd = quoted(program.string()) + " --benchmark_out=" + quoted(out.string()) +
+                    " --benchmark_out_format=json --benchmark_format=console";
+  const int reps = a.quick ? 1 : std::max(1, a.repetitions);
+  cmd += " --benchmark_min_time=" + std::string(a.quick ? "0.01" : "0.3");
+  if (reps > 1) cmd += " --benchmark_repetitions=" + std::to_string(reps) + " --benchmark_report_aggregates_only=true";
+  cmd += " --n=" + quoted(a.sizes.empty() ? (a.quick ? "10" : "10,20,40") : a.sizes);
+  if (a.solve) {
+    cmd += " --solve";
+  } else {
+    cmd += " --threads=" + quoted(a.threads);
+    if (!a.integrators.empty()) cmd += " --integrators=" + quoted(a.integrators);
+  }
+  if (a.dt > 0) {
+    char h[40];
+    std::snprintf(h, sizeof h, "%.17g", a.dt);
+    cmd += std::string(" --dt=") + h;
+  }
+  cmd += " >&2";  // Google Benchmark's own report goes to stderr, the table to stdout
+  if (std::system(cmd.c_str()) != 0) {
+    fs::remove(out);
+    throw std::runtime_error("qbond bench: qbond_bench failed (" + cmd + ")");
+  }
+  const json report = json::parse(read_file(out));
+  fs::remove(out);
+
+  // The median of the repetitions (or the single run).
+  const auto wanted = [&](const json& b) {
+    if (b.contains("error_occurred") && b["error_occurred"].get<bool>())
+      throw std::runtime_error("qbond bench: " + b.at("run_name").get<std::string>() + ": " +
+                               b.value("error_message", "failed"));
+    return reps > 1 ? b.value("aggregate_name", "") == "median" : b.value("run_type", "iteration") == "iteration";
+  };
+  double bandwidth = 0;  // [B/s]; the solver comparison runs no triad
+  const json rows = a.solve ? solve_table(report, wanted) : step_table(report, wanted, a.dt > 0 ? a.dt : 1e-4, bandwidth);
   if (!a.json.empty()) {
     const std::time_t now = std::time(nullptr);
     char date[32];
@@ -123,7 +165,7 @@ int bench(const BenchArgs& a) {
     const json doc = {{"date", date},
                       {"machine", machine()},
                       {"repetitions", reps},
-                      {"triad_bytes_per_second", bandwidth},
+                      {"triad_bytes_per_second", a.solve ? json(nullptr) : json(bandwidth)},
                       {"rows", rows}};
     write_file_atomic(a.json, doc.dump(1) + "\n");
   }
