@@ -34,9 +34,9 @@ class HybridIntegrator final : public Integrator {
       topo_.update(model, adj);
       initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, y_);
       if (config_.neighbours == NeighbourModel::sweep)
-        gauss_seidel(model, adj);
+        gauss_seidel(adj);
       else
-        jacobi(model, adj);
+        jacobi(adj);
       if (config_.restore_momentum) restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
       if (config_.warm_start == WarmStart::previous) out.warm = y_;
     }
@@ -45,14 +45,8 @@ class HybridIntegrator final : public Integrator {
 
  private:
   // b_i + Σ_b B_b y_j over i's bonds to free quanta (kinematic unknowns are eliminated).
-  Vec3 gathered_rhs(const Model& model, const Adjacency& adj, Index i, const std::vector<Vec3>& y) const {
-    Vec3 r = sys_.rhs[i];
-    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
-      const Index j = adj.other[e];
-      const BondBlock& bb = sys_.bonds[adj.bond[e]];
-      if (!model.is_kinematic(j)) r += block_times(bb.u, bb.Ba, bb.Bb, y[j]);
-    }
-    return r;
+  Vec3 gathered_rhs(const Adjacency& adj, Index i, const std::vector<Vec3>& y) const {
+    return sys_.rhs[i] + neighbours_times(adj, sys_, i, y);
   }
 
   bool converged(double residual2) {
@@ -65,7 +59,7 @@ class HybridIntegrator final : public Integrator {
     return deterministic_sum(res_.size(), config_.threads, [&](std::size_t k) { return res_[k]; });
   }
 
-  void gauss_seidel(const Model& model, const Adjacency& adj) {
+  void gauss_seidel(const Adjacency& adj) {
     const Coloring& col = topo_.coloring;
     const int threads = config_.threads;
     const double rho = config_.chebyshev_rho;
@@ -81,7 +75,7 @@ class HybridIntegrator final : public Integrator {
         parallel_for(col.offset[c + 1] - begin, threads, [&](std::size_t q) {
           const Index k = begin + static_cast<Index>(q);
           const Index i = col.quanta[k];
-          const Vec3 r = gathered_rhs(model, adj, i, y_);
+          const Vec3 r = gathered_rhs(adj, i, y_);
           res_[k] = (r - sys_.diag[i] * y_[i]).squaredNorm();
           y_[i] = sys_.diag_inv[i] * r;
         });
@@ -100,14 +94,14 @@ class HybridIntegrator final : public Integrator {
     }
   }
 
-  void jacobi(const Model& model, const Adjacency& adj) {
+  void jacobi(const Adjacency& adj) {
     const std::vector<Index>& free = topo_.coloring.quanta;
     res_.resize(free.size());
     for (int it = 0; it < config_.iterations; ++it) {
       next_ = y_;
       parallel_for(free.size(), config_.threads, [&](std::size_t k) {
         const Index i = free[k];
-        const Vec3 r = gathered_rhs(model, adj, i, y_);
+        const Vec3 r = gathered_rhs(adj, i, y_);
         res_[k] = (r - sys_.diag[i] * y_[i]).squaredNorm();
         next_[i] = sys_.diag_inv[i] * r;
       });

@@ -60,6 +60,7 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
   sys.diag.resize(n);
   sys.diag_inv.resize(n);
   sys.rhs.resize(n);
+  sys.edges.resize(frozen ? 0 : adj.offset[n]);  // the frozen step never couples neighbours
   parallel_for(n, threads, [&](std::size_t q) {
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i)) {
@@ -74,6 +75,10 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
     for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
       const BondBlock& bb = sys.bonds[adj.bond[e]];
       d += block_matrix(bb.u, bb.Ba, bb.Bb);
+      if (!frozen) {
+        const bool coupled = !model.is_kinematic(adj.other[e]);
+        sys.edges[e] = {bb.u, coupled ? bb.Ba : 0.0, coupled ? bb.Bb : 0.0};
+      }
       const bool first = bb.i == i;
       if (frozen)
         r += (first ? bb.g : Vec3(-bb.g)) - h * block_times(bb.u, bb.Ka, bb.Kb, dxi);
@@ -99,13 +104,7 @@ void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem
       out[i].setZero();
       return;
     }
-    Vec3 a = sys.diag[i] * y[i];
-    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
-      const Index j = adj.other[e];
-      const BondBlock& bb = sys.bonds[adj.bond[e]];
-      if (!model.is_kinematic(j)) a -= block_times(bb.u, bb.Ba, bb.Bb, y[j]);  // kinematic unknowns eliminated
-    }
-    out[i] = a;
+    out[i] = sys.diag[i] * y[i] - neighbours_times(adj, sys, i, y);
   });
 }
 

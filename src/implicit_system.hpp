@@ -38,8 +38,16 @@ struct BondBlock {
   Index i = 0;            // bond_i, so that a quanta knows its end without another lookup
 };
 
+// B_b as seen from one end of the bond: the operator the iterative solvers apply every
+// iteration, stored in adjacency order so that a quanta's row is read as one contiguous run.
+struct EdgeBlock {
+  Vec3 u = Vec3::Zero();
+  double Ba = 0, Bb = 0;  // 0 when the neighbour is kinematic (its unknown is eliminated)
+};
+
 struct ImplicitSystem {
   std::vector<BondBlock> bonds;  // (nb)
+  std::vector<EdgeBlock> edges;  // per adjacency entry of a free quanta (adj.offset[n]; empty if frozen)
   std::vector<Mat3> diag;      // A_ii (n); identity for kinematic quanta
   std::vector<Mat3> diag_inv;  // A_ii⁻¹ (n)
   std::vector<Vec3> rhs;       // b (n); 0 for kinematic quanta
@@ -54,6 +62,16 @@ struct ImplicitSystem {
 void begin_implicit_step(const Model& model, const State& state, const Adjacency& adj,
                          const std::vector<Vec3>& f_ext, const StepContext& ctx, bool frozen, int threads,
                          Projection& out, ImplicitSystem& sys);
+
+// A's off-diagonal part times y for free quanta i: Σ over i's bonds to free quanta of B_b y_j.
+inline Vec3 neighbours_times(const Adjacency& adj, const ImplicitSystem& sys, Index i, const std::vector<Vec3>& y) {
+  Vec3 s = Vec3::Zero();
+  for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+    const EdgeBlock& eb = sys.edges[e];
+    s += block_times(eb.u, eb.Ba, eb.Bb, y[adj.other[e]]);
+  }
+  return s;
+}
 
 // out = A y over free quanta (y's kinematic rows are ignored; out's kinematic rows are 0).
 void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, const std::vector<Vec3>& y,
