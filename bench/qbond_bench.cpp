@@ -129,35 +129,14 @@ void solve_eigen(benchmark::State& st, int n, bool cholesky) {
   for (std::size_t i = 0; i < f_ext.size(); ++i) f_ext[i] = m.mass[i] * m.gravity;
   ImplicitSystem sys;
   Projection kin;
-  std::vector<Eigen::Index> dof(w.num_quanta(), -1);
-  Eigen::Index nf = 0;
-  for (std::size_t i = 0; i < dof.size(); ++i)
-    if (!m.is_kinematic(static_cast<Index>(i))) dof[i] = 3 * nf++;
-  std::vector<Eigen::Triplet<double>> t;
-  auto add = [&](Eigen::Index p, Eigen::Index q, const Mat3& a) {
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) t.emplace_back(p + r, q + c, a(r, c));
-  };
+  std::vector<Eigen::Index> dof;
+  std::vector<Eigen::Triplet<double>> triplets;
+  Eigen::SparseMatrix<double> A;
+  Eigen::VectorXd b;
   double iterations = 0, residual = 0;
   for (auto _ : st) {
     begin_implicit_step(m, w.state, adj, f_ext, {.h = kSolveStep}, false, 1, kin, sys);
-    t.clear();
-    Eigen::VectorXd b(3 * nf);
-    for (std::size_t i = 0; i < dof.size(); ++i)
-      if (dof[i] >= 0) {
-        add(dof[i], dof[i], sys.diag[i]);
-        b.segment<3>(dof[i]) = sys.rhs[i];
-      }
-    for (std::size_t k = 0; k < sys.bonds.size(); ++k) {
-      const Eigen::Index p = dof[m.bond_i[k]], q = dof[m.bond_j[k]];
-      if (p < 0 || q < 0) continue;
-      const BondBlock& bb = sys.bonds[k];
-      const Mat3 B = block_matrix(bb.u, bb.Ba, bb.Bb);
-      add(p, q, -B);
-      add(q, p, -B);
-    }
-    Eigen::SparseMatrix<double> A(3 * nf, 3 * nf);
-    A.setFromTriplets(t.begin(), t.end());
+    assemble_system(m, w.state, sys, dof, triplets, A, b);
     Eigen::VectorXd y;
     if (cholesky) {
       Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt(A);

@@ -42,41 +42,15 @@ class CoupledIntegrator final : public Integrator {
  private:
   void solve_direct(const Model& model, const State& state) {
     const std::size_t n = model.num_quanta();
-    // Free quanta get consecutive unknown numbers; kinematic ones are eliminated.
-    dof_.assign(n, -1);
-    Eigen::Index nf = 0;
-    for (std::size_t i = 0; i < n; ++i)
-      if (!model.is_kinematic(static_cast<Index>(i))) dof_[i] = 3 * nf++;
-    Eigen::VectorXd b(3 * nf);
-    for (std::size_t i = 0; i < n; ++i)
-      if (dof_[i] >= 0) b.segment<3>(dof_[i]) = sys_.rhs[i];
+    const Eigen::Index nf = assemble_system(model, state, sys_, dof_, triplets_, A_, b_);
     y_.assign(n, Vec3::Zero());
     if (nf == 0) return;
-
-    // One assembly serves both direct solvers.
-    triplets_.clear();
-    auto add_block = [&](Eigen::Index p, Eigen::Index q, const Mat3& m) {
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) triplets_.emplace_back(p + r, q + c, m(r, c));
-    };
-    for (std::size_t i = 0; i < n; ++i)
-      if (dof_[i] >= 0) add_block(dof_[i], dof_[i], sys_.diag[i]);
-    for (std::size_t b2 = 0; b2 < model.num_bonds(); ++b2) {
-      const auto p = dof_[model.bond_i[b2]], q = dof_[model.bond_j[b2]];
-      if (!state.alive[b2] || p < 0 || q < 0) continue;
-      const BondBlock& bb = sys_.bonds[b2];
-      const Mat3 B = block_matrix(bb.u, bb.Ba, bb.Bb);
-      add_block(p, q, -B);
-      add_block(q, p, -B);
-    }
-    Eigen::SparseMatrix<double> A(3 * nf, 3 * nf);
-    A.setFromTriplets(triplets_.begin(), triplets_.end());
     Eigen::VectorXd sol;
     if (config_.solver == CoupledSolver::dense) {
-      sol = Eigen::MatrixXd(A).partialPivLu().solve(b);  // Gaussian elimination, partial pivoting
+      sol = Eigen::MatrixXd(A_).partialPivLu().solve(b_);  // Gaussian elimination, partial pivoting
     } else {
-      ldlt_.compute(A);
-      sol = ldlt_.solve(b);
+      ldlt_.compute(A_);
+      sol = ldlt_.solve(b_);
     }
     for (std::size_t i = 0; i < n; ++i)
       if (dof_[i] >= 0) y_[i] = sol.segment<3>(dof_[i]);
@@ -132,6 +106,8 @@ class CoupledIntegrator final : public Integrator {
   std::vector<Vec3> y_, r_, z_, p_, Ap_;
   std::vector<Eigen::Index> dof_;
   std::vector<Eigen::Triplet<double>> triplets_;
+  Eigen::SparseMatrix<double> A_;
+  Eigen::VectorXd b_;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt_;
 };
 

@@ -108,4 +108,36 @@ void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem
   });
 }
 
+Eigen::Index assemble_system(const Model& model, const State& state, const ImplicitSystem& sys,
+                             std::vector<Eigen::Index>& dof, std::vector<Eigen::Triplet<double>>& triplets,
+                             Eigen::SparseMatrix<double>& A, Eigen::VectorXd& b) {
+  const std::size_t n = model.num_quanta();
+  dof.assign(n, -1);
+  Eigen::Index nf = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!model.is_kinematic(static_cast<Index>(i))) dof[i] = 3 * nf++;
+  b.resize(3 * nf);
+  triplets.clear();
+  auto add_block = [&](Eigen::Index p, Eigen::Index q, const Mat3& m) {
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) triplets.emplace_back(p + r, q + c, m(r, c));
+  };
+  for (std::size_t i = 0; i < n; ++i)
+    if (dof[i] >= 0) {
+      b.segment<3>(dof[i]) = sys.rhs[i];
+      add_block(dof[i], dof[i], sys.diag[i]);
+    }
+  for (std::size_t k = 0; k < model.num_bonds(); ++k) {
+    const Eigen::Index p = dof[model.bond_i[k]], q = dof[model.bond_j[k]];
+    if (!state.alive[k] || p < 0 || q < 0) continue;
+    const BondBlock& bb = sys.bonds[k];
+    const Mat3 B = block_matrix(bb.u, bb.Ba, bb.Bb);
+    add_block(p, q, -B);
+    add_block(q, p, -B);
+  }
+  A.resize(3 * nf, 3 * nf);
+  A.setFromTriplets(triplets.begin(), triplets.end());
+  return nf;
+}
+
 }  // namespace qbond

@@ -10,6 +10,7 @@
 //     A_ii += B_b,  A_jj += B_b,  A_ij = A_ji = -B_b,   B_b = h C_b + h² K_b.
 // The paper's hybrid (`frozen`) keeps only the diagonal blocks and drops the neighbours' terms
 // from the right-hand side: A_ii Δv_i = h f_i - h² (Σ_b K_b) v_i (Eq. 12).
+#include <Eigen/Sparse>
 #include <vector>
 
 #include "qbond/world.hpp"
@@ -76,5 +77,12 @@ inline Vec3 neighbours_times(const Adjacency& adj, const ImplicitSystem& sys, In
 // out = A y over free quanta (y's kinematic rows are ignored; out's kinematic rows are 0).
 void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, const std::vector<Vec3>& y,
                   int threads, std::vector<Vec3>& out);
+
+// A and b over the free unknowns as a sparse matrix and a vector, for the direct solvers (and the
+// benchmarks' Eigen solvers): dof[i] = 3 × free quanta i's number, -1 for kinematic quanta.
+// Returns the number of free quanta; `triplets` is scratch.
+Eigen::Index assemble_system(const Model& model, const State& state, const ImplicitSystem& sys,
+                             std::vector<Eigen::Index>& dof, std::vector<Eigen::Triplet<double>>& triplets,
+                             Eigen::SparseMatrix<double>& A, Eigen::VectorXd& b);
 
 }  // namespace qbond

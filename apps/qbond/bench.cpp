@@ -2,13 +2,13 @@
 
 #include <unistd.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <map>
-#include <regex>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -39,6 +39,21 @@ double seconds(const json& b) {
   const std::string unit = b.value("time_unit", "ns");
   const double scale = unit == "ms" ? 1e-3 : unit == "us" ? 1e-6 : unit == "s" ? 1.0 : 1e-9;
   return b.at("real_time").get<double>() * scale;
+}
+
+// Google Benchmark writes a not-a-number (an aggregate's 0/0) as a bare nan or -nan, which is
+// not JSON: such values become null.
+std::string nan_to_null(std::string s) {
+  for (std::size_t p = s.find("nan"); p != std::string::npos; p = s.find("nan", p + 1)) {
+    const std::size_t begin = p > 0 && s[p - 1] == '-' ? p - 1 : p, end = p + 3;
+    std::size_t q = begin;
+    while (q > 0 && s[q - 1] == ' ') --q;
+    const bool value = q > 0 && s[q - 1] == ':' && (end == s.size() || !std::isalnum(static_cast<unsigned char>(s[end])));
+    if (!value) continue;  // part of a name or a string
+    s.replace(begin, end - begin, "null");
+    p = begin;
+  }
+  return s;
 }
 
 bool is_triad(const json& b) { return b.at("run_name").get<std::string>().rfind("triad", 0) == 0; }
@@ -147,9 +162,7 @@ int bench(const BenchArgs& a) {
     fs::remove(out);
     throw std::runtime_error("qbond bench: qbond_bench failed (" + cmd + ")");
   }
-  // Google Benchmark writes a not-a-number (an aggregate's 0/0) as a bare nan, which is not JSON.
-  const std::string text = std::regex_replace(read_file(out), std::regex(R"(:\s*-?nan\b)"), ": null");
-  const json report = json::parse(text);
+  const json report = json::parse(nan_to_null(read_file(out)));
   fs::remove(out);
 
   // The median of the repetitions (or the single run).
