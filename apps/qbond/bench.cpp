@@ -64,6 +64,16 @@ std::string machine() {
   return std::string(host) + ", " + std::to_string(sysconf(_SC_NPROCESSORS_ONLN)) + " cores";
 }
 
+// The method and lattice size of a run named "KIND/METHOD/n:N[/...]" (as qbond_bench names them).
+struct RunName {
+  std::string method, n;
+};
+RunName parse_run_name(const json& b) {
+  const std::string name = b.at("run_name");
+  const auto s1 = name.find('/'), s2 = name.find('/', s1 + 1), s3 = name.find('/', s2 + 1);
+  return {name.substr(s1 + 1, s2 - s1 - 1), name.substr(s2 + 3, s3 == std::string::npos ? s3 : s3 - s2 - 3)};
+}
+
 // Rows "step/INTEGRATOR/n:N/threads:T": time per step against the bandwidth bound (sets `bandwidth`).
 template <class Wanted>
 json step_table(const json& report, const Wanted& wanted, double h, double& bandwidth) {
@@ -78,10 +88,7 @@ json step_table(const json& report, const Wanted& wanted, double h, double& band
   json rows = json::array();
   for (const json& b : report.at("benchmarks")) {
     if (!wanted(b) || is_triad(b)) continue;
-    // run_name: step/INTEGRATOR/n:N/threads:T/real_time
-    const std::string name = b.at("run_name");
-    const auto s1 = name.find('/'), s2 = name.find('/', s1 + 1), s3 = name.find('/', s2 + 1);
-    const std::string integrator = name.substr(s1 + 1, s2 - s1 - 1), n = name.substr(s2 + 3, s3 - s2 - 3);
+    const auto [integrator, n] = parse_run_name(b);
     const double t = seconds(b), quanta = b.at("quanta"), bonds = b.at("bonds"), threads = b.at("threads"),
                  bytes = b.at("bytes_per_step");
     const double ratio = t / (bytes / bandwidth);
@@ -113,14 +120,11 @@ json solve_table(const json& report, const Wanted& wanted) {
   json rows = json::array();
   std::map<std::string, double> qbond_time;  // by n
   for (const json& b : report.at("benchmarks"))
-    if (wanted(b) && b.at("run_name").get<std::string>().rfind("solve/qbond_cg/", 0) == 0)
-      qbond_time[b.at("run_name").get<std::string>().substr(15)] = seconds(b);
+    if (wanted(b) && parse_run_name(b).method == "qbond_cg") qbond_time[parse_run_name(b).n] = seconds(b);
   for (const json& b : report.at("benchmarks")) {
     if (!wanted(b)) continue;
-    const std::string name = b.at("run_name");  // solve/SOLVER/n:N[/real_time]
-    const auto s1 = name.find('/'), s2 = name.find('/', s1 + 1), s3 = name.find('/', s2 + 1);
-    const std::string solver = name.substr(s1 + 1, s2 - s1 - 1), n = name.substr(s2 + 3, s3 - s2 - 3);
-    const double t = seconds(b), t_q = qbond_time[name.substr(s2 + 1)];
+    const auto [solver, n] = parse_run_name(b);
+    const double t = seconds(b), t_q = qbond_time[n];
     std::printf("%-8s %-16s %8.0f %11.0f %12.3g %12.3f %8.2f\n", ("n=" + n).c_str(), solver.c_str(),
                 b.at("quanta").get<double>(), b.value("solver_iterations", 0.0), b.at("residual").get<double>(), t * 1e3,
                 t_q > 0 ? t / t_q : NAN);
