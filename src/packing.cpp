@@ -7,11 +7,13 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <numeric>
 #include <stdexcept>
 #include <unordered_map>
 
 #include "qbond/files.hpp"
 #include "qbond/rng.hpp"
+#include "spatial_hash.hpp"
 
 namespace qbond {
 namespace {
@@ -192,42 +194,13 @@ std::vector<Vec3> sample_points(const PointPacking& s) {
 
 std::vector<std::pair<Index, Index>> pairs_within_radius(const std::vector<Vec3>& x, double radius) {
   if (!(radius > 0)) throw std::invalid_argument("pair radius must be > 0");
+  std::vector<Index> all(x.size());
+  std::iota(all.begin(), all.end(), Index{0});
   std::vector<std::pair<Index, Index>> pairs;
-  if (x.empty()) return pairs;
-  Vec3 lo = x[0], hi = x[0];
-  for (const Vec3& p : x) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  // Exact cell keys (no hash collisions): cells per axis below 2^21.
-  std::array<std::int64_t, 3> n{};
-  for (int d = 0; d < 3; ++d) {
-    const double cells = std::floor((hi[d] - lo[d]) / radius) + 1;
-    if (!(cells < 2097152)) throw std::invalid_argument("points span more than 2^21 pair radii in one axis");
-    n[d] = static_cast<std::int64_t>(cells);
-  }
-  auto cell = [&](const Vec3& p, int d) {
-    return std::min<std::int64_t>(n[d] - 1, static_cast<std::int64_t>(std::floor((p[d] - lo[d]) / radius)));
-  };
-  auto key = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
-    return static_cast<std::uint64_t>((k * n[1] + j) * n[0] + i);
-  };
-  std::unordered_map<std::uint64_t, std::vector<Index>> grid;
-  for (std::size_t i = 0; i < x.size(); ++i)
-    grid[key(cell(x[i], 0), cell(x[i], 1), cell(x[i], 2))].push_back(static_cast<Index>(i));
-  const double r2 = radius * radius;
-  for (std::size_t a = 0; a < x.size(); ++a) {
-    const std::int64_t ci = cell(x[a], 0), cj = cell(x[a], 1), ck = cell(x[a], 2);
-    for (std::int64_t k = std::max<std::int64_t>(0, ck - 1); k <= std::min(n[2] - 1, ck + 1); ++k)
-      for (std::int64_t j = std::max<std::int64_t>(0, cj - 1); j <= std::min(n[1] - 1, cj + 1); ++j)
-        for (std::int64_t i = std::max<std::int64_t>(0, ci - 1); i <= std::min(n[0] - 1, ci + 1); ++i) {
-          const auto it = grid.find(key(i, j, k));
-          if (it == grid.end()) continue;
-          for (Index b : it->second)
-            if (b > a && (x[a] - x[b]).squaredNorm() <= r2) pairs.emplace_back(static_cast<Index>(a), b);
-        }
-  }
-  std::sort(pairs.begin(), pairs.end());
+  // Visited in increasing a, then b: the pairs come out sorted.
+  pairs_within(x, all, all, radius, [&](Index a, Index b) {
+    if (a < b) pairs.emplace_back(a, b);
+  });
   return pairs;
 }
 

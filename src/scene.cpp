@@ -4,7 +4,6 @@
 #include <cmath>
 #include <initializer_list>
 #include <map>
-#include <numeric>
 #include <sstream>
 #include <unordered_map>
 #include <unordered_set>
@@ -15,6 +14,7 @@
 #include "qbond/packing.hpp"
 #include "qbond/samples.hpp"
 #include "qbond/selection.hpp"
+#include "spatial_hash.hpp"
 
 namespace qbond {
 using json = nlohmann::json;
@@ -149,42 +149,6 @@ class Obj {
 };
 
 std::string item(const std::string& path, std::size_t k) { return path + "[" + std::to_string(k) + "]"; }
-
-/// Visits every pair (a, b) with a from `from`, b from `to`, a != b and |x_a − x_b| <= radius,
-/// using a uniform grid of cell `radius` (cost linear in the quanta for bounded density). Pairs
-/// come in increasing a, then increasing b.
-template <class F>
-void pairs_within(const std::vector<Vec3>& x, const std::vector<Index>& from, const std::vector<Index>& to,
-                  double radius, F&& visit) {
-  auto cell = [&](const Vec3& p) {
-    return std::array<std::int64_t, 3>{static_cast<std::int64_t>(std::floor(p.x() / radius)),
-                                       static_cast<std::int64_t>(std::floor(p.y() / radius)),
-                                       static_cast<std::int64_t>(std::floor(p.z() / radius))};
-  };
-  auto key = [](std::int64_t a, std::int64_t b, std::int64_t c) {
-    return static_cast<std::uint64_t>(a) * 73856093u ^ static_cast<std::uint64_t>(b) * 19349663u ^
-           static_cast<std::uint64_t>(c) * 83492791u;
-  };
-  std::unordered_map<std::uint64_t, std::vector<Index>> grid;
-  for (Index b : to) {
-    const auto c = cell(x[b]);
-    grid[key(c[0], c[1], c[2])].push_back(b);
-  }
-  std::vector<Index> near;
-  for (Index a : from) {
-    const auto c = cell(x[a]);
-    near.clear();
-    for (int dz = -1; dz <= 1; ++dz)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx)
-          if (auto it = grid.find(key(c[0] + dx, c[1] + dy, c[2] + dz)); it != grid.end())
-            near.insert(near.end(), it->second.begin(), it->second.end());
-    std::sort(near.begin(), near.end());
-    near.erase(std::unique(near.begin(), near.end()), near.end());  // hash collisions repeat cells
-    for (Index b : near)
-      if (b != a && (x[a] - x[b]).norm() <= radius) visit(a, b);
-  }
-}
 
 std::uint64_t pair_key(Index a, Index b) {
   return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
@@ -586,9 +550,9 @@ class Builder {
     return v;
   }
 
-  /// Builders that learn their quanta count only once built take the mass afterwards: a
-  /// placeholder of 1 kg, then `mass_of(count, ρ V)` (which also checks the mass keys, done
-  /// first), and the volume each quanta stands for.
+  /// Builders that learn their quanta count only once built (packings, meshes) make 1 kg quanta;
+  /// this gives them their mass, `mass_of(count, ρ V)` (whose key checks ran before building),
+  /// and the volume each quanta stands for.
   template <class MassOf>
   void set_masses(World& w, const std::vector<Index>& ids, const MassOf& mass_of, const Material& mat, double volume) {
     const double m = mass_of(static_cast<double>(ids.size()), mat.density * volume);
@@ -843,16 +807,13 @@ class Builder {
     for (std::size_t b = 0; b < w.num_bonds(); ++b)
       if (w.state.rest[b] > 0) shortest = std::min(shortest, w.state.rest[b]);
     const double limit = std::isfinite(shortest) ? 0.01 * shortest : 1e-9;
-    std::vector<Index> all(w.num_quanta());
-    for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<Index>(i);
-    pairs_within(w.state.x, all, all, limit, [&](Index a, Index b) {
-      if (a > b) return;
+    for (const auto& [a, b] : pairs_within_radius(w.state.x, limit)) {
       const auto& names = w.model.body_names;
       bad("bodies", "quanta " + std::to_string(a) + " (body '" + names[w.model.body[a]] + "') and quanta " +
                         std::to_string(b) + " (body '" + names[w.model.body[b]] + "') overlap: " +
                         num_str((w.state.x[a] - w.state.x[b]).norm()) + " m apart (limit " + num_str(limit) +
                         " m, 1% of the shortest bond)");
-    });
+    }
   }
 
   void anchors(const json& j, World& w) {
@@ -1056,18 +1017,16 @@ class Builder {
   void check_contact_radius(const QuantaContactRule& r, const Obj& o, const World& w) {
     std::unordered_set<std::uint64_t> bonded;
     for (std::size_t b = 0; b < w.num_bonds(); ++b) bonded.insert(pair_key(w.model.bond_i[b], w.model.bond_j[b]));
-    std::vector<Index> all(w.num_quanta());
-    std::iota(all.begin(), all.end(), Index{0});
-    pairs_within(w.state.x, all, all, 2 * r.radius, [&](Index a, Index b) {
-      if (a > b || bonded.count(pair_key(a, b))) return;
-      if (!r.same_body && w.model.body[a] == w.model.body[b]) return;
-      if (w.model.is_kinematic(a) && w.model.is_kinematic(b)) return;
+    for (const auto& [a, b] : pairs_within_radius(w.state.x, 2 * r.radius)) {
+      if (bonded.count(pair_key(a, b))) continue;
+      if (!r.same_body && w.model.body[a] == w.model.body[b]) continue;
+      if (w.model.is_kinematic(a) && w.model.is_kinematic(b)) continue;
       const double d = (w.state.x[a] - w.state.x[b]).norm();
       if (d < 2 * r.radius)
         bad(o.at("radius"), "2 x radius = " + num_str(2 * r.radius) + " m exceeds the distance " + num_str(d) +
                                 " m of quanta " + std::to_string(a) + " and " + std::to_string(b) +
                                 ", which share no bond: they would be pushed apart at once");
-    });
+    }
   }
 
   OutputSpec output(const json& j, std::uint64_t steps, const World& w) {

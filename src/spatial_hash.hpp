@@ -1,10 +1,14 @@
 #pragma once
 // A uniform grid hashed into a table of about 2n buckets, filled by counting sort: finding the
 // pairs of points closer than the cell size costs time linear in the points (bounded density),
-// with no allocation once the buffers have grown. Used by contacts and bond formation.
+// with no allocation once the buffers have grown. Used by contacts and bond formation. Below it,
+// pairs_within: the one-shot search between two subsets, inclusive of the radius (scene
+// building, packings).
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <algorithm>
+#include <unordered_map>
 #include <vector>
 
 #include "qbond/math.hpp"
@@ -65,5 +69,41 @@ class SpatialHash {
   std::vector<std::array<std::int64_t, 3>> cells_;
   std::vector<Index> start_, fill_, bucket_;
 };
+
+/// Visits every pair (a, b) with a from `from`, b from `to`, a != b and |x_a − x_b| <= radius,
+/// using a uniform grid of cell `radius` (cost linear in the quanta for bounded density). Pairs
+/// come in increasing a, then increasing b.
+template <class F>
+void pairs_within(const std::vector<Vec3>& x, const std::vector<Index>& from, const std::vector<Index>& to,
+                  double radius, F&& visit) {
+  auto cell = [&](const Vec3& p) {
+    return std::array<std::int64_t, 3>{static_cast<std::int64_t>(std::floor(p.x() / radius)),
+                                       static_cast<std::int64_t>(std::floor(p.y() / radius)),
+                                       static_cast<std::int64_t>(std::floor(p.z() / radius))};
+  };
+  auto key = [](std::int64_t a, std::int64_t b, std::int64_t c) {
+    return static_cast<std::uint64_t>(a) * 73856093u ^ static_cast<std::uint64_t>(b) * 19349663u ^
+           static_cast<std::uint64_t>(c) * 83492791u;
+  };
+  std::unordered_map<std::uint64_t, std::vector<Index>> grid;
+  for (Index b : to) {
+    const auto c = cell(x[b]);
+    grid[key(c[0], c[1], c[2])].push_back(b);
+  }
+  std::vector<Index> near;
+  for (Index a : from) {
+    const auto c = cell(x[a]);
+    near.clear();
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+          if (auto it = grid.find(key(c[0] + dx, c[1] + dy, c[2] + dz)); it != grid.end())
+            near.insert(near.end(), it->second.begin(), it->second.end());
+    std::sort(near.begin(), near.end());
+    near.erase(std::unique(near.begin(), near.end()), near.end());  // hash collisions repeat cells
+    for (Index b : near)
+      if (b != a && (x[a] - x[b]).norm() <= radius) visit(a, b);
+  }
+}
 
 }  // namespace qbond
