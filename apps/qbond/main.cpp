@@ -1,5 +1,5 @@
 // The `qbond` program (DESIGN §11): `run` a scene with its outputs, `validate` scene files,
-// `experiment` (the paper's experiments), `bench` (the performance suite).
+// `experiment` (the paper's experiments), `bench` (the performance suite), `view` (the viewer).
 // The work is done by the library (scene.hpp, runner.hpp); this file holds what only a program
 // has: options, the progress display, signals and exit codes.
 #include <unistd.h>
@@ -20,6 +20,7 @@
 #include "qbond/checkpoint.hpp"
 #include "qbond/runner.hpp"
 #include "qbond/samples.hpp"
+#include "viewer.hpp"
 
 namespace {
 namespace fs = std::filesystem;
@@ -341,6 +342,24 @@ int main(int argc, char** argv) {
   bench_cmd->add_option("--repetitions", ba.repetitions, "repetitions; the median is reported (default: 3)")
       ->check(CLI::PositiveNumber);
   bench_cmd->add_option("--json", ba.json, "also write the table as JSON to this file");
+  std::string view_scene;
+  qbond::view::ViewOptions vo;
+  CLI::App* view_cmd = app.add_subcommand("view", "the real-time viewer: watch a scene and pull on it with the mouse "
+                                                  "(default scene: the pendulum; docs/viewer.md)");
+  view_cmd->add_option("scene", view_scene, "scene file (.json) or built-in scene name");
+  auto* frames = view_cmd->add_option("--frames", vo.frames, "run this many frames without user input, then exit")
+                     ->check(CLI::PositiveNumber);
+  view_cmd->add_option("--screenshot", vo.screenshot, "write the last frame as a PNG (with --frames)")->needs(frames);
+  view_cmd->add_option("--record", vo.record, "write every frame as DIR/frame_NNNNN.png");
+  view_cmd->add_option("--script", vo.script, "scripted mouse and key input (JSON; docs/viewer.md)");
+  view_cmd->add_option("--stats", vo.stats, "write the measured frame and step times as JSON at the end");
+  view_cmd->add_option("--save", vo.save, "write the final state as a VTK PolyData file (.vtp)");
+  view_cmd->add_option("--steps-per-frame", vo.steps_per_frame,
+                       "with --frames: steps per frame (default: 1/60 s of simulated time)")
+      ->check(CLI::PositiveNumber)
+      ->needs(frames);
+  view_cmd->add_option("--size", vo.width, "window width in pixels (height: 9/16 of it)")->check(CLI::Range(64, 8192));
+  view_cmd->add_flag("!--no-ui", vo.ui, "hide the control panel");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -351,6 +370,10 @@ int main(int argc, char** argv) {
     if (run_cmd->parsed()) return run(o);
     if (validate_cmd->parsed()) return validate(to_validate);
     if (bench_cmd->parsed()) return qbond::cli::bench(ba);
+    if (view_cmd->parsed()) {
+      vo.height = vo.width * 9 / 16;
+      return qbond::view::run_viewer(load_any(view_scene), vo);
+    }
     if (experiment_cmd->parsed()) {
       if (ea.names.empty() && !ea.list) throw std::invalid_argument("name an experiment (or 'all'; see --list)");
       return experiment(ea);

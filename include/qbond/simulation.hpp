@@ -54,6 +54,8 @@ class Simulation {
   void add_force(Index i, const Vec3& f);
   /// Appends a heuristic to the ordered list.
   void add_heuristic(std::unique_ptr<Heuristic> h) { heuristics_.push_back(std::move(h)); }
+  /// Removes every heuristic (a viewer turning them off).
+  void clear_heuristics() { heuristics_.clear(); }
   void add_observer(Observer* o) { observers_.push_back(o); }
   /// Replaces the integrator (keeps the world).
   void set_integrator(const IntegratorConfig& config);
