@@ -1,14 +1,17 @@
 #include "qbond/interaction.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
 namespace qbond {
 
-PullSpring make_pull_spring(Index i, const Vec3& target, double mass, double frequency, double zeta) {
+PullSpring make_pull_spring(const Model& model, Index i, const Vec3& target, double mass, double h, double frequency,
+                            double zeta) {
   const double w = 2 * std::numbers::pi * frequency;
-  const double k = mass * w * w;
-  return {i, target, k, 2 * zeta * std::sqrt(k * mass)};
+  const double m = model.mass[i];
+  const double k = std::min(mass * w * w, m / (h * h));
+  return {i, target, k, std::min(2 * zeta * std::sqrt(k * mass), m / (2 * h))};
 }
 
 double body_mass(const Model& model, Index i) {

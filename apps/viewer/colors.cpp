@@ -36,4 +36,14 @@ Vec3f body_color(unsigned b) {
   return palette[b % palette.size()];
 }
 
+void AutoRange::see(std::vector<double>& magnitudes) {
+  double top = 0;
+  if (!magnitudes.empty()) {
+    const auto k = static_cast<std::ptrdiff_t>(0.98 * static_cast<double>(magnitudes.size() - 1));
+    std::nth_element(magnitudes.begin(), magnitudes.begin() + k, magnitudes.end());
+    top = magnitudes[static_cast<std::size_t>(k)];
+  }
+  hi = std::max(top, 0.97 * hi);
+}
+
 }  // namespace qbond::view

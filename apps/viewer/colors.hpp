@@ -1,6 +1,7 @@
 #pragma once
 /// Colour maps and legends of the viewer (no OpenGL).
 #include <string_view>
+#include <vector>
 
 #include "camera.hpp"
 
@@ -23,13 +24,16 @@ Vec3f body_color(unsigned b);
 /// Colour of kinematic (anchored or prescribed) quanta.
 inline Vec3f anchored_color() { return {0.95f, 0.45f, 0.05f}; }
 
-/// A legend's range that only grows until reset, so that colours mean the same values from one
-/// frame to the next (a range that followed each frame's extremes would make every frame look
-/// alike). Diverging ranges are symmetric [−hi, hi], sequential ones [0, hi].
-struct HeldRange {
+/// A legend's range that follows what is on screen without flickering: each frame it rises at
+/// once to the frame's 98th percentile of |value| (so that one overstretched bond does not wash out
+/// the rest) and otherwise decays by 3 % a frame, so that colours keep their meaning from one
+/// frame to the next and adapt within a second or two after a transient. Diverging ranges are
+/// symmetric [−hi, hi], sequential ones [0, hi].
+struct AutoRange {
   double hi = 0;
-  void see(double magnitude) { if (magnitude > hi) hi = magnitude; }
-  void reset(double floor) { hi = floor; }
+  /// Takes a frame's values (reordered in place).
+  void see(std::vector<double>& magnitudes);
+  void reset() { hi = 0; }
 };
 
 }  // namespace qbond::view

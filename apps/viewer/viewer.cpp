@@ -68,8 +68,9 @@ void save_png(const fs::path& path, int w, int h) {
   write_file_atomic(path, png);
 }
 
-/// Radius to draw quanta with: the scene's contact radius when it has one, else a fifth of the
-/// median bond length (neighbours stay apart), else a fiftieth of the scene's size.
+/// Radius to draw quanta with: the scene's contact radius when it has one, else 0.15 of a short
+/// bond's length (the 10th percentile: nearest neighbours, so that bonds stay visible between
+/// the spheres), else a fiftieth of the scene's size.
 double draw_radius(const Scene& scene, double size) {
   for (const HeuristicSpec& h : scene.heuristics)
     if (const auto* c = std::get_if<QuantaContactRule>(&h)) return c->radius;
@@ -77,8 +78,9 @@ double draw_radius(const Scene& scene, double size) {
   if (w.num_bonds() > 0) {
     std::vector<double> r(w.num_bonds());
     for (std::size_t b = 0; b < r.size(); ++b) r[b] = (w.state.x[w.model.bond_j[b]] - w.state.x[w.model.bond_i[b]]).norm();
-    std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
-    if (r[r.size() / 2] > 0) return 0.2 * r[r.size() / 2];
+    const auto k = static_cast<std::ptrdiff_t>(r.size() / 10);
+    std::nth_element(r.begin(), r.begin() + k, r.end());
+    if (r[static_cast<std::size_t>(k)] > 0) return 0.15 * r[static_cast<std::size_t>(k)];
   }
   return std::max(0.02 * size, 1e-3);
 }
@@ -123,7 +125,7 @@ class Viewer {
     bounds(initial_.state.x, lo_, hi_);
     size_ = std::max((hi_ - lo_).norm(), 1e-3);
     radius_ = draw_radius(scene_, size_);
-    gravity_ = initial_.model.gravity.cast<float>();
+    gravity_ = initial_.model.gravity;
     reset();
     frame_camera();
   }
@@ -215,7 +217,7 @@ class Viewer {
       w.model.stiffness[b] *= stiffness_scale_;
       w.model.damping[b] *= damping_scale_;
     }
-    w.model.gravity = gravity_.cast<double>();
+    w.model.gravity = gravity_;
     sim_ = std::make_unique<Simulation>(std::move(w), config_, h_);
     sim_->limits() = scene_.limits;
     if (heuristics_on_)
@@ -224,7 +226,7 @@ class Viewer {
     push_.reset();
     blowup_.clear();
     debt_ = 0;
-    bond_range_.reset(0), quanta_range_.reset(0);
+    bond_range_.reset(), quanta_range_.reset();
     energy_.clear(), kinetic_.clear(), step_ms_.clear();
   }
 
@@ -242,7 +244,7 @@ class Viewer {
     switch (e.kind) {
       case ScriptEvent::Kind::drag: {
         const Vec3 target = e.to ? *e.to : s.x[e.quanta] + *e.by;
-        drag_ = make_pull_spring(e.quanta, target, body_mass(world().model, e.quanta));
+        drag_ = make_pull_spring(world().model, e.quanta, target, body_mass(world().model, e.quanta), h_, pull_hz_);
         break;
       }
       case ScriptEvent::Kind::push: push_ = std::make_pair(e.quanta, e.force); break;
@@ -266,7 +268,7 @@ class Viewer {
     if (best == 1e300) return false;
     const Vec3 p = world().state.x[who];
     grab_depth_ = (p - ray.origin).dot((cam_.target - cam_.eye()).normalized().cast<double>());
-    drag_ = make_pull_spring(who, p, body_mass(m, who));
+    drag_ = make_pull_spring(m, who, p, body_mass(m, who), h_, pull_hz_);
     return true;
   }
 
@@ -343,10 +345,11 @@ class Viewer {
     lines_.clear();
     if (bond_color_ != BondColor::none) bond_tension_strain(m, s, tension_, strain_);
     const std::vector<double>& value = bond_color_ == BondColor::tension ? tension_ : strain_;
-    double peak = 0;
-    for (std::size_t b = 0; b < m.num_bonds(); ++b)
-      if (s.alive[b] && bond_color_ != BondColor::none) peak = std::max(peak, std::abs(value[b]));
-    bond_range_.see(peak);
+    magnitudes_.clear();
+    if (bond_color_ != BondColor::none)
+      for (std::size_t b = 0; b < m.num_bonds(); ++b)
+        if (s.alive[b]) magnitudes_.push_back(std::abs(value[b]));
+    bond_range_.see(magnitudes_);
     for (std::size_t b = 0; b < m.num_bonds(); ++b) {
       if (!s.alive[b]) continue;
       const Vec3f c = bond_color_ == BondColor::none || bond_range_.hi <= 0 ? Vec3f(0.75f, 0.75f, 0.75f)
@@ -364,10 +367,11 @@ class Viewer {
       mises_.resize(sigma_.size());
       for (std::size_t i = 0; i < sigma_.size(); ++i) mises_[i] = von_mises(sigma_[i]);
     }
-    double qpeak = 0;
-    for (std::size_t i = 0; i < m.num_quanta(); ++i)
-      qpeak = std::max(qpeak, stress ? mises_[i] : quanta_color_ == QuantaColor::speed ? s.v[i].norm() : 0.0);
-    quanta_range_.see(qpeak);
+    magnitudes_.clear();
+    if (quanta_color_ != QuantaColor::body)
+      for (std::size_t i = 0; i < m.num_quanta(); ++i)
+        if (!m.is_kinematic(static_cast<Index>(i))) magnitudes_.push_back(stress ? mises_[i] : s.v[i].norm());
+    quanta_range_.see(magnitudes_);
     for (std::size_t i = 0; i < m.num_quanta(); ++i) {
       const bool kin = m.is_kinematic(static_cast<Index>(i));
       Vec3f c = body_color(m.body[i]);
@@ -402,7 +406,7 @@ class Viewer {
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
     if (opt_.ui) panel();
-    legend();
+    else legend();
     if (help_) help();
     ImGui::Render();
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
@@ -496,7 +500,9 @@ class Viewer {
     if (ImGui::SliderFloat("stiffness x", &stiffness_scale_, 0.01f, 100, "%.2f", ImGuiSliderFlags_Logarithmic) |
         ImGui::SliderFloat("damping x", &damping_scale_, 0.0f, 100, "%.2f", ImGuiSliderFlags_Logarithmic))
       rescale();
-    if (ImGui::InputFloat3("gravity", gravity_.data(), "%.2f")) sim_->world().model.gravity = gravity_.cast<double>();
+    ImGui::SliderFloat("pull [Hz]", &pull_hz_, 0.5f, 20, "%.1f", ImGuiSliderFlags_Logarithmic);
+    Vec3f g = gravity_.cast<float>();
+    if (ImGui::InputFloat3("gravity", g.data(), "%.2f")) sim_->world().model.gravity = gravity_ = g.cast<double>();
     if (ImGui::Checkbox("heuristics", &heuristics_on_)) {
       sim_->clear_heuristics();
       if (heuristics_on_)
@@ -508,16 +514,16 @@ class Viewer {
     int bc = static_cast<int>(bond_color_), qc = static_cast<int>(quanta_color_);
     if (ImGui::Combo("bonds", &bc, kBondColorNames, IM_ARRAYSIZE(kBondColorNames))) {
       bond_color_ = static_cast<BondColor>(bc);
-      bond_range_.reset(0);
+      bond_range_.reset();
     }
     const bool volumes = std::any_of(w.model.volume.begin(), w.model.volume.end(), [](double v) { return v > 0; });
     if (ImGui::Combo("quanta", &qc, kQuantaColorNames, IM_ARRAYSIZE(kQuantaColorNames))) {
       quanta_color_ = static_cast<QuantaColor>(qc);
       if (quanta_color_ == QuantaColor::von_mises && !volumes) quanta_color_ = QuantaColor::body;
-      quanta_range_.reset(0);
+      quanta_range_.reset();
     }
     if (!volumes) ImGui::TextDisabled("no quanta volumes: no stress colouring");
-    if (ImGui::Button("reset colour ranges")) bond_range_.reset(0), quanta_range_.reset(0);
+    legend();
     ImGui::Separator();
     char label[64];
     std::snprintf(label, sizeof label, "%.4g J", energy_.empty() ? 0.0 : static_cast<double>(energy_.back()));
@@ -531,30 +537,35 @@ class Viewer {
     ImGui::End();
   }
 
+  /// Colour bars of what the bonds and quanta show: in the panel, or over the view without one.
   void legend() {
-    auto bar = [&](const char* title, double lo, double hi, bool div, float y) {
-      ImDrawList* dl = ImGui::GetForegroundDrawList();
-      const float x0 = 20, w = 220, hgt = 14;
-      dl->AddText(ImVec2(x0, y - 18), IM_COL32(230, 230, 230, 255), title);
+    const bool in_panel = opt_.ui;
+    if (!in_panel) {
+      ImGui::SetNextWindowPos(ImVec2(10, static_cast<float>(fb_h_) - 10), ImGuiCond_Always, ImVec2(0, 1));
+      ImGui::SetNextWindowBgAlpha(0.6f);
+      ImGui::Begin("legend", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoInputs);
+    }
+    auto bar = [](const char* title, double lo, double hi, bool div) {
+      ImGui::TextUnformatted(title);
+      ImDrawList* dl = ImGui::GetWindowDrawList();
+      const ImVec2 p = ImGui::GetCursorScreenPos();
+      const float w = 220, h = 14;
       constexpr int kSteps = 32;
       for (int k = 0; k < kSteps; ++k) {
         const double t = (k + 0.5) / kSteps;
         const Vec3f c = div ? diverging(2 * t - 1) : sequential(t);
         const ImU32 col = IM_COL32(static_cast<int>(255 * c.x()), static_cast<int>(255 * c.y()), static_cast<int>(255 * c.z()), 255);
-        dl->AddRectFilled(ImVec2(x0 + w * static_cast<float>(k) / kSteps, y), ImVec2(x0 + w * static_cast<float>(k + 1) / kSteps, y + hgt), col);
+        dl->AddRectFilled(ImVec2(p.x + w * static_cast<float>(k) / kSteps, p.y), ImVec2(p.x + w * static_cast<float>(k + 1) / kSteps, p.y + h), col);
       }
-      char text[48];
-      std::snprintf(text, sizeof text, "%.3g", lo);
-      dl->AddText(ImVec2(x0, y + hgt + 2), IM_COL32(230, 230, 230, 255), text);
-      std::snprintf(text, sizeof text, "%.3g", hi);
-      dl->AddText(ImVec2(x0 + w - 7.0f * static_cast<float>(std::strlen(text)), y + hgt + 2), IM_COL32(230, 230, 230, 255), text);
+      ImGui::Dummy(ImVec2(w, h));
+      ImGui::Text("%-12.3g%*s%.3g", lo, 14, "", hi);
     };
-    float y = static_cast<float>(fb_h_) - 50;
-    if (bond_color_ != BondColor::none) {
-      bar(kBondColorNames[static_cast<int>(bond_color_)], -bond_range_.hi, bond_range_.hi, true, y);
-      y -= 56;
-    }
-    if (quanta_color_ != QuantaColor::body) bar(kQuantaColorNames[static_cast<int>(quanta_color_)], 0, quanta_range_.hi, false, y);
+    if (bond_color_ != BondColor::none) bar(kBondColorNames[static_cast<int>(bond_color_)], -bond_range_.hi, bond_range_.hi, true);
+    if (quanta_color_ != QuantaColor::body) bar(kQuantaColorNames[static_cast<int>(quanta_color_)], 0, quanta_range_.hi, false);
+    ImGui::TextColored(ImVec4(0.95f, 0.45f, 0.05f, 1), "o");
+    ImGui::SameLine();
+    ImGui::TextUnformatted("anchored or prescribed quanta");
+    if (!in_panel) ImGui::End();
   }
 
   void help() {
@@ -598,7 +609,8 @@ class Viewer {
 
   bool paused_ = false, single_step_ = false, help_ = false, heuristics_on_ = true;
   float stiffness_scale_ = 1, damping_scale_ = 1;
-  Vec3f gravity_;
+  float pull_hz_ = 4;  ///< the mouse spring's frequency for the pulled body (interaction.hpp)
+  Vec3 gravity_;
   std::string blowup_;
   double debt_ = 0;
   std::optional<Clock::time_point> last_frame_;
@@ -607,10 +619,10 @@ class Viewer {
 
   BondColor bond_color_ = BondColor::strain;
   QuantaColor quanta_color_ = QuantaColor::body;
-  HeldRange bond_range_, quanta_range_;
+  AutoRange bond_range_, quanta_range_;
   std::deque<float> energy_, kinetic_, step_ms_;
 
-  std::vector<double> tension_, strain_, mises_;
+  std::vector<double> tension_, strain_, mises_, magnitudes_;
   std::vector<Mat3> sigma_;
   std::vector<SphereInstance> spheres_;
   std::vector<LineVertex> lines_;
@@ -669,7 +681,6 @@ int run_viewer(Scene scene, const ViewOptions& o) {
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
-  glfwWindowHint(GLFW_SAMPLES, 4);
   const std::string title = "qbond view: " + scene.name;
   GLFWwindow* window = glfwCreateWindow(o.width, o.height, title.c_str(), nullptr, nullptr);
   if (!window) throw std::runtime_error("cannot create an OpenGL 3.3 core window: " + glfw_error());
