@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <map>
 
 #include "bench.hpp"
 #include "experiment.hpp"
@@ -360,6 +361,15 @@ int main(int argc, char** argv) {
       ->needs(frames);
   view_cmd->add_option("--size", vo.width, "window width in pixels (height: 9/16 of it)")->check(CLI::Range(64, 8192));
   view_cmd->add_flag("!--no-ui", vo.ui, "hide the control panel");
+  view_cmd->add_flag("--follow", vo.follow, "keep the camera aimed at the structure as it moves");
+  view_cmd->add_option("--bonds", vo.bonds, "bond colours: strain, tension or plain")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, qbond::view::BondColor>{
+          {"strain", qbond::view::BondColor::strain}, {"tension", qbond::view::BondColor::tension},
+          {"plain", qbond::view::BondColor::none}}));
+  view_cmd->add_option("--quanta", vo.quanta, "quanta colours: body, von_mises or speed")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, qbond::view::QuantaColor>{
+          {"body", qbond::view::QuantaColor::body}, {"von_mises", qbond::view::QuantaColor::von_mises},
+          {"speed", qbond::view::QuantaColor::speed}}));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,8 +1,6 @@
 #include "renderer.hpp"
 
-#define GL_GLEXT_PROTOTYPES
-#include <GL/gl.h>
-#include <GL/glext.h>
+#include "gl.hpp"
 
 #include <array>
 #include <stdexcept>

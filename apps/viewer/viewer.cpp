@@ -1,7 +1,6 @@
 #include "viewer.hpp"
 
-#define GL_GLEXT_PROTOTYPES
-#include <GL/gl.h>
+#include "gl.hpp"
 #include <GLFW/glfw3.h>
 #include <imgui.h>
 #include <imgui_impl_glfw.h>
@@ -116,10 +115,9 @@ void plot(const char* label, const std::deque<float>& d, const char* overlay) {
 
 class Viewer {
  public:
-  Viewer(Scene scene, const ViewOptions& o)
-      : scene_(std::move(scene)), opt_(o), initial_(scene_.world), config_(scene_.integrator), h_(scene_.timestep) {
-    if (!opt_.script.empty())
-      script_ = parse_script(read_file(opt_.script), opt_.script, initial_.num_quanta());
+  Viewer(Scene scene, std::vector<ScriptEvent> script, const ViewOptions& o, int fb_w, int fb_h)
+      : scene_(std::move(scene)), opt_(o), fb_w_(fb_w), fb_h_(fb_h), initial_(scene_.world), config_(scene_.integrator),
+        h_(scene_.timestep), script_(std::move(script)) {
     for (const HeuristicSpec& hs : scene_.heuristics)
       if (const auto* ob = std::get_if<Obstacle>(&hs)) obstacles_.push_back(*ob);
     bounds(initial_.state.x, lo_, hi_);
@@ -203,9 +201,17 @@ class Viewer {
     if (x.empty()) lo = hi = Vec3::Zero();
   }
 
+  /// Aims at the quanta and, below them, the ground planes they will land on.
   void frame_camera() {
     Vec3 lo, hi;
     bounds(world().state.x, lo, hi);
+    const Vec3 c = (lo + hi) / 2;
+    for (const Obstacle& ob : obstacles_) {
+      if (ob.shape != Obstacle::Shape::plane) continue;
+      const Vec3 n = ob.normal.normalized();
+      const Vec3 below = c - (c - ob.center).dot(n) * n;
+      lo = lo.cwiseMin(below), hi = hi.cwiseMax(below);
+    }
     lo.array() -= radius_, hi.array() += radius_;
     cam_.frame(lo.cast<float>(), hi.cast<float>(), static_cast<float>(viewport_width()) / static_cast<float>(std::max(fb_h_, 1)));
   }
@@ -336,6 +342,11 @@ class Viewer {
 
   void draw() {
     const int vw = viewport_width();
+    if (follow_) {
+      Vec3 lo, hi;
+      bounds(world().state.x, lo, hi);
+      cam_.target = ((lo + hi) / 2).cast<float>();
+    }
     renderer_.begin(0, 0, vw, fb_h_, cam_);
     const Model& m = world().model;
     const State& s = world().state;
@@ -390,7 +401,7 @@ class Viewer {
       const Vec3f a = s.x[drag_->quanta].cast<float>(), b = drag_->target.cast<float>();
       lines_.push_back({a, Vec3f(1, 0.9f, 0.1f)});
       lines_.push_back({b, Vec3f(1, 0.9f, 0.1f)});
-      spheres_.push_back({b, static_cast<float>(0.6 * radius_), Vec3f(1, 0.9f, 0.1f)});
+      spheres_.push_back({b, static_cast<float>(std::max(radius_, 0.01 * size_)), Vec3f(1, 0.9f, 0.1f)});
     }
     if (push_ && push_->second.norm() > 0) {
       const Vec3f a = s.x[push_->first].cast<float>();
@@ -412,9 +423,15 @@ class Viewer {
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
   }
 
+  /// Obstacles, and the ground under the structure wherever it has gone: planes as a checkered
+  /// square of three scene sizes, or without one a reference grid at the scene's starting floor.
+  /// Both are patterned in world coordinates, so that motion over them shows.
   void draw_ground() {
     bool plane = false;
-    const Vec3 centre = (lo_ + hi_) / 2;
+    Vec3 lo, hi;
+    bounds(world().state.x, lo, hi);
+    const double cell = cell_size();
+    const Vec3 centre = (((lo + hi) / 2) / cell).array().round().matrix() * cell;
     for (const Obstacle& ob : obstacles_) {
       if (ob.shape == Obstacle::Shape::box) {
         Mat4f model = Mat4f::Identity();
@@ -432,13 +449,12 @@ class Viewer {
         model.block<3, 1>(0, 1) = (1.5 * size_ * b).cast<float>();
         model.block<3, 1>(0, 2) = n.cast<float>();
         model.block<3, 1>(0, 3) = c.cast<float>();
-        renderer_.plane(model, Vec3f(0.42f, 0.44f, 0.40f), static_cast<float>(cell_size()));
+        renderer_.plane(model, Vec3f(0.42f, 0.44f, 0.40f), static_cast<float>(cell));
       }
     }
     if (plane) return;
-    // No ground: a reference grid under the scene's starting box.
     lines_.clear();
-    const double cell = cell_size(), half = 1.5 * size_;
+    const double half = 1.5 * size_;
     const int n = static_cast<int>(std::ceil(half / cell));
     const Vec3f grey(0.32f, 0.33f, 0.36f);
     for (int k = -n; k <= n; ++k) {
@@ -510,6 +526,8 @@ class Viewer {
     }
     ImGui::SameLine();
     ImGui::TextDisabled("(%zu)", scene_.heuristics.size());
+    ImGui::SameLine();
+    ImGui::Checkbox("camera follows", &follow_);
     ImGui::Separator();
     int bc = static_cast<int>(bond_color_), qc = static_cast<int>(quanta_color_);
     if (ImGui::Combo("bonds", &bc, kBondColorNames, IM_ARRAYSIZE(kBondColorNames))) {
@@ -588,18 +606,18 @@ class Viewer {
 
   Scene scene_;
   ViewOptions opt_;
+  int fb_w_, fb_h_;
   World initial_;
   IntegratorConfig config_;
   double h_;
+  std::vector<ScriptEvent> script_;
   std::unique_ptr<Simulation> sim_;
   Renderer renderer_;
   OrbitCamera cam_;
-  int fb_w_ = 1, fb_h_ = 1;
   std::vector<Obstacle> obstacles_;
   Vec3 lo_, hi_;
   double size_ = 1, radius_ = 0.01;
 
-  std::vector<ScriptEvent> script_;
   std::size_t next_event_ = 0;
   std::optional<PullSpring> drag_;
   std::optional<std::pair<Index, Vec3>> push_;
@@ -607,7 +625,7 @@ class Viewer {
   Mode mode_ = Mode::none;
   double last_mx_ = 0, last_my_ = 0;
 
-  bool paused_ = false, single_step_ = false, help_ = false, heuristics_on_ = true;
+  bool paused_ = false, single_step_ = false, help_ = false, heuristics_on_ = true, follow_ = opt_.follow;
   float stiffness_scale_ = 1, damping_scale_ = 1;
   float pull_hz_ = 4;  ///< the mouse spring's frequency for the pulled body (interaction.hpp)
   Vec3 gravity_;
@@ -617,8 +635,8 @@ class Viewer {
   std::deque<std::pair<double, double>> rt_samples_;  ///< (wall, simulated) seconds of recent frames
   int steps_last_frame_ = 0;
 
-  BondColor bond_color_ = BondColor::strain;
-  QuantaColor quanta_color_ = QuantaColor::body;
+  BondColor bond_color_ = opt_.bonds;
+  QuantaColor quanta_color_ = opt_.quanta;
   AutoRange bond_range_, quanta_range_;
   std::deque<float> energy_, kinetic_, step_ms_;
 
@@ -671,6 +689,12 @@ nlohmann::json stats_json(const Timing& t, const Viewer& v, int fb_w, int fb_h) 
 
 int run_viewer(Scene scene, const ViewOptions& o) {
   if (o.width < 64 || o.height < 64) throw std::invalid_argument("window size must be at least 64 x 64");
+  // Bad input is refused before a window opens.
+  std::vector<ScriptEvent> script;
+  if (!o.script.empty()) {
+    if (!fs::is_regular_file(o.script)) throw std::invalid_argument("script " + o.script + ": no such file");
+    script = parse_script(read_file(o.script), o.script, scene.world.num_quanta());
+  }
   if (!o.record.empty()) fs::create_directories(o.record);
   if (!glfwInit())
     throw std::runtime_error("cannot open a window (" + glfw_error() +
@@ -693,10 +717,9 @@ int run_viewer(Scene scene, const ViewOptions& o) {
   ImGui::StyleColorsDark();
   int exit_code = 0;
   {
-    Viewer viewer(std::move(scene), o);
     int fb_w = 0, fb_h = 0;
     glfwGetFramebufferSize(window, &fb_w, &fb_h);
-    viewer.resize(fb_w, fb_h);
+    Viewer viewer(std::move(scene), std::move(script), o, std::max(fb_w, 1), std::max(fb_h, 1));
     glfwSetWindowUserPointer(window, &viewer);
     install_callbacks(window);
     ImGui_ImplGlfw_InitForOpenGL(window, true);  // chains to the callbacks above

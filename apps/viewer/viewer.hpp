@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <string>
 
+#include "colors.hpp"
 #include "qbond/scene.hpp"
 
 namespace qbond::view {
@@ -19,6 +20,9 @@ struct ViewOptions {
   int width = 1280, height = 720;
   int steps_per_frame = 0;     ///< with `frames`: steps per frame (0: 1/60 s of simulated time)
   bool ui = true;              ///< draw the ImGui panel
+  bool follow = false;         ///< keep the camera aimed at the quanta's box
+  BondColor bonds = BondColor::strain;
+  QuantaColor quanta = QuantaColor::body;
 };
 
 /// Runs the viewer on a scene; returns the program's exit code (3 when a headless run blew up).
