@@ -43,14 +43,15 @@ struct BondStep {
 };
 
 // Bond b (rest length L) whose separation d = x_j − x_i starts at d0 and changes by dd over the
-// step, its dampers seeing the relative velocity w (at the scheme's θ).
+// step, its dampers seeing the relative velocity w (at the scheme's θ); `clamp` as NewtonStep's.
 BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme scheme, const Vec3& d0, const Vec3& dd,
-                   const Vec3& w);
+                   const Vec3& w, bool clamp);
 
 // The map from y to the step (see the header comment).
 struct NewtonStep {
   NewtonScheme scheme = NewtonScheme::energy_momentum;
   double h = 0, s = 1, c = 0, theta = 0.5;
+  bool clamp = true;    // clamp the blocks positive semi-definite (the iterative solvers need it)
   std::vector<Vec3> a;  // free: Δx = a + c y; kinematic: the prescribed Δx (n)
   std::vector<Vec3> e;  // (n)
   Vec3 dx(const Model& m, const std::vector<Vec3>& y, Index i) const {
