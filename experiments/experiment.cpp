@@ -62,6 +62,7 @@ std::span<const Experiment> all() {
       {"fig11", "Figure 11: the twisted bar against GetFEM and Saint-Venant", fig11},
       {"fig12", "Figure 12: symmetric and asymmetric lattices tearing", fig12},
       {"cantilever", "Cantilever: a calibrated lattice beam against beam theory", cantilever},
+      {"energy_momentum", "Section 5: an integrator that pays attention to the total energy", energy_momentum},
   };
   return list;
 }

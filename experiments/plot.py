@@ -236,6 +236,29 @@ def fig12(d):
     save(fig, d, "fig12_angles.png")
 
 
+def energy_momentum(d):
+    data = series(os.path.join(d, "energy.csv"), "time", "relative_energy", key="case")
+    with open(os.path.join(d, "energy.csv")) as f:
+        rows = list(csv.DictReader(f))
+    cases = list(dict.fromkeys(r["case"] for r in rows))
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharey=True)
+    for ax, case in zip(axes.flat, cases):
+        for method in dict.fromkeys(r["method"] for r in rows):
+            pts = [(float(r["time"]), abs(float(r["relative_energy"]) - 1)) for r in rows
+                   if r["case"] == case and r["method"] == method]
+            ax.plot([t for t, _ in pts], [max(e, 1e-17) for _, e in pts], lw=1, label=method)
+        system, homega = case.rsplit("_h", 1)
+        ax.set_yscale("log")
+        ax.set_ylim(1e-17, 10)
+        ax.set_title(f"{system}, h*omega_max = {homega}", fontsize=9)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("|E/E(0) - 1|")
+        ax.legend(fontsize=7)
+    del data
+    fig.suptitle("Energy error: energy-momentum vs the hybrid vs backward Euler (undamped)", fontsize=10)
+    save(fig, d, "energy_momentum.png")
+
+
 if __name__ == "__main__":
     name, d = sys.argv[1], sys.argv[2]
     globals()[name](d)

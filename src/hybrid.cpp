@@ -34,7 +34,8 @@ class HybridIntegrator final : public Integrator {
       topo_.update(model, adj);
       initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, y_);
       if (config_.neighbours == NeighbourModel::sweep)
-        gauss_seidel(adj);
+        gs_.solve(adj, sys_, topo_.coloring, config_.iterations, config_.tolerance, config_.chebyshev_rho,
+                  threads, y_, stats_);
       else
         jacobi(adj);
       if (config_.restore_momentum) restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
@@ -59,41 +60,6 @@ class HybridIntegrator final : public Integrator {
     return deterministic_sum(res_.size(), config_.threads, [&](std::size_t k) { return res_[k]; });
   }
 
-  void gauss_seidel(const Adjacency& adj) {
-    const Coloring& col = topo_.coloring;
-    const int threads = config_.threads;
-    const double rho = config_.chebyshev_rho;
-    double omega = 1;
-    if (rho > 0) older_ = y_;
-    res_.resize(col.quanta.size());
-    for (int it = 0; it < config_.iterations; ++it) {
-      if (rho > 0) prev_ = y_;
-      // The residual of each block just before its update; summed, the usual in-sweep estimate.
-      for (std::size_t c = 0; c < col.num_colors(); ++c) {
-        // Quanta of one colour share no bond: their updates are independent.
-        const Index begin = col.offset[c];
-        parallel_for(col.offset[c + 1] - begin, threads, [&](std::size_t q) {
-          const Index k = begin + static_cast<Index>(q);
-          const Index i = col.quanta[k];
-          const Vec3 r = gathered_rhs(adj, i, y_);
-          res_[k] = (r - sys_.diag[i] * y_[i]).squaredNorm();
-          y_[i] = sys_.diag_inv[i] * r;
-        });
-      }
-      if (rho > 0) {
-        // Chebyshev semi-iteration: y ← ω (ŷ - y_{k-1}) + y_{k-1}.
-        omega = it == 0 ? 1.0 : it == 1 ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * omega);
-        parallel_for(col.quanta.size(), threads, [&](std::size_t k) {
-          const Index i = col.quanta[k];
-          y_[i] = omega * (y_[i] - older_[i]) + older_[i];
-        });
-        older_.swap(prev_);
-      }
-      stats_.iterations = it + 1;
-      if (converged(residual2())) break;
-    }
-  }
-
   void jacobi(const Adjacency& adj) {
     const std::vector<Index>& free = topo_.coloring.quanta;
     res_.resize(free.size());
@@ -113,8 +79,9 @@ class HybridIntegrator final : public Integrator {
 
   ImplicitSystem sys_;
   TopologyCache topo_;
-  std::vector<Vec3> y_, prev_, older_, next_;
-  std::vector<double> res_;  // residual² of each free quanta's block, in colour order
+  GaussSeidel gs_;
+  std::vector<Vec3> y_, next_;
+  std::vector<double> res_;  // jacobi: residual² of each free quanta's block
 };
 
 }  // namespace

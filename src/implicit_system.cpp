@@ -56,29 +56,19 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
       bb.g = h * f - h * block_times(u, ka, kb, dx) - h * block_times(u, ca, cb, dv);
     }
   });
-  // Per quanta, gathered over its bonds in bond order: A_ii = m I + Σ B_b, b_i = h f_ext + Σ ±g_b.
-  sys.diag.resize(n);
-  sys.diag_inv.resize(n);
+  assemble_blocks(model, adj, frozen, threads, sys);
+  // Per quanta, gathered over its bonds in bond order: b_i = h f_ext + Σ ±g_b.
   sys.rhs.resize(n);
-  sys.edges.resize(frozen ? 0 : adj.offset[n]);  // the frozen step never couples neighbours
   parallel_for(n, threads, [&](std::size_t q) {
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i)) {
-      sys.diag[i].setIdentity();
-      sys.diag_inv[i].setIdentity();
       sys.rhs[i].setZero();
       return;
     }
-    Mat3 d = model.mass[i] * Mat3::Identity();
     Vec3 r = h * f_ext[i];
     const Vec3 dxi = dx0(i);
     for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
       const BondBlock& bb = sys.bonds[adj.bond[e]];
-      d += block_matrix(bb.u, bb.Ba, bb.Bb);
-      if (!frozen) {
-        const bool coupled = !model.is_kinematic(adj.other[e]);
-        sys.edges[e] = {bb.u, coupled ? bb.Ba : 0.0, coupled ? bb.Bb : 0.0};
-      }
       const bool first = bb.i == i;
       if (frozen)
         r += (first ? bb.g : Vec3(-bb.g)) - h * block_times(bb.u, bb.Ka, bb.Kb, dxi);
@@ -87,12 +77,36 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
       else
         r -= bb.g;
     }
-    sys.diag[i] = d;
     sys.rhs[i] = r;
+  });
+  sys.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return sys.rhs[i].squaredNorm(); }));
+}
+
+void assemble_blocks(const Model& model, const Adjacency& adj, bool frozen, int threads, ImplicitSystem& sys) {
+  const std::size_t n = model.num_quanta();
+  sys.diag.resize(n);
+  sys.diag_inv.resize(n);
+  sys.edges.resize(frozen ? 0 : adj.offset[n]);  // the frozen step never couples neighbours
+  parallel_for(n, threads, [&](std::size_t q) {
+    const auto i = static_cast<Index>(q);
+    if (model.is_kinematic(i)) {
+      sys.diag[i].setIdentity();
+      sys.diag_inv[i].setIdentity();
+      return;
+    }
+    Mat3 d = model.mass[i] * Mat3::Identity();
+    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+      const BondBlock& bb = sys.bonds[adj.bond[e]];
+      d += block_matrix(bb.u, bb.Ba, bb.Bb);
+      if (!frozen) {
+        const bool coupled = !model.is_kinematic(adj.other[e]);
+        sys.edges[e] = {bb.u, coupled ? bb.Ba : 0.0, coupled ? bb.Bb : 0.0};
+      }
+    }
+    sys.diag[i] = d;
     // A_ii = m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
     sys.diag_inv[i] = d.inverse();
   });
-  sys.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return sys.rhs[i].squaredNorm(); }));
 }
 
 void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, const std::vector<Vec3>& y,
@@ -138,6 +152,99 @@ Eigen::Index assemble_system(const Model& model, const State& state, const Impli
   A.resize(3 * nf, 3 * nf);
   A.setFromTriplets(triplets.begin(), triplets.end());
   return nf;
+}
+
+void DirectSolver::solve(CoupledSolver which, const Model& model, const State& state, const ImplicitSystem& sys,
+                         std::vector<Vec3>& y) {
+  const std::size_t n = model.num_quanta();
+  const Eigen::Index nf = assemble_system(model, state, sys, dof, triplets, A, b);
+  y.assign(n, Vec3::Zero());
+  if (nf == 0) return;
+  Eigen::VectorXd sol;
+  if (which == CoupledSolver::dense) {
+    sol = Eigen::MatrixXd(A).partialPivLu().solve(b);  // Gaussian elimination, partial pivoting
+  } else {
+    ldlt.compute(A);
+    sol = ldlt.solve(b);
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (dof[i] >= 0) y[i] = sol.segment<3>(dof[i]);
+}
+
+void ConjugateGradient::solve(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, double tolerance,
+                              int cap, int threads, std::vector<Vec3>& y, SolveStats& stats) {
+  const std::size_t n = model.num_quanta();
+  // Σ a_i · b_i over free quanta (kinematic rows of r, z, p and Ap are 0).
+  auto dot = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& c) {
+    return deterministic_sum(a.size(), threads, [&](std::size_t i) { return a[i].dot(c[i]); });
+  };
+  apply_system(model, adj, sys, y, threads, Ap);
+  r.resize(n);
+  z.resize(n);
+  p.resize(n);
+  parallel_for(n, threads, [&](std::size_t i) {
+    r[i] = model.is_kinematic(static_cast<Index>(i)) ? Vec3::Zero() : Vec3(sys.rhs[i] - Ap[i]);
+    z[i] = sys.diag_inv[i] * r[i];
+    p[i] = z[i];
+  });
+  double rz = dot(r, z);
+  const double bnorm = sys.rhs_norm;
+  auto rel = [&](double r2) { return bnorm > 0 ? std::sqrt(r2) / bnorm : std::sqrt(r2); };
+  stats.residual = rel(dot(r, r));
+  int it = 0;
+  while (it < cap && stats.residual > tolerance) {
+    apply_system(model, adj, sys, p, threads, Ap);
+    const double pAp = dot(p, Ap);
+    if (!(pAp > 0)) break;  // exact solution reached (p = 0) or loss of positivity
+    const double alpha = rz / pAp;
+    parallel_for(n, threads, [&](std::size_t i) {
+      y[i] += alpha * p[i];
+      r[i] -= alpha * Ap[i];
+      z[i] = sys.diag_inv[i] * r[i];
+    });
+    const double rz_new = dot(r, z);
+    const double beta = rz_new / rz;
+    rz = rz_new;
+    parallel_for(n, threads, [&](std::size_t i) { p[i] = z[i] + beta * p[i]; });
+    ++it;
+    stats.residual = rel(dot(r, r));
+  }
+  stats.iterations = it;
+}
+
+void GaussSeidel::solve(const Adjacency& adj, const ImplicitSystem& sys, const Coloring& col, int sweeps,
+                        double tolerance, double rho, int threads, std::vector<Vec3>& y, SolveStats& stats) {
+  double omega = 1;
+  if (rho > 0) older = y;
+  res.resize(col.quanta.size());
+  for (int it = 0; it < sweeps; ++it) {
+    if (rho > 0) prev = y;
+    // The residual of each block just before its update; summed, the usual in-sweep estimate.
+    for (std::size_t c = 0; c < col.num_colors(); ++c) {
+      // Quanta of one colour share no bond: their updates are independent.
+      const Index begin = col.offset[c];
+      parallel_for(col.offset[c + 1] - begin, threads, [&](std::size_t q) {
+        const Index k = begin + static_cast<Index>(q);
+        const Index i = col.quanta[k];
+        const Vec3 r = sys.rhs[i] + neighbours_times(adj, sys, i, y);
+        res[k] = (r - sys.diag[i] * y[i]).squaredNorm();
+        y[i] = sys.diag_inv[i] * r;
+      });
+    }
+    if (rho > 0) {
+      // Chebyshev semi-iteration: y ← ω (ŷ - y_{k-1}) + y_{k-1}.
+      omega = it == 0 ? 1.0 : it == 1 ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * omega);
+      parallel_for(col.quanta.size(), threads, [&](std::size_t k) {
+        const Index i = col.quanta[k];
+        y[i] = omega * (y[i] - older[i]) + older[i];
+      });
+      older.swap(prev);
+    }
+    stats.iterations = it + 1;
+    const double r2 = deterministic_sum(res.size(), threads, [&](std::size_t k) { return res[k]; });
+    stats.residual = sys.rhs_norm > 0 ? std::sqrt(r2) / sys.rhs_norm : std::sqrt(r2);
+    if (tolerance > 0 && stats.residual <= tolerance) break;
+  }
 }
 
 }  // namespace qbond

@@ -13,6 +13,7 @@
 #include <Eigen/Sparse>
 #include <vector>
 
+#include "coloring.hpp"
 #include "qbond/world.hpp"
 #include "qbond/integrators.hpp"
 
@@ -64,6 +65,11 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
                          const std::vector<Vec3>& f_ext, const StepContext& ctx, bool frozen, int threads,
                          Projection& out, ImplicitSystem& sys);
 
+// A's blocks from the bonds' B_b (sys.bonds[b].u, Ba, Bb): diag = m I + Σ B_b and its inverse for
+// every free quanta (identity for kinematic ones) and, unless `frozen`, the edge blocks, gathered
+// in bond order (the same bits for any thread count). Leaves rhs alone.
+void assemble_blocks(const Model& model, const Adjacency& adj, bool frozen, int threads, ImplicitSystem& sys);
+
 // A's off-diagonal part times y for free quanta i: Σ over i's bonds to free quanta of B_b y_j.
 inline Vec3 neighbours_times(const Adjacency& adj, const ImplicitSystem& sys, Index i, const std::vector<Vec3>& y) {
   Vec3 s = Vec3::Zero();
@@ -84,5 +90,39 @@ void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem
 Eigen::Index assemble_system(const Model& model, const State& state, const ImplicitSystem& sys,
                              std::vector<Eigen::Index>& dof, std::vector<Eigen::Triplet<double>>& triplets,
                              Eigen::SparseMatrix<double>& A, Eigen::VectorXd& b);
+
+// The linear solvers of A y = b (b = sys.rhs), shared by the coupled integrator (one solve per step)
+// and the Newton integrators (one per Newton iteration); each owns its scratch.
+
+// Sparse LDLᵀ or dense Gaussian elimination with partial pivoting on the assembled system; y is
+// overwritten (kinematic rows 0).
+struct DirectSolver {
+  std::vector<Eigen::Index> dof;
+  std::vector<Eigen::Triplet<double>> triplets;
+  Eigen::SparseMatrix<double> A;
+  Eigen::VectorXd b;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  void solve(CoupledSolver which, const Model& model, const State& state, const ImplicitSystem& sys,
+             std::vector<Vec3>& y);
+};
+
+// Matrix-free CG preconditioned by blockdiag(A_ii)⁻¹ (the hybrid's 3×3 blocks), from the initial
+// guess in y, until ‖b − A y‖/‖b‖ ≤ tolerance or `cap` iterations; fills stats.
+struct ConjugateGradient {
+  std::vector<Vec3> r, z, p, Ap;
+  void solve(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, double tolerance, int cap,
+             int threads, std::vector<Vec3>& y, SolveStats& stats);
+};
+
+// Block Gauss–Seidel sweeps in graph-colour order (quanta of one colour share no bond, so their
+// 3×3 updates run in parallel), from the initial guess in y, at most `sweeps` or until the
+// in-sweep residual estimate ‖b − A y‖/‖b‖ ≤ tolerance (tolerance > 0); optional Chebyshev
+// semi-iteration (Wang 2015) when rho > 0; fills stats.
+struct GaussSeidel {
+  std::vector<Vec3> prev, older;
+  std::vector<double> res;  // residual² of each free quanta's block, in colour order
+  void solve(const Adjacency& adj, const ImplicitSystem& sys, const Coloring& col, int sweeps, double tolerance,
+             double rho, int threads, std::vector<Vec3>& y, SolveStats& stats);
+};
 
 }  // namespace qbond

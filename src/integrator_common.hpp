@@ -11,6 +11,7 @@ namespace qbond {
 std::unique_ptr<Integrator> make_explicit_integrator(const IntegratorConfig& config);
 std::unique_ptr<Integrator> make_hybrid_integrator(const IntegratorConfig& config);
 std::unique_ptr<Integrator> make_coupled_implicit_integrator(const IntegratorConfig& config);
+std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& config);
 
 // Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0).
 void initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
@@ -24,6 +25,11 @@ struct TopologyCache {
   FreeComponents components;
   void update(const Model& model, const Adjacency& adj);
 };
+
+// CG's iteration cap: max_iterations, or three times the free unknowns' count when 0.
+inline int cg_cap(const IntegratorConfig& c, const TopologyCache& topo) {
+  return c.max_iterations > 0 ? c.max_iterations : static_cast<int>(3 * topo.coloring.quanta.size());
+}
 
 // Gives every free component (no bond to a kinematic quanta) its exact momentum change over the
 // step, h Σ f_ext, by a uniform velocity shift: an iterative solve stopped early leaves a small

@@ -27,7 +27,19 @@ std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& c) {
     case IntegratorType::hybrid_implicit:
       return make_hybrid_integrator(c);
     case IntegratorType::coupled_implicit:
+      if (c.solver == CoupledSolver::sweep)
+        throw std::invalid_argument(
+            "integrator.solver: 'sweep' is for the Newton integrators; coupled_implicit with sweeps is "
+            "hybrid_implicit with neighbours 'sweep'");
       return make_coupled_implicit_integrator(c);
+    case IntegratorType::energy_momentum:
+    case IntegratorType::implicit_midpoint:
+    case IntegratorType::bdf2:
+      if (c.newton_iterations < 1) throw std::invalid_argument("integrator.newton_iterations: must be >= 1");
+      if (c.type == IntegratorType::bdf2 && c.warm_start == WarmStart::previous)
+        throw std::invalid_argument(
+            "integrator.warm_start: 'previous' is not available with bdf2 (its carry-over is the previous state)");
+      return make_newton_integrator(c);
   }
   throw std::invalid_argument("unknown integrator type");
 }
@@ -53,6 +65,9 @@ std::string_view to_string(IntegratorType t) {
     case IntegratorType::rk4: return "rk4";
     case IntegratorType::hybrid_implicit: return "hybrid_implicit";
     case IntegratorType::coupled_implicit: return "coupled_implicit";
+    case IntegratorType::energy_momentum: return "energy_momentum";
+    case IntegratorType::implicit_midpoint: return "implicit_midpoint";
+    case IntegratorType::bdf2: return "bdf2";
   }
   return "?";
 }
@@ -69,6 +84,7 @@ std::string_view to_string(CoupledSolver s) {
     case CoupledSolver::dense: return "dense";
     case CoupledSolver::ldlt: return "ldlt";
     case CoupledSolver::cg: return "cg";
+    case CoupledSolver::sweep: return "sweep";
   }
   return "?";
 }
@@ -85,7 +101,9 @@ IntegratorType parse_integrator_type(std::string_view s) {
   return parse_name(s,
                     std::array{IntegratorType::explicit_euler, IntegratorType::symplectic_euler,
                                IntegratorType::velocity_verlet, IntegratorType::rk4,
-                               IntegratorType::hybrid_implicit, IntegratorType::coupled_implicit},
+                               IntegratorType::hybrid_implicit, IntegratorType::coupled_implicit,
+                               IntegratorType::energy_momentum, IntegratorType::implicit_midpoint,
+                               IntegratorType::bdf2},
                     "integrator");
 }
 NeighbourModel parse_neighbour_model(std::string_view s) {
@@ -93,7 +111,7 @@ NeighbourModel parse_neighbour_model(std::string_view s) {
                     "neighbour model");
 }
 CoupledSolver parse_coupled_solver(std::string_view s) {
-  return parse_name(s, std::array{CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg},
+  return parse_name(s, std::array{CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg, CoupledSolver::sweep},
                     "solver");
 }
 WarmStart parse_warm_start(std::string_view s) {

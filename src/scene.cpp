@@ -206,7 +206,8 @@ class Builder {
                          {"solver", to_string(c.solver)},      {"iterations", c.iterations},
                          {"max_iterations", c.max_iterations}, {"tolerance", c.tolerance},
                          {"chebyshev_rho", c.chebyshev_rho},   {"warm_start", to_string(c.warm_start)},
-                         {"restore_momentum", c.restore_momentum}, {"threads", c.threads}};
+                         {"restore_momentum", c.restore_momentum}, {"threads", c.threads},
+                         {"newton_iterations", c.newton_iterations}};
     res["limits"] = {{"max_speed", s.limits.max_speed}, {"energy_growth", s.limits.energy_growth}};
     json& out = res["output"];
     if (!out.is_object()) out = json::object();
@@ -222,7 +223,7 @@ class Builder {
   IntegratorConfig integrator(const json& j) {
     Obj o(j, "integrator",
           {"type", "neighbours", "solver", "iterations", "max_iterations", "tolerance", "chebyshev_rho", "warm_start",
-           "restore_momentum", "threads"});
+           "restore_momentum", "threads", "newton_iterations"});
     IntegratorConfig c = default_integrator();
     auto parse = [&](const char* key, auto fn, auto& field) {
       if (!o.has(key)) return;
@@ -244,6 +245,8 @@ class Builder {
       c.chebyshev_rho = non_negative(o["chebyshev_rho"], o.at("chebyshev_rho"));
       if (c.chebyshev_rho >= 1) bad(o.at("chebyshev_rho"), "must be < 1, got " + num_str(c.chebyshev_rho));
     }
+    if (o.has("newton_iterations"))
+      c.newton_iterations = static_cast<int>(integer(o["newton_iterations"], o.at("newton_iterations"), 1));
     if (o.has("threads")) c.threads = static_cast<int>(integer(o["threads"], o.at("threads"), 0));
     if (o.has("restore_momentum")) c.restore_momentum = boolean(o["restore_momentum"], o.at("restore_momentum"));
     return c;

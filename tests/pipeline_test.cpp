@@ -79,11 +79,19 @@ TEST(Pipeline, AnyThreadCountGivesTheSameBits) {
   IntegratorConfig jacobi = test::config(IntegratorType::hybrid_implicit);
   jacobi.neighbours = NeighbourModel::jacobi;
   jacobi.iterations = 3;
-  for (const IntegratorConfig& c : {default_integrator(), sweep, frozen, jacobi, test::config(IntegratorType::rk4)}) {
+  IntegratorConfig em_cg = test::config(IntegratorType::energy_momentum);
+  em_cg.tolerance = 1e-10;
+  IntegratorConfig em_sweep = em_cg;
+  em_sweep.solver = CoupledSolver::sweep;
+  em_sweep.iterations = 2;
+  IntegratorConfig bdf2 = test::config(IntegratorType::bdf2);
+  for (const IntegratorConfig& c : {default_integrator(), sweep, frozen, jacobi, test::config(IntegratorType::rk4),
+                                    em_cg, em_sweep, bdf2}) {
     const State one = run(c, 1);
     for (int threads : {2, 3}) {
       const State many = run(c, threads);
-      const std::string what = std::string(to_string(c.type)) + "/" + std::string(to_string(c.neighbours)) + ", " +
+      const std::string what = std::string(to_string(c.type)) + "/" + std::string(to_string(c.neighbours)) + "/" +
+                               std::string(to_string(c.solver)) + ", " +
                                std::to_string(threads) + " threads";
       ASSERT_EQ(one.x.size(), many.x.size());
       EXPECT_EQ(std::memcmp(one.x.data(), many.x.data(), one.x.size() * sizeof(Vec3)), 0) << what;

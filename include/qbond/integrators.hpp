@@ -41,6 +41,11 @@ enum class IntegratorType : std::uint8_t {
   rk4,               ///< classical fourth-order Runge–Kutta
   hybrid_implicit,   ///< Eqs. 11–12: one 3×3 solve per quanta (see NeighbourModel)
   coupled_implicit,  ///< Eq. 13 linearised (Baraff–Witkin): one global linear solve
+  energy_momentum,   ///< discrete gradient (Simo–Tarnow, Gonzalez): conserves energy and both
+                     ///< momenta at any step; Newton-solved (see docs/integrators.md)
+  implicit_midpoint, ///< forces at the step's midpoint; Newton-solved, second order
+  bdf2,              ///< second-order backward differentiation; Newton-solved, first step
+                     ///< (and every restart) by backward Euler
 };
 
 /// How the hybrid integrator treats a quanta's neighbours while solving for it.
@@ -55,6 +60,8 @@ enum class CoupledSolver : std::uint8_t {
   dense,  ///< dense Gaussian elimination (partial pivoting): the paper's cubic-cost method
   ldlt,   ///< sparse LDLᵀ (Eigen SimplicialLDLT)
   cg,     ///< matrix-free conjugate gradient, block-Jacobi preconditioned
+  sweep,  ///< block Gauss–Seidel sweeps in colour order (Newton integrators only: `iterations`
+          ///< sweeps per Newton iteration; the coupled integrator's is hybrid_implicit/sweep)
 };
 
 /// Initial guess of the iterative solvers (sweep, jacobi, cg).
@@ -68,10 +75,12 @@ enum class WarmStart : std::uint8_t {
 struct IntegratorConfig {
   IntegratorType type = IntegratorType::coupled_implicit;
   NeighbourModel neighbours = NeighbourModel::sweep;  ///< hybrid only
-  CoupledSolver solver = CoupledSolver::cg;           ///< coupled only
+  CoupledSolver solver = CoupledSolver::cg;           ///< coupled and Newton integrators
   int iterations = 1;        ///< sweep/jacobi: sweeps per step (≥ 1)
   int max_iterations = 0;    ///< cg: iteration cap (0: three times the free unknowns)
-  double tolerance = 1e-6;   ///< relative residual ‖b - A dv‖/‖b‖ at which sweeps and cg stop
+  double tolerance = 1e-6;   ///< relative residual ‖b - A dv‖/‖b‖ at which sweeps and cg stop;
+                             ///< Newton integrators: relative residual of the nonlinear step
+  int newton_iterations = 20;  ///< Newton integrators: iteration cap per step (≥ 1)
   double chebyshev_rho = 0;  ///< sweep: spectral radius estimate for Chebyshev acceleration (0 = off)
   WarmStart warm_start = WarmStart::zero;  ///< sweeps from `previous` blow up, from `external`
                                            ///< they pump energy into anchored bodies
@@ -87,7 +96,9 @@ IntegratorConfig default_integrator();
 /// Statistics of the last projection (iterative solvers fill them).
 struct SolveStats {
   int iterations = 0;        ///< sweeps or CG iterations taken
-  double residual = 0;       ///< final relative residual ‖b - A dv‖ / ‖b‖ (0 for direct solvers)
+  double residual = 0;       ///< final relative residual ‖b - A dv‖ / ‖b‖ (0 for direct solvers);
+                             ///< Newton integrators: of the nonlinear step (see newton.hpp)
+  int linear_iterations = 0; ///< Newton integrators: CG iterations or sweeps summed over the step
 };
 
 /// An integrator: owns its options and its scratch buffers (no allocation once warmed up).
@@ -101,6 +112,13 @@ class Integrator {
   /// Fraction θ of the step's velocity change at which this integrator evaluates damping forces
   /// (0: start of step, 1: end, ½: between). The energy ledger charges damping work at v + θ dv.
   virtual double damping_theta() const = 0;
+  /// Fraction φ of the step's displacement at which axial dampers take their direction
+  /// d + φ Δd (0: the start-of-step bond; ½ for the midpoint-evaluated integrators).
+  virtual double damping_direction_theta() const { return 0.0; }
+  /// Whether bond tensions are discrete gradients over the step, T̄ = ΔU/Δr along the midpoint
+  /// bond (energy_momentum); the ledger then charges prescribed quanta that force, so that it
+  /// closes exactly, instead of the trapezoid rule.
+  virtual bool discrete_gradient() const { return false; }
   const IntegratorConfig& config() const { return config_; }
   const SolveStats& stats() const { return stats_; }
 

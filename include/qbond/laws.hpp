@@ -48,6 +48,39 @@ inline LawValue evaluate_law(Law law, double r, double L, double strength, doubl
   return {};
 }
 
+/// Mean tension over a step in which the bond's length goes from r0 to r1 — the discrete
+/// gradient T̄ = (U(r1) − U(r0)) / (r1 − r0), so that T̄ (r1 − r0) is exactly the change of the
+/// bond's energy (the energy–momentum integrator, Gonzalez 1996) — and dT̄/dr1 (for its Newton
+/// steps). Written per law without the cancellation of the quotient: T̄ → T(r) as r1 → r0.
+struct MeanTension {
+  double T = 0;     ///< T̄ [N]
+  double dT1 = 0;   ///< ∂T̄/∂r1 [N/m]
+};
+inline MeanTension mean_tension(Law law, double r0, double r1, double L, double strength, double eps) {
+  const double dr = r1 - r0;
+  switch (law) {
+    case Law::linear:
+      // U quadratic in r: the quotient is T at the mean length, exactly.
+      return {strength * (0.5 * (r0 + r1) - L), 0.5 * strength};
+    case Law::inverse: {
+      // U = F/2 log(1 + s²/ε²): U1 − U0 = F/2 log1p(z), z = (s1² − s0²)/(s0² + ε²) = dr (s0+s1)/q0,
+      // so T̄ = F/2 (s0+s1)/q0 · log1p(z)/z, with log1p(z)/z from its series where z is small.
+      const double s0 = r0 - L, s1 = r1 - L, q0 = s0 * s0 + eps * eps;
+      const double z = dr * (s0 + s1) / q0;
+      const double l = std::abs(z) < 1e-4 ? 1 - z * (0.5 - z * (1.0 / 3 - 0.25 * z)) : std::log1p(z) / z;
+      MeanTension m{0.5 * strength * (s0 + s1) / q0 * l, 0};
+      // ∂T̄/∂r1 = (T(r1) − T̄)/dr; below dr ~ 1e-5 ε the quotient loses digits and its limit
+      // T'(r̄)/2 is closer than O((dr/ε)²).
+      if (std::abs(dr) > 1e-5 * eps)
+        m.dT1 = (evaluate_law(law, r1, L, strength, eps).T - m.T) / dr;
+      else
+        m.dT1 = 0.5 * evaluate_law(law, 0.5 * (r0 + r1), L, strength, eps).dT;
+      return m;
+    }
+  }
+  return {};
+}
+
 /// Stiffness block K_b = T' u uᵀ + (T/r)(I - u uᵀ), with df_i/dx_i = -K_b and df_i/dx_j = +K_b.
 /// With `clamp_for_solver` the two coefficients are clamped at 0 so that the block is positive
 /// semi-definite (compression and softening make it indefinite); the force itself stays exact.

@@ -109,8 +109,10 @@ struct State {
   Rng rng;
   EnergyLedger energy;
   std::uint64_t topology_version = 0;  ///< bumped whenever bonds appear or break
-  /// The last step's solver solution (velocity change of every quanta), the initial guess of
-  /// WarmStart::previous; empty unless that warm start is in use.
+  /// What the integrator carries from one step to the next: the last step's solver solution
+  /// (velocity change of every quanta, n), the initial guess of WarmStart::previous; or bdf2's
+  /// previous state (x then v of every quanta, then (t, h, step) of that state: 2n + 1); empty
+  /// otherwise. Kept here so that checkpoints and rollbacks carry it.
   std::vector<Vec3> warm;
 };
 

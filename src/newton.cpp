@@ -1,0 +1,329 @@
+// The Newton-solved integrators: energy_momentum (the paper's section 5 "method of integration
+// that paid attention to the total energy"), implicit_midpoint and bdf2. newton.hpp has the
+// schemes and the Newton system; this file evaluates them and runs the iteration with the
+// coupled integrator's linear solvers (implicit_system.hpp).
+#include "newton.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+#include "integrator_common.hpp"
+#include "parallel.hpp"
+
+namespace qbond {
+
+namespace {
+// The damper's force on bond_i for relative velocity w along unit u, and the symmetric part of
+// its derivative with respect to the bond's separation (the axial damper turns with the bond:
+// ∂(D (w·u) u)/∂d = D (w·u)/r (I − u uᵀ) + D u wᵀ(I − u uᵀ)/r; the second, non-symmetric term
+// vanishes when w ∥ u and is left out of the Newton block).
+struct Damper {
+  Vec3 f;
+  double transverse;  // D (w·u)/r: coefficient of (I − u uᵀ) in ∂f/∂d
+};
+Damper damper(const Model& m, std::size_t b, const Vec3& u, double r, const Vec3& w) {
+  const double D = m.damping[b];
+  if (m.damping_model[b] == DampingModel::axial) {
+    const double wu = w.dot(u);
+    return {D * wu * u, D * wu / r};
+  }
+  return {D * w, 0.0};
+}
+
+// Clamps an axial and a transverse coefficient at 0 (as implicit_system.hpp does, so that A stays
+// positive definite) and writes them as ka u uᵀ + kb I.
+void clamp_into(double axial, double transverse, bool clamp, BondStep& s) {
+  if (clamp) {
+    axial = std::max(axial, 0.0);
+    transverse = std::max(transverse, 0.0);
+  }
+  s.ka = axial - transverse;
+  s.kb = transverse;
+}
+}  // namespace
+
+BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme scheme, const Vec3& d0, const Vec3& dd,
+                   const Vec3& w, bool clamp) {
+  BondStep s;
+  const bool axial_damper = model.damping_model[b] == DampingModel::axial;
+  (axial_damper ? s.ca : s.cb) = model.damping[b];
+  if (scheme == NewtonScheme::energy_momentum) {
+    // Discrete gradient (Gonzalez 1996; Simo & Tarnow 1992): f = T̄ d_mid / r̄ with
+    // T̄ = (U(r₁) − U(r₀))/(r₁ − r₀), r̄ = (r₀ + r₁)/2. Since Δd · d_mid = (r₁² − r₀²)/2 = (r₁ − r₀) r̄,
+    // the bond's work f · Δd is exactly U(r₁) − U(r₀); f ∥ d_mid, the lever arm of the midpoint
+    // positions, so the pair exerts no torque about the midpoint configuration: momentum and
+    // angular momentum are kept exactly.
+    const Vec3 dm = d0 + 0.5 * dd, d1 = d0 + dd;
+    const double r0 = d0.norm(), r1 = d1.norm(), rm = dm.norm(), rbar = 0.5 * (r0 + r1);
+    if (!(rm > 0 && rbar > 0)) return s;  // a bond through zero length has no direction
+    s.u = dm / rm;
+    const MeanTension mt = mean_tension(model.law[b], r0, r1, L, model.stiffness[b], model.eps[b]);
+    const double phi = mt.T / rbar;
+    const Damper dmp = damper(model, b, s.u, rm, w);
+    s.f = phi * dm + dmp.f;
+    // ∂f/∂Δd = φ/2 I + d_mid φ_r1 u₁ᵀ (+ the damper's turning, ∂d_mid/∂Δd = ½), with
+    // φ_r1 = ∂(T̄/r̄)/∂r₁ = T̄_r1/r̄ − T̄/(2 r̄²); u₁ is taken as u (see newton.hpp).
+    const double phi_r1 = mt.dT1 / rbar - mt.T / (2 * rbar * rbar);
+    clamp_into(0.5 * phi + rm * phi_r1, 0.5 * (phi + dmp.transverse), clamp, s);
+    return s;
+  }
+  // Forces at one point of the step: the midpoint (∂d/∂Δd = ½) or the end (1).
+  const double g = scheme == NewtonScheme::implicit_midpoint ? 0.5 : 1.0;
+  const Vec3 d = d0 + g * dd;
+  const double r = d.norm();
+  if (!(r > 0)) return s;
+  s.u = d / r;
+  const LawValue lv = model.law_at(b, r, L);
+  const Damper dmp = damper(model, b, s.u, r, w);
+  s.f = lv.T * s.u + dmp.f;
+  // ∂f/∂d = T' u uᵀ + (T/r)(I − u uᵀ) + the damper's turning (DESIGN §3's K_b).
+  clamp_into(g * lv.dT, g * (lv.T / r + dmp.transverse), clamp, s);
+  return s;
+}
+
+void setup_newton_step(NewtonScheme scheme, const Model& model, const State& state, const Projection& kin, double h,
+                       const std::vector<Vec3>* x_prev, const std::vector<Vec3>* v_prev, NewtonStep& st) {
+  const std::size_t n = model.num_quanta();
+  st.scheme = scheme;
+  st.h = h;
+  st.a.resize(n);
+  st.e.assign(n, Vec3::Zero());
+  const bool bdf2 = scheme == NewtonScheme::bdf2;
+  assert(!bdf2 || (x_prev && v_prev && x_prev->size() == n && v_prev->size() == n));
+  switch (scheme) {
+    case NewtonScheme::energy_momentum:
+    case NewtonScheme::implicit_midpoint: st.s = 1; st.c = 0.5 * h; st.theta = 0.5; break;
+    case NewtonScheme::bdf2: st.s = 2.0 / 3; st.c = 2.0 * h / 3; st.theta = 1; break;
+    case NewtonScheme::backward_euler: st.s = 1; st.c = h; st.theta = 1; break;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (model.is_kinematic(static_cast<Index>(i))) {
+      st.a[i] = kin.dx[i];
+      continue;
+    }
+    if (bdf2) {
+      st.a[i] = (state.x[i] - (*x_prev)[i]) / 3 + st.c * state.v[i];
+      st.e[i] = (state.v[i] - (*v_prev)[i]) / 3;
+    } else {
+      st.a[i] = h * state.v[i];
+    }
+  }
+}
+
+void newton_bonds(const Model& model, const State& state, const NewtonStep& st, const std::vector<Vec3>& y,
+                  int threads, std::vector<Vec3>& force, ImplicitSystem* sys) {
+  const std::size_t nb = model.num_bonds();
+  force.resize(nb);
+  if (sys) sys->bonds.resize(nb);
+  const double sh = st.s * st.h;
+  parallel_for(nb, threads, [&](std::size_t b) {
+    const Index i = model.bond_i[b], j = model.bond_j[b];
+    BondStep bs;
+    if (state.alive[b]) {
+      const Vec3 d0 = state.x[j] - state.x[i];
+      const Vec3 dd = st.dx(model, y, j) - st.dx(model, y, i);
+      const Vec3 w = (state.v[j] + st.theta * y[j]) - (state.v[i] + st.theta * y[i]);
+      bs = bond_step(model, b, state.rest[b], st.scheme, d0, dd, w, st.clamp);
+    }
+    force[b] = bs.f;
+    if (sys) {
+      // B_b = s h (c K̃ + θ C): ∂Δd/∂y = c, ∂w/∂y = θ.
+      BondBlock& bb = sys->bonds[b];
+      bb.u = bs.u;
+      bb.Ba = sh * (st.c * bs.ka + st.theta * bs.ca);
+      bb.Bb = sh * (st.c * bs.kb + st.theta * bs.cb);
+      bb.i = i;
+    }
+  });
+}
+
+ResidualNorms newton_residual(const Model& model, const Adjacency& adj, const NewtonStep& st,
+                              const std::vector<Vec3>& f_ext, const std::vector<Vec3>& force,
+                              const std::vector<Vec3>& y, int threads, std::vector<Vec3>& R,
+                              std::vector<double>& scale) {
+  const std::size_t n = model.num_quanta();
+  const double sh = st.s * st.h;
+  R.resize(n);
+  scale.resize(n);
+  parallel_for(n, threads, [&](std::size_t q) {
+    const auto i = static_cast<Index>(q);
+    if (model.is_kinematic(i)) {
+      R[i].setZero();
+      scale[i] = 0;
+      return;
+    }
+    Vec3 f = f_ext[i];
+    double mag = f_ext[i].norm();
+    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+      const Index b = adj.bond[e];
+      f += model.bond_i[b] == i ? force[b] : Vec3(-force[b]);
+      mag += force[b].norm();
+    }
+    const Vec3 inertia = model.mass[i] * (y[i] - st.e[i]);
+    R[i] = inertia - sh * f;
+    scale[i] = inertia.norm() + sh * mag;
+  });
+  ResidualNorms nr;
+  nr.r2 = deterministic_sum(n, threads, [&](std::size_t i) { return R[i].squaredNorm(); });
+  nr.ref2 = deterministic_sum(n, threads, [&](std::size_t i) { return scale[i] * scale[i]; });
+  return nr;
+}
+
+namespace {
+
+// Each Newton iteration's linear solve (CG, sweeps) stops at this relative residual, or sooner
+// when the step is nearly converged (inexact Newton: the outer residual decides when to stop).
+constexpr double kForcing = 1e-3;
+// Halvings of a Newton step tried before the smallest is taken anyway.
+constexpr int kMaxHalvings = 12;
+
+class NewtonIntegrator final : public Integrator {
+ public:
+  explicit NewtonIntegrator(const IntegratorConfig& c) : Integrator(c) {}
+
+  // energy_momentum and implicit_midpoint evaluate dampers at the midpoint velocity along the
+  // midpoint bond; bdf2 at the end of the step.
+  double damping_theta() const override { return config_.type == IntegratorType::bdf2 ? 1.0 : 0.5; }
+  double damping_direction_theta() const override { return damping_theta(); }
+  bool discrete_gradient() const override { return config_.type == IntegratorType::energy_momentum; }
+
+  void project(const Model& model, const State& state, const Adjacency& adj,
+               const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
+    const std::size_t n = model.num_quanta();
+    const double h = ctx.h;
+    const int threads = config_.threads;
+    out.resize(n);
+    project_kinematic(model, state, ctx, out);
+    topo_.update(model, adj);
+    stats_ = {};
+
+    NewtonScheme scheme = NewtonScheme::energy_momentum;
+    if (config_.type == IntegratorType::implicit_midpoint) scheme = NewtonScheme::implicit_midpoint;
+    const bool bdf2 = config_.type == IntegratorType::bdf2;
+    if (bdf2) scheme = has_history(state, ctx) ? NewtonScheme::bdf2 : NewtonScheme::backward_euler;
+    if (scheme == NewtonScheme::bdf2) {
+      x_prev_.assign(state.warm.begin(), state.warm.begin() + static_cast<std::ptrdiff_t>(n));
+      v_prev_.assign(state.warm.begin() + static_cast<std::ptrdiff_t>(n),
+                     state.warm.begin() + static_cast<std::ptrdiff_t>(2 * n));
+    }
+    setup_newton_step(scheme, model, state, out, h, &x_prev_, &v_prev_, step_);
+    // Every solver gets the clamped, positive semi-definite blocks: CG and the 3×3 sweeps need
+    // them, and the unclamped (indefinite) blocks made Newton fail more often with LDLᵀ and dense
+    // elimination too (measured on the four-quanta experiment at hω = 10).
+    step_.clamp = true;
+
+    // Initial guess; kinematic rows carry their prescribed Δv through the bond evaluations.
+    initial_guess(config_.warm_start, model, f_ext, h, bdf2 ? no_history_ : state.warm, y_);
+    for (const Motion& m : model.motions)
+      for (Index i : m.quanta) y_[i] = out.dv[i];
+
+    const double tol = config_.tolerance;
+    double r = 0, ref = 0;
+    auto evaluate = [&] {
+      newton_bonds(model, state, step_, y_, threads, force_, &sys_);
+      const ResidualNorms nr = newton_residual(model, adj, step_, f_ext, force_, y_, threads, R_, scale_);
+      r = std::sqrt(nr.r2);
+      ref = std::sqrt(nr.ref2);
+      stats_.residual = ref > 0 ? r / ref : 0.0;
+      return r <= tol * ref;  // also true when nothing moves or pulls (r = ref = 0)
+    };
+    bool done = evaluate();
+    while (!done && stats_.iterations < config_.newton_iterations) {
+      solve_linear(model, state, adj, std::min(0.5, std::max(kForcing, 0.1 * tol * ref / r)));
+      // Backtracking on ‖R‖: at large steps (bonds turning by radians per step) the full Newton
+      // step of the approximate block can overshoot; halve it until the residual decreases.
+      y0_ = y_;
+      const double r_old = r;
+      double alpha = 1;
+      for (int k = 0; k < kMaxHalvings; ++k, alpha *= 0.5) {
+        for (std::size_t i = 0; i < n; ++i)
+          if (!model.is_kinematic(static_cast<Index>(i))) y_[i] = y0_[i] + alpha * delta_[i];
+        done = evaluate();
+        if (done || r < (1 - 1e-4 * alpha) * r_old) break;
+      }
+      ++stats_.iterations;
+    }
+    if (config_.restore_momentum &&
+        (config_.solver == CoupledSolver::cg || config_.solver == CoupledSolver::sweep)) {
+      // An iterative linear solve stopped early leaves a momentum error of the size of R; the
+      // scheme's momentum change of each free component is exactly Σ (s h f_ext + m e) (bond
+      // forces cancel in pairs), which a uniform shift restores.
+      impulse_.resize(n);
+      for (std::size_t i = 0; i < n; ++i)
+        impulse_[i] = step_.s * f_ext[i] + (model.mass[i] / h) * step_.e[i];
+      restore_component_momentum(model, topo_.components, impulse_, h, y_);
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      if (model.is_kinematic(static_cast<Index>(i))) continue;
+      out.dv[i] = y_[i];
+      out.dx[i] = step_.dx(model, y_, static_cast<Index>(i));
+    }
+    if (bdf2) {
+      // BDF2's carry-over is the state this step starts from, kept in State::warm (so that a
+      // checkpoint holds it and a rollback restores it): x, v, then (t, h, step) to know it is
+      // the step just before the next one.
+      out.warm.resize(2 * n + 1);
+      std::copy(state.x.begin(), state.x.end(), out.warm.begin());
+      std::copy(state.v.begin(), state.v.end(), out.warm.begin() + static_cast<std::ptrdiff_t>(n));
+      out.warm[2 * n] = Vec3(ctx.t, h, static_cast<double>(ctx.step));
+    } else if (config_.warm_start == WarmStart::previous) {
+      out.warm = y_;
+    }
+  }
+
+ private:
+  // Whether State::warm holds the state of the step just before this one, taken with this h.
+  // After a timestep change, a resumed checkpoint of another integrator or a fresh start it does
+  // not, and BDF2 restarts with one backward-Euler step (self-starting, first order).
+  static bool has_history(const State& state, const StepContext& ctx) {
+    const std::size_t n = state.x.size();
+    if (state.warm.size() != 2 * n + 1 || ctx.step == 0) return false;
+    const Vec3& tag = state.warm[2 * n];
+    return tag.y() == ctx.h && tag.z() == static_cast<double>(ctx.step - 1) && tag.x() + tag.y() == ctx.t;
+  }
+
+  // (M + Σ B_b) δ = −R with the configured solver.
+  void solve_linear(const Model& model, const State& state, const Adjacency& adj, double eta) {
+    const std::size_t n = model.num_quanta();
+    const int threads = config_.threads;
+    assemble_blocks(model, adj, /*frozen=*/false, threads, sys_);
+    sys_.rhs.resize(n);
+    parallel_for(n, threads, [&](std::size_t i) { sys_.rhs[i] = -R_[i]; });  // kinematic rows of R are 0
+    sys_.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return R_[i].squaredNorm(); }));
+    SolveStats inner;
+    switch (config_.solver) {
+      case CoupledSolver::dense:
+      case CoupledSolver::ldlt:
+        direct_.solve(config_.solver, model, state, sys_, delta_);
+        break;
+      case CoupledSolver::cg:
+        delta_.assign(n, Vec3::Zero());
+        cg_.solve(model, adj, sys_, eta, cg_cap(config_, topo_), threads, delta_, inner);
+        break;
+      case CoupledSolver::sweep:
+        delta_.assign(n, Vec3::Zero());
+        gs_.solve(adj, sys_, topo_.coloring, config_.iterations, eta, config_.chebyshev_rho, threads, delta_, inner);
+        break;
+    }
+    stats_.linear_iterations += inner.iterations;
+  }
+
+  NewtonStep step_;
+  ImplicitSystem sys_;
+  TopologyCache topo_;
+  std::vector<Vec3> y_, y0_, delta_, force_, R_, impulse_, x_prev_, v_prev_;
+  const std::vector<Vec3> no_history_;
+  std::vector<double> scale_;
+  DirectSolver direct_;
+  ConjugateGradient cg_;
+  GaussSeidel gs_;
+};
+
+}  // namespace
+
+std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& config) {
+  return std::make_unique<NewtonIntegrator>(config);
+}
+
+}  // namespace qbond
