@@ -42,10 +42,10 @@ std::string Diagnostics::header() const {
     if (stress_[k])
       for (const char* c : {"_sxx", "_syy", "_szz", "_syz", "_sxz", "_sxy", "_von_mises_max"}) h += "," + probes_[k].name + c;
   }
-  return h + ",work,numerical,iterations,residual";
+  return h + ",work,numerical,iterations,residual,timestep";
 }
 
-std::string Diagnostics::row(const Model& model, const State& state, const SolveStats& stats) const {
+std::string Diagnostics::row(const Model& model, const State& state, const SolveStats& stats, double timestep) const {
   const EnergyBudget b = energy_budget(model, state);
   const double potential = b.now.bonds + b.now.gravity;
   std::size_t alive = 0;
@@ -79,6 +79,7 @@ std::string Diagnostics::row(const Model& model, const State& state, const Solve
   put(r, b.dissipated_numerical);
   put_count(r, static_cast<std::size_t>(stats.iterations));
   put(r, stats.residual);
+  put(r, timestep);
   return r;
 }
 

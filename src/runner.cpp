@@ -124,6 +124,7 @@ struct Runner::Impl {
   std::string started_at = utc_now();
   std::string resumed_from;
   std::uint64_t first_step = 0;
+  double last_h = 0;  ///< the step that led to the current state [s]
 
   Impl(Scene s, RunSettings rs)
       : scene(std::move(s)),
@@ -136,6 +137,21 @@ struct Runner::Impl {
     sim.set_keep_last_good(true);
     for (const HeuristicSpec& h : scene.heuristics) sim.add_heuristic(make_heuristic(h));
     first_step = sim.world().state.step;
+    last_h = scene.timestep;
+  }
+
+  /// Adaptive runs end at the scene's horizon (steps × timestep), fixed ones after `steps` steps.
+  bool finished() const {
+    const State& s = sim.world().state;
+    return scene.adaptive.enabled ? s.time >= end_time() : s.step >= settings.steps;
+  }
+  double end_time() const { return static_cast<double>(settings.steps) * scene.timestep; }
+
+  StepReport step() {
+    if (!scene.adaptive.enabled) return sim.step();
+    const AdaptiveReport a = adaptive_step(sim, scene.adaptive, end_time());
+    last_h = a.h;
+    return a.step;
   }
 
   fs::path out(const std::string& name) const { return settings.out_dir / name; }
@@ -151,7 +167,7 @@ struct Runner::Impl {
     const World& w = sim.world();
     const std::uint64_t step = w.state.step;
     if (step == last_row) return;
-    csv->write_line(diagnostics.row(w.model, w.state, sim.integrator().stats()));
+    csv->write_line(diagnostics.row(w.model, w.state, sim.integrator().stats(), last_h));
     last_row = step;
     if (!settings.vtk) return;
     const std::string name = frame_name(step);
@@ -286,8 +302,8 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
   RunProgress p;
   p.first_step = start;
   p.last_step = r.settings.steps;
-  while (r.sim.world().state.step < r.settings.steps) {
-    const StepReport rep = r.sim.step();
+  while (!r.finished()) {
+    const StepReport rep = r.step();
     if (rep.status != StepReport::Status::ok) {
       result.status = RunStatus::blowup;
       result.message = rep.message;
@@ -303,7 +319,7 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
       p.wall_seconds = wall();
       progress(p);
     }
-    if (stop && stop() && s.step < r.settings.steps) {
+    if (stop && stop() && !r.finished()) {
       result.status = RunStatus::stopped;
       break;
     }

@@ -169,7 +169,7 @@ class Builder {
     Scene s;
     json res = root_;
     Obj top(root_, "",
-            {"name", "description", "seed", "timestep", "steps", "duration", "gravity", "integrator", "limits",
+            {"name", "description", "seed", "timestep", "steps", "duration", "gravity", "integrator", "adaptive", "limits",
              "materials", "bodies", "bonds", "anchors", "loads", "heuristics", "output"});
     s.name = top.has("name") ? string(top["name"], "name") : default_name_;
     s.description = top.has("description") ? string(top["description"], "description") : "";
@@ -186,6 +186,7 @@ class Builder {
     w.state.rng = Rng{s.seed};
     s.integrator = integrator(top.has("integrator") ? top["integrator"] : json::object());
     s.limits = limits(top.has("limits") ? top["limits"] : json::object());
+    if (top.has("adaptive")) s.adaptive = adaptive(top["adaptive"], s.timestep, static_cast<double>(s.steps) * s.timestep);
     if (top.has("materials")) materials(top["materials"], res["materials"]);
     bodies(top.required("bodies"), res["bodies"], w);
     if (top.has("bonds")) bonds(array(top["bonds"], "bonds"), w);
@@ -207,8 +208,12 @@ class Builder {
                          {"max_iterations", c.max_iterations}, {"tolerance", c.tolerance},
                          {"chebyshev_rho", c.chebyshev_rho},   {"warm_start", to_string(c.warm_start)},
                          {"restore_momentum", c.restore_momentum}, {"threads", c.threads},
-                         {"newton_iterations", c.newton_iterations}};
+                         {"newton_iterations", c.newton_iterations}, {"restore_energy", c.restore_energy}};
     res["limits"] = {{"max_speed", s.limits.max_speed}, {"energy_growth", s.limits.energy_growth}};
+    if (s.adaptive.enabled)
+      res["adaptive"] = {{"error", s.adaptive.error},       {"energy", s.adaptive.energy},
+                         {"min_step", s.adaptive.min_step}, {"max_step", s.adaptive.max_step},
+                         {"safety", s.adaptive.safety}};
     json& out = res["output"];
     if (!out.is_object()) out = json::object();
     out["dir"] = s.output.dir;
@@ -223,7 +228,7 @@ class Builder {
   IntegratorConfig integrator(const json& j) {
     Obj o(j, "integrator",
           {"type", "neighbours", "solver", "iterations", "max_iterations", "tolerance", "chebyshev_rho", "warm_start",
-           "restore_momentum", "threads", "newton_iterations"});
+           "restore_momentum", "threads", "newton_iterations", "restore_energy"});
     IntegratorConfig c = default_integrator();
     auto parse = [&](const char* key, auto fn, auto& field) {
       if (!o.has(key)) return;
@@ -249,7 +254,27 @@ class Builder {
       c.newton_iterations = static_cast<int>(integer(o["newton_iterations"], o.at("newton_iterations"), 1));
     if (o.has("threads")) c.threads = static_cast<int>(integer(o["threads"], o.at("threads"), 0));
     if (o.has("restore_momentum")) c.restore_momentum = boolean(o["restore_momentum"], o.at("restore_momentum"));
+    if (o.has("restore_energy")) c.restore_energy = boolean(o["restore_energy"], o.at("restore_energy"));
     return c;
+  }
+
+  AdaptiveConfig adaptive(const json& j, double timestep, double horizon) {
+    Obj o(j, "adaptive", {"error", "energy", "min_step", "max_step", "safety"});
+    AdaptiveConfig a;
+    a.enabled = true;
+    a.horizon = horizon;
+    if (o.has("error")) a.error = positive(o["error"], o.at("error"));
+    if (o.has("energy")) a.energy = positive(o["energy"], o.at("energy"));
+    if (o.has("min_step")) a.min_step = positive(o["min_step"], o.at("min_step"));
+    if (o.has("max_step")) a.max_step = non_negative(o["max_step"], o.at("max_step"));
+    if (o.has("safety")) {
+      a.safety = positive(o["safety"], o.at("safety"));
+      if (a.safety >= 1) bad(o.at("safety"), "must be < 1, got " + num_str(a.safety));
+    }
+    if (a.min_step > timestep) bad(o.at("min_step"), "must be <= timestep (" + num_str(timestep) + "), got " + num_str(a.min_step));
+    if (a.max_step > 0 && a.max_step < timestep)
+      bad(o.at("max_step"), "must be >= timestep (" + num_str(timestep) + ") or 0, got " + num_str(a.max_step));
+    return a;
   }
 
   BlowupLimits limits(const json& j) {

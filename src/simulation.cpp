@@ -1,9 +1,11 @@
 #include "qbond/simulation.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
 #include "qbond/analysis.hpp"
+#include "energy_restore.hpp"
 #include "parallel.hpp"
 
 namespace qbond {
@@ -31,6 +33,8 @@ const Adjacency& Simulation::adjacency() {
 }
 
 void Simulation::add_force(Index i, const Vec3& f) { f_user_.at(i) += f; }
+
+void Simulation::clear_forces() { std::fill(f_user_.begin(), f_user_.end(), Vec3::Zero()); }
 
 void Simulation::gather_external_forces() {
   const Model& m = world_.model;
@@ -194,6 +198,9 @@ void Simulation::update_ledger() {
 StepReport Simulation::end_step() {
   State& s = world_.state;
   if (keep_last_good_) last_good_ = s;  // before heuristics and ledger: a rollback undoes both
+  const bool restore = integrator_->config().restore_energy;
+  const EnergyLedger books = s.energy;  // the step's work and dissipation are what the ledger adds
+  const double e_start = restore ? energies(world_.model, s, integrator_->config().threads).total() : 0.0;
   events_.clear();
   if (!heuristics_.empty()) {
     const HeuristicContext hc{ctx_, adjacency(), integrator_->config().threads, events_};
@@ -207,7 +214,7 @@ StepReport Simulation::end_step() {
     }
     return r;
   }
-  if (track_energy_) update_ledger();
+  if (track_energy_ || restore) update_ledger();
 
   const Model& m = world_.model;
   parallel_for(m.num_quanta(), integrator_->config().threads, [&](std::size_t i) {
@@ -222,7 +229,16 @@ StepReport Simulation::end_step() {
   s.time = t1;
   s.step = ctx_.step + 1;
   s.warm.swap(projection_.warm);
-  std::fill(f_user_.begin(), f_user_.end(), Vec3::Zero());
+  clear_forces();
+  if (restore) {
+    // E(end) should be E(start) + work − dissipation; what is missing the integrator removed.
+    const EnergyLedger& l = s.energy;
+    const double target = e_start + (l.work_loads - books.work_loads) + (l.work_anchors - books.work_anchors) -
+                          (l.dissipated_damping - books.dissipated_damping) -
+                          (l.dissipated_heuristics - books.dissipated_heuristics);
+    const double e_end = energies(m, s, integrator_->config().threads).total();
+    scale_internal_velocities(m, adjacency(), s, target - e_end);
+  }
 
   StepReport r = check_energy();
   if (r.status != StepReport::Status::ok && keep_last_good_) {

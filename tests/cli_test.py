@@ -67,7 +67,8 @@ def test_list():
                  "twisted_bar", "cantilever", "hanging_rope"):
         if name not in r.stdout:
             fail(f"--list does not show {name}:\n{r.stdout}")
-    if "(default)" not in r.stdout.split("pendulum", 1)[1].splitlines()[0]:
+    line = next((l for l in r.stdout.splitlines() if l.split()[:1] == ["pendulum"]), "")
+    if "(default)" not in line:
         fail("--list does not mark the pendulum as the default")
 
 
@@ -238,6 +239,41 @@ def test_blowup_stops_with_a_message():
     for v in rows[-1][1:]:
         if v in ("nan", "-nan", "inf", "-inf"):
             fail(f"the last row is not the last good state: {rows[-1]}")
+
+
+def test_adaptive_finishes_what_fixed_blows_up():
+    """scenes/adaptive_pendulum.json: without its `adaptive` section (the same fixed 3 ms Verlet
+    steps) it blows up; with it the run completes its 2 s, varies the step (diagnostics.csv's
+    timestep column), and keeps the energy the integrator made or lost under 1 % of the energy."""
+    scene = json.load(open(os.path.join(SOURCE, "scenes", "adaptive_pendulum.json")))
+    fixed = dict(scene)
+    del fixed["adaptive"]
+    d = fresh("adaptive")
+    os.makedirs(d)
+    with open(os.path.join(d, "fixed.json"), "w") as f:
+        json.dump(fixed, f)
+    r = qbond("run", "fixed.json", "--out", "fixed", "-q", cwd=d)
+    if r.returncode != 3:
+        fail(f"the fixed 3 ms step should blow up (exit 3), got {r.returncode}\n{r.stderr}")
+    qbond("run", os.path.join(SOURCE, "scenes", "adaptive_pendulum.json"), "--out", "adaptive", "-q", cwd=d,
+          check_code=0)
+    _, rows = read_csv(os.path.join(d, "adaptive", "diagnostics.csv"))
+    col = {name: k for k, name in enumerate(rows[0])}
+    t = [float(r[col["time"]]) for r in rows[1:]]
+    h = [float(r[col["timestep"]]) for r in rows[2:]]
+    if abs(t[-1] - scene["duration"]) > 1e-12:  # a multiple of the timestep: the run's end time
+        fail(f"the adaptive run ended at t = {t[-1]}, not {scene['duration']}")
+    if not (min(h) < scene["timestep"] / 3 and max(h) > 1.5 * min(h)):
+        fail(f"the timestep column should vary below the 1 ms stability limit: {min(h)}..{max(h)}")
+    last = rows[-1]
+    numerical = abs(float(last[col["numerical"]]))
+    # The controller's bound: drift <= energy * max over steps of max(|E(0)|, kinetic + bond energy);
+    # here gravity's potential (z >= 0) is >= 0, so kinetic + potential bounds kinetic + bonds.
+    scale = max([abs(float(rows[1][col["total"]]))] +
+                [float(r[col["kinetic"]]) + abs(float(r[col["potential"]])) for r in rows[1:]])
+    if numerical > scene["adaptive"]["energy"] * scale:
+        fail(f"numerical energy {numerical} J exceeds {scene['adaptive']['energy']} of {scale} J")
+    print(f"adaptive: {len(rows) - 1} rows, h in [{min(h):.3g}, {max(h):.3g}] s, numerical {numerical:.3g} J")
 
 
 def test_bench_quick():

@@ -146,15 +146,16 @@ TEST(Diagnostics, HeaderAndRowMatchTheAnalysis) {
   const Diagnostics d(w.model, {{"a", {0}, {}}, {"b", {1}, {}}});
   EXPECT_EQ(d.header(),
             "step,time,kinetic,potential,dissipated,total,px,py,pz,lx,ly,lz,max_speed,bonds_alive,bonds_broken,"
-            "a_x,a_y,a_z,a_fx,a_fy,a_fz,a_tx,a_ty,a_tz,b_x,b_y,b_z,work,numerical,iterations,residual");
-  const std::string row = d.row(w.model, w.state, {3, 1e-7});
+            "a_x,a_y,a_z,a_fx,a_fy,a_fz,a_tx,a_ty,a_tz,b_x,b_y,b_z,work,numerical,iterations,residual,timestep");
+  const std::string row = d.row(w.model, w.state, {3, 1e-7}, 2.5e-4);
   std::vector<std::string> f;
   for (std::size_t p = 0, q; p <= row.size(); p = q + 1) {
     q = row.find(',', p);
     if (q == std::string::npos) q = row.size();
     f.push_back(row.substr(p, q - p));
   }
-  ASSERT_EQ(f.size(), 31u);
+  ASSERT_EQ(f.size(), 32u);
+  EXPECT_EQ(std::stod(f[31]), 2.5e-4);
   const Energies e = energies(w.model, w.state);
   EXPECT_EQ(std::stod(f[2]), e.kinetic);
   EXPECT_EQ(std::stod(f[3]), e.bonds + e.gravity);

@@ -25,6 +25,7 @@
 
 #include "camera.hpp"
 #include "colors.hpp"
+#include "qbond/adaptive.hpp"
 #include "qbond/analysis.hpp"
 #include "qbond/files.hpp"
 #include "qbond/interaction.hpp"
@@ -324,10 +325,21 @@ class Viewer {
     return spent;
   }
 
+  /// One step of the scene's timestep h; with the scene's `adaptive` section, as many
+  /// error-controlled steps as it takes to advance by h (they never grow past it).
   void step() {
-    if (drag_) sim_->add_force(drag_->quanta, drag_->force(world().state));
-    if (push_) sim_->add_force(push_->first, push_->second);
-    const StepReport r = sim_->step();
+    auto forces = [&] {
+      if (drag_) sim_->add_force(drag_->quanta, drag_->force(world().state));
+      if (push_) sim_->add_force(push_->first, push_->second);
+    };
+    StepReport r;
+    if (scene_.adaptive.enabled) {
+      const double t1 = world().state.time + h_;
+      while (world().state.time < t1 && r.status == StepReport::Status::ok) r = adaptive_step(*sim_, scene_.adaptive, t1, forces).step;
+    } else {
+      forces();
+      r = sim_->step();
+    }
     if (r.status == StepReport::Status::blowup) {
       blowup_ = r.message;
       paused_ = true;

@@ -18,8 +18,9 @@ class Diagnostics {
   Diagnostics(const Model& model, std::vector<Probe> probes);
   /// The header line (no newline).
   std::string header() const;
-  /// The row of a state (no newline).
-  std::string row(const Model& model, const State& state, const SolveStats& stats) const;
+  /// The row of a state (no newline); `timestep` is the step that led to it [s] (adaptive runs
+  /// vary it).
+  std::string row(const Model& model, const State& state, const SolveStats& stats, double timestep = 0) const;
 
  private:
   std::vector<Probe> probes_;

@@ -88,6 +88,11 @@ struct IntegratorConfig {
                     ///< results are the same bits for any count
   bool restore_momentum = true;  ///< iterative solvers: give each free component its exact
                                  ///< momentum change h Σ f_ext (see docs/integrators.md)
+  /// After each step, give back the energy the integrator itself removed (or take back what it
+  /// made): the free quanta's velocities relative to their component's rigid motion are scaled so
+  /// that the energy budget closes, keeping every free component's linear and angular momentum
+  /// (docs/integrators.md, "Energy restoration"). Costs two energy passes per step.
+  bool restore_energy = false;
 };
 
 /// The defaults qbond ships (chosen from the measurements in docs/integrators.md).

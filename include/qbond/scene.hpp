@@ -11,6 +11,7 @@
 #include <variant>
 #include <vector>
 
+#include "qbond/adaptive.hpp"
 #include "qbond/contacts.hpp"
 #include "qbond/formation.hpp"
 #include "qbond/fracture.hpp"
@@ -58,6 +59,8 @@ struct Scene {
   double timestep = 0;      ///< [s]
   std::uint64_t steps = 0;  ///< from `steps`, or ceil(duration / timestep)
   IntegratorConfig integrator;
+  AdaptiveConfig adaptive;  ///< `adaptive`: error-controlled steps; the run then ends at time
+                            ///< steps × timestep (its horizon) rather than after `steps` steps
   BlowupLimits limits;
   World world;
   std::vector<HeuristicSpec> heuristics;  ///< in the order the step applies them

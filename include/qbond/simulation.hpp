@@ -52,6 +52,8 @@ class Simulation {
 
   /// Adds a force [N] to quanta i for the next step only (viewer drags, scripted pushes).
   void add_force(Index i, const Vec3& f);
+  /// Drops the forces add_force queued for the next step (a step retried re-queues them).
+  void clear_forces();
   /// Appends a heuristic to the ordered list.
   void add_heuristic(std::unique_ptr<Heuristic> h) { heuristics_.push_back(std::move(h)); }
   /// Removes every heuristic (a viewer turning them off).
