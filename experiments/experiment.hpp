@@ -62,6 +62,7 @@ void fig6_7(const Options&, Report&);
 void eq14_15(const Options&, Report&);
 void cantilever(const Options&, Report&);
 void energy_momentum(const Options&, Report&);
+void integrator_table(const Options&, Report&);
 void fig9(const Options&, Report&);
 void fig10(const Options&, Report&);
 void fig11(const Options&, Report&);

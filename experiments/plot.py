@@ -259,6 +259,24 @@ def energy_momentum(d):
     save(fig, d, "energy_momentum.png")
 
 
+def integrators(d):
+    with open(os.path.join(d, "integrators.csv")) as f:
+        rows = list(csv.DictReader(f))
+    fig, ax = plt.subplots(figsize=(8, 5))
+    floor = 1e-16  # a closed budget shows at round-off, not at zero, on a log axis
+    for r in rows:
+        x, y = float(r["ms_per_step"]), max(float(r["relative_error"]), floor)
+        ax.scatter(x, y, s=30)
+        ax.annotate(r["method"], (x, y), textcoords="offset points", xytext=(5, 3), fontsize=8)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("ms per step (1 thread)")
+    ax.set_ylabel("|numerical energy| / work of gravity")
+    ax.set_title("Every integrator on the canonical lattice: cost vs energy error", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    save(fig, d, "integrators.png")
+
+
 if __name__ == "__main__":
     name, d = sys.argv[1], sys.argv[2]
     globals()[name](d)
