@@ -196,7 +196,8 @@ StepReport Simulation::end_step() {
   if (keep_last_good_) last_good_ = s;  // before heuristics and ledger: a rollback undoes both
   events_.clear();
   if (!heuristics_.empty()) {
-    const HeuristicContext hc{ctx_, adjacency(), integrator_->config().threads, events_};
+    dv_forces_ = projection_.dv;
+    const HeuristicContext hc{ctx_, adjacency(), integrator_->config().threads, events_, dv_forces_};
     for (auto& h : heuristics_) h->apply(world_, projection_, hc);
   }
   if (StepReport r = check_projection(); r.status != StepReport::Status::ok) {
