@@ -63,6 +63,7 @@ std::span<const Experiment> all() {
       {"fig12", "Figure 12: symmetric and asymmetric lattices tearing", fig12},
       {"cantilever", "Cantilever: a calibrated lattice beam against beam theory", cantilever},
       {"energy_momentum", "Section 5: an integrator that pays attention to the total energy", energy_momentum},
+      {"gas", "Gases: wall pressure from momentum transfer, and the speeds relaxing to Maxwell-Boltzmann", gas},
   };
   return list;
 }
