@@ -192,7 +192,8 @@ void gas(const Options& opt, Report& rep) {
   rep.note("Beyond that the measured excess Z − 1 falls below Carnahan–Starling's (" + num(Z.back(), 4) + " vs " +
            num(Zcs.back(), 4) + " at η = " + num(etas.back(), 3) + "): a contact is found only once two spheres overlap "
            "at the end of a step, by up to their approach in one step (v_rel h), and it acts at that shorter distance, "
-           "so the spheres behave as if smaller; Z − 1 grows as σ³, so the deficit grows with the density.\n");
+           "so the spheres most likely behave as if smaller (Z − 1 grows as σ³, so the deficit grows with the density); "
+           "a run at smaller h would confirm it, which this experiment does not do.\n");
 
   // 2. Speeds, started all equal, relax to Maxwell–Boltzmann.
   const std::size_t Ns = opt.fast ? 400 : 2000;
