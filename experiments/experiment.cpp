@@ -64,6 +64,7 @@ std::span<const Experiment> all() {
       {"cantilever", "Cantilever: a calibrated lattice beam against beam theory", cantilever},
       {"energy_momentum", "Section 5: an integrator that pays attention to the total energy", energy_momentum},
       {"integrators", "Every integrator on the canonical lattice: cost per step and energy error", integrator_table},
+      {"gas", "Gases: wall pressure from momentum transfer, and the speeds relaxing to Maxwell-Boltzmann", gas},
   };
   return list;
 }

@@ -67,6 +67,7 @@ void fig9(const Options&, Report&);
 void fig10(const Options&, Report&);
 void fig11(const Options&, Report&);
 void fig12(const Options&, Report&);
+void gas(const Options&, Report&);
 
 /// An integrator under test, named as in the tables and CSVs.
 struct Method {

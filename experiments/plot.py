@@ -277,6 +277,43 @@ def integrators(d):
     save(fig, d, "integrators.png")
 
 
+def gas(d):
+    p = numbers(os.path.join(d, "pressure.csv"))
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    eta = [r["eta"] for r in p]
+    ax.errorbar(eta, [r["Z"] for r in p], yerr=[r["Z_err"] for r in p], fmt="o", label="measured: wall impulse")
+    top = max(eta) * 1.1
+    grid = [top * k / 200 for k in range(201)]
+    ax.plot(grid, [(1 + e + e * e - e ** 3) / (1 - e) ** 3 for e in grid], label="Carnahan-Starling")
+    ax.axhline(1, color="gray", lw=1, ls="--", label="ideal gas pV = NkT")
+    ax.set_xlabel("packing fraction eta = N pi sigma^3 / 6V")
+    ax.set_ylabel("pV / (N kT)")
+    ax.legend(fontsize=8)
+    ax.set_title("Gas in a closed box: pressure from the walls' impulse", fontsize=10)
+    save(fig, d, "gas_pressure.png")
+
+    sp = numbers(os.path.join(d, "speeds.csv"))
+    rel = numbers(os.path.join(d, "relaxation.csv"))
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
+    v = [r["speed"] for r in sp]
+    width = v[1] - v[0]
+    a1.bar(v, [r["density_start"] for r in sp], width=width, alpha=0.3, label="start: all speeds equal")
+    a1.bar(v, [r["density_end"] for r in sp], width=width, alpha=0.6, label="end")
+    a1.plot(v, [r["maxwell_boltzmann"] for r in sp], "k", label="Maxwell-Boltzmann")
+    a1.set_ylim(0, 1.3 * max(r["maxwell_boltzmann"] for r in sp))
+    a1.set_xlabel("speed [m/s]")
+    a1.set_ylabel("probability density [s/m]")
+    a1.legend(fontsize=8)
+    c = [r["collisions_per_quanta"] for r in rel]
+    a2.plot(c, [r["kurtosis_ratio"] for r in rel], label="<v^4>/<v^2>^2")
+    a2.axhline(5 / 3, color="gray", ls="--", lw=1, label="Maxwell-Boltzmann 5/3")
+    a2.plot(c, [r["ks_D"] for r in rel], label="Kolmogorov-Smirnov D")
+    a2.set_xlabel("collision times")
+    a2.legend(fontsize=8)
+    a2.set_title("relaxation from equal speeds", fontsize=10)
+    save(fig, d, "gas_speeds.png")
+
+
 if __name__ == "__main__":
     name, d = sys.argv[1], sys.argv[2]
     globals()[name](d)

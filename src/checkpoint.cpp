@@ -10,8 +10,12 @@ namespace {
 // A new State field must be saved here: update serialize_state, deserialize_state and this size.
 static_assert(sizeof(State) == 3 * sizeof(std::vector<Vec3>) + 2 * sizeof(std::vector<double>) +
                                    sizeof(std::vector<std::uint8_t>) + sizeof(std::vector<FormedBond>) + 2 * 8 +
-                                   sizeof(Rng) + sizeof(EnergyLedger) + 8,
+                                   sizeof(Rng) + sizeof(EnergyLedger) + 8 +
+                                   sizeof(std::vector<ObstacleImpulse>),
               "State changed: checkpoints must save the new field");
+
+// Obstacle impulses are written as raw bytes: four doubles, no padding.
+static_assert(sizeof(ObstacleImpulse) == 4 * sizeof(double), "ObstacleImpulse has padding");
 
 constexpr char kMagic[8] = {'Q', 'B', 'O', 'N', 'D', 'C', 'K', 'P'};
 
@@ -89,6 +93,7 @@ std::string serialize_state(const State& s) {
   w.pod<std::uint8_t>(e.initialised);
   w.pod(s.topology_version);
   w.vec(s.warm);
+  w.vec(s.obstacle_impulse);
   return std::move(w.out);
 }
 
@@ -123,6 +128,7 @@ State deserialize_state(std::string_view bytes) {
   e.initialised = r.pod<std::uint8_t>() != 0;
   s.topology_version = r.pod<std::uint64_t>();
   s.warm = r.vec<Vec3>();
+  s.obstacle_impulse = r.vec<ObstacleImpulse>();
   if (!r.bytes.empty()) throw CheckpointError("state: " + std::to_string(r.bytes.size()) + " unexpected bytes at the end");
   if (s.v.size() != s.x.size() || s.alive.size() != s.rest.size() || s.bond_time.size() != s.rest.size() ||
       (!s.warm.empty() && s.warm.size() != s.x.size() && s.warm.size() != 2 * s.x.size() + 1))

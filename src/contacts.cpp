@@ -69,7 +69,8 @@ class EditLedger {
 
 // Velocity change of a contact with unit normal n (pointing at the body receiving it), for the
 // relative velocity w1 at the end of the step and w0 at its start (of the body, relative to the
-// other side). Restitution applies to the approach speed the body brought into the step, never
+// other side). Restitution applies to the approach speed the body brought into the step (with what
+// earlier contacts of the step gave it: brought()), never
 // to the speed the step's own forces pressed it in with (a resting contact must not bounce, or it
 // would pump energy); Coulomb friction is bounded by μ times the normal change. Zero unless w1
 // approaches (w1·n < 0).
@@ -84,9 +85,43 @@ Vec3 contact_velocity_change(const Vec3& w1, const Vec3& w0, const Vec3& n, cons
   return dv;
 }
 
-// Smallest t in [0, 1] at which a + t (b - a) enters the obstacle inflated by its margin, given
-// that a is outside; negative when the segment does not enter.
+// The velocity quanta i brought into the step plus what earlier contacts of the step gave it, for
+// its current projected velocity `now`: `now` less the integrator's velocity change (the step's
+// forces). Restitution returns this approach speed; without the integrator's change, the start
+// velocity.
+Vec3 brought(const State& s, const HeuristicContext& ctx, Index i, const Vec3& now) {
+  return ctx.dv_forces.empty() ? s.v[i] : Vec3(now - ctx.dv_forces[i]);
+}
+
+// Smallest t in [0, 1] at which a + t (b - a) leaves a container shrunk by its margin, given that
+// a is inside it; negative when the segment stays inside.
+double container_exit(const Obstacle& o, const Vec3& a, const Vec3& b) {
+  const Vec3 d = b - a;
+  if (o.shape == Obstacle::Shape::sphere) {
+    const double R = o.radius - o.margin;
+    const Vec3 q = a - o.center;
+    const double A = d.squaredNorm(), B = q.dot(d), C = q.squaredNorm() - R * R;
+    if (C >= 0) return 0.0;
+    if (A == 0) return -1.0;
+    // C < 0: the roots straddle 0; the larger one is where the path crosses the sphere.
+    const double t = (-B + std::sqrt(B * B - A * C)) / A;
+    return t <= 1 ? t : -1.0;
+  }
+  // Box: the first slab face the path reaches in the direction it moves.
+  const Vec3 qa = o.rotation.transpose() * (a - o.center), qd = o.rotation.transpose() * d;
+  double t = INFINITY;
+  for (int k = 0; k < 3; ++k) {
+    if (qd[k] == 0) continue;
+    const double face = (qd[k] > 0 ? 1.0 : -1.0) * (o.half_extents[k] - o.margin);
+    t = std::min(t, std::max(0.0, (face - qa[k]) / qd[k]));
+  }
+  return t <= 1 ? t : -1.0;
+}
+
+// Smallest t in [0, 1] at which a + t (b - a) enters the obstacle inflated by its margin (leaves
+// a container shrunk by it), given that a is on the free side; negative when it does not.
 double entry(const Obstacle& o, const Vec3& a, const Vec3& b) {
+  if (o.inside) return container_exit(o, a, b);
   const Vec3 d = b - a;
   switch (o.shape) {
     case Obstacle::Shape::plane: {
@@ -161,7 +196,19 @@ class ObstacleHeuristic final : public Heuristic {
         if (left < 0) target -= left * n2;
         ledger_.touch(i, p);
         p.dx[i] = target - s.x[i];
-        p.dv[i] += contact_velocity_change(s.v[i] + p.dv[i], s.v[i], n, o.material);
+        const Vec3 v1 = s.v[i] + p.dv[i];
+        const Vec3 dv = contact_velocity_change(v1, brought(s, ctx, i, v1), n, o.material);
+        p.dv[i] += dv;
+        if (o.record >= 0) {
+          // The obstacle's impulse on the quanta is its momentum change; its normal part
+          // (toward the free side) is what pushes on the wall: pressure × area × time.
+          auto& rec = w.state.obstacle_impulse;
+          const auto slot = static_cast<std::size_t>(o.record);
+          if (rec.size() <= slot) rec.resize(slot + 1);
+          const Vec3 J = m.mass[i] * dv;
+          rec[slot].total += J;
+          rec[slot].normal += J.dot(n);
+        }
       }
     }
     if (!ledger_.touched().empty()) w.state.energy.dissipated_heuristics += ledger_.released(w, p, ctx.adj);
@@ -209,7 +256,9 @@ class QuantaContactHeuristic final : public Heuristic {
         if (impulse_done_[k]) continue;
         impulse_done_[k] = 1;
         // Velocity change of j relative to i, split as equal and opposite impulses.
-        const Vec3 dw = contact_velocity_change(vel_[j] - vel_[i], s.v[j] - s.v[i], nrm, rule_.material);
+        const Vec3 dw = contact_velocity_change(vel_[j] - vel_[i],
+                                                brought(s, ctx, j, vel_[j]) - brought(s, ctx, i, vel_[i]), nrm,
+                                                rule_.material);
         const Vec3 impulse = dw / wsum;
         vel_[i] -= wi * impulse;
         vel_[j] += wj * impulse;
@@ -250,6 +299,14 @@ class QuantaContactHeuristic final : public Heuristic {
 }  // namespace
 
 double Obstacle::distance(const Vec3& p, Vec3& n) const {
+  if (inside && shape != Shape::plane) {
+    // A container's free side is its inside: the solid's distance and normal, turned over.
+    Obstacle solid = *this;
+    solid.inside = false;
+    const double d = solid.distance(p, n);
+    n = -n;
+    return -d;
+  }
   switch (shape) {
     case Shape::plane:
       n = normal;
@@ -281,6 +338,37 @@ double Obstacle::distance(const Vec3& p, Vec3& n) const {
   }
   n = Vec3::UnitZ();
   return 0;
+}
+
+double Obstacle::contact_area() const {
+  constexpr double pi = 3.14159265358979323846;
+  switch (shape) {
+    case Shape::plane: return INFINITY;
+    case Shape::sphere: {
+      const double R = inside ? radius - margin : radius + margin;
+      return 4 * pi * R * R;
+    }
+    case Shape::box: {
+      if (inside) {
+        const Vec3 e = 2 * (half_extents - Vec3::Constant(margin));
+        return 2 * (e.x() * e.y() + e.y() * e.z() + e.z() * e.x());
+      }
+      // The box grown by the margin: faces, quarter cylinders along the 12 edges, a sphere at the corners.
+      const Vec3 e = 2 * half_extents;
+      return 2 * (e.x() * e.y() + e.y() * e.z() + e.z() * e.x()) + 2 * pi * margin * e.sum() + 4 * pi * margin * margin;
+    }
+  }
+  return 0;
+}
+
+double Obstacle::contact_volume() const {
+  if (!inside || shape == Shape::plane) return 0;
+  if (shape == Shape::sphere) {
+    const double R = radius - margin;
+    return 4.0 / 3.0 * 3.14159265358979323846 * R * R * R;
+  }
+  const Vec3 e = 2 * (half_extents - Vec3::Constant(margin));
+  return e.prod();
 }
 
 std::unique_ptr<Heuristic> make_obstacle_heuristic(std::vector<Obstacle> obstacles) {

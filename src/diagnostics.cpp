@@ -26,7 +26,10 @@ void put(std::string& out, const Vec3& v) {
 
 }  // namespace
 
-Diagnostics::Diagnostics(const Model& model, std::vector<Probe> probes) : probes_(std::move(probes)) {
+Diagnostics::Diagnostics(const Model& model, std::vector<Probe> probes, std::vector<Obstacle> obstacles)
+    : probes_(std::move(probes)) {
+  for (Obstacle& o : obstacles)
+    if (o.record >= 0) obstacles_.push_back(std::move(o));
   for (const Probe& p : probes_) {
     reaction_.push_back(has_reaction(model, p));
     stress_.push_back(has_stress(model, p));
@@ -41,6 +44,11 @@ std::string Diagnostics::header() const {
       for (const char* c : {"_fx", "_fy", "_fz", "_tx", "_ty", "_tz"}) h += "," + probes_[k].name + c;
     if (stress_[k])
       for (const char* c : {"_sxx", "_syy", "_szz", "_syz", "_sxz", "_sxy", "_von_mises_max"}) h += "," + probes_[k].name + c;
+  }
+  for (const Obstacle& o : obstacles_) {
+    const std::string k = "obstacle" + std::to_string(o.record);
+    for (const char* c : {"_jx", "_jy", "_jz", "_jn"}) h += "," + k + c;
+    if (o.inside) h += "," + k + "_pressure";
   }
   return h + ",work,numerical,iterations,residual,timestep";
 }
@@ -73,6 +81,16 @@ std::string Diagnostics::row(const Model& model, const State& state, const Solve
     if (stress_[k]) {
       const Mat3& s = v.stress;
       for (double c : {s(0, 0), s(1, 1), s(2, 2), s(1, 2), s(0, 2), s(0, 1), v.von_mises_max}) put(r, c);
+    }
+  }
+  for (const Obstacle& o : obstacles_) {
+    const auto k = static_cast<std::size_t>(o.record);
+    const ObstacleImpulse J = k < state.obstacle_impulse.size() ? state.obstacle_impulse[k] : ObstacleImpulse{};
+    put(r, J.total);
+    put(r, J.normal);
+    if (o.inside) {
+      const double elapsed = state.time - state.energy.initial_time;
+      put(r, elapsed > 0 ? J.normal / (o.contact_area() * elapsed) : 0.0);
     }
   }
   put(r, b.work_loads + b.work_anchors);

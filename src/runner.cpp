@@ -91,6 +91,13 @@ std::vector<Probe> probes_of(const Scene& scene) {
   return probes;
 }
 
+std::vector<Obstacle> obstacles_of(const Scene& scene) {
+  std::vector<Obstacle> obstacles;
+  for (const HeuristicSpec& h : scene.heuristics)
+    if (const auto* o = std::get_if<Obstacle>(&h)) obstacles.push_back(*o);
+  return obstacles;
+}
+
 const char* to_string(RunStatus s) {
   switch (s) {
     case RunStatus::completed: return "completed";
@@ -130,7 +137,7 @@ struct Runner::Impl {
       : scene(std::move(s)),
         settings(std::move(rs)),
         sim(std::move(scene.world), scene.integrator, scene.timestep),  // the simulation owns the world
-        diagnostics(sim.world().model, probes_of(scene)) {
+        diagnostics(sim.world().model, probes_of(scene), obstacles_of(scene)) {
     if (settings.every == 0) throw std::invalid_argument("output interval must be >= 1 step");
     settings.out_dir = fs::absolute(settings.out_dir);
     sim.limits() = scene.limits;

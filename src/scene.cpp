@@ -10,6 +10,7 @@
 
 #include "qbond/builders.hpp"
 #include "qbond/files.hpp"
+#include "qbond/gas.hpp"
 #include "qbond/materials.hpp"
 #include "qbond/packing.hpp"
 #include "qbond/samples.hpp"
@@ -194,6 +195,7 @@ class Builder {
     if (top.has("anchors")) anchors(array(top["anchors"], "anchors"), w);
     if (top.has("loads")) loads(array(top["loads"], "loads"), w);
     if (top.has("heuristics")) s.heuristics = heuristics(array(top["heuristics"], "heuristics"), w);
+    w.state.obstacle_impulse.assign(obstacles_, ObstacleImpulse{});
     s.output = output(top.has("output") ? top["output"] : json::object(), s.steps, w);
 
     res["name"] = s.name;
@@ -366,10 +368,12 @@ class Builder {
                        "quanta_mass", "total_mass"});
     else if (type == "mesh")
       accepted = keys({"file", "scale", "spacing", "neighbors", "isolated", "material", "quanta_mass", "total_mass"});
+    else if (type == "gas")
+      accepted = keys({"size", "count", "min_distance", "quanta_mass", "total_mass", "kT", "speeds", "seed"});
     else if (type.empty())
       bad(path + ".type", "required key missing");
     else
-      bad(path + ".type", "unknown body type '" + type + "' (accepted: lattice, sheet, chain, quanta, packing, mesh)");
+      bad(path + ".type", "unknown body type '" + type + "' (accepted: lattice, sheet, chain, quanta, packing, mesh, gas)");
     for (const auto& [key, v] : j.items())
       if (std::find(accepted.begin(), accepted.end(), key) == accepted.end()) {
         std::vector<std::string> names(accepted.begin(), accepted.end());
@@ -404,7 +408,7 @@ class Builder {
     // A material given by a modulus or a density fixes the bonds' stiffness or the quanta's
     // mass from the body's geometry (materials.hpp); the resolved scene records the numbers.
     const Material* mat = nullptr;
-    if (type != "quanta") mat = &material(req("material"), at("material"));
+    if (type != "quanta" && type != "gas") mat = &material(req("material"), at("material"));
     auto mass_of = [&](double count, double calibrated) {
       const bool per = j.contains("quanta_mass");
       if (calibrated > 0) {
@@ -530,6 +534,8 @@ class Builder {
       ids = packing_body(j, path, res, w, id, mass_of, *mat);
     } else if (type == "mesh") {
       ids = mesh_body(j, path, res, w, id, mass_of, *mat);
+    } else if (type == "gas") {
+      ids = gas_body(j, path, res, w, id, mass_of);
     } else {
       const json& pos = array(req("positions"), at("positions"));
       if (pos.empty()) bad(at("positions"), "must hold at least one position");
@@ -555,7 +561,12 @@ class Builder {
     }
     if (j.contains("velocity")) p.velocity = vec3(j["velocity"], at("velocity"));
     if (j.contains("angular_velocity")) p.angular_velocity = vec3(j["angular_velocity"], at("angular_velocity"));
+    // A gas keeps its thermal velocities: the placement's rigid field adds a drift to them.
+    std::vector<Vec3> thermal;
+    if (type == "gas")
+      for (Index i : ids) thermal.push_back(w.state.v[i]);
     place_body(w, ids, p);
+    for (std::size_t k = 0; k < thermal.size(); ++k) w.state.v[ids[k]] += thermal[k];
     if (type == "quanta" && j.contains("velocities")) {
       const json& vs = j["velocities"];
       if (!vs.is_array() || vs.size() != ids.size())
@@ -588,6 +599,41 @@ class Builder {
       w.model.mass[i] = m;
       w.model.inv_mass[i] = 1 / m;
       w.model.volume[i] = volume;
+    }
+  }
+
+  /// A `gas` body: unbonded quanta at random positions with thermal velocities (gas.hpp).
+  template <class MassOf>
+  std::vector<Index> gas_body(const json& j, const std::string& path, json& res, World& w, Index id,
+                              const MassOf& mass_of) {
+    auto at = [&](const char* key) { return path + "." + key; };
+    auto req = [&](const char* key) -> const json& {
+      if (!j.contains(key)) bad(at(key), "required key missing");
+      return j[key];
+    };
+    Gas g;
+    g.size = vec3(req("size"), at("size"));
+    if (!(g.size.minCoeff() > 0)) bad(at("size"), "every edge must be > 0");
+    const auto n = integer(req("count"), at("count"), 2);
+    if (static_cast<double>(n) > kMaxQuanta)
+      bad(at("count"), "would make " + std::to_string(n) + " quanta (limit " + num_str(kMaxQuanta) + ")");
+    g.count = static_cast<std::size_t>(n);
+    if (j.contains("min_distance")) g.min_distance = non_negative(j["min_distance"], at("min_distance"));
+    g.quanta_mass = mass_of(static_cast<double>(n), 0.0);
+    g.kT = positive(req("kT"), at("kT"));
+    if (j.contains("speeds"))
+      g.speeds = choice<Gas::Speeds>(j["speeds"], at("speeds"),
+                                     {{"maxwell", Gas::Speeds::maxwell}, {"equal", Gas::Speeds::equal}});
+    g.seed = j.contains("seed") ? integer(j["seed"], at("seed"), 0)
+                                : (root_.contains("seed") ? root_["seed"].get<std::uint64_t>() : 1);
+    res["quanta_mass"] = g.quanta_mass;
+    res["min_distance"] = g.min_distance;
+    res["speeds"] = g.speeds == Gas::Speeds::maxwell ? "maxwell" : "equal";
+    res["seed"] = g.seed;
+    try {
+      return add_gas(w, g, id);
+    } catch (const std::invalid_argument& e) {
+      bad(path, e.what());
     }
   }
 
@@ -963,6 +1009,7 @@ class Builder {
         if (type == "plane") keys.insert(keys.end(), {"point", "normal"});
         if (type == "sphere") keys.insert(keys.end(), {"center", "radius"});
         if (type == "box") keys.insert(keys.end(), {"center", "size", "rotation"});
+        if (type == "sphere" || type == "box") keys.push_back("inside");
         Obj o(j[k], path, keys);
         Obstacle ob;
         ob.material = contact_material(o);
@@ -989,6 +1036,15 @@ class Builder {
                               .toRotationMatrix();
           }
         }
+        if (o.has("inside")) {
+          ob.inside = boolean(o["inside"], o.at("inside"));
+          const double room = ob.shape == Obstacle::Shape::sphere ? ob.radius : ob.half_extents.minCoeff();
+          if (ob.inside && !(ob.margin < room))
+            bad(o.at("margin"), "must be below the container's " + std::string(ob.shape == Obstacle::Shape::sphere ? "radius" : "half size") +
+                                    " " + num_str(room) + " m, or no quanta fits inside");
+        }
+        // Every obstacle records the impulse it gives (diagnostics' obstacle<k>_ columns).
+        ob.record = static_cast<std::int32_t>(obstacles_++);
         out.emplace_back(ob);
       } else if (type == "contact") {
         Obj o(j[k], path, {"type", "radius", "restitution", "friction", "iterations", "same_body"});
@@ -1091,6 +1147,7 @@ class Builder {
   std::map<std::string, Material> materials_;
   std::map<std::string, Index> body_index_;
   SceneFiles files_;
+  std::size_t obstacles_ = 0;  // obstacles numbered so far (their Obstacle::record)
 };
 
 /// Parses JSON, refusing duplicate keys (the JSON library would keep the last one silently).

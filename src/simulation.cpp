@@ -203,7 +203,8 @@ StepReport Simulation::end_step() {
   const double e_start = restore ? energies(world_.model, s, integrator_->config().threads).total() : 0.0;
   events_.clear();
   if (!heuristics_.empty()) {
-    const HeuristicContext hc{ctx_, adjacency(), integrator_->config().threads, events_};
+    dv_forces_ = projection_.dv;
+    const HeuristicContext hc{ctx_, adjacency(), integrator_->config().threads, events_, dv_forces_};
     for (auto& h : heuristics_) h->apply(world_, projection_, hc);
   }
   if (StepReport r = check_projection(); r.status != StepReport::Status::ok) {

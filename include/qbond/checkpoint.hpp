@@ -21,7 +21,7 @@ namespace qbond {
 
 static_assert(std::endian::native == std::endian::little, "checkpoints are written little-endian");
 
-inline constexpr std::uint32_t kCheckpointVersion = 2;  // 2: bond times and formed bonds
+inline constexpr std::uint32_t kCheckpointVersion = 3;  // 2: bond times and formed bonds; 3: obstacle impulses
 
 /// A checkpoint that cannot be read: not one, another version, truncated or corrupted.
 class CheckpointError : public std::runtime_error {

@@ -17,7 +17,8 @@ struct ContactMaterial {
   double friction = 0;     ///< μ ≥ 0
 };
 
-/// A static obstacle. Quanta are kept `margin` away from its surface (their radius).
+/// A static obstacle. Quanta are kept `margin` away from its surface (their radius): outside a
+/// sphere or box, or, for a container (`inside`), inside it.
 struct Obstacle {
   enum class Shape : std::uint8_t { plane, sphere, box };
   Shape shape = Shape::plane;
@@ -28,15 +29,27 @@ struct Obstacle {
   Mat3 rotation = Mat3::Identity();  ///< box: world-from-box rotation
   double margin = 0;                 ///< [m]
   ContactMaterial material;
+  /// sphere, box: a container that keeps the quanta inside (a gas's box) instead of out.
+  bool inside = false;
+  /// Index into State::obstacle_impulse where the impulse the obstacle gives is summed (its
+  /// wall pressure); -1: not recorded. Scenes number their obstacles 0, 1, ... in order.
+  std::int32_t record = -1;
 
-  /// Signed distance of p from the surface (negative inside) [m] and the outward unit normal of
-  /// the nearest surface point.
+  /// Signed distance of p from the surface, positive on the free side (outside, or inside a
+  /// container) [m], and the unit normal of the nearest surface point pointing to the free side.
   double distance(const Vec3& p, Vec3& normal) const;
+  /// Area of the surface the centres of quanta `margin` away touch [m²] (the wall area of a
+  /// container's pressure); infinite for a plane.
+  double contact_area() const;
+  /// Volume the centres of quanta may reach inside a container [m³] (the gas's V); 0 otherwise.
+  double contact_volume() const;
 };
 
 /// Keeps the free quanta out of the obstacles. A step's path x → x + dx is tested against each
 /// obstacle, so a fast quanta cannot pass through a thin one: it stops where it enters. The
-/// energy the contact removes (restitution < 1, friction) is charged as dissipated.
+/// energy the contact removes (restitution < 1, friction) is charged as dissipated. The momentum a
+/// recorded obstacle gives (m Δv of each contact, in the order of the quanta) is summed into
+/// State::obstacle_impulse.
 std::unique_ptr<Heuristic> make_obstacle_heuristic(std::vector<Obstacle> obstacles);
 
 /// Contact between quanta that share no bond: spheres of `radius`, found with a uniform-grid

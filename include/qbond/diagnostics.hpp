@@ -3,6 +3,7 @@
 #include <string>
 #include <vector>
 
+#include "qbond/contacts.hpp"
 #include "qbond/integrators.hpp"
 #include "qbond/probes.hpp"
 
@@ -10,12 +11,15 @@ namespace qbond {
 
 /// Formats the rows of diagnostics.csv: DESIGN §10's fifteen columns, then per probe its mean
 /// position, its reaction force and torque when anchored, its mean stress tensor and largest
-/// von Mises stress when its quanta have volumes (stress.hpp), then work, numerical
-/// dissipation and the last step's solver iterations and residual. Numbers are printed with 17
+/// von Mises stress when its quanta have volumes (stress.hpp), then per recorded obstacle k the
+/// impulse it has given (obstacle<k>_jx, _jy, _jz, _jn: State::obstacle_impulse) and, for a
+/// container, its mean pressure since the accounts opened, jn / (contact area × elapsed time)
+/// (obstacle<k>_pressure), then work, numerical dissipation and the last step's solver iterations
+/// and residual. Numbers are printed with 17
 /// significant digits so that they read back exactly.
 class Diagnostics {
  public:
-  Diagnostics(const Model& model, std::vector<Probe> probes);
+  Diagnostics(const Model& model, std::vector<Probe> probes, std::vector<Obstacle> obstacles = {});
   /// The header line (no newline).
   std::string header() const;
   /// The row of a state (no newline); `timestep` is the step that led to it [s] (adaptive runs
@@ -25,6 +29,7 @@ class Diagnostics {
  private:
   std::vector<Probe> probes_;
   std::vector<bool> reaction_, stress_;
+  std::vector<Obstacle> obstacles_;  // the recorded ones
 };
 
 }  // namespace qbond

@@ -2,6 +2,7 @@
 /// Heuristics (DESIGN §6): rules applied between a step's projection and its application. Each
 /// may edit the projection (collisions), the bonds (fracture, plasticity) or both.
 #include <cstdint>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -33,6 +34,11 @@ struct HeuristicContext {
   const Adjacency& adj;           ///< alive bonds at the start of the step
   int threads = 1;                ///< as IntegratorConfig::threads
   std::vector<BondEvent>& events; ///< append topology changes here
+  /// The projection's velocity change as the integrator made it, before any heuristic edited it
+  /// (n; empty: unknown, taken as the projection's). Contacts subtract it from a quanta's velocity
+  /// to get the one it brought into the step plus what earlier contacts gave it: the approach
+  /// speed restitution returns (a gas's quanta meets a wall and another quanta in one step).
+  std::span<const Vec3> dv_forces = {};
 };
 
 /// One rule of the step pipeline. Implementations must be deterministic given State::rng and

@@ -100,6 +100,7 @@ class Simulation {
   Projection projection_;
   StepContext ctx_;
   std::vector<BondEvent> events_;
+  std::vector<Vec3> dv_forces_;  ///< the projection's dv before the heuristics [m/s] (n)
 };
 
 }  // namespace qbond

@@ -84,6 +84,16 @@ struct EnergyLedger {
   bool operator==(const EnergyLedger&) const = default;
 };
 
+/// The impulse an obstacle has given the quanta since the world was built: its contacts' momentum
+/// changes, summed (contacts.hpp). The normal part over the time and the wall's area is the
+/// pressure on it (docs/gases.md).
+struct ObstacleImpulse {
+  Vec3 total = Vec3::Zero();  ///< Σ m Δv over its contacts [N·s]
+  double normal = 0;          ///< Σ m Δv · n, n the surface normal toward the free side [N·s]
+
+  bool operator==(const ObstacleImpulse&) const = default;
+};
+
 /// A bond made during the run (bond formation): its Model entries, kept in the State so that a
 /// checkpoint carries them.
 struct FormedBond {
@@ -114,6 +124,8 @@ struct State {
   /// previous state (x then v of every quanta, then (t, h, step) of that state: 2n + 1); empty
   /// otherwise. Kept here so that checkpoints and rollbacks carry it.
   std::vector<Vec3> warm;
+  /// Per recorded obstacle (Obstacle::record), the impulse it has given (n_obstacles).
+  std::vector<ObstacleImpulse> obstacle_impulse;
 };
 
 /// CSR adjacency of alive bonds, derived from the bond list (never edited by hand).
