@@ -1,6 +1,7 @@
 #include "implicit_system.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 #include "parallel.hpp"
@@ -136,16 +137,22 @@ Eigen::Index assemble_system(const Model& model, const State& state, const Impli
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) triplets.emplace_back(p + r, q + c, m(r, c));
   };
+  const bool exact = !sys.exact.empty();
+  assert(!exact || sys.exact.size() == model.num_bonds());
   for (std::size_t i = 0; i < n; ++i)
     if (dof[i] >= 0) {
       b.segment<3>(dof[i]) = sys.rhs[i];
-      add_block(dof[i], dof[i], sys.diag[i]);
+      add_block(dof[i], dof[i], exact ? Mat3(model.mass[i] * Mat3::Identity()) : sys.diag[i]);
     }
   for (std::size_t k = 0; k < model.num_bonds(); ++k) {
     const Eigen::Index p = dof[model.bond_i[k]], q = dof[model.bond_j[k]];
-    if (!state.alive[k] || p < 0 || q < 0) continue;
-    const BondBlock& bb = sys.bonds[k];
-    const Mat3 B = block_matrix(bb.u, bb.Ba, bb.Bb);
+    if (!state.alive[k] || (p < 0 && q < 0)) continue;
+    const Mat3 B = exact ? sys.exact[k] : block_matrix(sys.bonds[k].u, sys.bonds[k].Ba, sys.bonds[k].Bb);
+    if (exact) {  // sys.diag holds the a u uᵀ + b I blocks' sums: the diagonal is summed here
+      if (p >= 0) add_block(p, p, B);
+      if (q >= 0) add_block(q, q, B);
+    }
+    if (p < 0 || q < 0) continue;
     add_block(p, q, -B);
     add_block(q, p, -B);
   }
@@ -169,6 +176,20 @@ void DirectSolver::solve(CoupledSolver which, const Model& model, const State& s
   }
   for (std::size_t i = 0; i < n; ++i)
     if (dof[i] >= 0) y[i] = sol.segment<3>(dof[i]);
+}
+
+bool DirectSolver::solve_lu(const Model& model, const State& state, const ImplicitSystem& sys, std::vector<Vec3>& y) {
+  const std::size_t n = model.num_quanta();
+  const Eigen::Index nf = assemble_system(model, state, sys, dof, triplets, A, b);
+  y.assign(n, Vec3::Zero());
+  if (nf == 0) return true;
+  lu.compute(A);  // the ordering is recomputed too: bonds break between steps
+  if (lu.info() != Eigen::Success) return false;
+  const Eigen::VectorXd sol = lu.solve(b);
+  if (!sol.allFinite()) return false;
+  for (std::size_t i = 0; i < n; ++i)
+    if (dof[i] >= 0) y[i] = sol.segment<3>(dof[i]);
+  return true;
 }
 
 void ConjugateGradient::solve(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, double tolerance,

@@ -54,6 +54,10 @@ struct ImplicitSystem {
   std::vector<Mat3> diag_inv;  // A_ii⁻¹ (n)
   std::vector<Vec3> rhs;       // b (n); 0 for kinematic quanta
   double rhs_norm = 0;         // ‖b‖ over free quanta
+  // The Newton integrators' exact Jacobian (exact Newton iterations): each bond's B_b as a full 3×3 block
+  // (non-symmetric, indefinite), which then replaces `bonds`' a u uᵀ + b I in assemble_system;
+  // empty otherwise.
+  std::vector<Mat3> exact;  // (nb when used)
 };
 
 // Starts an implicit step: sizes `out` and fills its kinematic rows (project_kinematic), then
@@ -86,7 +90,9 @@ void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem
 
 // A and b over the free unknowns as a sparse matrix and a vector, for the direct solvers (and the
 // benchmarks' Eigen solvers): dof[i] = 3 × free quanta i's number, -1 for kinematic quanta.
-// Returns the number of free quanta; `triplets` is scratch.
+// Returns the number of free quanta; `triplets` is scratch. When sys.exact is filled, A is
+// M + Σ_b of those full blocks (A_ii += B_b, A_jj += B_b, A_ij = A_ji = −B_b, summed in bond
+// order) instead of sys.diag and the a u uᵀ + b I blocks.
 Eigen::Index assemble_system(const Model& model, const State& state, const ImplicitSystem& sys,
                              std::vector<Eigen::Index>& dof, std::vector<Eigen::Triplet<double>>& triplets,
                              Eigen::SparseMatrix<double>& A, Eigen::VectorXd& b);
@@ -95,15 +101,18 @@ Eigen::Index assemble_system(const Model& model, const State& state, const Impli
 // and the Newton integrators (one per Newton iteration); each owns its scratch.
 
 // Sparse LDLᵀ or dense Gaussian elimination with partial pivoting on the assembled system; y is
-// overwritten (kinematic rows 0).
+// overwritten (kinematic rows 0). solve_lu: sparse LU (the Newton integrators' non-symmetric
+// exact Jacobian, sys.exact); false if the factorisation failed (a singular matrix; y is then 0).
 struct DirectSolver {
   std::vector<Eigen::Index> dof;
   std::vector<Eigen::Triplet<double>> triplets;
   Eigen::SparseMatrix<double> A;
   Eigen::VectorXd b;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
   void solve(CoupledSolver which, const Model& model, const State& state, const ImplicitSystem& sys,
              std::vector<Vec3>& y);
+  bool solve_lu(const Model& model, const State& state, const ImplicitSystem& sys, std::vector<Vec3>& y);
 };
 
 // Matrix-free CG preconditioned by blockdiag(A_ii)⁻¹ (the hybrid's 3×3 blocks), from the initial

@@ -31,6 +31,19 @@ Damper damper(const Model& m, std::size_t b, const Vec3& u, double r, const Vec3
   return {D * w, 0.0};
 }
 
+// The damper's full derivatives: ∂f/∂d (both turning terms above) and ∂f/∂w.
+void damper_jacobian(const Model& m, std::size_t b, const Vec3& u, double r, const Vec3& w, Mat3& Kd, Mat3& C) {
+  const double D = m.damping[b];
+  if (m.damping_model[b] == DampingModel::axial) {
+    const Mat3 P = Mat3::Identity() - u * u.transpose();
+    Kd = (D / r) * (w.dot(u) * P + u * (P * w).transpose());
+    C = D * u * u.transpose();
+  } else {
+    Kd.setZero();
+    C = D * Mat3::Identity();
+  }
+}
+
 // Clamps an axial and a transverse coefficient at 0 (as implicit_system.hpp does, so that A stays
 // positive definite) and writes them as ka u uᵀ + kb I.
 void clamp_into(double axial, double transverse, bool clamp, BondStep& s) {
@@ -44,8 +57,9 @@ void clamp_into(double axial, double transverse, bool clamp, BondStep& s) {
 }  // namespace
 
 BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme scheme, const Vec3& d0, const Vec3& dd,
-                   const Vec3& w, bool clamp) {
+                   const Vec3& w, bool clamp, BondJacobian* exact) {
   BondStep s;
+  if (exact) *exact = {};
   const bool axial_damper = model.damping_model[b] == DampingModel::axial;
   (axial_damper ? s.ca : s.cb) = model.damping[b];
   if (scheme == NewtonScheme::energy_momentum) {
@@ -66,6 +80,12 @@ BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme sch
     // φ_r1 = ∂(T̄/r̄)/∂r₁ = T̄_r1/r̄ − T̄/(2 r̄²); u₁ is taken as u (see newton.hpp).
     const double phi_r1 = mt.dT1 / rbar - mt.T / (2 * rbar * rbar);
     clamp_into(0.5 * phi + rm * phi_r1, 0.5 * (phi + dmp.transverse), clamp, s);
+    if (exact) {
+      damper_jacobian(model, b, s.u, rm, w, exact->K, exact->C);
+      exact->K *= 0.5;
+      exact->K.diagonal().array() += 0.5 * phi;
+      if (r1 > 0) exact->K += (phi_r1 / r1) * dm * d1.transpose();  // d_mid φ_r1 u₁ᵀ
+    }
     return s;
   }
   // Forces at one point of the step: the midpoint (∂d/∂Δd = ½) or the end (1).
@@ -79,6 +99,11 @@ BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme sch
   s.f = lv.T * s.u + dmp.f;
   // ∂f/∂d = T' u uᵀ + (T/r)(I − u uᵀ) + the damper's turning (DESIGN §3's K_b).
   clamp_into(g * lv.dT, g * (lv.T / r + dmp.transverse), clamp, s);
+  if (exact) {
+    damper_jacobian(model, b, s.u, r, w, exact->K, exact->C);
+    exact->K += block_matrix(s.u, lv.dT - lv.T / r, lv.T / r);
+    exact->K *= g;
+  }
   return s;
 }
 
@@ -116,16 +141,20 @@ void newton_bonds(const Model& model, const State& state, const NewtonStep& st, 
   const std::size_t nb = model.num_bonds();
   force.resize(nb);
   if (sys) sys->bonds.resize(nb);
+  const bool exact = sys && st.exact;
+  if (sys) sys->exact.resize(exact ? nb : 0);
   const double sh = st.s * st.h;
   parallel_for(nb, threads, [&](std::size_t b) {
     const Index i = model.bond_i[b], j = model.bond_j[b];
     BondStep bs;
+    BondJacobian jac;
     if (state.alive[b]) {
       const Vec3 d0 = state.x[j] - state.x[i];
       const Vec3 dd = st.dx(model, y, j) - st.dx(model, y, i);
       const Vec3 w = (state.v[j] + st.theta * y[j]) - (state.v[i] + st.theta * y[i]);
-      bs = bond_step(model, b, state.rest[b], st.scheme, d0, dd, w, st.clamp);
+      bs = bond_step(model, b, state.rest[b], st.scheme, d0, dd, w, st.clamp, exact ? &jac : nullptr);
     }
+    if (exact) sys->exact[b] = sh * (st.c * jac.K + st.theta * jac.C);
     force[b] = bs.f;
     if (sys) {
       // B_b = s h (c K̃ + θ C): ∂Δd/∂y = c, ∂w/∂y = θ.
@@ -177,6 +206,9 @@ namespace {
 constexpr double kForcing = 1e-3;
 // Halvings of a Newton step tried before the smallest is taken anyway.
 constexpr int kMaxHalvings = 12;
+// Restarts of a stalled step and their initial guesses y = −β v.
+constexpr int kRestarts = 4;
+constexpr double kRestartBeta[kRestarts] = {1, 2, 0.5, 1.5};
 
 class NewtonIntegrator final : public Integrator {
  public:
@@ -208,10 +240,18 @@ class NewtonIntegrator final : public Integrator {
                      state.warm.begin() + static_cast<std::ptrdiff_t>(2 * n));
     }
     setup_newton_step(scheme, model, state, out, h, &x_prev_, &v_prev_, step_);
-    // Every solver gets the clamped, positive semi-definite blocks: CG and the 3×3 sweeps need
-    // them, and the unclamped (indefinite) blocks made Newton fail more often with LDLᵀ and dense
-    // elimination too (measured on the four-quanta experiment at hω = 10).
+    // The modified matrix has the clamped, positive semi-definite blocks: CG and the 3×3 sweeps
+    // need them, and the unclamped (indefinite) blocks made Newton fail more often with LDLᵀ and
+    // dense elimination too (measured on the four-quanta experiment at hω = 10).
     step_.clamp = true;
+    // Every solver starts with the modified matrix; exact Newton (sparse LU of the full
+    // Jacobian) takes over when a modified iteration fails its line search or reduces ‖R‖ by
+    // less than half, and the modified matrix again when an exact one fails. Measured
+    // (docs/integrators.md): at hω = 100 the modified direction stalls where bonds turn by
+    // radians and exact Newton converges; exact Newton from the first guess, though, often runs
+    // to another of the step's several solutions (four quanta at hω = 10) or to a local minimum
+    // of ‖R‖ (J singular there), which the modified direction leaves.
+    step_.exact = false;
 
     // Initial guess; kinematic rows carry their prescribed Δv through the bond evaluations.
     initial_guess(config_.warm_start, model, f_ext, h, bdf2 ? no_history_ : state.warm, y_);
@@ -229,8 +269,12 @@ class NewtonIntegrator final : public Integrator {
       return r <= tol * ref;  // also true when nothing moves or pulls (r = ref = 0)
     };
     bool done = evaluate();
+    const bool first_exact = step_.exact;
+    int failed = 0, restarts = 0;  // line searches failed in a row; restarts taken
+    double best = r;
+    y_best_ = y_;
     while (!done && stats_.iterations < config_.newton_iterations) {
-      solve_linear(model, state, adj, std::min(0.5, std::max(kForcing, 0.1 * tol * ref / r)));
+      solve_linear(model, state, adj, std::min(0.5, std::max(kForcing, 0.1 * tol * ref / r)), step_.exact);
       // Backtracking on ‖R‖: at large steps (bonds turning by radians per step) the full Newton
       // step of the approximate block can overshoot; halve it until the residual decreases.
       y0_ = y_;
@@ -242,7 +286,37 @@ class NewtonIntegrator final : public Integrator {
         done = evaluate();
         if (done || r < (1 - 1e-4 * alpha) * r_old) break;
       }
+      if (!done && !(r < (1 - 1e-4 * alpha) * r_old)) {
+        step_.exact = !step_.exact;  // this direction is exhausted: the other matrix from here
+        ++stats_.switches;
+        if (++failed == 2 && restarts < kRestarts) {
+          // Both matrices stall: a local minimum of ‖R‖ with R ≠ 0 (J singular there). Start
+          // again from y = −β v (the step's displacement h v (1 − β/2)), keeping the best y.
+          const double beta = kRestartBeta[restarts++];
+          for (std::size_t i = 0; i < n; ++i)
+            if (!model.is_kinematic(static_cast<Index>(i))) y_[i] = -beta * state.v[i];
+          step_.exact = first_exact;
+          failed = 0;
+        }
+        done = evaluate();
+      } else {
+        failed = 0;
+        // The modified matrix converges linearly; slower than halving ‖R‖ per iteration, exact
+        // Newton (quadratic near the root this iteration approaches) takes over.
+        if (!step_.exact && r > 0.5 * r_old) {
+          step_.exact = true;
+          done = evaluate();
+        }
+      }
+      if (r < best) {
+        best = r;
+        y_best_ = y_;
+      }
       ++stats_.iterations;
+    }
+    if (!done && r > best) {  // the iteration cap reached: the best iterate found
+      y_ = y_best_;
+      done = evaluate();
     }
     if (config_.restore_momentum &&
         (config_.solver == CoupledSolver::cg || config_.solver == CoupledSolver::sweep)) {
@@ -283,14 +357,21 @@ class NewtonIntegrator final : public Integrator {
     return tag.y() == ctx.h && tag.z() == static_cast<double>(ctx.step - 1) && tag.x() + tag.y() == ctx.t;
   }
 
-  // (M + Σ B_b) δ = −R with the configured solver.
-  void solve_linear(const Model& model, const State& state, const Adjacency& adj, double eta) {
+  // (M + Σ B_b) δ = −R: with the exact blocks (sys_.exact) by sparse LU when `exact` (and the
+  // factorisation succeeds), otherwise the modified system with the configured solver.
+  void solve_linear(const Model& model, const State& state, const Adjacency& adj, double eta, bool exact) {
     const std::size_t n = model.num_quanta();
     const int threads = config_.threads;
     assemble_blocks(model, adj, /*frozen=*/false, threads, sys_);
     sys_.rhs.resize(n);
     parallel_for(n, threads, [&](std::size_t i) { sys_.rhs[i] = -R_[i]; });  // kinematic rows of R are 0
     sys_.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return R_[i].squaredNorm(); }));
+    if (exact) {
+      ++stats_.exact_iterations;
+      if (direct_.solve_lu(model, state, sys_, delta_)) return;
+    }
+    // The modified system; also where the exact Jacobian is singular (a turning point of R).
+    exact_.swap(sys_.exact);  // assemble_system takes the exact blocks when there are any (exact_ is empty)
     SolveStats inner;
     switch (config_.solver) {
       case CoupledSolver::dense:
@@ -307,14 +388,16 @@ class NewtonIntegrator final : public Integrator {
         break;
     }
     stats_.linear_iterations += inner.iterations;
+    exact_.swap(sys_.exact);
   }
 
   NewtonStep step_;
   ImplicitSystem sys_;
   TopologyCache topo_;
-  std::vector<Vec3> y_, y0_, delta_, force_, R_, impulse_, x_prev_, v_prev_;
+  std::vector<Vec3> y_, y0_, y_best_, delta_, force_, R_, impulse_, x_prev_, v_prev_;
   const std::vector<Vec3> no_history_;
   std::vector<double> scale_;
+  std::vector<Mat3> exact_;  // sys_.exact set aside while the modified system is solved
   DirectSolver direct_;
   ConjugateGradient cg_;
   GaussSeidel gs_;

@@ -24,6 +24,12 @@
 // energy_momentum it drops the discrete gradient's non-symmetric part φ_r1 d_mid (u₁ − u)ᵀ,
 // which vanishes when the bond does not turn over the step — a modified Newton whose residual
 // is exact, so the converged step keeps every conservation property.
+//
+// Exact Newton (any solver, when the modified iteration stalls; newton.cpp): J = M + Σ_b B_b with
+// the same pattern and B_b = s h (c K_b + θ C_b), K_b = ∂f_b/∂Δd and C_b = ∂f_b/∂w the full 3×3
+// derivatives with every non-symmetric part and no clamp, solved by sparse LU. At steps where bonds turn by radians (four quanta at hω = 100: 80°
+// to 180° per step) the modified block misses most of J (‖J − Ã‖/‖J‖ = 0.8) and its direction
+// stops decreasing ‖R‖; J's symmetric part is indefinite there (docs/integrators.md).
 #include <vector>
 
 #include "implicit_system.hpp"
@@ -42,16 +48,24 @@ struct BondStep {
   double ca = 0, cb = 0;  // ∂f/∂w = ca u uᵀ + cb I [N·s/m]
 };
 
+// The exact derivatives of a bond's force on bond_i: unclamped, non-symmetric.
+struct BondJacobian {
+  Mat3 K = Mat3::Zero();  // ∂f/∂Δd [N/m]
+  Mat3 C = Mat3::Zero();  // ∂f/∂w [N·s/m]
+};
+
 // Bond b (rest length L) whose separation d = x_j − x_i starts at d0 and changes by dd over the
 // step, its dampers seeing the relative velocity w (at the scheme's θ); `clamp` as NewtonStep's.
+// With `exact`, also the full derivatives (zero for a bond through zero length, like f).
 BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme scheme, const Vec3& d0, const Vec3& dd,
-                   const Vec3& w, bool clamp);
+                   const Vec3& w, bool clamp, BondJacobian* exact = nullptr);
 
 // The map from y to the step (see the header comment).
 struct NewtonStep {
   NewtonScheme scheme = NewtonScheme::energy_momentum;
   double h = 0, s = 1, c = 0, theta = 0.5;
   bool clamp = true;    // clamp the blocks positive semi-definite (the iterative solvers need it)
+  bool exact = false;   // also fill ImplicitSystem::exact with the full blocks (exact Newton)
   std::vector<Vec3> a;  // free: Δx = a + c y; kinematic: the prescribed Δx (n)
   std::vector<Vec3> e;  // (n)
   Vec3 dx(const Model& m, const std::vector<Vec3>& y, Index i) const {
@@ -64,7 +78,8 @@ struct NewtonStep {
 void setup_newton_step(NewtonScheme scheme, const Model& model, const State& state, const Projection& kin, double h,
                        const std::vector<Vec3>* x_prev, const std::vector<Vec3>* v_prev, NewtonStep& st);
 
-// Every bond's step at y: force[b] (0 for broken bonds) and, when `sys`, B_b into sys->bonds.
+// Every bond's step at y: force[b] (0 for broken bonds) and, when `sys`, B_b into sys->bonds
+// (and, when st.exact, the full B_b into sys->exact).
 void newton_bonds(const Model& model, const State& state, const NewtonStep& st, const std::vector<Vec3>& y,
                   int threads, std::vector<Vec3>& force, ImplicitSystem* sys);
 

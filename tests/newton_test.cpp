@@ -274,16 +274,24 @@ TEST(MeanTension, IsTheExactEnergyQuotientForEveryLaw) {
   }
 }
 
-// The Newton block against central differences of the residual R(y). Exact (to the difference's
-// O(ε²)) for the midpoint, bdf2 and backward-Euler tangents in any configuration (no damping,
-// bonds in tension so no clamp bites), and for the discrete gradient when no bond turns over the
-// step (collinear motion), where the part newton.hpp leaves out vanishes — with axial dampers.
+// The Newton block against central differences of the residual R(y). The modified block is
+// exact (to the difference's O(ε²)) for the midpoint, bdf2 and backward-Euler tangents in any
+// configuration (no damping, bonds in tension so no clamp bites), and for the discrete gradient
+// when no bond turns over the step (collinear motion), where the part newton.hpp leaves out
+// vanishes — with axial dampers. The exact blocks (exact Newton, sparse LU) match in every configuration:
+// turning bonds, compressed bonds (rest length 1.3: the inverse law's softening, T' < 0 where
+// |r − L| > ε, and compressed linear bonds' T/r < 0 make the tangent indefinite), axial and
+// isotropic dampers, an anchor moving with prescribed velocity. Tolerance: the central
+// difference's truncation O(ε² R''') ~ 1e-12 and its round-off ~1e-16 |R|/ε ~ 1e-10 of the
+// largest entry, well under 1e-7.
 struct JacobianCase {
   const char* name;
   NewtonScheme scheme;
   Law law;
   bool collinear;
   double damping;
+  bool exact = false;
+  DampingModel damping_model = DampingModel::axial;
 };
 class NewtonJacobian : public testing::TestWithParam<JacobianCase> {};
 
@@ -291,7 +299,7 @@ TEST_P(NewtonJacobian, MatchesFiniteDifferences) {
   const JacobianCase c = GetParam();
   World w;
   const BondSpec spec{.law = c.law, .stiffness = c.law == Law::linear ? 50.0 : 2.0, .damping = c.damping,
-                      .rest_length = 0.9, .eps = 0.2};
+                      .damping_model = c.damping_model, .rest_length = c.exact ? 1.3 : 0.9, .eps = 0.2};
   if (c.collinear) {
     for (int i = 0; i < 4; ++i) w.add_quanta(Vec3(1.0 * i, 0, 0), Vec3(0.3 * std::sin(2.0 * i), 0, 0), 1.0 + 0.5 * i);
     for (Index i = 0; i + 1 < 4; ++i) w.add_bond(i, i + 1, spec);
@@ -321,6 +329,7 @@ TEST_P(NewtonJacobian, MatchesFiniteDifferences) {
     for (Vec3& x : x_prev) x.y() = x.z() = 0;
   NewtonStep st;
   setup_newton_step(c.scheme, w.model, w.state, kin, h, &x_prev, &v_prev, st);
+  st.exact = c.exact;
   std::vector<Vec3> y(n);
   for (std::size_t i = 0; i < n; ++i) y[i] = w.model.is_kinematic(static_cast<Index>(i)) ? kin.dv[i]
                                                  : Vec3(0.05 * std::cos(3.0 * i), 0, 0) * (c.collinear ? 1.0 : 2.0);
@@ -330,8 +339,24 @@ TEST_P(NewtonJacobian, MatchesFiniteDifferences) {
   ImplicitSystem sys;
   newton_bonds(w.model, w.state, st, y, 1, force, &sys);
   assemble_blocks(w.model, adj, false, 1, sys);
-  for (std::size_t b = 0; b < w.num_bonds(); ++b)  // every bond stretched: no clamp
-    ASSERT_GT((w.state.x[w.model.bond_j[b]] - w.state.x[w.model.bond_i[b]]).norm(), 0.9);
+  int compressed = 0, softening = 0;  // with `exact`, bonds the clamp would change
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) {
+    const double r = (w.state.x[w.model.bond_j[b]] - w.state.x[w.model.bond_i[b]]).norm();
+    if (!c.exact) {
+      ASSERT_GT(r, 0.9);  // every bond stretched: no clamp
+    }
+    compressed += r < spec.rest_length;
+    softening += std::abs(r - spec.rest_length) > spec.eps;
+  }
+  if (c.exact) {
+    ASSERT_EQ(sys.exact.size(), w.num_bonds());
+    EXPECT_GT(compressed, 0);
+    if (c.law == Law::inverse) {
+      EXPECT_GT(softening, 0);
+    }
+  } else {
+    ASSERT_TRUE(sys.exact.empty());
+  }
   std::vector<Eigen::Index> dof;
   std::vector<Eigen::Triplet<double>> trip;
   Eigen::SparseMatrix<double> A;
@@ -374,7 +399,20 @@ INSTANTIATE_TEST_SUITE_P(
                     JacobianCase{"energy_momentum_inverse_collinear", NewtonScheme::energy_momentum, Law::inverse,
                                  true, 0},
                     JacobianCase{"energy_momentum_damped_collinear", NewtonScheme::energy_momentum, Law::inverse,
-                                 true, 0.7}),
+                                 true, 0.7},
+                    JacobianCase{"exact_energy_momentum_linear", NewtonScheme::energy_momentum, Law::linear, false, 0,
+                                 true},
+                    JacobianCase{"exact_energy_momentum_inverse", NewtonScheme::energy_momentum, Law::inverse, false,
+                                 0, true},
+                    JacobianCase{"exact_energy_momentum_axial", NewtonScheme::energy_momentum, Law::inverse, false, 0.7,
+                                 true},
+                    JacobianCase{"exact_energy_momentum_isotropic", NewtonScheme::energy_momentum, Law::linear, false,
+                                 0.7, true, DampingModel::isotropic},
+                    JacobianCase{"exact_midpoint_axial", NewtonScheme::implicit_midpoint, Law::inverse, false, 0.7,
+                                 true},
+                    JacobianCase{"exact_bdf2_axial", NewtonScheme::bdf2, Law::linear, false, 0.7, true},
+                    JacobianCase{"exact_backward_euler_isotropic", NewtonScheme::backward_euler, Law::inverse, false,
+                                 0.7, true, DampingModel::isotropic}),
     [](const auto& info) { return std::string(info.param.name); });
 
 // BDF2's previous state travels in State::warm: a run resumed from a checkpoint continues bit for
@@ -418,6 +456,7 @@ TEST(Newton, OptionsAreChecked) {
   EXPECT_THROW(make_integrator(c), std::invalid_argument);
   c = test::coupled(CoupledSolver::sweep);
   EXPECT_THROW(make_integrator(c), std::invalid_argument);
+
   for (auto t : {IntegratorType::energy_momentum, IntegratorType::implicit_midpoint, IntegratorType::bdf2})
     EXPECT_EQ(parse_integrator_type(to_string(t)), t);
   EXPECT_EQ(parse_coupled_solver("sweep"), CoupledSolver::sweep);

@@ -104,6 +104,9 @@ struct SolveStats {
   double residual = 0;       ///< final relative residual ‖b - A dv‖ / ‖b‖ (0 for direct solvers);
                              ///< Newton integrators: of the nonlinear step (see newton.hpp)
   int linear_iterations = 0; ///< Newton integrators: CG iterations or sweeps summed over the step
+  int exact_iterations = 0;  ///< Newton integrators: iterations solved with the exact Jacobian (LU)
+  int switches = 0;          ///< Newton integrators: changes between the exact and the modified
+                             ///< matrix after a failed line search
 };
 
 /// An integrator: owns its options and its scratch buffers (no allocation once warmed up).
