@@ -11,6 +11,7 @@
 #include <array>
 #include <cfloat>
 #include <cstring>
+#include <numbers>
 #include <numeric>
 #include <chrono>
 #include <cmath>
@@ -404,7 +405,7 @@ class Viewer {
       spheres_.push_back({s.x[i].cast<float>(), static_cast<float>(radius_ * (kin ? 1.3 : 1.0)), c});
     }
     for (const Obstacle& ob : obstacles_)
-      if (ob.shape == Obstacle::Shape::sphere)
+      if (ob.shape == Obstacle::Shape::sphere && !ob.inside)
         spheres_.push_back({ob.center.cast<float>(), static_cast<float>(ob.radius), Vec3f(0.5f, 0.5f, 0.52f)});
 
     // The user's forces: the mouse spring and scripted pushes, as lines from the quanta.
@@ -445,6 +446,10 @@ class Viewer {
     const double cell = cell_size();
     const Vec3 centre = (((lo + hi) / 2) / cell).array().round().matrix() * cell;
     for (const Obstacle& ob : obstacles_) {
+      if (ob.inside) {
+        container(ob);
+        continue;
+      }
       if (ob.shape == Obstacle::Shape::box) {
         Mat4f model = Mat4f::Identity();
         model.block<3, 3>(0, 0) = (ob.rotation * ob.half_extents.asDiagonal()).cast<float>();
@@ -477,6 +482,36 @@ class Viewer {
       lines_.push_back({Vec3(centre.x() + half, centre.y() + o, lo_.z()).cast<float>(), grey});
     }
     renderer_.lines(lines_, 1);
+  }
+
+  /// A container (a gas's box or sphere) as its edges, so that what it holds stays visible:
+  /// a box's twelve edges, a sphere's three great circles.
+  void container(const Obstacle& ob) {
+    lines_.clear();
+    const Vec3f c(0.6f, 0.65f, 0.75f);
+    if (ob.shape == Obstacle::Shape::box) {
+      std::array<Vec3f, 3> axis;  // half edges in the world
+      for (int a = 0; a < 3; ++a) axis[a] = (ob.half_extents[a] * ob.rotation.col(a)).cast<float>();
+      const Vec3f centre = ob.center.cast<float>();
+      auto corner = [&](int k) -> Vec3f {
+        return centre + ((k & 1) ? 1.0f : -1.0f) * axis[0] + ((k & 2) ? 1.0f : -1.0f) * axis[1] +
+               ((k & 4) ? 1.0f : -1.0f) * axis[2];
+      };
+      for (int k = 0; k < 8; ++k)
+        for (int bit : {1, 2, 4})
+          if (!(k & bit)) lines_.push_back({corner(k), c}), lines_.push_back({corner(k | bit), c});
+    } else if (ob.shape == Obstacle::Shape::sphere) {
+      constexpr int kSegments = 64;
+      for (int axis = 0; axis < 3; ++axis)
+        for (int k = 0; k < kSegments; ++k)
+          for (int e : {k, k + 1}) {
+            const double a = 2 * std::numbers::pi * e / kSegments;
+            Vec3 p = Vec3::Zero();
+            p[(axis + 1) % 3] = std::cos(a), p[(axis + 2) % 3] = std::sin(a);
+            lines_.push_back({(ob.center + ob.radius * p).cast<float>(), c});
+          }
+    }
+    renderer_.lines(lines_, 1.5f);
   }
 
   /// A power of ten near a tenth of the scene size, the grid's and checker's cell [m].
