@@ -138,7 +138,7 @@ TEST(Script, ErrorsNameThePathAndTheRule) {
   EXPECT_EQ(error(R"({"events": [{"frame": 1, "drag": {"quanta": 5, "by": [0, 0, 1]}}]})"),
             "s.json: events[0].drag.quanta: must be a quanta id in [0, 5)");
   EXPECT_EQ(error(R"({"events": [{"frame": 1}]})"),
-            "s.json: events[0]: must have exactly one of 'drag', 'release', 'push', 'key'");
+            "s.json: events[0]: must have exactly one of 'drag', 'release', 'push', 'key', 'mouse'");
   EXPECT_EQ(error(R"({"events": [{"frame": -1, "release": true}]})"), "s.json: events[0].frame: must be an integer >= 0");
   EXPECT_EQ(error(R"({"events": [{"frame": 0, "push": {"quanta": 0, "force": [1, 2]}}]})"),
             "s.json: events[0].push.force: must be an array of 3 numbers");
@@ -148,6 +148,10 @@ TEST(Script, ErrorsNameThePathAndTheRule) {
             "s.json: events[0].drag: must have exactly one of 'to', 'by'");
   EXPECT_NE(error("{").find("not valid JSON"), std::string::npos);
   EXPECT_EQ(error("{}"), "s.json: missing 'events'");
+  EXPECT_EQ(error(R"({"events": [{"frame": 0, "mouse": {"move_by": [1]}}]})"),
+            "s.json: events[0].mouse.move_by: must be an array of 2 numbers (pixels)");
+  EXPECT_EQ(error(R"({"events": [{"frame": 0, "mouse": {"press_on": 9}}]})"),
+            "s.json: events[0].mouse.press_on: must be a quanta id in [0, 5)");
 }
 
 }  // namespace

@@ -169,6 +169,25 @@ def test_push_matches_load():
         fail(f"the viewer's push and the scene's load give positions {diff:.3g} m apart")
 
 
+def test_mouse_drag():
+    """The mouse path itself: a press on the pixel where the pendulum's cube quanta is drawn picks
+    that quanta (ray casting), moving the mouse 250 px to the right pulls it along the plane
+    facing the camera, and the pendulum ends elsewhere than without the drag."""
+    mouse = script("mouse", [{"frame": 10, "mouse": {"press_on": PUSHED}},
+                             {"frame": 11, "mouse": {"move_by": [250, 0]}},
+                             {"frame": 45, "mouse": {"release": True}}])
+    _, dragged = view("mouse_drag", "--frames", "60", "--script", mouse, "--save", "final.vtp")
+    _, still = view("mouse_still", "--frames", "60", "--save", "final.vtp")
+    if dragged["last_grab"] != PUSHED:
+        fail(f"the press on quanta {PUSHED}'s pixel grabbed {dragged['last_grab']}")
+    a = vtp_points(os.path.join(WORK, "mouse_drag", "final.vtp"))
+    b = vtp_points(os.path.join(WORK, "mouse_still", "final.vtp"))
+    moved = np.linalg.norm(a[PUSHED] - b[PUSHED])
+    print(f"mouse drag: grabbed quanta {dragged['last_grab']}, which ends {moved:.3f} m from where it would have")
+    if moved < 0.05:
+        fail(f"the mouse drag moved quanta {PUSHED} only {moved:.3g} m")
+
+
 tests = {name[5:]: f for name, f in globals().items() if name.startswith("test_")}
 if TEST not in tests:
     fail(f"no such test; known: {', '.join(tests)}")

@@ -57,8 +57,8 @@ std::vector<ScriptEvent> parse_script(const std::string& json_text, const std::s
     if (!frame.is_number_integer() || frame.get<long long>() < 0) r.fail(at + ".frame", "must be an integer >= 0");
     ev.frame = frame.get<std::uint64_t>();
     int kinds = 0;
-    for (const char* key : {"drag", "release", "push", "key"}) kinds += e.contains(key) ? 1 : 0;
-    if (kinds != 1) r.fail(at, "must have exactly one of 'drag', 'release', 'push', 'key'");
+    for (const char* key : {"drag", "release", "push", "key", "mouse"}) kinds += e.contains(key) ? 1 : 0;
+    if (kinds != 1) r.fail(at, "must have exactly one of 'drag', 'release', 'push', 'key', 'mouse'");
     if (e.contains("drag")) {
       const std::string p = at + ".drag";
       ev.kind = ScriptEvent::Kind::drag;
@@ -71,6 +71,25 @@ std::vector<ScriptEvent> parse_script(const std::string& json_text, const std::s
       ev.kind = ScriptEvent::Kind::push;
       ev.quanta = r.quanta(r.member(e["push"], p, "quanta"), p + ".quanta", num_quanta);
       ev.force = r.vec3(r.member(e["push"], p, "force"), p + ".force");
+    } else if (e.contains("mouse")) {
+      const std::string p = at + ".mouse";
+      const json& m = e["mouse"];
+      if (!m.is_object() || m.size() != 1) r.fail(p, "must be an object with one of 'press_on', 'move_by', 'release'");
+      if (m.contains("press_on")) {
+        ev.kind = ScriptEvent::Kind::mouse_press;
+        ev.quanta = r.quanta(m["press_on"], p + ".press_on", num_quanta);
+      } else if (m.contains("move_by")) {
+        ev.kind = ScriptEvent::Kind::mouse_move;
+        const json& d = m["move_by"];
+        if (!d.is_array() || d.size() != 2 || !d[0].is_number() || !d[1].is_number())
+          r.fail(p + ".move_by", "must be an array of 2 numbers (pixels)");
+        ev.pixels = {d[0].get<double>(), d[1].get<double>()};
+      } else if (m.contains("release")) {
+        if (m["release"] != true) r.fail(p + ".release", "must be true");
+        ev.kind = ScriptEvent::Kind::mouse_release;
+      } else {
+        r.fail(p, "must be an object with one of 'press_on', 'move_by', 'release'");
+      }
     } else if (e.contains("release")) {
       if (e["release"] != true) r.fail(at + ".release", "must be true");
       ev.kind = ScriptEvent::Kind::release;

@@ -142,6 +142,8 @@ class Viewer {
   int viewport_width() const { return std::max(1, fb_w_ - (opt_.ui ? kPanelWidth : 0)); }
   void resize(int w, int h) { fb_w_ = w, fb_h_ = h; }
   const std::string& blowup() const { return blowup_; }
+  /// The quanta the mouse last grabbed (-1: none).
+  long long last_grab() const { return last_grab_; }
   const World& world() const { return sim_->world(); }
 
   /// Pixel box [x0, y0, x1, y1] (origin top left of the window) of the free and kinematic quanta.
@@ -257,6 +259,14 @@ class Viewer {
       }
       case ScriptEvent::Kind::push: push_ = std::make_pair(e.quanta, e.force); break;
       case ScriptEvent::Kind::release: drag_.reset(), push_.reset(); break;
+      case ScriptEvent::Kind::mouse_press: {
+        float px = 0, py = 0;
+        cam_.to_pixel(s.x[e.quanta].cast<float>(), static_cast<float>(viewport_width()), static_cast<float>(fb_h_), px, py);
+        mouse_button(GLFW_MOUSE_BUTTON_LEFT, true, px, py, false);
+        break;
+      }
+      case ScriptEvent::Kind::mouse_move: mouse_move(last_mx_ + e.pixels.x(), last_my_ + e.pixels.y()); break;
+      case ScriptEvent::Kind::mouse_release: mouse_button(GLFW_MOUSE_BUTTON_LEFT, false, last_mx_, last_my_, false); break;
       case ScriptEvent::Kind::key:
         key(e.key == ' ' ? GLFW_KEY_SPACE : e.key == '.' ? GLFW_KEY_PERIOD : GLFW_KEY_A + (e.key - 'a'));
         break;
@@ -277,6 +287,7 @@ class Viewer {
     const Vec3 p = world().state.x[who];
     grab_depth_ = (p - ray.origin).dot((cam_.target - cam_.eye()).normalized().cast<double>());
     drag_ = make_pull_spring(m, who, p, body_mass(m, who), h_, pull_hz_);
+    last_grab_ = static_cast<long long>(who);
     return true;
   }
 
@@ -669,6 +680,7 @@ class Viewer {
   std::optional<PullSpring> drag_;
   std::optional<std::pair<Index, Vec3>> push_;
   double grab_depth_ = 0;
+  long long last_grab_ = -1;
   Mode mode_ = Mode::none;
   double last_mx_ = 0, last_my_ = 0;
 
@@ -729,6 +741,7 @@ nlohmann::json stats_json(const Timing& t, const Viewer& v, int fb_w, int fb_h) 
       {"quanta_px", {box[0], box[1], box[2], box[3]}},
       {"gl_renderer", reinterpret_cast<const char*>(glGetString(GL_RENDERER))},
       {"blowup", v.blowup()},
+      {"last_grab", v.last_grab()},
   };
 }
 
