@@ -10,6 +10,7 @@
 
 #include "integrator_common.hpp"
 #include "parallel.hpp"
+#include "step_work.hpp"
 
 namespace qbond {
 
@@ -209,6 +210,9 @@ constexpr int kMaxHalvings = 12;
 // Restarts of a stalled step and their initial guesses y = −β v.
 constexpr int kRestarts = 4;
 constexpr double kRestartBeta[kRestarts] = {1, 2, 0.5, 1.5};
+// Substepping fallback: a step whose Newton iteration does not converge is split in halves, at
+// most this many times (2^kMaxDepth substeps of h / 2^kMaxDepth).
+constexpr int kMaxDepth = 8;
 
 class NewtonIntegrator final : public Integrator {
  public:
@@ -224,7 +228,6 @@ class NewtonIntegrator final : public Integrator {
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
     const std::size_t n = model.num_quanta();
     const double h = ctx.h;
-    const int threads = config_.threads;
     out.resize(n);
     project_kinematic(model, state, ctx, out);
     topo_.update(model, adj);
@@ -239,7 +242,104 @@ class NewtonIntegrator final : public Integrator {
       v_prev_.assign(state.warm.begin() + static_cast<std::ptrdiff_t>(n),
                      state.warm.begin() + static_cast<std::ptrdiff_t>(2 * n));
     }
-    setup_newton_step(scheme, model, state, out, h, &x_prev_, &v_prev_, step_);
+    initial_guess(config_.warm_start, model, f_ext, h, bdf2 ? no_history_ : state.warm, y_);
+    double residual = 0;
+    const bool converged = solve(model, state, adj, f_ext, scheme, out, h, residual);
+    stats_.residual = residual;
+    if (converged || bdf2) {
+      // bdf2 (and its backward-Euler start) is never split: its step reads the state one whole
+      // step back (State::warm), which a substep does not have (docs/integrators.md).
+      if (!converged) ++stats_.unconverged;
+      for (std::size_t i = 0; i < n; ++i) {
+        if (model.is_kinematic(static_cast<Index>(i))) continue;
+        out.dv[i] = y_[i];
+        out.dx[i] = step_.dx(model, y_, static_cast<Index>(i));
+      }
+    } else {
+      // Substepping fallback: a composition of energy-momentum (or midpoint) steps keeps what each
+      // step keeps, so the halves, solved each from the state the one before reached, give a step
+      // with the scheme's conservation properties; halves that do not converge split again, down
+      // to h / 2^kMaxDepth. Kinematic rows keep the whole step's prescribed motion.
+      sub_ = state;
+      out.has_work = true;
+      stats_.residual = 0;  // the largest of the substeps' from here
+      const double t0 = ctx.t, t1 = ctx.t + h, tm = t0 + 0.5 * h;
+      advance(model, adj, f_ext, scheme, t0, tm, ctx.step, 1, out);
+      advance(model, adj, f_ext, scheme, tm, t1, ctx.step, 1, out);
+      for (std::size_t i = 0; i < n; ++i) {
+        if (model.is_kinematic(static_cast<Index>(i))) continue;
+        out.dx[i] = sub_.x[i] - state.x[i];
+        out.dv[i] = sub_.v[i] - state.v[i];
+      }
+    }
+    if (bdf2) {
+      // BDF2's carry-over is the state this step starts from, kept in State::warm (so that a
+      // checkpoint holds it and a rollback restores it): x, v, then (t, h, step) to know it is
+      // the step just before the next one.
+      out.warm.resize(2 * n + 1);
+      std::copy(state.x.begin(), state.x.end(), out.warm.begin());
+      std::copy(state.v.begin(), state.v.end(), out.warm.begin() + static_cast<std::ptrdiff_t>(n));
+      out.warm[2 * n] = Vec3(ctx.t, h, static_cast<double>(ctx.step));
+    } else if (config_.warm_start == WarmStart::previous) {
+      out.warm = stats_.substeps > 0 ? out.dv : y_;
+    }
+  }
+
+ private:
+  // Takes sub_ (the state at t0) to t1: one Newton solve over [t0, t1] or, when it does not
+  // converge and depth < kMaxDepth, two halves. Adds the substep's anchor and damper work to out.
+  void advance(const Model& model, const Adjacency& adj, const std::vector<Vec3>& f_ext, NewtonScheme scheme,
+               double t0, double t1, std::uint64_t step, int depth, Projection& out) {
+    const std::size_t n = model.num_quanta();
+    const double H = t1 - t0;
+    sub_out_.dx.resize(n);
+    sub_out_.dv.resize(n);
+    project_kinematic(model, sub_, StepContext{H, t0, step}, sub_out_);
+    // A substep's initial guess: the configured one at this step length (the previous step's
+    // Δv, of the whole step, is not one: zero then).
+    initial_guess(config_.warm_start == WarmStart::previous ? WarmStart::zero : config_.warm_start, model, f_ext,
+                  H, no_history_, y_);
+    double residual = 0;
+    const bool converged = solve(model, sub_, adj, f_ext, scheme, sub_out_, H, residual);
+    if (!converged && depth < kMaxDepth) {
+      const double tm = t0 + 0.5 * H;
+      advance(model, adj, f_ext, scheme, t0, tm, step, depth + 1, out);
+      advance(model, adj, f_ext, scheme, tm, t1, step, depth + 1, out);
+      return;
+    }
+    ++stats_.substeps;
+    if (!converged) ++stats_.unconverged;
+    stats_.residual = std::max(stats_.residual, residual);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (model.is_kinematic(static_cast<Index>(i))) continue;
+      sub_out_.dv[i] = y_[i];
+      sub_out_.dx[i] = step_.dx(model, y_, static_cast<Index>(i));
+    }
+    // The ledger's accounts over this substep, from the substep itself (loads are linear in Δx:
+    // the ledger's whole-step charge is exact for them).
+    const StepWork w = step_work(model, sub_, sub_out_, f_ext, H, damping_theta(), damping_direction_theta(),
+                                 discrete_gradient(), config_.threads);
+    out.work_anchors += w.anchors;
+    out.dissipated_damping += w.damping;
+    for (std::size_t i = 0; i < n; ++i) {
+      sub_.x[i] += sub_out_.dx[i];
+      sub_.v[i] += sub_out_.dv[i];
+    }
+    // Kinematic quanta exactly on their path (as Simulation::end_step puts them).
+    for (const Motion& motion : model.motions)
+      for (std::size_t k = 0; k < motion.quanta.size(); ++k)
+        motion.at(k, t1, sub_.x[motion.quanta[k]], sub_.v[motion.quanta[k]]);
+  }
+
+  // Newton's iteration for one step of length h from `state`, starting from y_ (kinematic rows
+  // set here from `kin`, which holds the prescribed motion: project_kinematic). Leaves the
+  // solution (or the best iterate) in y_ and the step's map in step_; returns whether ‖R‖ reached
+  // the tolerance, and the final relative residual.
+  bool solve(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
+             NewtonScheme scheme, const Projection& kin, double h, double& residual) {
+    const std::size_t n = model.num_quanta();
+    const int threads = config_.threads;
+    setup_newton_step(scheme, model, state, kin, h, &x_prev_, &v_prev_, step_);
     // The modified matrix has the clamped, positive semi-definite blocks: CG and the 3×3 sweeps
     // need them, and the unclamped (indefinite) blocks made Newton fail more often with LDLᵀ and
     // dense elimination too (measured on the four-quanta experiment at hω = 10).
@@ -252,11 +352,9 @@ class NewtonIntegrator final : public Integrator {
     // to another of the step's several solutions (four quanta at hω = 10) or to a local minimum
     // of ‖R‖ (J singular there), which the modified direction leaves.
     step_.exact = false;
-
-    // Initial guess; kinematic rows carry their prescribed Δv through the bond evaluations.
-    initial_guess(config_.warm_start, model, f_ext, h, bdf2 ? no_history_ : state.warm, y_);
+    // Kinematic rows carry their prescribed Δv through the bond evaluations.
     for (const Motion& m : model.motions)
-      for (Index i : m.quanta) y_[i] = out.dv[i];
+      for (Index i : m.quanta) y_[i] = kin.dv[i];
 
     const double tol = config_.tolerance;
     double r = 0, ref = 0;
@@ -265,15 +363,15 @@ class NewtonIntegrator final : public Integrator {
       const ResidualNorms nr = newton_residual(model, adj, step_, f_ext, force_, y_, threads, R_, scale_);
       r = std::sqrt(nr.r2);
       ref = std::sqrt(nr.ref2);
-      stats_.residual = ref > 0 ? r / ref : 0.0;
+      residual = ref > 0 ? r / ref : 0.0;
       return r <= tol * ref;  // also true when nothing moves or pulls (r = ref = 0)
     };
     bool done = evaluate();
     const bool first_exact = step_.exact;
-    int failed = 0, restarts = 0;  // line searches failed in a row; restarts taken
+    int failed = 0, restarts = 0, iterations = 0;  // line searches failed in a row; restarts taken
     double best = r;
     y_best_ = y_;
-    while (!done && stats_.iterations < config_.newton_iterations) {
+    while (!done && iterations < config_.newton_iterations) {
       solve_linear(model, state, adj, std::min(0.5, std::max(kForcing, 0.1 * tol * ref / r)), step_.exact);
       // Backtracking on ‖R‖: at large steps (bonds turning by radians per step) the full Newton
       // step of the approximate block can overshoot; halve it until the residual decreases.
@@ -312,8 +410,9 @@ class NewtonIntegrator final : public Integrator {
         best = r;
         y_best_ = y_;
       }
-      ++stats_.iterations;
+      ++iterations;
     }
+    stats_.iterations += iterations;
     if (!done && r > best) {  // the iteration cap reached: the best iterate found
       y_ = y_best_;
       done = evaluate();
@@ -328,25 +427,9 @@ class NewtonIntegrator final : public Integrator {
         impulse_[i] = step_.s * f_ext[i] + (model.mass[i] / h) * step_.e[i];
       restore_component_momentum(model, topo_.components, impulse_, h, y_);
     }
-    for (std::size_t i = 0; i < n; ++i) {
-      if (model.is_kinematic(static_cast<Index>(i))) continue;
-      out.dv[i] = y_[i];
-      out.dx[i] = step_.dx(model, y_, static_cast<Index>(i));
-    }
-    if (bdf2) {
-      // BDF2's carry-over is the state this step starts from, kept in State::warm (so that a
-      // checkpoint holds it and a rollback restores it): x, v, then (t, h, step) to know it is
-      // the step just before the next one.
-      out.warm.resize(2 * n + 1);
-      std::copy(state.x.begin(), state.x.end(), out.warm.begin());
-      std::copy(state.v.begin(), state.v.end(), out.warm.begin() + static_cast<std::ptrdiff_t>(n));
-      out.warm[2 * n] = Vec3(ctx.t, h, static_cast<double>(ctx.step));
-    } else if (config_.warm_start == WarmStart::previous) {
-      out.warm = y_;
-    }
+    return done;
   }
 
- private:
   // Whether State::warm holds the state of the step just before this one, taken with this h.
   // After a timestep change, a resumed checkpoint of another integrator or a fresh start it does
   // not, and BDF2 restarts with one backward-Euler step (self-starting, first order).
@@ -398,6 +481,8 @@ class NewtonIntegrator final : public Integrator {
   const std::vector<Vec3> no_history_;
   std::vector<double> scale_;
   std::vector<Mat3> exact_;  // sys_.exact set aside while the modified system is solved
+  State sub_;                // substepping: the state the substeps have reached
+  Projection sub_out_;       // substepping: one substep's projection
   DirectSolver direct_;
   ConjugateGradient cg_;
   GaussSeidel gs_;

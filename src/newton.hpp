@@ -30,6 +30,13 @@
 // derivatives with every non-symmetric part and no clamp, solved by sparse LU. At steps where bonds turn by radians (four quanta at hω = 100: 80°
 // to 180° per step) the modified block misses most of J (‖J − Ã‖/‖J‖ = 0.8) and its direction
 // stops decreasing ‖R‖; J's symmetric part is indefinite there (docs/integrators.md).
+//
+// Substepping (energy_momentum, implicit_midpoint; newton.cpp): a step whose iteration still does
+// not converge is split in halves, each solved from the state the one before reached, recursively
+// down to h/2^8. A composition of discrete-gradient steps keeps E and both momenta as each step
+// does; the projection is the composite one, and the anchors' and dampers' work summed over the
+// substeps goes to the ledger (Projection::has_work). bdf2 is not split (its history is one
+// whole step back).
 #include <vector>
 
 #include "implicit_system.hpp"

@@ -26,10 +26,18 @@ struct Projection {
   /// The solver's solution to keep as State::warm when the step applies (WarmStart::previous
   /// only; empty otherwise). Kept apart from dv, which round-off makes differ from it.
   std::vector<Vec3> warm;
+  /// Set when the integrator took the step in substeps (the Newton integrators' fallback): the
+  /// work of the prescribed quanta and the dampers' loss summed over the substeps, which the
+  /// energy ledger charges instead of its whole-step estimate from dx, dv (docs/integrators.md).
+  bool has_work = false;
+  double work_anchors = 0;        ///< [J]
+  double dissipated_damping = 0;  ///< [J]
   void resize(std::size_t n) {
     dx.assign(n, Vec3::Zero());
     dv.assign(n, Vec3::Zero());
     warm.clear();
+    has_work = false;
+    work_anchors = dissipated_damping = 0;
   }
 };
 
@@ -107,6 +115,10 @@ struct SolveStats {
   int exact_iterations = 0;  ///< Newton integrators: iterations solved with the exact Jacobian (LU)
   int switches = 0;          ///< Newton integrators: changes between the exact and the modified
                              ///< matrix after a failed line search
+  int substeps = 0;          ///< Newton integrators: substeps the step was split into because its
+                             ///< Newton iteration did not converge (0: solved whole)
+  int unconverged = 0;       ///< Newton integrators: solves left above the tolerance (a whole
+                             ///< step, or substeps at the depth limit); 0 when the step converged
 };
 
 /// An integrator: owns its options and its scratch buffers (no allocation once warmed up).
