@@ -46,28 +46,6 @@ World lattice_block() {
   return w;
 }
 
-// ω_max = sqrt(λ_max(M⁻¹K)), K the bond stiffness at the initial state.
-double omega_max(const World& w) {
-  const Model& m = w.model;
-  const auto n = static_cast<Eigen::Index>(m.num_quanta());
-  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(3 * n, 3 * n);
-  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
-    const Index i = m.bond_i[b], j = m.bond_j[b];
-    const Vec3 d = w.state.x[j] - w.state.x[i];
-    const double r = d.norm();
-    const LawValue lv = m.law_at(b, r, w.state.rest[b]);
-    const Mat3 Kb = stiffness_block(lv.T, lv.dT, r, d / r, false);
-    K.block<3, 3>(3 * i, 3 * i) += Kb;
-    K.block<3, 3>(3 * j, 3 * j) += Kb;
-    K.block<3, 3>(3 * i, 3 * j) -= Kb;
-    K.block<3, 3>(3 * j, 3 * i) -= Kb;
-  }
-  Eigen::VectorXd s(3 * n);
-  for (Eigen::Index i = 0; i < n; ++i) s.segment<3>(3 * i).setConstant(std::sqrt(m.inv_mass[i]));
-  return std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(s.asDiagonal() * K * s.asDiagonal())
-                       .eigenvalues()
-                       .maxCoeff());
-}
 
 std::vector<Method> methods() {
   IntegratorConfig em;
@@ -119,7 +97,7 @@ void energy_momentum(const Options& opt, Report& rep) {
   std::vector<std::vector<Outcome>> out;
   for (const Case& c : cases) {
     const World w0 = c.make();
-    const double h = c.homega / omega_max(w0);
+    const double h = c.homega / max_angular_frequency(w0.model, w0.state);
     const std::string label = std::string(c.name) + "_h" + num(c.homega);
     out.emplace_back();
     for (const Method& m : ms) {

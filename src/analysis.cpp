@@ -1,6 +1,9 @@
 #include "qbond/analysis.hpp"
 
+#include <algorithm>
 #include <cmath>
+
+#include <Eigen/Eigenvalues>
 
 #include "parallel.hpp"
 
@@ -79,6 +82,27 @@ EnergyBudget energy_budget(const Model& model, const State& state) {
   b.dissipated_numerical = l.work_loads + l.work_anchors - l.dissipated_damping -
                            l.dissipated_heuristics - (b.now.total() - l.initial_total);
   return b;
+}
+
+double max_angular_frequency(const Model& m, const State& state) {
+  const auto n = static_cast<Eigen::Index>(m.num_quanta());
+  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(3 * n, 3 * n);
+  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
+    if (!state.alive[b]) continue;
+    const Index i = m.bond_i[b], j = m.bond_j[b];
+    const Vec3 d = state.x[j] - state.x[i];
+    const double r = d.norm();
+    const LawValue lv = m.law_at(b, r, state.rest[b]);
+    const Mat3 Kb = stiffness_block(lv.T, lv.dT, r, d / r, false);
+    K.block<3, 3>(3 * i, 3 * i) += Kb;
+    K.block<3, 3>(3 * j, 3 * j) += Kb;
+    K.block<3, 3>(3 * i, 3 * j) -= Kb;
+    K.block<3, 3>(3 * j, 3 * i) -= Kb;
+  }
+  Eigen::VectorXd s(3 * n);
+  for (Eigen::Index i = 0; i < n; ++i) s.segment<3>(3 * i).setConstant(std::sqrt(m.inv_mass[i]));  // kinematic: 0
+  const Eigen::MatrixXd A = s.asDiagonal() * K * s.asDiagonal();
+  return std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(A).eigenvalues().maxCoeff()));
 }
 
 }  // namespace qbond

@@ -23,6 +23,12 @@ Energies energies(const Model& model, const State& state, int threads = 1);
 Vec3 linear_momentum(const Model& model, const State& state);
 /// Σ m x × v over free quanta, about the origin [kg·m²/s].
 Vec3 angular_momentum(const Model& model, const State& state);
+/// Largest angular frequency of the free quanta's small vibrations about the state [rad/s]:
+/// ω_max = √λ_max(M^-1/2 K M^-1/2), K the bonds' stiffness blocks at their current lengths (kinematic
+/// quanta held). Dense eigenvalues of a 3n × 3n matrix: for small systems (tests, experiments);
+/// scene.hpp's explicit_step_hint bounds it cheaply for large ones.
+double max_angular_frequency(const Model& model, const State& state);
+
 /// Largest speed of a free quanta [m/s], and which one (n when there is none).
 std::pair<double, Index> max_speed(const Model& model, const State& state);
 
