@@ -17,13 +17,6 @@ double step_error(const Model& model, const State& state, const Projection& p, d
   return e;
 }
 
-namespace {
-double energy_scale(const Model& model, const State& state) {
-  const EnergyBudget b = energy_budget(model, state);
-  return std::max(std::abs(b.initial_total), std::abs(b.now.kinetic) + std::abs(b.now.bonds));
-}
-}  // namespace
-
 AdaptiveReport adaptive_step(Simulation& sim, const AdaptiveConfig& cfg, double t_end, const std::function<void()>& forces) {
   World& w = sim.world();
   const double max_step = cfg.max_step > 0 ? cfg.max_step : HUGE_VAL;
@@ -50,9 +43,10 @@ AdaptiveReport adaptive_step(Simulation& sim, const AdaptiveConfig& cfg, double 
     }
     rep.step = sim.end_step();
     bool undo = rep.step.status != StepReport::Status::ok;
-    if (!undo) {
-      const double drift = std::abs(energy_budget(w.model, w.state).dissipated_numerical - numerical0);
-      undo = drift > cfg.energy * energy_scale(w.model, w.state) * step / cfg.horizon;
+    if (!undo) {  // one energy pass gives both the drift and its scale
+      const EnergyBudget b = energy_budget(w.model, w.state);
+      const double scale = std::max(std::abs(b.initial_total), std::abs(b.now.kinetic) + std::abs(b.now.bonds));
+      undo = std::abs(b.dissipated_numerical - numerical0) > cfg.energy * scale * step / cfg.horizon;
     }
     if (undo && !at_min) {
       w.state = saved;

@@ -31,7 +31,8 @@ double scale_internal_velocities(const Model& model, const Adjacency& adj, State
       if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the smallest id is the root: deterministic
     }
   }
-  // Per component (indexed by its root): mass, momentum, centre, angular momentum, inertia.
+  // Per component: mass, momentum, centre, angular momentum, inertia. Components are numbered in
+  // the order of their roots (the smallest id), so sums run in a fixed order for any thread count.
   struct Part {
     double m = 0;
     Vec3 p = Vec3::Zero(), mx = Vec3::Zero(), l = Vec3::Zero();
@@ -39,11 +40,18 @@ double scale_internal_velocities(const Model& model, const Adjacency& adj, State
     bool anchored = false;
     Vec3 v = Vec3::Zero(), c = Vec3::Zero(), w = Vec3::Zero();
   };
-  std::vector<Part> part(n);
-  std::vector<Index> root(n);
+  std::vector<Part> part;
+  std::vector<Index> comp(n, 0);  // the component of each free quanta
   for (std::size_t i = 0; i < n; ++i) {
     if (model.is_kinematic(static_cast<Index>(i))) continue;
-    Part& q = part[root[i] = find(parent, static_cast<Index>(i))];
+    const Index r = find(parent, static_cast<Index>(i));
+    if (r == i) {
+      comp[i] = static_cast<Index>(part.size());
+      part.emplace_back();
+    } else {
+      comp[i] = comp[r];  // r < i: numbered already
+    }
+    Part& q = part[comp[i]];
     q.m += model.mass[i];
     q.mx += model.mass[i] * state.x[i];
     q.p += model.mass[i] * state.v[i];
@@ -51,15 +59,13 @@ double scale_internal_velocities(const Model& model, const Adjacency& adj, State
   }
   for (std::size_t i = 0; i < n; ++i) {
     if (model.is_kinematic(static_cast<Index>(i))) continue;
-    Part& q = part[root[i]];
+    Part& q = part[comp[i]];
     if (q.anchored) continue;
     const Vec3 r = state.x[i] - q.mx / q.m;
     q.l += model.mass[i] * r.cross(state.v[i] - q.p / q.m);
     q.inertia += model.mass[i] * (r.squaredNorm() * Mat3::Identity() - r * r.transpose());
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (model.is_kinematic(static_cast<Index>(i)) || root[i] != i) continue;
-    Part& q = part[i];
+  for (Part& q : part) {
     if (q.anchored) continue;
     q.v = q.p / q.m;
     q.c = q.mx / q.m;
@@ -67,7 +73,7 @@ double scale_internal_velocities(const Model& model, const Adjacency& adj, State
     q.w = q.inertia.completeOrthogonalDecomposition().solve(q.l);
   }
   auto internal = [&](std::size_t i) -> Vec3 {
-    const Part& q = part[root[i]];
+    const Part& q = part[comp[i]];
     return q.anchored ? state.v[i] : Vec3(state.v[i] - q.v - q.w.cross(state.x[i] - q.c));
   };
   double k_internal = 0;
