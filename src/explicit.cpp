@@ -23,7 +23,8 @@ class ExplicitIntegrator final : public Integrator {
     const double h = ctx.h;
     out.resize(n);
     project_kinematic(model, state, ctx, out);
-    accelerations(model, state, adj, state.x, state.v, f_ext, config_.threads, fb_, a1_);
+    part_.update(model, state, adj, config_.threads);
+    accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, a1_);
     switch (config_.type) {
       case IntegratorType::explicit_euler:
         for (std::size_t i = 0; i < n; ++i) set_free(model, i, out, h * state.v[i], h * a1_[i]);
@@ -40,7 +41,7 @@ class ExplicitIntegrator final : public Integrator {
         stage(model, state, out, 1.0, [&](std::size_t i) {
           return std::pair{Vec3(h * state.v[i] + 0.5 * h * h * a1_[i]), Vec3(h * a1_[i])};
         });
-        accelerations(model, state, adj, xs_, vs_, f_ext, config_.threads, fb_, a2_);
+        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, a2_);
         for (std::size_t i = 0; i < n; ++i)
           set_free(model, i, out, xs_[i] - state.x[i], 0.5 * h * (a1_[i] + a2_[i]));
         break;
@@ -52,16 +53,16 @@ class ExplicitIntegrator final : public Integrator {
           return std::pair{Vec3(0.5 * h * state.v[i]), Vec3(0.5 * h * a1_[i])};
         });
         v2_ = vs_;
-        accelerations(model, state, adj, xs_, vs_, f_ext, config_.threads, fb_, a2_);
+        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, a2_);
         stage(model, state, out, 0.5, [&](std::size_t i) {
           return std::pair{Vec3(0.5 * h * v2_[i]), Vec3(0.5 * h * a2_[i])};
         });
         v3_ = vs_;
-        accelerations(model, state, adj, xs_, vs_, f_ext, config_.threads, fb_, a3_);
+        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, a3_);
         stage(model, state, out, 1.0, [&](std::size_t i) {
           return std::pair{Vec3(h * v3_[i]), Vec3(h * a3_[i])};
         });
-        accelerations(model, state, adj, xs_, vs_, f_ext, config_.threads, fb_, a4_);
+        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, a4_);
         for (std::size_t i = 0; i < n; ++i)
           set_free(model, i, out, (h / 6) * (state.v[i] + 2 * v2_[i] + 2 * v3_[i] + vs_[i]),
                    (h / 6) * (a1_[i] + 2 * a2_[i] + 2 * a3_[i] + a4_[i]));
@@ -100,7 +101,8 @@ class ExplicitIntegrator final : public Integrator {
     }
   }
 
-  std::vector<Vec3> a1_, a2_, a3_, a4_, xs_, vs_, v2_, v3_, fb_;
+  std::vector<Vec3> a1_, a2_, a3_, a4_, xs_, vs_, v2_, v3_;
+  BondPartition part_;
 };
 
 }  // namespace

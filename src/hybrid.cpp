@@ -20,27 +20,24 @@ class HybridIntegrator final : public Integrator {
 
   void project(const Model& model, const State& state, const Adjacency& adj,
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
-    const std::size_t n = model.num_quanta();
-    const bool frozen = config_.neighbours == NeighbourModel::frozen;
     const int threads = config_.threads;
-    begin_implicit_step(model, state, adj, f_ext, ctx, frozen, threads, out, sys_);
     stats_ = {};
-    if (frozen) {
-      y_.resize(n);
-      // Kinematic rows: diag_inv = I and rhs = 0, so they get 0.
-      parallel_for(n, threads, [&](std::size_t i) { y_[i] = sys_.diag_inv[i] * sys_.rhs[i]; });
+    if (config_.neighbours == NeighbourModel::frozen) {
+      part_.update(model, state, adj, threads);
+      frozen_.project(model, state, part_, f_ext, ctx, threads, out);
       stats_.iterations = 1;
-    } else {
-      topo_.update(model, adj);
-      initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, y_);
-      if (config_.neighbours == NeighbourModel::sweep)
-        gs_.solve(adj, sys_, topo_.coloring, config_.iterations, config_.tolerance, config_.chebyshev_rho,
-                  threads, y_, stats_);
-      else
-        jacobi(adj);
-      if (config_.restore_momentum) restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
-      if (config_.warm_start == WarmStart::previous) out.warm = y_;
+      return;
     }
+    begin_implicit_step(model, state, adj, f_ext, ctx, threads, out, sys_);
+    topo_.update(model, adj);
+    initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, y_);
+    if (config_.neighbours == NeighbourModel::sweep)
+      gs_.solve(adj, sys_, topo_.coloring, config_.iterations, config_.tolerance, config_.chebyshev_rho, threads,
+                y_, stats_);
+    else
+      jacobi(adj);
+    if (config_.restore_momentum) restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
+    if (config_.warm_start == WarmStart::previous) out.warm = y_;
     write_free_rows(model, state, ctx.h, y_, out);
   }
 
@@ -78,6 +75,8 @@ class HybridIntegrator final : public Integrator {
   }
 
   ImplicitSystem sys_;
+  FrozenStep frozen_;
+  BondPartition part_;
   TopologyCache topo_;
   GaussSeidel gs_;
   std::vector<Vec3> y_, next_;

@@ -9,8 +9,8 @@
 namespace qbond {
 
 void begin_implicit_step(const Model& model, const State& state, const Adjacency& adj,
-                         const std::vector<Vec3>& f_ext, const StepContext& ctx, bool frozen, int threads,
-                         Projection& kin, ImplicitSystem& sys) {
+                         const std::vector<Vec3>& f_ext, const StepContext& ctx, int threads, Projection& kin,
+                         ImplicitSystem& sys) {
   const std::size_t n = model.num_quanta(), nb = model.num_bonds();
   kin.resize(n);
   project_kinematic(model, state, ctx, kin);
@@ -20,44 +20,26 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
   auto dx0 = [&](Index i) -> Vec3 { return model.is_kinematic(i) ? kin.dx[i] : Vec3(h * state.v[i]); };
   auto dvk = [&](Index i) -> Vec3 { return model.is_kinematic(i) ? kin.dv[i] : Vec3::Zero(); };
 
-  // Per bond: u, B_b's coefficients and the right-hand-side term g_b (on i; j gets -g_b). With
-  // `frozen` the neighbours sit at their start positions and at rest, so g_b = h f and each end
-  // adds its own -h K Δx₀ when gathering (hence K's coefficients).
+  // Per bond: u, B_b's coefficients and the right-hand-side term g_b (on i; j gets -g_b).
   sys.bonds.resize(nb);
   parallel_for(nb, threads, [&](std::size_t b) {
-    Vec3 u = Vec3::Zero(), f = Vec3::Zero();
-    double ka = 0, kb = 0, ca = 0, cb = 0;  // K_b = ka uuᵀ + kb I, C_b = ca uuᵀ + cb I
-    const Index i = model.bond_i[b], j = model.bond_j[b];
-    const Vec3 d = state.x[j] - state.x[i];
-    const double r = d.norm();
-    if (state.alive[b] && r > 0) {  // a zero-length bond has no direction: no force, no coupling
-      u = d / r;
-      const LawValue lv = model.law_at(b, r, state.rest[b]);
-      const Vec3 w = state.v[j] - state.v[i];
-      const double D = model.damping[b];
-      const bool axial = model.damping_model[b] == DampingModel::axial;
-      f = lv.T * u + (axial ? Vec3(D * w.dot(u) * u) : Vec3(D * w));
-      // Clamped at 0 so that A stays positive definite (laws.hpp, stiffness_block).
-      const double k_axial = std::max(lv.dT, 0.0), k_transverse = std::max(lv.T / r, 0.0);
-      ka = k_axial - k_transverse;
-      kb = k_transverse;
-      (axial ? ca : cb) = D;
-    }
     BondBlock& bb = sys.bonds[b];
-    bb.u = u;
-    bb.Ba = h * ca + (h * h) * ka;
-    bb.Bb = h * cb + (h * h) * kb;
-    bb.Ka = ka;
-    bb.Kb = kb;
+    const Index i = model.bond_i[b], j = model.bond_j[b];
     bb.i = i;
-    if (frozen) {
-      bb.g = h * f;
-    } else {
-      const Vec3 dx = dx0(i) - dx0(j), dv = dvk(i) - dvk(j);
-      bb.g = h * f - h * block_times(u, ka, kb, dx) - h * block_times(u, ca, cb, dv);
+    if (!state.alive[b]) {
+      bb.u.setZero();
+      bb.Ba = bb.Bb = 0;
+      bb.g.setZero();
+      return;
     }
+    const BondLinearisation l = linearise_bond(model, state, static_cast<Index>(b));
+    bb.u = l.u;
+    bb.Ba = h * l.ca + (h * h) * l.ka;
+    bb.Bb = h * l.cb + (h * h) * l.kb;
+    const Vec3 dx = dx0(i) - dx0(j), dv = dvk(i) - dvk(j);
+    bb.g = h * l.f - h * block_times(l.u, l.ka, l.kb, dx) - h * block_times(l.u, l.ca, l.cb, dv);
   });
-  assemble_blocks(model, adj, frozen, threads, sys);
+  assemble_blocks(model, adj, threads, sys);
   // Per quanta, gathered over its bonds in bond order: b_i = h f_ext + Σ ±g_b.
   sys.rhs.resize(n);
   parallel_for(n, threads, [&](std::size_t q) {
@@ -67,13 +49,9 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
       return;
     }
     Vec3 r = h * f_ext[i];
-    const Vec3 dxi = dx0(i);
     for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
       const BondBlock& bb = sys.bonds[adj.bond[e]];
-      const bool first = bb.i == i;
-      if (frozen)
-        r += (first ? bb.g : Vec3(-bb.g)) - h * block_times(bb.u, bb.Ka, bb.Kb, dxi);
-      else if (first)
+      if (bb.i == i)
         r += bb.g;
       else
         r -= bb.g;
@@ -83,11 +61,11 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
   sys.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return sys.rhs[i].squaredNorm(); }));
 }
 
-void assemble_blocks(const Model& model, const Adjacency& adj, bool frozen, int threads, ImplicitSystem& sys) {
+void assemble_blocks(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys) {
   const std::size_t n = model.num_quanta();
   sys.diag.resize(n);
   sys.diag_inv.resize(n);
-  sys.edges.resize(frozen ? 0 : adj.offset[n]);  // the frozen step never couples neighbours
+  sys.edges.resize(adj.offset[n]);
   parallel_for(n, threads, [&](std::size_t q) {
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i)) {
@@ -99,14 +77,58 @@ void assemble_blocks(const Model& model, const Adjacency& adj, bool frozen, int 
     for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
       const BondBlock& bb = sys.bonds[adj.bond[e]];
       d += block_matrix(bb.u, bb.Ba, bb.Bb);
-      if (!frozen) {
-        const bool coupled = !model.is_kinematic(adj.other[e]);
-        sys.edges[e] = {bb.u, coupled ? bb.Ba : 0.0, coupled ? bb.Bb : 0.0};
-      }
+      const bool coupled = !model.is_kinematic(adj.other[e]);
+      sys.edges[e] = {bb.u, coupled ? bb.Ba : 0.0, coupled ? bb.Bb : 0.0};
     }
     sys.diag[i] = d;
     // A_ii = m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
     sys.diag_inv[i] = d.inverse();
+  });
+}
+
+void FrozenStep::project(const Model& model, const State& state, const BondPartition& part,
+                         const std::vector<Vec3>& f_ext, const StepContext& ctx, int threads, Projection& out) {
+  const std::size_t n = model.num_quanta();
+  const double h = ctx.h, h2 = h * h;
+  out.resize(n);
+  project_kinematic(model, state, ctx, out);
+  rows.resize(n);
+  parallel_for(n, threads, [&](std::size_t i) {
+    Row& row = rows[i];
+    std::fill(row.a, row.a + 3, model.mass[i]);
+    std::fill(row.a + 3, row.a + 6, 0.0);
+    row.b = h * f_ext[i];
+  });
+  for_each_bond(part, model, [&](Index b, bool own_i, bool own_j) {
+    const Index i = model.bond_i[b], j = model.bond_j[b];
+    own_i = own_i && !model.is_kinematic(i);  // kinematic rows are not solved for
+    own_j = own_j && !model.is_kinematic(j);
+    if (!own_i && !own_j) return;
+    const BondLinearisation l = linearise_bond(model, state, b);
+    const double Ba = h * l.ca + h2 * l.ka, Bb = h * l.cb + h2 * l.kb;
+    const Vec3 au = Ba * l.u;
+    const double B[6] = {au.x() * l.u.x() + Bb, au.y() * l.u.y() + Bb, au.z() * l.u.z() + Bb,
+                         au.x() * l.u.y(),      au.x() * l.u.z(),      au.y() * l.u.z()};
+    const Vec3 g = h * l.f;
+    // Each end: A_ii += B_b, b_i += ±h f_b − h K_b Δx₀ with Δx₀ = h v_i.
+    auto add = [&](Index q, const Vec3& gq) {
+      Row& row = rows[q];
+      for (int k = 0; k < 6; ++k) row.a[k] += B[k];
+      row.b += gq - h * block_times(l.u, l.ka, l.kb, Vec3(h * state.v[q]));
+    };
+    if (own_i) add(i, g);
+    if (own_j) add(j, -g);
+  });
+  parallel_for(n, threads, [&](std::size_t q) {
+    const auto i = static_cast<Index>(q);
+    if (model.is_kinematic(i)) return;
+    const double* a = rows[i].a;
+    Mat3 A;
+    A << a[0], a[3], a[4], a[3], a[1], a[5], a[4], a[5], a[2];
+    // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
+    const Vec3 dv = A.inverse() * rows[i].b;
+    out.dv[i] = dv;
+    out.dx[i] = h * (state.v[i] + dv);
   });
 }
 

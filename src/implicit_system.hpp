@@ -11,11 +11,14 @@
 // The paper's hybrid (`frozen`) keeps only the diagonal blocks and drops the neighbours' terms
 // from the right-hand side: A_ii Δv_i = h f_i - h² (Σ_b K_b) v_i (Eq. 12).
 #include <Eigen/Sparse>
+#include <algorithm>
 #include <vector>
 
+#include "bond_partition.hpp"
 #include "coloring.hpp"
 #include "qbond/world.hpp"
 #include "qbond/integrators.hpp"
+#include "qbond/laws.hpp"
 
 namespace qbond {
 
@@ -30,13 +33,39 @@ inline Mat3 block_matrix(const Vec3& u, double a, double b) {
   return m;
 }
 
-// One bond's part of the step, kept in one record because the quanta pass reads it at random
-// (through the adjacency): 88 bytes, two cache lines at most, instead of a line per array.
+// One bond's linearisation at the start of the step: its unit vector u (bond_i to bond_j), its
+// force on bond_i (law plus damping), and its stiffness and damping blocks, K_b = ka u uᵀ + kb I
+// (clamped at 0 so that A stays positive definite: laws.hpp, stiffness_block) and
+// C_b = ca u uᵀ + cb I. All 0 for a zero-length bond, which has no direction.
+struct BondLinearisation {
+  Vec3 u = Vec3::Zero(), f = Vec3::Zero();
+  double ka = 0, kb = 0, ca = 0, cb = 0;
+};
+inline BondLinearisation linearise_bond(const Model& model, const State& state, Index b) {
+  BondLinearisation l;
+  const Index i = model.bond_i[b], j = model.bond_j[b];
+  const Vec3 d = state.x[j] - state.x[i];
+  const double r = d.norm();
+  if (!(r > 0)) return l;
+  l.u = d / r;
+  const LawValue lv = model.law_at(b, r, state.rest[b]);
+  const Vec3 w = state.v[j] - state.v[i];
+  const double D = model.damping[b];
+  const bool axial = model.damping_model[b] == DampingModel::axial;
+  l.f = lv.T * l.u + (axial ? Vec3(D * w.dot(l.u) * l.u) : Vec3(D * w));
+  const double k_axial = std::max(lv.dT, 0.0), k_transverse = std::max(lv.T / r, 0.0);
+  l.ka = k_axial - k_transverse;
+  l.kb = k_transverse;
+  (axial ? l.ca : l.cb) = D;
+  return l;
+}
+
+// One bond's part of the coupled step, kept in one record because the quanta pass reads it at
+// random (through the adjacency).
 struct BondBlock {
   Vec3 u = Vec3::Zero();  // unit vector from bond_i to bond_j; 0 if broken or zero-length
   double Ba = 0, Bb = 0;  // B_b = h C_b + h² K_b = Ba u uᵀ + Bb I
   Vec3 g = Vec3::Zero();  // the right-hand-side term on bond_i (bond_j gets -g)
-  double Ka = 0, Kb = 0;  // K_b = Ka u uᵀ + Kb I (`frozen` steps only)
   Index i = 0;            // bond_i, so that a quanta knows its end without another lookup
 };
 
@@ -49,7 +78,7 @@ struct EdgeBlock {
 
 struct ImplicitSystem {
   std::vector<BondBlock> bonds;  // (nb)
-  std::vector<EdgeBlock> edges;  // per adjacency entry of a free quanta (adj.offset[n]; empty if frozen)
+  std::vector<EdgeBlock> edges;  // per adjacency entry of a free quanta (adj.offset[n])
   std::vector<Mat3> diag;      // A_ii (n); identity for kinematic quanta
   std::vector<Mat3> diag_inv;  // A_ii⁻¹ (n)
   std::vector<Vec3> rhs;       // b (n); 0 for kinematic quanta
@@ -63,16 +92,30 @@ struct ImplicitSystem {
 // Starts an implicit step: sizes `out` and fills its kinematic rows (project_kinematic), then
 // builds A's blocks and b in two passes: one over the bonds (each bond's direction, force and
 // block coefficients computed once, for both ends), one over the quanta (each gathers its bonds
-// in bond order, so any thread count gives the same bits). With `frozen`, b omits the
-// neighbours' motion (Eq. 12 literally).
+// in bond order, so any thread count gives the same bits).
 void begin_implicit_step(const Model& model, const State& state, const Adjacency& adj,
-                         const std::vector<Vec3>& f_ext, const StepContext& ctx, bool frozen, int threads,
-                         Projection& out, ImplicitSystem& sys);
+                         const std::vector<Vec3>& f_ext, const StepContext& ctx, int threads, Projection& out,
+                         ImplicitSystem& sys);
 
 // A's blocks from the bonds' B_b (sys.bonds[b].u, Ba, Bb): diag = m I + Σ B_b and its inverse for
-// every free quanta (identity for kinematic ones) and, unless `frozen`, the edge blocks, gathered
-// in bond order (the same bits for any thread count). Leaves rhs alone.
-void assemble_blocks(const Model& model, const Adjacency& adj, bool frozen, int threads, ImplicitSystem& sys);
+// every free quanta (identity for kinematic ones) and the edge blocks, gathered in bond order (the
+// same bits for any thread count). Leaves rhs alone.
+void assemble_blocks(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys);
+
+// The paper's hybrid step (Eq. 12: neighbours held at their start positions and at rest), in one
+// bond-centric pass (bond_partition.hpp) and one pass over the quanta. Each bond is linearised
+// once and added to its free ends' A_ii = m I + Σ B_b (kept as its six distinct entries) and
+// b_i = h f_ext,i + Σ ±h f_b − h K_b (h v_i); then Δv_i = A_ii⁻¹ b_i goes straight into `out`
+// (dx = h (v + Δv), Eq. 10), whose kinematic rows come from project_kinematic.
+struct FrozenStep {
+  struct Row {
+    double a[6];  // A_ii: xx, yy, zz, xy, xz, yz
+    Vec3 b;
+  };
+  std::vector<Row> rows;
+  void project(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& f_ext,
+               const StepContext& ctx, int threads, Projection& out);
+};
 
 // A's off-diagonal part times y for free quanta i: Σ over i's bonds to free quanta of B_b y_j.
 inline Vec3 neighbours_times(const Adjacency& adj, const ImplicitSystem& sys, Index i, const std::vector<Vec3>& y) {

@@ -133,11 +133,12 @@ TEST(Laws, NewtonsThirdLawHoldsExactly) {
   for (Law law : {Law::linear, Law::inverse}) {
     World w = test::lattice(3, 3, 3, 500, 1e-3, 0.2, false, Vec3::Zero(), law);
     test::perturb(w, 1e-3, 0.1);
-    std::vector<Vec3> f(w.num_quanta(), Vec3::Zero()), per_bond;
+    std::vector<Vec3> f(w.num_quanta(), Vec3::Zero());
     Adjacency adj;
     build_adjacency(w.model, w.state, adj);
-    bond_forces(w.model, w.state, w.state.x, w.state.v, 1, per_bond);
-    gather_bond_forces(w.model, adj, per_bond, 1, f);
+    BondPartition part;
+    part.update(w.model, w.state, adj, 1);
+    add_bond_forces(w.model, w.state, part, w.state.x, w.state.v, f);
     Vec3 sum = Vec3::Zero();
     double scale = 0;
     for (const Vec3& fi : f) {

@@ -1,0 +1,37 @@
+#include "bond_partition.hpp"
+
+#include <algorithm>
+#include <cassert>
+
+namespace qbond {
+
+void BondPartition::update(const Model& model, const State& state, const Adjacency& adj, int threads_wanted) {
+  const std::size_t n = model.num_quanta(), nb = model.num_bonds();
+  assert(adj.version == state.topology_version);
+  if (version == state.topology_version && threads == threads_wanted && num_quanta == n && num_bonds == nb) return;
+  const int parts = n < kParallelMin ? 1 : std::max(1, thread_count(threads_wanted));
+  // Range boundaries at equal shares of the bond ends.
+  first.assign(static_cast<std::size_t>(parts) + 1, 0);
+  const auto ends = static_cast<std::size_t>(adj.offset[n]);
+  for (int p = 1; p < parts; ++p) {
+    const auto target = static_cast<Index>(ends * static_cast<std::size_t>(p) / static_cast<std::size_t>(parts));
+    first[p] = static_cast<Index>(std::lower_bound(adj.offset.begin(), adj.offset.end() - 1, target) -
+                                  adj.offset.begin());
+  }
+  first[parts] = static_cast<Index>(n);
+  offset.assign(static_cast<std::size_t>(parts) + 1, 0);
+  bonds.clear();
+  for (int p = 0; p < parts; ++p) {
+    const Index lo = first[p], hi = first[p + 1];
+    auto mine = [&](Index q) { return q >= lo && q < hi; };
+    for (std::size_t b = 0; b < nb; ++b)
+      if (state.alive[b] && (mine(model.bond_i[b]) || mine(model.bond_j[b]))) bonds.push_back(static_cast<Index>(b));
+    offset[p + 1] = static_cast<Index>(bonds.size());
+  }
+  version = state.topology_version;
+  threads = threads_wanted;
+  num_quanta = n;
+  num_bonds = nb;
+}
+
+}  // namespace qbond
