@@ -22,7 +22,7 @@ class CoupledIntegrator final : public Integrator {
     switch (config_.solver) {
       case CoupledSolver::dense:
       case CoupledSolver::ldlt:
-        direct_.solve(config_.solver, model, state, sys_, y_);
+        direct_.solve(config_.solver, model, state, adj, sys_, y_);
         break;
       case CoupledSolver::cg:
         topo_.update(model, adj);

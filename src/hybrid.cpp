@@ -23,8 +23,7 @@ class HybridIntegrator final : public Integrator {
     const int threads = config_.threads;
     stats_ = {};
     if (config_.neighbours == NeighbourModel::frozen) {
-      part_.update(model, state, adj, threads);
-      frozen_.project(model, state, part_, f_ext, ctx, threads, out);
+      frozen_.project(model, state, adj, f_ext, ctx, threads, out);
       stats_.iterations = 1;
       return;
     }
@@ -76,7 +75,6 @@ class HybridIntegrator final : public Integrator {
 
   ImplicitSystem sys_;
   FrozenStep frozen_;
-  BondPartition part_;
   TopologyCache topo_;
   GaussSeidel gs_;
   std::vector<Vec3> y_, next_;

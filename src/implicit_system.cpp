@@ -11,52 +11,66 @@ namespace qbond {
 void begin_implicit_step(const Model& model, const State& state, const Adjacency& adj,
                          const std::vector<Vec3>& f_ext, const StepContext& ctx, int threads, Projection& kin,
                          ImplicitSystem& sys) {
-  const std::size_t n = model.num_quanta(), nb = model.num_bonds();
+  const std::size_t n = model.num_quanta();
   kin.resize(n);
   project_kinematic(model, state, ctx, kin);
-  const double h = ctx.h;
+  const double h = ctx.h, h2 = h * h;
+  sys.part.update(model, state, adj, threads);
+  sys.rows.resize(n);
+  sys.cursor.resize(n);
+  sys.edges.resize(adj.offset[n]);
+  parallel_for(n, threads, [&](std::size_t i) {
+    sys.rows[i].start(model.mass[i], h * f_ext[i]);
+    sys.cursor[i] = adj.offset[i];
+  });
 
   // Δx₀ and Δv_k, the motion already known before solving (see the header).
   auto dx0 = [&](Index i) -> Vec3 { return model.is_kinematic(i) ? kin.dx[i] : Vec3(h * state.v[i]); };
   auto dvk = [&](Index i) -> Vec3 { return model.is_kinematic(i) ? kin.dv[i] : Vec3::Zero(); };
 
-  // Per bond: u, B_b's coefficients and the right-hand-side term g_b (on i; j gets -g_b).
-  sys.bonds.resize(nb);
-  parallel_for(nb, threads, [&](std::size_t b) {
-    BondBlock& bb = sys.bonds[b];
+  // Per bond: u, B_b and g_b, the right-hand-side term on i (j gets −g_b). A quanta's bonds come in
+  // bond order, which is the order of its adjacency entries: its cursor walks them.
+  for_each_bond(sys.part, model, [&](Index b, bool own_i, bool own_j) {
     const Index i = model.bond_i[b], j = model.bond_j[b];
-    bb.i = i;
-    if (!state.alive[b]) {
-      bb.u.setZero();
-      bb.Ba = bb.Bb = 0;
-      bb.g.setZero();
-      return;
-    }
-    const BondLinearisation l = linearise_bond(model, state, static_cast<Index>(b));
-    bb.u = l.u;
-    bb.Ba = h * l.ca + (h * h) * l.ka;
-    bb.Bb = h * l.cb + (h * h) * l.kb;
+    const bool free_i = !model.is_kinematic(i), free_j = !model.is_kinematic(j);
+    own_i = own_i && free_i;  // kinematic rows are not solved for
+    own_j = own_j && free_j;
+    if (!own_i && !own_j) return;
+    const BondLinearisation l = linearise_bond(model, state, b);
+    const double Ba = h * l.ca + h2 * l.ka, Bb = h * l.cb + h2 * l.kb;
+    double B[6];
+    block_entries(l.u, Ba, Bb, B);
     const Vec3 dx = dx0(i) - dx0(j), dv = dvk(i) - dvk(j);
-    bb.g = h * l.f - h * block_times(l.u, l.ka, l.kb, dx) - h * block_times(l.u, l.ca, l.cb, dv);
+    const Vec3 g = h * l.f - h * block_times(l.u, l.ka, l.kb, dx) - h * block_times(l.u, l.ca, l.cb, dv);
+    // An edge towards a kinematic neighbour is 0: its unknown is eliminated.
+    if (own_i) {
+      DiagonalRow& row = sys.rows[i];
+      row.add_block(B);
+      row.b += g;
+      sys.edges[sys.cursor[i]++] = {l.u, free_j ? Ba : 0.0, free_j ? Bb : 0.0};
+    }
+    if (own_j) {
+      DiagonalRow& row = sys.rows[j];
+      row.add_block(B);
+      row.b -= g;
+      sys.edges[sys.cursor[j]++] = {l.u, free_i ? Ba : 0.0, free_i ? Bb : 0.0};
+    }
   });
-  assemble_blocks(model, adj, threads, sys);
-  // Per quanta, gathered over its bonds in bond order: b_i = h f_ext + Σ ±g_b.
+  sys.diag.resize(n);
+  sys.diag_inv.resize(n);
   sys.rhs.resize(n);
   parallel_for(n, threads, [&](std::size_t q) {
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i)) {
+      sys.diag[i].setIdentity();
+      sys.diag_inv[i].setIdentity();
       sys.rhs[i].setZero();
       return;
     }
-    Vec3 r = h * f_ext[i];
-    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
-      const BondBlock& bb = sys.bonds[adj.bond[e]];
-      if (bb.i == i)
-        r += bb.g;
-      else
-        r -= bb.g;
-    }
-    sys.rhs[i] = r;
+    sys.diag[i] = sys.rows[i].matrix();
+    // A_ii = m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
+    sys.diag_inv[i] = sys.diag[i].inverse();
+    sys.rhs[i] = sys.rows[i].b;
   });
   sys.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return sys.rhs[i].squaredNorm(); }));
 }
@@ -86,34 +100,28 @@ void assemble_blocks(const Model& model, const Adjacency& adj, int threads, Impl
   });
 }
 
-void FrozenStep::project(const Model& model, const State& state, const BondPartition& part,
+void FrozenStep::project(const Model& model, const State& state, const Adjacency& adj,
                          const std::vector<Vec3>& f_ext, const StepContext& ctx, int threads, Projection& out) {
   const std::size_t n = model.num_quanta();
   const double h = ctx.h, h2 = h * h;
   out.resize(n);
   project_kinematic(model, state, ctx, out);
+  part.update(model, state, adj, threads);
   rows.resize(n);
-  parallel_for(n, threads, [&](std::size_t i) {
-    Row& row = rows[i];
-    std::fill(row.a, row.a + 3, model.mass[i]);
-    std::fill(row.a + 3, row.a + 6, 0.0);
-    row.b = h * f_ext[i];
-  });
+  parallel_for(n, threads, [&](std::size_t i) { rows[i].start(model.mass[i], h * f_ext[i]); });
   for_each_bond(part, model, [&](Index b, bool own_i, bool own_j) {
     const Index i = model.bond_i[b], j = model.bond_j[b];
     own_i = own_i && !model.is_kinematic(i);  // kinematic rows are not solved for
     own_j = own_j && !model.is_kinematic(j);
     if (!own_i && !own_j) return;
     const BondLinearisation l = linearise_bond(model, state, b);
-    const double Ba = h * l.ca + h2 * l.ka, Bb = h * l.cb + h2 * l.kb;
-    const Vec3 au = Ba * l.u;
-    const double B[6] = {au.x() * l.u.x() + Bb, au.y() * l.u.y() + Bb, au.z() * l.u.z() + Bb,
-                         au.x() * l.u.y(),      au.x() * l.u.z(),      au.y() * l.u.z()};
+    double B[6];
+    block_entries(l.u, h * l.ca + h2 * l.ka, h * l.cb + h2 * l.kb, B);
     const Vec3 g = h * l.f;
     // Each end: A_ii += B_b, b_i += ±h f_b − h K_b Δx₀ with Δx₀ = h v_i.
     auto add = [&](Index q, const Vec3& gq) {
-      Row& row = rows[q];
-      for (int k = 0; k < 6; ++k) row.a[k] += B[k];
+      DiagonalRow& row = rows[q];
+      row.add_block(B);
       row.b += gq - h * block_times(l.u, l.ka, l.kb, Vec3(h * state.v[q]));
     };
     if (own_i) add(i, g);
@@ -122,11 +130,8 @@ void FrozenStep::project(const Model& model, const State& state, const BondParti
   parallel_for(n, threads, [&](std::size_t q) {
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i)) return;
-    const double* a = rows[i].a;
-    Mat3 A;
-    A << a[0], a[3], a[4], a[3], a[1], a[5], a[4], a[5], a[2];
     // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-    const Vec3 dv = A.inverse() * rows[i].b;
+    const Vec3 dv = rows[i].matrix().inverse() * rows[i].b;
     out.dv[i] = dv;
     out.dx[i] = h * (state.v[i] + dv);
   });
@@ -145,7 +150,7 @@ void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem
   });
 }
 
-Eigen::Index assemble_system(const Model& model, const State& state, const ImplicitSystem& sys,
+Eigen::Index assemble_system(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
                              std::vector<Eigen::Index>& dof, std::vector<Eigen::Triplet<double>>& triplets,
                              Eigen::SparseMatrix<double>& A, Eigen::VectorXd& b) {
   const std::size_t n = model.num_quanta();
@@ -161,32 +166,41 @@ Eigen::Index assemble_system(const Model& model, const State& state, const Impli
   };
   const bool exact = !sys.exact.empty();
   assert(!exact || sys.exact.size() == model.num_bonds());
-  for (std::size_t i = 0; i < n; ++i)
-    if (dof[i] >= 0) {
-      b.segment<3>(dof[i]) = sys.rhs[i];
-      add_block(dof[i], dof[i], exact ? Mat3(model.mass[i] * Mat3::Identity()) : sys.diag[i]);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (dof[i] < 0) continue;
+    b.segment<3>(dof[i]) = sys.rhs[i];
+    if (exact) {
+      add_block(dof[i], dof[i], model.mass[i] * Mat3::Identity());
+      continue;
     }
-  for (std::size_t k = 0; k < model.num_bonds(); ++k) {
-    const Eigen::Index p = dof[model.bond_i[k]], q = dof[model.bond_j[k]];
-    if (!state.alive[k] || (p < 0 && q < 0)) continue;
-    const Mat3 B = exact ? sys.exact[k] : block_matrix(sys.bonds[k].u, sys.bonds[k].Ba, sys.bonds[k].Bb);
-    if (exact) {  // sys.diag holds the a u uᵀ + b I blocks' sums: the diagonal is summed here
+    add_block(dof[i], dof[i], sys.diag[i]);
+    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+      const Eigen::Index q = dof[adj.other[e]];
+      const EdgeBlock& eb = sys.edges[e];
+      if (q >= 0) add_block(dof[i], q, -block_matrix(eb.u, eb.Ba, eb.Bb));
+    }
+  }
+  if (exact) {
+    for (std::size_t k = 0; k < model.num_bonds(); ++k) {
+      const Eigen::Index p = dof[model.bond_i[k]], q = dof[model.bond_j[k]];
+      if (!state.alive[k] || (p < 0 && q < 0)) continue;
+      const Mat3& B = sys.exact[k];
       if (p >= 0) add_block(p, p, B);
       if (q >= 0) add_block(q, q, B);
+      if (p < 0 || q < 0) continue;
+      add_block(p, q, -B);
+      add_block(q, p, -B);
     }
-    if (p < 0 || q < 0) continue;
-    add_block(p, q, -B);
-    add_block(q, p, -B);
   }
   A.resize(3 * nf, 3 * nf);
   A.setFromTriplets(triplets.begin(), triplets.end());
   return nf;
 }
 
-void DirectSolver::solve(CoupledSolver which, const Model& model, const State& state, const ImplicitSystem& sys,
-                         std::vector<Vec3>& y) {
+void DirectSolver::solve(CoupledSolver which, const Model& model, const State& state, const Adjacency& adj,
+                         const ImplicitSystem& sys, std::vector<Vec3>& y) {
   const std::size_t n = model.num_quanta();
-  const Eigen::Index nf = assemble_system(model, state, sys, dof, triplets, A, b);
+  const Eigen::Index nf = assemble_system(model, state, adj, sys, dof, triplets, A, b);
   y.assign(n, Vec3::Zero());
   if (nf == 0) return;
   Eigen::VectorXd sol;
@@ -200,9 +214,10 @@ void DirectSolver::solve(CoupledSolver which, const Model& model, const State& s
     if (dof[i] >= 0) y[i] = sol.segment<3>(dof[i]);
 }
 
-bool DirectSolver::solve_lu(const Model& model, const State& state, const ImplicitSystem& sys, std::vector<Vec3>& y) {
+bool DirectSolver::solve_lu(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
+                            std::vector<Vec3>& y) {
   const std::size_t n = model.num_quanta();
-  const Eigen::Index nf = assemble_system(model, state, sys, dof, triplets, A, b);
+  const Eigen::Index nf = assemble_system(model, state, adj, sys, dof, triplets, A, b);
   y.assign(n, Vec3::Zero());
   if (nf == 0) return true;
   lu.compute(A);  // the ordering is recomputed too: bonds break between steps

@@ -60,12 +60,10 @@ inline BondLinearisation linearise_bond(const Model& model, const State& state, 
   return l;
 }
 
-// One bond's part of the coupled step, kept in one record because the quanta pass reads it at
-// random (through the adjacency).
+// One bond's B_b as the Newton integrators give it, read per quanta by assemble_blocks.
 struct BondBlock {
   Vec3 u = Vec3::Zero();  // unit vector from bond_i to bond_j; 0 if broken or zero-length
-  double Ba = 0, Bb = 0;  // B_b = h C_b + h² K_b = Ba u uᵀ + Bb I
-  Vec3 g = Vec3::Zero();  // the right-hand-side term on bond_i (bond_j gets -g)
+  double Ba = 0, Bb = 0;  // B_b = Ba u uᵀ + Bb I
   Index i = 0;            // bond_i, so that a quanta knows its end without another lookup
 };
 
@@ -76,8 +74,39 @@ struct EdgeBlock {
   double Ba = 0, Bb = 0;  // 0 when the neighbour is kinematic (its unknown is eliminated)
 };
 
+// A quanta's diagonal block A_ii (its six distinct entries) and right-hand side b_i while the
+// bond-centric passes add to them.
+struct DiagonalRow {
+  double a[6];  // xx, yy, zz, xy, xz, yz
+  Vec3 b;
+  void start(double mass, const Vec3& rhs) {
+    a[0] = a[1] = a[2] = mass;
+    a[3] = a[4] = a[5] = 0;
+    b = rhs;
+  }
+  // A_ii += a u uᵀ + c I, B_b's entries as block_entries gives them.
+  void add_block(const double (&B)[6]) {
+    for (int k = 0; k < 6; ++k) a[k] += B[k];
+  }
+  Mat3 matrix() const {
+    Mat3 m;
+    m << a[0], a[3], a[4], a[3], a[1], a[5], a[4], a[5], a[2];
+    return m;
+  }
+};
+// The six distinct entries of a u uᵀ + c I (xx, yy, zz, xy, xz, yz).
+inline void block_entries(const Vec3& u, double a, double c, double (&B)[6]) {
+  const Vec3 au = a * u;
+  B[0] = au.x() * u.x() + c;
+  B[1] = au.y() * u.y() + c;
+  B[2] = au.z() * u.z() + c;
+  B[3] = au.x() * u.y();
+  B[4] = au.x() * u.z();
+  B[5] = au.y() * u.z();
+}
+
 struct ImplicitSystem {
-  std::vector<BondBlock> bonds;  // (nb)
+  std::vector<BondBlock> bonds;  // (nb) the Newton integrators' per-bond blocks (assemble_blocks)
   std::vector<EdgeBlock> edges;  // per adjacency entry of a free quanta (adj.offset[n])
   std::vector<Mat3> diag;      // A_ii (n); identity for kinematic quanta
   std::vector<Mat3> diag_inv;  // A_ii⁻¹ (n)
@@ -87,19 +116,23 @@ struct ImplicitSystem {
   // (non-symmetric, indefinite), which then replaces `bonds`' a u uᵀ + b I in assemble_system;
   // empty otherwise.
   std::vector<Mat3> exact;  // (nb when used)
+  // Scratch of begin_implicit_step's bond-centric pass.
+  BondPartition part;
+  std::vector<DiagonalRow> rows;  // (n)
+  std::vector<Index> cursor;      // (n) each quanta's next adjacency entry
 };
 
 // Starts an implicit step: sizes `out` and fills its kinematic rows (project_kinematic), then
-// builds A's blocks and b in two passes: one over the bonds (each bond's direction, force and
-// block coefficients computed once, for both ends), one over the quanta (each gathers its bonds
-// in bond order, so any thread count gives the same bits).
+// builds A's blocks and b in one bond-centric pass (bond_partition.hpp: each bond linearised once
+// and added to both ends' diagonal block, right-hand side and edge block, in bond order for any
+// thread count) and a pass over the quanta (diagonal blocks and their inverses).
 void begin_implicit_step(const Model& model, const State& state, const Adjacency& adj,
                          const std::vector<Vec3>& f_ext, const StepContext& ctx, int threads, Projection& out,
                          ImplicitSystem& sys);
 
-// A's blocks from the bonds' B_b (sys.bonds[b].u, Ba, Bb): diag = m I + Σ B_b and its inverse for
-// every free quanta (identity for kinematic ones) and the edge blocks, gathered in bond order (the
-// same bits for any thread count). Leaves rhs alone.
+// A's blocks from per-bond B_b (sys.bonds[b].u, Ba, Bb, as the Newton integrators fill them):
+// diag = m I + Σ B_b and its inverse for every free quanta (identity for kinematic ones) and the
+// edge blocks, gathered in bond order (the same bits for any thread count). Leaves rhs alone.
 void assemble_blocks(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys);
 
 // The paper's hybrid step (Eq. 12: neighbours held at their start positions and at rest), in one
@@ -108,12 +141,9 @@ void assemble_blocks(const Model& model, const Adjacency& adj, int threads, Impl
 // b_i = h f_ext,i + Σ ±h f_b − h K_b (h v_i); then Δv_i = A_ii⁻¹ b_i goes straight into `out`
 // (dx = h (v + Δv), Eq. 10), whose kinematic rows come from project_kinematic.
 struct FrozenStep {
-  struct Row {
-    double a[6];  // A_ii: xx, yy, zz, xy, xz, yz
-    Vec3 b;
-  };
-  std::vector<Row> rows;
-  void project(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& f_ext,
+  BondPartition part;
+  std::vector<DiagonalRow> rows;
+  void project(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
                const StepContext& ctx, int threads, Projection& out);
 };
 
@@ -133,10 +163,10 @@ void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem
 
 // A and b over the free unknowns as a sparse matrix and a vector, for the direct solvers (and the
 // benchmarks' Eigen solvers): dof[i] = 3 × free quanta i's number, -1 for kinematic quanta.
-// Returns the number of free quanta; `triplets` is scratch. When sys.exact is filled, A is
-// M + Σ_b of those full blocks (A_ii += B_b, A_jj += B_b, A_ij = A_ji = −B_b, summed in bond
-// order) instead of sys.diag and the a u uᵀ + b I blocks.
-Eigen::Index assemble_system(const Model& model, const State& state, const ImplicitSystem& sys,
+// Returns the number of free quanta; `triplets` is scratch. A is sys.diag and the edge blocks;
+// when sys.exact is filled, it is M + Σ_b of those full blocks instead (A_ii += B_b,
+// A_jj += B_b, A_ij = A_ji = −B_b, summed in bond order).
+Eigen::Index assemble_system(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
                              std::vector<Eigen::Index>& dof, std::vector<Eigen::Triplet<double>>& triplets,
                              Eigen::SparseMatrix<double>& A, Eigen::VectorXd& b);
 
@@ -153,9 +183,10 @@ struct DirectSolver {
   Eigen::VectorXd b;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
-  void solve(CoupledSolver which, const Model& model, const State& state, const ImplicitSystem& sys,
-             std::vector<Vec3>& y);
-  bool solve_lu(const Model& model, const State& state, const ImplicitSystem& sys, std::vector<Vec3>& y);
+  void solve(CoupledSolver which, const Model& model, const State& state, const Adjacency& adj,
+             const ImplicitSystem& sys, std::vector<Vec3>& y);
+  bool solve_lu(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
+                std::vector<Vec3>& y);
 };
 
 // Matrix-free CG preconditioned by blockdiag(A_ii)⁻¹ (the hybrid's 3×3 blocks), from the initial
