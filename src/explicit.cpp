@@ -1,6 +1,7 @@
 // Explicit integrators: the particle method and its better-behaved relatives.
 #include "forces.hpp"
 #include "integrator_common.hpp"
+#include "parallel.hpp"
 
 namespace qbond {
 namespace {
@@ -27,13 +28,13 @@ class ExplicitIntegrator final : public Integrator {
     accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, a1_);
     switch (config_.type) {
       case IntegratorType::explicit_euler:
-        for (std::size_t i = 0; i < n; ++i) set_free(model, i, out, h * state.v[i], h * a1_[i]);
+        for_free(model, [&](std::size_t i) { set_free(out, i, h * state.v[i], h * a1_[i]); });
         break;
       case IntegratorType::symplectic_euler:
-        for (std::size_t i = 0; i < n; ++i) {
+        for_free(model, [&](std::size_t i) {
           const Vec3 dv = h * a1_[i];
-          set_free(model, i, out, h * (state.v[i] + dv), dv);
-        }
+          set_free(out, i, h * (state.v[i] + dv), dv);
+        });
         break;
       case IntegratorType::velocity_verlet: {
         // x₁ = x + h v + h²/2 a(x, v); a₁ at x₁ with the velocity v + h a (exact when undamped);
@@ -42,8 +43,7 @@ class ExplicitIntegrator final : public Integrator {
           return std::pair{Vec3(h * state.v[i] + 0.5 * h * h * a1_[i]), Vec3(h * a1_[i])};
         });
         accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, a2_);
-        for (std::size_t i = 0; i < n; ++i)
-          set_free(model, i, out, xs_[i] - state.x[i], 0.5 * h * (a1_[i] + a2_[i]));
+        for_free(model, [&](std::size_t i) { set_free(out, i, xs_[i] - state.x[i], 0.5 * h * (a1_[i] + a2_[i])); });
         break;
       }
       case IntegratorType::rk4: {
@@ -63,9 +63,10 @@ class ExplicitIntegrator final : public Integrator {
           return std::pair{Vec3(h * v3_[i]), Vec3(h * a3_[i])};
         });
         accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, a4_);
-        for (std::size_t i = 0; i < n; ++i)
-          set_free(model, i, out, (h / 6) * (state.v[i] + 2 * v2_[i] + 2 * v3_[i] + vs_[i]),
+        for_free(model, [&](std::size_t i) {
+          set_free(out, i, (h / 6) * (state.v[i] + 2 * v2_[i] + 2 * v3_[i] + vs_[i]),
                    (h / 6) * (a1_[i] + 2 * a2_[i] + 2 * a3_[i] + a4_[i]));
+        });
         break;
       }
       default:
@@ -74,11 +75,17 @@ class ExplicitIntegrator final : public Integrator {
   }
 
  private:
-  static void set_free(const Model& model, std::size_t i, Projection& out, const Vec3& dx,
-                       const Vec3& dv) {
-    if (model.is_kinematic(static_cast<Index>(i))) return;
+  static void set_free(Projection& out, std::size_t i, const Vec3& dx, const Vec3& dv) {
     out.dx[i] = dx;
     out.dv[i] = dv;
+  }
+
+  // body(i) for every free quanta, on the integrator's threads.
+  template <class Body>
+  void for_free(const Model& model, Body&& body) const {
+    parallel_for(model.num_quanta(), config_.threads, [&](std::size_t i) {
+      if (!model.is_kinematic(static_cast<Index>(i))) body(i);
+    });
   }
 
   // Stage state (xs_, vs_) = (x, v) + offsets(i) for free quanta, and the fraction c of the
@@ -89,7 +96,7 @@ class ExplicitIntegrator final : public Integrator {
     const std::size_t n = model.num_quanta();
     xs_.resize(n);
     vs_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
+    parallel_for(n, config_.threads, [&](std::size_t i) {
       if (model.is_kinematic(static_cast<Index>(i))) {
         xs_[i] = state.x[i] + c * kin.dx[i];
         vs_[i] = state.v[i] + c * kin.dv[i];
@@ -98,7 +105,7 @@ class ExplicitIntegrator final : public Integrator {
         xs_[i] = state.x[i] + dx;
         vs_[i] = state.v[i] + dv;
       }
-    }
+    });
   }
 
   std::vector<Vec3> a1_, a2_, a3_, a4_, xs_, vs_, v2_, v3_;
