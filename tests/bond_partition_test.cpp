@@ -1,0 +1,104 @@
+// The bond-centric passes (bond_partition.hpp) against plain serial loops over the bonds.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "bond_partition.hpp"
+#include "forces.hpp"
+#include "qbond/rng.hpp"
+#include "test_util.hpp"
+
+namespace qbond {
+namespace {
+
+// A lattice past kParallelMin quanta (so that two threads get two ranges), anchored at one face,
+// perturbed, with mixed laws and damping models and a random tenth of its bonds broken.
+World random_lattice() {
+  World w = test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true);
+  Rng rng{5};
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) {
+    if (b % 3 == 0) {
+      w.model.law[b] = Law::inverse;
+      w.model.stiffness[b] *= w.model.eps[b] * w.model.eps[b];
+    }
+    if (b % 4 == 0) w.model.damping_model[b] = DampingModel::isotropic;
+    if (rng.uniform() < 0.1) w.state.alive[b] = 0;
+  }
+  ++w.state.topology_version;
+  test::perturb(w, 2e-3, 0.2);
+  return w;
+}
+
+TEST(BondPartition, EveryEndOfEveryAliveBondIsOwnedOnce) {
+  const World w = random_lattice();
+  ASSERT_GE(w.num_quanta(), kParallelMin);
+  Adjacency adj;
+  build_adjacency(w.model, w.state, adj);
+  for (int threads : {1, 2, 3}) {
+    BondPartition part;
+    part.update(w.model, w.state, adj, threads);
+    EXPECT_EQ(part.parts(), threads);
+    std::vector<int> owned_i(w.num_bonds(), 0), owned_j(w.num_bonds(), 0);
+    bool increasing = true;
+    for (int p = 0; p < part.parts(); ++p) {
+      const Index lo = part.first[p], hi = part.first[p + 1];
+      for (Index k = part.offset[p]; k < part.offset[p + 1]; ++k) {
+        const Index b = part.bonds[k];
+        if (k > part.offset[p] && b <= part.bonds[k - 1]) increasing = false;
+        owned_i[b] += w.model.bond_i[b] >= lo && w.model.bond_i[b] < hi;
+        owned_j[b] += w.model.bond_j[b] >= lo && w.model.bond_j[b] < hi;
+      }
+    }
+    EXPECT_TRUE(increasing) << threads;
+    for (std::size_t b = 0; b < w.num_bonds(); ++b) {
+      const int expected = w.state.alive[b] ? 1 : 0;
+      ASSERT_EQ(owned_i[b], expected) << "bond " << b << ", " << threads << " threads";
+      ASSERT_EQ(owned_j[b], expected) << "bond " << b << ", " << threads << " threads";
+    }
+  }
+}
+
+TEST(BondPartition, ForcesMatchASerialPassBitForBitAtAnyThreadCount) {
+  const World w = random_lattice();
+  const Model& m = w.model;
+  const State& s = w.state;
+  // The plain reference: every alive bond in order, its force added to one end and taken from the other.
+  std::vector<Vec3> ref(w.num_quanta(), Vec3::Zero());
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) {
+    if (!s.alive[b]) continue;
+    const Index i = m.bond_i[b], j = m.bond_j[b];
+    const Vec3 f = bond_force_on_i(m.law[b], m.damping_model[b], s.x[j] - s.x[i], s.v[j] - s.v[i], s.rest[b],
+                                   m.stiffness[b], m.damping[b], m.eps[b]);
+    ref[i] += f;
+    ref[j] -= f;
+  }
+  Adjacency adj;
+  build_adjacency(m, s, adj);
+  for (int threads : {1, 2, 3}) {
+    BondPartition part;
+    part.update(m, s, adj, threads);
+    std::vector<Vec3> f(w.num_quanta(), Vec3::Zero());
+    add_bond_forces(m, s, part, s.x, s.v, f);
+    EXPECT_EQ(std::memcmp(f.data(), ref.data(), f.size() * sizeof(Vec3)), 0) << threads << " threads";
+  }
+}
+
+TEST(BondPartition, RebuildsWhenTheTopologyChanges) {
+  World w = random_lattice();
+  Adjacency adj;
+  build_adjacency(w.model, w.state, adj);
+  BondPartition part;
+  part.update(w.model, w.state, adj, 2);
+  const std::size_t before = part.bonds.size();
+  std::size_t b = 0;
+  while (!w.state.alive[b]) ++b;
+  w.state.alive[b] = 0;
+  ++w.state.topology_version;
+  build_adjacency(w.model, w.state, adj);
+  part.update(w.model, w.state, adj, 2);
+  EXPECT_LT(part.bonds.size(), before);
+  for (Index k : part.bonds) EXPECT_NE(k, static_cast<Index>(b));
+}
+
+}  // namespace
+}  // namespace qbond
