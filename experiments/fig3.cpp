@@ -1,7 +1,7 @@
 // Figure 3: time per step against the number of quanta for the hybrid and the coupled implicit
 // methods — the paper's chain growing by two bonded quanta per run, and 3D lattices to ~10⁵
 // quanta — with log-log slopes. Timings are wall-clock on a shared machine: each point is the
-// fastest of three batches of steps.
+// fastest of three batches of steps; the slopes are checked claims only in the full run.
 #include <chrono>
 #include <cmath>
 #include <vector>
@@ -154,13 +154,22 @@ void fig3(const Options& opt, Report& rep) {
   for (std::size_t k = 0; k < lattice_methods.size(); ++k)
     rep.note(std::string("| lattice | ") + lattice_methods[k].name + " | " + num(slope_lattice[k], 3) + " |");
   rep.note("");
-  rep.check("the paper's hybrid costs linear time in the quanta (chain slope " + num(slope_chain[0], 3) + ", within 1 ± 0.3)",
-            std::abs(slope_chain[0] - 1) < 0.3);
-  rep.check("the paper's coupled method (dense elimination) costs cubic time (chain slope " + num(slope_chain[1], 3) +
-                ", within 3 ± 0.3)",
-            std::abs(slope_chain[1] - 3) < 0.3);
-  rep.check("on lattices the hybrid stays linear (slope " + num(slope_lattice[0], 3) + ", within 1 ± 0.3)",
-            std::abs(slope_lattice[0] - 1) < 0.3);
+  // Wall-clock claims are checked in the full run only (its results are committed): in --fast mode,
+  // which ctest runs, they are reported, so that a loaded machine cannot fail the test suite.
+  auto timing_claim = [&](const std::string& claim, bool ok) {
+    if (opt.fast)
+      rep.note("- measured, not checked in --fast mode (wall clock): " + claim + (ok ? "" : " — NOT met in this run"));
+    else
+      rep.check(claim, ok);
+  };
+  timing_claim("the paper's hybrid costs linear time in the quanta (chain slope " + num(slope_chain[0], 3) +
+                   ", within 1 ± 0.3)",
+               std::abs(slope_chain[0] - 1) < 0.3);
+  timing_claim("the paper's coupled method (dense elimination) costs cubic time (chain slope " +
+                   num(slope_chain[1], 3) + ", within 3 ± 0.3)",
+               std::abs(slope_chain[1] - 3) < 0.3);
+  timing_claim("on lattices the hybrid stays linear (slope " + num(slope_lattice[0], 3) + ", within 1 ± 0.3)",
+               std::abs(slope_lattice[0] - 1) < 0.3);
 }
 
 }  // namespace qbond::experiments
