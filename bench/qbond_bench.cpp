@@ -135,8 +135,8 @@ void solve_eigen(benchmark::State& st, int n, bool cholesky) {
   Eigen::VectorXd b;
   double iterations = 0, residual = 0;
   for (auto _ : st) {
-    begin_implicit_step(m, w.state, adj, f_ext, {.h = kSolveStep}, 1, kin, sys);
-    assemble_system(m, w.state, adj, sys, dof, triplets, A, b);
+    begin_implicit_step(m, w.state, adj, f_ext, {.h = kSolveStep}, /*edges=*/false, 1, kin, sys);
+    assemble_system(m, w.state, sys, dof, triplets, A, b);
     Eigen::VectorXd y;
     if (cholesky) {
       Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt(A);

@@ -5,10 +5,10 @@
 
 namespace qbond {
 
-void BondPartition::update(const Model& model, const State& state, const Adjacency& adj, int threads_wanted) {
+void BondPartition::update(const Model& model, const Adjacency& adj, int threads_wanted) {
   const std::size_t n = model.num_quanta(), nb = model.num_bonds();
-  assert(adj.version == state.topology_version);
-  if (version == state.topology_version && threads == threads_wanted && num_quanta == n && num_bonds == nb) return;
+  assert(adj.offset.size() == n + 1);
+  if (version == adj.version && threads == threads_wanted && num_quanta == n && num_bonds == nb) return;
   const int parts = n < kParallelMin ? 1 : std::max(1, thread_count(threads_wanted));
   // Range boundaries at equal shares of the bond ends.
   first.assign(static_cast<std::size_t>(parts) + 1, 0);
@@ -21,14 +21,19 @@ void BondPartition::update(const Model& model, const State& state, const Adjacen
   first[parts] = static_cast<Index>(n);
   offset.assign(static_cast<std::size_t>(parts) + 1, 0);
   bonds.clear();
+  // The adjacency holds exactly the alive bonds: a part's are those of its quanta's entries,
+  // marked, then listed in increasing order.
+  mark.assign(nb, 0);
   for (int p = 0; p < parts; ++p) {
-    const Index lo = first[p], hi = first[p + 1];
-    auto mine = [&](Index q) { return q >= lo && q < hi; };
+    for (Index e = adj.offset[first[p]]; e < adj.offset[first[p + 1]]; ++e) mark[adj.bond[e]] = 1;
     for (std::size_t b = 0; b < nb; ++b)
-      if (state.alive[b] && (mine(model.bond_i[b]) || mine(model.bond_j[b]))) bonds.push_back(static_cast<Index>(b));
+      if (mark[b]) {
+        bonds.push_back(static_cast<Index>(b));
+        mark[b] = 0;
+      }
     offset[p + 1] = static_cast<Index>(bonds.size());
   }
-  version = state.topology_version;
+  version = adj.version;
   threads = threads_wanted;
   num_quanta = n;
   num_bonds = nb;

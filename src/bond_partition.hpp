@@ -21,13 +21,14 @@ struct BondPartition {
   std::vector<Index> first;   // (parts + 1): part p owns quanta [first[p], first[p + 1])
   std::vector<Index> offset;  // (parts + 1): part p visits bonds[offset[p] .. offset[p + 1])
   std::vector<Index> bonds;   // per part, its alive bonds with an end in its range, increasing
+  std::vector<std::uint8_t> mark;  // scratch of update
   std::uint64_t version = ~0ull;
   std::size_t num_quanta = 0, num_bonds = 0;
   int threads = -1;
 
-  // Rebuilds for the current topology and thread count if either changed: ranges balanced by
-  // bond ends (adj), one part below kParallelMin quanta. O(bonds × parts).
-  void update(const Model& model, const State& state, const Adjacency& adj, int threads);
+  // Rebuilds for the adjacency's topology (its alive bonds) and the thread count if either
+  // changed: ranges balanced by bond ends, one part below kParallelMin quanta. O(bonds × parts).
+  void update(const Model& model, const Adjacency& adj, int threads);
   int parts() const { return static_cast<int>(first.size()) - 1; }
 };
 

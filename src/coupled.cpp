@@ -17,12 +17,12 @@ class CoupledIntegrator final : public Integrator {
 
   void project(const Model& model, const State& state, const Adjacency& adj,
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
-    begin_implicit_step(model, state, adj, f_ext, ctx, config_.threads, out, sys_);
+    begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/false, config_.threads, out, sys_);
     stats_ = {};
     switch (config_.solver) {
       case CoupledSolver::dense:
       case CoupledSolver::ldlt:
-        direct_.solve(config_.solver, model, state, adj, sys_, y_);
+        direct_.solve(config_.solver, model, state, sys_, y_);
         break;
       case CoupledSolver::cg:
         topo_.update(model, adj);

@@ -24,7 +24,7 @@ class ExplicitIntegrator final : public Integrator {
     const double h = ctx.h;
     out.resize(n);
     project_kinematic(model, state, ctx, out);
-    part_.update(model, state, adj, config_.threads);
+    part_.update(model, adj, config_.threads);
     accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, a1_);
     switch (config_.type) {
       case IntegratorType::explicit_euler:

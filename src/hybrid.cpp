@@ -27,7 +27,7 @@ class HybridIntegrator final : public Integrator {
       stats_.iterations = 1;
       return;
     }
-    begin_implicit_step(model, state, adj, f_ext, ctx, threads, out, sys_);
+    begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/true, threads, out, sys_);
     topo_.update(model, adj);
     initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, y_);
     if (config_.neighbours == NeighbourModel::sweep)

@@ -9,35 +9,40 @@
 namespace qbond {
 
 void begin_implicit_step(const Model& model, const State& state, const Adjacency& adj,
-                         const std::vector<Vec3>& f_ext, const StepContext& ctx, int threads, Projection& kin,
-                         ImplicitSystem& sys) {
+                         const std::vector<Vec3>& f_ext, const StepContext& ctx, bool edges, int threads,
+                         Projection& kin, ImplicitSystem& sys) {
   const std::size_t n = model.num_quanta();
   kin.resize(n);
   project_kinematic(model, state, ctx, kin);
   const double h = ctx.h, h2 = h * h;
-  sys.part.update(model, state, adj, threads);
+  sys.part.update(model, adj, threads);
+  sys.bonds.resize(model.num_bonds());
   sys.rows.resize(n);
-  sys.cursor.resize(n);
-  sys.edges.resize(adj.offset[n]);
+  sys.edges.resize(edges ? adj.offset[n] : 0);
+  sys.cursor.resize(edges ? n : 0);
   parallel_for(n, threads, [&](std::size_t i) {
     sys.rows[i].start(model.mass[i], h * f_ext[i]);
-    sys.cursor[i] = adj.offset[i];
+    if (edges) sys.cursor[i] = adj.offset[i];
   });
 
   // Δx₀ and Δv_k, the motion already known before solving (see the header).
   auto dx0 = [&](Index i) -> Vec3 { return model.is_kinematic(i) ? kin.dx[i] : Vec3(h * state.v[i]); };
   auto dvk = [&](Index i) -> Vec3 { return model.is_kinematic(i) ? kin.dv[i] : Vec3::Zero(); };
 
-  // Per bond: u, B_b and g_b, the right-hand-side term on i (j gets −g_b). A quanta's bonds come in
-  // bond order, which is the order of its adjacency entries: its cursor walks them.
+  // Per bond: u, B_b (written by the part owning bond_i) and g_b, the right-hand-side term on i
+  // (j gets −g_b). A quanta's bonds come in bond order, the order of its adjacency entries: its
+  // cursor walks them.
   for_each_bond(sys.part, model, [&](Index b, bool own_i, bool own_j) {
     const Index i = model.bond_i[b], j = model.bond_j[b];
     const bool free_i = !model.is_kinematic(i), free_j = !model.is_kinematic(j);
+    const bool write_block = own_i && (free_i || free_j);
     own_i = own_i && free_i;  // kinematic rows are not solved for
     own_j = own_j && free_j;
-    if (!own_i && !own_j) return;
+    if (!own_i && !own_j && !write_block) return;
     const BondLinearisation l = linearise_bond(model, state, b);
     const double Ba = h * l.ca + h2 * l.ka, Bb = h * l.cb + h2 * l.kb;
+    if (write_block) sys.bonds[b] = {l.u, Ba, Bb, i};
+    if (!own_i && !own_j) return;
     double B[6];
     block_entries(l.u, Ba, Bb, B);
     const Vec3 dx = dx0(i) - dx0(j), dv = dvk(i) - dvk(j);
@@ -47,13 +52,13 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
       DiagonalRow& row = sys.rows[i];
       row.add_block(B);
       row.b += g;
-      sys.edges[sys.cursor[i]++] = {l.u, free_j ? Ba : 0.0, free_j ? Bb : 0.0};
+      if (edges) sys.edges[sys.cursor[i]++] = {l.u, free_j ? Ba : 0.0, free_j ? Bb : 0.0};
     }
     if (own_j) {
       DiagonalRow& row = sys.rows[j];
       row.add_block(B);
       row.b -= g;
-      sys.edges[sys.cursor[j]++] = {l.u, free_i ? Ba : 0.0, free_i ? Bb : 0.0};
+      if (edges) sys.edges[sys.cursor[j]++] = {l.u, free_i ? Ba : 0.0, free_i ? Bb : 0.0};
     }
   });
   sys.diag.resize(n);
@@ -106,7 +111,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   const double h = ctx.h, h2 = h * h;
   out.resize(n);
   project_kinematic(model, state, ctx, out);
-  part.update(model, state, adj, threads);
+  part.update(model, adj, threads);
   rows.resize(n);
   parallel_for(n, threads, [&](std::size_t i) { rows[i].start(model.mass[i], h * f_ext[i]); });
   for_each_bond(part, model, [&](Index b, bool own_i, bool own_j) {
@@ -137,20 +142,23 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   });
 }
 
-void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, const std::vector<Vec3>& y,
-                  int threads, std::vector<Vec3>& out) {
+void apply_system(const Model& model, const BondPartition& part, const ImplicitSystem& sys,
+                  const std::vector<Vec3>& y, int threads, std::vector<Vec3>& out) {
   out.resize(model.num_quanta());
   parallel_for(model.num_quanta(), threads, [&](std::size_t q) {
     const auto i = static_cast<Index>(q);
-    if (model.is_kinematic(i)) {
-      out[i].setZero();
-      return;
-    }
-    out[i] = sys.diag[i] * y[i] - neighbours_times(adj, sys, i, y);
+    out[i] = model.is_kinematic(i) ? Vec3::Zero() : Vec3(sys.diag[i] * y[i]);
+  });
+  for_each_bond(part, model, [&](Index b, bool own_i, bool own_j) {
+    const Index i = model.bond_i[b], j = model.bond_j[b];
+    if (model.is_kinematic(i) || model.is_kinematic(j)) return;  // eliminated unknowns
+    const BondBlock& bb = sys.bonds[b];
+    if (own_i) out[i] -= block_times(bb.u, bb.Ba, bb.Bb, y[j]);
+    if (own_j) out[j] -= block_times(bb.u, bb.Ba, bb.Bb, y[i]);
   });
 }
 
-Eigen::Index assemble_system(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
+Eigen::Index assemble_system(const Model& model, const State& state, const ImplicitSystem& sys,
                              std::vector<Eigen::Index>& dof, std::vector<Eigen::Triplet<double>>& triplets,
                              Eigen::SparseMatrix<double>& A, Eigen::VectorXd& b) {
   const std::size_t n = model.num_quanta();
@@ -166,41 +174,32 @@ Eigen::Index assemble_system(const Model& model, const State& state, const Adjac
   };
   const bool exact = !sys.exact.empty();
   assert(!exact || sys.exact.size() == model.num_bonds());
-  for (std::size_t i = 0; i < n; ++i) {
-    if (dof[i] < 0) continue;
-    b.segment<3>(dof[i]) = sys.rhs[i];
-    if (exact) {
-      add_block(dof[i], dof[i], model.mass[i] * Mat3::Identity());
-      continue;
+  for (std::size_t i = 0; i < n; ++i)
+    if (dof[i] >= 0) {
+      b.segment<3>(dof[i]) = sys.rhs[i];
+      add_block(dof[i], dof[i], exact ? Mat3(model.mass[i] * Mat3::Identity()) : sys.diag[i]);
     }
-    add_block(dof[i], dof[i], sys.diag[i]);
-    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
-      const Eigen::Index q = dof[adj.other[e]];
-      const EdgeBlock& eb = sys.edges[e];
-      if (q >= 0) add_block(dof[i], q, -block_matrix(eb.u, eb.Ba, eb.Bb));
-    }
-  }
-  if (exact) {
-    for (std::size_t k = 0; k < model.num_bonds(); ++k) {
-      const Eigen::Index p = dof[model.bond_i[k]], q = dof[model.bond_j[k]];
-      if (!state.alive[k] || (p < 0 && q < 0)) continue;
-      const Mat3& B = sys.exact[k];
+  for (std::size_t k = 0; k < model.num_bonds(); ++k) {
+    const Eigen::Index p = dof[model.bond_i[k]], q = dof[model.bond_j[k]];
+    if (!state.alive[k] || (p < 0 && q < 0)) continue;
+    const Mat3 B = exact ? sys.exact[k] : block_matrix(sys.bonds[k].u, sys.bonds[k].Ba, sys.bonds[k].Bb);
+    if (exact) {  // sys.diag holds the a u uᵀ + b I blocks' sums: the diagonal is summed here
       if (p >= 0) add_block(p, p, B);
       if (q >= 0) add_block(q, q, B);
-      if (p < 0 || q < 0) continue;
-      add_block(p, q, -B);
-      add_block(q, p, -B);
     }
+    if (p < 0 || q < 0) continue;
+    add_block(p, q, -B);
+    add_block(q, p, -B);
   }
   A.resize(3 * nf, 3 * nf);
   A.setFromTriplets(triplets.begin(), triplets.end());
   return nf;
 }
 
-void DirectSolver::solve(CoupledSolver which, const Model& model, const State& state, const Adjacency& adj,
-                         const ImplicitSystem& sys, std::vector<Vec3>& y) {
+void DirectSolver::solve(CoupledSolver which, const Model& model, const State& state, const ImplicitSystem& sys,
+                         std::vector<Vec3>& y) {
   const std::size_t n = model.num_quanta();
-  const Eigen::Index nf = assemble_system(model, state, adj, sys, dof, triplets, A, b);
+  const Eigen::Index nf = assemble_system(model, state, sys, dof, triplets, A, b);
   y.assign(n, Vec3::Zero());
   if (nf == 0) return;
   Eigen::VectorXd sol;
@@ -214,10 +213,9 @@ void DirectSolver::solve(CoupledSolver which, const Model& model, const State& s
     if (dof[i] >= 0) y[i] = sol.segment<3>(dof[i]);
 }
 
-bool DirectSolver::solve_lu(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
-                            std::vector<Vec3>& y) {
+bool DirectSolver::solve_lu(const Model& model, const State& state, const ImplicitSystem& sys, std::vector<Vec3>& y) {
   const std::size_t n = model.num_quanta();
-  const Eigen::Index nf = assemble_system(model, state, adj, sys, dof, triplets, A, b);
+  const Eigen::Index nf = assemble_system(model, state, sys, dof, triplets, A, b);
   y.assign(n, Vec3::Zero());
   if (nf == 0) return true;
   lu.compute(A);  // the ordering is recomputed too: bonds break between steps
@@ -236,7 +234,8 @@ void ConjugateGradient::solve(const Model& model, const Adjacency& adj, const Im
   auto dot = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& c) {
     return deterministic_sum(a.size(), threads, [&](std::size_t i) { return a[i].dot(c[i]); });
   };
-  apply_system(model, adj, sys, y, threads, Ap);
+  part.update(model, adj, threads);
+  apply_system(model, part, sys, y, threads, Ap);
   r.resize(n);
   z.resize(n);
   p.resize(n);
@@ -251,7 +250,7 @@ void ConjugateGradient::solve(const Model& model, const Adjacency& adj, const Im
   stats.residual = rel(dot(r, r));
   int it = 0;
   while (it < cap && stats.residual > tolerance) {
-    apply_system(model, adj, sys, p, threads, Ap);
+    apply_system(model, part, sys, p, threads, Ap);
     const double pAp = dot(p, Ap);
     if (!(pAp > 0)) break;  // exact solution reached (p = 0) or loss of positivity
     const double alpha = rz / pAp;

@@ -60,15 +60,16 @@ inline BondLinearisation linearise_bond(const Model& model, const State& state, 
   return l;
 }
 
-// One bond's B_b as the Newton integrators give it, read per quanta by assemble_blocks.
+// One bond's B_b = Ba u uᵀ + Bb I, in bond order: CG's product streams these (bond-centric), the
+// direct solvers assemble from them.
 struct BondBlock {
   Vec3 u = Vec3::Zero();  // unit vector from bond_i to bond_j; 0 if broken or zero-length
-  double Ba = 0, Bb = 0;  // B_b = Ba u uᵀ + Bb I
-  Index i = 0;            // bond_i, so that a quanta knows its end without another lookup
+  double Ba = 0, Bb = 0;
+  Index i = 0;            // bond_i, so that a quanta gathering it knows its end (assemble_blocks)
 };
 
-// B_b as seen from one end of the bond: the operator the iterative solvers apply every
-// iteration, stored in adjacency order so that a quanta's row is read as one contiguous run.
+// B_b as seen from one end of the bond, in adjacency order so that a quanta's row is one
+// contiguous run: what the per-quanta solvers (Gauss–Seidel, Jacobi) read every sweep.
 struct EdgeBlock {
   Vec3 u = Vec3::Zero();
   double Ba = 0, Bb = 0;  // 0 when the neighbour is kinematic (its unknown is eliminated)
@@ -106,8 +107,8 @@ inline void block_entries(const Vec3& u, double a, double c, double (&B)[6]) {
 }
 
 struct ImplicitSystem {
-  std::vector<BondBlock> bonds;  // (nb) the Newton integrators' per-bond blocks (assemble_blocks)
-  std::vector<EdgeBlock> edges;  // per adjacency entry of a free quanta (adj.offset[n])
+  std::vector<BondBlock> bonds;  // (nb) valid for alive bonds with a free end
+  std::vector<EdgeBlock> edges;  // per adjacency entry of a free quanta (adj.offset[n]), when asked for
   std::vector<Mat3> diag;      // A_ii (n); identity for kinematic quanta
   std::vector<Mat3> diag_inv;  // A_ii⁻¹ (n)
   std::vector<Vec3> rhs;       // b (n); 0 for kinematic quanta
@@ -119,16 +120,17 @@ struct ImplicitSystem {
   // Scratch of begin_implicit_step's bond-centric pass.
   BondPartition part;
   std::vector<DiagonalRow> rows;  // (n)
-  std::vector<Index> cursor;      // (n) each quanta's next adjacency entry
+  std::vector<Index> cursor;      // (n) each quanta's next adjacency entry (with edges)
 };
 
 // Starts an implicit step: sizes `out` and fills its kinematic rows (project_kinematic), then
-// builds A's blocks and b in one bond-centric pass (bond_partition.hpp: each bond linearised once
-// and added to both ends' diagonal block, right-hand side and edge block, in bond order for any
-// thread count) and a pass over the quanta (diagonal blocks and their inverses).
+// builds A's blocks and b in one bond-centric pass (bond_partition.hpp: each bond linearised once,
+// its block written in bond order and added to both ends' diagonal block and right-hand side,
+// in bond order for any thread count) and a pass over the quanta (diagonal blocks and their
+// inverses). With `edges`, also the edge blocks the per-quanta solvers read.
 void begin_implicit_step(const Model& model, const State& state, const Adjacency& adj,
-                         const std::vector<Vec3>& f_ext, const StepContext& ctx, int threads, Projection& out,
-                         ImplicitSystem& sys);
+                         const std::vector<Vec3>& f_ext, const StepContext& ctx, bool edges, int threads,
+                         Projection& out, ImplicitSystem& sys);
 
 // A's blocks from per-bond B_b (sys.bonds[b].u, Ba, Bb, as the Newton integrators fill them):
 // diag = m I + Σ B_b and its inverse for every free quanta (identity for kinematic ones) and the
@@ -157,16 +159,18 @@ inline Vec3 neighbours_times(const Adjacency& adj, const ImplicitSystem& sys, In
   return s;
 }
 
-// out = A y over free quanta (y's kinematic rows are ignored; out's kinematic rows are 0).
-void apply_system(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, const std::vector<Vec3>& y,
-                  int threads, std::vector<Vec3>& out);
+// out = A y over free quanta (y's kinematic rows are ignored; out's kinematic rows are 0): diag
+// then, bond-centric over `part` (sys.bonds in bond order), −B_b y_j into row i and −B_b y_i into
+// row j for bonds between free quanta.
+void apply_system(const Model& model, const BondPartition& part, const ImplicitSystem& sys,
+                  const std::vector<Vec3>& y, int threads, std::vector<Vec3>& out);
 
 // A and b over the free unknowns as a sparse matrix and a vector, for the direct solvers (and the
 // benchmarks' Eigen solvers): dof[i] = 3 × free quanta i's number, -1 for kinematic quanta.
-// Returns the number of free quanta; `triplets` is scratch. A is sys.diag and the edge blocks;
-// when sys.exact is filled, it is M + Σ_b of those full blocks instead (A_ii += B_b,
-// A_jj += B_b, A_ij = A_ji = −B_b, summed in bond order).
-Eigen::Index assemble_system(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
+// Returns the number of free quanta; `triplets` is scratch. When sys.exact is filled, A is
+// M + Σ_b of those full blocks (A_ii += B_b, A_jj += B_b, A_ij = A_ji = −B_b, summed in bond
+// order) instead of sys.diag and the a u uᵀ + b I blocks.
+Eigen::Index assemble_system(const Model& model, const State& state, const ImplicitSystem& sys,
                              std::vector<Eigen::Index>& dof, std::vector<Eigen::Triplet<double>>& triplets,
                              Eigen::SparseMatrix<double>& A, Eigen::VectorXd& b);
 
@@ -183,15 +187,15 @@ struct DirectSolver {
   Eigen::VectorXd b;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
-  void solve(CoupledSolver which, const Model& model, const State& state, const Adjacency& adj,
-             const ImplicitSystem& sys, std::vector<Vec3>& y);
-  bool solve_lu(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
-                std::vector<Vec3>& y);
+  void solve(CoupledSolver which, const Model& model, const State& state, const ImplicitSystem& sys,
+             std::vector<Vec3>& y);
+  bool solve_lu(const Model& model, const State& state, const ImplicitSystem& sys, std::vector<Vec3>& y);
 };
 
 // Matrix-free CG preconditioned by blockdiag(A_ii)⁻¹ (the hybrid's 3×3 blocks), from the initial
 // guess in y, until ‖b − A y‖/‖b‖ ≤ tolerance or `cap` iterations; fills stats.
 struct ConjugateGradient {
+  BondPartition part;
   std::vector<Vec3> r, z, p, Ap;
   void solve(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, double tolerance, int cap,
              int threads, std::vector<Vec3>& y, SolveStats& stats);

@@ -451,7 +451,7 @@ class NewtonIntegrator final : public Integrator {
     sys_.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return R_[i].squaredNorm(); }));
     if (exact) {
       ++stats_.exact_iterations;
-      if (direct_.solve_lu(model, state, adj, sys_, delta_)) return;
+      if (direct_.solve_lu(model, state, sys_, delta_)) return;
     }
     // The modified system; also where the exact Jacobian is singular (a turning point of R).
     exact_.swap(sys_.exact);  // assemble_system takes the exact blocks when there are any (exact_ is empty)
@@ -459,7 +459,7 @@ class NewtonIntegrator final : public Integrator {
     switch (config_.solver) {
       case CoupledSolver::dense:
       case CoupledSolver::ldlt:
-        direct_.solve(config_.solver, model, state, adj, sys_, delta_);
+        direct_.solve(config_.solver, model, state, sys_, delta_);
         break;
       case CoupledSolver::cg:
         delta_.assign(n, Vec3::Zero());

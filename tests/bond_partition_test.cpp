@@ -36,7 +36,7 @@ TEST(BondPartition, EveryEndOfEveryAliveBondIsOwnedOnce) {
   build_adjacency(w.model, w.state, adj);
   for (int threads : {1, 2, 3}) {
     BondPartition part;
-    part.update(w.model, w.state, adj, threads);
+    part.update(w.model, adj, threads);
     EXPECT_EQ(part.parts(), threads);
     std::vector<int> owned_i(w.num_bonds(), 0), owned_j(w.num_bonds(), 0);
     bool increasing = true;
@@ -76,7 +76,7 @@ TEST(BondPartition, ForcesMatchASerialPassBitForBitAtAnyThreadCount) {
   build_adjacency(m, s, adj);
   for (int threads : {1, 2, 3}) {
     BondPartition part;
-    part.update(m, s, adj, threads);
+    part.update(m, adj, threads);
     std::vector<Vec3> f(w.num_quanta(), Vec3::Zero());
     add_bond_forces(m, s, part, s.x, s.v, f);
     EXPECT_EQ(std::memcmp(f.data(), ref.data(), f.size() * sizeof(Vec3)), 0) << threads << " threads";
@@ -88,14 +88,14 @@ TEST(BondPartition, RebuildsWhenTheTopologyChanges) {
   Adjacency adj;
   build_adjacency(w.model, w.state, adj);
   BondPartition part;
-  part.update(w.model, w.state, adj, 2);
+  part.update(w.model, adj, 2);
   const std::size_t before = part.bonds.size();
   std::size_t b = 0;
   while (!w.state.alive[b]) ++b;
   w.state.alive[b] = 0;
   ++w.state.topology_version;
   build_adjacency(w.model, w.state, adj);
-  part.update(w.model, w.state, adj, 2);
+  part.update(w.model, adj, 2);
   EXPECT_LT(part.bonds.size(), before);
   for (Index k : part.bonds) EXPECT_NE(k, static_cast<Index>(b));
 }

@@ -137,7 +137,7 @@ TEST(Laws, NewtonsThirdLawHoldsExactly) {
     Adjacency adj;
     build_adjacency(w.model, w.state, adj);
     BondPartition part;
-    part.update(w.model, w.state, adj, 1);
+    part.update(w.model, adj, 1);
     add_bond_forces(w.model, w.state, part, w.state.x, w.state.v, f);
     Vec3 sum = Vec3::Zero();
     double scale = 0;

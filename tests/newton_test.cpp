@@ -383,7 +383,7 @@ TEST_P(NewtonJacobian, MatchesFiniteDifferences) {
   Eigen::SparseMatrix<double> A;
   Eigen::VectorXd b;
   sys.rhs.assign(n, Vec3::Zero());
-  assemble_system(w.model, w.state, adj, sys, dof, trip, A, b);
+  assemble_system(w.model, w.state, sys, dof, trip, A, b);
   const Eigen::MatrixXd J(A);
   Eigen::MatrixXd fd = Eigen::MatrixXd::Zero(J.rows(), J.cols());
   auto residual = [&](const std::vector<Vec3>& yy) {
