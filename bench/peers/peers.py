@@ -12,8 +12,8 @@ face-diagonal neighbours (k = 1000 N/m), the x = 0 face anchored, gravity -9.81 
 LAMMPS: bond_style harmonic with K = k/2 (its energy is K (r - r0)^2), fix nve (velocity Verlet),
 fix setforce/zero velocity on the anchored face; no bond damping (harmonic has none).
 Bullet: btSoftBody links (position constraints, kLST = 1, one iteration): same topology, masses,
-anchors and step, Bullet's own material law. qbond: `qbond bench` (its default integrator and
-the paper's hybrid), and `qbond run` for the stability search.
+anchors and step, Bullet's own material law. qbond: `qbond bench` (its default integrator, the
+paper's hybrid and velocity Verlet), and `qbond run` for the stability search.
 """
 import argparse
 import json
@@ -183,6 +183,8 @@ def main():
         "LAMMPS (velocity Verlet)": largest_stable(lambda h: lammps(10, h, max(50, int(0.02 / h)), work)[1]),
         "Bullet (btSoftBody, 1 iteration)": largest_stable(lambda h: bullet(a.bullet, 10, h, max(50, int(0.02 / h)))[2]),
         "qbond default": largest_stable(lambda h: qbond_stable(a.build, [], h, work)),
+        "qbond hybrid_frozen": largest_stable(
+            lambda h: qbond_stable(a.build, ["--integrator", "hybrid_implicit", "--neighbours", "frozen"], h, work)),
         "qbond velocity_verlet": largest_stable(
             lambda h: qbond_stable(a.build, ["--integrator", "velocity_verlet"], h, work)),
     }
@@ -193,7 +195,7 @@ def main():
         elif name.startswith("Bullet"):
             t = bullet(a.bullet, n, h, steps_big)[0]
         else:
-            integ = "default" if name.endswith("default") else "velocity_verlet"
+            integ = name.split()[-1]
             t = qbond_bench(a.build, [n], [integ], dt=h)[0][(integ, n)]
         cost[name] = {"largest_stable_step": h, "seconds_per_step": t, "seconds_per_simulated_second": t / h}
         print(f"  {name:<34} h = {h:<10.3g} {t * 1e3:9.3f} ms/step  {t / h:10.3f} s per simulated second")
