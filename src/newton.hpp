@@ -37,6 +37,10 @@
 // does; the projection is the composite one, and the anchors' and dampers' work summed over the
 // substeps goes to the ledger (Projection::has_work). bdf2 is not split (its history is one
 // whole step back).
+//
+// Polishing (IntegratorConfig::newton_polish; energy_momentum, implicit_midpoint; newton.cpp): a
+// step that met the tolerance takes exact-Newton corrections until ‖R‖ stops decreasing, so that
+// the momenta (Σ R and Σ x_mid × R per step) are kept to round-off rather than to the tolerance.
 #include <vector>
 
 #include "implicit_system.hpp"

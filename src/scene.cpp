@@ -210,7 +210,8 @@ class Builder {
                          {"max_iterations", c.max_iterations}, {"tolerance", c.tolerance},
                          {"chebyshev_rho", c.chebyshev_rho},   {"warm_start", to_string(c.warm_start)},
                          {"restore_momentum", c.restore_momentum}, {"threads", c.threads},
-                         {"newton_iterations", c.newton_iterations}, {"restore_energy", c.restore_energy}};
+                         {"newton_iterations", c.newton_iterations}, {"newton_polish", c.newton_polish},
+                         {"restore_energy", c.restore_energy}};
     res["limits"] = {{"max_speed", s.limits.max_speed}, {"energy_growth", s.limits.energy_growth}};
     if (s.adaptive.enabled)
       res["adaptive"] = {{"error", s.adaptive.error},       {"energy", s.adaptive.energy},
@@ -230,7 +231,7 @@ class Builder {
   IntegratorConfig integrator(const json& j) {
     Obj o(j, "integrator",
           {"type", "neighbours", "solver", "iterations", "max_iterations", "tolerance", "chebyshev_rho", "warm_start",
-           "restore_momentum", "threads", "newton_iterations", "restore_energy"});
+           "restore_momentum", "threads", "newton_iterations", "newton_polish", "restore_energy"});
     IntegratorConfig c = default_integrator();
     auto parse = [&](const char* key, auto fn, auto& field) {
       if (!o.has(key)) return;
@@ -254,6 +255,7 @@ class Builder {
     }
     if (o.has("newton_iterations"))
       c.newton_iterations = static_cast<int>(integer(o["newton_iterations"], o.at("newton_iterations"), 1));
+    if (o.has("newton_polish")) c.newton_polish = boolean(o["newton_polish"], o.at("newton_polish"));
     if (o.has("threads")) c.threads = static_cast<int>(integer(o["threads"], o.at("threads"), 0));
     if (o.has("restore_momentum")) c.restore_momentum = boolean(o["restore_momentum"], o.at("restore_momentum"));
     if (o.has("restore_energy")) c.restore_energy = boolean(o["restore_energy"], o.at("restore_energy"));

@@ -180,6 +180,23 @@ TEST(Scenes, ResolvedSceneRebuildsTheSameWorld) {
   EXPECT_NEAR(total, 1.0, 1e-12);  // total_mass spread over the FCC sites
 }
 
+// integrator.newton_polish (docs/scene-format.md) is read, resolved and read back; off by default.
+TEST(Scenes, NewtonPolishIsReadAndResolved) {
+  const std::string text = R"({
+    "timestep": 0.001, "steps": 1, "integrator": {"type": "energy_momentum", "newton_polish": true},
+    "materials": {"m": {"stiffness": 100}},
+    "bodies": [{"name": "rope", "type": "chain", "start": [0, 0, 0], "end": [0, 0, 1], "count": 3,
+                "quanta_mass": 0.1, "material": "m"}]
+  })";
+  const Scene a = parse_scene(text, "a.json");
+  EXPECT_TRUE(a.integrator.newton_polish);
+  EXPECT_EQ(a.resolved["integrator"]["newton_polish"], true);
+  EXPECT_TRUE(parse_scene(a.resolved.dump(), "b.json").integrator.newton_polish);
+  std::string off = text;
+  off.replace(off.find(", \"newton_polish\": true"), std::string(", \"newton_polish\": true").size(), "");
+  EXPECT_FALSE(parse_scene(off, "c.json").integrator.newton_polish);
+}
+
 TEST(Scenes, ExplicitStepHintIsTheHarmonicLimit) {
   // Two quanta (m) on one bond (k): ω² = 2k/m, and the Gershgorin bound 2 Σk/m is exact here.
   const Scene s = parse_scene(R"({"timestep": 0.01, "steps": 1, "materials": {"s": {"stiffness": 100}},

@@ -89,6 +89,11 @@ struct IntegratorConfig {
   double tolerance = 1e-6;   ///< relative residual ‖b - A dv‖/‖b‖ at which sweeps and cg stop;
                              ///< Newton integrators: relative residual of the nonlinear step
   int newton_iterations = 20;  ///< Newton integrators: iteration cap per step (≥ 1)
+  /// energy_momentum, implicit_midpoint: once Newton meets `tolerance`, take exact-Newton
+  /// corrections (sparse LU) until the residual stops decreasing, i.e. to round-off, so that both
+  /// momenta (and energy_momentum's energy) are kept to round-off rather than to the tolerance.
+  /// Costs one or two LU solves per step (docs/integrators.md, "Polishing").
+  bool newton_polish = false;
   double chebyshev_rho = 0;  ///< sweep: spectral radius estimate for Chebyshev acceleration (0 = off)
   WarmStart warm_start = WarmStart::zero;  ///< sweeps from `previous` blow up, from `external`
                                            ///< they pump energy into anchored bodies
@@ -119,6 +124,8 @@ struct SolveStats {
                              ///< Newton iteration did not converge (0: solved whole)
   int unconverged = 0;       ///< Newton integrators: solves left above the tolerance (a whole
                              ///< step, or substeps at the depth limit); 0 when the step converged
+  int polish_iterations = 0;  ///< Newton integrators: corrections after the tolerance was met,
+                              ///< taking the residual to round-off (energy_momentum, implicit_midpoint)
 };
 
 /// An integrator: owns its options and its scratch buffers (no allocation once warmed up).
