@@ -82,6 +82,7 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
 
 void assemble_blocks(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys) {
   const std::size_t n = model.num_quanta();
+  sys.part.update(model, adj, threads);
   sys.diag.resize(n);
   sys.diag_inv.resize(n);
   sys.edges.resize(adj.offset[n]);
@@ -227,15 +228,14 @@ bool DirectSolver::solve_lu(const Model& model, const State& state, const Implic
   return true;
 }
 
-void ConjugateGradient::solve(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, double tolerance,
+void ConjugateGradient::solve(const Model& model, const ImplicitSystem& sys, double tolerance,
                               int cap, int threads, std::vector<Vec3>& y, SolveStats& stats) {
   const std::size_t n = model.num_quanta();
   // Σ a_i · b_i over free quanta (kinematic rows of r, z, p and Ap are 0).
   auto dot = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& c) {
     return deterministic_sum(a.size(), threads, [&](std::size_t i) { return a[i].dot(c[i]); });
   };
-  part.update(model, adj, threads);
-  apply_system(model, part, sys, y, threads, Ap);
+  apply_system(model, sys.part, sys, y, threads, Ap);
   r.resize(n);
   z.resize(n);
   p.resize(n);
@@ -250,7 +250,7 @@ void ConjugateGradient::solve(const Model& model, const Adjacency& adj, const Im
   stats.residual = rel(dot(r, r));
   int it = 0;
   while (it < cap && stats.residual > tolerance) {
-    apply_system(model, part, sys, p, threads, Ap);
+    apply_system(model, sys.part, sys, p, threads, Ap);
     const double pAp = dot(p, Ap);
     if (!(pAp > 0)) break;  // exact solution reached (p = 0) or loss of positivity
     const double alpha = rz / pAp;

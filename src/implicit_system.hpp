@@ -117,7 +117,8 @@ struct ImplicitSystem {
   // (non-symmetric, indefinite), which then replaces `bonds`' a u uᵀ + b I in assemble_system;
   // empty otherwise.
   std::vector<Mat3> exact;  // (nb when used)
-  // Scratch of begin_implicit_step's bond-centric pass.
+  // The bond-centric passes' partition (begin_implicit_step and assemble_blocks keep it current;
+  // CG's product runs over it) and begin_implicit_step's scratch.
   BondPartition part;
   std::vector<DiagonalRow> rows;  // (n)
   std::vector<Index> cursor;      // (n) each quanta's next adjacency entry (with edges)
@@ -134,7 +135,8 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
 
 // A's blocks from per-bond B_b (sys.bonds[b].u, Ba, Bb, as the Newton integrators fill them):
 // diag = m I + Σ B_b and its inverse for every free quanta (identity for kinematic ones) and the
-// edge blocks, gathered in bond order (the same bits for any thread count). Leaves rhs alone.
+// edge blocks, gathered in bond order (the same bits for any thread count); updates sys.part.
+// Leaves rhs alone.
 void assemble_blocks(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys);
 
 // The paper's hybrid step (Eq. 12: neighbours held at their start positions and at rest), in one
@@ -193,12 +195,12 @@ struct DirectSolver {
 };
 
 // Matrix-free CG preconditioned by blockdiag(A_ii)⁻¹ (the hybrid's 3×3 blocks), from the initial
-// guess in y, until ‖b − A y‖/‖b‖ ≤ tolerance or `cap` iterations; fills stats.
+// guess in y, until ‖b − A y‖/‖b‖ ≤ tolerance or `cap` iterations; fills stats. The product runs
+// over sys.part, which begin_implicit_step or assemble_blocks has brought up to date.
 struct ConjugateGradient {
-  BondPartition part;
   std::vector<Vec3> r, z, p, Ap;
-  void solve(const Model& model, const Adjacency& adj, const ImplicitSystem& sys, double tolerance, int cap,
-             int threads, std::vector<Vec3>& y, SolveStats& stats);
+  void solve(const Model& model, const ImplicitSystem& sys, double tolerance, int cap, int threads,
+             std::vector<Vec3>& y, SolveStats& stats);
 };
 
 // Block Gauss–Seidel sweeps in graph-colour order (quanta of one colour share no bond, so their
