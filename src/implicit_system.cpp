@@ -114,7 +114,9 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   project_kinematic(model, state, ctx, out);
   part.update(model, adj, threads);
   rows.resize(n);
-  parallel_for(n, threads, [&](std::size_t i) { rows[i].start(model.mass[i], h * f_ext[i]); });
+  parallel_for(n, threads, [&](std::size_t i) {
+    rows[i].start(model.mass[i], model.mass[i] * state.v[i] + h * f_ext[i]);
+  });
   for_each_bond(part, model, [&](Index b, bool own_i, bool own_j) {
     const Index i = model.bond_i[b], j = model.bond_j[b];
     own_i = own_i && !model.is_kinematic(i);  // kinematic rows are not solved for
@@ -123,23 +125,23 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     const BondLinearisation l = linearise_bond(model, state, b);
     double B[6];
     block_entries(l.u, h * l.ca + h2 * l.ka, h * l.cb + h2 * l.kb, B);
-    const Vec3 g = h * l.f;
-    // Each end: A_ii += B_b, b_i += ±h f_b − h K_b Δx₀ with Δx₀ = h v_i.
-    auto add = [&](Index q, const Vec3& gq) {
+    const Vec3 hTu = (h * l.T) * l.u;
+    // Each end q, the other end o: A_qq += B_b, rhs_q += ±h T u + h C_b v_o.
+    auto add = [&](Index q, const Vec3& tension, Index o) {
       DiagonalRow& row = rows[q];
       row.add_block(B);
-      row.b += gq - h * block_times(l.u, l.ka, l.kb, Vec3(h * state.v[q]));
+      row.b += tension + h * block_times(l.u, l.ca, l.cb, state.v[o]);
     };
-    if (own_i) add(i, g);
-    if (own_j) add(j, -g);
+    if (own_i) add(i, hTu, j);
+    if (own_j) add(j, -hTu, i);
   });
   parallel_for(n, threads, [&](std::size_t q) {
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i)) return;
     // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-    const Vec3 dv = rows[i].matrix().inverse() * rows[i].b;
-    out.dv[i] = dv;
-    out.dx[i] = h * (state.v[i] + dv);
+    const Vec3 v1 = rows[i].matrix().inverse() * rows[i].b;
+    out.dv[i] = v1 - state.v[i];
+    out.dx[i] = h * v1;
   });
 }
 

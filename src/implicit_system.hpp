@@ -34,12 +34,13 @@ inline Mat3 block_matrix(const Vec3& u, double a, double b) {
 }
 
 // One bond's linearisation at the start of the step: its unit vector u (bond_i to bond_j), its
-// force on bond_i (law plus damping), and its stiffness and damping blocks, K_b = ka u uᵀ + kb I
-// (clamped at 0 so that A stays positive definite: laws.hpp, stiffness_block) and
-// C_b = ca u uᵀ + cb I. All 0 for a zero-length bond, which has no direction.
+// tension T and its force on bond_i f = T u + C_b (v_j − v_i) (law plus damping), and its stiffness
+// and damping blocks, K_b = ka u uᵀ + kb I (clamped at 0 so that A stays positive definite:
+// laws.hpp, stiffness_block) and C_b = ca u uᵀ + cb I. All 0 for a zero-length bond, which has no
+// direction.
 struct BondLinearisation {
   Vec3 u = Vec3::Zero(), f = Vec3::Zero();
-  double ka = 0, kb = 0, ca = 0, cb = 0;
+  double T = 0, ka = 0, kb = 0, ca = 0, cb = 0;
 };
 inline BondLinearisation linearise_bond(const Model& model, const State& state, Index b) {
   BondLinearisation l;
@@ -47,13 +48,15 @@ inline BondLinearisation linearise_bond(const Model& model, const State& state, 
   const Vec3 d = state.x[j] - state.x[i];
   const double r = d.norm();
   if (!(r > 0)) return l;
-  l.u = d / r;
+  const double inv_r = 1.0 / r;  // one division per bond
+  l.u = inv_r * d;
   const LawValue lv = model.law_at(b, r, state.rest[b]);
+  l.T = lv.T;
   const Vec3 w = state.v[j] - state.v[i];
   const double D = model.damping[b];
   const bool axial = model.damping_model[b] == DampingModel::axial;
-  l.f = lv.T * l.u + (axial ? Vec3(D * w.dot(l.u) * l.u) : Vec3(D * w));
-  const double k_axial = std::max(lv.dT, 0.0), k_transverse = std::max(lv.T / r, 0.0);
+  l.f = axial ? Vec3((lv.T + D * w.dot(l.u)) * l.u) : Vec3(lv.T * l.u + D * w);
+  const double k_axial = std::max(lv.dT, 0.0), k_transverse = std::max(lv.T * inv_r, 0.0);
   l.ka = k_axial - k_transverse;
   l.kb = k_transverse;
   (axial ? l.ca : l.cb) = D;
@@ -140,9 +143,12 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
 void assemble_blocks(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys);
 
 // The paper's hybrid step (Eq. 12: neighbours held at their start positions and at rest), in one
-// bond-centric pass (bond_partition.hpp) and one pass over the quanta. Each bond is linearised
-// once and added to its free ends' A_ii = m I + Σ B_b (kept as its six distinct entries) and
-// b_i = h f_ext,i + Σ ±h f_b − h K_b (h v_i); then Δv_i = A_ii⁻¹ b_i goes straight into `out`
+// bond-centric pass (bond_partition.hpp) and one pass over the quanta. Eq. 12 reads
+// A_ii Δv_i = h f_i − h² K_i v_i with A_ii = m I + h C_i + h² K_i (C_i, K_i: Σ C_b, Σ K_b over i's
+// bonds) and f_i = f_ext,i + Σ_b (T_b u_b + C_b (v_j − v_i)); adding A_ii v_i to both sides cancels
+// the K_i and C_i v_i terms: A_ii (v_i + Δv_i) = m v_i + h f_ext,i + h Σ_b (T_b u_b + C_b v_j).
+// Each bond is linearised once and added to its free ends' A_ii (kept as its six distinct
+// entries) and that right-hand side; then v_i + Δv_i = A_ii⁻¹ (…) goes straight into `out`
 // (dx = h (v + Δv), Eq. 10), whose kinematic rows come from project_kinematic.
 struct FrozenStep {
   BondPartition part;

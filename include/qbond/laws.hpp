@@ -106,11 +106,10 @@ inline Vec3 bond_force_on_i(Law law, DampingModel model, const Vec3& d, const Ve
                             double strength, double D, double eps) {
   const double r = d.norm();
   if (!(r > 0)) return Vec3::Zero();
-  const Vec3 u = d / r;
-  const LawValue lv = evaluate_law(law, r, L, strength, eps);
-  Vec3 f = lv.T * u;
-  f += model == DampingModel::axial ? Vec3(D * w.dot(u) * u) : Vec3(D * w);
-  return f;
+  const double inv_r = 1.0 / r;  // one division: u = d / r is applied as d · (1/r)
+  const double T = evaluate_law(law, r, L, strength, eps).T;
+  if (model == DampingModel::axial) return ((T + D * w.dot(d) * inv_r) * inv_r) * d;
+  return (T * inv_r) * d + D * w;
 }
 
 /// Name of a law as written in scene files.
