@@ -130,7 +130,8 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     auto add = [&](Index q, const Vec3& tension, Index o) {
       DiagonalRow& row = rows[q];
       row.add_block(B);
-      row.b += tension + h * block_times(l.u, l.ca, l.cb, state.v[o]);
+      const Vec3& vo = state.v[o];
+      row.b += l.cb == 0 ? Vec3(tension + (h * l.ca * l.u.dot(vo)) * l.u) : Vec3(tension + h * block_times(l.u, l.ca, l.cb, vo));
     };
     if (own_i) add(i, hTu, j);
     if (own_j) add(j, -hTu, i);
@@ -139,7 +140,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i)) return;
     // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-    const Vec3 v1 = rows[i].matrix().inverse() * rows[i].b;
+    const Vec3 v1 = rows[i].solve();
     out.dv[i] = v1 - state.v[i];
     out.dx[i] = h * v1;
   });

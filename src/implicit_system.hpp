@@ -92,6 +92,14 @@ struct DiagonalRow {
   void add_block(const double (&B)[6]) {
     for (int k = 0; k < 6; ++k) a[k] += B[k];
   }
+  // A_ii⁻¹ b_i by the adjugate of the symmetric block (A_ii is positive definite).
+  Vec3 solve() const {
+    const double c00 = a[1] * a[2] - a[5] * a[5], c11 = a[0] * a[2] - a[4] * a[4], c22 = a[0] * a[1] - a[3] * a[3];
+    const double c01 = a[4] * a[5] - a[3] * a[2], c02 = a[3] * a[5] - a[4] * a[1], c12 = a[3] * a[4] - a[0] * a[5];
+    const double inv_det = 1.0 / (a[0] * c00 + a[3] * c01 + a[4] * c02);
+    return inv_det * Vec3(c00 * b.x() + c01 * b.y() + c02 * b.z(), c01 * b.x() + c11 * b.y() + c12 * b.z(),
+                          c02 * b.x() + c12 * b.y() + c22 * b.z());
+  }
   Mat3 matrix() const {
     Mat3 m;
     m << a[0], a[3], a[4], a[3], a[1], a[5], a[4], a[5], a[2];
