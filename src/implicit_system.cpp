@@ -45,8 +45,8 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
     if (!own_i && !own_j) return;
     double B[6];
     block_entries(l.u, Ba, Bb, B);
-    const Vec3 dx = dx0(i) - dx0(j), dv = dvk(i) - dvk(j);
-    const Vec3 g = h * l.f - h * block_times(l.u, l.ka, l.kb, dx) - h * block_times(l.u, l.ca, l.cb, dv);
+    Vec3 g = h * l.f - h * block_times(l.u, l.ka, l.kb, dx0(i) - dx0(j));
+    if (!free_i || !free_j) g -= h * block_times(l.u, l.ca, l.cb, dvk(i) - dvk(j));  // Δv_k = 0 for free quanta
     // An edge towards a kinematic neighbour is 0: its unknown is eliminated.
     if (own_i) {
       DiagonalRow& row = sys.rows[i];
@@ -153,12 +153,19 @@ void apply_system(const Model& model, const BondPartition& part, const ImplicitS
     const auto i = static_cast<Index>(q);
     out[i] = model.is_kinematic(i) ? Vec3::Zero() : Vec3(sys.diag[i] * y[i]);
   });
-  for_each_bond(part, model, [&](Index b, bool own_i, bool own_j) {
-    const Index i = model.bond_i[b], j = model.bond_j[b];
-    if (model.is_kinematic(i) || model.is_kinematic(j)) return;  // eliminated unknowns
-    const BondBlock& bb = sys.bonds[b];
-    if (own_i) out[i] -= block_times(bb.u, bb.Ba, bb.Bb, y[j]);
-    if (own_j) out[j] -= block_times(bb.u, bb.Ba, bb.Bb, y[i]);
+  // Raw pointers held in the loop (through the containers the compiler reloads them every bond).
+  const Index* bi = model.bond_i.data();
+  const Index* bj = model.bond_j.data();
+  const double* inv_mass = model.inv_mass.data();
+  const BondBlock* bonds = sys.bonds.data();
+  const Vec3* yp = y.data();
+  Vec3* op = out.data();
+  for_each_bond(part, model, [=](Index b, bool own_i, bool own_j) {
+    const Index i = bi[b], j = bj[b];
+    if (inv_mass[i] == 0 || inv_mass[j] == 0) return;  // eliminated unknowns
+    const BondBlock& bb = bonds[b];
+    if (own_i) op[i] -= block_times(bb.u, bb.Ba, bb.Bb, yp[j]);
+    if (own_j) op[j] -= block_times(bb.u, bb.Ba, bb.Bb, yp[i]);
   });
 }
 
