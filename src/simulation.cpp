@@ -75,14 +75,15 @@ StepReport Simulation::check_projection() const {
       who = static_cast<Index>(i);
       break;
     }
-    const double speed = v1.norm();
-    if (!m.is_kinematic(static_cast<Index>(i)) && speed > worst) {
-      worst = speed;
+    const double speed2 = v1.squaredNorm();  // a square root only for the worst, at the end
+    if (!m.is_kinematic(static_cast<Index>(i)) && speed2 > worst) {
+      worst = speed2;
       who = static_cast<Index>(i);
     }
   }
   StepReport r;
-  if (finite && worst <= limits_.max_speed) return r;
+  if (finite && worst <= limits_.max_speed * limits_.max_speed) return r;
+  worst = std::sqrt(worst);
   std::ostringstream msg;
   msg.precision(6);
   msg << "blow-up at step " << ctx_.step << " (t = " << ctx_.t << " s): ";
