@@ -131,7 +131,10 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
       DiagonalRow& row = rows[q];
       row.add_block(B);
       const Vec3& vo = state.v[o];
-      row.b += l.cb == 0 ? Vec3(tension + (h * l.ca * l.u.dot(vo)) * l.u) : Vec3(tension + h * block_times(l.u, l.ca, l.cb, vo));
+      if (l.cb == 0)  // axial damping: h C_b v_o is one scaled u
+        row.b += tension + (h * l.ca * l.u.dot(vo)) * l.u;
+      else
+        row.b += tension + h * block_times(l.u, l.ca, l.cb, vo);
     };
     if (own_i) add(i, hTu, j);
     if (own_j) add(j, -hTu, i);

@@ -64,7 +64,7 @@ StepReport Simulation::step() {
 StepReport Simulation::check_projection() const {
   const Model& m = world_.model;
   const State& s = world_.state;
-  double worst = -1;
+  double worst2 = -1;  // squared: a square root only for the message
   Index who = 0;
   bool finite = true;
   for (std::size_t i = 0; i < m.num_quanta(); ++i) {
@@ -75,22 +75,21 @@ StepReport Simulation::check_projection() const {
       who = static_cast<Index>(i);
       break;
     }
-    const double speed2 = v1.squaredNorm();  // a square root only for the worst, at the end
-    if (!m.is_kinematic(static_cast<Index>(i)) && speed2 > worst) {
-      worst = speed2;
+    const double speed2 = v1.squaredNorm();
+    if (!m.is_kinematic(static_cast<Index>(i)) && speed2 > worst2) {
+      worst2 = speed2;
       who = static_cast<Index>(i);
     }
   }
   StepReport r;
-  if (finite && worst <= limits_.max_speed * limits_.max_speed) return r;
-  worst = std::sqrt(worst);
+  if (finite && worst2 <= limits_.max_speed * limits_.max_speed) return r;
   std::ostringstream msg;
   msg.precision(6);
   msg << "blow-up at step " << ctx_.step << " (t = " << ctx_.t << " s): ";
   if (!finite)
     msg << "quanta " << who << " would get a non-finite position or velocity";
   else
-    msg << "quanta " << who << " would reach speed " << worst << " m/s (limit " << limits_.max_speed
+    msg << "quanta " << who << " would reach speed " << std::sqrt(worst2) << " m/s (limit " << limits_.max_speed
         << " m/s)";
   msg << "; the world keeps the state before this step";
   r.status = StepReport::Status::blowup;
