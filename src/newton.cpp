@@ -460,7 +460,7 @@ class NewtonIntegrator final : public Integrator {
   // on almost every step. The step is converged whatever polishing achieves: it never splits one.
   template <class Evaluate>
   void polish(const Model& model, const State& state, const Adjacency& adj, Evaluate& evaluate, double& r,
-              const double& ref, double& residual) {
+              double ref, double& residual) {
     constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
     const std::size_t n = model.num_quanta();
     if (!step_.exact) {  // the exact blocks at the converged iterate
