@@ -1,6 +1,7 @@
 // qbond's performance suite (Google Benchmark), run by `qbond bench` (docs/performance.md).
 //
 //   qbond_bench [benchmark flags] [--n=10,20,40] [--threads=1,2] [--integrators=a,b,...] [--dt=H]
+//               [--order=built,shuffled,sorted]
 //   qbond_bench [benchmark flags] --solve [--n=20,40]
 //
 // Registers, for each integrator, lattice size n and thread count, the time of one step of the
@@ -17,6 +18,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <numeric>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -25,6 +28,7 @@
 #include <Eigen/SparseCholesky>
 
 #include "implicit_system.hpp"  // internal: the linear system the implicit integrators solve
+#include "qbond/ordering.hpp"
 #include "qbond/samples.hpp"
 #include "qbond/simulation.hpp"
 
@@ -57,8 +61,36 @@ double bytes_per_step(std::size_t quanta, std::size_t bonds) {
   return 32.0 * static_cast<double>(bonds) + 104.0 * static_cast<double>(quanta);
 }
 
-void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, int threads, double dt) {
+// The order the lattice's quanta and bonds are numbered in: as the builder made them (rows of x,
+// then y, then z), shuffled (as a mesh or packing might come), or shuffled and then renumbered
+// by locality_order (as scene loading does).
+enum class Order { built, shuffled, sorted };
+
+Order parse_order(const std::string& s) {
+  if (s == "built") return Order::built;
+  if (s == "shuffled") return Order::shuffled;
+  if (s == "sorted") return Order::sorted;
+  std::fprintf(stderr, "qbond_bench: --order: '%s' is not built, shuffled or sorted\n", s.c_str());
+  std::exit(2);
+}
+
+void apply_order(World& w, Order order) {
+  if (order == Order::built) return;
+  Renumbering r;
+  r.quanta.resize(w.num_quanta());
+  r.bonds.resize(w.num_bonds());
+  std::iota(r.quanta.begin(), r.quanta.end(), Index{0});
+  std::iota(r.bonds.begin(), r.bonds.end(), Index{0});
+  std::mt19937_64 rng(12345);
+  std::shuffle(r.quanta.begin(), r.quanta.end(), rng);
+  std::shuffle(r.bonds.begin(), r.bonds.end(), rng);
+  renumber(w, r);
+  if (order == Order::sorted) renumber(w, locality_order(w));
+}
+
+void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, int threads, double dt, Order order) {
   Scene scene = canonical_lattice(n);
+  apply_order(scene.world, order);
   if (dt > 0) scene.timestep = dt;
   IntegratorConfig cfg = integ.config;
   cfg.threads = threads;
@@ -183,6 +215,7 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   std::vector<int> sizes{10, 20, 40}, threads{1};
   std::vector<std::string> names{"hybrid_frozen", "hybrid_sweep", "velocity_verlet", "default"};
+  std::vector<std::string> orders{"built"};
   double dt = 0;
   bool solve = false;
   for (int k = 1; k < argc; ++k) {
@@ -197,6 +230,8 @@ int main(int argc, char** argv) {
       threads = split_ints(v2, "--threads");
     else if (const char* v3 = value("--integrators"))
       names = split(v3);
+    else if (const char* v5 = value("--order"))
+      orders = split(v5);
     else if (a == "--solve")
       solve = true;
     else if (const char* v4 = value("--dt")) {
@@ -208,7 +243,7 @@ int main(int argc, char** argv) {
       }
     }
     else {
-      std::fprintf(stderr, "qbond_bench: unknown argument '%s' (--n=LIST --threads=LIST --integrators=LIST --dt=H, "
+      std::fprintf(stderr, "qbond_bench: unknown argument '%s' (--n=LIST --threads=LIST --integrators=LIST --dt=H --order=LIST, "
                    "and Google Benchmark's --benchmark_* flags)\n", argv[k]);
       return 2;
     }
@@ -242,12 +277,17 @@ int main(int argc, char** argv) {
                    name.c_str());
       return 2;
     }
-    for (int n : sizes)
-      for (int t : threads)
-        benchmark::RegisterBenchmark(("step/" + name + "/n:" + std::to_string(n) + "/threads:" + std::to_string(t)).c_str(),
-                                     [integ, n, t, dt](benchmark::State& st) { step_benchmark(st, *integ, n, t, dt); })
-            ->UseRealTime()
-            ->Unit(benchmark::kMillisecond);
+    for (const std::string& o : orders)
+      for (int n : sizes)
+        for (int t : threads) {
+          const Order order = parse_order(o);
+          const std::string tail = order == Order::built ? "" : "/order:" + o;
+          benchmark::RegisterBenchmark(
+              ("step/" + name + "/n:" + std::to_string(n) + "/threads:" + std::to_string(t) + tail).c_str(),
+              [integ, n, t, dt, order](benchmark::State& st) { step_benchmark(st, *integ, n, t, dt, order); })
+              ->UseRealTime()
+              ->Unit(benchmark::kMillisecond);
+        }
   }
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();

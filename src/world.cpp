@@ -66,6 +66,7 @@ Index World::add_quanta(const Vec3& x, const Vec3& v, double mass, Index body, d
   model.inv_mass.push_back(mass > 0 ? 1.0 / mass : 0.0);
   model.body.push_back(body);
   model.volume.push_back(volume);
+  model.quanta_id.push_back(static_cast<Index>(model.quanta_id.size()));
   state.x.push_back(x);
   state.v.push_back(v);
   return static_cast<Index>(model.mass.size() - 1);
@@ -78,6 +79,7 @@ Index World::add_bond(Index i, Index j, const BondSpec& s) {
   const double L = s.rest_length >= 0 ? s.rest_length : (state.x[j] - state.x[i]).norm();
   model.bond_i.push_back(i);
   model.bond_j.push_back(j);
+  model.bond_id.push_back(static_cast<Index>(model.bond_id.size()));
   model.law.push_back(s.law);
   model.damping_model.push_back(s.damping_model);
   model.stiffness.push_back(s.stiffness);
@@ -97,6 +99,7 @@ namespace {
 void put_formed(Model& m, std::size_t b, const FormedBond& f) {
   if (b == m.num_bonds()) {
     for (auto* v : {&m.bond_i, &m.bond_j}) v->emplace_back();
+    m.bond_id.push_back(static_cast<Index>(b));
     m.law.emplace_back();
     m.damping_model.emplace_back();
     for (auto* v : {&m.stiffness, &m.damping, &m.eps, &m.rest0}) v->emplace_back();
@@ -137,7 +140,7 @@ Index World::form_bond(Index i, Index j, const BondSpec& s, double L, Index slot
 
 void World::sync_formed_bonds() {
   const std::size_t first = state.rest.size() - state.formed.size();
-  for (auto* v : {&model.bond_i, &model.bond_j}) v->resize(first);
+  for (auto* v : {&model.bond_i, &model.bond_j, &model.bond_id}) v->resize(first);
   model.law.resize(first);
   model.damping_model.resize(first);
   for (auto* v : {&model.stiffness, &model.damping, &model.eps, &model.rest0}) v->resize(first);

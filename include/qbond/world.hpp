@@ -46,9 +46,13 @@ struct Model {
   std::vector<Index> body;       ///< body id (n)
   std::vector<double> volume;    ///< volume the quanta stands for [m³] (n); 0 = unknown, then
                                  ///< it has no stress (stress.hpp). Builders set it.
+  std::vector<Index> quanta_id;  ///< the user's id of each quanta (n): creation order, kept when
+                                 ///< the world is renumbered for locality (ordering.hpp)
   std::vector<std::string> body_names;  ///< (bodies)
   // bonds (nb)
   std::vector<Index> bond_i, bond_j;         ///< endpoints (nb)
+  std::vector<Index> bond_id;                ///< the user's id of each bond (nb): creation order
+                                             ///< or formed slot, kept by renumbering
   std::vector<Law> law;                      ///< (nb)
   std::vector<DampingModel> damping_model;   ///< (nb)
   std::vector<double> stiffness;  ///< k [N/m] for linear, F [N] for inverse (nb)

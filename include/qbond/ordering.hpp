@@ -1,0 +1,41 @@
+#pragma once
+/// Renumbering quanta and bonds for memory locality (docs/performance.md, "Locality order").
+///
+/// A step streams the bonds and reads both ends' positions and velocities; when bonds joining
+/// nearby quanta sit near each other in memory and so do their ends, those reads hit the cache.
+/// Scenes built from meshes, packings or shuffled lists do not come in such an order, so scene
+/// loading renumbers the world as LAMMPS sorts its atoms (atom_modify sort): quanta by spatial
+/// bin, x fastest, then y, then z, so that a lattice's neighbours sit at a few fixed offsets that
+/// the hardware prefetcher streams (a Morton order, measured, keeps neighbours closer but
+/// scatters them and ran up to 1.36× slower, docs/performance.md); bonds by their ends' new
+/// numbers. As LAMMPS does with its atom tags, the user's ids stay with the quanta and bonds
+/// (Model::quanta_id, Model::bond_id): outputs and selections speak them.
+#include <vector>
+
+#include "qbond/world.hpp"
+
+namespace qbond {
+
+/// New index of each quanta and bond: quanta[old] and bonds[old] (permutations).
+struct Renumbering {
+  std::vector<Index> quanta;
+  std::vector<Index> bonds;
+};
+
+/// The quanta sorted by the bin of their current position (bins one spacing wide, the median
+/// nearest-bonded-neighbour distance, centred on the lowest corner's lattice; x fastest; ties by
+/// index), and the bonds made with the scene sorted by their (first end, second end) in the new
+/// numbering (ties by index). Bonds formed during the run (State::formed) keep their slots at
+/// the end. A builder's lattice, made x fastest, keeps its quanta order; a sorted world maps to
+/// the identity.
+Renumbering locality_order(const World& world);
+
+/// Renumbers every per-quanta and per-bond array of the world, the quanta of its motions and
+/// loads, the formed bonds' ends and the integrator's carried state, and bumps the topology
+/// version. `r` must leave formed bonds in their slots (locality_order does). Results of a step change only by summation order (round-off).
+void renumber(World& world, const Renumbering& r);
+
+/// Maps a list of old quanta indices to new ones, in place.
+void renumber_quanta(std::vector<Index>& quanta, const Renumbering& r);
+
+}  // namespace qbond

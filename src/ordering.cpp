@@ -1,0 +1,141 @@
+#include "qbond/ordering.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace qbond {
+
+namespace {
+
+// Sorts indices 0..n-1 by key (ties by index) and returns the new index of each old one.
+std::vector<Index> rank_by(const std::vector<std::uint64_t>& key) {
+  std::vector<Index> order(key.size());
+  std::iota(order.begin(), order.end(), Index{0});
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
+  std::vector<Index> rank(key.size());
+  for (std::size_t k = 0; k < order.size(); ++k) rank[order[k]] = static_cast<Index>(k);
+  return rank;
+}
+
+// out[r[k]] = in[k] for the first r.size() entries (the rest unchanged).
+template <class T>
+void permute(std::vector<T>& v, const std::vector<Index>& r, std::size_t offset = 0) {
+  assert(v.size() >= offset + r.size());
+  std::vector<T> old(v.begin() + static_cast<std::ptrdiff_t>(offset),
+                     v.begin() + static_cast<std::ptrdiff_t>(offset + r.size()));
+  for (std::size_t k = 0; k < r.size(); ++k) v[offset + r[k]] = std::move(old[k]);
+}
+
+// The spacing of the quanta: the median over quanta of their shortest bond's length (the
+// nearest-neighbour distance, a lattice's spacing); without bonds, the mean spacing of n points
+// in the bounding box.
+double spacing(const Model& m, const State& s, double extent) {
+  const std::size_t n = m.num_quanta();
+  std::vector<double> shortest(n, std::numeric_limits<double>::infinity());
+  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
+    if (!s.alive[b]) continue;
+    const Index i = m.bond_i[b], j = m.bond_j[b];
+    const double r = (s.x[i] - s.x[j]).norm();
+    shortest[i] = std::min(shortest[i], r);
+    shortest[j] = std::min(shortest[j], r);
+  }
+  std::erase_if(shortest, [](double r) { return !(r > 0 && r < std::numeric_limits<double>::infinity()); });
+  if (shortest.empty()) return extent / std::cbrt(static_cast<double>(n));
+  auto mid = shortest.begin() + static_cast<std::ptrdiff_t>(shortest.size() / 2);
+  std::nth_element(shortest.begin(), mid, shortest.end());
+  return *mid;
+}
+
+}  // namespace
+
+Renumbering locality_order(const World& world) {
+  const Model& m = world.model;
+  const State& s = world.state;
+  const std::size_t n = m.num_quanta(), nb = m.num_bonds(), scene_bonds = nb - s.formed.size();
+  Renumbering r;
+  if (n == 0) return r;
+
+  Vec3 lo = s.x[0], hi = s.x[0];
+  for (const Vec3& x : s.x) {
+    lo = lo.cwiseMin(x);
+    hi = hi.cwiseMax(x);
+  }
+  constexpr double kMaxBin = (1u << 21) - 1;  // 21 bits a coordinate
+  const double extent = (hi - lo).maxCoeff();
+  // Bins one spacing wide, centred on lo + k·spacing so that a lattice's rows sit mid-bin
+  // (round-off cannot move a quanta to the next row).
+  double bin = extent > 0 ? std::max(spacing(m, s, extent), extent / kMaxBin) : 1.0;
+  if (!(bin > 0 && std::isfinite(bin))) bin = 1.0;
+  std::vector<std::uint64_t> key(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 c = ((s.x[i] - lo) / bin).array() + 0.5;
+    // Non-finite positions (a scene cannot make them; a hand-built world might) sort last.
+    if (!c.allFinite()) {
+      key[i] = ~std::uint64_t{0};
+      continue;
+    }
+    const Vec3 q = c.cwiseMax(0.0).cwiseMin(kMaxBin);
+    key[i] = std::uint64_t(q.z()) << 42 | std::uint64_t(q.y()) << 21 | std::uint64_t(q.x());
+  }
+  r.quanta = rank_by(key);
+
+  key.resize(scene_bonds);
+  for (std::size_t b = 0; b < scene_bonds; ++b)
+    key[b] = std::uint64_t{r.quanta[m.bond_i[b]]} << 32 | r.quanta[m.bond_j[b]];
+  r.bonds = rank_by(key);
+  for (std::size_t b = scene_bonds; b < nb; ++b) r.bonds.push_back(static_cast<Index>(b));
+  return r;
+}
+
+void renumber_quanta(std::vector<Index>& quanta, const Renumbering& r) {
+  for (Index& i : quanta) i = r.quanta[i];
+}
+
+void renumber(World& world, const Renumbering& r) {
+  Model& m = world.model;
+  State& s = world.state;
+  const std::size_t n = m.num_quanta(), nb = m.num_bonds();
+  assert(r.quanta.size() == n && r.bonds.size() == nb);
+  for (std::size_t b = nb - s.formed.size(); b < nb; ++b) assert(r.bonds[b] == b);  // formed keep slots
+
+  permute(m.mass, r.quanta);
+  permute(m.inv_mass, r.quanta);
+  permute(m.body, r.quanta);
+  permute(m.volume, r.quanta);
+  permute(m.quanta_id, r.quanta);
+  permute(s.x, r.quanta);
+  permute(s.v, r.quanta);
+  if (s.warm.size() == n) {
+    permute(s.warm, r.quanta);
+  } else if (s.warm.size() == 2 * n + 1) {  // bdf2: x then v of the previous state
+    permute(s.warm, r.quanta);
+    permute(s.warm, r.quanta, n);
+  }
+  for (Motion& motion : m.motions) renumber_quanta(motion.quanta, r);
+  for (Load& load : m.loads) renumber_quanta(load.quanta, r);
+
+  renumber_quanta(m.bond_i, r);
+  renumber_quanta(m.bond_j, r);
+  for (FormedBond& f : s.formed) {
+    f.i = r.quanta[f.i];
+    f.j = r.quanta[f.j];
+  }
+  permute(m.bond_i, r.bonds);
+  permute(m.bond_j, r.bonds);
+  permute(m.law, r.bonds);
+  permute(m.damping_model, r.bonds);
+  permute(m.stiffness, r.bonds);
+  permute(m.damping, r.bonds);
+  permute(m.eps, r.bonds);
+  permute(m.rest0, r.bonds);
+  permute(m.bond_id, r.bonds);
+  permute(s.rest, r.bonds);
+  permute(s.alive, r.bonds);
+  permute(s.bond_time, r.bonds);
+  ++s.topology_version;
+}
+
+}  // namespace qbond
