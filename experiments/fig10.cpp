@@ -6,6 +6,7 @@
 
 #include "experiment.hpp"
 #include "qbond/materials.hpp"
+#include "qbond/ordering.hpp"
 #include "qbond/samples.hpp"
 #include "qbond/simulation.hpp"
 #include "qbond/statics.hpp"
@@ -35,9 +36,8 @@ struct Run {
 void fig10(const Options& opt, Report& rep) {
   Scene scene = builtin_scene("pendulum");
   World& w0 = scene.world;
-  std::vector<Index> cube, rope;
-  for (std::size_t i = 0; i < w0.num_quanta(); ++i)
-    (w0.model.body_names[w0.model.body[i]] == "cube" ? cube : rope).push_back(static_cast<Index>(i));
+  std::vector<Index> cube, rope;  // in creation (user id) order: the rope from the pivot down
+  for (Index i : quanta_by_id(w0.model)) (w0.model.body_names[w0.model.body[i]] == "cube" ? cube : rope).push_back(i);
   const Index pivot = rope.front();
   const Vec3 p = w0.state.x[pivot];
 
@@ -57,7 +57,7 @@ void fig10(const Options& opt, Report& rep) {
   for (Index i : cube) M_cube += rest.model.mass[i];
   const double T_swing0 = 2 * M_PI * std::sqrt(I / (Ml * g));
   std::vector<double> k, L, m = {0};
-  for (std::size_t b = 0; b < rest.num_bonds(); ++b) {
+  for (Index b : bonds_by_id(rest.model)) {  // the rope's bonds in creation order, down the chain
     const bool rope_bond = rest.model.body[rest.model.bond_i[b]] != rest.model.body[rest.model.bond_j[b]] ||
                            rest.model.body_names[rest.model.body[rest.model.bond_i[b]]] == "rope";
     if (!rope_bond) continue;

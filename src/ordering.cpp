@@ -20,15 +20,6 @@ std::vector<Index> rank_by(const std::vector<std::uint64_t>& key) {
   return rank;
 }
 
-// out[r[k]] = in[k] for the first r.size() entries (the rest unchanged).
-template <class T>
-void permute(std::vector<T>& v, const std::vector<Index>& r, std::size_t offset = 0) {
-  assert(v.size() >= offset + r.size());
-  std::vector<T> old(v.begin() + static_cast<std::ptrdiff_t>(offset),
-                     v.begin() + static_cast<std::ptrdiff_t>(offset + r.size()));
-  for (std::size_t k = 0; k < r.size(); ++k) v[offset + r[k]] = std::move(old[k]);
-}
-
 // The spacing of the quanta: the median over quanta of their shortest bond's length (the
 // nearest-neighbour distance, a lattice's spacing); without bonds, the mean spacing of n points
 // in the bounding box.
@@ -89,6 +80,20 @@ Renumbering locality_order(const World& world) {
   for (std::size_t b = scene_bonds; b < nb; ++b) r.bonds.push_back(static_cast<Index>(b));
   return r;
 }
+
+namespace {
+
+// at[p[k]] = k for a permutation p.
+std::vector<Index> inverse(const std::vector<Index>& p) {
+  std::vector<Index> at(p.size());
+  for (std::size_t k = 0; k < p.size(); ++k) at[p[k]] = static_cast<Index>(k);
+  return at;
+}
+
+}  // namespace
+
+std::vector<Index> quanta_by_id(const Model& model) { return inverse(model.quanta_id); }
+std::vector<Index> bonds_by_id(const Model& model) { return inverse(model.bond_id); }
 
 void renumber_quanta(std::vector<Index>& quanta, const Renumbering& r) {
   for (Index& i : quanta) i = r.quanta[i];

@@ -27,12 +27,13 @@ constexpr const char* kRunJson = "run.json";
 constexpr const char* kEvents = "events.csv";
 constexpr const char* kEventsHeader = "step,time,event,reason,bond,i,j,strain,tension";
 
-std::string event_row(const BondEvent& e) {
+// One row of events.csv; bond and quanta named by their user ids (Model::bond_id, quanta_id).
+std::string event_row(const BondEvent& e, const Model& m) {
   char buf[256];
   std::snprintf(buf, sizeof buf, "%llu,%.17g,%s,%s,%llu,%llu,%llu,%.17g,%.17g", static_cast<unsigned long long>(e.step),
                 e.time, std::string(to_string(e.kind)).c_str(), std::string(to_string(e.reason)).c_str(),
-                static_cast<unsigned long long>(e.bond), static_cast<unsigned long long>(e.i),
-                static_cast<unsigned long long>(e.j), e.strain, e.tension);
+                static_cast<unsigned long long>(m.bond_id[e.bond]), static_cast<unsigned long long>(m.quanta_id[e.i]),
+                static_cast<unsigned long long>(m.quanta_id[e.j]), e.strain, e.tension);
   return buf;
 }
 
@@ -316,7 +317,7 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
       result.message = rep.message;
       break;
     }
-    for (const BondEvent& e : r.sim.events()) r.events->write_line(event_row(e));
+    for (const BondEvent& e : r.sim.events()) r.events->write_line(event_row(e, r.sim.world().model));
     const State& s = r.sim.world().state;
     if (s.step % r.settings.every == 0) r.output();
     if (r.settings.checkpoint_every && s.step % r.settings.checkpoint_every == 0) r.checkpoint();

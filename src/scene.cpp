@@ -12,6 +12,7 @@
 #include "qbond/files.hpp"
 #include "qbond/gas.hpp"
 #include "qbond/materials.hpp"
+#include "qbond/ordering.hpp"
 #include "qbond/packing.hpp"
 #include "qbond/samples.hpp"
 #include "qbond/selection.hpp"
@@ -166,6 +167,24 @@ class Builder {
   Builder(const json& root, std::string default_name, SceneFiles files = {})
       : root_(root), default_name_(std::move(default_name)), files_(std::move(files)) {}
 
+  // Renumbers the built world for locality (ordering.hpp), and with it every per-quanta list the
+  // scene holds; ids in the scene stay the user's (Model::quanta_id).
+  static void renumber_for_locality(Scene& s) {
+    const Renumbering r = locality_order(s.world);
+    renumber(s.world, r);
+    for (ProbeSpec& p : s.output.probes) {
+      renumber_quanta(p.quanta, r);
+      std::sort(p.quanta.begin(), p.quanta.end());
+    }
+    auto mask = [&](std::vector<std::uint8_t>& m) {
+      if (!m.empty()) permute(m, r.quanta);
+    };
+    for (HeuristicSpec& h : s.heuristics)
+      std::visit([&](auto& rule) {
+        if constexpr (requires { rule.quanta; }) mask(rule.quanta);
+      }, h);
+  }
+
   Scene build() {
     Scene s;
     json res = root_;
@@ -197,6 +216,7 @@ class Builder {
     if (top.has("heuristics")) s.heuristics = heuristics(array(top["heuristics"], "heuristics"), w);
     w.state.obstacle_impulse.assign(obstacles_, ObstacleImpulse{});
     s.output = output(top.has("output") ? top["output"] : json::object(), s.steps, w);
+    renumber_for_locality(s);
 
     res["name"] = s.name;
     res["description"] = s.description;

@@ -4,6 +4,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "qbond/ordering.hpp"
+
 namespace qbond {
 
 std::vector<Index> select(const World& world, const Selection& s) {
@@ -11,18 +13,17 @@ std::vector<Index> select(const World& world, const Selection& s) {
   const Model& m = world.model;
   std::vector<std::uint8_t> picked(n, 1);
   if (s.ids) {
-    // Body-local ids count the body's quanta in creation order.
-    std::vector<Index> members;
-    if (s.body)
-      for (std::size_t i = 0; i < n; ++i)
-        if (m.body[i] == *s.body) members.push_back(static_cast<Index>(i));
-    const std::size_t range = s.body ? members.size() : n;
+    // Ids are the user's (creation order), whatever the world's numbering (ordering.hpp):
+    // members[k] is the quanta of user id k, or the body's k-th in creation order.
+    std::vector<Index> members = quanta_by_id(m);
+    if (s.body) std::erase_if(members, [&](Index i) { return m.body[i] != *s.body; });
+    const std::size_t range = members.size();
     std::fill(picked.begin(), picked.end(), 0);
     for (Index id : *s.ids) {
       if (id >= range)
         throw std::out_of_range("id " + std::to_string(id) + " is out of range (valid: 0.." +
                                 std::to_string(range == 0 ? 0 : range - 1) + ")");
-      picked[s.body ? members[id] : id] = 1;
+      picked[members[id]] = 1;
     }
   }
   for (std::size_t i = 0; i < n; ++i) {

@@ -87,9 +87,9 @@ StepReport Simulation::check_projection() const {
   msg.precision(6);
   msg << "blow-up at step " << ctx_.step << " (t = " << ctx_.t << " s): ";
   if (!finite)
-    msg << "quanta " << who << " would get a non-finite position or velocity";
+    msg << "quanta " << m.quanta_id[who] << " would get a non-finite position or velocity";
   else
-    msg << "quanta " << who << " would reach speed " << std::sqrt(worst2) << " m/s (limit " << limits_.max_speed
+    msg << "quanta " << m.quanta_id[who] << " would reach speed " << std::sqrt(worst2) << " m/s (limit " << limits_.max_speed
         << " m/s)";
   msg << "; the world keeps the state before this step";
   r.status = StepReport::Status::blowup;
@@ -122,7 +122,7 @@ StepReport Simulation::check_energy() const {
   msg.precision(6);
   msg << "blow-up at step " << s.step << " (t = " << s.time << " s): energy runaway, kinetic + bond energy "
       << held << " J exceeds " << limits_.energy_growth << " x the " << available
-      << " J the system could have gained; fastest quanta " << who << " at " << speed << " m/s";
+      << " J the system could have gained; fastest quanta " << m.quanta_id[who] << " at " << speed << " m/s";
   r.status = StepReport::Status::blowup;
   r.message = msg.str();
   r.worst = who;

@@ -182,6 +182,35 @@ def test_formed_bonds_resume_with_the_run():
         fail("events.csv of the resumed run differs from the uninterrupted one")
 
 
+def test_events_name_creation_ids():
+    """A chain built from x = 0.1 down to x = 0 is renumbered by position (reversed) when loaded;
+    events.csv still names the scene's ids: the chain's bond k joins quanta k and k + 1."""
+    d = fresh("creation_ids")
+    os.makedirs(d)
+    scene = os.path.join(d, "chain.json")
+    with open(scene, "w") as f:
+        json.dump({"timestep": 1e-5, "steps": 300,
+                   "materials": {"m": {"stiffness": 100}},
+                   "bodies": [{"name": "rope", "type": "chain", "start": [0.1, 0, 0], "end": [0, 0, 0],
+                               "count": 11, "quanta_mass": 1e-3, "material": "m"}],
+                   "anchors": [{"select": {"ids": [0]}},
+                               {"select": {"ids": [10]}, "motion": {"translate": {"velocity": [-2, 0, 0]}}}],
+                   "heuristics": [{"type": "break", "max_strain": 0.05}]}, f)
+    qbond("run", scene, "-q", "--out", os.path.join(d, "out"), check_code=0)
+    _, rows = read_csv(os.path.join(d, "out", "events.csv"))
+    head, rows = rows[0], rows[1:]
+    if not rows:
+        fail("the pulled chain did not break")
+    col = {name: k for k, name in enumerate(head)}
+    for r in rows:
+        bond, i, j = (int(r[col[c]]) for c in ("bond", "i", "j"))
+        if (i, j) != (bond, bond + 1):
+            fail(f"event {r}: bond {bond} of the chain joins quanta {bond} and {bond + 1}")
+    # The first to break is the one at the pulled end, id 9 (quanta 9 and 10).
+    if int(rows[0][col["bond"]]) != 9:
+        fail(f"first break {rows[0]}, expected bond 9 at the pulled end")
+
+
 def test_corrupt_checkpoint():
     out = fresh("corrupt")
     qbond("run", "two_quanta", "--steps", "10", "--out", out, "-q", check_code=0)

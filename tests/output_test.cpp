@@ -6,6 +6,7 @@
 #include "qbond/checkpoint.hpp"
 #include "qbond/diagnostics.hpp"
 #include "qbond/files.hpp"
+#include "qbond/ordering.hpp"
 #include "qbond/probes.hpp"
 #include "qbond/vtk.hpp"
 #include "test_util.hpp"
@@ -179,6 +180,25 @@ TEST(Vtk, FrameDeclaresItsCountsAndSeriesListsFrames) {
   s.write(dir / "s.pvd");
   EXPECT_NE(read_file(dir / "s.pvd").find("<DataSet timestep=\"0.5\" group=\"\" part=\"0\" file=\"f.vtp\"/>"),
             std::string::npos);
+}
+
+// Frames list quanta by user id and bonds by bond id, so a renumbered world (ordering.hpp)
+// writes the very same file. (At rest lengths every stress is exactly 0, which no summation
+// order changes.)
+TEST(Vtk, ARenumberedWorldWritesTheSameFile) {
+  World w = test::lattice(4, 3, 2, 100, 1e-3, 0, true);
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) w.state.v[i] = Vec3(1.0 * i, 2.0 * i, 3.0 * i);
+  w.break_bond(3);
+  World r = w;
+  Renumbering shuffle;
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) shuffle.quanta.push_back(static_cast<Index>((7 * i + 3) % w.num_quanta()));
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) shuffle.bonds.push_back(static_cast<Index>(w.num_bonds() - 1 - b));
+  renumber(r, shuffle);
+  ASSERT_NE(r.state.x, w.state.x);
+  const fs::path dir = temp_dir("vtk_order");
+  write_vtp(dir / "a.vtp", w.model, w.state);
+  write_vtp(dir / "b.vtp", r.model, r.state);
+  EXPECT_EQ(read_file(dir / "a.vtp"), read_file(dir / "b.vtp"));
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include <numbers>
 
 #include "qbond/files.hpp"
+#include "qbond/ordering.hpp"
 #include "qbond/samples.hpp"
 #include "qbond/scene.hpp"
 
@@ -544,9 +545,10 @@ TEST(PackingScene, BuildsThePackingAndItsResolvedSceneRebuildsIt) {
   std::size_t block = 0, mass_sum_ok = 0;
   for (std::size_t i = 0; i < w.num_quanta(); ++i) block += w.model.body[i] == 0;
   ASSERT_EQ(block, x.size());
-  for (std::size_t i = 0; i < block; ++i) {
-    EXPECT_EQ(w.state.x[i], x[i] + Vec3(0, 0, 1));
-    mass_sum_ok += std::abs(w.model.mass[i] - 0.2 / static_cast<double>(block)) < 1e-15;
+  const std::vector<Index> at = quanta_by_id(w.model);  // the block's quanta are ids 0..block-1
+  for (std::size_t k = 0; k < block; ++k) {
+    EXPECT_EQ(w.state.x[at[k]], x[k] + Vec3(0, 0, 1));
+    mass_sum_ok += std::abs(w.model.mass[at[k]] - 0.2 / static_cast<double>(block)) < 1e-15;
   }
   EXPECT_EQ(mass_sum_ok, block);
   EXPECT_EQ(w.num_quanta() - block, 40u);  // "keep": all 40 random points

@@ -8,6 +8,8 @@
 #include "qbond/analysis.hpp"
 #include "qbond/builders.hpp"
 #include "qbond/files.hpp"
+#include "qbond/ordering.hpp"
+#include "qbond/packing.hpp"
 #include "qbond/scene.hpp"
 #include "qbond/selection.hpp"
 
@@ -178,6 +180,53 @@ TEST(Scenes, ResolvedSceneRebuildsTheSameWorld) {
   for (Index i = 0; i < a.world.num_quanta(); ++i)
     if (a.world.model.body[i] == 0) total += a.world.model.mass[i];
   EXPECT_NEAR(total, 1.0, 1e-12);  // total_mass spread over the FCC sites
+}
+
+// Loading renumbers the world for locality (ordering.hpp); everything the scene selected follows
+// its quanta, and ids keep meaning creation order. The packing comes in sampling order, not by
+// position, so the renumbering is not the identity here.
+TEST(Scenes, RenumberingKeepsSelectionsRulesProbesAndIds) {
+  const Scene s = parse_scene(R"({
+    "timestep": 0.001, "steps": 1, "seed": 3,
+    "materials": {"m": {"stiffness": 100}},
+    "bodies": [{"name": "block", "type": "packing", "points": "poisson", "size": [0.1, 0.05, 0.05],
+                "min_distance": 0.01, "bond_radius": 0.017, "material": "m", "total_mass": 0.2}],
+    "anchors": [{"select": {"box": [[-1, -1, -1], [0.02, 1, 1]]}}],
+    "heuristics": [{"type": "break", "max_strain": 0.2, "select": {"box": [[0.05, -1, -1], [1, 1, 1]]}}],
+    "output": {"probes": [{"name": "far", "select": {"box": [[0.08, -1, -1], [1, 1, 1]]}},
+                          {"name": "five", "select": {"ids": [5]}}]}
+  })", "renumbered.json");
+  const World& w = s.world;
+  const Model& m = w.model;
+  const std::size_t n = w.num_quanta();
+  const std::vector<Index> at = quanta_by_id(m);
+  std::size_t moved = 0;
+  for (std::size_t i = 0; i < n; ++i) moved += m.quanta_id[i] != i;
+  EXPECT_GT(moved, n / 2);
+  // Quanta id k is the packing's k-th point.
+  PointPacking packing;
+  packing.size = Vec3(0.1, 0.05, 0.05);
+  packing.min_distance = 0.01;
+  packing.seed = 3;
+  const auto points = sample_points(packing);  // none isolated at this bond radius: none dropped
+  ASSERT_EQ(points.size(), n);
+  for (std::size_t k = 0; k < n; ++k) EXPECT_EQ(w.state.x[at[k]], points[k]);
+  // Bonds still join the quanta they joined, at their rest lengths.
+  for (std::size_t b = 0; b < w.num_bonds(); ++b)
+    EXPECT_DOUBLE_EQ((w.state.x[m.bond_i[b]] - w.state.x[m.bond_j[b]]).norm(), w.state.rest[b]);
+  const auto& rule = std::get<BreakRule>(s.heuristics.at(0));
+  std::vector<Index> far;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3& x = w.state.x[i];
+    EXPECT_EQ(m.is_kinematic(static_cast<Index>(i)), x.x() <= 0.02) << i;
+    EXPECT_EQ(rule.quanta.at(i), x.x() >= 0.05) << i;
+    if (x.x() >= 0.08) far.push_back(static_cast<Index>(i));
+  }
+  EXPECT_EQ(s.output.probes.at(0).quanta, far);
+  EXPECT_EQ(s.output.probes.at(1).quanta, std::vector<Index>{at[5]});
+  Selection five;
+  five.ids = std::vector<Index>{5};
+  EXPECT_EQ(select(w, five), std::vector<Index>{at[5]});
 }
 
 // integrator.newton_polish (docs/scene-format.md) is read, resolved and read back; off by default.

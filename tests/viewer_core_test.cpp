@@ -9,6 +9,7 @@
 #include "camera.hpp"
 #include "colors.hpp"
 #include "qbond/interaction.hpp"
+#include "qbond/ordering.hpp"
 #include "qbond/samples.hpp"
 #include "script.hpp"
 
@@ -20,7 +21,7 @@ namespace {
 // spring force each step, gives the same bits.
 TEST(PullSpring, PullsThroughTheSamePathAsLoads) {
   Scene scene = builtin_scene("pendulum");
-  const Index q = 30;
+  const Index q = quanta_by_id(scene.world.model)[30];
   Simulation pulled(scene.world, scene.integrator, scene.timestep);
   World loaded_world = scene.world;
   loaded_world.add_load({q}, Vec3::Zero());

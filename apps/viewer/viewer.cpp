@@ -30,6 +30,7 @@
 #include "qbond/analysis.hpp"
 #include "qbond/files.hpp"
 #include "qbond/interaction.hpp"
+#include "qbond/ordering.hpp"
 #include "qbond/stress.hpp"
 #include "qbond/vtk.hpp"
 #include "renderer.hpp"
@@ -142,7 +143,7 @@ class Viewer {
   int viewport_width() const { return std::max(1, fb_w_ - (opt_.ui ? kPanelWidth : 0)); }
   void resize(int w, int h) { fb_w_ = w, fb_h_ = h; }
   const std::string& blowup() const { return blowup_; }
-  /// The quanta the mouse last grabbed (-1: none).
+  /// The user id of the quanta the mouse last grabbed (-1: none).
   long long last_grab() const { return last_grab_; }
   const World& world() const { return sim_->world(); }
 
@@ -287,7 +288,7 @@ class Viewer {
     const Vec3 p = world().state.x[who];
     grab_depth_ = (p - ray.origin).dot((cam_.target - cam_.eye()).normalized().cast<double>());
     drag_ = make_pull_spring(m, who, p, body_mass(m, who), h_, pull_hz_);
-    last_grab_ = static_cast<long long>(who);
+    last_grab_ = static_cast<long long>(m.quanta_id[who]);  // reported as the user id
     return true;
   }
 
@@ -754,6 +755,10 @@ int run_viewer(Scene scene, const ViewOptions& o) {
   if (!o.script.empty()) {
     if (!fs::is_regular_file(o.script)) throw std::invalid_argument("script " + o.script + ": no such file");
     script = parse_script(read_file(o.script), o.script, scene.world.num_quanta());
+    // Scripts name quanta by user id, the world may be renumbered (ordering.hpp).
+    const std::vector<Index> at = quanta_by_id(scene.world.model);
+    if (!at.empty())
+      for (ScriptEvent& e : script) e.quanta = at[e.quanta];  // 0 (unused) in events without a quanta
   }
   if (!o.record.empty()) fs::create_directories(o.record);
   if (!glfwInit())

@@ -21,7 +21,9 @@ namespace qbond {
 
 static_assert(std::endian::native == std::endian::little, "checkpoints are written little-endian");
 
-inline constexpr std::uint32_t kCheckpointVersion = 3;  // 2: bond times and formed bonds; 3: obstacle impulses
+// 2: bond times and formed bonds; 3: obstacle impulses; 4: the state in the world's locality
+// order (ordering.hpp), which a version-3 file of the same scene does not follow.
+inline constexpr std::uint32_t kCheckpointVersion = 4;
 
 /// A checkpoint that cannot be read: not one, another version, truncated or corrupted.
 class CheckpointError : public std::runtime_error {

@@ -20,7 +20,7 @@ struct BondEvent {
   Reason reason = Reason::strain;
   std::uint64_t step = 0;  ///< index of the step during which it happened
   double time = 0;         ///< [s] at the end of that step
-  Index bond = 0, i = 0, j = 0;
+  Index bond = 0, i = 0, j = 0;  ///< indices in the world (events.csv writes their user ids)
   double strain = 0;   ///< (r - L)/L at the projected end-of-step positions
   double tension = 0;  ///< [N] elastic tension there
 };

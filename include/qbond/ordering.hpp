@@ -10,6 +10,7 @@
 /// scatters them and ran up to 1.36× slower, docs/performance.md); bonds by their ends' new
 /// numbers. As LAMMPS does with its atom tags, the user's ids stay with the quanta and bonds
 /// (Model::quanta_id, Model::bond_id): outputs and selections speak them.
+#include <cassert>
 #include <vector>
 
 #include "qbond/world.hpp"
@@ -34,6 +35,21 @@ Renumbering locality_order(const World& world);
 /// loads, the formed bonds' ends and the integrator's carried state, and bumps the topology
 /// version. `r` must leave formed bonds in their slots (locality_order does). Results of a step change only by summation order (round-off).
 void renumber(World& world, const Renumbering& r);
+
+/// Moves values[offset + k] to values[offset + p[k]] for k < p.size(): a per-quanta array
+/// (p = Renumbering::quanta) or per-bond array (p = Renumbering::bonds) to the new numbering.
+template <class T>
+void permute(std::vector<T>& values, const std::vector<Index>& p, std::size_t offset = 0) {
+  assert(values.size() >= offset + p.size());
+  std::vector<T> old(values.begin() + static_cast<std::ptrdiff_t>(offset),
+                     values.begin() + static_cast<std::ptrdiff_t>(offset + p.size()));
+  for (std::size_t k = 0; k < p.size(); ++k) values[offset + p[k]] = std::move(old[k]);
+}
+
+/// The index of the quanta of each user id: at[Model::quanta_id[i]] = i.
+std::vector<Index> quanta_by_id(const Model& model);
+/// The index of the bond of each user id: at[Model::bond_id[b]] = b.
+std::vector<Index> bonds_by_id(const Model& model);
 
 /// Maps a list of old quanta indices to new ones, in place.
 void renumber_quanta(std::vector<Index>& quanta, const Renumbering& r);

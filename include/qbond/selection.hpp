@@ -10,7 +10,8 @@ namespace qbond {
 
 /// A set of quanta chosen by criteria that must all hold (an intersection), on current positions.
 struct Selection {
-  std::optional<std::vector<Index>> ids;            ///< global ids, or body-local when `body` is set
+  std::optional<std::vector<Index>> ids;            ///< user ids (Model::quanta_id), or body-local
+                                                    ///< (creation order) when `body` is set
   std::optional<Index> body;                        ///< body id
   std::optional<std::pair<Vec3, Vec3>> box;         ///< [min, max], inclusive
   std::optional<std::pair<Vec3, double>> sphere;    ///< centre, radius (inclusive)
@@ -18,7 +19,7 @@ struct Selection {
   bool all = false;                                 ///< every quanta
 };
 
-/// The quanta a selection picks, in increasing id order. Ids out of range throw
+/// The quanta a selection picks, in increasing index order. Ids out of range throw
 /// std::out_of_range naming the id and the valid range.
 std::vector<Index> select(const World& world, const Selection& s);
 

@@ -25,7 +25,8 @@ struct BlowupLimits {
 struct StepReport {
   enum class Status { ok, blowup } status = Status::ok;
   std::string message;      ///< set on blow-up: what, where and when
-  Index worst = 0;          ///< quanta with the worst value on blow-up
+  Index worst = 0;          ///< quanta with the worst value on blow-up (its index; the message
+                            ///< names its user id, Model::quanta_id)
 };
 
 /// Something that looks at the world after every applied step (diagnostics, outputs, viewer).

@@ -16,10 +16,11 @@ struct PointArray {
   std::span<const double> values;
 };
 
-/// Writes one frame atomically as VTK XML PolyData (binary, appended raw): points are the quanta
+/// Writes one frame atomically as VTK XML PolyData (binary, appended raw): points are the quanta,
+/// point k the quanta of user id k (Model::quanta_id; `extra` holds values in the world's order)
 /// (arrays velocity, mass, id, body, kinematic, von_mises, stress — the virial stress tensor of
 /// stress.hpp, 0 where the volume is unknown — and `extra`), drawn as vertex cells; lines are the
-/// alive bonds. Cell arrays strain, tension and bond (the bond id) cover the vertex cells first
+/// alive bonds in bond-id order. Cell arrays strain, tension and bond (the bond id) cover the vertex cells first
 /// (0, 0, -1), then the lines, as VTK orders cells.
 void write_vtp(const std::filesystem::path& path, const Model& model, const State& state,
                std::span<const PointArray> extra = {});
