@@ -44,25 +44,34 @@ void parallel_for(std::size_t n, int threads, Body&& body, std::size_t min_paral
 #endif
 }
 
-// Σ term(i) for i in [0, n), summed in chunks (each in index order) whose size depends on n
-// only, then the chunk sums in chunk order: the same bits for any thread count, and no
-// allocation. Up to kSumChunk terms it is the plain left-to-right sum.
-template <class Term>
-double deterministic_sum(std::size_t n, int threads, Term&& term) {
+// fold(acc, i) for i in [0, n) in chunks (each from `init`, in index order) whose size depends on
+// n only, then the chunks' results combined in chunk order, combine(combine(r0, r1), r2)...: the
+// same result for any thread count, and no allocation. `init` when n = 0.
+template <class T, class Fold, class Combine>
+T deterministic_reduce(std::size_t n, int threads, const T& init, Fold&& fold, Combine&& combine) {
   const std::size_t chunk = std::max(kSumChunk, (n + kMaxPartials - 1) / kMaxPartials);
-  auto chunk_sum = [&](std::size_t c) {
-    double s = 0;
+  auto chunk_fold = [&](std::size_t c) {
+    T acc = init;
     const std::size_t end = std::min(n, (c + 1) * chunk);
-    for (std::size_t i = c * chunk; i < end; ++i) s += term(i);
-    return s;
+    for (std::size_t i = c * chunk; i < end; ++i) acc = fold(acc, i);
+    return acc;
   };
   const std::size_t chunks = (n + chunk - 1) / chunk;
-  if (chunks <= 1) return chunks == 1 ? chunk_sum(0) : 0.0;
-  std::array<double, kMaxPartials> partial;
-  parallel_for(chunks, threads, [&](std::size_t c) { partial[c] = chunk_sum(c); }, kParallelMin / kSumChunk);
-  double s = 0;
-  for (std::size_t c = 0; c < chunks; ++c) s += partial[c];
-  return s;
+  std::array<T, kMaxPartials> partial;
+  parallel_for(chunks, threads, [&](std::size_t c) { partial[c] = chunk_fold(c); }, kParallelMin / kSumChunk);
+  if (chunks == 0) return init;
+  T total = partial[0];
+  for (std::size_t c = 1; c < chunks; ++c) total = combine(total, partial[c]);
+  return total;
+}
+
+// Σ term(i) for i in [0, n), summed in chunks (each in index order) whose size depends on n
+// only, then the chunk sums in chunk order: the same bits for any thread count. Up to kSumChunk
+// terms it is the plain left-to-right sum.
+template <class Term>
+double deterministic_sum(std::size_t n, int threads, Term&& term) {
+  auto plus = [](double a, double b) { return a + b; };
+  return deterministic_reduce(n, threads, 0.0, [&](double s, std::size_t i) { return s + term(i); }, plus);
 }
 
 }  // namespace qbond

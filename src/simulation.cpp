@@ -41,7 +41,7 @@ void Simulation::gather_external_forces() {
   const Model& m = world_.model;
   const std::size_t n = m.num_quanta();
   f_ext_.resize(n);
-  for (std::size_t i = 0; i < n; ++i) f_ext_[i] = m.mass[i] * m.gravity + f_user_[i];
+  parallel_for(n, integrator_->config().threads, [&](std::size_t i) { f_ext_[i] = m.mass[i] * m.gravity + f_user_[i]; });
   for (const Load& load : m.loads) {
     if (load.quanta.empty()) continue;
     const Vec3 share = load.force / static_cast<double>(load.quanta.size());
@@ -64,23 +64,24 @@ StepReport Simulation::step() {
 StepReport Simulation::check_projection() const {
   const Model& m = world_.model;
   const State& s = world_.state;
-  double worst2 = -1;  // squared: a square root only for the message
-  Index who = 0;
-  bool finite = true;
-  for (std::size_t i = 0; i < m.num_quanta(); ++i) {
+  // The first quanta (by index) with a non-finite result, else the fastest free one (the first
+  // of equals): a reduction over fixed chunks, the same on any thread count.
+  struct Worst {
+    double speed2 = -1;  // squared: a square root only for the message
+    Index who = 0;
+    bool finite = true;
+  };
+  auto fold = [&](Worst w, std::size_t i) {
+    if (!w.finite) return w;
     const Vec3 v1 = s.v[i] + projection_.dv[i];
     const Vec3 x1 = s.x[i] + projection_.dx[i];
-    if (!v1.allFinite() || !x1.allFinite()) {
-      finite = false;
-      who = static_cast<Index>(i);
-      break;
-    }
+    if (!v1.allFinite() || !x1.allFinite()) return Worst{w.speed2, static_cast<Index>(i), false};
     const double speed2 = v1.squaredNorm();
-    if (!m.is_kinematic(static_cast<Index>(i)) && speed2 > worst2) {
-      worst2 = speed2;
-      who = static_cast<Index>(i);
-    }
-  }
+    if (!m.is_kinematic(static_cast<Index>(i)) && speed2 > w.speed2) return Worst{speed2, static_cast<Index>(i), true};
+    return w;
+  };
+  auto combine = [](const Worst& a, const Worst& b) { return !a.finite || (b.finite && b.speed2 <= a.speed2) ? a : b; };
+  const auto [worst2, who, finite] = deterministic_reduce(m.num_quanta(), integrator_->config().threads, Worst{}, fold, combine);
   StepReport r;
   if (finite && worst2 <= limits_.max_speed * limits_.max_speed) return r;
   std::ostringstream msg;

@@ -100,6 +100,29 @@ TEST(Stability, BlowupKeepsTheLastGoodState) {
   EXPECT_NE(r.message.find("quanta"), std::string::npos);
 }
 
+// The projection check is a reduction over chunks of quanta: any thread count names the same
+// quanta (the fastest free one, the first of equals) at the same step. 20³ quanta, so the chunks
+// really run on several threads.
+TEST(Stability, BlowupReportIsTheSameOnAnyThreadCount) {
+  auto first_blowup = [](int threads) {
+    IntegratorConfig c = test::config(IntegratorType::explicit_euler);
+    c.threads = threads;
+    Simulation sim(test::lattice(20, 20, 20, 1000, 1e-3, 0.0, false), c, 0.02);
+    test::perturb(sim.world(), 1e-4, 0.0);
+    sim.limits().energy_growth = 1e300;  // leave it to the projection check
+    StepReport r;
+    for (int n = 0; n < 1000 && r.status == StepReport::Status::ok; ++n) r = sim.step();
+    return r;
+  };
+  const StepReport one = first_blowup(1);
+  ASSERT_EQ(one.status, StepReport::Status::blowup);
+  for (int threads : {2, 3}) {
+    const StepReport many = first_blowup(threads);
+    EXPECT_EQ(many.message, one.message) << threads << " threads";
+    EXPECT_EQ(many.worst, one.worst) << threads << " threads";
+  }
+}
+
 TEST(Stability, FirstExplicitStepFromRestIsNotABlowup) {
   // Gravity gives velocity before it moves anything: the first step stores kinetic energy while
   // gravity has done no work yet. That is not a runaway.
