@@ -88,7 +88,8 @@ void apply_order(World& w, Order order) {
   if (order == Order::sorted) renumber(w, locality_order(w));
 }
 
-void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, int threads, double dt, Order order) {
+void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, int threads, double dt,
+                    Order order) {
   Scene scene = canonical_lattice(n);
   apply_order(scene.world, order);
   if (dt > 0) scene.timestep = dt;
@@ -243,8 +244,10 @@ int main(int argc, char** argv) {
       }
     }
     else {
-      std::fprintf(stderr, "qbond_bench: unknown argument '%s' (--n=LIST --threads=LIST --integrators=LIST --dt=H --order=LIST, "
-                   "and Google Benchmark's --benchmark_* flags)\n", argv[k]);
+      std::fprintf(stderr,
+                   "qbond_bench: unknown argument '%s' (--n=LIST --threads=LIST --integrators=LIST --dt=H "
+                   "--order=LIST, and Google Benchmark's --benchmark_* flags)\n",
+                   argv[k]);
       return 2;
     }
   }

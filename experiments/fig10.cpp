@@ -37,7 +37,8 @@ void fig10(const Options& opt, Report& rep) {
   Scene scene = builtin_scene("pendulum");
   World& w0 = scene.world;
   std::vector<Index> cube, rope;  // in creation (user id) order: the rope from the pivot down
-  for (Index i : quanta_by_id(w0.model)) (w0.model.body_names[w0.model.body[i]] == "cube" ? cube : rope).push_back(i);
+  for (Index i : quanta_by_id(w0.model))
+    (w0.model.body_names[w0.model.body[i]] == "cube" ? cube : rope).push_back(i);
   const Index pivot = rope.front();
   const Vec3 p = w0.state.x[pivot];
 

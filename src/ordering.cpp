@@ -14,10 +14,18 @@ namespace {
 std::vector<Index> rank_by(const std::vector<std::uint64_t>& key) {
   std::vector<Index> order(key.size());
   std::iota(order.begin(), order.end(), Index{0});
-  std::sort(order.begin(), order.end(), [&](Index a, Index b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
+  std::sort(order.begin(), order.end(),
+            [&](Index a, Index b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
   std::vector<Index> rank(key.size());
   for (std::size_t k = 0; k < order.size(); ++k) rank[order[k]] = static_cast<Index>(k);
   return rank;
+}
+
+// at[p[k]] = k for a permutation p.
+std::vector<Index> inverse(const std::vector<Index>& p) {
+  std::vector<Index> at(p.size());
+  for (std::size_t k = 0; k < p.size(); ++k) at[p[k]] = static_cast<Index>(k);
+  return at;
 }
 
 // The spacing of the quanta: the median over quanta of their shortest bond's length (the
@@ -80,17 +88,6 @@ Renumbering locality_order(const World& world) {
   for (std::size_t b = scene_bonds; b < nb; ++b) r.bonds.push_back(static_cast<Index>(b));
   return r;
 }
-
-namespace {
-
-// at[p[k]] = k for a permutation p.
-std::vector<Index> inverse(const std::vector<Index>& p) {
-  std::vector<Index> at(p.size());
-  for (std::size_t k = 0; k < p.size(); ++k) at[p[k]] = static_cast<Index>(k);
-  return at;
-}
-
-}  // namespace
 
 std::vector<Index> quanta_by_id(const Model& model) { return inverse(model.quanta_id); }
 std::vector<Index> bonds_by_id(const Model& model) { return inverse(model.bond_id); }

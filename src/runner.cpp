@@ -32,7 +32,8 @@ std::string event_row(const BondEvent& e, const Model& m) {
   char buf[256];
   std::snprintf(buf, sizeof buf, "%llu,%.17g,%s,%s,%llu,%llu,%llu,%.17g,%.17g", static_cast<unsigned long long>(e.step),
                 e.time, std::string(to_string(e.kind)).c_str(), std::string(to_string(e.reason)).c_str(),
-                static_cast<unsigned long long>(m.bond_id[e.bond]), static_cast<unsigned long long>(m.quanta_id[e.i]),
+                static_cast<unsigned long long>(m.bond_id[e.bond]),
+                static_cast<unsigned long long>(m.quanta_id[e.i]),
                 static_cast<unsigned long long>(m.quanta_id[e.j]), e.strain, e.tension);
   return buf;
 }

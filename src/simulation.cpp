@@ -41,7 +41,8 @@ void Simulation::gather_external_forces() {
   const Model& m = world_.model;
   const std::size_t n = m.num_quanta();
   f_ext_.resize(n);
-  parallel_for(n, integrator_->config().threads, [&](std::size_t i) { f_ext_[i] = m.mass[i] * m.gravity + f_user_[i]; });
+  parallel_for(n, integrator_->config().threads,
+               [&](std::size_t i) { f_ext_[i] = m.mass[i] * m.gravity + f_user_[i]; });
   for (const Load& load : m.loads) {
     if (load.quanta.empty()) continue;
     const Vec3 share = load.force / static_cast<double>(load.quanta.size());
@@ -77,11 +78,15 @@ StepReport Simulation::check_projection() const {
     const Vec3 x1 = s.x[i] + projection_.dx[i];
     if (!v1.allFinite() || !x1.allFinite()) return Worst{w.speed2, static_cast<Index>(i), false};
     const double speed2 = v1.squaredNorm();
-    if (!m.is_kinematic(static_cast<Index>(i)) && speed2 > w.speed2) return Worst{speed2, static_cast<Index>(i), true};
+    if (!m.is_kinematic(static_cast<Index>(i)) && speed2 > w.speed2)
+      return Worst{speed2, static_cast<Index>(i), true};
     return w;
   };
-  auto combine = [](const Worst& a, const Worst& b) { return !a.finite || (b.finite && b.speed2 <= a.speed2) ? a : b; };
-  const auto [worst2, who, finite] = deterministic_reduce(m.num_quanta(), integrator_->config().threads, Worst{}, fold, combine);
+  auto combine = [](const Worst& a, const Worst& b) {
+    return !a.finite || (b.finite && b.speed2 <= a.speed2) ? a : b;
+  };
+  const auto [worst2, who, finite] =
+      deterministic_reduce(m.num_quanta(), integrator_->config().threads, Worst{}, fold, combine);
   StepReport r;
   if (finite && worst2 <= limits_.max_speed * limits_.max_speed) return r;
   std::ostringstream msg;
@@ -90,8 +95,8 @@ StepReport Simulation::check_projection() const {
   if (!finite)
     msg << "quanta " << m.quanta_id[who] << " would get a non-finite position or velocity";
   else
-    msg << "quanta " << m.quanta_id[who] << " would reach speed " << std::sqrt(worst2) << " m/s (limit " << limits_.max_speed
-        << " m/s)";
+    msg << "quanta " << m.quanta_id[who] << " would reach speed " << std::sqrt(worst2) << " m/s (limit "
+        << limits_.max_speed << " m/s)";
   msg << "; the world keeps the state before this step";
   r.status = StepReport::Status::blowup;
   r.message = msg.str();

@@ -119,7 +119,8 @@ void write_vtp(const std::filesystem::path& path, const Model& model, const Stat
   a.array(xml, "Float64", "stress", 9, stress.data(), 9 * n);
   for (const PointArray& p : extra) {
     assert(p.values.size() == n * static_cast<std::size_t>(p.components));
-    a.array(xml, "Float64", escape(p.name), p.components, gather(p.values.data(), p.components).data(), p.values.size());
+    a.array(xml, "Float64", escape(p.name), p.components, gather(p.values.data(), p.components).data(),
+            p.values.size());
   }
   xml += "</PointData>\n<CellData Scalars=\"tension\">\n";
   a.array(xml, "Float64", "strain", 1, cell_strain.data(), cell_strain.size());

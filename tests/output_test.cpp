@@ -191,8 +191,10 @@ TEST(Vtk, ARenumberedWorldWritesTheSameFile) {
   w.break_bond(3);
   World r = w;
   Renumbering shuffle;
-  for (std::size_t i = 0; i < w.num_quanta(); ++i) shuffle.quanta.push_back(static_cast<Index>((7 * i + 3) % w.num_quanta()));
-  for (std::size_t b = 0; b < w.num_bonds(); ++b) shuffle.bonds.push_back(static_cast<Index>(w.num_bonds() - 1 - b));
+  const std::size_t n = w.num_quanta(), nb = w.num_bonds();
+  // 7 and 24 are coprime: i -> 7 i + 3 (mod 24) is a permutation.
+  for (std::size_t i = 0; i < n; ++i) shuffle.quanta.push_back(static_cast<Index>((7 * i + 3) % n));
+  for (std::size_t b = 0; b < nb; ++b) shuffle.bonds.push_back(static_cast<Index>(nb - 1 - b));
   renumber(r, shuffle);
   ASSERT_NE(r.state.x, w.state.x);
   const fs::path dir = temp_dir("vtk_order");

@@ -33,7 +33,8 @@ Renumbering locality_order(const World& world);
 
 /// Renumbers every per-quanta and per-bond array of the world, the quanta of its motions and
 /// loads, the formed bonds' ends and the integrator's carried state, and bumps the topology
-/// version. `r` must leave formed bonds in their slots (locality_order does). Results of a step change only by summation order (round-off).
+/// version. `r` must leave formed bonds in their slots (locality_order does). Results of a step
+/// change only by summation order (round-off).
 void renumber(World& world, const Renumbering& r);
 
 /// Moves values[offset + k] to values[offset + p[k]] for k < p.size(): a per-quanta array

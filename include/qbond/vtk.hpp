@@ -20,8 +20,8 @@ struct PointArray {
 /// point k the quanta of user id k (Model::quanta_id; `extra` holds values in the world's order)
 /// (arrays velocity, mass, id, body, kinematic, von_mises, stress — the virial stress tensor of
 /// stress.hpp, 0 where the volume is unknown — and `extra`), drawn as vertex cells; lines are the
-/// alive bonds in bond-id order. Cell arrays strain, tension and bond (the bond id) cover the vertex cells first
-/// (0, 0, -1), then the lines, as VTK orders cells.
+/// alive bonds in bond-id order. Cell arrays strain, tension and bond (the bond id) cover the
+/// vertex cells first (0, 0, -1), then the lines, as VTK orders cells.
 void write_vtp(const std::filesystem::path& path, const Model& model, const State& state,
                std::span<const PointArray> extra = {});
 
