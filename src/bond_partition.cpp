@@ -33,6 +33,7 @@ void BondPartition::update(const Model& model, const Adjacency& adj, int threads
       }
     offset[p + 1] = static_cast<Index>(bonds.size());
   }
+  all_in_one = parts == 1 && bonds.size() == nb;
   version = adj.version;
   threads = threads_wanted;
   num_quanta = n;

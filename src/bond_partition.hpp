@@ -22,6 +22,7 @@ struct BondPartition {
   std::vector<Index> offset;  // (parts + 1): part p visits bonds[offset[p] .. offset[p + 1])
   std::vector<Index> bonds;   // per part, its alive bonds with an end in its range, increasing
   std::vector<std::uint8_t> mark;  // scratch of update
+  bool all_in_one = false;  // one part visiting every bond 0..nb-1: for_each_bond needs no lists
   std::uint64_t version = ~0ull;
   std::size_t num_quanta = 0, num_bonds = 0;
   int threads = -1;
@@ -37,6 +38,10 @@ struct BondPartition {
 // calls owning a given quanta come in increasing b.
 template <class Body>
 void for_each_bond(const BondPartition& part, const Model& model, Body&& body) {
+  if (part.all_in_one) {  // the single-thread pass over intact bonds: every end is owned
+    for (Index b = 0; b < static_cast<Index>(part.num_bonds); ++b) body(b, true, true);
+    return;
+  }
   const int parts = part.parts();
   const Index* bi = model.bond_i.data();
   const Index* bj = model.bond_j.data();

@@ -29,6 +29,30 @@ World random_lattice() {
   return w;
 }
 
+// What the passes see: for_each_bond owns each end of each alive bond exactly once, whether it
+// walks the per-part lists or (one part, no broken bond) the bonds themselves.
+TEST(BondPartition, ForEachBondOwnsEachEndOfEachAliveBondOnce) {
+  const World intact = test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true), broken = random_lattice();
+  for (const World* w : {&intact, &broken}) {
+    Adjacency adj;
+    build_adjacency(w->model, w->state, adj);
+    for (int threads : {1, 2}) {
+      BondPartition part;
+      part.update(w->model, adj, threads);
+      EXPECT_EQ(part.all_in_one, threads == 1 && w == &intact) << threads;
+      std::vector<int> owned_i(w->num_bonds(), 0), owned_j(w->num_bonds(), 0);
+      for_each_bond(part, w->model, [&](Index b, bool own_i, bool own_j) {
+        if (own_i) ++owned_i[b];  // only the call owning an end writes its counter
+        if (own_j) ++owned_j[b];
+      });
+      for (std::size_t b = 0; b < w->num_bonds(); ++b) {
+        ASSERT_EQ(owned_i[b], w->state.alive[b]) << "bond " << b << ", " << threads << " threads";
+        ASSERT_EQ(owned_j[b], w->state.alive[b]) << "bond " << b << ", " << threads << " threads";
+      }
+    }
+  }
+}
+
 TEST(BondPartition, EveryEndOfEveryAliveBondIsOwnedOnce) {
   const World w = random_lattice();
   ASSERT_GE(w.num_quanta(), kParallelMin);
