@@ -22,7 +22,9 @@ struct BondPartition {
   std::vector<Index> offset;  // (parts + 1): part p visits bonds[offset[p] .. offset[p + 1])
   std::vector<Index> bonds;   // per part, its alive bonds with an end in its range, increasing
   std::vector<std::uint8_t> mark;  // scratch of update
-  bool all_in_one = false;  // one part visiting every bond 0..nb-1: for_each_bond needs no lists
+  // One part and every bond alive: for_each_bond visits bonds 0..nb-1 and the lists are not
+  // built (offset all 0, bonds empty).
+  bool all_in_one = false;
   std::uint64_t version = ~0ull;
   std::size_t num_quanta = 0, num_bonds = 0;
   int threads = -1;

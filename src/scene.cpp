@@ -176,12 +176,10 @@ class Builder {
       renumber_quanta(p.quanta, r);
       std::sort(p.quanta.begin(), p.quanta.end());
     }
-    auto mask = [&](std::vector<std::uint8_t>& m) {
-      if (!m.empty()) permute(m, r.quanta);
-    };
     for (HeuristicSpec& h : s.heuristics)
       std::visit([&](auto& rule) {
-        if constexpr (requires { rule.quanta; }) mask(rule.quanta);
+        if constexpr (requires { rule.quanta; })  // a per-quanta mask, empty when the rule has no select
+          if (!rule.quanta.empty()) permute(rule.quanta, r.quanta);
       }, h);
   }
 
