@@ -9,6 +9,7 @@
 // both threads, identically. Compared with computing per-bond records and gathering them per
 // quanta, the bonds are streamed once and only per-quanta data is touched at random, which for
 // builder-ordered bonds stays within a window of a few lattice planes (in cache).
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -53,6 +54,46 @@ void for_each_bond(const BondPartition& part, const Model& model, Body&& body) {
       const Index b = part.bonds[k];
       const Index i = bi[b], j = bj[b];
       body(b, i >= lo && i < hi, j >= lo && j < hi);
+    }
+  };
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static, 1) num_threads(parts) if (parts > 1)
+#endif
+  for (int p = 0; p < parts; ++p) run(p);
+}
+
+// A run of at most kBondRun alive bonds, in increasing order, from one part of a partition: the
+// bonds list[0..count), or first .. first + count - 1 when list is null. The part updates the
+// ends in [lo, hi) only; `last` marks its last run.
+inline constexpr Index kBondRun = 64;
+struct BondRun {
+  const Index* list;
+  Index first, count, lo, hi;
+  int part;
+  bool last;
+  Index bond(Index k) const { return list ? list[k] : first + k; }
+  bool owns(Index q) const { return q >= lo && q < hi; }
+};
+
+// body(run) for runs covering every alive bond once per part that owns one of its ends (as
+// for_each_bond visits them): a part's runs come in bond order, on the part's thread. For kernels
+// that compute a run's per-bond terms in vectorised loops before updating the ends.
+template <class Body>
+void for_each_bond_run(const BondPartition& part, Body&& body) {
+  if (part.all_in_one) {
+    const auto nb = static_cast<Index>(part.num_bonds);
+    for (Index b = 0; b < nb; b += kBondRun) {
+      const Index count = std::min(kBondRun, nb - b);
+      body(BondRun{nullptr, b, count, 0, static_cast<Index>(part.num_quanta), 0, b + count == nb});
+    }
+    return;
+  }
+  const int parts = part.parts();
+  auto run = [&](int p) {
+    const Index end = part.offset[p + 1];
+    for (Index k = part.offset[p]; k < end; k += kBondRun) {
+      const Index count = std::min(kBondRun, end - k);
+      body(BondRun{part.bonds.data() + k, 0, count, part.first[p], part.first[p + 1], p, k + count == end});
     }
   };
 #ifdef _OPENMP

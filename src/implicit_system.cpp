@@ -106,49 +106,6 @@ void assemble_blocks(const Model& model, const Adjacency& adj, int threads, Impl
   });
 }
 
-void FrozenStep::project(const Model& model, const State& state, const Adjacency& adj,
-                         const std::vector<Vec3>& f_ext, const StepContext& ctx, int threads, Projection& out) {
-  const std::size_t n = model.num_quanta();
-  const double h = ctx.h, h2 = h * h;
-  out.resize(n);
-  project_kinematic(model, state, ctx, out);
-  part.update(model, adj, threads);
-  rows.resize(n);
-  parallel_for(n, threads, [&](std::size_t i) {
-    rows[i].start(model.mass[i], model.mass[i] * state.v[i] + h * f_ext[i]);
-  });
-  for_each_bond(part, model, [&](Index b, bool own_i, bool own_j) {
-    const Index i = model.bond_i[b], j = model.bond_j[b];
-    own_i = own_i && !model.is_kinematic(i);  // kinematic rows are not solved for
-    own_j = own_j && !model.is_kinematic(j);
-    if (!own_i && !own_j) return;
-    const BondLinearisation l = linearise_bond(model, state, b);
-    double B[6];
-    block_entries(l.u, h * l.ca + h2 * l.ka, h * l.cb + h2 * l.kb, B);
-    const Vec3 hTu = (h * l.T) * l.u;
-    // Each end q, the other end o: A_qq += B_b, rhs_q += ±h T u + h C_b v_o.
-    auto add = [&](Index q, const Vec3& tension, Index o) {
-      DiagonalRow& row = rows[q];
-      row.add_block(B);
-      const Vec3& vo = state.v[o];
-      if (l.cb == 0)  // axial damping: h C_b v_o is one scaled u
-        row.b += tension + (h * l.ca * l.u.dot(vo)) * l.u;
-      else
-        row.b += tension + h * block_times(l.u, l.ca, l.cb, vo);
-    };
-    if (own_i) add(i, hTu, j);
-    if (own_j) add(j, -hTu, i);
-  });
-  parallel_for(n, threads, [&](std::size_t q) {
-    const auto i = static_cast<Index>(q);
-    if (model.is_kinematic(i)) return;
-    // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-    const Vec3 v1 = rows[i].solve();
-    out.dv[i] = v1 - state.v[i];
-    out.dx[i] = h * v1;
-  });
-}
-
 void apply_system(const Model& model, const BondPartition& part, const ImplicitSystem& sys,
                   const std::vector<Vec3>& y, int threads, std::vector<Vec3>& out) {
   out.resize(model.num_quanta());

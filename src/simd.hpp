@@ -1,0 +1,25 @@
+#pragma once
+// QBOND_VECTOR_CLONES compiles a function three times, for the baseline x86-64 (SSE2) and for
+// x86-64-v3 (AVX2, FMA) and x86-64-v4 (AVX-512), and the loader picks the widest the CPU has (GCC
+// and Clang function multiversioning, an ifunc). The bond kernels' vectorised loops then use the
+// wide registers and gathers where they exist while the build stays portable: no -march=native.
+// Each clone is deterministic, but clones may round differently (fused multiply-adds): results
+// are bit-identical on one machine for any thread count, not across CPUs of different levels.
+#if defined(__x86_64__) && defined(__ELF__) && (defined(__GNUC__) || defined(__clang__))
+#define QBOND_VECTOR_CLONES __attribute__((target_clones("default", "arch=x86-64-v3", "arch=x86-64-v4")))
+#else
+#define QBOND_VECTOR_CLONES
+#endif
+
+// QBOND_SIMD before a loop whose iterations are independent: lets the compiler vectorise it
+// without proving that its gathers and stores do not alias (OpenMP's simd; nothing without
+// OpenMP).
+// QBOND_SIMD_OR(x): the same for a loop that also ORs into x.
+#ifdef _OPENMP
+#define QBOND_SIMD _Pragma("omp simd")
+#define QBOND_SIMD_OR(x) _Pragma(QBOND_STRINGIFY(omp simd reduction(| : x)))
+#define QBOND_STRINGIFY(s) #s
+#else
+#define QBOND_SIMD
+#define QBOND_SIMD_OR(x)
+#endif
