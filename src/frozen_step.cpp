@@ -131,41 +131,41 @@ QBOND_VECTOR_CLONES void frozen_terms(const Model& model, const State& state, co
 // summed like the others and never solved.
 QBOND_VECTOR_CLONES void frozen_scatter(const BondRun& run, const FrozenTerms& t, const Vec3* v,
                                         DiagonalRow* rows, FrozenStep::Pending& pending) {
-  auto term = [&](Index k, double s, Index o, DiagonalRow& row) {
-    for (int e = 0; e < 6; ++e) row.a[e] = t.B[e][k];
-    row.b = s * Vec3(t.ux[k], t.uy[k], t.uz[k]);
-    if (t.hcb[k] != 0) row.b += t.hcb[k] * v[o];
-  };
-  auto add = [](DiagonalRow& row, const DiagonalRow& d) {
-    row.add_block(d.a);
-    row.b += d.b;
-  };
+  FrozenStep::Pending p = pending;  // a local copy stays in registers
   auto flush = [&] {
-    if (pending.q != FrozenStep::kNoQuanta) add(rows[pending.q], pending.sum);
-    pending.q = FrozenStep::kNoQuanta;
+    if (p.q != FrozenStep::kNoQuanta) rows[p.q].add(p.sum);
+    p.q = FrozenStep::kNoQuanta;
   };
   for (Index k = 0; k < run.count; ++k) {
     const Index b = t.b[k], i = t.i[k], j = t.j[k];
-    DiagonalRow d;
+    double di[9], dj[9];  // the terms of bond_i's row and bond_j's (DiagonalRow::add)
+    for (int e = 0; e < 6; ++e) di[e] = dj[e] = t.B[e][k];
+    const Vec3 u(t.ux[k], t.uy[k], t.uz[k]);
+    Vec3 bi = t.si[k] * u, bj = t.sj[k] * u;
+    if (t.hcb[k] != 0) {
+      bi += t.hcb[k] * v[j];
+      bj += t.hcb[k] * v[i];
+    }
+    for (int e = 0; e < 3; ++e) {
+      di[6 + e] = bi[e];
+      dj[6 + e] = bj[e];
+    }
     if (run.owns(i)) {
-      term(k, t.si[k], j, d);
-      if (pending.q == i && pending.next == b) {
-        add(pending.sum, d);
+      if (p.q == i && p.next == b) {
+        for (int e = 0; e < 9; ++e) p.sum[e] += di[e];
       } else {
         flush();
-        pending.q = i;
-        pending.sum = d;
+        p.q = i;
+        for (int e = 0; e < 9; ++e) p.sum[e] = di[e];
       }
     } else {
       flush();
     }
-    pending.next = b + 1;
-    if (run.owns(j)) {
-      term(k, t.sj[k], i, d);
-      add(rows[j], d);
-    }
+    p.next = b + 1;
+    if (run.owns(j)) rows[j].add(dj);
   }
   if (run.last) flush();
+  pending = p;
 }
 
 }  // namespace

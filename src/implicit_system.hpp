@@ -92,6 +92,11 @@ struct DiagonalRow {
   void add_block(const double (&B)[6]) {
     for (int k = 0; k < 6; ++k) a[k] += B[k];
   }
+  // A_ii += the block's six entries d[0..5], b_i += (d[6], d[7], d[8]).
+  void add(const double (&d)[9]) {
+    for (int k = 0; k < 6; ++k) a[k] += d[k];
+    b += Vec3(d[6], d[7], d[8]);
+  }
   // A_ii⁻¹ b_i by the adjugate of the symmetric block (A_ii is positive definite).
   Vec3 solve() const {
     const double c00 = a[1] * a[2] - a[5] * a[5], c11 = a[0] * a[2] - a[4] * a[4], c22 = a[0] * a[1] - a[3] * a[3];
@@ -166,7 +171,7 @@ struct FrozenStep {
   struct Pending {
     Index q = kNoQuanta;  // whose
     Index next = 0;       // the bond that would go on with it
-    DiagonalRow sum;
+    double sum[9];        // as DiagonalRow::add takes it
   };
   std::vector<Pending> pending;
   void project(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
