@@ -69,31 +69,33 @@ inline constexpr Index kBondRun = 64;
 struct BondRun {
   const Index* list;
   Index first, count, lo, hi;
-  int part;
   bool last;
   Index bond(Index k) const { return list ? list[k] : first + k; }
   bool owns(Index q) const { return q >= lo && q < hi; }
 };
 
-// body(run) for runs covering every alive bond once per part that owns one of its ends (as
-// for_each_bond visits them): a part's runs come in bond order, on the part's thread. For kernels
-// that compute a run's per-bond terms in vectorised loops before updating the ends.
-template <class Body>
+// body(run, scratch) for runs covering every alive bond once per part that owns one of its ends
+// (as for_each_bond visits them): a part's runs come in bond order, on the part's thread, with
+// one Scratch (default-initialised) for the part. For kernels that compute a run's per-bond terms
+// in vectorised loops before updating the ends (bond_run.hpp).
+template <class Scratch, class Body>
 void for_each_bond_run(const BondPartition& part, Body&& body) {
   if (part.all_in_one) {
+    Scratch scratch;
     const auto nb = static_cast<Index>(part.num_bonds);
     for (Index b = 0; b < nb; b += kBondRun) {
       const Index count = std::min(kBondRun, nb - b);
-      body(BondRun{nullptr, b, count, 0, static_cast<Index>(part.num_quanta), 0, b + count == nb});
+      body(BondRun{nullptr, b, count, 0, static_cast<Index>(part.num_quanta), b + count == nb}, scratch);
     }
     return;
   }
   const int parts = part.parts();
   auto run = [&](int p) {
+    Scratch scratch;
     const Index end = part.offset[p + 1];
     for (Index k = part.offset[p]; k < end; k += kBondRun) {
       const Index count = std::min(kBondRun, end - k);
-      body(BondRun{part.bonds.data() + k, 0, count, part.first[p], part.first[p + 1], p, k + count == end});
+      body(BondRun{part.bonds.data() + k, 0, count, part.first[p], part.first[p + 1], k + count == end}, scratch);
     }
   };
 #ifdef _OPENMP

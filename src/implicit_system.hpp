@@ -166,14 +166,6 @@ void assemble_blocks(const Model& model, const Adjacency& adj, int threads, Impl
 struct FrozenStep {
   BondPartition part;
   std::vector<DiagonalRow> rows;
-  // Per part, a row's sum not yet added to it (frozen_step.cpp).
-  static constexpr Index kNoQuanta = ~Index{0};
-  struct Pending {
-    Index q = kNoQuanta;  // whose
-    Index next = 0;       // the bond that would go on with it
-    double sum[9];        // as DiagonalRow::add takes it
-  };
-  std::vector<Pending> pending;
   void project(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
                const StepContext& ctx, int threads, Projection& out);
 };
