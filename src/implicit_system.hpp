@@ -160,9 +160,10 @@ void assemble_blocks(const Model& model, const Adjacency& adj, int threads, Impl
 // A_ii Δv_i = h f_i − h² K_i v_i with A_ii = m I + h C_i + h² K_i (C_i, K_i: Σ C_b, Σ K_b over i's
 // bonds) and f_i = f_ext,i + Σ_b (T_b u_b + C_b (v_j − v_i)); adding A_ii v_i to both sides cancels
 // the K_i and C_i v_i terms: A_ii (v_i + Δv_i) = m v_i + h f_ext,i + h Σ_b (T_b u_b + C_b v_j).
-// Each bond is linearised once and added to its free ends' A_ii (kept as its six distinct
-// entries) and that right-hand side; then v_i + Δv_i = A_ii⁻¹ (…) goes straight into `out`
-// (dx = h (v + Δv), Eq. 10), whose kinematic rows come from project_kinematic.
+// Each bond is linearised once, in vectorised runs (frozen_step.cpp), and added to both ends' A_ii
+// (kept as its six distinct entries) and that right-hand side; then, for free quanta,
+// v_i + Δv_i = A_ii⁻¹ (…) goes straight into `out` (dx = h (v + Δv), Eq. 10), whose kinematic rows
+// come from project_kinematic.
 struct FrozenStep {
   BondPartition part;
   std::vector<DiagonalRow> rows;

@@ -2,7 +2,7 @@
 // QBOND_VECTOR_CLONES compiles a function three times, for the baseline x86-64 (SSE2) and for
 // x86-64-v3 (AVX2, FMA) and x86-64-v4 (AVX-512), and the loader picks the widest the CPU has (GCC
 // and Clang function multiversioning, an ifunc). The bond kernels' vectorised loops then use the
-// wide registers and gathers where they exist while the build stays portable: no -march=native.
+// wide registers where they exist while the build stays portable: no -march=native.
 // Each clone is deterministic, but clones may round differently (fused multiply-adds): results
 // are bit-identical on one machine for any thread count, not across CPUs of different levels.
 // QBOND_VECTOR_INLINE marks the helpers such a function calls: inlined into each clone, they are
