@@ -77,7 +77,7 @@ struct BondRun {
 // body(run, scratch) for runs covering every alive bond once per part that owns one of its ends
 // (as for_each_bond visits them): a part's runs come in bond order, on the part's thread, with
 // one Scratch (default-initialised) for the part. For kernels that compute a run's per-bond terms
-// in vectorised loops before updating the ends (bond_run.hpp).
+// in vectorised loops before updating the ends (frozen_step.cpp).
 template <class Scratch, class Body>
 void for_each_bond_run(const BondPartition& part, Body&& body) {
   if (part.all_in_one) {

@@ -49,6 +49,27 @@ TEST(BondPartition, ForEachBondOwnsEachEndOfEachAliveBondOnce) {
         ASSERT_EQ(owned_i[b], w->state.alive[b]) << "bond " << b << ", " << threads << " threads";
         ASSERT_EQ(owned_j[b], w->state.alive[b]) << "bond " << b << ", " << threads << " threads";
       }
+      // The same in runs (for_each_bond_run): each part's runs in increasing bond order, its last
+      // run marked once.
+      struct Seen {
+        Index next = 0;
+        int lasts = 0;
+      };
+      std::vector<int> run_i(w->num_bonds(), 0), run_j(w->num_bonds(), 0);
+      for_each_bond_run<Seen>(part, [&](const BondRun& run, Seen& seen) {
+        for (Index k = 0; k < run.count; ++k) {
+          const Index b = run.bond(k);
+          EXPECT_GE(b, seen.next);
+          seen.next = b + 1;
+          if (run.owns(w->model.bond_i[b])) ++run_i[b];
+          if (run.owns(w->model.bond_j[b])) ++run_j[b];
+        }
+        if (run.last) {
+          EXPECT_EQ(++seen.lasts, 1);
+        }
+      });
+      EXPECT_EQ(run_i, owned_i) << threads << " threads";
+      EXPECT_EQ(run_j, owned_j) << threads << " threads";
     }
   }
 }
