@@ -24,8 +24,74 @@ void build_lists(BondPartition& part, const Adjacency& adj, int parts, std::size
   }
 }
 
-}  // namespace
+// Every alive bond's part runs (BondPartition::runs): affine segments cut into runs of at most
+// kBondRun, the other bonds in runs of at most kBondRun consecutive listed bonds that do not
+// cross a segment.
+void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
+  struct Segment {
+    Index first, end;
+  };
+  std::vector<Segment> segments;
+  const auto nb = static_cast<Index>(part.num_bonds);
+  std::vector<std::uint8_t>& alive = part.mark;  // the adjacency holds exactly the alive bonds
+  alive.assign(nb, 0);
+  for (Index b : adj.bond) alive[b] = 1;
+  for_each_affine_segment(model.bond_i.data(), model.bond_j.data(), nb, [&](Index b) { return alive[b] != 0; },
+                          [&](Index b, Index n) { segments.push_back({b, b + n}); });
+  alive.clear();
 
+  const int parts = part.parts();
+  part.runs.clear();
+  part.run_offset.assign(static_cast<std::size_t>(parts) + 1, 0);
+  for (int p = 0; p < parts; ++p) {
+    const Index lo = part.first[p], hi = part.first[p + 1];
+    auto consecutive = [&](const Index* list, Index first, Index count) {
+      part.runs.push_back({list, first, count, lo, hi, false, false, 0, 0});
+    };
+    // Bonds first .. last of a segment that starts at bond s. A run's loops may read the bonds
+    // after it up to a whole vector of 8 (frozen_step.cpp): one that would pass the last bond
+    // goes to the per-bond path.
+    auto affine = [&](Index s, Index first, Index last) {
+      for (Index b = first; b <= last; b += kBondRun) {
+        const Index count = std::min(kBondRun, last + 1 - b);
+        const bool padded = b + (count + 7) / 8 * 8 <= nb;
+        part.runs.push_back({nullptr, b, count, lo, hi, false, padded, model.bond_i[s] + (b - s),
+                             model.bond_j[s] + (b - s)});
+      }
+    };
+    std::size_t seg = 0;
+    if (part.all_in_one) {
+      for (Index b = 0; b < nb;) {
+        const Index stop = seg < segments.size() ? segments[seg].first : nb;
+        for (; b < stop; b += std::min(kBondRun, stop - b)) consecutive(nullptr, b, std::min(kBondRun, stop - b));
+        if (seg < segments.size()) {
+          affine(segments[seg].first, segments[seg].first, segments[seg].end - 1);
+          b = segments[seg++].end;
+        }
+      }
+    } else {
+      const Index* list = part.bonds.data();
+      for (Index k = part.offset[p], end = part.offset[p + 1]; k < end;) {
+        const Index b = list[k];
+        while (seg < segments.size() && segments[seg].end <= b) ++seg;
+        Index k2 = k;
+        if (seg < segments.size() && segments[seg].first <= b) {
+          while (k2 < end && list[k2] < segments[seg].end) ++k2;
+          affine(segments[seg].first, b, list[k2 - 1]);
+        } else {
+          const Index stop = seg < segments.size() ? segments[seg].first : nb;
+          while (k2 < end && k2 - k < kBondRun && list[k2] < stop) ++k2;
+          consecutive(list + k, 0, k2 - k);
+        }
+        k = k2;
+      }
+    }
+    part.run_offset[p + 1] = static_cast<Index>(part.runs.size());
+    if (part.run_offset[p + 1] > part.run_offset[p]) part.runs.back().last = true;
+  }
+}
+
+}  // namespace
 
 void BondPartition::update(const Model& model, const Adjacency& adj, int threads_wanted) {
   const std::size_t n = model.num_quanta(), nb = model.num_bonds();
@@ -48,10 +114,11 @@ void BondPartition::update(const Model& model, const Adjacency& adj, int threads
   // bonds themselves and no list is needed.
   all_in_one = parts == 1 && ends == 2 * nb;
   if (!all_in_one) build_lists(*this, adj, parts, nb);
-  version = adj.version;
-  threads = threads_wanted;
   num_quanta = n;
   num_bonds = nb;
+  build_runs(*this, model, adj);
+  version = adj.version;
+  threads = threads_wanted;
 }
 
 }  // namespace qbond

@@ -18,10 +18,54 @@
 
 namespace qbond {
 
+// A run of at most kBondRun alive bonds, in increasing order, from one part of a partition: the
+// bonds list[0..count), or first .. first + count - 1 when list is null. An affine run (list
+// null) is a piece of an affine segment (for_each_affine_segment): bond first + k joins
+// i0 + k and j0 + k, so that its ends' data are contiguous; bonds exist up to count rounded up
+// to a multiple of 8 (vector loops over an affine run need no remainder). The part updates the
+// ends in [lo, hi) only; `last` marks its last run.
+inline constexpr Index kBondRun = 64;
+struct BondRun {
+  const Index* list;
+  Index first, count, lo, hi;
+  bool last;
+  bool affine;
+  Index i0, j0;
+  Index bond(Index k) const { return list ? list[k] : first + k; }
+  bool owns(Index q) const { return q >= lo && q < hi; }
+};
+
+// Affine segments shorter than this are left to the per-bond path: a vector loop over fewer
+// bonds than a wide register holds would be mostly its remainder.
+inline constexpr Index kMinAffine = 8;
+
+// segment(b, count) for every maximal run of at least kMinAffine consecutive alive bonds
+// b, b + 1, ... whose ends advance together: bond b + k joins bond_i[b] + k and bond_j[b] + k.
+// A lattice whose bonds are grouped by index offset (ordering.hpp) is made of such runs.
+template <class Alive, class Segment>
+void for_each_affine_segment(const Index* bond_i, const Index* bond_j, Index nb, Alive&& alive, Segment&& segment) {
+  for (Index b = 0; b < nb;) {
+    if (!alive(b)) {
+      ++b;
+      continue;
+    }
+    Index n = 1;
+    while (b + n < nb && alive(b + n) && bond_i[b + n] == bond_i[b] + n && bond_j[b + n] == bond_j[b] + n) ++n;
+    if (n >= kMinAffine) segment(b, n);
+    b += n;  // a run starting inside this one ends where it does, shorter
+  }
+}
+
 struct BondPartition {
   std::vector<Index> first;   // (parts + 1): part p owns quanta [first[p], first[p + 1])
   std::vector<Index> offset;  // (parts + 1): part p visits bonds[offset[p] .. offset[p + 1])
   std::vector<Index> bonds;   // per part, its alive bonds with an end in its range, increasing
+  // Per part, runs[run_offset[p] .. run_offset[p + 1]): its bonds (as listed, or all of them
+  // when all_in_one) in runs for for_each_bond_run, affine where the bonds form affine
+  // segments. A part visits the whole stretch of a segment between its first and last bond
+  // with an owned end; the bonds in between with no owned end change nothing.
+  std::vector<BondRun> runs;
+  std::vector<Index> run_offset;
   std::vector<std::uint8_t> mark;  // scratch of update
   // One part and every bond alive: for_each_bond visits bonds 0..nb-1 and the lists are not
   // built (offset all 0, bonds empty).
@@ -62,41 +106,16 @@ void for_each_bond(const BondPartition& part, const Model& model, Body&& body) {
   for (int p = 0; p < parts; ++p) run(p);
 }
 
-// A run of at most kBondRun alive bonds, in increasing order, from one part of a partition: the
-// bonds list[0..count), or first .. first + count - 1 when list is null. The part updates the
-// ends in [lo, hi) only; `last` marks its last run.
-inline constexpr Index kBondRun = 64;
-struct BondRun {
-  const Index* list;
-  Index first, count, lo, hi;
-  bool last;
-  Index bond(Index k) const { return list ? list[k] : first + k; }
-  bool owns(Index q) const { return q >= lo && q < hi; }
-};
-
-// body(run, scratch) for runs covering every alive bond once per part that owns one of its ends
-// (as for_each_bond visits them): a part's runs come in bond order, on the part's thread, with
-// one Scratch (default-initialised) for the part. For kernels that compute a run's per-bond terms
-// in vectorised loops before updating the ends (frozen_step.cpp).
+// body(run, scratch) for the partition's runs, covering every alive bond once per part that owns
+// one of its ends (as for_each_bond visits them): a part's runs come in bond order, on the part's
+// thread, with one Scratch (default-initialised) for the part. For kernels that compute a run's
+// per-bond terms in vectorised loops before updating the ends (frozen_step.cpp).
 template <class Scratch, class Body>
 void for_each_bond_run(const BondPartition& part, Body&& body) {
-  if (part.all_in_one) {
-    Scratch scratch;
-    const auto nb = static_cast<Index>(part.num_bonds);
-    for (Index b = 0; b < nb; b += kBondRun) {
-      const Index count = std::min(kBondRun, nb - b);
-      body(BondRun{nullptr, b, count, 0, static_cast<Index>(part.num_quanta), b + count == nb}, scratch);
-    }
-    return;
-  }
   const int parts = part.parts();
   auto run = [&](int p) {
     Scratch scratch;
-    const Index end = part.offset[p + 1];
-    for (Index k = part.offset[p]; k < end; k += kBondRun) {
-      const Index count = std::min(kBondRun, end - k);
-      body(BondRun{part.bonds.data() + k, 0, count, part.first[p], part.first[p + 1], k + count == end}, scratch);
-    }
+    for (Index r = part.run_offset[p]; r < part.run_offset[p + 1]; ++r) body(part.runs[r], scratch);
   };
 #ifdef _OPENMP
 #pragma omp parallel for schedule(static, 1) num_threads(parts) if (parts > 1)

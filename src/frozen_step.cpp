@@ -3,9 +3,12 @@
 //
 // The bonds are taken in runs of kBondRun (for_each_bond_run). A run's per-bond quantities are
 // computed first in structure-of-arrays loops without branches, which the compiler vectorises
-// across bonds (the ends' positions and velocities gathered), in functions compiled for several
-// instruction sets (simd.hpp); then the run's ends are updated one bond at a time, in bond order,
-// so that each quanta's sum keeps its order for any thread count.
+// across bonds, in functions compiled for several instruction sets (simd.hpp). In an affine run
+// (bond first + k joins i0 + k and j0 + k: a lattice's bonds grouped by offset) the ends' data
+// are contiguous, and the rows (kept as structure of arrays) are updated by vector loops too.
+// Other runs gather their ends' positions and velocities and update the rows one bond at a time.
+// Either way each row receives its bonds in bond order, so its sum is the same for any thread
+// count.
 #include <algorithm>
 #include <cmath>
 
@@ -29,28 +32,34 @@ struct RunBonds {
   alignas(64) double T[kBondRun], dT[kBondRun];                 // the law's tension and slope
 };
 
-// The run's bonds and parameters (kList: a list, else consecutive bonds, all loads contiguous);
-// returns whether every bond's law is linear.
-template <bool kList>
-QBOND_VECTOR_INLINE bool load_bonds(const Model& model, const State& state, const BondRun& run, RunBonds& t) {
-  const Index n = run.count;
-  auto bond = [&](Index q) { return kList ? run.list[q] : run.first + q; };
-  const Index* bond_i = model.bond_i.data();
-  const Index* bond_j = model.bond_j.data();
-  const double* stiffness = model.stiffness.data();
-  const double* rest = state.rest.data();
-  const double* damping = model.damping.data();
-  const Law* law = model.law.data();
-  const DampingModel* damping_model = model.damping_model.data();
+// The run's first n bonds and their parameters (kList: a list, else consecutive bonds, all loads
+// contiguous); kEnds: also their ends (an affine run's are implied); returns whether every bond's
+// law is linear.
+template <bool kList, bool kEnds>
+QBOND_VECTOR_INLINE bool load_bonds(const Model& model, const State& state, const BondRun& run, Index n,
+                                    RunBonds& t) {
+  // Consecutive bonds index arrays advanced to the run's first bond: first + q, a 32-bit sum that
+  // the compiler must assume may wrap, would make every load a gather.
+  const std::size_t base = kList ? 0 : run.first;
+  auto bond = [&](Index q) { return kList ? run.list[q] : q; };
+  const Index* bond_i = model.bond_i.data() + base;
+  const Index* bond_j = model.bond_j.data() + base;
+  const double* stiffness = model.stiffness.data() + base;
+  const double* rest = state.rest.data() + base;
+  const double* damping = model.damping.data() + base;
+  const Law* law = model.law.data() + base;
+  const DampingModel* damping_model = model.damping_model.data() + base;
   static_assert(static_cast<int>(Law::linear) == 0);
   unsigned nonlinear = 0;
   QBOND_SIMD for (Index q = 0; q < n; ++q) {
     const Index b = bond(q);
-    t.b[q] = b;
-    t.i[q] = bond_i[b];
-    t.j[q] = bond_j[b];
-    t.oi[q] = 3 * t.i[q];
-    t.oj[q] = 3 * t.j[q];
+    if constexpr (kEnds) {
+      t.b[q] = run.bond(q);
+      t.i[q] = bond_i[b];
+      t.j[q] = bond_j[b];
+      t.oi[q] = 3 * t.i[q];
+      t.oj[q] = 3 * t.j[q];
+    }
     t.k[q] = stiffness[b];
     t.L[q] = rest[b];
     t.ca[q] = damping[b];
@@ -66,31 +75,64 @@ QBOND_VECTOR_INLINE bool load_bonds(const Model& model, const State& state, cons
   return nonlinear == 0;
 }
 
-// Fills t for the run: its bonds, parameters, unit vectors, u·v at both ends and the laws. A
-// zero-length bond has no direction: its
-// u, tension, slope and damping are 0 (the bond then does nothing, as in laws.hpp).
-QBOND_VECTOR_INLINE void measure_run(const Model& model, const State& state, const BondRun& run,
-                                     RunBonds& t) {
-  const Index n = run.count;
-  const double* x = state.x.data()->data();  // Vec3 arrays as doubles
-  const double* v = state.v.data()->data();
-  const bool all_linear =
-      run.list ? load_bonds<true>(model, state, run, t) : load_bonds<false>(model, state, run, t);
-  QBOND_SIMD for (Index q = 0; q < n; ++q) {
-    const Index oi = t.oi[q], oj = t.oj[q];
-    const double dx = x[oj] - x[oi], dy = x[oj + 1] - x[oi + 1], dz = x[oj + 2] - x[oi + 2];
-    const double r = std::sqrt(dx * dx + dy * dy + dz * dz);
-    // The division's operand is selected first so that the loop has no branch.
-    const bool ok = r > 0;
-    const double inv_r = ok ? 1.0 / (ok ? r : 1.0) : 0.0;
-    const double ux = inv_r * dx, uy = inv_r * dy, uz = inv_r * dz;
-    t.r[q] = r;
-    t.inv_r[q] = inv_r;
-    t.ux[q] = ux;
-    t.uy[q] = uy;
-    t.uz[q] = uz;
-    t.vi[q] = ux * v[oi] + uy * v[oi + 1] + uz * v[oi + 2];
-    t.vj[q] = ux * v[oj] + uy * v[oj + 1] + uz * v[oj + 2];
+// The step's per-quanta arrays, as structure of arrays (FrozenStep::arrays): the rows A_ii (six
+// distinct entries: xx, yy, zz, xy, xz, yz) and b_i (x, y, z), and copies of the positions and
+// velocities from which affine runs load contiguous vectors.
+struct StepArrays {
+  double* row[9];
+  double* x[3];
+  double* v[3];
+  QBOND_VECTOR_INLINE void add(Index q, const double (&d)[9]) const {
+    for (int k = 0; k < 9; ++k) row[k][q] += d[k];
+  }
+};
+
+// Bond q's r, 1/r, u, u·v_i and u·v_j from d = x_j − x_i and the ends' velocities. A zero-length
+// bond has no direction: u = 0 (its tension, slope and damping are then masked to 0). The
+// division's operand is selected first, and the division done unconditionally, so that the loop
+// has no branch.
+QBOND_VECTOR_INLINE void set_geometry(RunBonds& t, Index q, double dx, double dy, double dz, double vix, double viy,
+                                      double viz, double vjx, double vjy, double vjz) {
+  const double r = std::sqrt(dx * dx + dy * dy + dz * dz);
+  const bool ok = r > 0;
+  const double inv_any = 1.0 / (ok ? r : 1.0);
+  const double inv_r = ok ? inv_any : 0.0;
+  const double ux = inv_r * dx, uy = inv_r * dy, uz = inv_r * dz;
+  t.r[q] = r;
+  t.inv_r[q] = inv_r;
+  t.ux[q] = ux;
+  t.uy[q] = uy;
+  t.uz[q] = uz;
+  t.vi[q] = ux * vix + uy * viy + uz * viz;
+  t.vj[q] = ux * vjx + uy * vjy + uz * vjz;
+}
+
+// Fills t for the run's first n bonds: their parameters, unit vectors, u·v at both ends and laws (kAffine:
+// the ends' data loaded as contiguous vectors from the step's arrays at i0 and j0, else gathered
+// from the state). A zero-length bond's tension, slope and damping are 0 (the bond then does
+// nothing, as in laws.hpp).
+template <bool kAffine>
+QBOND_VECTOR_INLINE void measure_run(const Model& model, const State& state, const StepArrays& a,
+                                     const BondRun& run, Index n, RunBonds& t) {
+  bool all_linear;
+  if constexpr (kAffine) {
+    all_linear = load_bonds<false, false>(model, state, run, n, t);
+    const Index i = run.i0, j = run.j0;
+    const double *xi = a.x[0] + i, *yi = a.x[1] + i, *zi = a.x[2] + i;
+    const double *xj = a.x[0] + j, *yj = a.x[1] + j, *zj = a.x[2] + j;
+    const double *vxi = a.v[0] + i, *vyi = a.v[1] + i, *vzi = a.v[2] + i;
+    const double *vxj = a.v[0] + j, *vyj = a.v[1] + j, *vzj = a.v[2] + j;
+    QBOND_SIMD for (Index q = 0; q < n; ++q)
+      set_geometry(t, q, xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vxi[q], vyi[q], vzi[q], vxj[q], vyj[q], vzj[q]);
+  } else {
+    all_linear = run.list ? load_bonds<true, true>(model, state, run, n, t) : load_bonds<false, true>(model, state, run, n, t);
+    const double* x = state.x.data()->data();  // Vec3 arrays as doubles
+    const double* v = state.v.data()->data();
+    QBOND_SIMD for (Index q = 0; q < n; ++q) {
+      const Index oi = t.oi[q], oj = t.oj[q];
+      set_geometry(t, q, x[oj] - x[oi], x[oj + 1] - x[oi + 1], x[oj + 2] - x[oi + 2], v[oi], v[oi + 1], v[oi + 2],
+                   v[oj], v[oj + 1], v[oj + 2]);
+    }
   }
   if (all_linear) {
     QBOND_SIMD for (Index q = 0; q < n; ++q) {
@@ -99,7 +141,7 @@ QBOND_VECTOR_INLINE void measure_run(const Model& model, const State& state, con
     }
   } else {
     for (Index q = 0; q < n; ++q) {
-      const LawValue lv = model.law_at(t.b[q], t.r[q], t.L[q]);
+      const LawValue lv = model.law_at(run.bond(q), t.r[q], t.L[q]);
       t.T[q] = lv.T;
       t.dT[q] = lv.dT;
     }
@@ -148,10 +190,12 @@ struct BondStretch {
 
 // A run's terms, by bond k of the run: the six distinct entries of B_b = Ba u uᵀ + Bb I and the
 // right-hand-side terms h T u + h C_b v_o on each end, kept as s_i u + hcb v_j on bond_i and
-// s_j u + hcb v_i on bond_j (s = ±h T + h ca u·v_o, hcb = h cb).
+// s_j u + hcb v_i on bond_j (s = ±h T + h ca u·v_o, hcb = h cb), and for an affine run those
+// two terms themselves, ri and rj.
 struct FrozenTerms {
   alignas(64) double B[6][kBondRun];
   alignas(64) double si[kBondRun], sj[kBondRun], hcb[kBondRun];
+  alignas(64) double ri[3][kBondRun], rj[3][kBondRun];
 };
 
 // What a part keeps from run to run.
@@ -161,39 +205,67 @@ struct FrozenScratch {
   BondStretch stretch;
 };
 
+// Bonds an affine run's loops take: its count rounded up to whole vectors of 8 (for_each_bond_run's
+// affine runs have that many bonds, and the step's arrays are padded), so that no loop has a
+// remainder. The lanes past the run get terms of −0.0, which added to a row leave its bits as
+// they are (x + (−0.0) = x for every double x, +0.0 included).
+inline Index affine_lanes(const BondRun& run) { return (run.count + 7) & ~Index{7}; }
+
 // Fills the run's terms (linearise_bond's arithmetic, laid out for vectorising).
-QBOND_VECTOR_CLONES void frozen_terms(const Model& model, const State& state, const BondRun& run, double h,
-                                      RunBonds& g, FrozenTerms& t) {
-  measure_run(model, state, run, g);
+template <bool kAffine>
+QBOND_VECTOR_INLINE void run_terms(const Model& model, const State& state, const StepArrays& a, const BondRun& run,
+                                   double h, RunBonds& g, FrozenTerms& t) {
+  const Index n = kAffine ? affine_lanes(run) : run.count;
+  measure_run<kAffine>(model, state, a, run, n, g);
   const double h2 = h * h;
-  QBOND_SIMD for (Index q = 0; q < run.count; ++q) {
+  const double *vi[3], *vj[3];  // an affine run's ends' velocities
+  for (int c = 0; c < 3; ++c) {
+    vi[c] = a.v[c] + run.i0;
+    vj[c] = a.v[c] + run.j0;
+  }
+  QBOND_SIMD for (Index q = 0; q < n; ++q) {
     const double T = g.T[q], ca = g.ca[q], cb = g.cb[q];
     const double k_transverse = std::max(T * g.inv_r[q], 0.0), k_axial = std::max(g.dT[q], 0.0);
     const double Ba = h * ca + h2 * (k_axial - k_transverse), Bb = h * cb + h2 * k_transverse;
     const double ux = g.ux[q], uy = g.uy[q], uz = g.uz[q];
     const double aux = Ba * ux, auy = Ba * uy;
-    t.B[0][q] = aux * ux + Bb;
-    t.B[1][q] = auy * uy + Bb;
-    t.B[2][q] = Ba * uz * uz + Bb;
-    t.B[3][q] = aux * uy;
-    t.B[4][q] = aux * uz;
-    t.B[5][q] = auy * uz;
-    t.si[q] = h * T + h * ca * g.vj[q];
-    t.sj[q] = -h * T + h * ca * g.vi[q];
-    t.hcb[q] = h * cb;
+    const double B[6] = {aux * ux + Bb, auy * uy + Bb, Ba * uz * uz + Bb, aux * uy, aux * uz, auy * uz};
+    const double si = h * T + h * ca * g.vj[q], sj = -h * T + h * ca * g.vi[q], hcb = h * cb;
+    if constexpr (kAffine) {
+      const bool live = q < run.count;
+      for (int e = 0; e < 6; ++e) t.B[e][q] = live ? B[e] : -0.0;
+      const double u[3] = {ux, uy, uz};
+      for (int c = 0; c < 3; ++c) {
+        t.ri[c][q] = live ? si * u[c] + hcb * vj[c][q] : -0.0;
+        t.rj[c][q] = live ? sj * u[c] + hcb * vi[c][q] : -0.0;
+      }
+    } else {
+      for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
+      t.si[q] = si;
+      t.sj[q] = sj;
+      t.hcb[q] = hcb;
+    }
   }
+}
+
+QBOND_VECTOR_CLONES void frozen_terms(const Model& model, const State& state, const StepArrays& a,
+                                      const BondRun& run, double h, RunBonds& g, FrozenTerms& t) {
+  if (run.affine)
+    run_terms<true>(model, state, a, run, h, g, t);
+  else
+    run_terms<false>(model, state, a, run, h, g, t);
 }
 
 // Adds the run's terms to both ends' rows, bond by bond: A_qq += B_b, rhs_q += s_q u + h cb v_o (q
 // an end, o the other), bond_i's through the part's stretch. Kinematic rows are summed like the
 // others and never solved.
 QBOND_VECTOR_CLONES void frozen_scatter(const BondRun& run, const RunBonds& g, const FrozenTerms& t,
-                                        const Vec3* v, DiagonalRow* rows, BondStretch& stretch) {
+                                        const Vec3* v, const StepArrays& rows, BondStretch& stretch) {
   BondStretch s = stretch;  // a local copy stays in registers
-  auto flush = [&](Index q, const double(&sum)[9]) { rows[q].add(sum); };
+  auto flush = [&](Index q, const double(&sum)[9]) { rows.add(q, sum); };
   for (Index k = 0; k < run.count; ++k) {
     const Index i = g.i[k], j = g.j[k];
-    double di[9], dj[9];  // the terms of bond_i's row and bond_j's (DiagonalRow::add)
+    double di[9], dj[9];  // the terms of bond_i's row and bond_j's (StepArrays::add)
     for (int e = 0; e < 6; ++e) di[e] = dj[e] = t.B[e][k];
     const Vec3 u(g.ux[k], g.uy[k], g.uz[k]);
     Vec3 bi = t.si[k] * u, bj = t.sj[k] * u;
@@ -206,10 +278,69 @@ QBOND_VECTOR_CLONES void frozen_scatter(const BondRun& run, const RunBonds& g, c
       dj[6 + e] = bj[e];
     }
     s.add(g.b[k], i, run.owns(i), di, flush);
-    if (run.owns(j)) rows[j].add(dj);
+    if (run.owns(j)) rows.add(j, dj);
   }
   if (run.last) s.end(flush);
   stretch = s;
+}
+
+// Rows base + k, k in [k0, k1), += bond k's terms: B and r (ri or rj, the end's right-hand side).
+QBOND_VECTOR_INLINE void add_to_rows(const StepArrays& a, Index base, Index k0, Index k1, const FrozenTerms& t,
+                                     const double (&r)[3][kBondRun]) {
+  double *a0 = a.row[0] + base, *a1 = a.row[1] + base, *a2 = a.row[2] + base;
+  double *a3 = a.row[3] + base, *a4 = a.row[4] + base, *a5 = a.row[5] + base;
+  double *bx = a.row[6] + base, *by = a.row[7] + base, *bz = a.row[8] + base;
+  QBOND_SIMD for (Index k = k0; k < k1; ++k) {
+    a0[k] += t.B[0][k];
+    a1[k] += t.B[1][k];
+    a2[k] += t.B[2][k];
+    a3[k] += t.B[3][k];
+    a4[k] += t.B[4][k];
+    a5[k] += t.B[5][k];
+    bx[k] += r[0][k];
+    by[k] += r[1][k];
+    bz[k] += r[2][k];
+  }
+}
+
+// One end of an affine run, whose first quanta is base: its rows the part owns += their bonds'
+// terms, in whole vectors (the padded lanes add −0.0) when the part owns every row they reach.
+QBOND_VECTOR_INLINE void add_affine_end(const BondRun& run, Index base, const FrozenTerms& t,
+                                        const double (&r)[3][kBondRun], const StepArrays& a) {
+  if (base >= run.lo && base + affine_lanes(run) <= run.hi) {
+    add_to_rows(a, base, 0, affine_lanes(run), t, r);
+  } else {
+    const Index k0 = run.lo > base ? std::min(run.lo - base, run.count) : 0;
+    const Index k1 = run.hi > base ? std::min(run.hi - base, run.count) : 0;
+    add_to_rows(a, base, k0, k1, t, r);
+  }
+}
+
+// Adds an affine run's terms to the rows it owns, the end with the higher quanta numbers first: a
+// row q = i0 + k = j0 + k' (j0 > i0) is bond_j of bond k' = k − (j0 − i0) before it is bond_i of
+// bond k, so it receives them in bond order, as a bond-by-bond pass would and whatever the run's
+// pieces. The part's stretch ends before the run (the run's bonds have distinct bond_i).
+QBOND_VECTOR_CLONES void frozen_affine_scatter(const BondRun& run, const FrozenTerms& t, const StepArrays& a,
+                                               BondStretch& stretch) {
+  stretch.end([&](Index q, const double(&sum)[9]) { a.add(q, sum); });
+  if (run.j0 > run.i0) {
+    add_affine_end(run, run.j0, t, t.rj, a);
+    add_affine_end(run, run.i0, t, t.ri, a);
+  } else {
+    add_affine_end(run, run.i0, t, t.ri, a);
+    add_affine_end(run, run.j0, t, t.rj, a);
+  }
+}
+
+// A_ii⁻¹ b_i by the adjugate of the symmetric block (DiagonalRow::solve on the step's arrays).
+QBOND_VECTOR_INLINE Vec3 solve_row(const StepArrays& a, Index q) {
+  const double a0 = a.row[0][q], a1 = a.row[1][q], a2 = a.row[2][q];
+  const double a3 = a.row[3][q], a4 = a.row[4][q], a5 = a.row[5][q];
+  const double bx = a.row[6][q], by = a.row[7][q], bz = a.row[8][q];
+  const double c00 = a1 * a2 - a5 * a5, c11 = a0 * a2 - a4 * a4, c22 = a0 * a1 - a3 * a3;
+  const double c01 = a4 * a5 - a3 * a2, c02 = a3 * a5 - a4 * a1, c12 = a3 * a4 - a0 * a5;
+  const double inv_det = 1.0 / (a0 * c00 + a3 * c01 + a4 * c02);
+  return inv_det * Vec3(c00 * bx + c01 * by + c02 * bz, c01 * bx + c11 * by + c12 * bz, c02 * bx + c12 * by + c22 * bz);
 }
 
 }  // namespace
@@ -222,19 +353,37 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   out.resize(n);
   project_kinematic(model, state, ctx, out);
   part.update(model, adj, threads);
-  rows.resize(n);
+  // Arrays 3 cache lines more than a multiple of 4 KiB apart: the same quanta's entries of the 15
+  // arrays then fall in different sets of the first-level cache (at a multiple of 4 KiB they
+  // would compete for one set's ways, and loads would wait on stores to other arrays).
+  const std::size_t stride = (n + 511) / 512 * 512 + 24;
+  arrays.resize(15 * stride);
+  StepArrays a;
+  for (std::size_t e = 0; e < 15; ++e) (e < 9 ? a.row[e] : e < 12 ? a.x[e - 9] : a.v[e - 12]) = arrays.data() + e * stride;
   parallel_for(n, threads, [&](std::size_t i) {
-    rows[i].start(model.mass[i], model.mass[i] * state.v[i] + h * f_ext[i]);
+    const double m = model.mass[i];
+    const Vec3& v = state.v[i];
+    const Vec3 b = m * v + h * f_ext[i];
+    a.row[0][i] = a.row[1][i] = a.row[2][i] = m;
+    a.row[3][i] = a.row[4][i] = a.row[5][i] = 0;
+    for (int c = 0; c < 3; ++c) {
+      a.row[6 + c][i] = b[c];
+      a.x[c][i] = state.x[i][c];
+      a.v[c][i] = v[c];
+    }
   });
   for_each_bond_run<FrozenScratch>(part, [&](const BondRun& run, FrozenScratch& s) {
-    frozen_terms(model, state, run, h, s.bonds, s.terms);
-    frozen_scatter(run, s.bonds, s.terms, state.v.data(), rows.data(), s.stretch);
+    frozen_terms(model, state, a, run, h, s.bonds, s.terms);
+    if (run.affine)
+      frozen_affine_scatter(run, s.terms, a, s.stretch);
+    else
+      frozen_scatter(run, s.bonds, s.terms, state.v.data(), a, s.stretch);
   });
   parallel_for(n, threads, [&](std::size_t q) {
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i)) return;
     // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-    const Vec3 v1 = rows[i].solve();
+    const Vec3 v1 = solve_row(a, i);
     out.dv[i] = v1 - state.v[i];
     out.dx[i] = h * v1;
   });

@@ -166,7 +166,7 @@ void assemble_blocks(const Model& model, const Adjacency& adj, int threads, Impl
 // come from project_kinematic.
 struct FrozenStep {
   BondPartition part;
-  std::vector<DiagonalRow> rows;
+  std::vector<double> arrays;  // A_ii's six entries, b_i, x and v as structure of arrays (frozen_step.cpp)
   void project(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
                const StepContext& ctx, int threads, Projection& out);
 };

@@ -5,20 +5,59 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <tuple>
+
+#include "bond_partition.hpp"
 
 namespace qbond {
 
 namespace {
 
-// Sorts indices 0..n-1 by key (ties by index) and returns the new index of each old one.
-std::vector<Index> rank_by(const std::vector<std::uint64_t>& key) {
-  std::vector<Index> order(key.size());
+// Indices 0..n-1 sorted by `less` (ties by index).
+template <class Less>
+std::vector<Index> sorted_by(std::size_t n, Less&& less) {
+  std::vector<Index> order(n);
   std::iota(order.begin(), order.end(), Index{0});
-  std::sort(order.begin(), order.end(),
-            [&](Index a, Index b) { return key[a] != key[b] ? key[a] < key[b] : a < b; });
-  std::vector<Index> rank(key.size());
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) { return less(a, b) || (!less(b, a) && a < b); });
+  return order;
+}
+
+// The new index of each old one, for indices in their new order.
+std::vector<Index> rank_of(const std::vector<Index>& order) {
+  std::vector<Index> rank(order.size());
   for (std::size_t k = 0; k < order.size(); ++k) rank[order[k]] = static_cast<Index>(k);
   return rank;
+}
+
+// Sorts indices 0..n-1 by key (ties by index) and returns the new index of each old one.
+std::vector<Index> rank_by(const std::vector<std::uint64_t>& key) {
+  return rank_of(sorted_by(key.size(), [&](Index a, Index b) { return key[a] < key[b]; }));
+}
+
+// The bonds in the order that makes affine segments (bond_partition.hpp) of a lattice: by block
+// of kOffsetBlock first ends, then by the offset j − i, then by i (i, j: the ends' new numbers).
+// Within a block, the bonds of one offset whose first ends are consecutive quanta (a lattice row)
+// are then consecutive bonds with both ends advancing by one. A block's first ends and their
+// rows stay in the first-level cache over its offsets.
+constexpr Index kOffsetBlock = 128;
+std::vector<Index> offset_grouped(const std::vector<Index>& i, const std::vector<Index>& j) {
+  auto key = [&](Index b) {
+    return std::tuple(i[b] / kOffsetBlock, static_cast<std::int64_t>(j[b]) - i[b], i[b]);
+  };
+  return sorted_by(i.size(), [&](Index a, Index b) { return key(a) < key(b); });
+}
+
+// How many of the bonds, taken in `order`, lie in affine segments.
+std::size_t affine_bonds(const std::vector<Index>& order, const std::vector<Index>& i, const std::vector<Index>& j) {
+  std::vector<Index> oi(order.size()), oj(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    oi[k] = i[order[k]];
+    oj[k] = j[order[k]];
+  }
+  std::size_t count = 0;
+  for_each_affine_segment(oi.data(), oj.data(), static_cast<Index>(order.size()), [](Index) { return true; },
+                          [&](Index, Index n) { count += n; });
+  return count;
 }
 
 // at[p[k]] = k for a permutation p.
@@ -81,10 +120,19 @@ Renumbering locality_order(const World& world) {
   }
   r.quanta = rank_by(key);
 
-  key.resize(scene_bonds);
-  for (std::size_t b = 0; b < scene_bonds; ++b)
-    key[b] = std::uint64_t{r.quanta[m.bond_i[b]]} << 32 | r.quanta[m.bond_j[b]];
-  r.bonds = rank_by(key);
+  std::vector<Index> bi(scene_bonds), bj(scene_bonds);
+  for (std::size_t b = 0; b < scene_bonds; ++b) {
+    bi[b] = r.quanta[m.bond_i[b]];
+    bj[b] = r.quanta[m.bond_j[b]];
+  }
+  const std::vector<Index> grouped = offset_grouped(bi, bj);
+  if (2 * affine_bonds(grouped, bi, bj) >= scene_bonds) {
+    r.bonds = rank_of(grouped);
+  } else {
+    key.resize(scene_bonds);
+    for (std::size_t b = 0; b < scene_bonds; ++b) key[b] = std::uint64_t{bi[b]} << 32 | bj[b];
+    r.bonds = rank_by(key);
+  }
   for (std::size_t b = scene_bonds; b < nb; ++b) r.bonds.push_back(static_cast<Index>(b));
   return r;
 }

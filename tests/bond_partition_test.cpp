@@ -5,6 +5,7 @@
 
 #include "bond_partition.hpp"
 #include "forces.hpp"
+#include "qbond/ordering.hpp"
 #include "qbond/rng.hpp"
 #include "test_util.hpp"
 
@@ -12,9 +13,11 @@ namespace qbond {
 namespace {
 
 // A lattice past kParallelMin quanta (so that two threads get two ranges), anchored at one face,
-// perturbed, with mixed laws and damping models and a random tenth of its bonds broken.
-World random_lattice() {
+// perturbed, with mixed laws and damping models and a random tenth of its bonds broken; grouped:
+// renumbered first, as scenes load (ordering.hpp), so that most of its bonds form affine runs.
+World random_lattice(bool grouped = false) {
   World w = test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true);
+  if (grouped) renumber(w, locality_order(w));
   Rng rng{5};
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
     if (b % 3 == 0) {
@@ -30,46 +33,69 @@ World random_lattice() {
 }
 
 // What the passes see: for_each_bond owns each end of each alive bond exactly once, whether it
-// walks the per-part lists or (one part, no broken bond) the bonds themselves.
+// walks the per-part lists or (one part, no broken bond) the bonds themselves; and so do the runs
+// of for_each_bond_run, in the builder's bond order (no affine runs) and in the offset-grouped
+// order scenes load in (ordering.hpp: mostly affine runs, which the parts' ranges cut).
 TEST(BondPartition, ForEachBondOwnsEachEndOfEachAliveBondOnce) {
   const World intact = test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true), broken = random_lattice();
-  for (const World* w : {&intact, &broken}) {
+  World grouped_intact = intact;
+  renumber(grouped_intact, locality_order(grouped_intact));
+  const World grouped_broken = random_lattice(true);
+  for (const World* w : {&intact, &broken, static_cast<const World*>(&grouped_intact), &grouped_broken}) {
+    const bool grouped = w == &grouped_intact || w == &grouped_broken;
+    const bool all_alive = w == &intact || w == &grouped_intact;
+    const Model& m = w->model;
     Adjacency adj;
-    build_adjacency(w->model, w->state, adj);
-    for (int threads : {1, 2}) {
+    build_adjacency(m, w->state, adj);
+    for (int threads : {1, 2, 3}) {
+      const std::string what = std::to_string(threads) + " threads" + (grouped ? ", grouped" : "") +
+                               (all_alive ? "" : ", broken bonds");
       BondPartition part;
-      part.update(w->model, adj, threads);
-      EXPECT_EQ(part.all_in_one, threads == 1 && w == &intact) << threads;
+      part.update(m, adj, threads);
+      EXPECT_EQ(part.all_in_one, threads == 1 && all_alive) << what;
       std::vector<int> owned_i(w->num_bonds(), 0), owned_j(w->num_bonds(), 0);
-      for_each_bond(part, w->model, [&](Index b, bool own_i, bool own_j) {
+      for_each_bond(part, m, [&](Index b, bool own_i, bool own_j) {
         if (own_i) ++owned_i[b];  // only the call owning an end writes its counter
         if (own_j) ++owned_j[b];
       });
       for (std::size_t b = 0; b < w->num_bonds(); ++b) {
-        ASSERT_EQ(owned_i[b], w->state.alive[b]) << "bond " << b << ", " << threads << " threads";
-        ASSERT_EQ(owned_j[b], w->state.alive[b]) << "bond " << b << ", " << threads << " threads";
+        ASSERT_EQ(owned_i[b], w->state.alive[b]) << "bond " << b << ", " << what;
+        ASSERT_EQ(owned_j[b], w->state.alive[b]) << "bond " << b << ", " << what;
       }
       // The same in runs (for_each_bond_run): each part's runs in increasing bond order, its last
-      // run marked once.
+      // run marked once; an affine run's bonds alive with ends i0 + k and j0 + k.
       struct Seen {
         Index next = 0;
         int lasts = 0;
       };
       std::vector<int> run_i(w->num_bonds(), 0), run_j(w->num_bonds(), 0);
+      std::size_t affine = 0;  // bonds in affine runs, over all parts (serial: parts' counters race)
+      for (const BondRun& run : part.runs)
+        if (run.affine) affine += run.count;
       for_each_bond_run<Seen>(part, [&](const BondRun& run, Seen& seen) {
+        EXPECT_LE(run.count, kBondRun);
         for (Index k = 0; k < run.count; ++k) {
           const Index b = run.bond(k);
           EXPECT_GE(b, seen.next);
           seen.next = b + 1;
-          if (run.owns(w->model.bond_i[b])) ++run_i[b];
-          if (run.owns(w->model.bond_j[b])) ++run_j[b];
+          if (run.affine) {
+            EXPECT_TRUE(w->state.alive[b]);
+            EXPECT_EQ(m.bond_i[b], run.i0 + k);
+            EXPECT_EQ(m.bond_j[b], run.j0 + k);
+          }
+          if (run.owns(m.bond_i[b])) ++run_i[b];
+          if (run.owns(m.bond_j[b])) ++run_j[b];
         }
         if (run.last) {
           EXPECT_EQ(++seen.lasts, 1);
         }
       });
-      EXPECT_EQ(run_i, owned_i) << threads << " threads";
-      EXPECT_EQ(run_j, owned_j) << threads << " threads";
+      EXPECT_EQ(run_i, owned_i) << what;
+      EXPECT_EQ(run_j, owned_j) << what;
+      if (grouped)  // a tenth broken leaves about two thirds of the bonds in runs of 8 or more
+        EXPECT_GT(affine, (all_alive ? 9 : 5) * w->num_bonds() / 10) << what;
+      else
+        EXPECT_EQ(affine, 0u) << what;
     }
   }
 }

@@ -3,10 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
+#include <string>
 #include <tuple>
 
 #include "bond_partition.hpp"
+#include "qbond/ordering.hpp"
 #include "test_util.hpp"
 
 namespace qbond {
@@ -187,36 +190,49 @@ ReferenceStep plain_implicit_step(const World& w, double h) {
 // block: both laws (the inverse law softening and compressed bonds: clamped), both damping
 // models, plastic rest lengths, broken bonds, an anchored face and gravity. The inverse law is
 // given to bonds of the second half only, so that the frozen step's runs of 64 bonds (frozen_step.cpp)
-// include all-linear ones (its vectorised law) and mixed ones; and the lattice is stepped with
-// and without broken bonds (its runs then are lists, or the consecutive bonds).
+// include all-linear ones (its vectorised law) and mixed ones; the lattice is stepped with and
+// without broken bonds (its runs then are lists, or the consecutive bonds), and in the builder's
+// bond order and in the offset-grouped order of scene loading (ordering.hpp), where most runs
+// are affine (contiguous loads, vector row updates).
 TEST(ImplicitStep, MatchesThePlainAssemblyOnARandomLattice) {
-  for (bool broken : {true, false}) {
-    World w = test::lattice(5, 4, 3, 1000, 1e-3, 0.02, true, Vec3(0, 0, -9.81));
-    ASSERT_GT(w.num_bonds(), 4 * kBondRun);
-    Rng rng{11};
-    for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-      if (b % 3 == 0 && 2 * b >= w.num_bonds()) {
-        // Strength F = k ε²: the same slope at rest as the linear bonds (F/ε²), softening past ε.
-        w.model.law[b] = Law::inverse;
-        w.model.stiffness[b] *= w.model.eps[b] * w.model.eps[b];
+  for (bool grouped : {false, true}) {
+    for (bool broken : {true, false}) {
+      const std::string what = std::string(grouped ? "grouped" : "builder's order") + (broken ? ", broken" : "");
+      World w = test::lattice(10, 4, 3, 1000, 1e-3, 0.02, true, Vec3(0, 0, -9.81));
+      if (grouped) renumber(w, locality_order(w));
+      ASSERT_GT(w.num_bonds(), 4 * kBondRun);
+      Rng rng{11};
+      for (std::size_t b = 0; b < w.num_bonds(); ++b) {
+        if (b % 3 == 0 && 2 * b >= w.num_bonds()) {
+          // Strength F = k ε²: the same slope at rest as the linear bonds (F/ε²), softening past ε.
+          w.model.law[b] = Law::inverse;
+          w.model.stiffness[b] *= w.model.eps[b] * w.model.eps[b];
+        }
+        if (b % 4 == 0) w.model.damping_model[b] = DampingModel::isotropic;
+        w.state.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
+        if (broken && b % 17 == 5) w.state.alive[b] = 0;
       }
-      if (b % 4 == 0) w.model.damping_model[b] = DampingModel::isotropic;
-      w.state.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
-      if (broken && b % 17 == 5) w.state.alive[b] = 0;
+      Adjacency adj;
+      build_adjacency(w.model, w.state, adj);
+      BondPartition part;
+      part.update(w.model, adj, 1);
+      const auto affine = std::count_if(part.runs.begin(), part.runs.end(), [](const BondRun& r) { return r.affine; });
+      if (grouped)
+        EXPECT_GE(affine, 4) << what;
+      else
+        EXPECT_EQ(affine, 0) << what;
+      test::perturb(w, 2e-3, 0.2);  // strains of tens of percent: the inverse law's softening branch
+      const double h = 3e-3;
+      const ReferenceStep ref = plain_implicit_step(w, h);
+      const double scale = test::max_norm(ref.coupled);
+      ASSERT_GT(scale, 0);
+      for (CoupledSolver solver : {CoupledSolver::dense, CoupledSolver::ldlt}) {
+        const Projection p = test::project_once(w, coupled(solver), h);
+        EXPECT_LE(test::max_norm_diff(p.dv, ref.coupled), 1e-11 * scale) << to_string(solver) << ", " << what;
+      }
+      const Projection frozen = test::project_once(w, hybrid(NeighbourModel::frozen), h);
+      EXPECT_LE(test::max_norm_diff(frozen.dv, ref.frozen), 1e-12 * test::max_norm(ref.frozen)) << what;
     }
-    test::perturb(w, 2e-3, 0.2);  // strains of tens of percent: the inverse law's softening branch
-    const double h = 3e-3;
-    const ReferenceStep ref = plain_implicit_step(w, h);
-    const double scale = test::max_norm(ref.coupled);
-    ASSERT_GT(scale, 0);
-    for (CoupledSolver solver : {CoupledSolver::dense, CoupledSolver::ldlt}) {
-      const Projection p = test::project_once(w, coupled(solver), h);
-      EXPECT_LE(test::max_norm_diff(p.dv, ref.coupled), 1e-11 * scale)
-          << to_string(solver) << " broken " << broken;
-    }
-    const Projection frozen = test::project_once(w, hybrid(NeighbourModel::frozen), h);
-    EXPECT_LE(test::max_norm_diff(frozen.dv, ref.frozen), 1e-12 * test::max_norm(ref.frozen))
-        << "broken " << broken;
   }
 }
 

@@ -5,8 +5,11 @@
 #include <algorithm>
 #include <numeric>
 #include <random>
+#include <tuple>
 
+#include "bond_partition.hpp"
 #include "qbond/ordering.hpp"
+#include "qbond/packing.hpp"
 #include "test_util.hpp"
 
 namespace qbond {
@@ -42,6 +45,46 @@ TEST(Ordering, ABuildersLatticeKeepsItsQuantaOrderAndSortingTwiceChangesNothing)
   const Renumbering again = locality_order(w);
   EXPECT_TRUE(is_identity(again.quanta));
   EXPECT_TRUE(is_identity(again.bonds));
+}
+
+// How many alive bonds lie in affine segments (bond_partition.hpp).
+std::size_t affine_bonds(const World& w) {
+  std::size_t count = 0;
+  for_each_affine_segment(w.model.bond_i.data(), w.model.bond_j.data(), static_cast<Index>(w.num_bonds()),
+                          [&](Index b) { return w.state.alive[b] != 0; }, [&](Index, Index n) { count += n; });
+  return count;
+}
+
+// A lattice with rows longer than kMinAffine gets its bonds grouped by block of first ends, then
+// offset, then first end, which puts them in affine runs (the frozen step's vector path); sorting
+// again changes nothing. A Poisson packing has no such runs and keeps the (first, second) order.
+TEST(Ordering, ALatticesBondsFormAffineRunsAPackingsDoNot) {
+  World w = test::lattice(12, 9, 5, 1000, 1e-3, 0.01, true);
+  EXPECT_EQ(affine_bonds(w), 0u);  // the builder makes each quanta's bonds in turn
+  renumber(w, shuffled(w, 5));
+  renumber(w, locality_order(w));
+  const Model& m = w.model;
+  // Rows of 12 quanta: a row's run along x has 11 bonds, the diagonals' 10 or 11, and the runs
+  // along y and z go on over whole planes, cut at the 128-quanta blocks.
+  EXPECT_GT(affine_bonds(w), 9 * w.num_bonds() / 10);
+  auto key = [&](std::size_t b) {
+    const Index i = m.bond_i[b], j = m.bond_j[b];
+    return std::tuple(i / 128, std::int64_t{j} - i, i);
+  };
+  for (std::size_t b = 1; b < w.num_bonds(); ++b) EXPECT_LT(key(b - 1), key(b)) << b;
+  const Renumbering again = locality_order(w);
+  EXPECT_TRUE(is_identity(again.quanta));
+  EXPECT_TRUE(is_identity(again.bonds));
+
+  World p;
+  PointPacking packing;
+  packing.size = Vec3(0.2, 0.1, 0.1);
+  add_point_packing(p, packing);
+  ASSERT_GT(p.num_bonds(), 1000u);
+  renumber(p, locality_order(p));
+  EXPECT_LT(affine_bonds(p), p.num_bonds() / 10);
+  for (std::size_t b = 1; b < p.num_bonds(); ++b)
+    EXPECT_LT(std::pair(p.model.bond_i[b - 1], p.model.bond_j[b - 1]), std::pair(p.model.bond_i[b], p.model.bond_j[b]));
 }
 
 TEST(Ordering, AShuffledLatticeGetsItsRowsBack) {
@@ -102,21 +145,29 @@ TEST(Ordering, StepsAgreeToRoundOffWhateverTheNumbering) {
   frozen.neighbours = NeighbourModel::frozen;
   coupled.tolerance = 1e-12;
   for (const IntegratorConfig& cfg : {verlet, frozen, coupled}) {
-    World a = test::lattice(6, 5, 4, 1000, 1e-3, 0.01, true, Vec3(0, 0, -9.81));
+    // Rows of 10 quanta: sorted, most bonds form affine runs (the frozen step's vector path).
+    World a = test::lattice(10, 5, 4, 1000, 1e-3, 0.01, true, Vec3(0, 0, -9.81));
     World b = a;
-    const Renumbering r = shuffled(b, 11);
-    renumber(b, r);
-    Simulation sa(std::move(a), cfg, 1e-4), sb(std::move(b), cfg, 1e-4);
+    renumber(b, shuffled(b, 11));
+    World c = b;
+    renumber(c, locality_order(c));
+    ASSERT_GT(affine_bonds(c), c.num_bonds() / 2);
+    Simulation sa(std::move(a), cfg, 1e-4), sb(std::move(b), cfg, 1e-4), sc(std::move(c), cfg, 1e-4);
     for (int k = 0; k < 50; ++k) {
       sa.step();
       sb.step();
+      sc.step();
     }
-    double scale = 0, worst = 0;
+    double scale = 0;
     for (const Vec3& x : sa.world().state.x) scale = std::max(scale, x.norm());
-    for (std::size_t i = 0; i < sa.world().num_quanta(); ++i)
-      worst = std::max(worst, (sb.world().state.x[r.quanta[i]] - sa.world().state.x[i]).norm());
-    // 50 steps, each adding a few ulps (2.2e-16) of the motion's scale: ~1e-14 at the most.
-    EXPECT_LE(worst, 1e-13 * scale) << to_string(cfg.type);
+    for (const Simulation* s : {&sb, &sc}) {
+      const std::vector<Index> at = quanta_by_id(s->world().model);
+      double worst = 0;
+      for (std::size_t i = 0; i < sa.world().num_quanta(); ++i)
+        worst = std::max(worst, (s->world().state.x[at[i]] - sa.world().state.x[i]).norm());
+      // 50 steps, each adding a few ulps (2.2e-16) of the motion's scale: ~1e-14 at the most.
+      EXPECT_LE(worst, 1e-13 * scale) << to_string(cfg.type) << (s == &sc ? ", sorted" : ", shuffled");
+    }
   }
 }
 

@@ -7,9 +7,10 @@
 /// loading renumbers the world as LAMMPS sorts its atoms (atom_modify sort): quanta by spatial
 /// bin, x fastest, then y, then z, so that a lattice's neighbours sit at a few fixed offsets that
 /// the hardware prefetcher streams (a Morton order, measured, keeps neighbours closer but
-/// scatters them and ran up to 1.36× slower, docs/performance.md); bonds by their ends' new
-/// numbers. As LAMMPS does with its atom tags, the user's ids stay with the quanta and bonds
-/// (Model::quanta_id, Model::bond_id): outputs and selections speak them.
+/// scatters them and ran up to 1.36× slower, docs/performance.md); bonds so that a lattice's
+/// form affine runs (locality_order). As LAMMPS does with its atom tags, the user's ids stay
+/// with the quanta and bonds (Model::quanta_id, Model::bond_id): outputs and selections speak
+/// them.
 #include <cassert>
 #include <vector>
 
@@ -25,10 +26,13 @@ struct Renumbering {
 
 /// The quanta sorted by the bin of their current position (bins one spacing wide, the median
 /// nearest-bonded-neighbour distance, centred on the lowest corner's lattice; x fastest; ties by
-/// index), and the bonds made with the scene sorted by their (first end, second end) in the new
-/// numbering (ties by index). Bonds formed during the run (State::formed) keep their slots at
-/// the end. A builder's lattice, made x fastest, keeps its quanta order; a sorted world maps to
-/// the identity.
+/// index), and the bonds made with the scene sorted, in the new numbering, by block of 128 first
+/// ends, then the index offset between their ends, then first end, when that puts at least half
+/// of them in affine runs (consecutive bonds whose ends both advance by one, which the paper's
+/// hybrid step loads and updates as contiguous vectors: a lattice), else by their (first end,
+/// second end) (a mesh or packing); ties by index. Bonds formed during the run (State::formed)
+/// keep their slots at the end. A builder's lattice, made x fastest, keeps its quanta order; a
+/// sorted world maps to the identity.
 Renumbering locality_order(const World& world);
 
 /// Renumbers every per-quanta and per-bond array of the world, the quanta of its motions and
