@@ -87,24 +87,35 @@ struct StepArrays {
   }
 };
 
-// Bond q's r, 1/r, u, u·v_i and u·v_j from d = x_j − x_i and the ends' velocities. A zero-length
+// A bond's r, 1/r, u, u·v_i and u·v_j from d = x_j − x_i and its ends' velocities. A zero-length
 // bond has no direction: u = 0 (its tension, slope and damping are then masked to 0). The
-// division's operand is selected first, and the division done unconditionally, so that the loop
-// has no branch.
-QBOND_VECTOR_INLINE void set_geometry(RunBonds& t, Index q, double dx, double dy, double dz, double vix, double viy,
-                                      double viz, double vjx, double vjy, double vjz) {
-  const double r = std::sqrt(dx * dx + dy * dy + dz * dz);
-  const bool ok = r > 0;
-  const double inv_any = 1.0 / (ok ? r : 1.0);
-  const double inv_r = ok ? inv_any : 0.0;
-  const double ux = inv_r * dx, uy = inv_r * dy, uz = inv_r * dz;
-  t.r[q] = r;
-  t.inv_r[q] = inv_r;
-  t.ux[q] = ux;
-  t.uy[q] = uy;
-  t.uz[q] = uz;
-  t.vi[q] = ux * vix + uy * viy + uz * viz;
-  t.vj[q] = ux * vjx + uy * vjy + uz * vjz;
+// division's operand is selected first, and the division done unconditionally, so that a loop
+// calling this has no branch.
+struct Geometry {
+  double r, inv_r, u[3], u_vi, u_vj;
+};
+QBOND_VECTOR_INLINE Geometry geometry(double dx, double dy, double dz, double vix, double viy, double viz, double vjx,
+                                      double vjy, double vjz) {
+  Geometry g;
+  g.r = std::sqrt(dx * dx + dy * dy + dz * dz);
+  const bool ok = g.r > 0;
+  const double inv_any = 1.0 / (ok ? g.r : 1.0);
+  g.inv_r = ok ? inv_any : 0.0;
+  g.u[0] = g.inv_r * dx;
+  g.u[1] = g.inv_r * dy;
+  g.u[2] = g.inv_r * dz;
+  g.u_vi = g.u[0] * vix + g.u[1] * viy + g.u[2] * viz;
+  g.u_vj = g.u[0] * vjx + g.u[1] * vjy + g.u[2] * vjz;
+  return g;
+}
+QBOND_VECTOR_INLINE void set_geometry(RunBonds& t, std::size_t q, const Geometry& g) {
+  t.r[q] = g.r;
+  t.inv_r[q] = g.inv_r;
+  t.ux[q] = g.u[0];
+  t.uy[q] = g.u[1];
+  t.uz[q] = g.u[2];
+  t.vi[q] = g.u_vi;
+  t.vj[q] = g.u_vj;
 }
 
 // Fills t for the run's first n bonds: their parameters, unit vectors, u·v at both ends and laws (kAffine:
@@ -122,31 +133,33 @@ QBOND_VECTOR_INLINE void measure_run(const Model& model, const State& state, con
     const double *xj = a.x[0] + j, *yj = a.x[1] + j, *zj = a.x[2] + j;
     const double *vxi = a.v[0] + i, *vyi = a.v[1] + i, *vzi = a.v[2] + i;
     const double *vxj = a.v[0] + j, *vyj = a.v[1] + j, *vzj = a.v[2] + j;
-    QBOND_SIMD for (Index q = 0; q < n; ++q)
-      set_geometry(t, q, xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vxi[q], vyi[q], vzi[q], vxj[q], vyj[q], vzj[q]);
+    QBOND_SIMD for (std::size_t q = 0; q < n; ++q)
+      set_geometry(t, q,
+                   geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vxi[q], vyi[q], vzi[q], vxj[q], vyj[q], vzj[q]));
   } else {
     all_linear = run.list ? load_bonds<true, true>(model, state, run, n, t) : load_bonds<false, true>(model, state, run, n, t);
     const double* x = state.x.data()->data();  // Vec3 arrays as doubles
     const double* v = state.v.data()->data();
-    QBOND_SIMD for (Index q = 0; q < n; ++q) {
+    QBOND_SIMD for (std::size_t q = 0; q < n; ++q) {
       const Index oi = t.oi[q], oj = t.oj[q];
-      set_geometry(t, q, x[oj] - x[oi], x[oj + 1] - x[oi + 1], x[oj + 2] - x[oi + 2], v[oi], v[oi + 1], v[oi + 2],
-                   v[oj], v[oj + 1], v[oj + 2]);
+      set_geometry(t, q,
+                   geometry(x[oj] - x[oi], x[oj + 1] - x[oi + 1], x[oj + 2] - x[oi + 2], v[oi], v[oi + 1], v[oi + 2],
+                            v[oj], v[oj + 1], v[oj + 2]));
     }
   }
   if (all_linear) {
-    QBOND_SIMD for (Index q = 0; q < n; ++q) {
+    QBOND_SIMD for (std::size_t q = 0; q < n; ++q) {
       t.T[q] = t.k[q] * (t.r[q] - t.L[q]);
       t.dT[q] = t.k[q];
     }
   } else {
-    for (Index q = 0; q < n; ++q) {
-      const LawValue lv = model.law_at(run.bond(q), t.r[q], t.L[q]);
+    for (std::size_t q = 0; q < n; ++q) {
+      const LawValue lv = model.law_at(run.bond(static_cast<Index>(q)), t.r[q], t.L[q]);
       t.T[q] = lv.T;
       t.dT[q] = lv.dT;
     }
   }
-  QBOND_SIMD for (Index q = 0; q < n; ++q) {
+  QBOND_SIMD for (std::size_t q = 0; q < n; ++q) {
     const bool ok = t.r[q] > 0;
     t.T[q] = ok ? t.T[q] : 0.0;
     t.dT[q] = ok ? t.dT[q] : 0.0;
@@ -211,49 +224,115 @@ struct FrozenScratch {
 // they are (x + (−0.0) = x for every double x, +0.0 included).
 inline Index affine_lanes(const BondRun& run) { return (run.count + 7) & ~Index{7}; }
 
-// Fills the run's terms (linearise_bond's arithmetic, laid out for vectorising).
+// Bond q's terms (linearise_bond's arithmetic) from its tension T, slope dT, damping (ca axial, cb
+// isotropic) and geometry; an affine run's also from its ends' velocities vi, vj, and only if the
+// lane is one of its bonds (live), else −0.0.
+template <bool kAffine>
+QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, double T, double dT, double ca, double cb,
+                                    const Geometry& g, const double (&vi)[3], const double (&vj)[3], bool live) {
+  const double h2 = h * h;
+  const double k_transverse = std::max(T * g.inv_r, 0.0), k_axial = std::max(dT, 0.0);
+  const double Ba = h * ca + h2 * (k_axial - k_transverse), Bb = h * cb + h2 * k_transverse;
+  const double ux = g.u[0], uy = g.u[1], uz = g.u[2];
+  const double aux = Ba * ux, auy = Ba * uy;
+  const double B[6] = {aux * ux + Bb, auy * uy + Bb, Ba * uz * uz + Bb, aux * uy, aux * uz, auy * uz};
+  const double si = h * T + h * ca * g.u_vj, sj = -h * T + h * ca * g.u_vi, hcb = h * cb;
+  if constexpr (kAffine) {
+    for (int e = 0; e < 6; ++e) t.B[e][q] = live ? B[e] : -0.0;
+    for (int c = 0; c < 3; ++c) {
+      t.ri[c][q] = live ? si * g.u[c] + hcb * vj[c] : -0.0;
+      t.rj[c][q] = live ? sj * g.u[c] + hcb * vi[c] : -0.0;
+    }
+  } else {
+    for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
+    t.si[q] = si;
+    t.sj[q] = sj;
+    t.hcb[q] = hcb;
+  }
+}
+
+// Fills the run's terms, measured (measure_run) and then formed.
 template <bool kAffine>
 QBOND_VECTOR_INLINE void run_terms(const Model& model, const State& state, const StepArrays& a, const BondRun& run,
                                    double h, RunBonds& g, FrozenTerms& t) {
   const Index n = kAffine ? affine_lanes(run) : run.count;
   measure_run<kAffine>(model, state, a, run, n, g);
-  const double h2 = h * h;
   const double *vi[3], *vj[3];  // an affine run's ends' velocities
   for (int c = 0; c < 3; ++c) {
     vi[c] = a.v[c] + run.i0;
     vj[c] = a.v[c] + run.j0;
   }
-  QBOND_SIMD for (Index q = 0; q < n; ++q) {
-    const double T = g.T[q], ca = g.ca[q], cb = g.cb[q];
-    const double k_transverse = std::max(T * g.inv_r[q], 0.0), k_axial = std::max(g.dT[q], 0.0);
-    const double Ba = h * ca + h2 * (k_axial - k_transverse), Bb = h * cb + h2 * k_transverse;
-    const double ux = g.ux[q], uy = g.uy[q], uz = g.uz[q];
-    const double aux = Ba * ux, auy = Ba * uy;
-    const double B[6] = {aux * ux + Bb, auy * uy + Bb, Ba * uz * uz + Bb, aux * uy, aux * uz, auy * uz};
-    const double si = h * T + h * ca * g.vj[q], sj = -h * T + h * ca * g.vi[q], hcb = h * cb;
-    if constexpr (kAffine) {
-      const bool live = q < run.count;
-      for (int e = 0; e < 6; ++e) t.B[e][q] = live ? B[e] : -0.0;
-      const double u[3] = {ux, uy, uz};
-      for (int c = 0; c < 3; ++c) {
-        t.ri[c][q] = live ? si * u[c] + hcb * vj[c][q] : -0.0;
-        t.rj[c][q] = live ? sj * u[c] + hcb * vi[c][q] : -0.0;
-      }
-    } else {
-      for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
-      t.si[q] = si;
-      t.sj[q] = sj;
-      t.hcb[q] = hcb;
-    }
+  QBOND_SIMD for (std::size_t q = 0; q < n; ++q) {
+    const Geometry geo{g.r[q], g.inv_r[q], {g.ux[q], g.uy[q], g.uz[q]}, g.vi[q], g.vj[q]};
+    const double v_i[3] = {kAffine ? vi[0][q] : 0, kAffine ? vi[1][q] : 0, kAffine ? vi[2][q] : 0};
+    const double v_j[3] = {kAffine ? vj[0][q] : 0, kAffine ? vj[1][q] : 0, kAffine ? vj[2][q] : 0};
+    bond_terms<kAffine>(t, q, h, g.T[q], g.dT[q], g.ca[q], g.cb[q], geo, v_i, v_j, q < run.count);
   }
+}
+
+// Whether every bond of an affine run (its whole vectors) has the linear law, and one damping
+// model: 0 all axial, 1 all isotropic, −1 otherwise.
+QBOND_VECTOR_INLINE int uniform_linear(const Model& model, const BondRun& run) {
+  const Law* law = model.law.data() + run.first;
+  const DampingModel* dm = model.damping_model.data() + run.first;
+  static_assert(static_cast<int>(Law::linear) == 0 && static_cast<int>(DampingModel::axial) == 0 &&
+                static_cast<int>(DampingModel::isotropic) == 1);
+  unsigned laws = 0, isotropic = 0, axial = 0;
+  QBOND_SIMD_OR(laws, isotropic, axial) for (std::size_t q = 0; q < affine_lanes(run); ++q) {
+    laws |= static_cast<unsigned>(law[q]);
+    isotropic |= static_cast<unsigned>(dm[q]);
+    axial |= static_cast<unsigned>(dm[q]) ^ 1u;
+  }
+  return laws != 0 || (isotropic != 0 && axial != 0) ? -1 : static_cast<int>(isotropic);
+}
+
+// An affine run of linear bonds with one damping model (kAxial: axial): measured and formed in
+// one vector loop.
+template <bool kAxial>
+QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& state, const StepArrays& a,
+                                             const BondRun& run, double h, FrozenTerms& t) {
+  const double* k = model.stiffness.data() + run.first;
+  const double* L = state.rest.data() + run.first;
+  const double* D = model.damping.data() + run.first;
+  const Index i = run.i0, j = run.j0;
+  const double *xi = a.x[0] + i, *yi = a.x[1] + i, *zi = a.x[2] + i;
+  const double *xj = a.x[0] + j, *yj = a.x[1] + j, *zj = a.x[2] + j;
+  const double *vxi = a.v[0] + i, *vyi = a.v[1] + i, *vzi = a.v[2] + i;
+  const double *vxj = a.v[0] + j, *vyj = a.v[1] + j, *vzj = a.v[2] + j;
+  QBOND_SIMD for (std::size_t q = 0; q < affine_lanes(run); ++q) {
+    const double vi[3] = {vxi[q], vyi[q], vzi[q]}, vj[3] = {vxj[q], vyj[q], vzj[q]};
+    const Geometry g = geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vi[0], vi[1], vi[2], vj[0], vj[1], vj[2]);
+    const bool ok = g.r > 0;  // a zero-length bond does nothing (laws.hpp)
+    const double T = ok ? k[q] * (g.r - L[q]) : 0.0, dT = ok ? k[q] : 0.0, Dq = ok ? D[q] : 0.0;
+    bond_terms<true>(t, q, h, T, dT, kAxial ? Dq : 0.0, kAxial ? 0.0 : Dq, g, vi, vj, q < run.count);
+  }
+}
+
+// Asks for the parameters of the bonds a few runs after an affine run's: the bond pass reads each
+// parameter array in bursts of a run, interleaved with a dozen other streams, which the hardware
+// prefetcher does not follow far enough ahead.
+QBOND_VECTOR_INLINE void prefetch_parameters(const Model& model, const State& state, const BondRun& run) {
+  constexpr std::size_t kAhead = 4 * kBondRun;
+  const std::size_t b = run.first + kAhead;
+  if (b + run.count > model.num_bonds()) return;
+  for (std::size_t k = 0; k < run.count; k += 8) {  // a cache line of doubles
+    __builtin_prefetch(model.stiffness.data() + b + k);
+    __builtin_prefetch(state.rest.data() + b + k);
+    __builtin_prefetch(model.damping.data() + b + k);
+  }
+  __builtin_prefetch(model.law.data() + b);
+  __builtin_prefetch(model.damping_model.data() + b);
 }
 
 QBOND_VECTOR_CLONES void frozen_terms(const Model& model, const State& state, const StepArrays& a,
                                       const BondRun& run, double h, RunBonds& g, FrozenTerms& t) {
-  if (run.affine)
-    run_terms<true>(model, state, a, run, h, g, t);
-  else
-    run_terms<false>(model, state, a, run, h, g, t);
+  if (!run.affine) return run_terms<false>(model, state, a, run, h, g, t);
+  prefetch_parameters(model, state, run);
+  switch (uniform_linear(model, run)) {
+    case 0: return linear_affine_terms<true>(model, state, a, run, h, t);
+    case 1: return linear_affine_terms<false>(model, state, a, run, h, t);
+    default: return run_terms<true>(model, state, a, run, h, g, t);
+  }
 }
 
 // Adds the run's terms to both ends' rows, bond by bond: A_qq += B_b, rhs_q += s_q u + h cb v_o (q
@@ -290,7 +369,7 @@ QBOND_VECTOR_INLINE void add_to_rows(const StepArrays& a, Index base, Index k0, 
   double *a0 = a.row[0] + base, *a1 = a.row[1] + base, *a2 = a.row[2] + base;
   double *a3 = a.row[3] + base, *a4 = a.row[4] + base, *a5 = a.row[5] + base;
   double *bx = a.row[6] + base, *by = a.row[7] + base, *bz = a.row[8] + base;
-  QBOND_SIMD for (Index k = k0; k < k1; ++k) {
+  QBOND_SIMD for (std::size_t k = k0; k < k1; ++k) {
     a0[k] += t.B[0][k];
     a1[k] += t.B[1][k];
     a2[k] += t.B[2][k];
@@ -332,15 +411,22 @@ QBOND_VECTOR_CLONES void frozen_affine_scatter(const BondRun& run, const FrozenT
   }
 }
 
-// A_ii⁻¹ b_i by the adjugate of the symmetric block (DiagonalRow::solve on the step's arrays).
-QBOND_VECTOR_INLINE Vec3 solve_row(const StepArrays& a, Index q) {
-  const double a0 = a.row[0][q], a1 = a.row[1][q], a2 = a.row[2][q];
-  const double a3 = a.row[3][q], a4 = a.row[4][q], a5 = a.row[5][q];
-  const double bx = a.row[6][q], by = a.row[7][q], bz = a.row[8][q];
-  const double c00 = a1 * a2 - a5 * a5, c11 = a0 * a2 - a4 * a4, c22 = a0 * a1 - a3 * a3;
-  const double c01 = a4 * a5 - a3 * a2, c02 = a3 * a5 - a4 * a1, c12 = a3 * a4 - a0 * a5;
-  const double inv_det = 1.0 / (a0 * c00 + a3 * c01 + a4 * c02);
-  return inv_det * Vec3(c00 * bx + c01 * by + c02 * bz, c01 * bx + c11 * by + c12 * bz, c02 * bx + c12 * by + c22 * bz);
+// v_i + Δv_i = A_ii⁻¹ b_i for quanta [lo, hi), written over b_i: DiagonalRow::solve (the adjugate
+// of the symmetric block) in a vector loop over the step's arrays. Kinematic rows are solved too,
+// and not used.
+QBOND_VECTOR_CLONES void solve_rows(const StepArrays& a, std::size_t lo, std::size_t hi) {
+  const double *a0 = a.row[0], *a1 = a.row[1], *a2 = a.row[2], *a3 = a.row[3], *a4 = a.row[4], *a5 = a.row[5];
+  double *bx = a.row[6], *by = a.row[7], *bz = a.row[8];
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    const double c00 = a1[q] * a2[q] - a5[q] * a5[q], c11 = a0[q] * a2[q] - a4[q] * a4[q];
+    const double c22 = a0[q] * a1[q] - a3[q] * a3[q], c01 = a4[q] * a5[q] - a3[q] * a2[q];
+    const double c02 = a3[q] * a5[q] - a4[q] * a1[q], c12 = a3[q] * a4[q] - a0[q] * a5[q];
+    const double inv_det = 1.0 / (a0[q] * c00 + a3[q] * c01 + a4[q] * c02);
+    const double x = bx[q], y = by[q], z = bz[q];
+    bx[q] = inv_det * (c00 * x + c01 * y + c02 * z);
+    by[q] = inv_det * (c01 * x + c11 * y + c12 * z);
+    bz[q] = inv_det * (c02 * x + c12 * y + c22 * z);
+  }
 }
 
 }  // namespace
@@ -379,14 +465,18 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     else
       frozen_scatter(run, s.bonds, s.terms, state.v.data(), a, s.stretch);
   });
-  parallel_for(n, threads, [&](std::size_t q) {
-    const auto i = static_cast<Index>(q);
-    if (model.is_kinematic(i)) return;
-    // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-    const Vec3 v1 = solve_row(a, i);
-    out.dv[i] = v1 - state.v[i];
-    out.dx[i] = h * v1;
-  });
+  // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
+  constexpr std::size_t kChunk = 1024;
+  parallel_for((n + kChunk - 1) / kChunk, threads, [&](std::size_t c) {
+    const std::size_t lo = c * kChunk, hi = std::min(n, lo + kChunk);
+    solve_rows(a, lo, hi);
+    for (std::size_t i = lo; i < hi; ++i) {
+      if (model.is_kinematic(static_cast<Index>(i))) continue;
+      const Vec3 v1(a.row[6][i], a.row[7][i], a.row[8][i]);
+      out.dv[i] = v1 - state.v[i];
+      out.dx[i] = h * v1;
+    }
+  }, kParallelMin / kChunk);
 }
 
 }  // namespace qbond

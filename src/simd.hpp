@@ -18,12 +18,12 @@
 // QBOND_SIMD before a loop whose iterations are independent: lets the compiler vectorise it
 // without proving that its gathers and stores do not alias (OpenMP's simd; nothing without
 // OpenMP).
-// QBOND_SIMD_OR(x): the same for a loop that also ORs into x.
+// QBOND_SIMD_OR(x, ...): the same for a loop that also ORs into each of its arguments.
 #ifdef _OPENMP
 #define QBOND_SIMD _Pragma("omp simd")
-#define QBOND_SIMD_OR(x) _Pragma(QBOND_STRINGIFY(omp simd reduction(| : x)))
+#define QBOND_SIMD_OR(...) _Pragma(QBOND_STRINGIFY(omp simd reduction(| : __VA_ARGS__)))
 #define QBOND_STRINGIFY(s) #s
 #else
 #define QBOND_SIMD
-#define QBOND_SIMD_OR(x)
+#define QBOND_SIMD_OR(...)
 #endif
