@@ -226,8 +226,9 @@ inline Index affine_lanes(const BondRun& run) { return (run.count + 7) & ~Index{
 
 // Bond q's terms (linearise_bond's arithmetic) from its tension T, slope dT, damping (ca axial, cb
 // isotropic) and geometry; an affine run's also from its ends' velocities vi, vj, and only if the
-// lane is one of its bonds (live), else −0.0.
-template <bool kAffine>
+// lane is one of its bonds (live), else −0.0. !kIsotropic: cb is known to be 0, and its term is
+// left out (0 · v is not 0 for every v, so the compiler cannot drop it).
+template <bool kAffine, bool kIsotropic = true>
 QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, double T, double dT, double ca, double cb,
                                     const Geometry& g, const double (&vi)[3], const double (&vj)[3], bool live) {
   const double h2 = h * h;
@@ -240,8 +241,10 @@ QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, dou
   if constexpr (kAffine) {
     for (int e = 0; e < 6; ++e) t.B[e][q] = live ? B[e] : -0.0;
     for (int c = 0; c < 3; ++c) {
-      t.ri[c][q] = live ? si * g.u[c] + hcb * vj[c] : -0.0;
-      t.rj[c][q] = live ? sj * g.u[c] + hcb * vi[c] : -0.0;
+      const double ri = kIsotropic ? si * g.u[c] + hcb * vj[c] : si * g.u[c];
+      const double rj = kIsotropic ? sj * g.u[c] + hcb * vi[c] : sj * g.u[c];
+      t.ri[c][q] = live ? ri : -0.0;
+      t.rj[c][q] = live ? rj : -0.0;
     }
   } else {
     for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
@@ -304,7 +307,7 @@ QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& st
     const Geometry g = geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vi[0], vi[1], vi[2], vj[0], vj[1], vj[2]);
     const bool ok = g.r > 0;  // a zero-length bond does nothing (laws.hpp)
     const double T = ok ? k[q] * (g.r - L[q]) : 0.0, dT = ok ? k[q] : 0.0, Dq = ok ? D[q] : 0.0;
-    bond_terms<true>(t, q, h, T, dT, kAxial ? Dq : 0.0, kAxial ? 0.0 : Dq, g, vi, vj, q < run.count);
+    bond_terms<true, !kAxial>(t, q, h, T, dT, kAxial ? Dq : 0.0, kAxial ? 0.0 : Dq, g, vi, vj, q < run.count);
   }
 }
 
