@@ -11,6 +11,8 @@
 // count.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include "implicit_system.hpp"
 #include "simd.hpp"
@@ -220,7 +222,9 @@ struct FrozenScratch {
 
 // Bonds an affine run's loops take: its count rounded up to whole vectors of 8 (for_each_bond_run's
 // affine runs have that many bonds, and the step's arrays are padded), so that no loop has a
-// remainder. The lanes past the run get terms of −0.0, which added to a row leave its bits as
+// remainder. The loops marked kVectorLoop run over them 8 lanes at a time, an inner loop of a
+// known trip count, which the compiler vectorises with no remainder, no profitability check and
+// no scalar fallback (it does not see that the rounded count is a multiple of 8). The lanes past the run get terms of −0.0, which added to a row leave its bits as
 // they are (x + (−0.0) = x for every double x, +0.0 included).
 inline Index affine_lanes(const BondRun& run) { return (run.count + 7) & ~Index{7}; }
 
@@ -239,13 +243,26 @@ QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, dou
   const double B[6] = {aux * ux + Bb, auy * uy + Bb, Ba * uz * uz + Bb, aux * uy, aux * uz, auy * uz};
   const double si = h * T + h * ca * g.u_vj, sj = -h * T + h * ca * g.u_vi, hcb = h * cb;
   if constexpr (kAffine) {
-    for (int e = 0; e < 6; ++e) t.B[e][q] = live ? B[e] : -0.0;
-    for (int c = 0; c < 3; ++c) {
-      const double ri = kIsotropic ? si * g.u[c] + hcb * vj[c] : si * g.u[c];
-      const double rj = kIsotropic ? sj * g.u[c] + hcb * vi[c] : sj * g.u[c];
-      t.ri[c][q] = live ? ri : -0.0;
-      t.rj[c][q] = live ? rj : -0.0;
-    }
+    // Written out: GCC does not unroll loops over e and c here before vectorising for AVX2, and
+    // then leaves the whole bond loop scalar.
+    t.B[0][q] = live ? B[0] : -0.0;
+    t.B[1][q] = live ? B[1] : -0.0;
+    t.B[2][q] = live ? B[2] : -0.0;
+    t.B[3][q] = live ? B[3] : -0.0;
+    t.B[4][q] = live ? B[4] : -0.0;
+    t.B[5][q] = live ? B[5] : -0.0;
+    // An end's right-hand side s u + h cb v_other, component c.
+    auto rhs = [&](double s, int c, const double (&v)[3]) QBOND_LAMBDA_INLINE {
+      return kIsotropic ? s * g.u[c] + hcb * v[c] : s * g.u[c];
+    };
+    const double ri[3] = {rhs(si, 0, vj), rhs(si, 1, vj), rhs(si, 2, vj)};
+    const double rj[3] = {rhs(sj, 0, vi), rhs(sj, 1, vi), rhs(sj, 2, vi)};
+    t.ri[0][q] = live ? ri[0] : -0.0;
+    t.ri[1][q] = live ? ri[1] : -0.0;
+    t.ri[2][q] = live ? ri[2] : -0.0;
+    t.rj[0][q] = live ? rj[0] : -0.0;
+    t.rj[1][q] = live ? rj[1] : -0.0;
+    t.rj[2][q] = live ? rj[2] : -0.0;
   } else {
     for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
     t.si[q] = si;
@@ -274,19 +291,24 @@ QBOND_VECTOR_INLINE void run_terms(const Model& model, const State& state, const
 }
 
 // Whether every bond of an affine run (its whole vectors) has the linear law, and one damping
-// model: 0 all axial, 1 all isotropic, −1 otherwise.
+// model: 0 all axial, 1 all isotropic, −1 otherwise. Read 8 one-byte enums at a time.
 QBOND_VECTOR_INLINE int uniform_linear(const Model& model, const BondRun& run) {
-  const Law* law = model.law.data() + run.first;
-  const DampingModel* dm = model.damping_model.data() + run.first;
-  static_assert(static_cast<int>(Law::linear) == 0 && static_cast<int>(DampingModel::axial) == 0 &&
-                static_cast<int>(DampingModel::isotropic) == 1);
-  unsigned laws = 0, isotropic = 0, axial = 0;
-  QBOND_SIMD_OR(laws, isotropic, axial) for (std::size_t q = 0; q < affine_lanes(run); ++q) {
-    laws |= static_cast<unsigned>(law[q]);
-    isotropic |= static_cast<unsigned>(dm[q]);
-    axial |= static_cast<unsigned>(dm[q]) ^ 1u;
+  static_assert(sizeof(Law) == 1 && sizeof(DampingModel) == 1 && static_cast<int>(Law::linear) == 0 &&
+                static_cast<int>(DampingModel::axial) == 0 && static_cast<int>(DampingModel::isotropic) == 1);
+  const auto* law = reinterpret_cast<const unsigned char*>(model.law.data() + run.first);
+  const auto* dm = reinterpret_cast<const unsigned char*>(model.damping_model.data() + run.first);
+  std::uint64_t laws = 0, any_isotropic = 0, all_isotropic = ~std::uint64_t{0};
+  for (std::size_t q = 0; q < affine_lanes(run); q += 8) {
+    std::uint64_t l, d;
+    std::memcpy(&l, law + q, 8);
+    std::memcpy(&d, dm + q, 8);
+    laws |= l;
+    any_isotropic |= d;
+    all_isotropic &= d;
   }
-  return laws != 0 || (isotropic != 0 && axial != 0) ? -1 : static_cast<int>(isotropic);
+  if (laws != 0) return -1;
+  if (any_isotropic == 0) return 0;
+  return all_isotropic == 0x0101010101010101 ? 1 : -1;
 }
 
 // An affine run of linear bonds with one damping model (kAxial: axial): measured and formed in
@@ -302,12 +324,16 @@ QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& st
   const double *xj = a.x[0] + j, *yj = a.x[1] + j, *zj = a.x[2] + j;
   const double *vxi = a.v[0] + i, *vyi = a.v[1] + i, *vzi = a.v[2] + i;
   const double *vxj = a.v[0] + j, *vyj = a.v[1] + j, *vzj = a.v[2] + j;
-  QBOND_SIMD for (std::size_t q = 0; q < affine_lanes(run); ++q) {
-    const double vi[3] = {vxi[q], vyi[q], vzi[q]}, vj[3] = {vxj[q], vyj[q], vzj[q]};
-    const Geometry g = geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vi[0], vi[1], vi[2], vj[0], vj[1], vj[2]);
-    const bool ok = g.r > 0;  // a zero-length bond does nothing (laws.hpp)
-    const double T = ok ? k[q] * (g.r - L[q]) : 0.0, dT = ok ? k[q] : 0.0, Dq = ok ? D[q] : 0.0;
-    bond_terms<true, !kAxial>(t, q, h, T, dT, kAxial ? Dq : 0.0, kAxial ? 0.0 : Dq, g, vi, vj, q < run.count);
+  for (std::size_t q0 = 0; q0 < affine_lanes(run); q0 += 8) {
+    QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {  // kVectorLoop
+      const std::size_t q = q0 + l;
+      const double vi[3] = {vxi[q], vyi[q], vzi[q]}, vj[3] = {vxj[q], vyj[q], vzj[q]};
+      const double kq = k[q], Lq = L[q], Dq = D[q];  // loaded unconditionally: selects, not branches
+      const Geometry g = geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vi[0], vi[1], vi[2], vj[0], vj[1], vj[2]);
+      const bool ok = g.r > 0;  // a zero-length bond does nothing (laws.hpp)
+      const double T = ok ? kq * (g.r - Lq) : 0.0, dT = ok ? kq : 0.0, D_ok = ok ? Dq : 0.0;
+      bond_terms<true, !kAxial>(t, q, h, T, dT, kAxial ? D_ok : 0.0, kAxial ? 0.0 : D_ok, g, vi, vj, q < run.count);
+    }
   }
 }
 
@@ -367,12 +393,12 @@ QBOND_VECTOR_CLONES void frozen_scatter(const BondRun& run, const RunBonds& g, c
 }
 
 // Rows base + k, k in [k0, k1), += bond k's terms: B and r (ri or rj, the end's right-hand side).
-QBOND_VECTOR_INLINE void add_to_rows(const StepArrays& a, Index base, Index k0, Index k1, const FrozenTerms& t,
-                                     const double (&r)[3][kBondRun]) {
+QBOND_VECTOR_INLINE void add_to_rows(const StepArrays& a, Index base, std::size_t k0, std::size_t k1,
+                                     const FrozenTerms& t, const double (&r)[3][kBondRun]) {
   double *a0 = a.row[0] + base, *a1 = a.row[1] + base, *a2 = a.row[2] + base;
   double *a3 = a.row[3] + base, *a4 = a.row[4] + base, *a5 = a.row[5] + base;
   double *bx = a.row[6] + base, *by = a.row[7] + base, *bz = a.row[8] + base;
-  QBOND_SIMD for (std::size_t k = k0; k < k1; ++k) {
+  auto add = [&](std::size_t k) QBOND_LAMBDA_INLINE {
     a0[k] += t.B[0][k];
     a1[k] += t.B[1][k];
     a2[k] += t.B[2][k];
@@ -382,6 +408,11 @@ QBOND_VECTOR_INLINE void add_to_rows(const StepArrays& a, Index base, Index k0, 
     bx[k] += r[0][k];
     by[k] += r[1][k];
     bz[k] += r[2][k];
+  };
+  if (k0 == 0 && k1 % 8 == 0) {  // whole vectors: loops of a known trip count (kVectorLoop)
+    for (std::size_t k8 = 0; k8 < k1; k8 += 8) QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) add(k8 + l);
+  } else {
+    QBOND_SIMD for (std::size_t k = k0; k < k1; ++k) add(k);
   }
 }
 

@@ -6,13 +6,16 @@
 // Each clone is deterministic, but clones may round differently (fused multiply-adds): results
 // are bit-identical on one machine for any thread count, not across CPUs of different levels.
 // QBOND_VECTOR_INLINE marks the helpers such a function calls: inlined into each clone, they are
-// compiled for its instruction set (called, they would run the baseline code).
+// compiled for its instruction set (called, they would run the baseline code); QBOND_LAMBDA_INLINE
+// does the same for a lambda (after its parameter list).
 #if defined(__x86_64__) && defined(__ELF__) && (defined(__GNUC__) || defined(__clang__))
 #define QBOND_VECTOR_CLONES __attribute__((target_clones("default", "arch=x86-64-v3", "arch=x86-64-v4")))
 #define QBOND_VECTOR_INLINE inline __attribute__((always_inline))
+#define QBOND_LAMBDA_INLINE __attribute__((always_inline))
 #else
 #define QBOND_VECTOR_CLONES
 #define QBOND_VECTOR_INLINE inline
+#define QBOND_LAMBDA_INLINE
 #endif
 
 // QBOND_SIMD before a loop whose iterations are independent: lets the compiler vectorise it
