@@ -8,7 +8,10 @@
 // QBOND_VECTOR_INLINE marks the helpers such a function calls: inlined into each clone, they are
 // compiled for its instruction set (called, they would run the baseline code); QBOND_LAMBDA_INLINE
 // does the same for a lambda (after its parameter list).
-#if defined(__x86_64__) && defined(__ELF__) && (defined(__GNUC__) || defined(__clang__))
+// With QBOND_NO_CLONES (CMake's QBOND_ARCH) the functions are compiled once, for the build's
+// -march: scripts/test --sanitize builds for x86-64-v3 so that the suite also runs the AVX2 code
+// (the Release run takes the clone the CPU picks, AVX-512 where it exists).
+#if defined(__x86_64__) && defined(__ELF__) && (defined(__GNUC__) || defined(__clang__)) && !defined(QBOND_NO_CLONES)
 #define QBOND_VECTOR_CLONES __attribute__((target_clones("default", "arch=x86-64-v3", "arch=x86-64-v4")))
 #define QBOND_VECTOR_INLINE inline __attribute__((always_inline))
 #define QBOND_LAMBDA_INLINE __attribute__((always_inline))
