@@ -48,12 +48,14 @@ void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
     auto consecutive = [&](const Index* list, Index first, Index count) {
       part.runs.push_back({list, first, count, lo, hi, false, false, 0, 0});
     };
-    // Bonds first .. last of a segment that starts at bond s. A run's loops may read the bonds
-    // after it up to a whole vector of 8 (frozen_step.cpp): one that would pass the last bond
-    // goes to the per-bond path.
-    auto affine = [&](Index s, Index first, Index last) {
-      for (Index b = first; b <= last; b += kBondRun) {
-        const Index count = std::min(kBondRun, last + 1 - b);
+    // The chunks of segment [s, end) that hold bonds first .. last. A segment is cut into
+    // chunks of kBondRun at fixed offsets from its start, the same for every partition, so that
+    // the kernels' choice of path for a chunk (frozen_step.cpp) does not depend on the thread
+    // count. A chunk's loops may read the bonds after it up to a whole vector of 8: one that
+    // would pass the last bond goes to the per-bond path.
+    auto affine = [&](Index s, Index end, Index first, Index last) {
+      for (Index b = s + (first - s) / kBondRun * kBondRun; b <= last; b += kBondRun) {
+        const Index count = std::min(kBondRun, end - b);
         const bool padded = b + (count + 7) / 8 * 8 <= nb;
         part.runs.push_back({nullptr, b, count, lo, hi, false, padded, model.bond_i[s] + (b - s),
                              model.bond_j[s] + (b - s)});
@@ -65,7 +67,7 @@ void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
         const Index stop = seg < segments.size() ? segments[seg].first : nb;
         for (; b < stop; b += std::min(kBondRun, stop - b)) consecutive(nullptr, b, std::min(kBondRun, stop - b));
         if (seg < segments.size()) {
-          affine(segments[seg].first, segments[seg].first, segments[seg].end - 1);
+          affine(segments[seg].first, segments[seg].end, segments[seg].first, segments[seg].end - 1);
           b = segments[seg++].end;
         }
       }
@@ -77,7 +79,7 @@ void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
         Index k2 = k;
         if (seg < segments.size() && segments[seg].first <= b) {
           while (k2 < end && list[k2] < segments[seg].end) ++k2;
-          affine(segments[seg].first, b, list[k2 - 1]);
+          affine(segments[seg].first, segments[seg].end, b, list[k2 - 1]);
         } else {
           const Index stop = seg < segments.size() ? segments[seg].first : nb;
           while (k2 < end && k2 - k < kBondRun && list[k2] < stop) ++k2;

@@ -62,8 +62,10 @@ struct BondPartition {
   std::vector<Index> bonds;   // per part, its alive bonds with an end in its range, increasing
   // Per part, runs[run_offset[p] .. run_offset[p + 1]): its bonds (as listed, or all of them
   // when all_in_one) in runs for for_each_bond_run, affine where the bonds form affine
-  // segments. A part visits the whole stretch of a segment between its first and last bond
-  // with an owned end; the bonds in between with no owned end change nothing.
+  // segments. Segments are cut into runs at fixed offsets from their start, the same runs for
+  // every partition; a part visits every run of a segment from the one holding its first bond
+  // with an owned end to the one holding its last (the bonds there with no owned end change
+  // nothing).
   std::vector<BondRun> runs;
   std::vector<Index> run_offset;
   std::vector<std::uint8_t> mark;  // scratch of update

@@ -1,14 +1,14 @@
 // The paper's hybrid step (Eq. 12) as one bond-centric pass in runs: see FrozenStep in
 // implicit_system.hpp.
 //
-// The bonds are taken in runs of kBondRun (for_each_bond_run). A run's per-bond quantities are
-// computed first in structure-of-arrays loops without branches, which the compiler vectorises
-// across bonds, in functions compiled for several instruction sets (simd.hpp). In an affine run
-// (bond first + k joins i0 + k and j0 + k: a lattice's bonds grouped by offset) the ends' data
-// are contiguous, and the rows (kept as structure of arrays) are updated by vector loops too.
-// Other runs gather their ends' positions and velocities and update the rows one bond at a time.
-// Either way each row receives its bonds in bond order, so its sum is the same for any thread
-// count.
+// The bonds are taken in runs of at most kBondRun (for_each_bond_run). An affine run (bond
+// first + k joins i0 + k and j0 + k: a lattice's bonds grouped by offset) whose bonds are linear
+// with one damping model is measured and formed in one vector loop reading the ends' data as
+// contiguous vectors, and its terms are added to the rows (kept as structure of arrays) by
+// vector loops. Other runs compute their per-bond terms in vector loops with the ends' data
+// gathered, then update the rows one bond at a time. Either way each row receives its bonds in
+// bond order, so its sum is the same for any thread count. The vector functions are compiled for
+// several instruction sets (simd.hpp).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -34,12 +34,11 @@ struct RunBonds {
   alignas(64) double T[kBondRun], dT[kBondRun];                 // the law's tension and slope
 };
 
-// The run's first n bonds and their parameters (kList: a list, else consecutive bonds, all loads
-// contiguous); kEnds: also their ends (an affine run's are implied); returns whether every bond's
-// law is linear.
-template <bool kList, bool kEnds>
-QBOND_VECTOR_INLINE bool load_bonds(const Model& model, const State& state, const BondRun& run, Index n,
-                                    RunBonds& t) {
+// The run's bonds, their ends and their parameters (kList: a list, else consecutive bonds, all
+// loads contiguous); returns whether every bond's law is linear.
+template <bool kList>
+QBOND_VECTOR_INLINE bool load_bonds(const Model& model, const State& state, const BondRun& run, RunBonds& t) {
+  const Index n = run.count;
   // Consecutive bonds index arrays advanced to the run's first bond: first + q, a 32-bit sum that
   // the compiler must assume may wrap, would make every load a gather.
   const std::size_t base = kList ? 0 : run.first;
@@ -55,13 +54,11 @@ QBOND_VECTOR_INLINE bool load_bonds(const Model& model, const State& state, cons
   unsigned nonlinear = 0;
   QBOND_SIMD for (Index q = 0; q < n; ++q) {
     const Index b = bond(q);
-    if constexpr (kEnds) {
-      t.b[q] = run.bond(q);
-      t.i[q] = bond_i[b];
-      t.j[q] = bond_j[b];
-      t.oi[q] = 3 * t.i[q];
-      t.oj[q] = 3 * t.j[q];
-    }
+    t.b[q] = run.bond(q);
+    t.i[q] = bond_i[b];
+    t.j[q] = bond_j[b];
+    t.oi[q] = 3 * t.i[q];
+    t.oj[q] = 3 * t.j[q];
     t.k[q] = stiffness[b];
     t.L[q] = rest[b];
     t.ca[q] = damping[b];
@@ -120,34 +117,19 @@ QBOND_VECTOR_INLINE void set_geometry(RunBonds& t, std::size_t q, const Geometry
   t.vj[q] = g.u_vj;
 }
 
-// Fills t for the run's first n bonds: their parameters, unit vectors, u·v at both ends and laws (kAffine:
-// the ends' data loaded as contiguous vectors from the step's arrays at i0 and j0, else gathered
-// from the state). A zero-length bond's tension, slope and damping are 0 (the bond then does
-// nothing, as in laws.hpp).
-template <bool kAffine>
-QBOND_VECTOR_INLINE void measure_run(const Model& model, const State& state, const StepArrays& a,
-                                     const BondRun& run, Index n, RunBonds& t) {
-  bool all_linear;
-  if constexpr (kAffine) {
-    all_linear = load_bonds<false, false>(model, state, run, n, t);
-    const Index i = run.i0, j = run.j0;
-    const double *xi = a.x[0] + i, *yi = a.x[1] + i, *zi = a.x[2] + i;
-    const double *xj = a.x[0] + j, *yj = a.x[1] + j, *zj = a.x[2] + j;
-    const double *vxi = a.v[0] + i, *vyi = a.v[1] + i, *vzi = a.v[2] + i;
-    const double *vxj = a.v[0] + j, *vyj = a.v[1] + j, *vzj = a.v[2] + j;
-    QBOND_SIMD for (std::size_t q = 0; q < n; ++q)
-      set_geometry(t, q,
-                   geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vxi[q], vyi[q], vzi[q], vxj[q], vyj[q], vzj[q]));
-  } else {
-    all_linear = run.list ? load_bonds<true, true>(model, state, run, n, t) : load_bonds<false, true>(model, state, run, n, t);
-    const double* x = state.x.data()->data();  // Vec3 arrays as doubles
-    const double* v = state.v.data()->data();
-    QBOND_SIMD for (std::size_t q = 0; q < n; ++q) {
-      const Index oi = t.oi[q], oj = t.oj[q];
-      set_geometry(t, q,
-                   geometry(x[oj] - x[oi], x[oj + 1] - x[oi + 1], x[oj + 2] - x[oi + 2], v[oi], v[oi + 1], v[oi + 2],
-                            v[oj], v[oj + 1], v[oj + 2]));
-    }
+// Fills t for the run: its bonds, parameters, unit vectors, u·v at both ends (gathered) and laws.
+// A zero-length bond's tension, slope and damping are 0 (the bond then does nothing, as in
+// laws.hpp).
+QBOND_VECTOR_INLINE void measure_run(const Model& model, const State& state, const BondRun& run, RunBonds& t) {
+  const Index n = run.count;
+  const bool all_linear = run.list ? load_bonds<true>(model, state, run, t) : load_bonds<false>(model, state, run, t);
+  const double* x = state.x.data()->data();  // Vec3 arrays as doubles
+  const double* v = state.v.data()->data();
+  QBOND_SIMD for (std::size_t q = 0; q < n; ++q) {
+    const Index oi = t.oi[q], oj = t.oj[q];
+    set_geometry(t, q,
+                 geometry(x[oj] - x[oi], x[oj + 1] - x[oi + 1], x[oj + 2] - x[oi + 2], v[oi], v[oi + 1], v[oi + 2],
+                          v[oj], v[oj + 1], v[oj + 2]));
   }
   if (all_linear) {
     QBOND_SIMD for (std::size_t q = 0; q < n; ++q) {
@@ -205,8 +187,8 @@ struct BondStretch {
 
 // A run's terms, by bond k of the run: the six distinct entries of B_b = Ba u uᵀ + Bb I and the
 // right-hand-side terms h T u + h C_b v_o on each end, kept as s_i u + hcb v_j on bond_i and
-// s_j u + hcb v_i on bond_j (s = ±h T + h ca u·v_o, hcb = h cb), and for an affine run those
-// two terms themselves, ri and rj.
+// s_j u + hcb v_i on bond_j (s = ±h T + h ca u·v_o, hcb = h cb) on the per-bond path, or, for
+// an affine run, those two terms themselves, ri and rj.
 struct FrozenTerms {
   alignas(64) double B[6][kBondRun];
   alignas(64) double si[kBondRun], sj[kBondRun], hcb[kBondRun];
@@ -223,9 +205,10 @@ struct FrozenScratch {
 // Bonds an affine run's loops take: its count rounded up to whole vectors of 8 (for_each_bond_run's
 // affine runs have that many bonds, and the step's arrays are padded), so that no loop has a
 // remainder. The loops marked kVectorLoop run over them 8 lanes at a time, an inner loop of a
-// known trip count, which the compiler vectorises with no remainder, no profitability check and
-// no scalar fallback (it does not see that the rounded count is a multiple of 8). The lanes past the run get terms of −0.0, which added to a row leave its bits as
-// they are (x + (−0.0) = x for every double x, +0.0 included).
+// known trip count, which the compiler vectorises with no remainder, profitability check or
+// scalar fallback (it does not see that the rounded count is a multiple of 8). The lanes past the
+// run get terms of −0.0, which added to a row leave its bits as they are (x + (−0.0) = x for
+// every double x, +0.0 included).
 inline Index affine_lanes(const BondRun& run) { return (run.count + 7) & ~Index{7}; }
 
 // Bond q's terms (linearise_bond's arithmetic) from its tension T, slope dT, damping (ca axial, cb
@@ -243,26 +226,16 @@ QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, dou
   const double B[6] = {aux * ux + Bb, auy * uy + Bb, Ba * uz * uz + Bb, aux * uy, aux * uz, auy * uz};
   const double si = h * T + h * ca * g.u_vj, sj = -h * T + h * ca * g.u_vi, hcb = h * cb;
   if constexpr (kAffine) {
-    // Written out: GCC does not unroll loops over e and c here before vectorising for AVX2, and
-    // then leaves the whole bond loop scalar.
-    t.B[0][q] = live ? B[0] : -0.0;
-    t.B[1][q] = live ? B[1] : -0.0;
-    t.B[2][q] = live ? B[2] : -0.0;
-    t.B[3][q] = live ? B[3] : -0.0;
-    t.B[4][q] = live ? B[4] : -0.0;
-    t.B[5][q] = live ? B[5] : -0.0;
-    // An end's right-hand side s u + h cb v_other, component c.
-    auto rhs = [&](double s, int c, const double (&v)[3]) QBOND_LAMBDA_INLINE {
-      return kIsotropic ? s * g.u[c] + hcb * v[c] : s * g.u[c];
-    };
-    const double ri[3] = {rhs(si, 0, vj), rhs(si, 1, vj), rhs(si, 2, vj)};
-    const double rj[3] = {rhs(sj, 0, vi), rhs(sj, 1, vi), rhs(sj, 2, vi)};
-    t.ri[0][q] = live ? ri[0] : -0.0;
-    t.ri[1][q] = live ? ri[1] : -0.0;
-    t.ri[2][q] = live ? ri[2] : -0.0;
-    t.rj[0][q] = live ? rj[0] : -0.0;
-    t.rj[1][q] = live ? rj[1] : -0.0;
-    t.rj[2][q] = live ? rj[2] : -0.0;
+    // Unrolled first: GCC otherwise leaves these loops in the bond loop when vectorising for
+    // AVX2, and with them the whole bond loop scalar.
+    QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = live ? B[e] : -0.0;
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      // Each end's right-hand side s u + h cb v_other.
+      const double ri = kIsotropic ? si * g.u[c] + hcb * vj[c] : si * g.u[c];
+      const double rj = kIsotropic ? sj * g.u[c] + hcb * vi[c] : sj * g.u[c];
+      t.ri[c][q] = live ? ri : -0.0;
+      t.rj[c][q] = live ? rj : -0.0;
+    }
   } else {
     for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
     t.si[q] = si;
@@ -271,27 +244,20 @@ QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, dou
   }
 }
 
-// Fills the run's terms, measured (measure_run) and then formed.
-template <bool kAffine>
-QBOND_VECTOR_INLINE void run_terms(const Model& model, const State& state, const StepArrays& a, const BondRun& run,
-                                   double h, RunBonds& g, FrozenTerms& t) {
-  const Index n = kAffine ? affine_lanes(run) : run.count;
-  measure_run<kAffine>(model, state, a, run, n, g);
-  const double *vi[3], *vj[3];  // an affine run's ends' velocities
-  for (int c = 0; c < 3; ++c) {
-    vi[c] = a.v[c] + run.i0;
-    vj[c] = a.v[c] + run.j0;
-  }
-  QBOND_SIMD for (std::size_t q = 0; q < n; ++q) {
+// Fills a run's terms on the per-bond path: measured (measure_run), then formed.
+QBOND_VECTOR_INLINE void run_terms(const Model& model, const State& state, const BondRun& run, double h,
+                                   RunBonds& g, FrozenTerms& t) {
+  measure_run(model, state, run, g);
+  constexpr double kUnused[3] = {};  // the ends' velocities: added in frozen_scatter
+  QBOND_SIMD for (std::size_t q = 0; q < run.count; ++q) {
     const Geometry geo{g.r[q], g.inv_r[q], {g.ux[q], g.uy[q], g.uz[q]}, g.vi[q], g.vj[q]};
-    const double v_i[3] = {kAffine ? vi[0][q] : 0, kAffine ? vi[1][q] : 0, kAffine ? vi[2][q] : 0};
-    const double v_j[3] = {kAffine ? vj[0][q] : 0, kAffine ? vj[1][q] : 0, kAffine ? vj[2][q] : 0};
-    bond_terms<kAffine>(t, q, h, g.T[q], g.dT[q], g.ca[q], g.cb[q], geo, v_i, v_j, q < run.count);
+    bond_terms<false>(t, q, h, g.T[q], g.dT[q], g.ca[q], g.cb[q], geo, kUnused, kUnused, true);
   }
 }
 
-// Whether every bond of an affine run (its whole vectors) has the linear law, and one damping
-// model: 0 all axial, 1 all isotropic, −1 otherwise. Read 8 one-byte enums at a time.
+// Whether every bond of an affine run's whole vectors has the linear law, and one damping model:
+// 0 all axial, 1 all isotropic, −1 otherwise (the run then takes the per-bond path). Read 8
+// one-byte enums at a time.
 QBOND_VECTOR_INLINE int uniform_linear(const Model& model, const BondRun& run) {
   static_assert(sizeof(Law) == 1 && sizeof(DampingModel) == 1 && static_cast<int>(Law::linear) == 0 &&
                 static_cast<int>(DampingModel::axial) == 0 && static_cast<int>(DampingModel::isotropic) == 1);
@@ -327,8 +293,8 @@ QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& st
   for (std::size_t q0 = 0; q0 < affine_lanes(run); q0 += 8) {
     QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {  // kVectorLoop
       const std::size_t q = q0 + l;
-      const double vi[3] = {vxi[q], vyi[q], vzi[q]}, vj[3] = {vxj[q], vyj[q], vzj[q]};
       const double kq = k[q], Lq = L[q], Dq = D[q];  // loaded unconditionally: selects, not branches
+      const double vi[3] = {vxi[q], vyi[q], vzi[q]}, vj[3] = {vxj[q], vyj[q], vzj[q]};
       const Geometry g = geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vi[0], vi[1], vi[2], vj[0], vj[1], vj[2]);
       const bool ok = g.r > 0;  // a zero-length bond does nothing (laws.hpp)
       const double T = ok ? kq * (g.r - Lq) : 0.0, dT = ok ? kq : 0.0, D_ok = ok ? Dq : 0.0;
@@ -353,15 +319,20 @@ QBOND_VECTOR_INLINE void prefetch_parameters(const Model& model, const State& st
   __builtin_prefetch(model.damping_model.data() + b);
 }
 
-QBOND_VECTOR_CLONES void frozen_terms(const Model& model, const State& state, const StepArrays& a,
-                                      const BondRun& run, double h, RunBonds& g, FrozenTerms& t) {
-  if (!run.affine) return run_terms<false>(model, state, a, run, h, g, t);
+// The terms of an affine run that uniform_linear accepts (axial: its damping model is axial).
+QBOND_VECTOR_CLONES void affine_terms(const Model& model, const State& state, const StepArrays& a, const BondRun& run,
+                                      double h, bool axial, FrozenTerms& t) {
   prefetch_parameters(model, state, run);
-  switch (uniform_linear(model, run)) {
-    case 0: return linear_affine_terms<true>(model, state, a, run, h, t);
-    case 1: return linear_affine_terms<false>(model, state, a, run, h, t);
-    default: return run_terms<true>(model, state, a, run, h, g, t);
-  }
+  if (axial)
+    linear_affine_terms<true>(model, state, a, run, h, t);
+  else
+    linear_affine_terms<false>(model, state, a, run, h, t);
+}
+
+// The terms of any other run (the per-bond path).
+QBOND_VECTOR_CLONES void frozen_terms(const Model& model, const State& state, const BondRun& run, double h,
+                                      RunBonds& g, FrozenTerms& t) {
+  run_terms(model, state, run, h, g, t);
 }
 
 // Adds the run's terms to both ends' rows, bond by bond: A_qq += B_b, rhs_q += s_q u + h cb v_o (q
@@ -493,11 +464,15 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     }
   });
   for_each_bond_run<FrozenScratch>(part, [&](const BondRun& run, FrozenScratch& s) {
-    frozen_terms(model, state, a, run, h, s.bonds, s.terms);
-    if (run.affine)
+    // The same runs for every partition (bond_partition.hpp), so the same path for each bond.
+    const int kind = run.affine ? uniform_linear(model, run) : -1;
+    if (kind >= 0) {
+      affine_terms(model, state, a, run, h, kind == 0, s.terms);
       frozen_affine_scatter(run, s.terms, a, s.stretch);
-    else
+    } else {
+      frozen_terms(model, state, run, h, s.bonds, s.terms);
       frozen_scatter(run, s.bonds, s.terms, state.v.data(), a, s.stretch);
+    }
   });
   // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
   constexpr std::size_t kChunk = 1024;

@@ -25,6 +25,7 @@
 // without proving that its gathers and stores do not alias (OpenMP's simd; nothing without
 // OpenMP).
 // QBOND_SIMD_OR(x, ...): the same for a loop that also ORs into each of its arguments.
+// QBOND_UNROLL(n) before a loop of n iterations: unrolled before the enclosing loop is vectorised.
 #ifdef _OPENMP
 #define QBOND_SIMD _Pragma("omp simd")
 #define QBOND_SIMD_OR(...) _Pragma(QBOND_STRINGIFY(omp simd reduction(| : __VA_ARGS__)))
@@ -33,3 +34,12 @@
 #define QBOND_SIMD
 #define QBOND_SIMD_OR(...)
 #endif
+
+#if defined(__GNUC__) && !defined(__clang__)
+#define QBOND_UNROLL(n) _Pragma(QBOND_STRINGIFY2(GCC unroll n))
+#elif defined(__clang__)
+#define QBOND_UNROLL(n) _Pragma(QBOND_STRINGIFY2(unroll n))
+#else
+#define QBOND_UNROLL(n)
+#endif
+#define QBOND_STRINGIFY2(s) #s

@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <set>
+#include <tuple>
 
 #include "bond_partition.hpp"
 #include "forces.hpp"
@@ -35,7 +37,7 @@ World random_lattice(bool grouped = false) {
 // What the passes see: for_each_bond owns each end of each alive bond exactly once, whether it
 // walks the per-part lists or (one part, no broken bond) the bonds themselves; and so do the runs
 // of for_each_bond_run, in the builder's bond order (no affine runs) and in the offset-grouped
-// order scenes load in (ordering.hpp: mostly affine runs, which the parts' ranges cut).
+// order scenes load in (ordering.hpp: mostly affine runs, the same runs for every partition).
 TEST(BondPartition, ForEachBondOwnsEachEndOfEachAliveBondOnce) {
   const World intact = test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true), broken = random_lattice();
   World grouped_intact = intact;
@@ -47,6 +49,7 @@ TEST(BondPartition, ForEachBondOwnsEachEndOfEachAliveBondOnce) {
     const Model& m = w->model;
     Adjacency adj;
     build_adjacency(m, w->state, adj);
+    std::set<std::tuple<Index, Index, Index, Index, bool>> one_part_runs;
     for (int threads : {1, 2, 3}) {
       const std::string what = std::to_string(threads) + " threads" + (grouped ? ", grouped" : "") +
                                (all_alive ? "" : ", broken bonds");
@@ -96,6 +99,15 @@ TEST(BondPartition, ForEachBondOwnsEachEndOfEachAliveBondOnce) {
         EXPECT_GT(affine, (all_alive ? 9 : 5) * w->num_bonds() / 10) << what;
       else
         EXPECT_EQ(affine, 0u) << what;
+      // Every partition cuts the segments into the same affine runs (the frozen step picks its
+      // path per run, so a bond's path must not depend on the thread count).
+      std::set<std::tuple<Index, Index, Index, Index, bool>> runs;
+      for (const BondRun& run : part.runs)
+        if (run.affine) runs.insert({run.first, run.count, run.i0, run.j0, run.affine});
+      if (threads == 1)
+        one_part_runs = runs;
+      else
+        for (const auto& run : runs) EXPECT_TRUE(one_part_runs.count(run)) << "run at bond " << std::get<0>(run) << ", " << what;
     }
   }
 }
