@@ -24,22 +24,20 @@
 // QBOND_SIMD before a loop whose iterations are independent: lets the compiler vectorise it
 // without proving that its gathers and stores do not alias (OpenMP's simd; nothing without
 // OpenMP).
-// QBOND_SIMD_OR(x, ...): the same for a loop that also ORs into each of its arguments.
+// QBOND_SIMD_OR(x): the same for a loop that also ORs into x.
 // QBOND_UNROLL(n) before a loop of n iterations: unrolled before the enclosing loop is vectorised.
+#define QBOND_STRINGIFY(s) #s
 #ifdef _OPENMP
 #define QBOND_SIMD _Pragma("omp simd")
-#define QBOND_SIMD_OR(...) _Pragma(QBOND_STRINGIFY(omp simd reduction(| : __VA_ARGS__)))
-#define QBOND_STRINGIFY(s) #s
+#define QBOND_SIMD_OR(x) _Pragma(QBOND_STRINGIFY(omp simd reduction(| : x)))
 #else
 #define QBOND_SIMD
-#define QBOND_SIMD_OR(...)
+#define QBOND_SIMD_OR(x)
 #endif
-
-#if defined(__GNUC__) && !defined(__clang__)
-#define QBOND_UNROLL(n) _Pragma(QBOND_STRINGIFY2(GCC unroll n))
-#elif defined(__clang__)
-#define QBOND_UNROLL(n) _Pragma(QBOND_STRINGIFY2(unroll n))
+#if defined(__clang__)
+#define QBOND_UNROLL(n) _Pragma(QBOND_STRINGIFY(unroll n))
+#elif defined(__GNUC__)
+#define QBOND_UNROLL(n) _Pragma(QBOND_STRINGIFY(GCC unroll n))
 #else
 #define QBOND_UNROLL(n)
 #endif
-#define QBOND_STRINGIFY2(s) #s
