@@ -4,6 +4,7 @@
 Run by `qbond experiment`; uses Debian's python3-matplotlib.
 """
 import csv
+import math
 import os
 import sys
 from collections import defaultdict
@@ -286,11 +287,17 @@ def integrators(d):
         rows = list(csv.DictReader(f))
     fig, ax = plt.subplots(figsize=(8, 5))
     floor = 1e-16  # a closed budget shows at round-off, not at zero, on a log axis
+    placed = []  # (x, y, above) of the labels already drawn
     for k, r in enumerate(rows):
         x, y = float(r["ms_per_step"]), max(float(r["relative_error"]), floor)
         ax.scatter(x, y, s=30)
-        # Alternate labels above and below: neighbours in cost often share an error level.
-        ax.annotate(r["method"], (x, y), textcoords="offset points", xytext=(5, 4 if k % 2 else -11), fontsize=8)
+        # Alternate labels above and below: neighbours in cost often share an error level; a
+        # point next to one already labelled (within 15% in cost and a decade in error) takes
+        # the other side.
+        near = [p for p in placed if abs(math.log(x / p[0])) < 0.15 and abs(math.log10(y / p[1])) < 1]
+        above = not near[-1][2] if near else k % 2 == 1
+        ax.annotate(r["method"], (x, y), textcoords="offset points", xytext=(5, 4 if above else -11), fontsize=8)
+        placed.append((x, y, above))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("ms per step (1 thread)")
