@@ -152,7 +152,7 @@ QBOND_VECTOR_INLINE void measure_run(const Model& model, const State& state, con
   }
 }
 
-// The sum of a row's terms (as DiagonalRow::add takes them) over a stretch of consecutive bonds
+// The sum of a row's terms (as StepArrays::add takes them) over a stretch of consecutive bonds
 // b, b + 1, ... with the same bond_i, added to that quanta's row once, when the stretch ends (it
 // may go on into the part's next run). The stretches are the same for any partition, so the sums
 // are too. One per part, on its thread.
@@ -244,17 +244,6 @@ QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, dou
   }
 }
 
-// Fills a run's terms on the per-bond path: measured (measure_run), then formed.
-QBOND_VECTOR_INLINE void run_terms(const Model& model, const State& state, const BondRun& run, double h,
-                                   RunBonds& g, FrozenTerms& t) {
-  measure_run(model, state, run, g);
-  constexpr double kUnused[3] = {};  // the ends' velocities: added in frozen_scatter
-  QBOND_SIMD for (std::size_t q = 0; q < run.count; ++q) {
-    const Geometry geo{g.r[q], g.inv_r[q], {g.ux[q], g.uy[q], g.uz[q]}, g.vi[q], g.vj[q]};
-    bond_terms<false>(t, q, h, g.T[q], g.dT[q], g.ca[q], g.cb[q], geo, kUnused, kUnused, true);
-  }
-}
-
 // Whether every bond of an affine run's whole vectors has the linear law, and one damping model:
 // 0 all axial, 1 all isotropic, −1 otherwise (the run then takes the per-bond path). Read 8
 // one-byte enums at a time.
@@ -329,10 +318,15 @@ QBOND_VECTOR_CLONES void affine_terms(const Model& model, const State& state, co
     linear_affine_terms<false>(model, state, a, run, h, t);
 }
 
-// The terms of any other run (the per-bond path).
+// The terms of any other run (the per-bond path): measured (measure_run), then formed.
 QBOND_VECTOR_CLONES void frozen_terms(const Model& model, const State& state, const BondRun& run, double h,
                                       RunBonds& g, FrozenTerms& t) {
-  run_terms(model, state, run, h, g, t);
+  measure_run(model, state, run, g);
+  constexpr double kUnused[3] = {};  // the ends' velocities: added in frozen_scatter
+  QBOND_SIMD for (std::size_t q = 0; q < run.count; ++q) {
+    const Geometry geo{g.r[q], g.inv_r[q], {g.ux[q], g.uy[q], g.uz[q]}, g.vi[q], g.vj[q]};
+    bond_terms<false>(t, q, h, g.T[q], g.dT[q], g.ca[q], g.cb[q], geo, kUnused, kUnused, true);
+  }
 }
 
 // Adds the run's terms to both ends' rows, bond by bond: A_qq += B_b, rhs_q += s_q u + h cb v_o (q
@@ -416,9 +410,9 @@ QBOND_VECTOR_CLONES void frozen_affine_scatter(const BondRun& run, const FrozenT
   }
 }
 
-// v_i + Δv_i = A_ii⁻¹ b_i for quanta [lo, hi), written over b_i: DiagonalRow::solve (the adjugate
-// of the symmetric block) in a vector loop over the step's arrays. Kinematic rows are solved too,
-// and not used.
+// v_i + Δv_i = A_ii⁻¹ b_i for quanta [lo, hi), written over b_i: the adjugate of the symmetric
+// block (positive definite) over its determinant, in a vector loop over the step's arrays.
+// Kinematic rows are solved too, and not used.
 QBOND_VECTOR_CLONES void solve_rows(const StepArrays& a, std::size_t lo, std::size_t hi) {
   const double *a0 = a.row[0], *a1 = a.row[1], *a2 = a.row[2], *a3 = a.row[3], *a4 = a.row[4], *a5 = a.row[5];
   double *bx = a.row[6], *by = a.row[7], *bz = a.row[8];

@@ -79,7 +79,8 @@ struct EdgeBlock {
 };
 
 // A quanta's diagonal block A_ii (its six distinct entries) and right-hand side b_i while the
-// bond-centric passes add to them.
+// coupled build adds to them (the frozen step keeps the same entries as structure of arrays:
+// frozen_step.cpp).
 struct DiagonalRow {
   double a[6];  // xx, yy, zz, xy, xz, yz
   Vec3 b;
@@ -91,19 +92,6 @@ struct DiagonalRow {
   // A_ii += a u uᵀ + c I, B_b's entries as block_entries gives them.
   void add_block(const double (&B)[6]) {
     for (int k = 0; k < 6; ++k) a[k] += B[k];
-  }
-  // A_ii += the block's six entries d[0..5], b_i += (d[6], d[7], d[8]).
-  void add(const double (&d)[9]) {
-    for (int k = 0; k < 6; ++k) a[k] += d[k];
-    b += Vec3(d[6], d[7], d[8]);
-  }
-  // A_ii⁻¹ b_i by the adjugate of the symmetric block (A_ii is positive definite).
-  Vec3 solve() const {
-    const double c00 = a[1] * a[2] - a[5] * a[5], c11 = a[0] * a[2] - a[4] * a[4], c22 = a[0] * a[1] - a[3] * a[3];
-    const double c01 = a[4] * a[5] - a[3] * a[2], c02 = a[3] * a[5] - a[4] * a[1], c12 = a[3] * a[4] - a[0] * a[5];
-    const double inv_det = 1.0 / (a[0] * c00 + a[3] * c01 + a[4] * c02);
-    return inv_det * Vec3(c00 * b.x() + c01 * b.y() + c02 * b.z(), c01 * b.x() + c11 * b.y() + c12 * b.z(),
-                          c02 * b.x() + c12 * b.y() + c22 * b.z());
   }
   Mat3 matrix() const {
     Mat3 m;
