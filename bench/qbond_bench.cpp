@@ -1,12 +1,13 @@
 // qbond's performance suite (Google Benchmark), run by `qbond bench` (docs/performance.md).
 //
 //   qbond_bench [benchmark flags] [--n=10,20,40] [--threads=1,2] [--integrators=a,b,...] [--dt=H]
-//               [--order=built,shuffled,sorted]
+//               [--order=built,shuffled,sorted] [--as-run]
 //   qbond_bench [benchmark flags] --solve [--n=20,40]
 //
 // Registers, for each integrator, lattice size n and thread count, the time of one step of the
 // canonical workload (samples.hpp: n³ simple-cubic lattice, face diagonals, x = 0 face anchored,
-// gravity, h = 1e-4 s unless --dt says otherwise), and a STREAM-style triad measuring this machine's memory bandwidth in the
+// gravity, h = 1e-4 s unless --dt says otherwise; with --as-run each step as `qbond run` takes it,
+// energy ledger and rollback copy included), and a STREAM-style triad measuring this machine's memory bandwidth in the
 // same run, so that a step's time can be set against the bandwidth bound of the bytes it must
 // move. Counters: quanta, bonds, threads, bytes_per_step (the traffic model below).
 //
@@ -89,7 +90,7 @@ void apply_order(World& w, Order order) {
 }
 
 void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, int threads, double dt,
-                    Order order) {
+                    Order order, bool as_run) {
   Scene scene = canonical_lattice(n);
   apply_order(scene.world, order);
   if (dt > 0) scene.timestep = dt;
@@ -97,8 +98,8 @@ void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, i
   cfg.threads = threads;
   const std::size_t quanta = scene.world.num_quanta(), bonds = scene.world.num_bonds();
   Simulation sim(std::move(scene.world), cfg, scene.timestep);
-  sim.set_track_energy(false);
-  sim.set_keep_last_good(false);
+  sim.set_track_energy(as_run);
+  sim.set_keep_last_good(as_run);
   for (int k = 0; k < 3; ++k) sim.step();  // buffers grown, caches warm
   for (auto _ : st) {
     const StepReport r = sim.step();
@@ -218,7 +219,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> names{"hybrid_frozen", "hybrid_sweep", "velocity_verlet", "default"};
   std::vector<std::string> orders{"built"};
   double dt = 0;
-  bool solve = false;
+  bool solve = false, as_run = false;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
     auto value = [&](const char* flag) -> const char* {
@@ -235,6 +236,8 @@ int main(int argc, char** argv) {
       orders = split(v5);
     else if (a == "--solve")
       solve = true;
+    else if (a == "--as-run")
+      as_run = true;
     else if (const char* v4 = value("--dt")) {
       char* end = nullptr;
       dt = std::strtod(v4, &end);
@@ -246,7 +249,7 @@ int main(int argc, char** argv) {
     else {
       std::fprintf(stderr,
                    "qbond_bench: unknown argument '%s' (--n=LIST --threads=LIST --integrators=LIST --dt=H "
-                   "--order=LIST, and Google Benchmark's --benchmark_* flags)\n",
+                   "--order=LIST --as-run, and Google Benchmark's --benchmark_* flags)\n",
                    argv[k]);
       return 2;
     }
@@ -284,10 +287,12 @@ int main(int argc, char** argv) {
       for (int n : sizes)
         for (int t : threads) {
           const Order order = parse_order(o);
-          const std::string tail = order == Order::built ? "" : "/order:" + o;
+          const std::string tail = (order == Order::built ? "" : "/order:" + o) + (as_run ? "/as_run" : "");
           benchmark::RegisterBenchmark(
               ("step/" + name + "/n:" + std::to_string(n) + "/threads:" + std::to_string(t) + tail).c_str(),
-              [integ, n, t, dt, order](benchmark::State& st) { step_benchmark(st, *integ, n, t, dt, order); })
+              [integ, n, t, dt, order, as_run](benchmark::State& st) {
+                step_benchmark(st, *integ, n, t, dt, order, as_run);
+              })
               ->UseRealTime()
               ->Unit(benchmark::kMillisecond);
         }

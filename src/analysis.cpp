@@ -5,6 +5,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "bond_sums.hpp"
 #include "parallel.hpp"
 
 namespace qbond {
@@ -19,11 +20,7 @@ Energies energies(const Model& model, const State& state, int threads) {
   e.gravity = -deterministic_sum(n, threads, [&](std::size_t i) {
     return free(i) ? model.mass[i] * model.gravity.dot(state.x[i]) : 0.0;
   });
-  e.bonds = deterministic_sum(model.num_bonds(), threads, [&](std::size_t b) {
-    if (!state.alive[b]) return 0.0;
-    const double r = (state.x[model.bond_j[b]] - state.x[model.bond_i[b]]).norm();
-    return model.law_at(b, r, state.rest[b]).U;
-  });
+  e.bonds = bond_energy_sum(model, state, threads);
   return e;
 }
 

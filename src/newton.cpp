@@ -321,7 +321,7 @@ class NewtonIntegrator final : public Integrator {
     }
     // The ledger's accounts over this substep, from the substep itself (loads are linear in Δx:
     // the ledger's whole-step charge is exact for them).
-    const StepWork w = step_work(model, sub_, sub_out_, f_ext, H, damping_theta(), damping_direction_theta(),
+    const StepWork w = step_work(model, sub_, adj, sub_out_, f_ext, H, damping_theta(), damping_direction_theta(),
                                  discrete_gradient(), config_.threads);
     out.work_anchors += w.anchors;
     out.dissipated_damping += w.damping;

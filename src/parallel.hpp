@@ -44,25 +44,33 @@ void parallel_for(std::size_t n, int threads, Body&& body, std::size_t min_paral
 #endif
 }
 
-// fold(acc, i) for i in [0, n) in chunks (each from `init`, in index order) whose size depends on
-// n only, then the chunks' results combined in chunk order, combine(combine(r0, r1), r2)...: the
-// same result for any thread count, and no allocation. `init` when n = 0.
-template <class T, class Fold, class Combine>
-T deterministic_reduce(std::size_t n, int threads, const T& init, Fold&& fold, Combine&& combine) {
+// fold_chunk(begin, end) over the chunks of [0, n) (at least kSumChunk indices each, at most
+// kMaxPartials of them: fixed by n), each chunk's result combined in chunk order,
+// combine(combine(r0, r1), r2)...: the same result for any thread count, and no allocation.
+// `init` when n = 0.
+template <class T, class FoldChunk, class Combine>
+T reduce_chunks(std::size_t n, int threads, const T& init, FoldChunk&& fold_chunk, Combine&& combine) {
   const std::size_t chunk = std::max(kSumChunk, (n + kMaxPartials - 1) / kMaxPartials);
-  auto chunk_fold = [&](std::size_t c) {
-    T acc = init;
-    const std::size_t end = std::min(n, (c + 1) * chunk);
-    for (std::size_t i = c * chunk; i < end; ++i) acc = fold(acc, i);
-    return acc;
-  };
   const std::size_t chunks = (n + chunk - 1) / chunk;
   std::array<T, kMaxPartials> partial;
-  parallel_for(chunks, threads, [&](std::size_t c) { partial[c] = chunk_fold(c); }, kParallelMin / kSumChunk);
+  parallel_for(
+      chunks, threads, [&](std::size_t c) { partial[c] = fold_chunk(c * chunk, std::min(n, (c + 1) * chunk)); },
+      kParallelMin / kSumChunk);
   if (chunks == 0) return init;
   T total = partial[0];
   for (std::size_t c = 1; c < chunks; ++c) total = combine(total, partial[c]);
   return total;
+}
+
+// fold(acc, i) for i in [0, n), each chunk of reduce_chunks folded from `init` in index order.
+template <class T, class Fold, class Combine>
+T deterministic_reduce(std::size_t n, int threads, const T& init, Fold&& fold, Combine&& combine) {
+  auto fold_chunk = [&](std::size_t begin, std::size_t end) {
+    T acc = init;
+    for (std::size_t i = begin; i < end; ++i) acc = fold(acc, i);
+    return acc;
+  };
+  return reduce_chunks(n, threads, init, fold_chunk, combine);
 }
 
 // Σ term(i) for i in [0, n), summed in chunks (each in index order) whose size depends on n

@@ -2,12 +2,14 @@
 
 #include <cmath>
 
+#include "bond_sums.hpp"
 #include "parallel.hpp"
 
 namespace qbond {
 
-StepWork step_work(const Model& m, const State& s, const Projection& p, const std::vector<Vec3>& f_ext, double h,
-                   double theta, double phi, bool discrete_gradient, int threads) {
+StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const Projection& p,
+                   const std::vector<Vec3>& f_ext, double h, double theta, double phi, bool discrete_gradient,
+                   int threads) {
   const double loads = deterministic_sum(m.num_quanta(), threads, [&](std::size_t i) {
     return m.is_kinematic(static_cast<Index>(i)) ? 0.0 : (f_ext[i] - m.mass[i] * m.gravity).dot(p.dx[i]);
   });
@@ -16,20 +18,13 @@ StepWork step_work(const Model& m, const State& s, const Projection& p, const st
   };
   // The bond at the fraction φ of the step where the integrator took the axial damper's direction.
   auto damper_bond = [&](Index i, Index j) -> Vec3 { return s.x[j] - s.x[i] + phi * (p.dx[j] - p.dx[i]); };
-  const double damping = deterministic_sum(m.num_bonds(), threads, [&](std::size_t b) {
-    if (!s.alive[b]) return 0.0;
-    const Index i = m.bond_i[b], j = m.bond_j[b];
-    const Vec3 dp = damper_bond(i, j);
-    const double rp = dp.norm();
-    if (!(rp > 0)) return 0.0;
-    const Vec3 w = relative_velocity(i, j);
-    const double wu = w.dot(dp / rp);
-    return h * m.damping[b] * (m.damping_model[b] == DampingModel::axial ? wu * wu : w.squaredNorm());
-  });
-  const double anchors = deterministic_sum(m.num_bonds(), threads, [&](std::size_t b) {
+  const double damping = damping_work_sum(m, s, p, h, theta, phi, threads);
+  // Only bonds with a moving prescribed end do work on the anchors: found through those quanta's
+  // adjacency, each bond once (from its first such end), summed in quanta order. A prescribed
+  // quanta that stays put this step (an anchor) does none.
+  auto anchor_work = [&](std::size_t b) {
     const Index i = m.bond_i[b], j = m.bond_j[b];
     const bool ki = m.is_kinematic(i), kj = m.is_kinematic(j);
-    if (!s.alive[b] || (!ki && !kj)) return 0.0;
     const Vec3 d0 = s.x[j] - s.x[i];
     const double r0 = d0.norm();
     if (!(r0 > 0)) return 0.0;
@@ -57,6 +52,16 @@ StepWork step_work(const Model& m, const State& s, const Projection& p, const st
     double work = 0;
     if (ki) work -= fi.dot(p.dx[i]);
     if (kj) work += fi.dot(p.dx[j]);
+    return work;
+  };
+  auto moving = [&](std::size_t q) { return m.is_kinematic(static_cast<Index>(q)) && p.dx[q] != Vec3::Zero(); };
+  const double anchors = deterministic_sum(m.num_quanta(), threads, [&](std::size_t q) {
+    if (!moving(q)) return 0.0;
+    double work = 0;
+    for (Index e = adj.offset[q]; e < adj.offset[q + 1]; ++e) {
+      const Index b = adj.bond[e];
+      if (m.bond_i[b] == q || !moving(m.bond_i[b])) work += anchor_work(b);
+    }
     return work;
   });
   return {loads, anchors, damping};

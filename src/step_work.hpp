@@ -18,7 +18,9 @@ struct StepWork {
 // Loads are constant over the step (their work is exact); anchors' bond forces use the trapezoid
 // rule, or the discrete gradient the integrator applied when `discrete_gradient`; dampers are
 // charged at the velocity v + θ Δv along the bond d + φ Δd at which the integrator evaluated them.
-StepWork step_work(const Model& m, const State& s, const Projection& p, const std::vector<Vec3>& f_ext, double h,
-                   double theta, double phi, bool discrete_gradient, int threads);
+// `adj` is the adjacency of the alive bonds.
+StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const Projection& p,
+                   const std::vector<Vec3>& f_ext, double h, double theta, double phi, bool discrete_gradient,
+                   int threads);
 
 }  // namespace qbond

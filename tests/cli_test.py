@@ -326,6 +326,11 @@ def test_bench_quick():
                 fail(f"{key} = {row[key]}")
     if not doc["triad_bytes_per_second"] > 1e8:
         fail(f"bandwidth {doc['triad_bytes_per_second']} B/s")
+    # --as-run: the same step with the energy ledger and rollback copy `qbond run` keeps.
+    qbond("bench", "--quick", "--as-run", "--integrators", "hybrid_frozen", "--json", path, check_code=0)
+    rows = json.load(open(path))["rows"]
+    if [(row["integrator"], row["as_run"]) for row in rows] != [("hybrid_frozen+run", True)]:
+        fail(f"--as-run rows {rows}")
     # The solver comparison: the same system solved by each, to the stated residual.
     qbond("bench", "--quick", "--solve", "--json", path, check_code=0)
     rows = {row["solver"]: row for row in json.load(open(path))["rows"]}

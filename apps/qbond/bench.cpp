@@ -88,7 +88,9 @@ json step_table(const json& report, const Wanted& wanted, double h, double& band
   json rows = json::array();
   for (const json& b : report.at("benchmarks")) {
     if (!wanted(b) || is_triad(b)) continue;
-    const auto [integrator, n] = parse_run_name(b);
+    auto [integrator, n] = parse_run_name(b);
+    const bool as_run = b.at("run_name").get<std::string>().find("/as_run") != std::string::npos;
+    if (as_run) integrator += "+run";
     const double t = seconds(b), quanta = b.at("quanta"), bonds = b.at("bonds"), threads = b.at("threads"),
                  bytes = b.at("bytes_per_step");
     const double ratio = t / (bytes / bandwidth);
@@ -97,6 +99,7 @@ json step_table(const json& report, const Wanted& wanted, double h, double& band
                 ratio);
     rows.push_back({{"workload", "lattice n=" + n},
                     {"integrator", integrator},
+                    {"as_run", as_run},
                     {"quanta", std::llround(quanta)},
                     {"bonds", std::llround(bonds)},
                     {"threads", std::llround(threads)},
@@ -155,6 +158,7 @@ int bench(const BenchArgs& a) {
   } else {
     cmd += " --threads=" + quoted(a.threads);
     if (!a.integrators.empty()) cmd += " --integrators=" + quoted(a.integrators);
+    if (a.as_run) cmd += " --as-run";
   }
   if (a.dt > 0) {
     char h[40];

@@ -13,6 +13,7 @@ struct BenchArgs {
   std::string integrators;     ///< subset of hybrid_frozen,hybrid_sweep,velocity_verlet,default
   double dt = 0;                ///< timestep [s] (0: the workload's 1e-4 s)
   bool solve = false;           ///< the solver comparison at h = 1/60 s instead (default n: 10,20,40)
+  bool as_run = false;          ///< time steps as `qbond run` takes them: energy ledger and rollback copy on
   int repetitions = 3;         ///< the median of this many is reported
   std::string json;            ///< also write the table as JSON here (atomically)
 };

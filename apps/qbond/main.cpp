@@ -339,6 +339,9 @@ int main(int argc, char** argv) {
   bench_cmd->add_flag("--solve", ba.solve,
                       "compare solvers instead: one backward-Euler step at h = 1/60 s to a relative residual of 1e-6, "
                       "qbond's CG against Eigen's CG and sparse Cholesky");
+  bench_cmd->add_flag("--as-run", ba.as_run,
+                      "time each step as `qbond run` takes it: energy ledger (blow-up check, diagnostics) and the "
+                      "copy kept for a rollback (rows named INTEGRATOR+run)");
   bench_cmd->add_option("--dt", ba.dt, "timestep [s] (default: the workload's 1e-4)")->check(CLI::PositiveNumber);
   bench_cmd->add_option("--repetitions", ba.repetitions, "repetitions; the median is reported (default: 3)")
       ->check(CLI::PositiveNumber);

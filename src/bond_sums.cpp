@@ -1,0 +1,137 @@
+#include "bond_sums.hpp"
+
+#include <cmath>
+#include <functional>
+
+#include "parallel.hpp"
+#include "simd.hpp"
+
+namespace qbond {
+namespace {
+
+constexpr std::size_t kLanes = 8;
+
+// Whether bonds [b, b + 8) are alive and affine: bond b + k joins bond_i[b] + k and bond_j[b] + k.
+// Then their ends' positions and velocities are contiguous and the eight terms one vector loop.
+QBOND_VECTOR_INLINE bool affine_block(const Model& m, const State& s, std::size_t b) {
+  const Index* bi = m.bond_i.data() + b;
+  const Index* bj = m.bond_j.data() + b;
+  const std::uint8_t* alive = s.alive.data() + b;
+  std::uint32_t bad = 0;  // OR of every difference: one vector compare, no branch per bond
+  for (Index k = 0; k < kLanes; ++k) bad |= ((bi[k] - k) ^ bi[0]) | ((bj[k] - k) ^ bj[0]) | (alive[k] ^ 1u);
+  return bad == 0;
+}
+
+// Σ over the alive bonds of [b0, b1): affine blocks of eight that `uniform` accepts by
+// block(i, j, b, lanes), one vector loop adding bond b + l's term to lanes[l], every other bond
+// into one more partial by bond_term(i, j, b); the lanes added in order, that partial last.
+// Which bonds go where depends on the bonds only, never on the thread.
+template <class Block, class BondTerm, class Uniform>
+QBOND_VECTOR_INLINE double chunk_sum(const Model& m, const State& s, std::size_t b0, std::size_t b1, Block&& block,
+                                     BondTerm&& bond_term, Uniform&& uniform) {
+  double lanes[kLanes] = {};
+  double others = 0;
+  std::size_t b = b0;
+  while (b < b1) {
+    // The blocks from b first, then their loop: no branch between one block's terms and the next.
+    std::size_t e = b;
+    while (e + kLanes <= b1 && affine_block(m, s, e) && uniform(e)) e += kLanes;
+    for (std::size_t q = b; q < e; q += kLanes) block(m.bond_i[q], m.bond_j[q], q, lanes);
+    if (e < b1 && s.alive[e]) others += bond_term(m.bond_i[e], m.bond_j[e], e);
+    b = e + 1;
+  }
+  double sum = 0;
+  for (double l : lanes) sum += l;
+  return sum + others;
+}
+
+// Whether the eight entries of `a` from b equal a[b].
+template <class T>
+QBOND_VECTOR_INLINE bool all_eight(const T* a, std::size_t b) {
+  unsigned bad = 0;
+  for (std::size_t l = 0; l < kLanes; ++l) bad |= static_cast<unsigned>(a[b + l]) ^ static_cast<unsigned>(a[b]);
+  return bad == 0;
+}
+
+// |x_j − x_i| for positions stored as consecutive triples.
+QBOND_VECTOR_INLINE double length(const double* x, std::size_t i, std::size_t j) {
+  double r2 = 0;
+  QBOND_UNROLL(3)
+  for (std::size_t c = 0; c < 3; ++c) {
+    const double d = x[3 * j + c] - x[3 * i + c];
+    r2 += d * d;
+  }
+  return std::sqrt(r2);
+}
+
+QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::size_t b0, std::size_t b1) {
+  const double* x = s.x.data()->data();
+  const double* rest = s.rest.data();
+  const double* k = m.stiffness.data();
+  const Law* law = m.law.data();
+  // A linear bond's energy written out (evaluate_law's, Eq. 2) so that a block of them vectorises.
+  auto linear = [=](std::size_t i, std::size_t j, std::size_t b) QBOND_LAMBDA_INLINE {
+    const double e = length(x, i, j) - rest[b];
+    return 0.5 * k[b] * e * e;
+  };
+  auto block = [=](std::size_t i, std::size_t j, std::size_t b, double* lanes) QBOND_LAMBDA_INLINE {
+    QBOND_SIMD
+    for (std::size_t l = 0; l < kLanes; ++l) lanes[l] += linear(i + l, j + l, b + l);
+  };
+  auto any_law = [&](std::size_t i, std::size_t j, std::size_t b) {
+    return law[b] == Law::linear ? linear(i, j, b) : m.law_at(b, length(x, i, j), rest[b]).U;
+  };
+  auto all_linear = [=](std::size_t b) QBOND_LAMBDA_INLINE { return law[b] == Law::linear && all_eight(law, b); };
+  return chunk_sum(m, s, b0, b1, block, any_law, all_linear);
+}
+
+QBOND_VECTOR_CLONES double damping_chunk(const Model& m, const State& s, const Projection& p, double h, double theta,
+                                         double phi, std::size_t b0, std::size_t b1) {
+  const double* x = s.x.data()->data();
+  const double* v = s.v.data()->data();
+  const double* dx = p.dx.data()->data();
+  const double* dv = p.dv.data()->data();
+  const double* D = m.damping.data();
+  const DampingModel* model = m.damping_model.data();
+  // The damping model is an argument, not read per bond: a block's loop then has no byte loads
+  // (which would make GCC vectorise it in 64 lanes, more than the block has).
+  auto term = [=](std::size_t i, std::size_t j, std::size_t b, bool axial) QBOND_LAMBDA_INLINE {
+    double d2 = 0, wd = 0, w2 = 0;
+    QBOND_UNROLL(3)
+    for (std::size_t c = 0; c < 3; ++c) {
+      const std::size_t a = 3 * i + c, e = 3 * j + c;
+      const double d = x[e] - x[a] + phi * (dx[e] - dx[a]);
+      const double w = (v[e] + theta * dv[e]) - (v[a] + theta * dv[a]);
+      d2 += d * d;
+      wd += w * d;
+      w2 += w * w;
+    }
+    const double loss = h * D[b] * (axial ? wd * wd / d2 : w2);  // every lane's D loaded: no masked load
+    return d2 > 0 ? loss : 0.0;
+  };
+  auto block = [=](std::size_t i, std::size_t j, std::size_t b, double* lanes) QBOND_LAMBDA_INLINE {
+    const bool axial = model[b] == DampingModel::axial;
+    QBOND_SIMD
+    for (std::size_t l = 0; l < kLanes; ++l) lanes[l] += term(i + l, j + l, b + l, axial);
+  };
+  auto bond = [=](std::size_t i, std::size_t j, std::size_t b) { return term(i, j, b, model[b] == DampingModel::axial); };
+  auto one_model = [=](std::size_t b) QBOND_LAMBDA_INLINE { return all_eight(model, b); };
+  return chunk_sum(m, s, b0, b1, block, bond, one_model);
+}
+
+}  // namespace
+
+double bond_energy_sum(const Model& m, const State& s, int threads) {
+  return reduce_chunks(
+      m.num_bonds(), threads, 0.0, [&](std::size_t b0, std::size_t b1) { return energy_chunk(m, s, b0, b1); },
+      std::plus<>{});
+}
+
+double damping_work_sum(const Model& m, const State& s, const Projection& p, double h, double theta, double phi,
+                        int threads) {
+  return reduce_chunks(
+      m.num_bonds(), threads, 0.0,
+      [&](std::size_t b0, std::size_t b1) { return damping_chunk(m, s, p, h, theta, phi, b0, b1); }, std::plus<>{});
+}
+
+}  // namespace qbond

@@ -1,0 +1,23 @@
+#pragma once
+// The two sums over every alive bond that the energy ledger takes each step (Simulation's
+// update_ledger and check_energy): the dampers' work and the bonds' potential energy. Most of a
+// lattice's bonds in locality order come in stretches with affine ends (bond b + k joins i + k and
+// j + k, ordering.hpp); eight such bonds at a time are summed by one vector loop over contiguous
+// data, the others bond by bond. Summed in chunks fixed by the bond count (parallel.hpp): the same
+// bits for any thread count.
+#include "qbond/integrators.hpp"
+#include "qbond/world.hpp"
+
+namespace qbond {
+
+/// Σ U_b(r_b) over the alive bonds, r_b their lengths at the state's positions (Eqs. 2–3) [J].
+double bond_energy_sum(const Model& m, const State& s, int threads);
+
+/// Energy the dampers take out over a step of length h [J]: Σ h D_b (w·d)² / (d·d) for axial
+/// dampers, Σ h D_b |w|² for isotropic ones, with w = (v_j + θ Δv_j) − (v_i + θ Δv_i) the relative
+/// velocity and d = x_j − x_i + φ (Δx_j − Δx_i) the bond where the integrator evaluated them.
+/// Bonds of zero length along d are charged nothing.
+double damping_work_sum(const Model& m, const State& s, const Projection& p, double h, double theta, double phi,
+                        int threads);
+
+}  // namespace qbond

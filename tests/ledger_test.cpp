@@ -1,0 +1,152 @@
+// The energy ledger's per-step sums (bond_sums.hpp, step_work.hpp) against the plain bond-by-bond
+// sums they replace: the bonds' energy and the dampers' work, whose affine blocks of eight are one
+// vector loop, and the anchors' work, found through the moving prescribed quanta only.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "bond_sums.hpp"
+#include "parallel.hpp"
+#include "qbond/ordering.hpp"
+#include "step_work.hpp"
+#include "test_util.hpp"
+
+namespace qbond {
+namespace {
+
+// A lattice whose bonds mix both laws and both damping models (in runs of one and mixed), with
+// plastic rest lengths and, if asked, a seventeenth of them broken; perturbed, in the builder's
+// order or in scene loading's, where most bonds form affine blocks.
+World mixed_lattice(int nx, int ny, int nz, bool grouped, bool broken) {
+  World w = test::lattice(nx, ny, nz, 1000, 1e-3, 0.02, true, Vec3(0, 0, -9.81));
+  if (grouped) renumber(w, locality_order(w));
+  Rng rng{5};
+  const std::size_t nb = w.num_bonds();
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (b % 3 == 0 && 2 * b >= nb) {
+      w.model.law[b] = Law::inverse;
+      w.model.stiffness[b] *= w.model.eps[b] * w.model.eps[b];
+    }
+    if (4 * b < nb || (2 * b >= nb && b % 4 == 0)) w.model.damping_model[b] = DampingModel::isotropic;
+    w.state.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
+    if (broken && b % 17 == 5) w.state.alive[b] = 0;
+  }
+  test::perturb(w, 2e-3, 0.2);
+  return w;
+}
+
+// A step's projection with every quanta moving, the prescribed ones too.
+Projection random_projection(const World& w, std::uint64_t seed) {
+  Projection p;
+  p.resize(w.num_quanta());
+  Rng rng{seed};
+  auto r = [&] { return 2 * rng.uniform() - 1; };
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) {
+    p.dx[i] = 1e-4 * Vec3(r(), r(), r());
+    p.dv[i] = 0.1 * Vec3(r(), r(), r());
+  }
+  return p;
+}
+
+// A sum of n terms of one sign, each correctly rounded to within a few ulps, is within
+// (n + 4) ε of the exact sum in relative terms, whatever the order of addition.
+double sum_tolerance(std::size_t n, double plain) {
+  return static_cast<double>(n + 4) * std::numeric_limits<double>::epsilon() * std::abs(plain);
+}
+
+TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
+  for (bool grouped : {false, true}) {
+    for (bool broken : {false, true}) {
+      const std::string what = std::string(grouped ? "grouped" : "builder's order") + (broken ? ", broken" : "");
+      const World w = mixed_lattice(10, 4, 3, grouped, broken);
+      const Model& m = w.model;
+      const State& s = w.state;
+      const Projection p = random_projection(w, 3);
+      const double h = 1e-3, theta = 0.5, phi = 0.25;
+      double energy = 0, damping = 0;
+      for (std::size_t b = 0; b < w.num_bonds(); ++b) {
+        if (!s.alive[b]) continue;
+        const Index i = m.bond_i[b], j = m.bond_j[b];
+        energy += m.law_at(b, (s.x[j] - s.x[i]).norm(), s.rest[b]).U;
+        const Vec3 d = s.x[j] - s.x[i] + phi * (p.dx[j] - p.dx[i]);
+        const Vec3 v = (s.v[j] + theta * p.dv[j]) - (s.v[i] + theta * p.dv[i]);
+        const double vu = v.dot(d.normalized());
+        damping += h * m.damping[b] * (m.damping_model[b] == DampingModel::axial ? vu * vu : v.squaredNorm());
+      }
+      ASSERT_GT(energy, 0) << what;
+      ASSERT_GT(damping, 0) << what;
+      EXPECT_NEAR(bond_energy_sum(m, s, 1), energy, sum_tolerance(w.num_bonds(), energy)) << what;
+      EXPECT_NEAR(damping_work_sum(m, s, p, h, theta, phi, 1), damping, sum_tolerance(w.num_bonds(), damping)) << what;
+    }
+  }
+}
+
+TEST(EnergyLedger, BondSumsGiveTheSameBitsAtAnyThreadCount) {
+  // Enough bonds for reduce_chunks to split them among threads.
+  const World w = mixed_lattice(16, 12, 8, true, true);
+  ASSERT_GT(w.num_bonds(), 8 * kSumChunk);
+  const Projection p = random_projection(w, 4);
+  const double e1 = bond_energy_sum(w.model, w.state, 1);
+  const double d1 = damping_work_sum(w.model, w.state, p, 1e-3, 1, 0, 1);
+  for (int threads : {2, 3}) {
+    EXPECT_EQ(bond_energy_sum(w.model, w.state, threads), e1) << threads << " threads";
+    EXPECT_EQ(damping_work_sum(w.model, w.state, p, 1e-3, 1, 0, threads), d1) << threads << " threads";
+  }
+}
+
+// The anchors' work, by the trapezoid rule, summed over every bond with a prescribed end.
+double plain_anchor_work(const Model& m, const State& s, const Projection& p) {
+  double work = 0;
+  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
+    const Index i = m.bond_i[b], j = m.bond_j[b];
+    const bool ki = m.is_kinematic(i), kj = m.is_kinematic(j);
+    if (!s.alive[b] || (!ki && !kj)) continue;
+    const Vec3 d0 = s.x[j] - s.x[i], d1 = d0 + p.dx[j] - p.dx[i];
+    const Vec3 w = (s.v[j] + p.dv[j]) - (s.v[i] + p.dv[i]);  // θ = 1, φ = 0
+    const double T0 = m.law_at(b, d0.norm(), s.rest[b]).T, T1 = m.law_at(b, d1.norm(), s.rest[b]).T;
+    const Vec3 u0 = d0.normalized();
+    Vec3 fi = 0.5 * (T0 * u0 + T1 * d1.normalized());
+    fi += m.damping_model[b] == DampingModel::axial ? Vec3(m.damping[b] * w.dot(u0) * u0) : Vec3(m.damping[b] * w);
+    if (ki) work -= fi.dot(p.dx[i]);
+    if (kj) work += fi.dot(p.dx[j]);
+  }
+  return work;
+}
+
+TEST(EnergyLedger, AnchorWorkCountsEveryBondOfAMovingPrescribedQuantaOnce) {
+  World w = mixed_lattice(6, 4, 3, true, true);
+  // Prescribe a second layer too, so that bonds join prescribed quanta: both moving, one moving.
+  std::vector<Index> layer;
+  for (std::size_t i = 0; i < w.num_quanta(); ++i)
+    if (std::abs(w.state.x[i].x() - 0.01) < 5e-3) layer.push_back(static_cast<Index>(i));
+  w.prescribe(layer, Motion{});
+  const Model& m = w.model;
+  Projection p = random_projection(w, 6);
+  // Every third prescribed quanta stays put (an anchor); the others move.
+  std::size_t moving = 0, still = 0;
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) {
+    if (!m.is_kinematic(static_cast<Index>(i))) continue;
+    if (i % 3 == 0) {
+      p.dx[i] = Vec3::Zero();
+      ++still;
+    } else {
+      ++moving;
+    }
+  }
+  ASSERT_GT(moving, 10u);
+  ASSERT_GT(still, 10u);
+  Adjacency adj;
+  build_adjacency(m, w.state, adj);
+  const std::vector<Vec3> f_ext(w.num_quanta(), Vec3::Zero());
+  const double plain = plain_anchor_work(m, w.state, p);
+  ASSERT_GT(std::abs(plain), 0);
+  for (int threads : {1, 2}) {
+    const StepWork sw = step_work(m, w.state, adj, p, f_ext, 1e-3, 1, 0, false, threads);
+    EXPECT_NEAR(sw.anchors, plain, 1e-12 * std::abs(plain)) << threads << " threads";
+  }
+}
+
+}  // namespace
+}  // namespace qbond
