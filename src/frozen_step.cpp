@@ -410,22 +410,57 @@ QBOND_VECTOR_CLONES void frozen_affine_scatter(const BondRun& run, const FrozenT
   }
 }
 
-// v_i + Δv_i = A_ii⁻¹ b_i for quanta [lo, hi), written over b_i: the adjugate of the symmetric
-// block (positive definite) over its determinant, in a vector loop over the step's arrays.
-// Kinematic rows are solved too, and not used.
-QBOND_VECTOR_CLONES void solve_rows(const StepArrays& a, std::size_t lo, std::size_t hi) {
+// Each row's start for quanta [lo, hi): A_ii = m_i I and b_i = m_i v_i + h f_i (Eq. 12 before
+// any bond), and the structure-of-arrays copies of x and v the affine runs load.
+QBOND_VECTOR_CLONES void start_rows(const Model& model, const State& state, const std::vector<Vec3>& f_ext, double h,
+                                    const StepArrays& a, std::size_t lo, std::size_t hi) {
+  const double* mass = model.mass.data();
+  const double* x = state.x.data()->data();
+  const double* v = state.v.data()->data();
+  const double* f = f_ext.data()->data();
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    const double m = mass[q];
+    QBOND_UNROLL(3)
+    for (std::size_t c = 0; c < 3; ++c) {
+      a.row[c][q] = m;
+      a.row[3 + c][q] = 0;
+      a.row[6 + c][q] = m * v[3 * q + c] + h * f[3 * q + c];
+      a.x[c][q] = x[3 * q + c];
+      a.v[c][q] = v[3 * q + c];
+    }
+  }
+}
+
+// v_i + Δv_i = A_ii⁻¹ b_i for quanta [lo, hi) — the adjugate of the symmetric block (positive
+// definite) over its determinant — and Δv_i, Δx_i = h (v_i + Δv_i) written out, in one vector
+// loop. Kinematic quanta get zeros (their rows are not theirs to solve): project_kinematic then
+// writes the prescribed ones' motion.
+QBOND_VECTOR_CLONES void solve_rows(const Model& model, const State& state, const StepArrays& a, double h,
+                                    std::size_t lo, std::size_t hi, Projection& out) {
+  const double* inv_mass = model.inv_mass.data();
   const double *a0 = a.row[0], *a1 = a.row[1], *a2 = a.row[2], *a3 = a.row[3], *a4 = a.row[4], *a5 = a.row[5];
-  double *bx = a.row[6], *by = a.row[7], *bz = a.row[8];
+  const double *bx = a.row[6], *by = a.row[7], *bz = a.row[8];
+  const double* v = state.v.data()->data();
+  double* dv = out.dv.data()->data();
+  double* dx = out.dx.data()->data();
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
     const double c00 = a1[q] * a2[q] - a5[q] * a5[q], c11 = a0[q] * a2[q] - a4[q] * a4[q];
     const double c22 = a0[q] * a1[q] - a3[q] * a3[q], c01 = a4[q] * a5[q] - a3[q] * a2[q];
     const double c02 = a3[q] * a5[q] - a4[q] * a1[q], c12 = a3[q] * a4[q] - a0[q] * a5[q];
     const double inv_det = 1.0 / (a0[q] * c00 + a3[q] * c01 + a4[q] * c02);
     const double x = bx[q], y = by[q], z = bz[q];
-    bx[q] = inv_det * (c00 * x + c01 * y + c02 * z);
-    by[q] = inv_det * (c01 * x + c11 * y + c12 * z);
-    bz[q] = inv_det * (c02 * x + c12 * y + c22 * z);
+    auto write = [&](std::size_t c, double v1) QBOND_LAMBDA_INLINE {
+      dv[3 * q + c] = v1 - v[3 * q + c];
+      dx[3 * q + c] = h * v1;
+    };
+    write(0, inv_det * (c00 * x + c01 * y + c02 * z));
+    write(1, inv_det * (c01 * x + c11 * y + c12 * z));
+    write(2, inv_det * (c02 * x + c12 * y + c22 * z));
   }
+  // After the vector loop, not a select in it (GCC would mask the strided loads of v, which it
+  // cannot vectorise).
+  for (std::size_t q = lo; q < hi; ++q)
+    if (inv_mass[q] == 0) out.dv[q] = out.dx[q] = Vec3::Zero();
 }
 
 }  // namespace
@@ -436,7 +471,6 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   const std::size_t n = model.num_quanta();
   const double h = ctx.h;
   out.resize(n);
-  project_kinematic(model, state, ctx, out);
   part.update(model, adj, threads);
   // Arrays 3 cache lines more than a multiple of 4 KiB apart: the same quanta's entries of the 15
   // arrays then fall in different sets of the first-level cache (at a multiple of 4 KiB they
@@ -445,18 +479,11 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   arrays.resize(15 * stride);
   StepArrays a;
   for (std::size_t e = 0; e < 15; ++e) (e < 9 ? a.row[e] : e < 12 ? a.x[e - 9] : a.v[e - 12]) = arrays.data() + e * stride;
-  parallel_for(n, threads, [&](std::size_t i) {
-    const double m = model.mass[i];
-    const Vec3& v = state.v[i];
-    const Vec3 b = m * v + h * f_ext[i];
-    a.row[0][i] = a.row[1][i] = a.row[2][i] = m;
-    a.row[3][i] = a.row[4][i] = a.row[5][i] = 0;
-    for (int c = 0; c < 3; ++c) {
-      a.row[6 + c][i] = b[c];
-      a.x[c][i] = state.x[i][c];
-      a.v[c][i] = v[c];
-    }
-  });
+  constexpr std::size_t kChunk = 1024;
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  parallel_for(chunks, threads, [&](std::size_t c) {
+    start_rows(model, state, f_ext, h, a, c * kChunk, std::min(n, (c + 1) * kChunk));
+  }, kParallelMin / kChunk);
   for_each_bond_run<FrozenScratch>(part, [&](const BondRun& run, FrozenScratch& s) {
     // The same runs for every partition (bond_partition.hpp), so the same path for each bond.
     const int kind = run.affine ? uniform_linear(model, run) : -1;
@@ -469,17 +496,10 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     }
   });
   // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-  constexpr std::size_t kChunk = 1024;
-  parallel_for((n + kChunk - 1) / kChunk, threads, [&](std::size_t c) {
-    const std::size_t lo = c * kChunk, hi = std::min(n, lo + kChunk);
-    solve_rows(a, lo, hi);
-    for (std::size_t i = lo; i < hi; ++i) {
-      if (model.is_kinematic(static_cast<Index>(i))) continue;
-      const Vec3 v1(a.row[6][i], a.row[7][i], a.row[8][i]);
-      out.dv[i] = v1 - state.v[i];
-      out.dx[i] = h * v1;
-    }
+  parallel_for(chunks, threads, [&](std::size_t c) {
+    solve_rows(model, state, a, h, c * kChunk, std::min(n, (c + 1) * kChunk), out);
   }, kParallelMin / kChunk);
+  project_kinematic(model, state, ctx, out);
 }
 
 }  // namespace qbond
