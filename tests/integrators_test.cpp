@@ -240,6 +240,25 @@ TEST(ImplicitStep, MatchesThePlainAssemblyOnARandomLattice) {
   }
 }
 
+// A quanta of zero mass is prescribed without a motion: it stays where it is, whatever bonds pull
+// on it (the frozen step solves every row in one vector loop and must not apply that one's).
+TEST(Integrators, AZeroMassQuantaStaysPut) {
+  World w = test::lattice(4, 3, 3, 1000, 1e-3, 0.02, false, Vec3(0, 0, -9.81));
+  const Index fixed = w.add_quanta(Vec3(-0.01, 0, 0), Vec3::Zero(), 0.0);
+  w.add_bond(fixed, 0, {.law = Law::linear, .stiffness = 1000, .damping = 0.02});
+  const Index loose = w.add_quanta(Vec3(0.5, 0.5, 0.5), Vec3(1, 0, 0), 0.0);  // no bonds: no row to solve
+  test::perturb(w, 1e-3, 0.1);
+  for (const IntegratorConfig& cfg : {hybrid(NeighbourModel::frozen), hybrid(NeighbourModel::sweep),
+                                      test::config(IntegratorType::velocity_verlet), default_integrator()}) {
+    const Projection p = test::project_once(w, cfg, 1e-3);
+    for (Index q : {fixed, loose}) {
+      EXPECT_EQ(p.dx[q], Vec3::Zero()) << to_string(cfg.type) << ", quanta " << q;
+      EXPECT_EQ(p.dv[q], Vec3::Zero()) << to_string(cfg.type) << ", quanta " << q;
+    }
+    EXPECT_TRUE(p.dv[0].allFinite() && p.dv[0] != Vec3::Zero()) << to_string(cfg.type);
+  }
+}
+
 TEST(HybridImplicit, SweepConvergesToCoupledAsIterationsGrow) {
   const World w = stressed_lattice();
   const Projection ref = test::project_once(w, coupled(CoupledSolver::ldlt), kStiffStep);
