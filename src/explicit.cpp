@@ -25,7 +25,7 @@ class ExplicitIntegrator final : public Integrator {
     out.resize(n);
     project_kinematic(model, state, ctx, out);
     part_.update(model, adj, config_.threads);
-    accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, a1_);
+    accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, forces_, a1_);
     switch (config_.type) {
       case IntegratorType::explicit_euler:
         for_free(model, [&](std::size_t i) { set_free(out, i, h * state.v[i], h * a1_[i]); });
@@ -42,7 +42,7 @@ class ExplicitIntegrator final : public Integrator {
         stage(model, state, out, 1.0, [&](std::size_t i) {
           return std::pair{Vec3(h * state.v[i] + 0.5 * h * h * a1_[i]), Vec3(h * a1_[i])};
         });
-        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, a2_);
+        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, forces_, a2_);
         for_free(model, [&](std::size_t i) { set_free(out, i, xs_[i] - state.x[i], 0.5 * h * (a1_[i] + a2_[i])); });
         break;
       }
@@ -53,16 +53,16 @@ class ExplicitIntegrator final : public Integrator {
           return std::pair{Vec3(0.5 * h * state.v[i]), Vec3(0.5 * h * a1_[i])};
         });
         v2_ = vs_;
-        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, a2_);
+        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, forces_, a2_);
         stage(model, state, out, 0.5, [&](std::size_t i) {
           return std::pair{Vec3(0.5 * h * v2_[i]), Vec3(0.5 * h * a2_[i])};
         });
         v3_ = vs_;
-        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, a3_);
+        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, forces_, a3_);
         stage(model, state, out, 1.0, [&](std::size_t i) {
           return std::pair{Vec3(h * v3_[i]), Vec3(h * a3_[i])};
         });
-        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, a4_);
+        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, forces_, a4_);
         for_free(model, [&](std::size_t i) {
           set_free(out, i, (h / 6) * (state.v[i] + 2 * v2_[i] + 2 * v3_[i] + vs_[i]),
                    (h / 6) * (a1_[i] + 2 * a2_[i] + 2 * a3_[i] + a4_[i]));
@@ -110,6 +110,7 @@ class ExplicitIntegrator final : public Integrator {
 
   std::vector<Vec3> a1_, a2_, a3_, a4_, xs_, vs_, v2_, v3_;
   BondPartition part_;
+  ForceArrays forces_;
 };
 
 }  // namespace

@@ -1,6 +1,10 @@
 #include "forces.hpp"
 
+#include <cmath>
+
+#include "affine_rows.hpp"
 #include "parallel.hpp"
+#include "simd.hpp"
 
 namespace qbond {
 
@@ -18,34 +22,163 @@ void bond_forces(const Model& model, const State& state, const std::vector<Vec3>
   });
 }
 
-void add_bond_forces(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
-                     const std::vector<Vec3>& v, std::vector<Vec3>& f) {
-  // Raw pointers held in the loop: through the containers the compiler reloads them every bond.
-  const Index* bi = model.bond_i.data();
-  const Index* bj = model.bond_j.data();
-  const Law* law = model.law.data();
-  const DampingModel* dm = model.damping_model.data();
-  const double* k = model.stiffness.data();
-  const double* D = model.damping.data();
-  const double* eps = model.eps.data();
-  const double* L = state.rest.data();
-  const Vec3* xp = x.data();
-  const Vec3* vp = v.data();
-  Vec3* fp = f.data();
-  for_each_bond(part, model, [=](Index b, bool own_i, bool own_j) {
-    const Index i = bi[b], j = bj[b];
-    const Vec3 fb = bond_force_on_i(law[b], dm[b], xp[j] - xp[i], vp[j] - vp[i], L[b], k[b], D[b], eps[b]);
-    if (own_i) fp[i] += fb;
-    if (own_j) fp[j] -= fb;
+namespace {
+
+// The force pass's per-quanta arrays, as structure of arrays (ForceArrays::data): the force sums f
+// and copies of the positions and velocities from which affine runs load contiguous vectors.
+struct ForceRows {
+  double* f[3];
+  double* x[3];
+  double* v[3];
+};
+
+// A run's bond forces, by bond k of the run: on bond_i and on bond_j (its negative); −0.0 in the
+// lanes past an affine run.
+struct ForceTerms {
+  alignas(64) double fi[3][kBondRun], fj[3][kBondRun];
+};
+
+// f = f_ext and the copies of x and v, for quanta [lo, hi).
+QBOND_VECTOR_CLONES void start_forces(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
+                                      const std::vector<Vec3>& f_ext, const ForceRows& rows, std::size_t lo,
+                                      std::size_t hi) {
+  const double* xp = x.data()->data();
+  const double* vp = v.data()->data();
+  const double* fp = f_ext.data()->data();
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
+      rows.f[c][q] = fp[3 * q + c];
+      rows.x[c][q] = xp[3 * q + c];
+      rows.v[c][q] = vp[3 * q + c];
+    }
+  }
+}
+
+// An affine run of linear bonds with one damping model (kAxial: axial): bond_force_on_i's
+// arithmetic in one vector loop over the run's whole vectors, then both ends' sums updated by
+// vector loops in bond order (affine_rows.hpp).
+template <bool kAxial>
+QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& state, const ForceRows& rows,
+                                              const BondRun& run, ForceTerms& t) {
+  const double* k = model.stiffness.data() + run.first;
+  const double* L = state.rest.data() + run.first;
+  const double* D = model.damping.data() + run.first;
+  const double *xi[3], *xj[3], *vi[3], *vj[3];
+  for (int c = 0; c < 3; ++c) {
+    xi[c] = rows.x[c] + run.i0;
+    xj[c] = rows.x[c] + run.j0;
+    vi[c] = rows.v[c] + run.i0;
+    vj[c] = rows.v[c] + run.j0;
+  }
+  for (std::size_t q0 = 0; q0 < affine_lanes(run); q0 += 8) {
+    QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {  // kVectorLoop
+      const std::size_t q = q0 + l;
+      double d[3], w[3];
+      QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+        d[c] = xj[c][q] - xi[c][q];
+        w[c] = vj[c][q] - vi[c][q];
+      }
+      const double r = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+      const bool ok = r > 0, live = q < run.count;
+      const double inv_r = 1.0 / (ok ? r : 1.0);
+      const double T = k[q] * (r - L[q]);
+      const double wd = w[0] * d[0] + w[1] * d[1] + w[2] * d[2];
+      const double s = kAxial ? (T + D[q] * wd * inv_r) * inv_r : T * inv_r;
+      QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+        const double f = ok ? (kAxial ? s * d[c] : s * d[c] + D[q] * w[c]) : 0.0;
+        t.fi[c][q] = live ? f : -0.0;
+        t.fj[c][q] = live ? -f : -0.0;
+      }
+    }
+  }
+}
+
+QBOND_VECTOR_CLONES void affine_forces(const Model& model, const State& state, const ForceRows& rows,
+                                       const BondRun& run, bool axial, ForceTerms& t) {
+  if (axial)
+    linear_affine_forces<true>(model, state, rows, run, t);
+  else
+    linear_affine_forces<false>(model, state, rows, run, t);
+  const double* fi[3] = {t.fi[0], t.fi[1], t.fi[2]};
+  const double* fj[3] = {t.fj[0], t.fj[1], t.fj[2]};
+  add_affine_run(run, rows.f, fi, fj);
+}
+
+// Any other run, bond by bond: each bond's force added to the ends the part owns.
+void run_forces(const Model& model, const State& state, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
+                const BondRun& run, const ForceRows& rows) {
+  for (Index k = 0; k < run.count; ++k) {
+    const Index b = run.bond(k), i = model.bond_i[b], j = model.bond_j[b];
+    const Vec3 fb = bond_force_on_i(model.law[b], model.damping_model[b], x[j] - x[i], v[j] - v[i], state.rest[b],
+                                    model.stiffness[b], model.damping[b], model.eps[b]);
+    for (int c = 0; c < 3; ++c) {
+      if (run.owns(i)) rows.f[c][i] += fb[c];
+      if (run.owns(j)) rows.f[c][j] -= fb[c];
+    }
+  }
+}
+
+// out = f / m (per_mass: inv_mass 0, kinematic, gives 0) or f, for quanta [lo, hi).
+QBOND_VECTOR_CLONES void write_out(const Model& model, const ForceRows& rows, bool per_mass, std::size_t lo,
+                                   std::size_t hi, std::vector<Vec3>& out) {
+  const double* inv_mass = model.inv_mass.data();
+  double* o = out.data()->data();
+  if (per_mass) {
+    QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+      QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) o[3 * q + c] = rows.f[c][q] * inv_mass[q];
+    }
+  } else {
+    QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+      QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) o[3 * q + c] = rows.f[c][q];
+    }
+  }
+}
+
+// f_ext + the bond forces at x and v, divided by the masses if per_mass, into out.
+void force_pass(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
+                const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, bool per_mass,
+                ForceArrays& work, std::vector<Vec3>& out) {
+  const std::size_t n = model.num_quanta();
+  // Arrays 3 cache lines more than a multiple of 4 KiB apart (frozen_step.cpp: first-level cache sets).
+  const std::size_t stride = (n + 511) / 512 * 512 + 24;
+  work.data.resize(9 * stride);
+  ForceRows rows;
+  for (int c = 0; c < 3; ++c) {
+    rows.f[c] = work.data.data() + c * stride;
+    rows.x[c] = work.data.data() + (3 + c) * stride;
+    rows.v[c] = work.data.data() + (6 + c) * stride;
+  }
+  constexpr std::size_t kChunk = 1024;
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  parallel_for(chunks, threads, [&](std::size_t c) {
+    start_forces(x, v, f_ext, rows, c * kChunk, std::min(n, (c + 1) * kChunk));
+  }, kParallelMin / kChunk);
+  for_each_bond_run<ForceTerms>(part, [&](const BondRun& run, ForceTerms& t) {
+    // The same runs for every partition (bond_partition.hpp), so the same path for each bond.
+    const int kind = run.affine ? uniform_linear(model, run) : -1;
+    if (kind >= 0)
+      affine_forces(model, state, rows, run, kind == 0, t);
+    else
+      run_forces(model, state, x, v, run, rows);
   });
+  out.resize(n);
+  parallel_for(chunks, threads, [&](std::size_t c) {
+    write_out(model, rows, per_mass, c * kChunk, std::min(n, (c + 1) * kChunk), out);
+  }, kParallelMin / kChunk);
+}
+
+}  // namespace
+
+void bond_force_sums(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
+                     const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, ForceArrays& work,
+                     std::vector<Vec3>& f) {
+  force_pass(model, state, part, x, v, f_ext, threads, false, work, f);
 }
 
 void accelerations(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
-                   const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, std::vector<Vec3>& a) {
-  a.resize(model.num_quanta());
-  parallel_for(a.size(), threads, [&](std::size_t i) { a[i] = f_ext[i]; });
-  add_bond_forces(model, state, part, x, v, a);
-  parallel_for(a.size(), threads, [&](std::size_t i) { a[i] *= model.inv_mass[i]; });
+                   const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, ForceArrays& work,
+                   std::vector<Vec3>& a) {
+  force_pass(model, state, part, x, v, f_ext, threads, true, work, a);
 }
 
 }  // namespace qbond

@@ -13,14 +13,23 @@ namespace qbond {
 void bond_forces(const Model& model, const State& state, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
                  int threads, std::vector<Vec3>& force);
 
-// f_i += Σ over i's alive bonds of ±(the bond's force on its first end) at x and v, in one pass
-// over the bonds (bond_partition.hpp): each force computed once and added to both ends, each
-// quanta's sum in bond order for any thread count.
-void add_bond_forces(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
-                     const std::vector<Vec3>& v, std::vector<Vec3>& f);
+// What accelerations keeps from call to call (so that a step allocates nothing): its per-quanta
+// arrays.
+struct ForceArrays {
+  std::vector<double> data;
+};
 
-// a = (f_bonds(x, v) + f_ext) / m for free quanta, 0 for kinematic ones.
+// f = f_ext + Σ over each quanta's alive bonds of ±(the bond's force on its first end) at x and
+// v, in one pass over the bonds (bond_partition.hpp): each force computed once and added to both
+// ends, each quanta's sum in bond order for any thread count; affine runs of linear bonds by
+// vector loops (affine_rows.hpp).
+void bond_force_sums(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
+                     const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, ForceArrays& work,
+                     std::vector<Vec3>& f);
+
+// a = (f_ext + the bond forces at x, v) / m for free quanta, 0 for kinematic ones (bond_force_sums).
 void accelerations(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
-                   const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, std::vector<Vec3>& a);
+                   const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, ForceArrays& work,
+                   std::vector<Vec3>& a);
 
 }  // namespace qbond

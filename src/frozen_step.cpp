@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <cstring>
 
+#include "affine_rows.hpp"
 #include "implicit_system.hpp"
 #include "simd.hpp"
 
@@ -202,15 +203,6 @@ struct FrozenScratch {
   BondStretch stretch;
 };
 
-// Bonds an affine run's loops take: its count rounded up to whole vectors of 8 (for_each_bond_run's
-// affine runs have that many bonds, and the step's arrays are padded), so that no loop has a
-// remainder. The loops marked kVectorLoop run over them 8 lanes at a time, an inner loop of a
-// known trip count, which the compiler vectorises with no remainder, profitability check or
-// scalar fallback (it does not see that the rounded count is a multiple of 8). The lanes past the
-// run get terms of −0.0, which added to a row leave its bits as they are (x + (−0.0) = x for
-// every double x, +0.0 included).
-inline Index affine_lanes(const BondRun& run) { return (run.count + 7) & ~Index{7}; }
-
 // Bond q's terms (linearise_bond's arithmetic) from its tension T, slope dT, damping (ca axial, cb
 // isotropic) and geometry; an affine run's also from its ends' velocities vi, vj, and only if the
 // lane is one of its bonds (live), else −0.0. !kIsotropic: cb is known to be 0, and its term is
@@ -242,28 +234,6 @@ QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, dou
     t.sj[q] = sj;
     t.hcb[q] = hcb;
   }
-}
-
-// Whether every bond of an affine run's whole vectors has the linear law, and one damping model:
-// 0 all axial, 1 all isotropic, −1 otherwise (the run then takes the per-bond path). Read 8
-// one-byte enums at a time.
-QBOND_VECTOR_INLINE int uniform_linear(const Model& model, const BondRun& run) {
-  static_assert(sizeof(Law) == 1 && sizeof(DampingModel) == 1 && static_cast<int>(Law::linear) == 0 &&
-                static_cast<int>(DampingModel::axial) == 0 && static_cast<int>(DampingModel::isotropic) == 1);
-  const auto* law = reinterpret_cast<const unsigned char*>(model.law.data() + run.first);
-  const auto* dm = reinterpret_cast<const unsigned char*>(model.damping_model.data() + run.first);
-  std::uint64_t laws = 0, any_isotropic = 0, all_isotropic = ~std::uint64_t{0};
-  for (std::size_t q = 0; q < affine_lanes(run); q += 8) {
-    std::uint64_t l, d;
-    std::memcpy(&l, law + q, 8);
-    std::memcpy(&d, dm + q, 8);
-    laws |= l;
-    any_isotropic |= d;
-    all_isotropic &= d;
-  }
-  if (laws != 0) return -1;
-  if (any_isotropic == 0) return 0;
-  return all_isotropic == 0x0101010101010101 ? 1 : -1;
 }
 
 // An affine run of linear bonds with one damping model (kAxial: axial): measured and formed in
@@ -357,57 +327,14 @@ QBOND_VECTOR_CLONES void frozen_scatter(const BondRun& run, const RunBonds& g, c
   stretch = s;
 }
 
-// Rows base + k, k in [k0, k1), += bond k's terms: B and r (ri or rj, the end's right-hand side).
-QBOND_VECTOR_INLINE void add_to_rows(const StepArrays& a, Index base, std::size_t k0, std::size_t k1,
-                                     const FrozenTerms& t, const double (&r)[3][kBondRun]) {
-  double *a0 = a.row[0] + base, *a1 = a.row[1] + base, *a2 = a.row[2] + base;
-  double *a3 = a.row[3] + base, *a4 = a.row[4] + base, *a5 = a.row[5] + base;
-  double *bx = a.row[6] + base, *by = a.row[7] + base, *bz = a.row[8] + base;
-  auto add = [&](std::size_t k) QBOND_LAMBDA_INLINE {
-    a0[k] += t.B[0][k];
-    a1[k] += t.B[1][k];
-    a2[k] += t.B[2][k];
-    a3[k] += t.B[3][k];
-    a4[k] += t.B[4][k];
-    a5[k] += t.B[5][k];
-    bx[k] += r[0][k];
-    by[k] += r[1][k];
-    bz[k] += r[2][k];
-  };
-  if (k0 == 0 && k1 % 8 == 0) {  // whole vectors: loops of a known trip count (kVectorLoop)
-    for (std::size_t k8 = 0; k8 < k1; k8 += 8) QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) add(k8 + l);
-  } else {
-    QBOND_SIMD for (std::size_t k = k0; k < k1; ++k) add(k);
-  }
-}
-
-// One end of an affine run, whose first quanta is base: its rows the part owns += their bonds'
-// terms, in whole vectors (the padded lanes add −0.0) when the part owns every row they reach.
-QBOND_VECTOR_INLINE void add_affine_end(const BondRun& run, Index base, const FrozenTerms& t,
-                                        const double (&r)[3][kBondRun], const StepArrays& a) {
-  if (base >= run.lo && base + affine_lanes(run) <= run.hi) {
-    add_to_rows(a, base, 0, affine_lanes(run), t, r);
-  } else {
-    const Index k0 = run.lo > base ? std::min(run.lo - base, run.count) : 0;
-    const Index k1 = run.hi > base ? std::min(run.hi - base, run.count) : 0;
-    add_to_rows(a, base, k0, k1, t, r);
-  }
-}
-
-// Adds an affine run's terms to the rows it owns, the end with the higher quanta numbers first: a
-// row q = i0 + k = j0 + k' (j0 > i0) is bond_j of bond k' = k − (j0 − i0) before it is bond_i of
-// bond k, so it receives them in bond order, as a bond-by-bond pass would and whatever the run's
-// pieces. The part's stretch ends before the run (the run's bonds have distinct bond_i).
+// Adds an affine run's terms to the rows it owns (add_affine_run: in bond order). The part's
+// stretch ends before the run (the run's bonds have distinct bond_i).
 QBOND_VECTOR_CLONES void frozen_affine_scatter(const BondRun& run, const FrozenTerms& t, const StepArrays& a,
                                                BondStretch& stretch) {
   stretch.end([&](Index q, const double(&sum)[9]) { a.add(q, sum); });
-  if (run.j0 > run.i0) {
-    add_affine_end(run, run.j0, t, t.rj, a);
-    add_affine_end(run, run.i0, t, t.ri, a);
-  } else {
-    add_affine_end(run, run.i0, t, t.ri, a);
-    add_affine_end(run, run.j0, t, t.rj, a);
-  }
+  const double* ti[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2]};
+  const double* tj[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.rj[0], t.rj[1], t.rj[2]};
+  add_affine_run(run, a.row, ti, tj);
 }
 
 // Each row's start for quanta [lo, hi): A_ii = m_i I and b_i = m_i v_i + h f_i (Eq. 12 before

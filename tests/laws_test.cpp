@@ -133,12 +133,14 @@ TEST(Laws, NewtonsThirdLawHoldsExactly) {
   for (Law law : {Law::linear, Law::inverse}) {
     World w = test::lattice(3, 3, 3, 500, 1e-3, 0.2, false, Vec3::Zero(), law);
     test::perturb(w, 1e-3, 0.1);
-    std::vector<Vec3> f(w.num_quanta(), Vec3::Zero());
+    const std::vector<Vec3> none(w.num_quanta(), Vec3::Zero());
+    std::vector<Vec3> f;
     Adjacency adj;
     build_adjacency(w.model, w.state, adj);
     BondPartition part;
     part.update(w.model, adj, 1);
-    add_bond_forces(w.model, w.state, part, w.state.x, w.state.v, f);
+    ForceArrays work;
+    bond_force_sums(w.model, w.state, part, w.state.x, w.state.v, none, 1, work, f);
     Vec3 sum = Vec3::Zero();
     double scale = 0;
     for (const Vec3& fi : f) {

@@ -1,0 +1,93 @@
+#pragma once
+// Pieces the bond kernels share for affine runs (bond_partition.hpp: bond first + k joins i0 + k
+// and j0 + k): which runs take the vector path, and adding a run's per-bond terms to both ends'
+// per-quanta rows (structure of arrays) by vector loops, in bond order. Inlined into each
+// kernel's clones (simd.hpp). Used by the frozen hybrid step (frozen_step.cpp) and the explicit
+// force pass (forces.cpp).
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+
+#include "bond_partition.hpp"
+#include "simd.hpp"
+
+namespace qbond {
+
+// Bonds an affine run's loops take: its count rounded up to whole vectors of 8 (for_each_bond_run's
+// affine runs have that many bonds, and the kernels' arrays are padded), so that no loop has a
+// remainder. The loops marked kVectorLoop run over them 8 lanes at a time, an inner loop of a
+// known trip count, which the compiler vectorises with no remainder, profitability check or
+// scalar fallback (it does not see that the rounded count is a multiple of 8). The lanes past the
+// run get terms of −0.0, which added to a row leave its bits as they are (x + (−0.0) = x for
+// every double x, +0.0 included).
+inline Index affine_lanes(const BondRun& run) { return (run.count + 7) & ~Index{7}; }
+
+// Whether every bond of an affine run's whole vectors has the linear law, and one damping model:
+// 0 all axial, 1 all isotropic, −1 otherwise (the run then takes the per-bond path). Read 8
+// one-byte enums at a time.
+QBOND_VECTOR_INLINE int uniform_linear(const Model& model, const BondRun& run) {
+  static_assert(sizeof(Law) == 1 && sizeof(DampingModel) == 1 && static_cast<int>(Law::linear) == 0 &&
+                static_cast<int>(DampingModel::axial) == 0 && static_cast<int>(DampingModel::isotropic) == 1);
+  const auto* law = reinterpret_cast<const unsigned char*>(model.law.data() + run.first);
+  const auto* dm = reinterpret_cast<const unsigned char*>(model.damping_model.data() + run.first);
+  std::uint64_t laws = 0, any_isotropic = 0, all_isotropic = ~std::uint64_t{0};
+  for (std::size_t q = 0; q < affine_lanes(run); q += 8) {
+    std::uint64_t l, d;
+    std::memcpy(&l, law + q, 8);
+    std::memcpy(&d, dm + q, 8);
+    laws |= l;
+    any_isotropic |= d;
+    all_isotropic &= d;
+  }
+  if (laws != 0) return -1;
+  if (any_isotropic == 0) return 0;
+  return all_isotropic == 0x0101010101010101 ? 1 : -1;
+}
+
+// rows[e][base + k] += terms[e][k] for k in [k0, k1) and each of the N rows.
+template <std::size_t N>
+QBOND_VECTOR_INLINE void add_to_rows(double* const (&rows)[N], Index base, std::size_t k0, std::size_t k1,
+                                     const double* const (&terms)[N]) {
+  double* r[N];
+  for (std::size_t e = 0; e < N; ++e) r[e] = rows[e] + base;
+  auto add = [&](std::size_t k) QBOND_LAMBDA_INLINE {
+    QBOND_UNROLL(9) for (std::size_t e = 0; e < N; ++e) r[e][k] += terms[e][k];
+  };
+  if (k0 == 0 && k1 % 8 == 0) {  // whole vectors: loops of a known trip count (kVectorLoop)
+    for (std::size_t k8 = 0; k8 < k1; k8 += 8) QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) add(k8 + l);
+  } else {
+    QBOND_SIMD for (std::size_t k = k0; k < k1; ++k) add(k);
+  }
+}
+
+// One end of an affine run, whose first quanta is base: its rows the part owns += their bonds'
+// terms, in whole vectors (the padded lanes add −0.0) when the part owns every row they reach.
+template <std::size_t N>
+QBOND_VECTOR_INLINE void add_affine_end(const BondRun& run, Index base, double* const (&rows)[N],
+                                        const double* const (&terms)[N]) {
+  if (base >= run.lo && base + affine_lanes(run) <= run.hi) {
+    add_to_rows(rows, base, 0, affine_lanes(run), terms);
+  } else {
+    const Index k0 = run.lo > base ? std::min(run.lo - base, run.count) : 0;
+    const Index k1 = run.hi > base ? std::min(run.hi - base, run.count) : 0;
+    add_to_rows(rows, base, k0, k1, terms);
+  }
+}
+
+// Adds an affine run's terms (ti on bond_i's rows, tj on bond_j's) to the rows its part owns, the
+// end with the higher quanta numbers first: a row q = i0 + k = j0 + k' (j0 > i0) is bond_j of
+// bond k' = k − (j0 − i0) before it is bond_i of bond k, so it receives them in bond order, as a
+// bond-by-bond pass would and whatever the run's pieces: the same bits for any thread count.
+template <std::size_t N>
+QBOND_VECTOR_INLINE void add_affine_run(const BondRun& run, double* const (&rows)[N], const double* const (&ti)[N],
+                                        const double* const (&tj)[N]) {
+  if (run.j0 > run.i0) {
+    add_affine_end(run, run.j0, rows, tj);
+    add_affine_end(run, run.i0, rows, ti);
+  } else {
+    add_affine_end(run, run.i0, rows, ti);
+    add_affine_end(run, run.j0, rows, tj);
+  }
+}
+
+}  // namespace qbond
