@@ -202,17 +202,10 @@ TEST(ImplicitStep, MatchesThePlainAssemblyOnARandomLattice) {
       World w = test::lattice(10, 4, 3, 1000, 1e-3, 0.02, true, Vec3(0, 0, -9.81));
       if (grouped) renumber(w, locality_order(w));
       ASSERT_GT(w.num_bonds(), 4 * kBondRun);
+      // The frozen step's fused path for runs of one law and damping model, and its general one.
+      test::mix_bonds(w);
       Rng rng{11};
       for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-        if (b % 3 == 0 && 2 * b >= w.num_bonds()) {
-          // Strength F = k ε²: the same slope at rest as the linear bonds (F/ε²), softening past ε.
-          w.model.law[b] = Law::inverse;
-          w.model.stiffness[b] *= w.model.eps[b] * w.model.eps[b];
-        }
-        // Isotropic damping on the first quarter, axial on the second, mixed on the second half:
-        // the frozen step's fused path for runs of one law and damping model, and its general one.
-        if (4 * b < w.num_bonds() || (2 * b >= w.num_bonds() && b % 4 == 0))
-          w.model.damping_model[b] = DampingModel::isotropic;
         w.state.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
         if (broken && b % 17 == 5) w.state.alive[b] = 0;
       }

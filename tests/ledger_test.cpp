@@ -16,20 +16,15 @@
 namespace qbond {
 namespace {
 
-// A lattice whose bonds mix both laws and both damping models (in runs of one and mixed), with
-// plastic rest lengths and, if asked, a seventeenth of them broken; perturbed, in the builder's
-// order or in scene loading's, where most bonds form affine blocks.
+// A lattice whose bonds mix both laws and both damping models (test::mix_bonds), with plastic
+// rest lengths and, if asked, a seventeenth of them broken; perturbed, in the builder's order or
+// in scene loading's, where most bonds form affine blocks.
 World mixed_lattice(int nx, int ny, int nz, bool grouped, bool broken) {
   World w = test::lattice(nx, ny, nz, 1000, 1e-3, 0.02, true, Vec3(0, 0, -9.81));
   if (grouped) renumber(w, locality_order(w));
+  test::mix_bonds(w);
   Rng rng{5};
-  const std::size_t nb = w.num_bonds();
-  for (std::size_t b = 0; b < nb; ++b) {
-    if (b % 3 == 0 && 2 * b >= nb) {
-      w.model.law[b] = Law::inverse;
-      w.model.stiffness[b] *= w.model.eps[b] * w.model.eps[b];
-    }
-    if (4 * b < nb || (2 * b >= nb && b % 4 == 0)) w.model.damping_model[b] = DampingModel::isotropic;
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) {
     w.state.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
     if (broken && b % 17 == 5) w.state.alive[b] = 0;
   }

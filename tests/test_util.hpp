@@ -40,6 +40,22 @@ inline World lattice(int nx, int ny, int nz, double k, double m, double D, bool 
   return w;
 }
 
+// Mixes a lattice's bonds so that the bond kernels meet every case: on the second half, every third
+// bond takes the inverse law (strength F = k ε²: the same slope at rest as the linear ones);
+// isotropic damping on the first quarter and on every fourth bond of the second half, axial
+// elsewhere. The first half then has runs of one law and damping model (the vector paths), the
+// second half mixed ones.
+inline void mix_bonds(World& w) {
+  const std::size_t nb = w.num_bonds();
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (b % 3 == 0 && 2 * b >= nb) {
+      w.model.law[b] = Law::inverse;
+      w.model.stiffness[b] *= w.model.eps[b] * w.model.eps[b];
+    }
+    if (4 * b < nb || (2 * b >= nb && b % 4 == 0)) w.model.damping_model[b] = DampingModel::isotropic;
+  }
+}
+
 // Deterministic pseudo-random perturbation of positions (± dx) and velocities (± dv) of free quanta.
 inline void perturb(World& w, double dx, double dv, std::uint64_t seed = 7) {
   Rng rng{seed};
