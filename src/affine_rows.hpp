@@ -22,6 +22,13 @@ namespace qbond {
 // every double x, +0.0 included).
 inline Index affine_lanes(const BondRun& run) { return (run.count + 7) & ~Index{7}; }
 
+// The distance between the kernels' per-quanta arrays (structure of arrays, n entries each, and
+// padding past n for the affine runs' whole vectors): 3 cache lines more than a multiple of
+// 4 KiB, so that the same quanta's entries of the arrays fall in different sets of the
+// first-level cache (at a multiple of 4 KiB they would compete for one set's ways, and loads
+// would wait on stores to other arrays).
+inline std::size_t soa_stride(std::size_t n) { return (n + 511) / 512 * 512 + 24; }
+
 // Whether every bond of an affine run's whole vectors has the linear law, and one damping model:
 // 0 all axial, 1 all isotropic, −1 otherwise (the run then takes the per-bond path). Read 8
 // one-byte enums at a time.

@@ -139,8 +139,7 @@ void force_pass(const Model& model, const State& state, const BondPartition& par
                 const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, bool per_mass,
                 ForceArrays& work, std::vector<Vec3>& out) {
   const std::size_t n = model.num_quanta();
-  // Arrays 3 cache lines more than a multiple of 4 KiB apart (frozen_step.cpp: first-level cache sets).
-  const std::size_t stride = (n + 511) / 512 * 512 + 24;
+  const std::size_t stride = soa_stride(n);
   work.data.resize(9 * stride);
   ForceRows rows;
   for (int c = 0; c < 3; ++c) {

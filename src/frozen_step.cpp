@@ -399,10 +399,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   const double h = ctx.h;
   out.resize(n);
   part.update(model, adj, threads);
-  // Arrays 3 cache lines more than a multiple of 4 KiB apart: the same quanta's entries of the 15
-  // arrays then fall in different sets of the first-level cache (at a multiple of 4 KiB they
-  // would compete for one set's ways, and loads would wait on stores to other arrays).
-  const std::size_t stride = (n + 511) / 512 * 512 + 24;
+  const std::size_t stride = soa_stride(n);
   arrays.resize(15 * stride);
   StepArrays a;
   for (std::size_t e = 0; e < 15; ++e) (e < 9 ? a.row[e] : e < 12 ? a.x[e - 9] : a.v[e - 12]) = arrays.data() + e * stride;
