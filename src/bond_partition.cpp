@@ -36,7 +36,8 @@ void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
   std::vector<std::uint8_t>& alive = part.mark;  // the adjacency holds exactly the alive bonds
   alive.assign(nb, 0);
   for (Index b : adj.bond) alive[b] = 1;
-  for_each_affine_segment(model.bond_i.data(), model.bond_j.data(), nb, [&](Index b) { return alive[b] != 0; },
+  for_each_affine_segment(model.bond_i.data(), model.bond_j.data(), nb, kMinAffineRun,
+                          [&](Index b) { return alive[b] != 0; },
                           [&](Index b, Index n) { segments.push_back({b, b + n}); });
   alive.clear();
 

@@ -35,15 +35,20 @@ struct BondRun {
   bool owns(Index q) const { return q >= lo && q < hi; }
 };
 
-// Affine segments shorter than this are left to the per-bond path: a vector loop over fewer
-// bonds than a wide register holds would be mostly its remainder.
+// What counts as a lattice's affine segment when choosing a numbering (ordering.hpp): as long as a
+// wide register.
 inline constexpr Index kMinAffine = 8;
+// The shortest segment the kernels take as an affine run: the vector path runs whole vectors of
+// 8 (padded lanes), so even two bonds cost one vector iteration, far less than the per-bond
+// path's gathers and per-run set-up.
+inline constexpr Index kMinAffineRun = 2;
 
-// segment(b, count) for every maximal run of at least kMinAffine consecutive alive bonds
+// segment(b, count) for every maximal run of at least min_length consecutive alive bonds
 // b, b + 1, ... whose ends advance together: bond b + k joins bond_i[b] + k and bond_j[b] + k.
 // A lattice whose bonds are grouped by index offset (ordering.hpp) is made of such runs.
 template <class Alive, class Segment>
-void for_each_affine_segment(const Index* bond_i, const Index* bond_j, Index nb, Alive&& alive, Segment&& segment) {
+void for_each_affine_segment(const Index* bond_i, const Index* bond_j, Index nb, Index min_length, Alive&& alive,
+                             Segment&& segment) {
   for (Index b = 0; b < nb;) {
     if (!alive(b)) {
       ++b;
@@ -51,7 +56,7 @@ void for_each_affine_segment(const Index* bond_i, const Index* bond_j, Index nb,
     }
     Index n = 1;
     while (b + n < nb && alive(b + n) && bond_i[b + n] == bond_i[b] + n && bond_j[b + n] == bond_j[b] + n) ++n;
-    if (n >= kMinAffine) segment(b, n);
+    if (n >= min_length) segment(b, n);
     b += n;  // a run starting inside this one ends where it does, shorter
   }
 }

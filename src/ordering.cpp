@@ -55,7 +55,8 @@ std::size_t affine_bonds(const std::vector<Index>& order, const std::vector<Inde
     oj[k] = j[order[k]];
   }
   std::size_t count = 0;
-  for_each_affine_segment(oi.data(), oj.data(), static_cast<Index>(order.size()), [](Index) { return true; },
+  for_each_affine_segment(oi.data(), oj.data(), static_cast<Index>(order.size()), kMinAffine,
+                          [](Index) { return true; },
                           [&](Index, Index n) { count += n; });
   return count;
 }

@@ -50,7 +50,7 @@ TEST(Ordering, ABuildersLatticeKeepsItsQuantaOrderAndSortingTwiceChangesNothing)
 // How many alive bonds lie in affine segments (bond_partition.hpp).
 std::size_t affine_bonds(const World& w) {
   std::size_t count = 0;
-  for_each_affine_segment(w.model.bond_i.data(), w.model.bond_j.data(), static_cast<Index>(w.num_bonds()),
+  for_each_affine_segment(w.model.bond_i.data(), w.model.bond_j.data(), static_cast<Index>(w.num_bonds()), kMinAffine,
                           [&](Index b) { return w.state.alive[b] != 0; }, [&](Index, Index n) { count += n; });
   return count;
 }
