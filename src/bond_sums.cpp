@@ -1,5 +1,6 @@
 #include "bond_sums.hpp"
 
+#include <bit>
 #include <cmath>
 #include <functional>
 
@@ -11,46 +12,61 @@ namespace {
 
 constexpr std::size_t kLanes = 8;
 
-// Whether bonds [b, b + 8) are alive and affine: bond b + k joins bond_i[b] + k and bond_j[b] + k.
-// Then their ends' positions and velocities are contiguous and the eight terms one vector loop.
-QBOND_VECTOR_INLINE bool affine_block(const Model& m, const State& s, std::size_t b) {
+// How many of bonds b, b + 1, ..., b + 7 in a row are alive and continue bond b's ends (bond b + k
+// joins bond_i[b] + k and bond_j[b] + k): their ends' data are then contiguous, and their terms
+// one vector loop.
+QBOND_VECTOR_INLINE int affine_prefix(const Model& m, const State& s, std::size_t b) {
   const Index* bi = m.bond_i.data() + b;
   const Index* bj = m.bond_j.data() + b;
   const std::uint8_t* alive = s.alive.data() + b;
-  std::uint32_t bad = 0;  // OR of every difference: one vector compare, no branch per bond
-  for (Index k = 0; k < kLanes; ++k) bad |= ((bi[k] - k) ^ bi[0]) | ((bj[k] - k) ^ bj[0]) | (alive[k] ^ 1u);
+  unsigned good = 0;  // bit k: bond b + k continues (compares, no branch per bond)
+  for (Index k = 0; k < kLanes; ++k)
+    good |= static_cast<unsigned>((alive[k] != 0) & (bi[k] == bi[0] + k) & (bj[k] == bj[0] + k)) << k;
+  return std::countr_one(good);
+}
+
+// Whether the first `count` of the eight entries of `a` from b equal a[b].
+template <class T>
+QBOND_VECTOR_INLINE bool uniform_prefix(const T* a, std::size_t b, std::size_t count) {
+  unsigned bad = 0;
+  for (std::size_t l = 0; l < kLanes; ++l)
+    bad |= (l < count) & (static_cast<unsigned>(a[b + l]) != static_cast<unsigned>(a[b]));
   return bad == 0;
 }
 
-// Σ over the alive bonds of [b0, b1): affine blocks of eight that `uniform` accepts by
-// block(i, j, b, lanes), one vector loop adding bond b + l's term to lanes[l], every other bond
-// into one more partial by bond_term(i, j, b); the lanes added in order, that partial last.
-// Which bonds go where depends on the bonds only, never on the thread.
+// Σ over the alive bonds of [b0, b1): affine blocks of eight, and of two to seven where no whole
+// one starts, that uniform(b, count) accepts, by block(i, j, b, count, lanes), one vector loop
+// adding bond b + l's term to lanes[l] for l < count; every other bond into one more partial by
+// bond_term(i, j, b); the lanes added in order, that partial last. Which bonds go where depends on
+// the bonds only, never on the thread.
 template <class Block, class BondTerm, class Uniform>
 QBOND_VECTOR_INLINE double chunk_sum(const Model& m, const State& s, std::size_t b0, std::size_t b1, Block&& block,
                                      BondTerm&& bond_term, Uniform&& uniform) {
+  const std::size_t n = s.x.size();
   double lanes[kLanes] = {};
   double others = 0;
   std::size_t b = b0;
   while (b < b1) {
-    // The blocks from b first, then their loop: no branch between one block's terms and the next.
+    // The whole blocks from b first, then their loop: no branch between one block and the next.
     std::size_t e = b;
-    while (e + kLanes <= b1 && affine_block(m, s, e) && uniform(e)) e += kLanes;
-    for (std::size_t q = b; q < e; q += kLanes) block(m.bond_i[q], m.bond_j[q], q, lanes);
-    if (e < b1 && s.alive[e]) others += bond_term(m.bond_i[e], m.bond_j[e], e);
-    b = e + 1;
+    while (e + kLanes <= b1 && affine_prefix(m, s, e) == kLanes && uniform(e, kLanes)) e += kLanes;
+    for (std::size_t q = b; q < e; q += kLanes) block(m.bond_i[q], m.bond_j[q], q, kLanes, lanes);
+    if (e >= b1) break;
+    // A shorter block at e (its vector loop reads all eight lanes' ends and parameters, which
+    // must exist), else bond e alone.
+    const Index i = m.bond_i[e], j = m.bond_j[e];
+    const int count = e + kLanes <= b1 && i + kLanes <= n && j + kLanes <= n ? affine_prefix(m, s, e) : 0;
+    if (count >= 2 && uniform(e, count)) {
+      block(i, j, e, count, lanes);
+      b = e + count;
+    } else {
+      if (s.alive[e]) others += bond_term(i, j, e);
+      b = e + 1;
+    }
   }
   double sum = 0;
   for (double l : lanes) sum += l;
   return sum + others;
-}
-
-// Whether the eight entries of `a` from b equal a[b].
-template <class T>
-QBOND_VECTOR_INLINE bool all_eight(const T* a, std::size_t b) {
-  unsigned bad = 0;
-  for (std::size_t l = 0; l < kLanes; ++l) bad |= static_cast<unsigned>(a[b + l]) ^ static_cast<unsigned>(a[b]);
-  return bad == 0;
 }
 
 // |x_j − x_i| for positions stored as consecutive triples.
@@ -74,14 +90,20 @@ QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::siz
     const double e = length(x, i, j) - rest[b];
     return 0.5 * k[b] * e * e;
   };
-  auto block = [=](std::size_t i, std::size_t j, std::size_t b, double* lanes) QBOND_LAMBDA_INLINE {
+  auto block = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t count, double* lanes)
+                   QBOND_LAMBDA_INLINE {
     QBOND_SIMD
-    for (std::size_t l = 0; l < kLanes; ++l) lanes[l] += linear(i + l, j + l, b + l);
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      const double e = linear(i + l, j + l, b + l);  // computed in every lane, kept in `count`
+      lanes[l] += l < count ? e : -0.0;
+    }
   };
   auto any_law = [&](std::size_t i, std::size_t j, std::size_t b) {
     return law[b] == Law::linear ? linear(i, j, b) : m.law_at(b, length(x, i, j), rest[b]).U;
   };
-  auto all_linear = [=](std::size_t b) QBOND_LAMBDA_INLINE { return law[b] == Law::linear && all_eight(law, b); };
+  auto all_linear = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
+    return law[b] == Law::linear && uniform_prefix(law, b, count);
+  };
   return chunk_sum(m, s, b0, b1, block, any_law, all_linear);
 }
 
@@ -109,13 +131,17 @@ QBOND_VECTOR_CLONES double damping_chunk(const Model& m, const State& s, const P
     const double loss = h * D[b] * (axial ? wd * wd / d2 : w2);  // every lane's D loaded: no masked load
     return d2 > 0 ? loss : 0.0;
   };
-  auto block = [=](std::size_t i, std::size_t j, std::size_t b, double* lanes) QBOND_LAMBDA_INLINE {
+  auto block = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t count, double* lanes)
+                   QBOND_LAMBDA_INLINE {
     const bool axial = model[b] == DampingModel::axial;
     QBOND_SIMD
-    for (std::size_t l = 0; l < kLanes; ++l) lanes[l] += term(i + l, j + l, b + l, axial);
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      const double work = term(i + l, j + l, b + l, axial);  // computed in every lane, kept in `count`
+      lanes[l] += l < count ? work : -0.0;
+    }
   };
   auto bond = [=](std::size_t i, std::size_t j, std::size_t b) { return term(i, j, b, model[b] == DampingModel::axial); };
-  auto one_model = [=](std::size_t b) QBOND_LAMBDA_INLINE { return all_eight(model, b); };
+  auto one_model = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE { return uniform_prefix(model, b, count); };
   return chunk_sum(m, s, b0, b1, block, bond, one_model);
 }
 
