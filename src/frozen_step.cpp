@@ -11,8 +11,6 @@
 // several instruction sets (simd.hpp).
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <cstring>
 
 #include "affine_rows.hpp"
 #include "implicit_system.hpp"
