@@ -35,29 +35,37 @@ QBOND_VECTOR_INLINE bool uniform_prefix(const T* a, std::size_t b, std::size_t c
 }
 
 // Σ over the alive bonds of [b0, b1): affine blocks of eight, and of two to seven where no whole
-// one starts, that uniform(b, count) accepts, by block(i, j, b, count, lanes), one vector loop
-// adding bond b + l's term to lanes[l] for l < count; every other bond into one more partial by
+// one starts, that uniform(b, count) accepts, in one vector loop a block adding
+// lane_term(i + l, j + l, b + l, b) (b the block's first bond) to lanes[l] for l < count (the
+// other lanes are computed and add −0.0); every other bond into one more partial by
 // bond_term(i, j, b); the lanes added in order, that partial last. Which bonds go where depends on
 // the bonds only, never on the thread.
-template <class Block, class BondTerm, class Uniform>
-QBOND_VECTOR_INLINE double chunk_sum(const Model& m, const State& s, std::size_t b0, std::size_t b1, Block&& block,
-                                     BondTerm&& bond_term, Uniform&& uniform) {
+template <class LaneTerm, class BondTerm, class Uniform>
+QBOND_VECTOR_INLINE double chunk_sum(const Model& m, const State& s, std::size_t b0, std::size_t b1,
+                                     LaneTerm&& lane_term, BondTerm&& bond_term, Uniform&& uniform) {
   const std::size_t n = s.x.size();
   double lanes[kLanes] = {};
+  auto block = [&](std::size_t i, std::size_t j, std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
+    QBOND_SIMD
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      const double t = lane_term(i + l, j + l, b + l, b);
+      lanes[l] += l < count ? t : -0.0;
+    }
+  };
   double others = 0;
   std::size_t b = b0;
   while (b < b1) {
     // The whole blocks from b first, then their loop: no branch between one block and the next.
     std::size_t e = b;
     while (e + kLanes <= b1 && affine_prefix(m, s, e) == kLanes && uniform(e, kLanes)) e += kLanes;
-    for (std::size_t q = b; q < e; q += kLanes) block(m.bond_i[q], m.bond_j[q], q, kLanes, lanes);
+    for (std::size_t q = b; q < e; q += kLanes) block(m.bond_i[q], m.bond_j[q], q, kLanes);
     if (e >= b1) break;
     // A shorter block at e (its vector loop reads all eight lanes' ends and parameters, which
     // must exist), else bond e alone.
     const Index i = m.bond_i[e], j = m.bond_j[e];
     const int count = e + kLanes <= b1 && i + kLanes <= n && j + kLanes <= n ? affine_prefix(m, s, e) : 0;
     if (count >= 2 && uniform(e, count)) {
-      block(i, j, e, count, lanes);
+      block(i, j, e, count);
       b = e + count;
     } else {
       if (s.alive[e]) others += bond_term(i, j, e);
@@ -90,13 +98,8 @@ QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::siz
     const double e = length(x, i, j) - rest[b];
     return 0.5 * k[b] * e * e;
   };
-  auto block = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t count, double* lanes)
-                   QBOND_LAMBDA_INLINE {
-    QBOND_SIMD
-    for (std::size_t l = 0; l < kLanes; ++l) {
-      const double e = linear(i + l, j + l, b + l);  // computed in every lane, kept in `count`
-      lanes[l] += l < count ? e : -0.0;
-    }
+  auto lane = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t) QBOND_LAMBDA_INLINE {
+    return linear(i, j, b);
   };
   auto any_law = [&](std::size_t i, std::size_t j, std::size_t b) {
     return law[b] == Law::linear ? linear(i, j, b) : m.law_at(b, length(x, i, j), rest[b]).U;
@@ -104,7 +107,7 @@ QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::siz
   auto all_linear = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
     return law[b] == Law::linear && uniform_prefix(law, b, count);
   };
-  return chunk_sum(m, s, b0, b1, block, any_law, all_linear);
+  return chunk_sum(m, s, b0, b1, lane, any_law, all_linear);
 }
 
 QBOND_VECTOR_CLONES double damping_chunk(const Model& m, const State& s, const Projection& p, double h, double theta,
@@ -115,8 +118,8 @@ QBOND_VECTOR_CLONES double damping_chunk(const Model& m, const State& s, const P
   const double* dv = p.dv.data()->data();
   const double* D = m.damping.data();
   const DampingModel* model = m.damping_model.data();
-  // The damping model is an argument, not read per bond: a block's loop then has no byte loads
-  // (which would make GCC vectorise it in 64 lanes, more than the block has).
+  // The damping model is an argument: a block reads its first bond's only, so that its loop has
+  // no byte load per lane (which would make GCC vectorise it in 64 lanes, more than it has).
   auto term = [=](std::size_t i, std::size_t j, std::size_t b, bool axial) QBOND_LAMBDA_INLINE {
     double d2 = 0, wd = 0, w2 = 0;
     QBOND_UNROLL(3)
@@ -131,18 +134,12 @@ QBOND_VECTOR_CLONES double damping_chunk(const Model& m, const State& s, const P
     const double loss = h * D[b] * (axial ? wd * wd / d2 : w2);  // every lane's D loaded: no masked load
     return d2 > 0 ? loss : 0.0;
   };
-  auto block = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t count, double* lanes)
-                   QBOND_LAMBDA_INLINE {
-    const bool axial = model[b] == DampingModel::axial;
-    QBOND_SIMD
-    for (std::size_t l = 0; l < kLanes; ++l) {
-      const double work = term(i + l, j + l, b + l, axial);  // computed in every lane, kept in `count`
-      lanes[l] += l < count ? work : -0.0;
-    }
+  auto lane = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t first) QBOND_LAMBDA_INLINE {
+    return term(i, j, b, model[first] == DampingModel::axial);
   };
   auto bond = [=](std::size_t i, std::size_t j, std::size_t b) { return term(i, j, b, model[b] == DampingModel::axial); };
   auto one_model = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE { return uniform_prefix(model, b, count); };
-  return chunk_sum(m, s, b0, b1, block, bond, one_model);
+  return chunk_sum(m, s, b0, b1, lane, bond, one_model);
 }
 
 }  // namespace

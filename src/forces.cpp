@@ -147,11 +147,7 @@ void force_pass(const Model& model, const State& state, const BondPartition& par
     rows.x[c] = work.data.data() + (3 + c) * stride;
     rows.v[c] = work.data.data() + (6 + c) * stride;
   }
-  constexpr std::size_t kChunk = 1024;
-  const std::size_t chunks = (n + kChunk - 1) / kChunk;
-  parallel_for(chunks, threads, [&](std::size_t c) {
-    start_forces(x, v, f_ext, rows, c * kChunk, std::min(n, (c + 1) * kChunk));
-  }, kParallelMin / kChunk);
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_forces(x, v, f_ext, rows, lo, hi); });
   for_each_bond_run<ForceTerms>(part, [&](const BondRun& run, ForceTerms& t) {
     // The same runs for every partition (bond_partition.hpp), so the same path for each bond.
     const int kind = run.affine ? uniform_linear(model, run) : -1;
@@ -161,9 +157,7 @@ void force_pass(const Model& model, const State& state, const BondPartition& par
       run_forces(model, state, x, v, run, rows);
   });
   out.resize(n);
-  parallel_for(chunks, threads, [&](std::size_t c) {
-    write_out(model, rows, per_mass, c * kChunk, std::min(n, (c + 1) * kChunk), out);
-  }, kParallelMin / kChunk);
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { write_out(model, rows, per_mass, lo, hi, out); });
 }
 
 }  // namespace

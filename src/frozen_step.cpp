@@ -401,11 +401,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   arrays.resize(15 * stride);
   StepArrays a;
   for (std::size_t e = 0; e < 15; ++e) (e < 9 ? a.row[e] : e < 12 ? a.x[e - 9] : a.v[e - 12]) = arrays.data() + e * stride;
-  constexpr std::size_t kChunk = 1024;
-  const std::size_t chunks = (n + kChunk - 1) / kChunk;
-  parallel_for(chunks, threads, [&](std::size_t c) {
-    start_rows(model, state, f_ext, h, a, c * kChunk, std::min(n, (c + 1) * kChunk));
-  }, kParallelMin / kChunk);
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_rows(model, state, f_ext, h, a, lo, hi); });
   for_each_bond_run<FrozenScratch>(part, [&](const BondRun& run, FrozenScratch& s) {
     // The same runs for every partition (bond_partition.hpp), so the same path for each bond.
     const int kind = run.affine ? uniform_linear(model, run) : -1;
@@ -418,9 +414,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     }
   });
   // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-  parallel_for(chunks, threads, [&](std::size_t c) {
-    solve_rows(model, state, a, h, c * kChunk, std::min(n, (c + 1) * kChunk), out);
-  }, kParallelMin / kChunk);
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { solve_rows(model, state, a, h, lo, hi, out); });
   project_kinematic(model, state, ctx, out);
 }
 

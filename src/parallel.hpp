@@ -44,6 +44,16 @@ void parallel_for(std::size_t n, int threads, Body&& body, std::size_t min_paral
 #endif
 }
 
+// body(begin, end) for consecutive ranges of [0, n) of kRange indices (the last shorter): for
+// kernels that run a vector loop over a range of quanta, each range written by one thread.
+inline constexpr std::size_t kRange = 1024;
+template <class Body>
+void parallel_ranges(std::size_t n, int threads, Body&& body) {
+  parallel_for(
+      (n + kRange - 1) / kRange, threads, [&](std::size_t r) { body(r * kRange, std::min(n, (r + 1) * kRange)); },
+      kParallelMin / kRange);
+}
+
 // fold_chunk(begin, end) over the chunks of [0, n) (at least kSumChunk indices each, at most
 // kMaxPartials of them: fixed by n), each chunk's result combined in chunk order,
 // combine(combine(r0, r1), r2)...: the same result for any thread count, and no allocation.
