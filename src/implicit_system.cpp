@@ -41,7 +41,7 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
     if (!own_i && !own_j && !write_block) return;
     const BondLinearisation l = linearise_bond(model, state, b);
     const double Ba = h * l.ca + h2 * l.ka, Bb = h * l.cb + h2 * l.kb;
-    if (write_block) sys.bonds[b] = {l.u, Ba, Bb, i};
+    if (write_block) sys.bonds.set(b, l.u, Ba, Bb);
     if (!own_i && !own_j) return;
     double B[6];
     block_entries(l.u, Ba, Bb, B);
@@ -95,37 +95,16 @@ void assemble_blocks(const Model& model, const Adjacency& adj, int threads, Impl
     }
     Mat3 d = model.mass[i] * Mat3::Identity();
     for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
-      const BondBlock& bb = sys.bonds[adj.bond[e]];
-      d += block_matrix(bb.u, bb.Ba, bb.Bb);
+      const Index b = adj.bond[e];
+      const Vec3 u = sys.bonds.u(b);
+      const double Ba = sys.bonds.Ba[b], Bb = sys.bonds.Bb[b];
+      d += block_matrix(u, Ba, Bb);
       const bool coupled = !model.is_kinematic(adj.other[e]);
-      sys.edges[e] = {bb.u, coupled ? bb.Ba : 0.0, coupled ? bb.Bb : 0.0};
+      sys.edges[e] = {u, coupled ? Ba : 0.0, coupled ? Bb : 0.0};
     }
     sys.diag[i] = d;
     // A_ii = m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
     sys.diag_inv[i] = d.inverse();
-  });
-}
-
-void apply_system(const Model& model, const BondPartition& part, const ImplicitSystem& sys,
-                  const std::vector<Vec3>& y, int threads, std::vector<Vec3>& out) {
-  out.resize(model.num_quanta());
-  parallel_for(model.num_quanta(), threads, [&](std::size_t q) {
-    const auto i = static_cast<Index>(q);
-    out[i] = model.is_kinematic(i) ? Vec3::Zero() : Vec3(sys.diag[i] * y[i]);
-  });
-  // Raw pointers held in the loop (through the containers the compiler reloads them every bond).
-  const Index* bi = model.bond_i.data();
-  const Index* bj = model.bond_j.data();
-  const double* inv_mass = model.inv_mass.data();
-  const BondBlock* bonds = sys.bonds.data();
-  const Vec3* yp = y.data();
-  Vec3* op = out.data();
-  for_each_bond(part, model, [=](Index b, bool own_i, bool own_j) {
-    const Index i = bi[b], j = bj[b];
-    if (inv_mass[i] == 0 || inv_mass[j] == 0) return;  // eliminated unknowns
-    const BondBlock& bb = bonds[b];
-    if (own_i) op[i] -= block_times(bb.u, bb.Ba, bb.Bb, yp[j]);
-    if (own_j) op[j] -= block_times(bb.u, bb.Ba, bb.Bb, yp[i]);
   });
 }
 
@@ -153,7 +132,7 @@ Eigen::Index assemble_system(const Model& model, const State& state, const Impli
   for (std::size_t k = 0; k < model.num_bonds(); ++k) {
     const Eigen::Index p = dof[model.bond_i[k]], q = dof[model.bond_j[k]];
     if (!state.alive[k] || (p < 0 && q < 0)) continue;
-    const Mat3 B = exact ? sys.exact[k] : block_matrix(sys.bonds[k].u, sys.bonds[k].Ba, sys.bonds[k].Bb);
+    const Mat3 B = exact ? sys.exact[k] : block_matrix(sys.bonds.u(k), sys.bonds.Ba[k], sys.bonds.Bb[k]);
     if (exact) {  // sys.diag holds the a u uᵀ + b I blocks' sums: the diagonal is summed here
       if (p >= 0) add_block(p, p, B);
       if (q >= 0) add_block(q, q, B);
@@ -196,47 +175,6 @@ bool DirectSolver::solve_lu(const Model& model, const State& state, const Implic
   for (std::size_t i = 0; i < n; ++i)
     if (dof[i] >= 0) y[i] = sol.segment<3>(dof[i]);
   return true;
-}
-
-void ConjugateGradient::solve(const Model& model, const ImplicitSystem& sys, double tolerance,
-                              int cap, int threads, std::vector<Vec3>& y, SolveStats& stats) {
-  const std::size_t n = model.num_quanta();
-  // Σ a_i · b_i over free quanta (kinematic rows of r, z, p and Ap are 0).
-  auto dot = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& c) {
-    return deterministic_sum(a.size(), threads, [&](std::size_t i) { return a[i].dot(c[i]); });
-  };
-  apply_system(model, sys.part, sys, y, threads, Ap);
-  r.resize(n);
-  z.resize(n);
-  p.resize(n);
-  parallel_for(n, threads, [&](std::size_t i) {
-    r[i] = model.is_kinematic(static_cast<Index>(i)) ? Vec3::Zero() : Vec3(sys.rhs[i] - Ap[i]);
-    z[i] = sys.diag_inv[i] * r[i];
-    p[i] = z[i];
-  });
-  double rz = dot(r, z);
-  const double bnorm = sys.rhs_norm;
-  auto rel = [&](double r2) { return bnorm > 0 ? std::sqrt(r2) / bnorm : std::sqrt(r2); };
-  stats.residual = rel(dot(r, r));
-  int it = 0;
-  while (it < cap && stats.residual > tolerance) {
-    apply_system(model, sys.part, sys, p, threads, Ap);
-    const double pAp = dot(p, Ap);
-    if (!(pAp > 0)) break;  // exact solution reached (p = 0) or loss of positivity
-    const double alpha = rz / pAp;
-    parallel_for(n, threads, [&](std::size_t i) {
-      y[i] += alpha * p[i];
-      r[i] -= alpha * Ap[i];
-      z[i] = sys.diag_inv[i] * r[i];
-    });
-    const double rz_new = dot(r, z);
-    const double beta = rz_new / rz;
-    rz = rz_new;
-    parallel_for(n, threads, [&](std::size_t i) { p[i] = z[i] + beta * p[i]; });
-    ++it;
-    stats.residual = rel(dot(r, r));
-  }
-  stats.iterations = it;
 }
 
 void GaussSeidel::solve(const Adjacency& adj, const ImplicitSystem& sys, const Coloring& col, int sweeps,

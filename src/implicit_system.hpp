@@ -63,12 +63,22 @@ inline BondLinearisation linearise_bond(const Model& model, const State& state, 
   return l;
 }
 
-// One bond's B_b = Ba u uᵀ + Bb I, in bond order: CG's product streams these (bond-centric), the
-// direct solvers assemble from them.
-struct BondBlock {
-  Vec3 u = Vec3::Zero();  // unit vector from bond_i to bond_j; 0 if broken or zero-length
-  double Ba = 0, Bb = 0;
-  Index i = 0;            // bond_i, so that a quanta gathering it knows its end (assemble_blocks)
+// Every bond's B_b = Ba u uᵀ + Bb I, in bond order, as structure of arrays: CG's product reads an
+// affine run's as contiguous vectors (conjugate_gradient.cpp), the direct solvers assemble from
+// them. Valid for alive bonds with a free end; u is 0 for a zero-length bond.
+struct BondBlocks {
+  std::vector<double> ux, uy, uz, Ba, Bb;
+  void resize(std::size_t nb) {
+    for (std::vector<double>* a : {&ux, &uy, &uz, &Ba, &Bb}) a->resize(nb);
+  }
+  void set(std::size_t b, const Vec3& u, double a, double c) {
+    ux[b] = u.x();
+    uy[b] = u.y();
+    uz[b] = u.z();
+    Ba[b] = a;
+    Bb[b] = c;
+  }
+  Vec3 u(std::size_t b) const { return {ux[b], uy[b], uz[b]}; }
 };
 
 // B_b as seen from one end of the bond, in adjacency order so that a quanta's row is one
@@ -111,7 +121,7 @@ inline void block_entries(const Vec3& u, double a, double c, double (&B)[6]) {
 }
 
 struct ImplicitSystem {
-  std::vector<BondBlock> bonds;  // (nb) valid for alive bonds with a free end
+  BondBlocks bonds;
   std::vector<EdgeBlock> edges;  // per adjacency entry of a free quanta (adj.offset[n]), when asked for
   std::vector<Mat3> diag;      // A_ii (n); identity for kinematic quanta
   std::vector<Mat3> diag_inv;  // A_ii⁻¹ (n)
@@ -169,11 +179,12 @@ inline Vec3 neighbours_times(const Adjacency& adj, const ImplicitSystem& sys, In
   return s;
 }
 
-// out = A y over free quanta (y's kinematic rows are ignored; out's kinematic rows are 0): diag
-// then, bond-centric over `part` (sys.bonds in bond order), −B_b y_j into row i and −B_b y_i into
-// row j for bonds between free quanta.
-void apply_system(const Model& model, const BondPartition& part, const ImplicitSystem& sys,
-                  const std::vector<Vec3>& y, int threads, std::vector<Vec3>& out);
+// out = A y over free quanta (y's kinematic rows are ignored; out's kinematic rows are 0) as CG
+// computes it: diag, then bond-centric over sys.part (sys.bonds in bond order), −B_b y_j into row
+// i and −B_b y_i into row j for bonds between free quanta (conjugate_gradient.cpp). Allocates its
+// scratch: for checks, CG keeps its own.
+void apply_system(const Model& model, const ImplicitSystem& sys, const std::vector<Vec3>& y, int threads,
+                  std::vector<Vec3>& out);
 
 // A and b over the free unknowns as a sparse matrix and a vector, for the direct solvers (and the
 // benchmarks' Eigen solvers): dof[i] = 3 × free quanta i's number, -1 for kinematic quanta.
@@ -206,7 +217,7 @@ struct DirectSolver {
 // guess in y, until ‖b − A y‖/‖b‖ ≤ tolerance or `cap` iterations; fills stats. The product runs
 // over sys.part, which begin_implicit_step or assemble_blocks has brought up to date.
 struct ConjugateGradient {
-  std::vector<Vec3> r, z, p, Ap;
+  std::vector<double> arrays;  // y, r, z, p, Ap and A's diagonal blocks as structure of arrays
   void solve(const Model& model, const ImplicitSystem& sys, double tolerance, int cap, int threads,
              std::vector<Vec3>& y, SolveStats& stats);
 };

@@ -160,11 +160,7 @@ void newton_bonds(const Model& model, const State& state, const NewtonStep& st, 
     force[b] = bs.f;
     if (sys) {
       // B_b = s h (c K̃ + θ C): ∂Δd/∂y = c, ∂w/∂y = θ.
-      BondBlock& bb = sys->bonds[b];
-      bb.u = bs.u;
-      bb.Ba = sh * (st.c * bs.ka + st.theta * bs.ca);
-      bb.Bb = sh * (st.c * bs.kb + st.theta * bs.cb);
-      bb.i = i;
+      sys->bonds.set(b, bs.u, sh * (st.c * bs.ka + st.theta * bs.ca), sh * (st.c * bs.kb + st.theta * bs.cb));
     }
   });
 }

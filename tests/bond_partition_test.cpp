@@ -8,6 +8,7 @@
 #include "affine_rows.hpp"
 #include "bond_partition.hpp"
 #include "forces.hpp"
+#include "implicit_system.hpp"
 #include "qbond/ordering.hpp"
 #include "qbond/rng.hpp"
 #include "test_util.hpp"
@@ -205,6 +206,63 @@ TEST(BondPartition, ForcePassMatchesASerialPassAndGivesTheSameBitsAtAnyThreadCou
         first = f;
       } else {
         EXPECT_EQ(std::memcmp(f.data(), first.data(), f.size() * sizeof(Vec3)), 0) << threads << " threads";
+      }
+    }
+  }
+}
+
+// CG's product (conjugate_gradient.cpp: affine runs in vector loops, other runs bond by bond)
+// against the assembled sparse matrix times the vector, to round-off, on the builder's order and
+// the grouped one (intact, broken), with an anchored face whose unknowns are eliminated (their
+// rows 0, their entries of y ignored); the same bits at 1-3 threads.
+TEST(BondPartition, CgProductMatchesTheAssembledMatrixAndGivesTheSameBitsAtAnyThreadCount) {
+  World grouped = test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true);
+  renumber(grouped, locality_order(grouped));
+  test::mix_bonds(grouped);
+  test::perturb(grouped, 2e-3, 0.2);
+  World grouped_broken = grouped;
+  for (std::size_t b = 5; b < grouped_broken.num_bonds(); b += 97) grouped_broken.state.alive[b] = 0;
+  ++grouped_broken.state.topology_version;
+  const World builders = random_lattice();
+  for (const World* w : std::initializer_list<const World*>{&builders, &grouped, &grouped_broken}) {
+    const std::size_t n = w->num_quanta();
+    Rng rng{3};
+    std::vector<Vec3> y(n);
+    for (Vec3& v : y) v = Vec3(rng.uniform(), rng.uniform(), rng.uniform()) - Vec3::Constant(0.5);
+    Adjacency adj;
+    build_adjacency(w->model, w->state, adj);
+    const std::vector<Vec3> f_ext(n, Vec3::Zero());
+    std::vector<Vec3> first;
+    for (int threads : {1, 2, 3}) {
+      ImplicitSystem sys;
+      Projection kin;
+      begin_implicit_step(w->model, w->state, adj, f_ext, {.h = 1e-3}, false, threads, kin, sys);
+      std::vector<Vec3> out;
+      apply_system(w->model, sys, y, threads, out);
+      if (threads == 1) {
+        std::vector<Eigen::Index> dof;
+        std::vector<Eigen::Triplet<double>> triplets;
+        Eigen::SparseMatrix<double> A;
+        Eigen::VectorXd b;
+        Eigen::VectorXd yf(3 * assemble_system(w->model, w->state, sys, dof, triplets, A, b));
+        for (std::size_t q = 0; q < n; ++q)
+          if (dof[q] >= 0) yf.segment<3>(dof[q]) = y[q];
+        const Eigen::VectorXd ref = A * yf, bound = A.cwiseAbs() * yf.cwiseAbs();
+        std::size_t affine = 0;
+        for (const BondRun& r : sys.part.runs) affine += r.affine ? r.count : 0;
+        EXPECT_EQ(affine > w->num_bonds() / 2, w != &builders);
+        for (std::size_t q = 0; q < n; ++q) {
+          if (dof[q] < 0) {
+            ASSERT_EQ(out[q], Vec3::Zero()) << "kinematic quanta " << q;
+            continue;
+          }
+          // Each entry a sum of at most 3 (1 + bonds) products, each off by an ulp or so.
+          for (int c = 0; c < 3; ++c)
+            ASSERT_LE(std::abs(out[q][c] - ref[dof[q] + c]), 1e-14 * bound[dof[q] + c]) << "quanta " << q;
+        }
+        first = out;
+      } else {
+        EXPECT_EQ(std::memcmp(out.data(), first.data(), n * sizeof(Vec3)), 0) << threads << " threads";
       }
     }
   }

@@ -1,0 +1,295 @@
+// Matrix-free block-Jacobi-preconditioned CG (ConjugateGradient in implicit_system.hpp) on
+// structure-of-arrays vectors: the product's bond pass takes an affine run (bond_partition.hpp)
+// in one vector loop reading its blocks and both ends' entries as contiguous vectors and adds the
+// terms to the rows in bond order (affine_rows.hpp), the other runs bond by bond; the per-quanta
+// loops and the dot products are vector loops too. Each row receives its bonds in bond order and
+// each dot product is summed over fixed chunks in fixed lanes, so the iterates are the same bits
+// for any thread count. The vector functions are compiled for several instruction sets (simd.hpp).
+#include <cmath>
+
+#include "affine_rows.hpp"
+#include "implicit_system.hpp"
+#include "parallel.hpp"
+#include "simd.hpp"
+
+namespace qbond {
+
+namespace {
+
+// A vector of the solve as structure of arrays: component c of quanta q at [c][q].
+using Soa = double* [3];
+
+// A's diagonal blocks as their six distinct entries (xx, yy, zz, xy, xz, yz), and their inverses.
+struct Diagonals {
+  double* D[6];
+  double* Dinv[6];
+};
+
+// Local copies of a structure-of-arrays vector's pointers: held in registers through a loop (read
+// through a reference, GCC reloads them every iteration and does not vectorise it).
+template <std::size_t N>
+struct Local {
+  double* a[N];
+  explicit Local(double* const (&from)[N]) {
+    for (std::size_t e = 0; e < N; ++e) a[e] = from[e];
+  }
+  double* operator[](std::size_t e) const { return a[e]; }
+};
+
+// The symmetric block (xx, yy, zz, xy, xz, yz entries of s at q) times (v0, v1, v2) at q, into out.
+QBOND_VECTOR_INLINE void sym_times(const Local<6>& s, std::size_t q, double v0, double v1, double v2,
+                                   double (&out)[3]) {
+  out[0] = s[0][q] * v0 + s[3][q] * v1 + s[4][q] * v2;
+  out[1] = s[3][q] * v0 + s[1][q] * v1 + s[5][q] * v2;
+  out[2] = s[4][q] * v0 + s[5][q] * v1 + s[2][q] * v2;
+}
+
+// out_q = A_qq y_q for free quanta, 0 for kinematic ones, over [lo, hi).
+QBOND_VECTOR_CLONES void diagonal_times(const double* inv_mass, const Diagonals& d, const Soa& y_in, const Soa& out_in,
+                                        std::size_t lo, std::size_t hi) {
+  const Local<6> D(d.D);
+  const Local<3> y(y_in), out(out_in);
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    double Dy[3];
+    sym_times(D, q, y[0][q], y[1][q], y[2][q], Dy);
+    const bool free = inv_mass[q] != 0;
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) out[c][q] = free ? Dy[c] : 0.0;
+  }
+}
+
+// A run's off-diagonal terms, by bond k of the run: −B_b y_j onto bond_i's row, −B_b y_i onto
+// bond_j's.
+struct ProductTerms {
+  alignas(64) double ti[3][kBondRun], tj[3][kBondRun];
+};
+
+// Asks for the blocks of the bonds a few runs on: the product streams five arrays of them beside
+// a dozen other streams, more than the hardware prefetcher follows far enough ahead.
+QBOND_VECTOR_INLINE void prefetch_blocks(const BondBlocks& blocks, const BondRun& run) {
+  constexpr std::size_t kAhead = 4 * kBondRun;
+  const std::size_t b = run.first + kAhead;
+  if (b + run.count > blocks.Ba.size()) return;
+  for (std::size_t k = 0; k < run.count; k += 8)  // a cache line of doubles
+    for (const std::vector<double>* a : {&blocks.ux, &blocks.uy, &blocks.uz, &blocks.Ba, &blocks.Bb})
+      __builtin_prefetch(a->data() + b + k);
+}
+
+// An affine run's −B_b y_j and −B_b y_i (−0.0, which leaves a row's bits as they are, when an end
+// is kinematic, its unknown eliminated, and in the lanes past the run) in one vector loop, added to the rows the part owns in bond order.
+QBOND_VECTOR_CLONES void affine_product(const BondRun& run, const BondBlocks& blocks, const double* inv_mass,
+                                        const Soa& y, const Soa& out, ProductTerms& t) {
+  prefetch_blocks(blocks, run);
+  const double *ux = blocks.ux.data() + run.first, *uy = blocks.uy.data() + run.first,
+               *uz = blocks.uz.data() + run.first;
+  const double *Ba = blocks.Ba.data() + run.first, *Bb = blocks.Bb.data() + run.first;
+  const double *mi = inv_mass + run.i0, *mj = inv_mass + run.j0;
+  const double *yi[3], *yj[3];  // local: see Local
+  for (int c = 0; c < 3; ++c) {
+    yi[c] = y[c] + run.i0;
+    yj[c] = y[c] + run.j0;
+  }
+  for (std::size_t q0 = 0; q0 < affine_lanes(run); q0 += 8) {
+    QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {  // kVectorLoop
+      const std::size_t q = q0 + l;
+      const double u[3] = {ux[q], uy[q], uz[q]};
+      const double a = Ba[q], b = Bb[q];
+      const double ui = u[0] * yi[0][q] + u[1] * yi[1][q] + u[2] * yi[2][q];
+      const double uj = u[0] * yj[0][q] + u[1] * yj[1][q] + u[2] * yj[2][q];
+      const bool coupled = mi[q] != 0 && mj[q] != 0, live = q < run.count;
+      QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+        const double fi = -(a * uj * u[c] + b * yj[c][q]), fj = -(a * ui * u[c] + b * yi[c][q]);
+        t.ti[c][q] = coupled && live ? fi : -0.0;
+        t.tj[c][q] = coupled && live ? fj : -0.0;
+      }
+    }
+  }
+  const double* ti[3] = {t.ti[0], t.ti[1], t.ti[2]};
+  const double* tj[3] = {t.tj[0], t.tj[1], t.tj[2]};
+  add_affine_run(run, out, ti, tj);
+}
+
+// Any other run, bond by bond: −B_b y_j onto row i and −B_b y_i onto row j where the part owns
+// them, for bonds between free quanta.
+void run_product(const Model& model, const BondRun& run, const BondBlocks& blocks, const Soa& y, const Soa& out) {
+  const double* inv_mass = model.inv_mass.data();
+  for (Index k = 0; k < run.count; ++k) {
+    const Index b = run.bond(k), i = model.bond_i[b], j = model.bond_j[b];
+    if (inv_mass[i] == 0 || inv_mass[j] == 0) continue;  // eliminated unknowns
+    const Vec3 u = blocks.u(b);
+    const Vec3 yi(y[0][i], y[1][i], y[2][i]), yj(y[0][j], y[1][j], y[2][j]);
+    const Vec3 fi = block_times(u, blocks.Ba[b], blocks.Bb[b], yj), fj = block_times(u, blocks.Ba[b], blocks.Bb[b], yi);
+    for (int c = 0; c < 3; ++c) {
+      if (run.owns(i)) out[c][i] -= fi[c];
+      if (run.owns(j)) out[c][j] -= fj[c];
+    }
+  }
+}
+
+// out = A y over free quanta (kinematic rows 0; y's kinematic rows ignored).
+void product(const Model& model, const ImplicitSystem& sys, const Diagonals& d, const Soa& y, const Soa& out,
+             int threads) {
+  const double* inv_mass = model.inv_mass.data();
+  parallel_ranges(model.num_quanta(), threads,
+                  [&](std::size_t lo, std::size_t hi) { diagonal_times(inv_mass, d, y, out, lo, hi); });
+  for_each_bond_run<ProductTerms>(sys.part, [&](const BondRun& run, ProductTerms& t) {
+    if (run.affine)
+      affine_product(run, sys.bonds, inv_mass, y, out, t);
+    else
+      run_product(model, run, sys.bonds, y, out);
+  });
+}
+
+// Σ_q a_q · b_q over [lo, hi) in eight lanes (q's in lane q − lo mod 8), added in lane order.
+QBOND_VECTOR_CLONES double lane_dot(const Soa& a_in, const Soa& b_in, std::size_t lo, std::size_t hi) {
+  const Local<3> a(a_in), b(b_in);
+  double lanes[8] = {};
+  std::size_t q = lo;
+  for (; q + 8 <= hi; q += 8) {
+    QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {
+      const std::size_t k = q + l;
+      lanes[l] += a[0][k] * b[0][k] + a[1][k] * b[1][k] + a[2][k] * b[2][k];
+    }
+  }
+  for (std::size_t l = 0; q < hi; ++q, ++l) lanes[l] += a[0][q] * b[0][q] + a[1][q] * b[1][q] + a[2][q] * b[2][q];
+  double s = 0;
+  for (double l : lanes) s += l;
+  return s;
+}
+
+// Σ_q a_q · b_q over fixed chunks: the same bits for any thread count.
+double dot(std::size_t n, int threads, const Soa& a, const Soa& b) {
+  return reduce_chunks(
+      n, threads, 0.0, [&](std::size_t lo, std::size_t hi) { return lane_dot(a, b, lo, hi); },
+      [](double x, double y) { return x + y; });
+}
+
+// The solve's start for quanta [lo, hi): y and A's diagonal blocks and their inverses as
+// structure of arrays.
+QBOND_VECTOR_CLONES void load(const ImplicitSystem& sys, const std::vector<Vec3>& y0, const Soa& y_in, const Diagonals& d,
+                              std::size_t lo, std::size_t hi) {
+  const double* D = sys.diag.data()->data();  // Mat3: column-major, symmetric
+  const double* Dinv = sys.diag_inv.data()->data();
+  const double* yp = y0.data()->data();
+  const Local<6> Ds(d.D), Dinvs(d.Dinv);
+  const Local<3> y(y_in);
+  constexpr int kEntry[6] = {0, 4, 8, 3, 6, 7};  // xx, yy, zz, xy, xz, yz in a column-major 3×3
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) {
+      Ds[e][q] = D[9 * q + kEntry[e]];
+      Dinvs[e][q] = Dinv[9 * q + kEntry[e]];
+    }
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) y[c][q] = yp[3 * q + c];
+  }
+}
+
+// r = b − A y for free quanta (0 for kinematic ones), z = A_qq⁻¹ r, p = z, over [lo, hi).
+QBOND_VECTOR_CLONES void first_residual(const ImplicitSystem& sys, const double* inv_mass, const Diagonals& d,
+                                        const Soa& Ay_in, const Soa& r_in, const Soa& z_in, const Soa& p_in,
+                                        std::size_t lo, std::size_t hi) {
+  const double* b = sys.rhs.data()->data();
+  const Local<6> Dinv(d.Dinv);
+  const Local<3> Ay(Ay_in), r(r_in), z(z_in), p(p_in);
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    const bool free = inv_mass[q] != 0;
+    double rq[3], zq[3];
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) r[c][q] = rq[c] = free ? b[3 * q + c] - Ay[c][q] : 0.0;
+    sym_times(Dinv, q, rq[0], rq[1], rq[2], zq);
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) p[c][q] = z[c][q] = zq[c];
+  }
+}
+
+// y += α p, r −= α Ap, z = A_qq⁻¹ r over [lo, hi).
+QBOND_VECTOR_CLONES void cg_update(double alpha, const Diagonals& d, const Soa& p_in, const Soa& Ap_in, const Soa& y_in,
+                                   const Soa& r_in, const Soa& z_in, std::size_t lo, std::size_t hi) {
+  const Local<6> Dinv(d.Dinv);
+  const Local<3> p(p_in), Ap(Ap_in), y(y_in), r(r_in), z(z_in);
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    double rq[3], zq[3];
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      y[c][q] += alpha * p[c][q];
+      r[c][q] = rq[c] = r[c][q] - alpha * Ap[c][q];
+    }
+    sym_times(Dinv, q, rq[0], rq[1], rq[2], zq);
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) z[c][q] = zq[c];
+  }
+}
+
+// p = z + β p over [lo, hi).
+QBOND_VECTOR_CLONES void new_direction(double beta, const Soa& z_in, const Soa& p_in, std::size_t lo, std::size_t hi) {
+  const Local<3> z(z_in), p(p_in);
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) p[c][q] = z[c][q] + beta * p[c][q];
+  }
+}
+
+// Back to one Vec3 a quanta, over [lo, hi).
+QBOND_VECTOR_CLONES void store(const Soa& y_in, std::vector<Vec3>& out, std::size_t lo, std::size_t hi) {
+  const Local<3> y(y_in);
+  double* o = out.data()->data();
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) o[3 * q + c] = y[c][q];
+  }
+}
+
+// The solve's arrays in one buffer of soa_stride(n) slots (affine runs read up to a vector past
+// the last quanta).
+struct CgArrays {
+  double *y[3], *r[3], *z[3], *p[3], *Ap[3];
+  Diagonals d;
+  CgArrays(std::vector<double>& buffer, std::size_t n) {
+    const std::size_t stride = soa_stride(n);
+    buffer.resize(27 * stride);
+    double* next = buffer.data();
+    for (double** a : {y, r, z, p, Ap, d.D, d.Dinv}) {
+      const int count = a == d.D || a == d.Dinv ? 6 : 3;
+      for (int c = 0; c < count; ++c, next += stride) a[c] = next;
+    }
+  }
+};
+
+}  // namespace
+
+void apply_system(const Model& model, const ImplicitSystem& sys, const std::vector<Vec3>& y, int threads,
+                  std::vector<Vec3>& out) {
+  const std::size_t n = model.num_quanta();
+  std::vector<double> buffer;
+  CgArrays a(buffer, n);
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { load(sys, y, a.y, a.d, lo, hi); });
+  product(model, sys, a.d, a.y, a.Ap, threads);
+  out.resize(n);
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { store(a.Ap, out, lo, hi); });
+}
+
+void ConjugateGradient::solve(const Model& model, const ImplicitSystem& sys, double tolerance, int cap, int threads,
+                              std::vector<Vec3>& y, SolveStats& stats) {
+  const std::size_t n = model.num_quanta();
+  const double* inv_mass = model.inv_mass.data();
+  CgArrays a(arrays, n);
+  auto ranges = [&](auto&& body) { parallel_ranges(n, threads, body); };
+  ranges([&](std::size_t lo, std::size_t hi) { load(sys, y, a.y, a.d, lo, hi); });
+  product(model, sys, a.d, a.y, a.Ap, threads);
+  ranges([&](std::size_t lo, std::size_t hi) { first_residual(sys, inv_mass, a.d, a.Ap, a.r, a.z, a.p, lo, hi); });
+  // Dot products over free quanta: kinematic rows of r, z, p and Ap are 0.
+  double rz = dot(n, threads, a.r, a.z);
+  const double bnorm = sys.rhs_norm;
+  auto rel = [&](double r2) { return bnorm > 0 ? std::sqrt(r2) / bnorm : std::sqrt(r2); };
+  stats.residual = rel(dot(n, threads, a.r, a.r));
+  int it = 0;
+  while (it < cap && stats.residual > tolerance) {
+    product(model, sys, a.d, a.p, a.Ap, threads);
+    const double pAp = dot(n, threads, a.p, a.Ap);
+    if (!(pAp > 0)) break;  // exact solution reached (p = 0) or loss of positivity
+    const double alpha = rz / pAp;
+    ranges([&](std::size_t lo, std::size_t hi) { cg_update(alpha, a.d, a.p, a.Ap, a.y, a.r, a.z, lo, hi); });
+    const double rz_new = dot(n, threads, a.r, a.z);
+    const double beta = rz_new / rz;
+    rz = rz_new;
+    ranges([&](std::size_t lo, std::size_t hi) { new_direction(beta, a.z, a.p, lo, hi); });
+    ++it;
+    stats.residual = rel(dot(n, threads, a.r, a.r));
+  }
+  stats.iterations = it;
+  ranges([&](std::size_t lo, std::size_t hi) { store(a.y, y, lo, hi); });
+}
+
+}  // namespace qbond
