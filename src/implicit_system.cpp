@@ -8,84 +8,11 @@
 
 namespace qbond {
 
-void begin_implicit_step(const Model& model, const State& state, const Adjacency& adj,
-                         const std::vector<Vec3>& f_ext, const StepContext& ctx, bool edges, int threads,
-                         Projection& kin, ImplicitSystem& sys) {
-  const std::size_t n = model.num_quanta();
-  kin.resize(n);
-  project_kinematic(model, state, ctx, kin);
-  const double h = ctx.h, h2 = h * h;
-  sys.part.update(model, adj, threads);
-  sys.bonds.resize(model.num_bonds());
-  sys.rows.resize(n);
-  sys.edges.resize(edges ? adj.offset[n] : 0);
-  sys.cursor.resize(edges ? n : 0);
-  parallel_for(n, threads, [&](std::size_t i) {
-    sys.rows[i].start(model.mass[i], h * f_ext[i]);
-    if (edges) sys.cursor[i] = adj.offset[i];
-  });
-
-  // Δx₀ and Δv_k, the motion already known before solving (see the header).
-  auto dx0 = [&](Index i) -> Vec3 { return model.is_kinematic(i) ? kin.dx[i] : Vec3(h * state.v[i]); };
-  auto dvk = [&](Index i) -> Vec3 { return model.is_kinematic(i) ? kin.dv[i] : Vec3::Zero(); };
-
-  // Per bond: u, B_b (written by the part owning bond_i) and g_b, the right-hand-side term on i
-  // (j gets −g_b). A quanta's bonds come in bond order, the order of its adjacency entries: its
-  // cursor walks them.
-  for_each_bond(sys.part, model, [&](Index b, bool own_i, bool own_j) {
-    const Index i = model.bond_i[b], j = model.bond_j[b];
-    const bool free_i = !model.is_kinematic(i), free_j = !model.is_kinematic(j);
-    const bool write_block = own_i && (free_i || free_j);
-    own_i = own_i && free_i;  // kinematic rows are not solved for
-    own_j = own_j && free_j;
-    if (!own_i && !own_j && !write_block) return;
-    const BondLinearisation l = linearise_bond(model, state, b);
-    const double Ba = h * l.ca + h2 * l.ka, Bb = h * l.cb + h2 * l.kb;
-    if (write_block) sys.bonds.set(b, l.u, Ba, Bb);
-    if (!own_i && !own_j) return;
-    double B[6];
-    block_entries(l.u, Ba, Bb, B);
-    Vec3 g = h * l.f - h * block_times(l.u, l.ka, l.kb, dx0(i) - dx0(j));
-    if (!free_i || !free_j) g -= h * block_times(l.u, l.ca, l.cb, dvk(i) - dvk(j));  // Δv_k = 0 for free quanta
-    // An edge towards a kinematic neighbour is 0: its unknown is eliminated.
-    if (own_i) {
-      DiagonalRow& row = sys.rows[i];
-      row.add_block(B);
-      row.b += g;
-      if (edges) sys.edges[sys.cursor[i]++] = {l.u, free_j ? Ba : 0.0, free_j ? Bb : 0.0};
-    }
-    if (own_j) {
-      DiagonalRow& row = sys.rows[j];
-      row.add_block(B);
-      row.b -= g;
-      if (edges) sys.edges[sys.cursor[j]++] = {l.u, free_i ? Ba : 0.0, free_i ? Bb : 0.0};
-    }
-  });
-  sys.diag.resize(n);
-  sys.diag_inv.resize(n);
-  sys.rhs.resize(n);
-  parallel_for(n, threads, [&](std::size_t q) {
-    const auto i = static_cast<Index>(q);
-    if (model.is_kinematic(i)) {
-      sys.diag[i].setIdentity();
-      sys.diag_inv[i].setIdentity();
-      sys.rhs[i].setZero();
-      return;
-    }
-    sys.diag[i] = sys.rows[i].matrix();
-    // A_ii = m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-    sys.diag_inv[i] = sys.diag[i].inverse();
-    sys.rhs[i] = sys.rows[i].b;
-  });
-  sys.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return sys.rhs[i].squaredNorm(); }));
-}
-
 void assemble_blocks(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys) {
   const std::size_t n = model.num_quanta();
   sys.part.update(model, adj, threads);
   sys.diag.resize(n);
   sys.diag_inv.resize(n);
-  sys.edges.resize(adj.offset[n]);
   parallel_for(n, threads, [&](std::size_t q) {
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i)) {
@@ -96,15 +23,26 @@ void assemble_blocks(const Model& model, const Adjacency& adj, int threads, Impl
     Mat3 d = model.mass[i] * Mat3::Identity();
     for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
       const Index b = adj.bond[e];
-      const Vec3 u = sys.bonds.u(b);
-      const double Ba = sys.bonds.Ba[b], Bb = sys.bonds.Bb[b];
-      d += block_matrix(u, Ba, Bb);
-      const bool coupled = !model.is_kinematic(adj.other[e]);
-      sys.edges[e] = {u, coupled ? Ba : 0.0, coupled ? Bb : 0.0};
+      d += block_matrix(sys.bonds.u(b), sys.bonds.Ba[b], sys.bonds.Bb[b]);
     }
     sys.diag[i] = d;
     // A_ii = m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
     sys.diag_inv[i] = d.inverse();
+  });
+  gather_edges(model, adj, threads, sys);
+}
+
+void gather_edges(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys) {
+  const std::size_t n = model.num_quanta();
+  sys.edges.resize(adj.offset[n]);
+  parallel_for(n, threads, [&](std::size_t q) {
+    const auto i = static_cast<Index>(q);
+    if (model.is_kinematic(i)) return;
+    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+      const Index b = adj.bond[e];
+      const bool coupled = !model.is_kinematic(adj.other[e]);
+      sys.edges[e] = {sys.bonds.u(b), coupled ? sys.bonds.Ba[b] : 0.0, coupled ? sys.bonds.Bb[b] : 0.0};
+    }
   });
 }
 

@@ -88,27 +88,6 @@ struct EdgeBlock {
   double Ba = 0, Bb = 0;  // 0 when the neighbour is kinematic (its unknown is eliminated)
 };
 
-// A quanta's diagonal block A_ii (its six distinct entries) and right-hand side b_i while the
-// coupled build adds to them (the frozen step keeps the same entries as structure of arrays:
-// frozen_step.cpp).
-struct DiagonalRow {
-  double a[6];  // xx, yy, zz, xy, xz, yz
-  Vec3 b;
-  void start(double mass, const Vec3& rhs) {
-    a[0] = a[1] = a[2] = mass;
-    a[3] = a[4] = a[5] = 0;
-    b = rhs;
-  }
-  // A_ii += a u uᵀ + c I, B_b's entries as block_entries gives them.
-  void add_block(const double (&B)[6]) {
-    for (int k = 0; k < 6; ++k) a[k] += B[k];
-  }
-  Mat3 matrix() const {
-    Mat3 m;
-    m << a[0], a[3], a[4], a[3], a[1], a[5], a[4], a[5], a[2];
-    return m;
-  }
-};
 // The six distinct entries of a u uᵀ + c I (xx, yy, zz, xy, xz, yz).
 inline void block_entries(const Vec3& u, double a, double c, double (&B)[6]) {
   const Vec3 au = a * u;
@@ -132,17 +111,17 @@ struct ImplicitSystem {
   // empty otherwise.
   std::vector<Mat3> exact;  // (nb when used)
   // The bond-centric passes' partition (begin_implicit_step and assemble_blocks keep it current;
-  // CG's product runs over it) and begin_implicit_step's scratch.
+  // CG's product runs over it) and begin_implicit_step's scratch (implicit_build.cpp).
   BondPartition part;
-  std::vector<DiagonalRow> rows;  // (n)
-  std::vector<Index> cursor;      // (n) each quanta's next adjacency entry (with edges)
+  std::vector<double> arrays;
 };
 
 // Starts an implicit step: sizes `out` and fills its kinematic rows (project_kinematic), then
-// builds A's blocks and b in one bond-centric pass (bond_partition.hpp: each bond linearised once,
-// its block written in bond order and added to both ends' diagonal block and right-hand side,
-// in bond order for any thread count) and a pass over the quanta (diagonal blocks and their
-// inverses). With `edges`, also the edge blocks the per-quanta solvers read.
+// builds A's blocks and b in one bond-centric pass (implicit_build.cpp: each bond linearised once,
+// affine runs in vector loops; its block written in bond order and added to both ends' diagonal
+// block and right-hand side, in bond order for any thread count) and a pass over the quanta
+// (diagonal blocks and their inverses). With `edges`, also the edge blocks the per-quanta solvers
+// read (gather_edges).
 void begin_implicit_step(const Model& model, const State& state, const Adjacency& adj,
                          const std::vector<Vec3>& f_ext, const StepContext& ctx, bool edges, int threads,
                          Projection& out, ImplicitSystem& sys);
@@ -152,6 +131,10 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
 // edge blocks, gathered in bond order (the same bits for any thread count); updates sys.part.
 // Leaves rhs alone.
 void assemble_blocks(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys);
+
+// sys.edges from sys.bonds, each free quanta's in its adjacency order: its bond's block, 0
+// towards a kinematic neighbour (whose unknown is eliminated).
+void gather_edges(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys);
 
 // The paper's hybrid step (Eq. 12: neighbours held at their start positions and at rest), in one
 // bond-centric pass (bond_partition.hpp) and one pass over the quanta. Eq. 12 reads

@@ -3,8 +3,8 @@
 // x86-64-v3 (AVX2, FMA) and x86-64-v4 (AVX-512), and the loader picks the widest the CPU has (GCC
 // and Clang function multiversioning, an ifunc). The bond kernels' vectorised loops then use the
 // wide registers where they exist while the build stays portable: no -march=native.
-// Each clone is deterministic, but clones may round differently (fused multiply-adds): results
-// are bit-identical on one machine for any thread count, not across CPUs of different levels.
+// The build turns off fused multiply-adds (-ffp-contract=off, CMakeLists.txt), so every clone
+// rounds as the baseline code does: the same bits on any CPU and for any thread count.
 // QBOND_VECTOR_INLINE marks the helpers such a function calls: inlined into each clone, they are
 // compiled for its instruction set (called, they would run the baseline code); QBOND_LAMBDA_INLINE
 // does the same for a lambda (after its parameter list).

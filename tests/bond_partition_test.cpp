@@ -172,9 +172,8 @@ std::vector<Vec3> force_pass(const World& w, const BondPartition& part, int thre
   return f;
 }
 
-// The force pass (forces.hpp) against the plain one: each quanta's sum to round-off (the pass's
-// kernels may fuse multiply-adds, and sanitizer builds compile them for AVX2 alone), and the same
-// bits at 1, 2 and 3 threads. In the builder's order with mixed laws and damping every bond takes
+// The force pass (forces.hpp) against the plain one: each quanta's sum to round-off (the vector
+// loops order a bond's arithmetic their own way), and the same bits at 1, 2 and 3 threads. In the builder's order with mixed laws and damping every bond takes
 // the per-bond path; in the offset-grouped order most take the vector loops of affine runs, in
 // uniform runs of each damping model and mixed ones.
 TEST(BondPartition, ForcePassMatchesASerialPassAndGivesTheSameBitsAtAnyThreadCount) {

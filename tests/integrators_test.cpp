@@ -120,10 +120,11 @@ TEST(CoupledImplicit, DenseLdltAndCgAgree) {
   EXPECT_LE(test::max_norm_diff(cg.dv, dense.dv), 1e-11 * scale);
 }
 
-// The plain reference of the implicit step: A = M + h C + h² K and b = h (f_ext + f) − h K Δx₀
-// assembled densely from the textbook 3×3 blocks of laws.hpp (stiffness_block, damping_block,
-// bond_force_on_i), for a world whose kinematic quanta are at rest (Δx₀ = h v for free quanta,
-// 0 for anchored ones). Returns Δv of the coupled step and of the paper's frozen step.
+// The plain reference of the implicit step: A = M + h C + h² K and b = h (f_ext + f) − h K Δx₀ −
+// h C Δv_k assembled densely from the textbook 3×3 blocks of laws.hpp (stiffness_block,
+// damping_block, bond_force_on_i); Δx₀ = h v for free quanta, the prescribed displacement for
+// kinematic ones, and Δv_k their prescribed velocity change (0 for free ones). Returns Δv of the
+// coupled step and of the paper's frozen step (Δv_k for kinematic quanta).
 struct ReferenceStep {
   std::vector<Vec3> coupled, frozen;
 };
@@ -132,10 +133,15 @@ ReferenceStep plain_implicit_step(const World& w, double h) {
   const State& s = w.state;
   const auto n = static_cast<Eigen::Index>(w.num_quanta());
   Eigen::MatrixXd K = Eigen::MatrixXd::Zero(3 * n, 3 * n), C = K;
-  Eigen::VectorXd f = Eigen::VectorXd::Zero(3 * n), dx0 = f;
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(3 * n), dx0 = f, dvk = f;
+  Projection kin;
+  kin.resize(w.num_quanta());
+  project_kinematic(m, s, {.h = h, .t = s.time, .step = s.step}, kin);
   for (Eigen::Index i = 0; i < n; ++i) {
     f.segment<3>(3 * i) = m.mass[i] * m.gravity;
-    if (!m.is_kinematic(static_cast<Index>(i))) dx0.segment<3>(3 * i) = h * s.v[i];
+    const bool free = !m.is_kinematic(static_cast<Index>(i));
+    dx0.segment<3>(3 * i) = free ? Vec3(h * s.v[i]) : kin.dx[i];
+    if (!free) dvk.segment<3>(3 * i) = kin.dv[i];
   }
   std::vector<Mat3> Ksum(n, Mat3::Zero()), Bsum(n, Mat3::Zero());
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
@@ -159,7 +165,7 @@ ReferenceStep plain_implicit_step(const World& w, double h) {
       Bsum[e] += h * Cb + h * h * Kb;
     }
   }
-  const Eigen::VectorXd b = h * f - h * K * dx0;
+  const Eigen::VectorXd b = h * f - h * K * dx0 - h * C * dvk;
   std::vector<Eigen::Index> free;
   for (Eigen::Index i = 0; i < n; ++i)
     if (!m.is_kinematic(static_cast<Index>(i))) free.push_back(i);
@@ -174,7 +180,7 @@ ReferenceStep plain_implicit_step(const World& w, double h) {
                                     (p == q ? Mat3(m.mass[free[p]] * Mat3::Identity()) : Mat3::Zero());
   }
   const Eigen::VectorXd y = A.partialPivLu().solve(bf);
-  ReferenceStep ref{std::vector<Vec3>(n, Vec3::Zero()), std::vector<Vec3>(n, Vec3::Zero())};
+  ReferenceStep ref{kin.dv, kin.dv};  // kinematic quanta: their prescribed Δv
   for (Eigen::Index p = 0; p < nf; ++p) {
     const Eigen::Index i = free[p];
     ref.coupled[i] = y.segment<3>(3 * p);
@@ -188,7 +194,7 @@ ReferenceStep plain_implicit_step(const World& w, double h) {
 // The integrators' step (bond blocks kept as a u uᵀ + b I, built bond-centric, gathered per
 // quanta) against the plain dense assembly, on a random lattice with everything that changes a
 // block: both laws (the inverse law softening and compressed bonds: clamped), both damping
-// models, plastic rest lengths, broken bonds, an anchored face and gravity. The inverse law and
+// models, plastic rest lengths, broken bonds, a turning anchored face and gravity. The inverse law and
 // mixed damping models are given to bonds of the second half only, so that the frozen step's runs
 // of 64 bonds (frozen_step.cpp) include uniform ones (its vectorised law) and mixed ones; the
 // lattice is stepped with and
@@ -204,6 +210,12 @@ TEST(ImplicitStep, MatchesThePlainAssemblyOnARandomLattice) {
       ASSERT_GT(w.num_bonds(), 4 * kBondRun);
       // The frozen step's fused path for runs of one law and damping model, and its general one.
       test::mix_bonds(w);
+      // The anchored face turns about the x axis: its prescribed Δx and Δv enter the coupled step.
+      Motion& face = w.model.motions.at(0);
+      face.type = MotionType::rotate;
+      face.axis = Vec3::UnitX();
+      face.center = Vec3(0, 0.015, 0.01);
+      face.rate = 30;
       Rng rng{11};
       for (std::size_t b = 0; b < w.num_bonds(); ++b) {
         w.state.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
