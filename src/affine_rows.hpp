@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "bond_partition.hpp"
+#include "qbond/world.hpp"
 #include "simd.hpp"
 
 namespace qbond {
@@ -49,6 +50,22 @@ QBOND_VECTOR_INLINE int uniform_linear(const Model& model, const BondRun& run) {
   if (laws != 0) return -1;
   if (any_isotropic == 0) return 0;
   return all_isotropic == 0x0101010101010101 ? 1 : -1;
+}
+
+// Asks for the parameters of the bonds a few runs after an affine run's: the bond pass reads each
+// parameter array in bursts of a run, interleaved with a dozen other streams, which the hardware
+// prefetcher does not follow far enough ahead.
+QBOND_VECTOR_INLINE void prefetch_parameters(const Model& model, const State& state, const BondRun& run) {
+  constexpr std::size_t kAhead = 4 * kBondRun;
+  const std::size_t b = run.first + kAhead;
+  if (b + run.count > model.num_bonds()) return;
+  for (std::size_t k = 0; k < run.count; k += 8) {  // a cache line of doubles
+    __builtin_prefetch(model.stiffness.data() + b + k);
+    __builtin_prefetch(state.rest.data() + b + k);
+    __builtin_prefetch(model.damping.data() + b + k);
+  }
+  __builtin_prefetch(model.law.data() + b);
+  __builtin_prefetch(model.damping_model.data() + b);
 }
 
 // rows[e][base + k] += terms[e][k] for k in [k0, k1) and each of the N rows.

@@ -5,6 +5,7 @@
 // loops and the dot products are vector loops too. Each row receives its bonds in bond order and
 // each dot product is summed over fixed chunks in fixed lanes, so the iterates are the same bits
 // for any thread count. The vector functions are compiled for several instruction sets (simd.hpp).
+#include <algorithm>
 #include <cmath>
 
 #include "affine_rows.hpp"
@@ -78,6 +79,7 @@ QBOND_VECTOR_INLINE void prefetch_blocks(const BondBlocks& blocks, const BondRun
 // is kinematic, its unknown eliminated, and in the lanes past the run) in one vector loop, added to the rows the part owns in bond order.
 QBOND_VECTOR_CLONES void affine_product(const BondRun& run, const BondBlocks& blocks, const double* inv_mass,
                                         const Soa& y, const Soa& out, ProductTerms& t) {
+  // inv_mass: the padded copy (CgArrays), read up to a vector past the run's last quanta.
   prefetch_blocks(blocks, run);
   const double *ux = blocks.ux.data() + run.first, *uy = blocks.uy.data() + run.first,
                *uz = blocks.uz.data() + run.first;
@@ -125,10 +127,9 @@ void run_product(const Model& model, const BondRun& run, const BondBlocks& block
   }
 }
 
-// out = A y over free quanta (kinematic rows 0; y's kinematic rows ignored).
-void product(const Model& model, const ImplicitSystem& sys, const Diagonals& d, const Soa& y, const Soa& out,
-             int threads) {
-  const double* inv_mass = model.inv_mass.data();
+// out = A y over free quanta (kinematic rows 0; y's kinematic rows ignored); inv_mass padded.
+void product(const Model& model, const ImplicitSystem& sys, const Diagonals& d, const double* inv_mass, const Soa& y,
+             const Soa& out, int threads) {
   parallel_ranges(model.num_quanta(), threads,
                   [&](std::size_t lo, std::size_t hi) { diagonal_times(inv_mass, d, y, out, lo, hi); });
   for_each_bond_run<ProductTerms>(sys.part, [&](const BondRun& run, ProductTerms& t) {
@@ -163,10 +164,10 @@ double dot(std::size_t n, int threads, const Soa& a, const Soa& b) {
       [](double x, double y) { return x + y; });
 }
 
-// The solve's start for quanta [lo, hi): y and A's diagonal blocks and their inverses as
-// structure of arrays.
-QBOND_VECTOR_CLONES void load(const ImplicitSystem& sys, const std::vector<Vec3>& y0, const Soa& y_in, const Diagonals& d,
-                              std::size_t lo, std::size_t hi) {
+// The solve's start for quanta [lo, hi): y, A's diagonal blocks and their inverses, and the
+// inverse masses as structure of arrays.
+QBOND_VECTOR_CLONES void load(const Model& model, const ImplicitSystem& sys, const std::vector<Vec3>& y0, const Soa& y_in,
+                              const Diagonals& d, double* inv_mass, std::size_t lo, std::size_t hi) {
   const double* D = sys.diag.data()->data();  // Mat3: column-major, symmetric
   const double* Dinv = sys.diag_inv.data()->data();
   const double* yp = y0.data()->data();
@@ -179,6 +180,7 @@ QBOND_VECTOR_CLONES void load(const ImplicitSystem& sys, const std::vector<Vec3>
       Dinvs[e][q] = Dinv[9 * q + kEntry[e]];
     }
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) y[c][q] = yp[3 * q + c];
+    inv_mass[q] = model.inv_mass[q];
   }
 }
 
@@ -236,14 +238,17 @@ QBOND_VECTOR_CLONES void store(const Soa& y_in, std::vector<Vec3>& out, std::siz
 struct CgArrays {
   double *y[3], *r[3], *z[3], *p[3], *Ap[3];
   Diagonals d;
+  double* inv_mass;  // padded with 0 (kinematic): the lanes past the last quanta are masked
   CgArrays(std::vector<double>& buffer, std::size_t n) {
     const std::size_t stride = soa_stride(n);
-    buffer.resize(27 * stride);
+    buffer.resize(28 * stride);
     double* next = buffer.data();
     for (double** a : {y, r, z, p, Ap, d.D, d.Dinv}) {
       const int count = a == d.D || a == d.Dinv ? 6 : 3;
       for (int c = 0; c < count; ++c, next += stride) a[c] = next;
     }
+    inv_mass = next;
+    std::fill(inv_mass + n, inv_mass + stride, 0.0);
   }
 };
 
@@ -254,8 +259,8 @@ void apply_system(const Model& model, const ImplicitSystem& sys, const std::vect
   const std::size_t n = model.num_quanta();
   std::vector<double> buffer;
   CgArrays a(buffer, n);
-  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { load(sys, y, a.y, a.d, lo, hi); });
-  product(model, sys, a.d, a.y, a.Ap, threads);
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { load(model, sys, y, a.y, a.d, a.inv_mass, lo, hi); });
+  product(model, sys, a.d, a.inv_mass, a.y, a.Ap, threads);
   out.resize(n);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { store(a.Ap, out, lo, hi); });
 }
@@ -263,12 +268,11 @@ void apply_system(const Model& model, const ImplicitSystem& sys, const std::vect
 void ConjugateGradient::solve(const Model& model, const ImplicitSystem& sys, double tolerance, int cap, int threads,
                               std::vector<Vec3>& y, SolveStats& stats) {
   const std::size_t n = model.num_quanta();
-  const double* inv_mass = model.inv_mass.data();
   CgArrays a(arrays, n);
   auto ranges = [&](auto&& body) { parallel_ranges(n, threads, body); };
-  ranges([&](std::size_t lo, std::size_t hi) { load(sys, y, a.y, a.d, lo, hi); });
-  product(model, sys, a.d, a.y, a.Ap, threads);
-  ranges([&](std::size_t lo, std::size_t hi) { first_residual(sys, inv_mass, a.d, a.Ap, a.r, a.z, a.p, lo, hi); });
+  ranges([&](std::size_t lo, std::size_t hi) { load(model, sys, y, a.y, a.d, a.inv_mass, lo, hi); });
+  product(model, sys, a.d, a.inv_mass, a.y, a.Ap, threads);
+  ranges([&](std::size_t lo, std::size_t hi) { first_residual(sys, a.inv_mass, a.d, a.Ap, a.r, a.z, a.p, lo, hi); });
   // Dot products over free quanta: kinematic rows of r, z, p and Ap are 0.
   double rz = dot(n, threads, a.r, a.z);
   const double bnorm = sys.rhs_norm;
@@ -276,7 +280,7 @@ void ConjugateGradient::solve(const Model& model, const ImplicitSystem& sys, dou
   stats.residual = rel(dot(n, threads, a.r, a.r));
   int it = 0;
   while (it < cap && stats.residual > tolerance) {
-    product(model, sys, a.d, a.p, a.Ap, threads);
+    product(model, sys, a.d, a.inv_mass, a.p, a.Ap, threads);
     const double pAp = dot(n, threads, a.p, a.Ap);
     if (!(pAp > 0)) break;  // exact solution reached (p = 0) or loss of positivity
     const double alpha = rz / pAp;

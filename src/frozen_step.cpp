@@ -260,22 +260,6 @@ QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& st
   }
 }
 
-// Asks for the parameters of the bonds a few runs after an affine run's: the bond pass reads each
-// parameter array in bursts of a run, interleaved with a dozen other streams, which the hardware
-// prefetcher does not follow far enough ahead.
-QBOND_VECTOR_INLINE void prefetch_parameters(const Model& model, const State& state, const BondRun& run) {
-  constexpr std::size_t kAhead = 4 * kBondRun;
-  const std::size_t b = run.first + kAhead;
-  if (b + run.count > model.num_bonds()) return;
-  for (std::size_t k = 0; k < run.count; k += 8) {  // a cache line of doubles
-    __builtin_prefetch(model.stiffness.data() + b + k);
-    __builtin_prefetch(state.rest.data() + b + k);
-    __builtin_prefetch(model.damping.data() + b + k);
-  }
-  __builtin_prefetch(model.law.data() + b);
-  __builtin_prefetch(model.damping_model.data() + b);
-}
-
 // The terms of an affine run that uniform_linear accepts (axial: its damping model is axial).
 QBOND_VECTOR_CLONES void affine_terms(const Model& model, const State& state, const StepArrays& a, const BondRun& run,
                                       double h, bool axial, FrozenTerms& t) {
