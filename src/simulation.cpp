@@ -34,16 +34,26 @@ const Adjacency& Simulation::adjacency() {
   return adj_;
 }
 
-void Simulation::add_force(Index i, const Vec3& f) { f_user_.at(i) += f; }
+void Simulation::add_force(Index i, const Vec3& f) {
+  f_user_.at(i) += f;
+  forces_queued_ = true;
+}
 
-void Simulation::clear_forces() { std::fill(f_user_.begin(), f_user_.end(), Vec3::Zero()); }
+void Simulation::clear_forces() {
+  if (!forces_queued_) return;  // most steps: nothing to clear, no pass over the quanta
+  std::fill(f_user_.begin(), f_user_.end(), Vec3::Zero());
+  forces_queued_ = false;
+}
 
 void Simulation::gather_external_forces() {
   const Model& m = world_.model;
   const std::size_t n = m.num_quanta();
   f_ext_.resize(n);
-  parallel_for(n, integrator_->config().threads,
-               [&](std::size_t i) { f_ext_[i] = m.mass[i] * m.gravity + f_user_[i]; });
+  if (forces_queued_)
+    parallel_for(n, integrator_->config().threads,
+                 [&](std::size_t i) { f_ext_[i] = m.mass[i] * m.gravity + f_user_[i]; });
+  else
+    parallel_for(n, integrator_->config().threads, [&](std::size_t i) { f_ext_[i] = m.mass[i] * m.gravity; });
   for (const Load& load : m.loads) {
     if (load.quanta.empty()) continue;
     const Vec3 share = load.force / static_cast<double>(load.quanta.size());

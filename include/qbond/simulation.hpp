@@ -98,6 +98,7 @@ class Simulation {
   Adjacency adj_;
   std::vector<Vec3> f_ext_;    ///< external force of this step [N] (n)
   std::vector<Vec3> f_user_;   ///< one-step forces queued by add_force [N] (n)
+  bool forces_queued_ = false;  ///< f_user_ holds a force (else it is all zero)
   Projection projection_;
   StepContext ctx_;
   std::vector<BondEvent> events_;
