@@ -175,7 +175,89 @@ void run_build(const Model& model, const State& state, const BuildArrays& a, con
   }
 }
 
+// A's diagonal blocks from the rows' six entries, and their inverses, for free quanta (identity
+// for kinematic ones); with rhs, b from the rows' last three (0 for kinematic quanta).
+void finish_rows(const Model& model, const BuildArrays& a, int threads, bool rhs, ImplicitSystem& sys) {
+  const std::size_t n = model.num_quanta();
+  sys.diag.resize(n);
+  sys.diag_inv.resize(n);
+  if (rhs) sys.rhs.resize(n);
+  parallel_for(n, threads, [&](std::size_t q) {
+    if (model.is_kinematic(static_cast<Index>(q))) {
+      sys.diag[q].setIdentity();
+      sys.diag_inv[q].setIdentity();
+      if (rhs) sys.rhs[q].setZero();
+      return;
+    }
+    const auto r = [&](int e) { return a.row[e][q]; };
+    sys.diag[q] << r(0), r(3), r(4), r(3), r(1), r(5), r(4), r(5), r(2);
+    // A_ii = m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
+    sys.diag_inv[q] = sys.diag[q].inverse();
+    if (rhs) sys.rhs[q] = Vec3(r(6), r(7), r(8));
+  });
+}
+
+// Rows' start for assemble_blocks, A_ii = m I, for quanta [lo, hi).
+QBOND_VECTOR_CLONES void start_blocks(const Model& model, const BuildArrays& a, std::size_t lo, std::size_t hi) {
+  const double* mass = model.mass.data();
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
+      a.row[c][q] = mass[q];
+      a.row[3 + c][q] = 0;
+    }
+  }
+}
+
+// An affine run's blocks B_b (six entries from u, Ba, Bb; −0.0 in the lanes past the run) added to
+// both ends' rows its part owns, in bond order.
+QBOND_VECTOR_CLONES void affine_blocks(const BondRun& run, const BondBlocks& blocks, const BuildArrays& a,
+                                       BuildTerms& t) {
+  const double *ux = blocks.ux.data() + run.first, *uy = blocks.uy.data() + run.first,
+               *uz = blocks.uz.data() + run.first;
+  const double *Ba = blocks.Ba.data() + run.first, *Bb = blocks.Bb.data() + run.first;
+  for (std::size_t q0 = 0; q0 < affine_lanes(run); q0 += 8) {
+    QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {  // kVectorLoop
+      const std::size_t q = q0 + l;
+      const double aux = Ba[q] * ux[q], auy = Ba[q] * uy[q];
+      const double B[6] = {aux * ux[q] + Bb[q], auy * uy[q] + Bb[q], Ba[q] * uz[q] * uz[q] + Bb[q],
+                           aux * uy[q],         aux * uz[q],         auy * uz[q]};
+      const bool live = q < run.count;
+      QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = live ? B[e] : -0.0;
+    }
+  }
+  double* const rows[6] = {a.row[0], a.row[1], a.row[2], a.row[3], a.row[4], a.row[5]};
+  const double* tb[6] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5]};
+  add_affine_run(run, rows, tb, tb);
+}
+
+// Any other run's blocks, bond by bond, added to the rows its part owns.
+void run_blocks(const Model& model, const BondRun& run, const BondBlocks& blocks, const BuildArrays& a) {
+  for (Index k = 0; k < run.count; ++k) {
+    const Index b = run.bond(k);
+    double B[6];
+    block_entries(blocks.u(b), blocks.Ba[b], blocks.Bb[b], B);
+    for (const Index q : {model.bond_i[b], model.bond_j[b]})
+      if (run.owns(q))
+        for (int e = 0; e < 6; ++e) a.row[e][q] += B[e];
+  }
+}
+
 }  // namespace
+
+void assemble_blocks(const Model& model, const Adjacency& adj, int threads, bool edges, ImplicitSystem& sys) {
+  const std::size_t n = model.num_quanta();
+  sys.part.update(model, adj, threads);
+  const BuildArrays a(sys.arrays, n);
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_blocks(model, a, lo, hi); });
+  for_each_bond_run<BuildTerms>(sys.part, [&](const BondRun& run, BuildTerms& t) {
+    if (run.affine)
+      affine_blocks(run, sys.bonds, a, t);
+    else
+      run_blocks(model, run, sys.bonds, a);
+  });
+  finish_rows(model, a, threads, false, sys);
+  if (edges) gather_edges(model, adj, threads, sys);
+}
 
 void begin_implicit_step(const Model& model, const State& state, const Adjacency& adj,
                          const std::vector<Vec3>& f_ext, const StepContext& ctx, bool edges, int threads,
@@ -196,22 +278,7 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
     else
       run_build(model, state, a, run, h, sys.bonds);
   });
-  sys.diag.resize(n);
-  sys.diag_inv.resize(n);
-  sys.rhs.resize(n);
-  parallel_for(n, threads, [&](std::size_t q) {
-    if (model.is_kinematic(static_cast<Index>(q))) {
-      sys.diag[q].setIdentity();
-      sys.diag_inv[q].setIdentity();
-      sys.rhs[q].setZero();
-      return;
-    }
-    const auto r = [&](int e) { return a.row[e][q]; };
-    sys.diag[q] << r(0), r(3), r(4), r(3), r(1), r(5), r(4), r(5), r(2);
-    // A_ii = m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-    sys.diag_inv[q] = sys.diag[q].inverse();
-    sys.rhs[q] = Vec3(r(6), r(7), r(8));
-  });
+  finish_rows(model, a, threads, true, sys);
   sys.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return sys.rhs[i].squaredNorm(); }));
   if (edges) gather_edges(model, adj, threads, sys);
 }

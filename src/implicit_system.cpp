@@ -8,30 +8,6 @@
 
 namespace qbond {
 
-void assemble_blocks(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys) {
-  const std::size_t n = model.num_quanta();
-  sys.part.update(model, adj, threads);
-  sys.diag.resize(n);
-  sys.diag_inv.resize(n);
-  parallel_for(n, threads, [&](std::size_t q) {
-    const auto i = static_cast<Index>(q);
-    if (model.is_kinematic(i)) {
-      sys.diag[i].setIdentity();
-      sys.diag_inv[i].setIdentity();
-      return;
-    }
-    Mat3 d = model.mass[i] * Mat3::Identity();
-    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
-      const Index b = adj.bond[e];
-      d += block_matrix(sys.bonds.u(b), sys.bonds.Ba[b], sys.bonds.Bb[b]);
-    }
-    sys.diag[i] = d;
-    // A_ii = m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-    sys.diag_inv[i] = d.inverse();
-  });
-  gather_edges(model, adj, threads, sys);
-}
-
 void gather_edges(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys) {
   const std::size_t n = model.num_quanta();
   sys.edges.resize(adj.offset[n]);

@@ -126,11 +126,11 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
                          const std::vector<Vec3>& f_ext, const StepContext& ctx, bool edges, int threads,
                          Projection& out, ImplicitSystem& sys);
 
-// A's blocks from per-bond B_b (sys.bonds[b].u, Ba, Bb, as the Newton integrators fill them):
-// diag = m I + Σ B_b and its inverse for every free quanta (identity for kinematic ones) and the
-// edge blocks, gathered in bond order (the same bits for any thread count); updates sys.part.
-// Leaves rhs alone.
-void assemble_blocks(const Model& model, const Adjacency& adj, int threads, ImplicitSystem& sys);
+// A's blocks from per-bond B_b (sys.bonds, as the Newton integrators fill them): diag = m I + Σ B_b
+// and its inverse for every free quanta (identity for kinematic ones), summed bond-centric in bond
+// order (implicit_build.cpp: affine runs in vector loops; the same bits for any thread count), and
+// with `edges` the edge blocks the sweeps read; updates sys.part. Leaves rhs alone.
+void assemble_blocks(const Model& model, const Adjacency& adj, int threads, bool edges, ImplicitSystem& sys);
 
 // sys.edges from sys.bonds, each free quanta's in its adjacency order: its bond's block, 0
 // towards a kinematic neighbour (whose unknown is eliminated).

@@ -497,7 +497,7 @@ class NewtonIntegrator final : public Integrator {
   void solve_linear(const Model& model, const State& state, const Adjacency& adj, double eta, bool exact) {
     const std::size_t n = model.num_quanta();
     const int threads = config_.threads;
-    assemble_blocks(model, adj, threads, sys_);
+    assemble_blocks(model, adj, threads, config_.solver == CoupledSolver::sweep, sys_);
     sys_.rhs.resize(n);
     parallel_for(n, threads, [&](std::size_t i) { sys_.rhs[i] = -R_[i]; });  // kinematic rows of R are 0
     sys_.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return R_[i].squaredNorm(); }));
