@@ -2,9 +2,11 @@
 // bond-centric pass in runs: an affine run (bond_partition.hpp) of linear bonds with one damping
 // model is linearised in one vector loop reading its ends' data as contiguous vectors, its terms
 // added to the rows (structure of arrays) in bond order by vector loops (affine_rows.hpp) and its
-// blocks written for CG's product; other runs bond by bond. Each row receives its bonds in bond
-// order, so its sum is the same for any thread count. The vector functions are compiled for
-// several instruction sets (simd.hpp).
+// blocks written for CG's product; other runs bond by bond. The Newton integrators' assembly of
+// A's diagonal blocks from their bond blocks (assemble_blocks) takes the same runs. Each row
+// receives its bonds in bond order, so its sum is the same for any thread count. The vector
+// functions are compiled for several instruction sets (simd.hpp).
+#include <algorithm>
 #include <cmath>
 
 #include "affine_rows.hpp"
