@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <vector>
 
 #include "bond_partition.hpp"
 #include "qbond/world.hpp"
@@ -29,6 +30,33 @@ inline Index affine_lanes(const BondRun& run) { return (run.count + 7) & ~Index{
 // first-level cache (at a multiple of 4 KiB they would compete for one set's ways, and loads
 // would wait on stores to other arrays).
 inline std::size_t soa_stride(std::size_t n) { return (n + 511) / 512 * 512 + 24; }
+
+// A kernel's per-quanta arrays carved from one buffer sized for `count` of them, soa_stride(n)
+// apart: next() is the next array, take(a) points each of a's pointers at the next ones.
+class SoaArrays {
+ public:
+  SoaArrays(std::vector<double>& buffer, std::size_t n, std::size_t count) : stride_(soa_stride(n)) {
+    buffer.resize(count * stride_);
+    next_ = buffer.data();
+  }
+  double* next() { return (next_ += stride_) - stride_; }
+  template <std::size_t N>
+  void take(double* (&a)[N]) {
+    for (double*& p : a) p = next();
+  }
+  std::size_t stride() const { return stride_; }
+
+ private:
+  std::size_t stride_;
+  double* next_;
+};
+
+// An affine run's bond parameters from its first bond on: strength, rest length, damping.
+struct RunParameters {
+  const double *k, *L, *D;
+  RunParameters(const Model& model, const State& state, const BondRun& run)
+      : k(model.stiffness.data() + run.first), L(state.rest.data() + run.first), D(model.damping.data() + run.first) {}
+};
 
 // Whether every bond of an affine run's whole vectors has the linear law, and one damping model:
 // 0 all axial, 1 all isotropic, −1 otherwise (the run then takes the per-bond path). Read 8

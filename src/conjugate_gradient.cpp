@@ -240,15 +240,16 @@ struct CgArrays {
   Diagonals d;
   double* inv_mass;  // padded with 0 (kinematic): the lanes past the last quanta are masked
   CgArrays(std::vector<double>& buffer, std::size_t n) {
-    const std::size_t stride = soa_stride(n);
-    buffer.resize(28 * stride);
-    double* next = buffer.data();
-    for (double** a : {y, r, z, p, Ap, d.D, d.Dinv}) {
-      const int count = a == d.D || a == d.Dinv ? 6 : 3;
-      for (int c = 0; c < count; ++c, next += stride) a[c] = next;
-    }
-    inv_mass = next;
-    std::fill(inv_mass + n, inv_mass + stride, 0.0);
+    SoaArrays soa(buffer, n, 28);
+    soa.take(y);
+    soa.take(r);
+    soa.take(z);
+    soa.take(p);
+    soa.take(Ap);
+    soa.take(d.D);
+    soa.take(d.Dinv);
+    inv_mass = soa.next();
+    std::fill(inv_mass + n, inv_mass + soa.stride(), 0.0);
   }
 };
 

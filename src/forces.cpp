@@ -60,9 +60,7 @@ QBOND_VECTOR_CLONES void start_forces(const std::vector<Vec3>& x, const std::vec
 template <bool kAxial>
 QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& state, const ForceRows& rows,
                                               const BondRun& run, ForceTerms& t) {
-  const double* k = model.stiffness.data() + run.first;
-  const double* L = state.rest.data() + run.first;
-  const double* D = model.damping.data() + run.first;
+  const auto [k, L, D] = RunParameters(model, state, run);
   const double *xi[3], *xj[3], *vi[3], *vj[3];
   for (int c = 0; c < 3; ++c) {
     xi[c] = rows.x[c] + run.i0;
@@ -139,14 +137,11 @@ void force_pass(const Model& model, const State& state, const BondPartition& par
                 const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, bool per_mass,
                 ForceArrays& work, std::vector<Vec3>& out) {
   const std::size_t n = model.num_quanta();
-  const std::size_t stride = soa_stride(n);
-  work.data.resize(9 * stride);
   ForceRows rows;
-  for (int c = 0; c < 3; ++c) {
-    rows.f[c] = work.data.data() + c * stride;
-    rows.x[c] = work.data.data() + (3 + c) * stride;
-    rows.v[c] = work.data.data() + (6 + c) * stride;
-  }
+  SoaArrays soa(work.data, n, 9);
+  soa.take(rows.f);
+  soa.take(rows.x);
+  soa.take(rows.v);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_forces(x, v, f_ext, rows, lo, hi); });
   for_each_bond_run<ForceTerms>(part, [&](const BondRun& run, ForceTerms& t) {
     // The same runs for every partition (bond_partition.hpp), so the same path for each bond.

@@ -239,9 +239,7 @@ QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, dou
 template <bool kAxial>
 QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& state, const StepArrays& a,
                                              const BondRun& run, double h, FrozenTerms& t) {
-  const double* k = model.stiffness.data() + run.first;
-  const double* L = state.rest.data() + run.first;
-  const double* D = model.damping.data() + run.first;
+  const auto [k, L, D] = RunParameters(model, state, run);
   const Index i = run.i0, j = run.j0;
   const double *xi = a.x[0] + i, *yi = a.x[1] + i, *zi = a.x[2] + i;
   const double *xj = a.x[0] + j, *yj = a.x[1] + j, *zj = a.x[2] + j;
@@ -381,10 +379,11 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   const double h = ctx.h;
   out.resize(n);
   part.update(model, adj, threads);
-  const std::size_t stride = soa_stride(n);
-  arrays.resize(15 * stride);
   StepArrays a;
-  for (std::size_t e = 0; e < 15; ++e) (e < 9 ? a.row[e] : e < 12 ? a.x[e - 9] : a.v[e - 12]) = arrays.data() + e * stride;
+  SoaArrays soa(arrays, n, 15);
+  soa.take(a.row);
+  soa.take(a.x);
+  soa.take(a.v);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_rows(model, state, f_ext, h, a, lo, hi); });
   for_each_bond_run<FrozenScratch>(part, [&](const BondRun& run, FrozenScratch& s) {
     // The same runs for every partition (bond_partition.hpp), so the same path for each bond.

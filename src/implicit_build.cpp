@@ -24,14 +24,13 @@ namespace {
 struct BuildArrays {
   double* row[9];
   double *x[3], *v[3], *dx0[3], *dvk[3];
-  static constexpr std::size_t kCount = 21;
   BuildArrays(std::vector<double>& buffer, std::size_t n) {
-    const std::size_t stride = soa_stride(n);
-    buffer.resize(kCount * stride);
-    double* next = buffer.data();
-    for (double*& a : row) a = (next += stride) - stride;
-    for (double** group : {x, v, dx0, dvk})
-      for (int c = 0; c < 3; ++c) group[c] = (next += stride) - stride;
+    SoaArrays soa(buffer, n, 21);
+    soa.take(row);
+    soa.take(x);
+    soa.take(v);
+    soa.take(dx0);
+    soa.take(dvk);
   }
 };
 
@@ -77,9 +76,7 @@ struct BuildTerms {
 template <bool kAxial>
 QBOND_VECTOR_INLINE void linear_affine_build(const Model& model, const State& state, const BuildArrays& a,
                                              const BondRun& run, double h, BuildTerms& t) {
-  const double* k = model.stiffness.data() + run.first;
-  const double* L = state.rest.data() + run.first;
-  const double* D = model.damping.data() + run.first;
+  const auto [k, L, D] = RunParameters(model, state, run);
   const double *xi[3], *xj[3], *vi[3], *vj[3], *ei[3], *ej[3], *ci[3], *cj[3];  // local: held in registers
   for (int c = 0; c < 3; ++c) {
     xi[c] = a.x[c] + run.i0, xj[c] = a.x[c] + run.j0;

@@ -49,11 +49,11 @@ void Simulation::gather_external_forces() {
   const Model& m = world_.model;
   const std::size_t n = m.num_quanta();
   f_ext_.resize(n);
-  if (forces_queued_)
-    parallel_for(n, integrator_->config().threads,
-                 [&](std::size_t i) { f_ext_[i] = m.mass[i] * m.gravity + f_user_[i]; });
-  else
-    parallel_for(n, integrator_->config().threads, [&](std::size_t i) { f_ext_[i] = m.mass[i] * m.gravity; });
+  const bool user = forces_queued_;  // else f_user_ is all zero and not read
+  parallel_for(n, integrator_->config().threads, [&](std::size_t i) {
+    f_ext_[i] = m.mass[i] * m.gravity;
+    if (user) f_ext_[i] += f_user_[i];
+  });
   for (const Load& load : m.loads) {
     if (load.quanta.empty()) continue;
     const Vec3 share = load.force / static_cast<double>(load.quanta.size());

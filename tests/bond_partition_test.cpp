@@ -172,17 +172,25 @@ std::vector<Vec3> force_pass(const World& w, const BondPartition& part, int thre
   return f;
 }
 
+// random_lattice's size and anchors in the offset-grouped order, where most bonds form affine
+// runs, with test::mix_bonds' uniform runs of each damping model and mixed ones; perturbed, and
+// with every 97th bond broken if asked.
+World grouped_lattice(bool broken) {
+  World w = test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true);
+  renumber(w, locality_order(w));
+  test::mix_bonds(w);
+  test::perturb(w, 2e-3, 0.2);
+  for (std::size_t b = 5; broken && b < w.num_bonds(); b += 97) w.state.alive[b] = 0;
+  ++w.state.topology_version;
+  return w;
+}
+
 // The force pass (forces.hpp) against the plain one: each quanta's sum to round-off (the vector
-// loops order a bond's arithmetic their own way), and the same bits at 1, 2 and 3 threads. In the builder's order with mixed laws and damping every bond takes
-// the per-bond path; in the offset-grouped order most take the vector loops of affine runs, in
-// uniform runs of each damping model and mixed ones.
+// loops order a bond's arithmetic their own way), and the same bits at 1, 2 and 3 threads. In the
+// builder's order with mixed laws and damping every bond takes the per-bond path; in the
+// offset-grouped order most take the vector loops of affine runs.
 TEST(BondPartition, ForcePassMatchesASerialPassAndGivesTheSameBitsAtAnyThreadCount) {
-  World grouped = test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true);
-  renumber(grouped, locality_order(grouped));
-  test::mix_bonds(grouped);
-  for (std::size_t b = 5; b < grouped.num_bonds(); b += 97) grouped.state.alive[b] = 0;
-  ++grouped.state.topology_version;
-  test::perturb(grouped, 2e-3, 0.2);
+  const World grouped = grouped_lattice(true);
   const World builders = random_lattice();
   for (bool is_grouped : {false, true}) {
     const World& w = is_grouped ? grouped : builders;
@@ -215,13 +223,7 @@ TEST(BondPartition, ForcePassMatchesASerialPassAndGivesTheSameBitsAtAnyThreadCou
 // the grouped one (intact, broken), with an anchored face whose unknowns are eliminated (their
 // rows 0, their entries of y ignored); the same bits at 1-3 threads.
 TEST(BondPartition, CgProductMatchesTheAssembledMatrixAndGivesTheSameBitsAtAnyThreadCount) {
-  World grouped = test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true);
-  renumber(grouped, locality_order(grouped));
-  test::mix_bonds(grouped);
-  test::perturb(grouped, 2e-3, 0.2);
-  World grouped_broken = grouped;
-  for (std::size_t b = 5; b < grouped_broken.num_bonds(); b += 97) grouped_broken.state.alive[b] = 0;
-  ++grouped_broken.state.topology_version;
+  const World grouped = grouped_lattice(false), grouped_broken = grouped_lattice(true);
   const World builders = random_lattice();
   for (const World* w : std::initializer_list<const World*>{&builders, &grouped, &grouped_broken}) {
     const std::size_t n = w->num_quanta();
@@ -255,7 +257,8 @@ TEST(BondPartition, CgProductMatchesTheAssembledMatrixAndGivesTheSameBitsAtAnyTh
             ASSERT_EQ(out[q], Vec3::Zero()) << "kinematic quanta " << q;
             continue;
           }
-          // Each entry a sum of at most 3 (1 + bonds) products, each off by an ulp or so.
+          // Each entry sums three products per block (the diagonal and each bond), each off by an
+          // ulp or so.
           for (int c = 0; c < 3; ++c)
             ASSERT_LE(std::abs(out[q][c] - ref[dof[q] + c]), 1e-14 * bound[dof[q] + c]) << "quanta " << q;
         }
