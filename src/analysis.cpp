@@ -10,16 +10,27 @@
 
 namespace qbond {
 
-Energies energies(const Model& model, const State& state, int threads) {
-  const std::size_t n = model.num_quanta();
-  auto free = [&](std::size_t i) { return !model.is_kinematic(static_cast<Index>(i)); };
+Energies quanta_energies(const Model& model, const State& state, int threads) {
+  // Both sums folded as deterministic_sum folds each: the same chunks, in the same order.
+  struct Pair {
+    double kinetic = 0, potential = 0;
+  };
+  auto fold = [&](Pair p, std::size_t i) {
+    const bool free = !model.is_kinematic(static_cast<Index>(i));
+    p.kinetic += free ? 0.5 * model.mass[i] * state.v[i].squaredNorm() : 0.0;
+    p.potential += free ? model.mass[i] * model.gravity.dot(state.x[i]) : 0.0;
+    return p;
+  };
+  auto combine = [](Pair a, Pair b) { return Pair{a.kinetic + b.kinetic, a.potential + b.potential}; };
+  const Pair p = deterministic_reduce(model.num_quanta(), threads, Pair{}, fold, combine);
   Energies e;
-  e.kinetic = deterministic_sum(n, threads, [&](std::size_t i) {
-    return free(i) ? 0.5 * model.mass[i] * state.v[i].squaredNorm() : 0.0;
-  });
-  e.gravity = -deterministic_sum(n, threads, [&](std::size_t i) {
-    return free(i) ? model.mass[i] * model.gravity.dot(state.x[i]) : 0.0;
-  });
+  e.kinetic = p.kinetic;
+  e.gravity = -p.potential;
+  return e;
+}
+
+Energies energies(const Model& model, const State& state, int threads) {
+  Energies e = quanta_energies(model, state, threads);
   e.bonds = bond_energy_sum(model, state, threads);
   return e;
 }

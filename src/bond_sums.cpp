@@ -1,5 +1,6 @@
 #include "bond_sums.hpp"
 
+#include <array>
 #include <bit>
 #include <cmath>
 #include <functional>
@@ -34,25 +35,29 @@ QBOND_VECTOR_INLINE bool uniform_prefix(const T* a, std::size_t b, std::size_t c
   return bad == 0;
 }
 
-// Σ over the alive bonds of [b0, b1): affine blocks of eight, and of two to seven where no whole
-// one starts, that uniform(b, count) accepts, in one vector loop a block adding
-// lane_term(i + l, j + l, b + l, b) (b the block's first bond) to lanes[l] for l < count (the
-// other lanes are computed and add −0.0); every other bond into one more partial by
-// bond_term(i, j, b); the lanes added in order, that partial last. Which bonds go where depends on
-// the bonds only, never on the thread.
-template <class LaneTerm, class BondTerm, class Uniform>
-QBOND_VECTOR_INLINE double chunk_sum(const Model& m, const State& s, std::size_t b0, std::size_t b1,
-                                     LaneTerm&& lane_term, BondTerm&& bond_term, Uniform&& uniform) {
+// N sums over the alive bonds of [b0, b1): affine blocks of eight, and of two to seven where no
+// whole one starts, that uniform(b, count) accepts, in one vector loop a block adding the N terms
+// of bond b + l, which lane_term(i + l, j + l, b + l, b, t, l) writes to t[·][l] (b the block's
+// first bond), to lanes[·][l] for l < count (the other lanes are computed and add −0.0); every
+// other bond into one more partial per sum by bond_term(i, j, b) (its N terms); the lanes added
+// in order, that partial last. Which bonds go where
+// depends on the bonds only, never on the thread.
+template <std::size_t N>
+using Sums = std::array<double, N>;
+template <std::size_t N, class LaneTerm, class BondTerm, class Uniform>
+QBOND_VECTOR_INLINE Sums<N> chunk_sums(const Model& m, const State& s, std::size_t b0, std::size_t b1,
+                                       LaneTerm&& lane_term, BondTerm&& bond_term, Uniform&& uniform) {
   const std::size_t n = s.x.size();
-  double lanes[kLanes] = {};
+  double lanes[N][kLanes] = {};
   auto block = [&](std::size_t i, std::size_t j, std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
-    QBOND_SIMD
-    for (std::size_t l = 0; l < kLanes; ++l) {
-      const double t = lane_term(i + l, j + l, b + l, b);
-      lanes[l] += l < count ? t : -0.0;
-    }
+    // The terms first (lane_term writes lane l's N terms into t[·][l]), then their sums: GCC
+    // vectorises no loop that adds into two lane arrays as it computes.
+    double t[N][kLanes];
+    QBOND_SIMD for (std::size_t l = 0; l < kLanes; ++l) lane_term(i + l, j + l, b + l, b, t, l);
+    for (std::size_t k = 0; k < N; ++k)
+      QBOND_SIMD for (std::size_t l = 0; l < kLanes; ++l) lanes[k][l] += l < count ? t[k][l] : -0.0;
   };
-  double others = 0;
+  Sums<N> others{};
   std::size_t b = b0;
   while (b < b1) {
     // The whole blocks from b first, then their loop: no branch between one block and the next.
@@ -68,13 +73,19 @@ QBOND_VECTOR_INLINE double chunk_sum(const Model& m, const State& s, std::size_t
       block(i, j, e, count);
       b = e + count;
     } else {
-      if (s.alive[e]) others += bond_term(i, j, e);
+      if (s.alive[e]) {
+        const Sums<N> t = bond_term(i, j, e);
+        for (std::size_t k = 0; k < N; ++k) others[k] += t[k];
+      }
       b = e + 1;
     }
   }
-  double sum = 0;
-  for (double l : lanes) sum += l;
-  return sum + others;
+  Sums<N> sums{};
+  for (std::size_t k = 0; k < N; ++k) {
+    for (double l : lanes[k]) sums[k] += l;
+    sums[k] += others[k];
+  }
+  return sums;
 }
 
 // |x_j − x_i| for positions stored as consecutive triples.
@@ -88,58 +99,81 @@ QBOND_VECTOR_INLINE double length(const double* x, std::size_t i, std::size_t j)
   return std::sqrt(r2);
 }
 
+// U_b of a linear bond of length r (evaluate_law's, Eq. 2), written out so that a block of them
+// vectorises.
+QBOND_VECTOR_INLINE double linear_energy(double k, double r, double rest) {
+  const double e = r - rest;
+  return 0.5 * k * e * e;
+}
+
 QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::size_t b0, std::size_t b1) {
   const double* x = s.x.data()->data();
   const double* rest = s.rest.data();
   const double* k = m.stiffness.data();
   const Law* law = m.law.data();
-  // A linear bond's energy written out (evaluate_law's, Eq. 2) so that a block of them vectorises.
-  auto linear = [=](std::size_t i, std::size_t j, std::size_t b) QBOND_LAMBDA_INLINE {
-    const double e = length(x, i, j) - rest[b];
-    return 0.5 * k[b] * e * e;
-  };
-  auto lane = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t) QBOND_LAMBDA_INLINE {
-    return linear(i, j, b);
-  };
+  auto lane = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t, double(&t)[1][kLanes],
+                  std::size_t l) QBOND_LAMBDA_INLINE { t[0][l] = linear_energy(k[b], length(x, i, j), rest[b]); };
   auto any_law = [&](std::size_t i, std::size_t j, std::size_t b) {
-    return law[b] == Law::linear ? linear(i, j, b) : m.law_at(b, length(x, i, j), rest[b]).U;
+    return Sums<1>{m.law_at(b, length(x, i, j), rest[b]).U};
   };
   auto all_linear = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
     return law[b] == Law::linear && uniform_prefix(law, b, count);
   };
-  return chunk_sum(m, s, b0, b1, lane, any_law, all_linear);
+  return chunk_sums<1>(m, s, b0, b1, lane, any_law, all_linear)[0];
 }
 
-QBOND_VECTOR_CLONES double damping_chunk(const Model& m, const State& s, const Projection& p, double h, double theta,
-                                         double phi, std::size_t b0, std::size_t b1) {
+// The dampers' work and the bonds' energy at x + Δx (step_sums), over bonds [b0, b1).
+QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const Projection& p, double h, double theta,
+                                       double phi, std::size_t b0, std::size_t b1) {
   const double* x = s.x.data()->data();
   const double* v = s.v.data()->data();
   const double* dx = p.dx.data()->data();
   const double* dv = p.dv.data()->data();
   const double* D = m.damping.data();
+  const double* rest = s.rest.data();
+  const double* k = m.stiffness.data();
+  const Law* law = m.law.data();
   const DampingModel* model = m.damping_model.data();
-  // The damping model is an argument: a block reads its first bond's only, so that its loop has
-  // no byte load per lane (which would make GCC vectorise it in 64 lanes, more than it has).
+  // The damper's loss and the end length |(x_j + Δx_j) − (x_i + Δx_i)|. The damping model is an
+  // argument: a block reads its first bond's only, so that its loop has no byte load per lane
+  // (which would make GCC vectorise it in 64 lanes, more than it has).
+  struct Term {
+    double loss, r1;
+  };
   auto term = [=](std::size_t i, std::size_t j, std::size_t b, bool axial) QBOND_LAMBDA_INLINE {
-    double d2 = 0, wd = 0, w2 = 0;
+    double d2 = 0, wd = 0, w2 = 0, r2 = 0;
     QBOND_UNROLL(3)
     for (std::size_t c = 0; c < 3; ++c) {
       const std::size_t a = 3 * i + c, e = 3 * j + c;
-      const double d = x[e] - x[a] + phi * (dx[e] - dx[a]);
+      const double d0 = x[e] - x[a], step = dx[e] - dx[a];
+      const double d = d0 + phi * step;
+      const double d1 = d0 + step;
       const double w = (v[e] + theta * dv[e]) - (v[a] + theta * dv[a]);
       d2 += d * d;
       wd += w * d;
       w2 += w * w;
+      r2 += d1 * d1;
     }
-    const double loss = h * D[b] * (axial ? wd * wd / d2 : w2);  // every lane's D loaded: no masked load
-    return d2 > 0 ? loss : 0.0;
+    // Both losses computed, then one selected (no branch in a lane), every lane's D loaded (no
+    // masked load); a zero-length bond's NaN is not selected.
+    const double along = wd * wd / d2;
+    const double loss = h * D[b] * (axial ? along : w2);
+    return Term{d2 > 0 ? loss : 0.0, std::sqrt(r2)};
   };
-  auto lane = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t first) QBOND_LAMBDA_INLINE {
-    return term(i, j, b, model[first] == DampingModel::axial);
+  auto lane = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t first, double(&t)[2][kLanes],
+                  std::size_t l) QBOND_LAMBDA_INLINE {
+    const Term a = term(i, j, b, model[first] == DampingModel::axial);
+    t[0][l] = a.loss;
+    t[1][l] = linear_energy(k[b], a.r1, rest[b]);
   };
-  auto bond = [=](std::size_t i, std::size_t j, std::size_t b) { return term(i, j, b, model[b] == DampingModel::axial); };
-  auto one_model = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE { return uniform_prefix(model, b, count); };
-  return chunk_sum(m, s, b0, b1, lane, bond, one_model);
+  auto bond = [&](std::size_t i, std::size_t j, std::size_t b) {
+    const Term t = term(i, j, b, model[b] == DampingModel::axial);
+    return Sums<2>{t.loss, m.law_at(b, t.r1, rest[b]).U};
+  };
+  auto uniform = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
+    return law[b] == Law::linear && uniform_prefix(law, b, count) && uniform_prefix(model, b, count);
+  };
+  return chunk_sums<2>(m, s, b0, b1, lane, bond, uniform);
 }
 
 }  // namespace
@@ -150,11 +184,13 @@ double bond_energy_sum(const Model& m, const State& s, int threads) {
       std::plus<>{});
 }
 
-double damping_work_sum(const Model& m, const State& s, const Projection& p, double h, double theta, double phi,
-                        int threads) {
-  return reduce_chunks(
-      m.num_bonds(), threads, 0.0,
-      [&](std::size_t b0, std::size_t b1) { return damping_chunk(m, s, p, h, theta, phi, b0, b1); }, std::plus<>{});
+BondStepSums bond_step_sums(const Model& m, const State& s, const Projection& p, double h, double theta, double phi,
+                            int threads) {
+  const Sums<2> sums = reduce_chunks(
+      m.num_bonds(), threads, Sums<2>{},
+      [&](std::size_t b0, std::size_t b1) { return step_chunk(m, s, p, h, theta, phi, b0, b1); },
+      [](const Sums<2>& a, const Sums<2>& b) { return Sums<2>{a[0] + b[0], a[1] + b[1]}; });
+  return {sums[0], sums[1]};
 }
 
 }  // namespace qbond

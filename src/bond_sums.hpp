@@ -1,5 +1,5 @@
 #pragma once
-// The two sums over every alive bond that the energy ledger takes each step (Simulation's
+// The sums over every alive bond that the energy ledger takes each step (Simulation's
 // update_ledger and check_energy): the dampers' work and the bonds' potential energy. Most of a
 // lattice's bonds in locality order come in stretches with affine ends (bond b + k joins i + k and
 // j + k, ordering.hpp); eight such bonds at a time are summed by one vector loop over contiguous
@@ -13,11 +13,20 @@ namespace qbond {
 /// Σ U_b(r_b) over the alive bonds, r_b their lengths at the state's positions (Eqs. 2–3) [J].
 double bond_energy_sum(const Model& m, const State& s, int threads);
 
-/// Energy the dampers take out over a step of length h [J]: Σ h D_b (w·d)² / (d·d) for axial
-/// dampers, Σ h D_b |w|² for isotropic ones, with w = (v_j + θ Δv_j) − (v_i + θ Δv_i) the relative
-/// velocity and d = x_j − x_i + φ (Δx_j − Δx_i) the bond where the integrator evaluated them.
-/// Bonds of zero length along d are charged nothing.
-double damping_work_sum(const Model& m, const State& s, const Projection& p, double h, double theta, double phi,
-                        int threads);
+/// What a step does to the bonds' side of the ledger, from its start state and its projection.
+struct BondStepSums {
+  /// Energy the dampers take out over the step of length h [J]: Σ h D_b (w·d)² / (d·d) for axial
+  /// dampers, Σ h D_b |w|² for isotropic ones, with w = (v_j + θ Δv_j) − (v_i + θ Δv_i) the
+  /// relative velocity and d = x_j − x_i + φ (Δx_j − Δx_i) the bond where the integrator
+  /// evaluated them. Bonds of zero length along d are charged nothing.
+  double damping = 0;
+  /// Σ U_b at the positions the step applies, x + Δx (Eqs. 2–3) [J]: the bonds' energy after the
+  /// step but for round-off where a prescribed quanta lands on its path instead.
+  double energy_after = 0;
+};
+
+/// Both sums of BondStepSums in one pass over the bonds.
+BondStepSums bond_step_sums(const Model& m, const State& s, const Projection& p, double h, double theta, double phi,
+                            int threads);
 
 }  // namespace qbond

@@ -146,7 +146,10 @@ StepReport Simulation::check_energy() const {
   const State& s = world_.state;
   const EnergyLedger& l = s.energy;
   const int threads = integrator_->config().threads;
-  const Energies e = energies(m, s, threads);
+  // The bonds' energy update_ledger summed at the positions this step applied (the same pass as
+  // the dampers' work), but for round-off where a prescribed quanta landed on its path instead.
+  Energies e = quanta_energies(m, s, threads);
+  e.bonds = bonds_after_;
   // External forces can also give energy before they have done measurable work (a step from
   // rest changes velocity before position): allow the kinetic energy their impulse over the
   // elapsed time would give each free quanta, Σ |f_ext t|² / (2 m).
@@ -182,11 +185,59 @@ void Simulation::update_ledger() {
   l.work_loads += w.loads;
   l.work_anchors += p.has_work ? p.work_anchors : w.anchors;
   l.dissipated_damping += p.has_work ? p.dissipated_damping : w.damping;
+  bonds_after_ = w.bonds_after;
+}
+
+namespace {
+
+// A state's per-bond arrays, moved out of it and back: what a step without heuristics leaves as
+// it is.
+struct BondArrays {
+  std::vector<double> rest;
+  std::vector<std::uint8_t> alive;
+  std::vector<double> bond_time;
+  std::vector<FormedBond> formed;
+  explicit BondArrays(State& s)
+      : rest(std::move(s.rest)), alive(std::move(s.alive)), bond_time(std::move(s.bond_time)),
+        formed(std::move(s.formed)) {}
+  void put_back(State& s) {
+    s.rest = std::move(rest);
+    s.alive = std::move(alive);
+    s.bond_time = std::move(bond_time);
+    s.formed = std::move(formed);
+  }
+};
+
+}  // namespace
+
+void Simulation::save_last_good() {
+  State& s = world_.state;
+  last_good_has_bonds_ = !heuristics_.empty();
+  if (last_good_has_bonds_) {
+    last_good_ = s;
+    return;
+  }
+  // Only heuristics edit bonds during a step: without them the copy leaves out the bond arrays,
+  // most of a lattice's state.
+  BondArrays bonds(s);
+  last_good_ = s;
+  bonds.put_back(s);
+}
+
+void Simulation::restore_last_good() {
+  State& s = world_.state;
+  if (last_good_has_bonds_) {
+    s = last_good_;
+    return;
+  }
+  BondArrays bonds(s);
+  s = last_good_;
+  bonds.put_back(s);
 }
 
 StepReport Simulation::end_step() {
   State& s = world_.state;
-  if (keep_last_good_) last_good_ = s;  // before heuristics and ledger: a rollback undoes both
+  if (keep_last_good_) save_last_good();  // before heuristics and ledger: a rollback undoes both
   const bool restore = integrator_->config().restore_energy;
   const EnergyLedger books = s.energy;  // the step's work and dissipation are what the ledger adds
   const double e_start = restore ? energies(world_.model, s, integrator_->config().threads).total() : 0.0;
@@ -198,7 +249,7 @@ StepReport Simulation::end_step() {
   }
   if (StepReport r = check_projection(); r.status != StepReport::Status::ok) {
     if (keep_last_good_) {
-      s = last_good_;  // heuristics may have edited bonds already
+      restore_last_good();  // heuristics may have edited bonds already
       world_.sync_formed_bonds();
       events_.clear();
     }
@@ -232,7 +283,7 @@ StepReport Simulation::end_step() {
 
   StepReport r = check_energy();
   if (r.status != StepReport::Status::ok && keep_last_good_) {
-    s = last_good_;
+    restore_last_good();
     world_.sync_formed_bonds();
     events_.clear();
     r.message += "; the world keeps the state before this step";

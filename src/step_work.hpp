@@ -13,6 +13,7 @@ struct StepWork {
   double loads = 0;    // work of the loads and user forces on free quanta [J]
   double anchors = 0;  // work the prescribed quanta do on the structure through their bonds [J]
   double damping = 0;  // energy the dampers take out [J]
+  double bonds_after = 0;  // the bonds' energy at x + Δx (BondStepSums::energy_after) [J]
 };
 
 // Loads are constant over the step (their work is exact); anchors' bond forces use the trapezoid

@@ -60,11 +60,12 @@ TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
       const State& s = w.state;
       const Projection p = random_projection(w, 3);
       const double h = 1e-3, theta = 0.5, phi = 0.25;
-      double energy = 0, damping = 0;
+      double energy = 0, damping = 0, energy_after = 0;
       for (std::size_t b = 0; b < w.num_bonds(); ++b) {
         if (!s.alive[b]) continue;
         const Index i = m.bond_i[b], j = m.bond_j[b];
         energy += m.law_at(b, (s.x[j] - s.x[i]).norm(), s.rest[b]).U;
+        energy_after += m.law_at(b, ((s.x[j] + p.dx[j]) - (s.x[i] + p.dx[i])).norm(), s.rest[b]).U;
         const Vec3 d = s.x[j] - s.x[i] + phi * (p.dx[j] - p.dx[i]);
         const Vec3 v = (s.v[j] + theta * p.dv[j]) - (s.v[i] + theta * p.dv[i]);
         const double vu = v.dot(d.normalized());
@@ -72,8 +73,11 @@ TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
       }
       ASSERT_GT(energy, 0) << what;
       ASSERT_GT(damping, 0) << what;
+      ASSERT_NE(energy_after, energy) << what;
       EXPECT_NEAR(bond_energy_sum(m, s, 1), energy, sum_tolerance(w.num_bonds(), energy)) << what;
-      EXPECT_NEAR(damping_work_sum(m, s, p, h, theta, phi, 1), damping, sum_tolerance(w.num_bonds(), damping)) << what;
+      const BondStepSums step = bond_step_sums(m, s, p, h, theta, phi, 1);
+      EXPECT_NEAR(step.damping, damping, sum_tolerance(w.num_bonds(), damping)) << what;
+      EXPECT_NEAR(step.energy_after, energy_after, sum_tolerance(w.num_bonds(), energy_after)) << what;
     }
   }
 }
@@ -84,10 +88,12 @@ TEST(EnergyLedger, BondSumsGiveTheSameBitsAtAnyThreadCount) {
   ASSERT_GT(w.num_bonds(), 8 * kSumChunk);
   const Projection p = random_projection(w, 4);
   const double e1 = bond_energy_sum(w.model, w.state, 1);
-  const double d1 = damping_work_sum(w.model, w.state, p, 1e-3, 1, 0, 1);
+  const BondStepSums s1 = bond_step_sums(w.model, w.state, p, 1e-3, 1, 0, 1);
   for (int threads : {2, 3}) {
     EXPECT_EQ(bond_energy_sum(w.model, w.state, threads), e1) << threads << " threads";
-    EXPECT_EQ(damping_work_sum(w.model, w.state, p, 1e-3, 1, 0, threads), d1) << threads << " threads";
+    const BondStepSums st = bond_step_sums(w.model, w.state, p, 1e-3, 1, 0, threads);
+    EXPECT_EQ(st.damping, s1.damping) << threads << " threads";
+    EXPECT_EQ(st.energy_after, s1.energy_after) << threads << " threads";
   }
 }
 

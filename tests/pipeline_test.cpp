@@ -105,30 +105,67 @@ TEST(Pipeline, AnyThreadCountGivesTheSameBits) {
   }
 }
 
-// Explicit Euler on a stiff lattice gains energy every step; with keep_last_good the step that
-// trips the runaway check is undone, so the world holds exactly the state before it.
-TEST(Pipeline, EnergyRunawayIsRolledBackToTheLastGoodState) {
-  World w = test::lattice(3, 3, 3, 1000, 1e-3, 0.0, false);
-  test::perturb(w, 1e-4, 0.0);
-  Simulation sim(std::move(w), test::config(IntegratorType::explicit_euler), 0.005);
-  sim.limits().energy_growth = 2.0;
-  sim.set_keep_last_good(true);
-  for (int n = 0; n < 10000; ++n) {
-    const State before = sim.world().state;
-    const StepReport r = sim.step();
-    if (r.status == StepReport::Status::ok) continue;
-    EXPECT_NE(r.message.find("energy runaway"), std::string::npos) << r.message;
-    const State& after = sim.world().state;
-    EXPECT_EQ(after.step, before.step);
-    EXPECT_EQ(after.time, before.time);
-    EXPECT_EQ(after.energy.dissipated_damping, before.energy.dissipated_damping);
-    for (std::size_t i = 0; i < after.x.size(); ++i) {
-      EXPECT_EQ(after.x[i], before.x[i]);
-      EXPECT_EQ(after.v[i], before.v[i]);
-    }
-    return;
+// A heuristic that edits the bonds every step, as fracture and plasticity do: breaks the first
+// alive bond, doubles its rest length and stamps its time (energy neutral: a broken bond has none).
+class BondEditor : public Heuristic {
+ public:
+  std::string_view name() const override { return "bond_editor"; }
+  int edits = 0;
+  void apply(World& world, Projection&, const HeuristicContext& ctx) override {
+    ++edits;
+    State& s = world.state;
+    for (std::size_t b = 0; b < s.alive.size(); ++b)
+      if (s.alive[b]) {
+        world.break_bond(static_cast<Index>(b));
+        s.rest[b] *= 2;
+        s.bond_time[b] = ctx.step.t;
+        return;
+      }
   }
-  FAIL() << "explicit Euler at h sqrt(k/m) = 5 should run away";
+};
+
+// Explicit Euler on a stiff lattice gains energy every step; with keep_last_good the step that
+// trips the runaway check is undone, so the world holds exactly the state before it: positions,
+// velocities and the ledger, and the bonds, which the copy leaves out when no heuristic can edit
+// them and holds when one does.
+TEST(Pipeline, EnergyRunawayIsRolledBackToTheLastGoodState) {
+  for (bool edits : {false, true}) {
+    World w = test::lattice(3, 3, 3, 1000, 1e-3, 0.0, false);
+    test::perturb(w, 1e-4, 0.0);
+    Simulation sim(std::move(w), test::config(IntegratorType::explicit_euler), 0.005);
+    auto editor = std::make_unique<BondEditor>();
+    const BondEditor* editor_seen = editor.get();
+    if (edits) sim.add_heuristic(std::move(editor));
+    sim.limits().energy_growth = 2.0;
+    sim.set_keep_last_good(true);
+    bool ran_away = false;
+    for (int n = 0; n < 10000 && !ran_away; ++n) {
+      const State before = sim.world().state;
+      const StepReport r = sim.step();
+      if (r.status == StepReport::Status::ok) continue;
+      ran_away = true;
+      EXPECT_NE(r.message.find("energy runaway"), std::string::npos) << r.message;
+      const State& after = sim.world().state;
+      EXPECT_EQ(after.step, before.step);
+      EXPECT_EQ(after.time, before.time);
+      EXPECT_EQ(after.energy.dissipated_damping, before.energy.dissipated_damping);
+      EXPECT_EQ(after.topology_version, before.topology_version);
+      EXPECT_EQ(after.rest, before.rest) << edits;
+      EXPECT_EQ(after.alive, before.alive) << edits;
+      EXPECT_EQ(after.bond_time, before.bond_time) << edits;
+      if (edits) {
+        EXPECT_EQ(editor_seen->edits, n + 1);  // the step that ran away broke a bond too
+      }
+      for (std::size_t i = 0; i < after.x.size(); ++i) {
+        EXPECT_EQ(after.x[i], before.x[i]);
+        EXPECT_EQ(after.v[i], before.v[i]);
+      }
+      // The world steps on from the restored state: the bonds it kept are the state's own.
+      EXPECT_EQ(sim.adjacency().version, after.topology_version);
+      EXPECT_EQ(sim.step().status, StepReport::Status::blowup);
+    }
+    EXPECT_TRUE(ran_away) << "explicit Euler at h sqrt(k/m) = 5 should run away";
+  }
 }
 
 TEST(Pipeline, UserForceActsForOneStepOnly) {

@@ -18,6 +18,9 @@ struct Energies {
 /// Kinetic, bond and gravity energies of the state; `threads` as IntegratorConfig::threads (the
 /// same bits for any count).
 Energies energies(const Model& model, const State& state, int threads = 1);
+/// The kinetic and gravity energies alone (bonds left 0), in one pass over the quanta, with the
+/// bits energies() gives them: for a caller that has the bonds' energy already.
+Energies quanta_energies(const Model& model, const State& state, int threads = 1);
 
 /// Σ m v over free quanta [kg·m/s].
 Vec3 linear_momentum(const Model& model, const State& state);

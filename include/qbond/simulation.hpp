@@ -72,11 +72,12 @@ class Simulation {
   double timestep() const { return h_; }
   void set_timestep(double h) { h_ = h; }
   BlowupLimits& limits() { return limits_; }
-  /// Whether the energy ledger is updated every step (costs one pass over the bonds).
+  /// Whether the energy ledger is updated, and checked for a runaway, every step (costs one pass
+  /// over the bonds).
   void set_track_energy(bool on) { track_energy_ = on; }
   /// Whether each step first copies the state so that an energy runaway, found only after the
-  /// step applied, can be undone (costs one state copy per step; runs that save the last good
-  /// state on blow-up turn it on).
+  /// step applied, can be undone (costs one state copy per step, of all but the bond arrays when
+  /// no heuristic is on; runs that save the last good state on blow-up turn it on).
   void set_keep_last_good(bool on) { keep_last_good_ = on; }
   const Adjacency& adjacency();
 
@@ -85,6 +86,9 @@ class Simulation {
   void update_ledger();
   StepReport check_projection() const;
   StepReport check_energy() const;
+  /// The state before the step into last_good_ (set_keep_last_good), and back.
+  void save_last_good();
+  void restore_last_good();
 
   World world_;
   std::unique_ptr<Integrator> integrator_;
@@ -93,8 +97,10 @@ class Simulation {
   double h_;
   BlowupLimits limits_;
   bool track_energy_ = true;
+  double bonds_after_ = 0;  ///< the bonds' energy after the step, from update_ledger [J]
   bool keep_last_good_ = false;
   State last_good_;
+  bool last_good_has_bonds_ = false;  ///< whether last_good_ holds the bond arrays too
   Adjacency adj_;
   std::vector<Vec3> f_ext_;    ///< external force of this step [N] (n)
   std::vector<Vec3> f_user_;   ///< one-step forces queued by add_force [N] (n)
