@@ -210,34 +210,29 @@ struct BondArrays {
 
 }  // namespace
 
-void Simulation::save_last_good() {
+void Simulation::copy_last_good(bool save) {
   State& s = world_.state;
-  last_good_has_bonds_ = !heuristics_.empty();
+  auto copy = [&] {
+    if (save)
+      last_good_ = s;
+    else
+      s = last_good_;
+  };
+  if (save) last_good_has_bonds_ = !heuristics_.empty();
   if (last_good_has_bonds_) {
-    last_good_ = s;
+    copy();
     return;
   }
   // Only heuristics edit bonds during a step: without them the copy leaves out the bond arrays,
-  // most of a lattice's state.
+  // most of a lattice's state, and the world's state keeps its own.
   BondArrays bonds(s);
-  last_good_ = s;
-  bonds.put_back(s);
-}
-
-void Simulation::restore_last_good() {
-  State& s = world_.state;
-  if (last_good_has_bonds_) {
-    s = last_good_;
-    return;
-  }
-  BondArrays bonds(s);
-  s = last_good_;
+  copy();
   bonds.put_back(s);
 }
 
 StepReport Simulation::end_step() {
   State& s = world_.state;
-  if (keep_last_good_) save_last_good();  // before heuristics and ledger: a rollback undoes both
+  if (keep_last_good_) copy_last_good(true);  // before heuristics and ledger: a rollback undoes both
   const bool restore = integrator_->config().restore_energy;
   const EnergyLedger books = s.energy;  // the step's work and dissipation are what the ledger adds
   const double e_start = restore ? energies(world_.model, s, integrator_->config().threads).total() : 0.0;
@@ -249,7 +244,7 @@ StepReport Simulation::end_step() {
   }
   if (StepReport r = check_projection(); r.status != StepReport::Status::ok) {
     if (keep_last_good_) {
-      restore_last_good();  // heuristics may have edited bonds already
+      copy_last_good(false);  // heuristics may have edited bonds already
       world_.sync_formed_bonds();
       events_.clear();
     }
@@ -283,7 +278,7 @@ StepReport Simulation::end_step() {
 
   StepReport r = check_energy();
   if (r.status != StepReport::Status::ok && keep_last_good_) {
-    restore_last_good();
+    copy_last_good(false);
     world_.sync_formed_bonds();
     events_.clear();
     r.message += "; the world keeps the state before this step";

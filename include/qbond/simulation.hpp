@@ -86,9 +86,8 @@ class Simulation {
   void update_ledger();
   StepReport check_projection() const;
   StepReport check_energy() const;
-  /// The state before the step into last_good_ (set_keep_last_good), and back.
-  void save_last_good();
-  void restore_last_good();
+  /// The state before the step into last_good_ (save, set_keep_last_good), or back from it.
+  void copy_last_good(bool save);
 
   World world_;
   std::unique_ptr<Integrator> integrator_;
