@@ -40,8 +40,8 @@ QBOND_VECTOR_INLINE bool uniform_prefix(const T* a, std::size_t b, std::size_t c
 // of bond b + l, which lane_term(i + l, j + l, b + l, b, t, l) writes to t[·][l] (b the block's
 // first bond), to lanes[·][l] for l < count (the other lanes are computed and add −0.0); every
 // other bond into one more partial per sum by bond_term(i, j, b) (its N terms); the lanes added
-// in order, that partial last. Which bonds go where
-// depends on the bonds only, never on the thread.
+// in order, that partial last. Which bonds go where depends on the bonds only, never on the
+// thread.
 template <std::size_t N>
 using Sums = std::array<double, N>;
 template <std::size_t N, class LaneTerm, class BondTerm, class Uniform>
@@ -122,7 +122,7 @@ QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::siz
   return chunk_sums<1>(m, s, b0, b1, lane, any_law, all_linear)[0];
 }
 
-// The dampers' work and the bonds' energy at x + Δx (step_sums), over bonds [b0, b1).
+// The dampers' work and the bonds' energy at x + Δx (bond_step_sums) over bonds [b0, b1).
 QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const Projection& p, double h, double theta,
                                        double phi, std::size_t b0, std::size_t b1) {
   const double* x = s.x.data()->data();
@@ -162,9 +162,9 @@ QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const Pro
   };
   auto lane = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t first, double(&t)[2][kLanes],
                   std::size_t l) QBOND_LAMBDA_INLINE {
-    const Term a = term(i, j, b, model[first] == DampingModel::axial);
-    t[0][l] = a.loss;
-    t[1][l] = linear_energy(k[b], a.r1, rest[b]);
+    const Term bond = term(i, j, b, model[first] == DampingModel::axial);
+    t[0][l] = bond.loss;
+    t[1][l] = linear_energy(k[b], bond.r1, rest[b]);
   };
   auto bond = [&](std::size_t i, std::size_t j, std::size_t b) {
     const Term t = term(i, j, b, model[b] == DampingModel::axial);
