@@ -47,9 +47,9 @@ QBOND_VECTOR_INLINE bool affine_block(const Model& m, const State& s, std::size_
 template <class T>
 QBOND_VECTOR_INLINE bool uniform_prefix(const T* a, std::size_t b, std::size_t count) {
   static_assert(sizeof(T) == 1 && std::endian::native == std::endian::little);
-  std::uint64_t eight, first = 0;
+  std::uint64_t eight;
   std::memcpy(&eight, a + b, 8);
-  std::memcpy(&first, a + b, 1);
+  const std::uint64_t first = static_cast<std::uint8_t>(a[b]);
   const std::uint64_t mask = count >= kLanes ? ~std::uint64_t{0} : (std::uint64_t{1} << (8 * count)) - 1;
   return ((eight ^ (first * 0x0101010101010101)) & mask) == 0;
 }
