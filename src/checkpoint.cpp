@@ -131,7 +131,8 @@ State deserialize_state(std::string_view bytes) {
   s.obstacle_impulse = r.vec<ObstacleImpulse>();
   if (!r.bytes.empty()) throw CheckpointError("state: " + std::to_string(r.bytes.size()) + " unexpected bytes at the end");
   if (s.v.size() != s.x.size() || s.alive.size() != s.rest.size() || s.bond_time.size() != s.rest.size() ||
-      (!s.warm.empty() && s.warm.size() != s.x.size() && s.warm.size() != 2 * s.x.size() + 1))
+      (!s.warm.empty() && s.warm.size() != s.x.size() && s.warm.size() != 2 * s.x.size() + 1 &&
+       s.warm.size() != 3 * s.x.size() + 1))
     throw CheckpointError("state: inconsistent array lengths");
   return s;
 }

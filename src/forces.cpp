@@ -1,5 +1,6 @@
 #include "forces.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "affine_rows.hpp"
@@ -38,19 +39,24 @@ struct ForceTerms {
   alignas(64) double fi[3][kBondRun], fj[3][kBondRun];
 };
 
-// f = f_ext and the copies of x and v, for quanta [lo, hi).
-QBOND_VECTOR_CLONES void start_forces(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                                      const std::vector<Vec3>& f_ext, const ForceRows& rows, std::size_t lo,
-                                      std::size_t hi) {
-  const double* xp = x.data()->data();
-  const double* vp = v.data()->data();
-  const double* fp = f_ext.data()->data();
+// f = f_ext (0 when f_ext is null) and the copies of x and v, for quanta [lo, hi).
+QBOND_VECTOR_CLONES void start_forces(const Vec3* x, const Vec3* v, const Vec3* f_ext, const ForceRows& rows,
+                                      std::size_t lo, std::size_t hi) {
+  const double* xp = x->data();
+  const double* vp = v->data();
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
     QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
-      rows.f[c][q] = fp[3 * q + c];
       rows.x[c][q] = xp[3 * q + c];
       rows.v[c][q] = vp[3 * q + c];
     }
+  }
+  if (f_ext) {
+    const double* fp = f_ext->data();
+    QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+      QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) rows.f[c][q] = fp[3 * q + c];
+    }
+  } else {
+    for (std::size_t c = 0; c < 3; ++c) std::fill(rows.f[c] + lo, rows.f[c] + hi, 0.0);
   }
 }
 
@@ -103,8 +109,8 @@ QBOND_VECTOR_CLONES void affine_forces(const Model& model, const State& state, c
 }
 
 // Any other run, bond by bond: each bond's force added to the ends the part owns.
-void run_forces(const Model& model, const State& state, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
-                const BondRun& run, const ForceRows& rows) {
+void run_forces(const Model& model, const State& state, const Vec3* x, const Vec3* v, const BondRun& run,
+                const ForceRows& rows) {
   for (Index k = 0; k < run.count; ++k) {
     const Index b = run.bond(k), i = model.bond_i[b], j = model.bond_j[b];
     const Vec3 fb = bond_force_on_i(model.law[b], model.damping_model[b], x[j] - x[i], v[j] - v[i], state.rest[b],
@@ -118,9 +124,9 @@ void run_forces(const Model& model, const State& state, const std::vector<Vec3>&
 
 // out = f / m (per_mass: inv_mass 0, kinematic, gives 0) or f, for quanta [lo, hi).
 QBOND_VECTOR_CLONES void write_out(const Model& model, const ForceRows& rows, bool per_mass, std::size_t lo,
-                                   std::size_t hi, std::vector<Vec3>& out) {
+                                   std::size_t hi, Vec3* out) {
   const double* inv_mass = model.inv_mass.data();
-  double* o = out.data()->data();
+  double* o = out->data();
   if (per_mass) {
     QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
       QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) o[3 * q + c] = rows.f[c][q] * inv_mass[q];
@@ -133,9 +139,8 @@ QBOND_VECTOR_CLONES void write_out(const Model& model, const ForceRows& rows, bo
 }
 
 // f_ext + the bond forces at x and v, divided by the masses if per_mass, into out.
-void force_pass(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
-                const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, bool per_mass,
-                ForceArrays& work, std::vector<Vec3>& out) {
+void force_pass(const Model& model, const State& state, const BondPartition& part, const Vec3* x, const Vec3* v,
+                const Vec3* f_ext, int threads, bool per_mass, ForceArrays& work, Vec3* out) {
   const std::size_t n = model.num_quanta();
   ForceRows rows;
   SoaArrays soa(work.data, n, 9);
@@ -151,22 +156,30 @@ void force_pass(const Model& model, const State& state, const BondPartition& par
     else
       run_forces(model, state, x, v, run, rows);
   });
-  out.resize(n);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { write_out(model, rows, per_mass, lo, hi, out); });
 }
+
+const Vec3* external(const std::vector<Vec3>& f_ext) { return f_ext.empty() ? nullptr : f_ext.data(); }
 
 }  // namespace
 
 void bond_force_sums(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
                      const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, ForceArrays& work,
                      std::vector<Vec3>& f) {
-  force_pass(model, state, part, x, v, f_ext, threads, false, work, f);
+  f.resize(model.num_quanta());
+  force_pass(model, state, part, x.data(), v.data(), external(f_ext), threads, false, work, f.data());
+}
+
+void bond_force_sums(const Model& model, const State& state, const BondPartition& part, const Vec3* x, const Vec3* v,
+                     int threads, ForceArrays& work, Vec3* f) {
+  force_pass(model, state, part, x, v, nullptr, threads, false, work, f);
 }
 
 void accelerations(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
                    const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, ForceArrays& work,
                    std::vector<Vec3>& a) {
-  force_pass(model, state, part, x, v, f_ext, threads, true, work, a);
+  a.resize(model.num_quanta());
+  force_pass(model, state, part, x.data(), v.data(), external(f_ext), threads, true, work, a.data());
 }
 
 }  // namespace qbond

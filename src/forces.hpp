@@ -22,10 +22,13 @@ struct ForceArrays {
 // f = f_ext + Σ over each quanta's alive bonds of ±(the bond's force on its first end) at x and
 // v, in one pass over the bonds (bond_partition.hpp): each force computed once and added to both
 // ends, each quanta's sum in bond order for any thread count; affine runs of linear bonds by
-// vector loops (affine_rows.hpp).
+// vector loops (affine_rows.hpp). An empty f_ext stands for no external force.
 void bond_force_sums(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
                      const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, ForceArrays& work,
                      std::vector<Vec3>& f);
+// The bond forces alone (no external force) for arrays of the model's quanta count.
+void bond_force_sums(const Model& model, const State& state, const BondPartition& part, const Vec3* x, const Vec3* v,
+                     int threads, ForceArrays& work, Vec3* f);
 
 // a = (f_ext + the bond forces at x, v) / m for free quanta, 0 for kinematic ones (bond_force_sums).
 void accelerations(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,

@@ -110,27 +110,30 @@ class PlasticHeuristic final : public Heuristic {
     const Model& m = w.model;
     State& s = w.state;
     const std::size_t nb = m.num_bonds();
-    ductile_.resize(nb);
+    edit_.resize(nb);
     // Each bond's flow is its own; the energy it releases is summed in a fixed order.
     const double released = deterministic_sum(nb, ctx.threads, [&](std::size_t b) {
-      ductile_[b] = 0;
+      edit_[b] = kKept;
       if (!s.alive[b] || !applies(rule_.quanta, m, b)) return 0.0;
       const double L0 = m.rest0[b], L = s.rest[b];
       const Stretch st = stretch(m, s, p, b);
       const double L1 = plastic_rest_length(rule_, st.r, L, L0);
       if (L1 == L) return 0.0;
       s.rest[b] = L1;
-      ductile_[b] = std::abs(L1 - L0) > rule_.max_plastic_strain * L0;
+      edit_[b] = std::abs(L1 - L0) > rule_.max_plastic_strain * L0 ? kDuctile : kFlowed;
       return m.law_at(b, st.r, L).U - m.law_at(b, st.r, L1).U;
     });
     s.energy.dissipated_heuristics += released;
-    for (std::size_t b = 0; b < nb; ++b)
-      if (ductile_[b]) break_now(w, ctx, b, stretch(m, s, p, b), BondEvent::Reason::ductility);
+    for (std::size_t b = 0; b < nb; ++b) {
+      p.bonds_edited |= edit_[b] != kKept;
+      if (edit_[b] == kDuctile) break_now(w, ctx, b, stretch(m, s, p, b), BondEvent::Reason::ductility);
+    }
   }
 
  private:
+  enum : std::uint8_t { kKept, kFlowed, kDuctile };
   PlasticRule rule_;
-  std::vector<std::uint8_t> ductile_;  // per bond: past the ductility limit this step
+  std::vector<std::uint8_t> edit_;  // per bond this step: rest length kept, flowed, or past the ductility limit
 };
 
 }  // namespace

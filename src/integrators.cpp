@@ -132,6 +132,11 @@ void project_kinematic(const Model& model, const State& state, const StepContext
   }
 }
 
+void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v) {
+  for (const Motion& motion : model.motions)
+    for (std::size_t k = 0; k < motion.quanta.size(); ++k) motion.at(k, t, x[motion.quanta[k]], v[motion.quanta[k]]);
+}
+
 void initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
                    const std::vector<Vec3>& previous, std::vector<Vec3>& y) {
   const std::size_t n = model.num_quanta();

@@ -164,6 +164,8 @@ void renumber(World& world, const Renumbering& r) {
   } else if (s.warm.size() == 2 * n + 1) {  // bdf2: x then v of the previous state
     permute(s.warm, r.quanta);
     permute(s.warm, r.quanta, n);
+  } else {
+    s.warm.clear();  // velocity_verlet's forces: the new topology version would drop them anyway
   }
   for (Motion& motion : m.motions) renumber_quanta(motion.quanta, r);
   for (Load& load : m.loads) renumber_quanta(load.quanta, r);

@@ -241,6 +241,7 @@ StepReport Simulation::end_step() {
     dv_forces_ = projection_.dv;
     const HeuristicContext hc{ctx_, adjacency(), integrator_->config().threads, events_, dv_forces_};
     for (auto& h : heuristics_) h->apply(world_, projection_, hc);
+    if (projection_.bonds_edited && projection_.warm_needs_bonds) projection_.warm.clear();
   }
   if (StepReport r = check_projection(); r.status != StepReport::Status::ok) {
     if (keep_last_good_) {
@@ -258,10 +259,7 @@ StepReport Simulation::end_step() {
     s.v[i] += projection_.dv[i];
   });
   const double t1 = ctx_.t + ctx_.h;
-  // Kinematic quanta land exactly on their prescribed path (no round-off drift).
-  for (const Motion& motion : m.motions)
-    for (std::size_t k = 0; k < motion.quanta.size(); ++k)
-      motion.at(k, t1, s.x[motion.quanta[k]], s.v[motion.quanta[k]]);
+  place_kinematic(m, t1, s.x.data(), s.v.data());
   s.time = t1;
   s.step = ctx_.step + 1;
   s.warm.swap(projection_.warm);

@@ -26,6 +26,12 @@ struct Projection {
   /// The solver's solution to keep as State::warm when the step applies (WarmStart::previous
   /// only; empty otherwise). Kept apart from dv, which round-off makes differ from it.
   std::vector<Vec3> warm;
+  /// Whether `warm` holds values that hold only for the bonds' present parameters (velocity_verlet's
+  /// bond forces); the step then drops it if a heuristic sets `bonds_edited`.
+  bool warm_needs_bonds = false;
+  /// Set by a heuristic that changed bond parameters without a topology change (plasticity's rest
+  /// lengths).
+  bool bonds_edited = false;
   /// Set when the integrator took the step in substeps (the Newton integrators' fallback): the
   /// work of the prescribed quanta and the dampers' loss summed over the substeps, which the
   /// energy ledger charges instead of its whole-step estimate from dx, dv (docs/integrators.md).
@@ -36,6 +42,7 @@ struct Projection {
     dx.assign(n, Vec3::Zero());
     dv.assign(n, Vec3::Zero());
     warm.clear();
+    warm_needs_bonds = bonds_edited = false;
     has_work = false;
     work_anchors = dissipated_damping = 0;
   }
@@ -45,7 +52,8 @@ struct Projection {
 enum class IntegratorType : std::uint8_t {
   explicit_euler,    ///< the particle method: x += h v, v += h a(x, v)
   symplectic_euler,  ///< v += h a(x, v), then x += h v_new
-  velocity_verlet,   ///< second order, symplectic when undamped
+  velocity_verlet,   ///< second order, symplectic when undamped; one force pass a step
+                     ///< (Groot–Warren's form with damping, docs/integrators.md)
   rk4,               ///< classical fourth-order Runge–Kutta
   hybrid_implicit,   ///< Eqs. 11–12: one 3×3 solve per quanta (see NeighbourModel)
   coupled_implicit,  ///< Eq. 13 linearised (Baraff–Witkin): one global linear solve
@@ -173,5 +181,10 @@ WarmStart parse_warm_start(std::string_view s);
 /// [ctx.t, ctx.t + h] (free rows untouched). Every integrator calls it first.
 void project_kinematic(const Model& model, const State& state, const StepContext& ctx,
                        Projection& out);
+
+/// Puts the kinematic quanta that follow a motion exactly on their prescribed path at time t:
+/// x[i], v[i] = their position and velocity there (arrays of the model's quanta count). What a
+/// step applies to them, so that they do not drift by round-off.
+void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v);
 
 }  // namespace qbond

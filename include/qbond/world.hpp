@@ -125,8 +125,10 @@ struct State {
   std::uint64_t topology_version = 0;  ///< bumped whenever bonds appear or break
   /// What the integrator carries from one step to the next: the last step's solver solution
   /// (velocity change of every quanta, n), the initial guess of WarmStart::previous; or bdf2's
-  /// previous state (x then v of every quanta, then (t, h, step) of that state: 2n + 1); empty
-  /// otherwise. Kept here so that checkpoints and rollbacks carry it.
+  /// previous state (x then v of every quanta, then (t, h, step) of that state: 2n + 1); or
+  /// velocity_verlet's last bond forces with the x and v it left and its topology version
+  /// (3n + 1; reused only while the state is exactly that one: clear it after editing bond
+  /// parameters by hand); empty otherwise. Kept here so that checkpoints and rollbacks carry it.
   std::vector<Vec3> warm;
   /// Per recorded obstacle (Obstacle::record), the impulse it has given (n_obstacles).
   std::vector<ObstacleImpulse> obstacle_impulse;
