@@ -1,12 +1,67 @@
 // Explicit integrators: the particle method and its better-behaved relatives.
-#include <cstring>
+#include <bit>
+#include <cstdint>
+#include <functional>
 
 #include "forces.hpp"
 #include "integrator_common.hpp"
 #include "parallel.hpp"
+#include "simd.hpp"
 
 namespace qbond {
 namespace {
+
+// Verlet's first half for quanta [lo, hi): the step's first accelerations a = m⁻¹ (f0 + f_ext);
+// the free quanta's Δx = h v + h²/2 a into dx (0 for kinematic ones: project_kinematic writes
+// those that move); x₁ = x + Δx, as the step will apply it, into x1 and the bond pass's rows; the
+// velocity the forces are taken at, ṽ = v + h a (kinematic: v), into the rows; the force sums
+// zeroed. Returns whether x and v equal cx and cv bit for bit.
+QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, const double* f0, const double* f_ext, const double* x,
+                                      const double* v, const double* cx, const double* cv, double h, double* a,
+                                      double* dx, double* x1, ForceRows rows, std::size_t lo, std::size_t hi) {
+  const double hh = 0.5 * h * h;
+  std::uint64_t differ = 0;
+  QBOND_SIMD_OR(differ) for (std::size_t q = lo; q < hi; ++q) {
+    const bool free = inv_mass[q] != 0;
+    QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
+      const std::size_t e = 3 * q + c;
+      const double xe = x[e], ve = v[e];
+      differ |= (std::bit_cast<std::uint64_t>(xe) ^ std::bit_cast<std::uint64_t>(cx[e])) |
+                (std::bit_cast<std::uint64_t>(ve) ^ std::bit_cast<std::uint64_t>(cv[e]));
+      const double ae = inv_mass[q] * (f0[e] + f_ext[e]);
+      const double step = h * ve + hh * ae, vt = ve + h * ae;
+      const double d = free ? step : 0.0;
+      const double xn = xe + d;
+      a[e] = ae;
+      dx[e] = d;
+      x1[e] = xn;
+      rows.x[c][q] = xn;
+      rows.v[c][q] = free ? vt : ve;
+      rows.f[c][q] = 0;
+    }
+  }
+  return differ == 0;
+}
+
+// Verlet's second half for quanta [lo, hi): the bond forces at the stage into f1 (the carry-over),
+// the free quanta's Δv = h/2 (a + m⁻¹ (f1 + f_ext)) into dv (0 for kinematic ones), and v₁ = v + Δv
+// into v1.
+QBOND_VECTOR_CLONES void verlet_finish(const double* inv_mass, ForceRows rows, const double* f_ext, const double* a,
+                                       const double* v, double h, double* dv, double* f1, double* v1, std::size_t lo,
+                                       std::size_t hi) {
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    const bool free = inv_mass[q] != 0;
+    QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
+      const std::size_t e = 3 * q + c;
+      const double f = rows.f[c][q];
+      const double kick = (0.5 * h) * (a[e] + inv_mass[q] * (f + f_ext[e]));
+      const double d = free ? kick : 0.0;
+      f1[e] = f;
+      dv[e] = d;
+      v1[e] = v[e] + d;
+    }
+  }
+}
 
 class ExplicitIntegrator final : public Integrator {
  public:
@@ -25,9 +80,9 @@ class ExplicitIntegrator final : public Integrator {
     const std::size_t n = model.num_quanta();
     const double h = ctx.h;
     out.resize(n);
-    project_kinematic(model, state, ctx, out);
     part_.update(model, adj, config_.threads);
     if (config_.type == IntegratorType::velocity_verlet) return verlet(model, state, f_ext, ctx, out);
+    project_kinematic(model, state, ctx, out);
     accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, forces_, a1_);
     switch (config_.type) {
       case IntegratorType::explicit_euler:
@@ -73,65 +128,74 @@ class ExplicitIntegrator final : public Integrator {
   // where a is the last step's a₁ (first same as last: one force pass a step). Undamped, a does
   // not depend on the velocity and this is velocity Verlet itself; with damping, ṽ − v₁ =
   // h/2 (a − a₁) = O(h²) keeps the step second order. The last step's bond forces travel in
-  // State::warm with the x₁, v₁ it left (carried_forces); when the state is not exactly that
+  // State::warm with the x₁, v₁ it left (carries_forces); when the state is not exactly that
   // (a heuristic, a contact, a rollback or the user changed it) a = a(x, v) is evaluated afresh.
   void verlet(const Model& model, const State& state, const std::vector<Vec3>& f_ext, const StepContext& ctx,
               Projection& out) {
     const std::size_t n = model.num_quanta();
-    const double h = ctx.h;
-    const Vec3* f0 = state.warm.data();
-    if (!carried_forces(state, n)) {
-      a2_.resize(n);
-      bond_force_sums(model, state, part_, state.x.data(), state.v.data(), config_.threads, forces_, a2_.data());
-      f0 = a2_.data();
-    }
+    const double h = ctx.h, t1 = ctx.t + h;
+    const int threads = config_.threads;
     // The new carry-over: [bond forces at (x₁, ṽ) | x₁ | v₁ | (topology version, 0, 0)].
     out.warm.resize(3 * n + 1);
     out.warm_needs_bonds = true;
-    Vec3* f1 = out.warm.data();
-    Vec3* x1 = f1 + n;
-    Vec3* v1 = x1 + n;
+    double* f1 = out.warm.data()->data();
+    double* x1 = f1 + 3 * n;
+    double* v1 = x1 + 3 * n;
     a1_.resize(n);
-    vs_.resize(n);
-    // x₁ = x + Δx as the step will apply it, bit for bit (the kinematic quanta's Δx comes from
-    // project_kinematic, and place_kinematic puts them where the step will).
-    for_all(model, [&](std::size_t i) {
-      const Vec3 a = model.inv_mass[i] * (f0[i] + f_ext[i]);
-      a1_[i] = a;
-      if (!model.is_kinematic(static_cast<Index>(i))) {
-        out.dx[i] = h * state.v[i] + (0.5 * h * h) * a;
-        vs_[i] = state.v[i] + h * a;
-      } else {
-        vs_[i] = state.v[i] + out.dv[i];
+    const double* inv_mass = model.inv_mass.data();
+    const double* x = state.x.data()->data();
+    const double* v = state.v.data()->data();
+    const double* fe = f_ext.data()->data();
+    double* a = a1_.data()->data();
+    double* dx = out.dx.data()->data();
+    double* dv = out.dv.data()->data();
+    // With the carried forces while checking that the state is the one they were left for; if it
+    // is not, again with a(x, v) evaluated afresh.
+    const bool carried = carries_forces(state, n);
+    const double* f0 = carried ? state.warm.data()->data() : fresh_forces(model, state);
+    const double* cx = carried ? f0 + 3 * n : x;
+    const double* cv = carried ? f0 + 6 * n : v;
+    ForceRows rows = force_rows(forces_, n);
+    auto stage = [&](std::size_t lo, std::size_t hi) {
+      return verlet_stage(inv_mass, f0, fe, x, v, cx, cv, h, a, dx, x1, rows, lo, hi);
+    };
+    if (!reduce_chunks(n, threads, true, stage, std::logical_and<>{})) {
+      f0 = fresh_forces(model, state);
+      rows = force_rows(forces_, n);
+      cx = x, cv = v;
+      reduce_chunks(n, threads, true, stage, std::logical_and<>{});
+    }
+    for (const Motion& motion : model.motions)
+      for (std::size_t k = 0; k < motion.quanta.size(); ++k) {
+        const Index q = motion.quanta[k];
+        Vec3 xq, vq;
+        motion.at(k, t1, xq, vq);
+        for (int c = 0; c < 3; ++c) {
+          x1[3 * q + c] = rows.x[c][q] = xq[c];
+          rows.v[c][q] = vq[c];
+        }
       }
-      x1[i] = state.x[i] + out.dx[i];
+    add_bond_forces(model, state, part_, rows);
+    parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
+      verlet_finish(inv_mass, rows, fe, a, v, h, dv, f1, v1, lo, hi);
     });
-    place_kinematic(model, ctx.t + h, x1, vs_.data());
-    bond_force_sums(model, state, part_, x1, vs_.data(), config_.threads, forces_, f1);
-    for_all(model, [&](std::size_t i) {
-      if (!model.is_kinematic(static_cast<Index>(i)))
-        out.dv[i] = (0.5 * h) * (a1_[i] + model.inv_mass[i] * (f1[i] + f_ext[i]));
-      v1[i] = state.v[i] + out.dv[i];
-    });
-    place_kinematic(model, ctx.t + h, x1, v1);
+    project_kinematic(model, state, ctx, out);
+    place_kinematic(model, t1, out.warm.data() + n, out.warm.data() + 2 * n);
     out.warm[3 * n] = Vec3(static_cast<double>(state.topology_version), 0, 0);
   }
 
-  // Whether State::warm holds the bond forces a Verlet step left for the state it left, and the
-  // state is still exactly that one: same topology, positions and velocities bit for bit. (Edits
-  // of bond parameters that keep the topology drop the carry-over: Projection::bonds_edited.)
-  static bool carried_forces(const State& state, std::size_t n) {
-    if (state.warm.size() != 3 * n + 1 || state.warm[3 * n][0] != static_cast<double>(state.topology_version))
-      return false;
-    const std::size_t bytes = n * sizeof(Vec3);
-    return std::memcmp(state.warm.data() + n, state.x.data(), bytes) == 0 &&
-           std::memcmp(state.warm.data() + 2 * n, state.v.data(), bytes) == 0;
+  // The bond forces at (x, v), evaluated afresh.
+  const double* fresh_forces(const Model& model, const State& state) {
+    a2_.resize(model.num_quanta());
+    bond_force_sums(model, state, part_, state.x.data(), state.v.data(), config_.threads, forces_, a2_.data());
+    return a2_.data()->data();
   }
 
-  // body(i) for every quanta, on the integrator's threads.
-  template <class Body>
-  void for_all(const Model& model, Body&& body) const {
-    parallel_for(model.num_quanta(), config_.threads, body);
+  // Whether State::warm holds the bond forces a Verlet step left, for the present topology (the
+  // stage then checks that the positions and velocities are still the ones it left, bit for bit).
+  // Edits of bond parameters that keep the topology drop the carry-over: Projection::bonds_edited.
+  static bool carries_forces(const State& state, std::size_t n) {
+    return state.warm.size() == 3 * n + 1 && state.warm[3 * n][0] == static_cast<double>(state.topology_version);
   }
 
   static void set_free(Projection& out, std::size_t i, const Vec3& dx, const Vec3& dv) {

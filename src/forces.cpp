@@ -25,14 +25,6 @@ void bond_forces(const Model& model, const State& state, const std::vector<Vec3>
 
 namespace {
 
-// The force pass's per-quanta arrays, as structure of arrays (ForceArrays::data): the force sums f
-// and copies of the positions and velocities from which affine runs load contiguous vectors.
-struct ForceRows {
-  double* f[3];
-  double* x[3];
-  double* v[3];
-};
-
 // A run's bond forces, by bond k of the run: on bond_i and on bond_j (its negative); −0.0 in the
 // lanes past an affine run.
 struct ForceTerms {
@@ -109,12 +101,13 @@ QBOND_VECTOR_CLONES void affine_forces(const Model& model, const State& state, c
 }
 
 // Any other run, bond by bond: each bond's force added to the ends the part owns.
-void run_forces(const Model& model, const State& state, const Vec3* x, const Vec3* v, const BondRun& run,
-                const ForceRows& rows) {
+void run_forces(const Model& model, const State& state, const BondRun& run, const ForceRows& rows) {
+  auto at = [](double* const (&a)[3], Index q) { return Vec3(a[0][q], a[1][q], a[2][q]); };
   for (Index k = 0; k < run.count; ++k) {
     const Index b = run.bond(k), i = model.bond_i[b], j = model.bond_j[b];
-    const Vec3 fb = bond_force_on_i(model.law[b], model.damping_model[b], x[j] - x[i], v[j] - v[i], state.rest[b],
-                                    model.stiffness[b], model.damping[b], model.eps[b]);
+    const Vec3 fb = bond_force_on_i(model.law[b], model.damping_model[b], at(rows.x, j) - at(rows.x, i),
+                                    at(rows.v, j) - at(rows.v, i), state.rest[b], model.stiffness[b],
+                                    model.damping[b], model.eps[b]);
     for (int c = 0; c < 3; ++c) {
       if (run.owns(i)) rows.f[c][i] += fb[c];
       if (run.owns(j)) rows.f[c][j] -= fb[c];
@@ -142,26 +135,35 @@ QBOND_VECTOR_CLONES void write_out(const Model& model, const ForceRows& rows, bo
 void force_pass(const Model& model, const State& state, const BondPartition& part, const Vec3* x, const Vec3* v,
                 const Vec3* f_ext, int threads, bool per_mass, ForceArrays& work, Vec3* out) {
   const std::size_t n = model.num_quanta();
-  ForceRows rows;
-  SoaArrays soa(work.data, n, 9);
-  soa.take(rows.f);
-  soa.take(rows.x);
-  soa.take(rows.v);
+  const ForceRows rows = force_rows(work, n);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_forces(x, v, f_ext, rows, lo, hi); });
-  for_each_bond_run<ForceTerms>(part, [&](const BondRun& run, ForceTerms& t) {
-    // The same runs for every partition (bond_partition.hpp), so the same path for each bond.
-    const int kind = run.affine ? uniform_linear(model, run) : -1;
-    if (kind >= 0)
-      affine_forces(model, state, rows, run, kind == 0, t);
-    else
-      run_forces(model, state, x, v, run, rows);
-  });
+  add_bond_forces(model, state, part, rows);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { write_out(model, rows, per_mass, lo, hi, out); });
 }
 
 const Vec3* external(const std::vector<Vec3>& f_ext) { return f_ext.empty() ? nullptr : f_ext.data(); }
 
 }  // namespace
+
+ForceRows force_rows(ForceArrays& work, std::size_t n) {
+  ForceRows rows;
+  SoaArrays soa(work.data, n, 9);
+  soa.take(rows.f);
+  soa.take(rows.x);
+  soa.take(rows.v);
+  return rows;
+}
+
+void add_bond_forces(const Model& model, const State& state, const BondPartition& part, const ForceRows& rows) {
+  for_each_bond_run<ForceTerms>(part, [&](const BondRun& run, ForceTerms& t) {
+    // The same runs for every partition (bond_partition.hpp), so the same path for each bond.
+    const int kind = run.affine ? uniform_linear(model, run) : -1;
+    if (kind >= 0)
+      affine_forces(model, state, rows, run, kind == 0, t);
+    else
+      run_forces(model, state, run, rows);
+  });
+}
 
 void bond_force_sums(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
                      const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, ForceArrays& work,

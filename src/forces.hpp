@@ -19,6 +19,23 @@ struct ForceArrays {
   std::vector<double> data;
 };
 
+// The force pass's per-quanta arrays as structure of arrays: the force sums f and the positions
+// and velocities, from which affine runs load contiguous vectors.
+struct ForceRows {
+  double* f[3];
+  double* x[3];
+  double* v[3];
+};
+
+// Rows for n quanta in work's storage (valid until work is next resized).
+ForceRows force_rows(ForceArrays& work, std::size_t n);
+
+// rows.f += the alive bonds' forces at rows.x, rows.v, each computed once and added to both ends
+// in one pass over the bonds (bond_partition.hpp), each quanta's terms in bond order for any
+// thread count (the partition's); affine runs of linear bonds by vector loops (affine_rows.hpp).
+// For callers that fill the rows themselves; bond_force_sums wraps it.
+void add_bond_forces(const Model& model, const State& state, const BondPartition& part, const ForceRows& rows);
+
 // f = f_ext + Σ over each quanta's alive bonds of ±(the bond's force on its first end) at x and
 // v, in one pass over the bonds (bond_partition.hpp): each force computed once and added to both
 // ends, each quanta's sum in bond order for any thread count; affine runs of linear bonds by
