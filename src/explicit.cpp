@@ -11,14 +11,14 @@
 namespace qbond {
 namespace {
 
-// Verlet's first half for quanta [lo, hi): the step's first accelerations a = m⁻¹ (f0 + f_ext);
+// Verlet's first half for quanta [lo, hi), from the step's first accelerations a = m⁻¹ (f0 + f_ext):
 // the free quanta's Δx = h v + h²/2 a into dx (0 for kinematic ones: project_kinematic writes
 // those that move); x₁ = x + Δx, as the step will apply it, into x1 and the bond pass's rows; the
 // velocity the forces are taken at, ṽ = v + h a (kinematic: v), into the rows; the force sums
 // zeroed. Returns whether x and v equal cx and cv bit for bit.
 QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, const double* f0, const double* f_ext, const double* x,
-                                      const double* v, const double* cx, const double* cv, double h, double* a,
-                                      double* dx, double* x1, ForceRows rows, std::size_t lo, std::size_t hi) {
+                                      const double* v, const double* cx, const double* cv, double h, double* dx,
+                                      double* x1, ForceRows rows, std::size_t lo, std::size_t hi) {
   const double hh = 0.5 * h * h;
   std::uint64_t differ = 0;
   QBOND_SIMD_OR(differ) for (std::size_t q = lo; q < hi; ++q) {
@@ -32,7 +32,6 @@ QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, const double* f0, 
       const double step = h * ve + hh * ae, vt = ve + h * ae;
       const double d = free ? step : 0.0;
       const double xn = xe + d;
-      a[e] = ae;
       dx[e] = d;
       x1[e] = xn;
       rows.x[c][q] = xn;
@@ -44,9 +43,9 @@ QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, const double* f0, 
 }
 
 // Verlet's second half for quanta [lo, hi): the bond forces at the stage into f1 (the carry-over),
-// the free quanta's Δv = h/2 (a + m⁻¹ (f1 + f_ext)) into dv (0 for kinematic ones), and v₁ = v + Δv
+// the free quanta's Δv = h/2 (m⁻¹ (f0 + f_ext) + m⁻¹ (f1 + f_ext)) into dv (0 for kinematic ones), and v₁ = v + Δv
 // into v1.
-QBOND_VECTOR_CLONES void verlet_finish(const double* inv_mass, ForceRows rows, const double* f_ext, const double* a,
+QBOND_VECTOR_CLONES void verlet_finish(const double* inv_mass, ForceRows rows, const double* f_ext, const double* f0,
                                        const double* v, double h, double* dv, double* f1, double* v1, std::size_t lo,
                                        std::size_t hi) {
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
@@ -54,7 +53,7 @@ QBOND_VECTOR_CLONES void verlet_finish(const double* inv_mass, ForceRows rows, c
     QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
       const std::size_t e = 3 * q + c;
       const double f = rows.f[c][q];
-      const double kick = (0.5 * h) * (a[e] + inv_mass[q] * (f + f_ext[e]));
+      const double kick = (0.5 * h) * (inv_mass[q] * (f0[e] + f_ext[e]) + inv_mass[q] * (f + f_ext[e]));
       const double d = free ? kick : 0.0;
       f1[e] = f;
       dv[e] = d;
@@ -79,9 +78,10 @@ class ExplicitIntegrator final : public Integrator {
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
     const std::size_t n = model.num_quanta();
     const double h = ctx.h;
-    out.resize(n);
     part_.update(model, adj, config_.threads);
-    if (config_.type == IntegratorType::velocity_verlet) return verlet(model, state, f_ext, ctx, out);
+    const bool verlet_step = config_.type == IntegratorType::velocity_verlet;
+    out.resize(n, !verlet_step);  // Verlet writes every row
+    if (verlet_step) return verlet(model, state, f_ext, ctx, out);
     project_kinematic(model, state, ctx, out);
     accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, forces_, a1_);
     switch (config_.type) {
@@ -141,12 +141,10 @@ class ExplicitIntegrator final : public Integrator {
     double* f1 = out.warm.data()->data();
     double* x1 = f1 + 3 * n;
     double* v1 = x1 + 3 * n;
-    a1_.resize(n);
     const double* inv_mass = model.inv_mass.data();
     const double* x = state.x.data()->data();
     const double* v = state.v.data()->data();
     const double* fe = f_ext.data()->data();
-    double* a = a1_.data()->data();
     double* dx = out.dx.data()->data();
     double* dv = out.dv.data()->data();
     // With the carried forces while checking that the state is the one they were left for; if it
@@ -157,7 +155,7 @@ class ExplicitIntegrator final : public Integrator {
     const double* cv = carried ? f0 + 6 * n : v;
     ForceRows rows = force_rows(forces_, n);
     auto stage = [&](std::size_t lo, std::size_t hi) {
-      return verlet_stage(inv_mass, f0, fe, x, v, cx, cv, h, a, dx, x1, rows, lo, hi);
+      return verlet_stage(inv_mass, f0, fe, x, v, cx, cv, h, dx, x1, rows, lo, hi);
     };
     if (!reduce_chunks(n, threads, true, stage, std::logical_and<>{})) {
       f0 = fresh_forces(model, state);
@@ -177,7 +175,7 @@ class ExplicitIntegrator final : public Integrator {
       }
     add_bond_forces(model, state, part_, rows);
     parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
-      verlet_finish(inv_mass, rows, fe, a, v, h, dv, f1, v1, lo, hi);
+      verlet_finish(inv_mass, rows, fe, f0, v, h, dv, f1, v1, lo, hi);
     });
     project_kinematic(model, state, ctx, out);
     place_kinematic(model, t1, out.warm.data() + n, out.warm.data() + 2 * n);

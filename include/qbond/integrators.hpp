@@ -38,9 +38,16 @@ struct Projection {
   bool has_work = false;
   double work_anchors = 0;        ///< [J]
   double dissipated_damping = 0;  ///< [J]
-  void resize(std::size_t n) {
-    dx.assign(n, Vec3::Zero());
-    dv.assign(n, Vec3::Zero());
+  /// Sizes for n quanta and clears the rest; dx and dv zeroed unless `zero` is false (for an
+  /// integrator that writes every row).
+  void resize(std::size_t n, bool zero = true) {
+    if (zero) {
+      dx.assign(n, Vec3::Zero());
+      dv.assign(n, Vec3::Zero());
+    } else {
+      dx.resize(n);
+      dv.resize(n);
+    }
     warm.clear();
     warm_needs_bonds = bonds_edited = false;
     has_work = false;
