@@ -287,17 +287,14 @@ def integrators(d):
         rows = list(csv.DictReader(f))
     fig, ax = plt.subplots(figsize=(8, 5))
     floor = 1e-16  # a closed budget shows at round-off, not at zero, on a log axis
-    placed = []  # (x, y, above) of the labels already drawn
-    for k, r in enumerate(rows):
-        x, y = float(r["ms_per_step"]), max(float(r["relative_error"]), floor)
+    pts = [(float(r["ms_per_step"]), max(float(r["relative_error"]), floor)) for r in rows]
+    for k, (r, (x, y)) in enumerate(zip(rows, pts)):
         ax.scatter(x, y, s=30)
-        # Alternate labels above and below: neighbours in cost often share an error level; a
-        # point next to one already labelled (within 15% in cost and a decade in error) takes
-        # the other side.
-        near = [p for p in placed if abs(math.log(x / p[0])) < 0.15 and abs(math.log10(y / p[1])) < 1]
-        above = not near[-1][2] if near else k % 2 == 1
+        # Neighbours in cost often share an error level: of two points within 15% in cost and a
+        # decade in error, the higher is labelled above and the lower below; others alternate.
+        near = [q for j, q in enumerate(pts) if j != k and abs(math.log(x / q[0])) < 0.15 and abs(math.log10(y / q[1])) < 1]
+        above = y >= near[0][1] if near else k % 2 == 1
         ax.annotate(r["method"], (x, y), textcoords="offset points", xytext=(5, 4 if above else -11), fontsize=8)
-        placed.append((x, y, above))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("ms per step (1 thread)")
