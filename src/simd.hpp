@@ -24,15 +24,18 @@
 // QBOND_SIMD before a loop whose iterations are independent: lets the compiler vectorise it
 // without proving that its gathers and stores do not alias (OpenMP's simd; nothing without
 // OpenMP).
-// QBOND_SIMD_OR(x): the same for a loop that also ORs into x.
+// QBOND_SIMD_OR(x): the same for a loop that also ORs into x; QBOND_SIMD_SUM(x): that adds into x
+// (in any order: only for sums whose order does not matter).
 // QBOND_UNROLL(n) before a loop of n iterations: unrolled before the enclosing loop is vectorised.
 #define QBOND_STRINGIFY(s) #s
 #ifdef _OPENMP
 #define QBOND_SIMD _Pragma("omp simd")
 #define QBOND_SIMD_OR(x) _Pragma(QBOND_STRINGIFY(omp simd reduction(| : x)))
+#define QBOND_SIMD_SUM(x) _Pragma(QBOND_STRINGIFY(omp simd reduction(+ : x)))
 #else
 #define QBOND_SIMD
 #define QBOND_SIMD_OR(x)
+#define QBOND_SIMD_SUM(x)
 #endif
 #if defined(__clang__)
 #define QBOND_UNROLL(n) _Pragma(QBOND_STRINGIFY(unroll n))

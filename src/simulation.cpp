@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <sstream>
 
 #include "qbond/analysis.hpp"
 #include "energy_restore.hpp"
 #include "parallel.hpp"
+#include "simd.hpp"
 #include "step_work.hpp"
 
 namespace qbond {
@@ -73,29 +75,51 @@ StepReport Simulation::step() {
   return end_step();
 }
 
-StepReport Simulation::check_projection() const {
+namespace {
+
+// xn = x + dx and vn = v + dv for quanta [lo, hi); whether all are finite (x − x is 0 for every
+// finite x, NaN otherwise) and no free quanta is faster than sqrt(limit2). Branch-free, so the
+// loop vectorises.
+QBOND_VECTOR_CLONES bool advance_checked(const double* x, const double* v, const double* dx, const double* dv,
+                                         const double* inv_mass, double limit2, double* xn, double* vn,
+                                         std::size_t lo, std::size_t hi) {
+  std::uint64_t bad = 0;
+  QBOND_SIMD_OR(bad) for (std::size_t q = lo; q < hi; ++q) {
+    double speed2 = 0, nan_if_bad = 0;
+    QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
+      const std::size_t e = 3 * q + c;
+      const double x1 = x[e] + dx[e], v1 = v[e] + dv[e];
+      xn[e] = x1;
+      vn[e] = v1;
+      nan_if_bad += (x1 - x1) + (v1 - v1);
+      speed2 += v1 * v1;
+    }
+    bad |= static_cast<std::uint64_t>((nan_if_bad != 0) | ((speed2 > limit2) & (inv_mass[q] != 0)));
+  }
+  return bad == 0;
+}
+
+}  // namespace
+
+StepReport Simulation::check_projection() {
   const Model& m = world_.model;
   const State& s = world_.state;
   const double limit2 = limits_.max_speed * limits_.max_speed;
   // First the plain test every step passes: no free quanta too fast, nothing non-finite (x − x is
   // 0 for every finite x, NaN otherwise). Branch-free loops over the components, so they vectorise.
+  // The pass also forms the state the step will apply, x + Δx and v + Δv, into next_x_, next_v_:
+  // one pass over the quanta for the check and the application.
+  const std::size_t n = m.num_quanta();
+  next_x_.resize(n);
+  next_v_.resize(n);
   const double* x = s.x.data()->data();
   const double* v = s.v.data()->data();
   const double* dx = projection_.dx.data()->data();
   const double* dv = projection_.dv.data()->data();
+  double* xn = next_x_.data()->data();
+  double* vn = next_v_.data()->data();
   auto fast = [&](std::size_t lo, std::size_t hi) {
-    double nan_if_bad = 0;
-    bool too_fast = false;
-    for (std::size_t q = lo; q < hi; ++q) {
-      double speed2 = 0;
-      for (std::size_t c = 3 * q; c < 3 * q + 3; ++c) {
-        const double x1 = x[c] + dx[c], v1 = v[c] + dv[c];
-        nan_if_bad += (x1 - x1) + (v1 - v1);
-        speed2 += v1 * v1;
-      }
-      too_fast |= speed2 > limit2 && m.inv_mass[q] != 0;
-    }
-    return nan_if_bad == 0 && !too_fast;
+    return advance_checked(x, v, dx, dv, m.inv_mass.data(), limit2, xn, vn, lo, hi);
   };
   if (reduce_chunks(m.num_quanta(), integrator_->config().threads, true, fast, std::logical_and<>{}))
     return {};
@@ -254,10 +278,8 @@ StepReport Simulation::end_step() {
   if (track_energy_ || restore) update_ledger();
 
   const Model& m = world_.model;
-  parallel_for(m.num_quanta(), integrator_->config().threads, [&](std::size_t i) {
-    s.x[i] += projection_.dx[i];
-    s.v[i] += projection_.dv[i];
-  });
+  s.x.swap(next_x_);  // x + Δx and v + Δv, formed by check_projection
+  s.v.swap(next_v_);
   const double t1 = ctx_.t + ctx_.h;
   place_kinematic(m, t1, s.x.data(), s.v.data());
   s.time = t1;

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <string>
 
 #include "test_util.hpp"
@@ -98,6 +99,40 @@ TEST(Stability, BlowupKeepsTheLastGoodState) {
   ASSERT_EQ(r.status, StepReport::Status::blowup);
   for (const Vec3& v : sim.world().state.v) EXPECT_TRUE(v.allFinite());
   EXPECT_NE(r.message.find("quanta"), std::string::npos);
+}
+
+// The projection check on its own: a free quanta faster than the limit, or a position or velocity
+// that would go non-finite, stops the step and leaves the world as it was; a prescribed quanta
+// may move faster than the limit.
+TEST(Stability, ProjectionCheckStopsTooFastAndNonFiniteSteps) {
+  auto world = [](Vec3 x_free, Vec3 v_free) {
+    World w;
+    w.add_quanta(x_free, v_free, 1.0);
+    const Index k = w.add_quanta(Vec3(1, 0, 0), Vec3::Zero(), 1.0);
+    Motion fast;
+    fast.type = MotionType::translate;
+    fast.velocity = Vec3(5, 0, 0);
+    w.prescribe({k}, fast);
+    return w;
+  };
+  auto first_step = [](World w) {
+    Simulation sim(w, test::config(IntegratorType::symplectic_euler), 0.01);
+    sim.limits().max_speed = 2;
+    sim.limits().energy_growth = 1e300;  // leave it to the projection check
+    const StepReport r = sim.step();
+    if (r.status != StepReport::Status::ok) {
+      EXPECT_EQ(std::memcmp(sim.world().state.x.data(), w.state.x.data(), 2 * sizeof(Vec3)), 0);
+      EXPECT_EQ(sim.world().state.step, 0u);
+    }
+    return r;
+  };
+  EXPECT_EQ(first_step(world(Vec3::Zero(), Vec3(1.9, 0, 0))).status, StepReport::Status::ok);
+  const StepReport fast = first_step(world(Vec3::Zero(), Vec3(0, 2.1, 0)));
+  EXPECT_EQ(fast.status, StepReport::Status::blowup);
+  EXPECT_EQ(fast.worst, 0u);
+  const StepReport nan = first_step(world(Vec3(0, std::nan(""), 0), Vec3::Zero()));
+  EXPECT_EQ(nan.status, StepReport::Status::blowup);
+  EXPECT_NE(nan.message.find("non-finite"), std::string::npos) << nan.message;
 }
 
 // The projection check is a reduction over chunks of quanta: any thread count names the same

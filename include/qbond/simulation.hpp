@@ -84,7 +84,7 @@ class Simulation {
  private:
   void gather_external_forces();
   void update_ledger();
-  StepReport check_projection() const;
+  StepReport check_projection();
   StepReport check_energy() const;
   /// The state before the step into last_good_ (save, set_keep_last_good), or back from it.
   void copy_last_good(bool save);
@@ -108,6 +108,7 @@ class Simulation {
   StepContext ctx_;
   std::vector<BondEvent> events_;
   std::vector<Vec3> dv_forces_;  ///< the projection's dv before the heuristics [m/s] (n)
+  std::vector<Vec3> next_x_, next_v_;  ///< x + Δx, v + Δv of the step being applied (check_projection)
 };
 
 }  // namespace qbond
