@@ -292,7 +292,8 @@ def integrators(d):
         ax.scatter(x, y, s=30)
         # Neighbours in cost often share an error level: of two points within 15% in cost and a
         # decade in error, the higher is labelled above and the lower below; others alternate.
-        near = [q for j, q in enumerate(pts) if j != k and abs(math.log(x / q[0])) < 0.15 and abs(math.log10(y / q[1])) < 1]
+        near = [q for j, q in enumerate(pts)
+                if j != k and abs(math.log(x / q[0])) < 0.15 and abs(math.log10(y / q[1])) < 1]
         above = y >= near[0][1] if near else k % 2 == 1
         ax.annotate(r["method"], (x, y), textcoords="offset points", xytext=(5, 4 if above else -11), fontsize=8)
     ax.set_xscale("log")

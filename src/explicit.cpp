@@ -43,8 +43,8 @@ QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, const double* f0, 
 }
 
 // Verlet's second half for quanta [lo, hi): the bond forces at the stage into f1 (the carry-over),
-// the free quanta's Δv = h/2 (m⁻¹ (f0 + f_ext) + m⁻¹ (f1 + f_ext)) into dv (0 for kinematic ones), and v₁ = v + Δv
-// into v1.
+// the free quanta's Δv = h/2 (m⁻¹ (f0 + f_ext) + m⁻¹ (f1 + f_ext)) into dv (0 for kinematic
+// ones), and v₁ = v + Δv into v1.
 QBOND_VECTOR_CLONES void verlet_finish(const double* inv_mass, ForceRows rows, const double* f_ext, const double* f0,
                                        const double* v, double h, double* dv, double* f1, double* v1, std::size_t lo,
                                        std::size_t hi) {

@@ -370,7 +370,9 @@ std::vector<Vec3> plain_verlet(World w, double h, int steps, bool carry) {
   State& s = w.state;
   const std::size_t n = w.num_quanta();
   std::vector<Vec3> f = plain_bond_sums(w, s.x, s.v), x1(n), vt(n), v1(n);
-  auto accel = [&](const std::vector<Vec3>& fb, std::size_t i) { return m.inv_mass[i] * (fb[i] + m.mass[i] * m.gravity); };
+  auto accel = [&](const std::vector<Vec3>& fb, std::size_t i) {
+    return m.inv_mass[i] * (fb[i] + m.mass[i] * m.gravity);
+  };
   for (int k = 0; k < steps; ++k) {
     if (!carry) f = plain_bond_sums(w, s.x, s.v);
     const double t1 = s.time + h;
