@@ -1,5 +1,6 @@
 #include "qbond/runner.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -308,9 +309,11 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
   auto wall = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   RunResult result;
   const std::uint64_t start = r.sim.world().state.step;
+  const double start_time = r.sim.world().state.time;
   RunProgress p;
   p.first_step = start;
   p.last_step = r.settings.steps;
+  p.adaptive = r.scene.adaptive.enabled;
   while (!r.finished()) {
     const StepReport rep = r.step();
     if (rep.status != StepReport::Status::ok) {
@@ -326,6 +329,9 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
       p.step = s.step;
       p.time = s.time;
       p.wall_seconds = wall();
+      const double span = p.adaptive ? r.end_time() - start_time : static_cast<double>(p.last_step - start);
+      const double done = p.adaptive ? s.time - start_time : static_cast<double>(s.step - start);
+      p.fraction = r.finished() || span <= 0 ? 1.0 : std::min(1.0, done / span);
       progress(p);
     }
     if (stop && stop() && !r.finished()) {

@@ -123,10 +123,9 @@ class Progress {
   explicit Progress(bool quiet) : quiet_(quiet), tty_(isatty(STDERR_FILENO) == 1) {}
   void operator()(const qbond::RunProgress& p) {
     if (quiet_) return;
-    const double total = static_cast<double>(p.last_step - p.first_step);
     const double done = static_cast<double>(p.step - p.first_step);
-    const double frac = total > 0 ? done / total : 1.0;
-    const bool last = p.step == p.last_step;
+    const double frac = p.fraction;
+    const bool last = frac >= 1.0;
     if (tty_) {
       if (!last && p.wall_seconds - shown_ < 0.1) return;
     } else if (!last && frac - shown_frac_ < 0.1 && p.wall_seconds - shown_ < 30) {
@@ -135,11 +134,12 @@ class Progress {
     shown_ = p.wall_seconds;
     shown_frac_ = frac;
     const double rate = p.wall_seconds > 0 ? done / p.wall_seconds : 0;
-    const double eta = rate > 0 ? (total - done) / rate : -1;
+    const double eta = frac > 0 ? p.wall_seconds * (1 - frac) / frac : -1;
+    // An adaptive run's step count is not known in advance: no "of last_step" for it.
+    const std::string of = p.adaptive ? "" : "/" + std::to_string(p.last_step);
     char line[160];
-    std::snprintf(line, sizeof line, "%5.1f%%  step %llu/%llu  t = %.6g s  %.4g steps/s  ETA %s", 100 * frac,
-                  static_cast<unsigned long long>(p.step), static_cast<unsigned long long>(p.last_step), p.time, rate,
-                  clock(eta).c_str());
+    std::snprintf(line, sizeof line, "%5.1f%%  step %llu%s  t = %.6g s  %.4g steps/s  ETA %s", 100 * frac,
+                  static_cast<unsigned long long>(p.step), of.c_str(), p.time, rate, clock(eta).c_str());
     if (tty_) {
       constexpr int kWidth = 24;
       const int filled = static_cast<int>(frac * kWidth);

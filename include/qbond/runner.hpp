@@ -33,6 +33,9 @@ struct RunProgress {
   std::uint64_t last_step = 0;   ///< step at which the run ends
   double time = 0;               ///< simulated time [s]
   double wall_seconds = 0;       ///< wall time of this invocation so far [s]
+  /// Whether the step adapts: the run then ends at a time, not at last_step (an estimate).
+  bool adaptive = false;
+  double fraction = 0;  ///< of this invocation's run done: by steps, or by simulated time if adaptive
 };
 
 /// How a run ended.
