@@ -153,13 +153,12 @@ class ExplicitIntegrator final : public Integrator {
     const double* f0 = carried ? state.warm.data()->data() : fresh_forces(model, state);
     const double* cx = carried ? f0 + 3 * n : x;
     const double* cv = carried ? f0 + 6 * n : v;
-    ForceRows rows = force_rows(forces_, n);
+    const ForceRows rows = force_rows(forces_, n);  // fresh_forces fills the same storage's rows
     auto stage = [&](std::size_t lo, std::size_t hi) {
       return verlet_stage(inv_mass, f0, fe, x, v, cx, cv, h, dx, x1, rows, lo, hi);
     };
     if (!reduce_chunks(n, threads, true, stage, std::logical_and<>{})) {
       f0 = fresh_forces(model, state);
-      rows = force_rows(forces_, n);
       cx = x, cv = v;
       reduce_chunks(n, threads, true, stage, std::logical_and<>{});
     }

@@ -1,6 +1,9 @@
 #pragma once
 // Small scenes and helpers shared by the tests.
+#include <gtest/gtest.h>
+
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 #include "qbond/analysis.hpp"
@@ -92,6 +95,13 @@ inline Projection project_once(const World& w, const IntegratorConfig& cfg, doub
   Simulation sim(w, cfg, h);
   sim.begin_step();
   return sim.projection();
+}
+
+// Positions and velocities of two states equal bit for bit (a resumed run against the original).
+inline void expect_same_bits(const State& a, const State& b) {
+  ASSERT_EQ(a.x.size(), b.x.size());
+  EXPECT_EQ(std::memcmp(a.x.data(), b.x.data(), a.x.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(a.v.data(), b.v.data(), a.v.size() * sizeof(Vec3)), 0);
 }
 
 inline double max_norm_diff(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
