@@ -214,17 +214,24 @@ void Simulation::update_ledger() {
 
 namespace {
 
-// A state's per-bond arrays, moved out of it and back: what a step without heuristics leaves as
-// it is.
-struct BondArrays {
+// Arrays moved out of a state and back, so that a copy of the state leaves them out: the
+// integrator's carry-over (always: see copy_last_good) and, with `bonds`, the per-bond arrays.
+struct KeptArrays {
+  std::vector<Vec3> warm;
   std::vector<double> rest;
   std::vector<std::uint8_t> alive;
   std::vector<double> bond_time;
   std::vector<FormedBond> formed;
-  explicit BondArrays(State& s)
-      : rest(std::move(s.rest)), alive(std::move(s.alive)), bond_time(std::move(s.bond_time)),
-        formed(std::move(s.formed)) {}
-  void put_back(State& s) {
+  KeptArrays(State& s, bool bonds) : warm(std::move(s.warm)) {
+    if (!bonds) return;
+    rest = std::move(s.rest);
+    alive = std::move(s.alive);
+    bond_time = std::move(s.bond_time);
+    formed = std::move(s.formed);
+  }
+  void put_back(State& s, bool bonds) {
+    s.warm = std::move(warm);
+    if (!bonds) return;
     s.rest = std::move(rest);
     s.alive = std::move(alive);
     s.bond_time = std::move(bond_time);
@@ -234,24 +241,21 @@ struct BondArrays {
 
 }  // namespace
 
-void Simulation::copy_last_good(bool save) {
+void Simulation::copy_last_good(bool save, bool warm_swapped) {
   State& s = world_.state;
-  auto copy = [&] {
-    if (save)
-      last_good_ = s;
-    else
-      s = last_good_;
-  };
   if (save) last_good_has_bonds_ = !heuristics_.empty();
-  if (last_good_has_bonds_) {
-    copy();
-    return;
-  }
   // Only heuristics edit bonds during a step: without them the copy leaves out the bond arrays,
-  // most of a lattice's state, and the world's state keeps its own.
-  BondArrays bonds(s);
-  copy();
-  bonds.put_back(s);
+  // most of a lattice's state, and the world's state keeps its own. The carry-over is never
+  // copied: until end_step swaps in the step's own it is the one before the step, and after the
+  // swap the projection holds that one.
+  const bool bonds = !last_good_has_bonds_;
+  KeptArrays kept(s, bonds);
+  if (save)
+    last_good_ = s;
+  else
+    s = last_good_;
+  kept.put_back(s, bonds);
+  if (warm_swapped) s.warm.swap(projection_.warm);
 }
 
 StepReport Simulation::end_step() {
@@ -298,7 +302,7 @@ StepReport Simulation::end_step() {
 
   StepReport r = check_energy();
   if (r.status != StepReport::Status::ok && keep_last_good_) {
-    copy_last_good(false);
+    copy_last_good(false, true);
     world_.sync_formed_bonds();
     events_.clear();
     r.message += "; the world keeps the state before this step";

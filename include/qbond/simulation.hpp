@@ -86,8 +86,10 @@ class Simulation {
   void update_ledger();
   StepReport check_projection();
   StepReport check_energy() const;
-  /// The state before the step into last_good_ (save, set_keep_last_good), or back from it.
-  void copy_last_good(bool save);
+  /// The state before the step into last_good_ (save, set_keep_last_good), or back from it;
+  /// warm_swapped: the step's carry-over is already in the state (end_step), the one before it
+  /// in the projection.
+  void copy_last_good(bool save, bool warm_swapped = false);
 
   World world_;
   std::unique_ptr<Integrator> integrator_;
