@@ -15,14 +15,23 @@
 
 namespace qbond {
 
-// Bonds an affine run's loops take: its count rounded up to whole vectors of 8 (for_each_bond_run's
-// affine runs have that many bonds, and the kernels' arrays are padded), so that no loop has a
-// remainder. The loops marked kVectorLoop run over them 8 lanes at a time, an inner loop of a
-// known trip count, which the compiler vectorises with no remainder, profitability check or
-// scalar fallback (it does not see that the rounded count is a multiple of 8). The lanes past the
-// run get terms of −0.0, which added to a row leave its bits as they are (x + (−0.0) = x for
-// every double x, +0.0 included).
-inline Index affine_lanes(const BondRun& run) { return (run.count + 7) & ~Index{7}; }
+// The lanes an affine run's loops take (bond_partition.hpp): its count rounded up to a multiple
+// of 4 (for_each_bond_run's affine runs have that many bonds, and the kernels' arrays are padded).
+// The lanes past the run get terms of −0.0, which added to a row leave its bits as they are
+// (x + (−0.0) = x for every double x, +0.0 included).
+inline Index affine_lanes(const BondRun& run) { return affine_lanes(run.count); }
+
+// lane(q) for q in [0, lanes), lanes a multiple of 4, as loops of a known trip count (marked
+// kVectorLoop where they are written): vectors of 8, then one of 4 if lanes is not a multiple of
+// 8. The compiler vectorises such loops with no remainder, profitability check or scalar
+// fallback, which it does not do for a loop to `lanes` (it does not see that it is a multiple
+// of 4).
+template <class Lane>
+QBOND_VECTOR_INLINE void for_lanes(std::size_t lanes, Lane&& lane) {
+  const std::size_t whole = lanes & ~std::size_t{7};
+  for (std::size_t q0 = 0; q0 < whole; q0 += 8) QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) lane(q0 + l);
+  if (whole != lanes) QBOND_SIMD for (std::size_t l = 0; l < 4; ++l) lane(whole + l);
+}
 
 // The distance between the kernels' per-quanta arrays (structure of arrays, n entries each, and
 // padding past n for the affine runs' whole vectors): 3 cache lines more than a multiple of
@@ -59,25 +68,25 @@ struct RunParameters {
 };
 
 // Whether every bond of an affine run's whole vectors has the linear law, and one damping model:
-// 0 all axial, 1 all isotropic, −1 otherwise (the run then takes the per-bond path). Read 8
+// 0 all axial, 1 all isotropic, −1 otherwise (the run then takes the per-bond path). Read 4
 // one-byte enums at a time.
 QBOND_VECTOR_INLINE int uniform_linear(const Model& model, const BondRun& run) {
   static_assert(sizeof(Law) == 1 && sizeof(DampingModel) == 1 && static_cast<int>(Law::linear) == 0 &&
                 static_cast<int>(DampingModel::axial) == 0 && static_cast<int>(DampingModel::isotropic) == 1);
   const auto* law = reinterpret_cast<const unsigned char*>(model.law.data() + run.first);
   const auto* dm = reinterpret_cast<const unsigned char*>(model.damping_model.data() + run.first);
-  std::uint64_t laws = 0, any_isotropic = 0, all_isotropic = ~std::uint64_t{0};
-  for (std::size_t q = 0; q < affine_lanes(run); q += 8) {
-    std::uint64_t l, d;
-    std::memcpy(&l, law + q, 8);
-    std::memcpy(&d, dm + q, 8);
+  std::uint32_t laws = 0, any_isotropic = 0, all_isotropic = ~std::uint32_t{0};
+  for (std::size_t q = 0; q < affine_lanes(run); q += 4) {
+    std::uint32_t l, d;
+    std::memcpy(&l, law + q, 4);
+    std::memcpy(&d, dm + q, 4);
     laws |= l;
     any_isotropic |= d;
     all_isotropic &= d;
   }
   if (laws != 0) return -1;
   if (any_isotropic == 0) return 0;
-  return all_isotropic == 0x0101010101010101 ? 1 : -1;
+  return all_isotropic == 0x01010101 ? 1 : -1;
 }
 
 // Asks for the parameters of the bonds a few runs after an affine run's: the bond pass reads each
@@ -105,8 +114,8 @@ QBOND_VECTOR_INLINE void add_to_rows(double* const (&rows)[N], Index base, std::
   auto add = [&](std::size_t k) QBOND_LAMBDA_INLINE {
     QBOND_UNROLL(9) for (std::size_t e = 0; e < N; ++e) r[e][k] += terms[e][k];
   };
-  if (k0 == 0 && k1 % 8 == 0) {  // whole vectors: loops of a known trip count (kVectorLoop)
-    for (std::size_t k8 = 0; k8 < k1; k8 += 8) QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) add(k8 + l);
+  if (k0 == 0 && k1 % 4 == 0) {  // whole vectors
+    for_lanes(k1, add);
   } else {
     QBOND_SIMD for (std::size_t k = k0; k < k1; ++k) add(k);
   }

@@ -52,12 +52,12 @@ void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
     // The chunks of segment [s, end) that hold bonds first .. last. A segment is cut into
     // chunks of kBondRun at fixed offsets from its start, the same for every partition, so that
     // the kernels' choice of path for a chunk (frozen_step.cpp) does not depend on the thread
-    // count. A chunk's loops may read the bonds after it up to a whole vector of 8: one that
-    // would pass the last bond goes to the per-bond path.
+    // count. A chunk's loops may read the bonds after it up to affine_lanes: one that would
+    // pass the last bond goes to the per-bond path.
     auto affine = [&](Index s, Index end, Index first, Index last) {
       for (Index b = s + (first - s) / kBondRun * kBondRun; b <= last; b += kBondRun) {
         const Index count = std::min(kBondRun, end - b);
-        const bool padded = b + (count + 7) / 8 * 8 <= nb;
+        const bool padded = b + affine_lanes(count) <= nb;
         part.runs.push_back({nullptr, b, count, lo, hi, false, padded, model.bond_i[s] + (b - s),
                              model.bond_j[s] + (b - s)});
       }

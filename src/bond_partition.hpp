@@ -21,8 +21,8 @@ namespace qbond {
 // A run of at most kBondRun alive bonds, in increasing order, from one part of a partition: the
 // bonds list[0..count), or first .. first + count - 1 when list is null. An affine run (list
 // null) is a piece of an affine segment (for_each_affine_segment): bond first + k joins
-// i0 + k and j0 + k, so that its ends' data are contiguous; bonds exist up to count rounded up
-// to a multiple of 8 (vector loops over an affine run need no remainder). The part updates the
+// i0 + k and j0 + k, so that its ends' data are contiguous; bonds exist up to affine_lanes(count)
+// (vector loops over an affine run need no remainder). The part updates the
 // ends in [lo, hi) only; `last` marks its last run.
 inline constexpr Index kBondRun = 64;
 struct BondRun {
@@ -38,10 +38,16 @@ struct BondRun {
 // What counts as a lattice's affine segment when choosing a numbering (ordering.hpp): as long as a
 // wide register.
 inline constexpr Index kMinAffine = 8;
-// The shortest segment the kernels take as an affine run: the vector path runs whole vectors of
-// 8 (padded lanes), so even two bonds cost one vector iteration, far less than the per-bond
+// The shortest segment the kernels take as an affine run: the vector path runs whole vectors
+// (padded lanes), so even two bonds cost one vector iteration, far less than the per-bond
 // path's gathers and per-run set-up.
 inline constexpr Index kMinAffineRun = 2;
+
+// The lanes the vector path takes for an affine run of `count` bonds: count rounded up to a
+// multiple of 4, run as vectors of 8 and at most one of 4 (affine_rows.hpp, for_lanes). Rounding
+// to 4 rather than 8 matters for short runs: a 10³ lattice's rows give runs of 9 bonds, which
+// take 12 lanes instead of 16.
+inline Index affine_lanes(Index count) { return (count + 3) & ~Index{3}; }
 
 // segment(b, count) for every maximal run of at least min_length consecutive alive bonds
 // b, b + 1, ... whose ends advance together: bond b + k joins bond_i[b] + k and bond_j[b] + k.

@@ -66,27 +66,24 @@ QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& s
     vi[c] = rows.v[c] + run.i0;
     vj[c] = rows.v[c] + run.j0;
   }
-  for (std::size_t q0 = 0; q0 < affine_lanes(run); q0 += 8) {
-    QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {  // kVectorLoop
-      const std::size_t q = q0 + l;
-      double d[3], w[3];
-      QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-        d[c] = xj[c][q] - xi[c][q];
-        w[c] = vj[c][q] - vi[c][q];
-      }
-      const double r = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-      const bool ok = r > 0, live = q < run.count;
-      const double inv_r = 1.0 / (ok ? r : 1.0);
-      const double T = k[q] * (r - L[q]);
-      const double wd = w[0] * d[0] + w[1] * d[1] + w[2] * d[2];
-      const double s = kAxial ? (T + D[q] * wd * inv_r) * inv_r : T * inv_r;
-      QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-        const double f = ok ? (kAxial ? s * d[c] : s * d[c] + D[q] * w[c]) : 0.0;
-        t.fi[c][q] = live ? f : -0.0;
-        t.fj[c][q] = live ? -f : -0.0;
-      }
+  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+    double d[3], w[3];
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      d[c] = xj[c][q] - xi[c][q];
+      w[c] = vj[c][q] - vi[c][q];
     }
-  }
+    const double r = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    const bool ok = r > 0, live = q < run.count;
+    const double inv_r = 1.0 / (ok ? r : 1.0);
+    const double T = k[q] * (r - L[q]);
+    const double wd = w[0] * d[0] + w[1] * d[1] + w[2] * d[2];
+    const double s = kAxial ? (T + D[q] * wd * inv_r) * inv_r : T * inv_r;
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      const double f = ok ? (kAxial ? s * d[c] : s * d[c] + D[q] * w[c]) : 0.0;
+      t.fi[c][q] = live ? f : -0.0;
+      t.fj[c][q] = live ? -f : -0.0;
+    }
+  });
 }
 
 QBOND_VECTOR_CLONES void affine_forces(const Model& model, const State& state, const ForceRows& rows,

@@ -245,17 +245,14 @@ QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& st
   const double *xj = a.x[0] + j, *yj = a.x[1] + j, *zj = a.x[2] + j;
   const double *vxi = a.v[0] + i, *vyi = a.v[1] + i, *vzi = a.v[2] + i;
   const double *vxj = a.v[0] + j, *vyj = a.v[1] + j, *vzj = a.v[2] + j;
-  for (std::size_t q0 = 0; q0 < affine_lanes(run); q0 += 8) {
-    QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {  // kVectorLoop
-      const std::size_t q = q0 + l;
-      const double kq = k[q], Lq = L[q], Dq = D[q];  // loaded unconditionally: selects, not branches
-      const double vi[3] = {vxi[q], vyi[q], vzi[q]}, vj[3] = {vxj[q], vyj[q], vzj[q]};
-      const Geometry g = geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vi[0], vi[1], vi[2], vj[0], vj[1], vj[2]);
-      const bool ok = g.r > 0;  // a zero-length bond does nothing (laws.hpp)
-      const double T = ok ? kq * (g.r - Lq) : 0.0, dT = ok ? kq : 0.0, D_ok = ok ? Dq : 0.0;
-      bond_terms<true, !kAxial>(t, q, h, T, dT, kAxial ? D_ok : 0.0, kAxial ? 0.0 : D_ok, g, vi, vj, q < run.count);
-    }
-  }
+  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+    const double kq = k[q], Lq = L[q], Dq = D[q];  // loaded unconditionally: selects, not branches
+    const double vi[3] = {vxi[q], vyi[q], vzi[q]}, vj[3] = {vxj[q], vyj[q], vzj[q]};
+    const Geometry g = geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vi[0], vi[1], vi[2], vj[0], vj[1], vj[2]);
+    const bool ok = g.r > 0;  // a zero-length bond does nothing (laws.hpp)
+    const double T = ok ? kq * (g.r - Lq) : 0.0, dT = ok ? kq : 0.0, D_ok = ok ? Dq : 0.0;
+    bond_terms<true, !kAxial>(t, q, h, T, dT, kAxial ? D_ok : 0.0, kAxial ? 0.0 : D_ok, g, vi, vj, q < run.count);
+  });
 }
 
 // The terms of an affine run that uniform_linear accepts (axial: its damping model is axial).

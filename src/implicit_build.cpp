@@ -85,43 +85,40 @@ QBOND_VECTOR_INLINE void linear_affine_build(const Model& model, const State& st
     ci[c] = a.dvk[c] + run.i0, cj[c] = a.dvk[c] + run.j0;
   }
   const double h2 = h * h;
-  for (std::size_t q0 = 0; q0 < affine_lanes(run); q0 += 8) {
-    QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {  // kVectorLoop
-      const std::size_t q = q0 + l;
-      const double kq = k[q], Lq = L[q], Dq = D[q];  // loaded unconditionally: selects, not masked loads
-      // Aggregates, not arrays filled by a loop: GCC then vectorises the loop.
-      const double d[3] = {xj[0][q] - xi[0][q], xj[1][q] - xi[1][q], xj[2][q] - xi[2][q]};
-      const double w[3] = {vj[0][q] - vi[0][q], vj[1][q] - vi[1][q], vj[2][q] - vi[2][q]};
-      const double e[3] = {ei[0][q] - ej[0][q], ei[1][q] - ej[1][q], ei[2][q] - ej[2][q]};
-      const double dc[3] = {ci[0][q] - cj[0][q], ci[1][q] - cj[1][q], ci[2][q] - cj[2][q]};
-      const double r = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-      const bool ok = r > 0;  // a zero-length bond does nothing (laws.hpp)
-      const double inv_r = ok ? 1.0 / (ok ? r : 1.0) : 0.0;
-      const double u[3] = {inv_r * d[0], inv_r * d[1], inv_r * d[2]};
-      const double T = ok ? kq * (r - Lq) : 0.0, dT = ok ? kq : 0.0, Dok = ok ? Dq : 0.0;
-      const double ca = kAxial ? Dok : 0.0, cb = kAxial ? 0.0 : Dok;
-      const double kb = std::max(T * inv_r, 0.0), ka = std::max(dT, 0.0) - kb;
-      const double Ba = h * ca + h2 * ka, Bb = h * cb + h2 * kb;
-      const double uw = u[0] * w[0] + u[1] * w[1] + u[2] * w[2];
-      const double ue = u[0] * e[0] + u[1] * e[1] + u[2] * e[2];
-      const double uc = u[0] * dc[0] + u[1] * dc[1] + u[2] * dc[2];
-      const double aux = Ba * u[0], auy = Ba * u[1];
-      const double B[6] = {aux * u[0] + Bb, auy * u[1] + Bb, Ba * u[2] * u[2] + Bb, aux * u[1], aux * u[2], auy * u[2]};
-      const bool live = q < run.count;
-      QBOND_UNROLL(6) for (int c = 0; c < 6; ++c) t.B[c][q] = live ? B[c] : -0.0;
-      QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-        // f = T u + C_b w; g = h f − h K_b (Δx₀_i − Δx₀_j) − h C_b (Δv_k,i − Δv_k,j).
-        const double f = kAxial ? (T + Dok * uw) * u[c] : T * u[c] + Dok * w[c];
-        const double Ke = ka * ue * u[c] + kb * e[c], Cc = ca * uc * u[c] + cb * dc[c];
-        const double g = h * f - h * Ke - h * Cc;
-        t.gi[c][q] = live ? g : -0.0;
-        t.gj[c][q] = live ? -g : -0.0;
-        t.u[c][q] = u[c];
-      }
-      t.Ba[q] = Ba;
-      t.Bb[q] = Bb;
+  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+    const double kq = k[q], Lq = L[q], Dq = D[q];  // loaded unconditionally: selects, not masked loads
+    // Aggregates, not arrays filled by a loop: GCC then vectorises the loop.
+    const double d[3] = {xj[0][q] - xi[0][q], xj[1][q] - xi[1][q], xj[2][q] - xi[2][q]};
+    const double w[3] = {vj[0][q] - vi[0][q], vj[1][q] - vi[1][q], vj[2][q] - vi[2][q]};
+    const double e[3] = {ei[0][q] - ej[0][q], ei[1][q] - ej[1][q], ei[2][q] - ej[2][q]};
+    const double dc[3] = {ci[0][q] - cj[0][q], ci[1][q] - cj[1][q], ci[2][q] - cj[2][q]};
+    const double r = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    const bool ok = r > 0;  // a zero-length bond does nothing (laws.hpp)
+    const double inv_r = ok ? 1.0 / (ok ? r : 1.0) : 0.0;
+    const double u[3] = {inv_r * d[0], inv_r * d[1], inv_r * d[2]};
+    const double T = ok ? kq * (r - Lq) : 0.0, dT = ok ? kq : 0.0, Dok = ok ? Dq : 0.0;
+    const double ca = kAxial ? Dok : 0.0, cb = kAxial ? 0.0 : Dok;
+    const double kb = std::max(T * inv_r, 0.0), ka = std::max(dT, 0.0) - kb;
+    const double Ba = h * ca + h2 * ka, Bb = h * cb + h2 * kb;
+    const double uw = u[0] * w[0] + u[1] * w[1] + u[2] * w[2];
+    const double ue = u[0] * e[0] + u[1] * e[1] + u[2] * e[2];
+    const double uc = u[0] * dc[0] + u[1] * dc[1] + u[2] * dc[2];
+    const double aux = Ba * u[0], auy = Ba * u[1];
+    const double B[6] = {aux * u[0] + Bb, auy * u[1] + Bb, Ba * u[2] * u[2] + Bb, aux * u[1], aux * u[2], auy * u[2]};
+    const bool live = q < run.count;
+    QBOND_UNROLL(6) for (int c = 0; c < 6; ++c) t.B[c][q] = live ? B[c] : -0.0;
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      // f = T u + C_b w; g = h f − h K_b (Δx₀_i − Δx₀_j) − h C_b (Δv_k,i − Δv_k,j).
+      const double f = kAxial ? (T + Dok * uw) * u[c] : T * u[c] + Dok * w[c];
+      const double Ke = ka * ue * u[c] + kb * e[c], Cc = ca * uc * u[c] + cb * dc[c];
+      const double g = h * f - h * Ke - h * Cc;
+      t.gi[c][q] = live ? g : -0.0;
+      t.gj[c][q] = live ? -g : -0.0;
+      t.u[c][q] = u[c];
     }
-  }
+    t.Ba[q] = Ba;
+    t.Bb[q] = Bb;
+  });
 }
 
 // An affine run that uniform_linear accepts (axial: its damping model is axial): its terms added
@@ -214,16 +211,13 @@ QBOND_VECTOR_CLONES void affine_blocks(const BondRun& run, const BondBlocks& blo
   const double *ux = blocks.ux.data() + run.first, *uy = blocks.uy.data() + run.first,
                *uz = blocks.uz.data() + run.first;
   const double *Ba = blocks.Ba.data() + run.first, *Bb = blocks.Bb.data() + run.first;
-  for (std::size_t q0 = 0; q0 < affine_lanes(run); q0 += 8) {
-    QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {  // kVectorLoop
-      const std::size_t q = q0 + l;
-      const double aux = Ba[q] * ux[q], auy = Ba[q] * uy[q];
-      const double B[6] = {aux * ux[q] + Bb[q], auy * uy[q] + Bb[q], Ba[q] * uz[q] * uz[q] + Bb[q],
-                           aux * uy[q],         aux * uz[q],         auy * uz[q]};
-      const bool live = q < run.count;
-      QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = live ? B[e] : -0.0;
-    }
-  }
+  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+    const double aux = Ba[q] * ux[q], auy = Ba[q] * uy[q];
+    const double B[6] = {aux * ux[q] + Bb[q], auy * uy[q] + Bb[q], Ba[q] * uz[q] * uz[q] + Bb[q],
+                         aux * uy[q],         aux * uz[q],         auy * uz[q]};
+    const bool live = q < run.count;
+    QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = live ? B[e] : -0.0;
+  });
   double* const rows[6] = {a.row[0], a.row[1], a.row[2], a.row[3], a.row[4], a.row[5]};
   const double* tb[6] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5]};
   add_affine_run(run, rows, tb, tb);
