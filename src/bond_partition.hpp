@@ -93,6 +93,20 @@ struct BondPartition {
   int parts() const { return static_cast<int>(first.size()) - 1; }
 };
 
+// run(p) for each part p, each on its own thread (the calling one when there is one part:
+// parallel_for says why).
+template <class Run>
+void for_each_part(int parts, Run&& run) {
+#ifdef _OPENMP
+  if (parts > 1) {
+#pragma omp parallel for schedule(static, 1) num_threads(parts)
+    for (int p = 0; p < parts; ++p) run(p);
+    return;
+  }
+#endif
+  for (int p = 0; p < parts; ++p) run(p);
+}
+
 // body(b, i_owned, j_owned) for every alive bond b, where i_owned / j_owned say whether this call
 // may update bond_i[b] / bond_j[b]; each end of each bond is owned in exactly one call, and the
 // calls owning a given quanta come in increasing b.
@@ -113,10 +127,7 @@ void for_each_bond(const BondPartition& part, const Model& model, Body&& body) {
       body(b, i >= lo && i < hi, j >= lo && j < hi);
     }
   };
-#ifdef _OPENMP
-#pragma omp parallel for schedule(static, 1) num_threads(parts) if (parts > 1)
-#endif
-  for (int p = 0; p < parts; ++p) run(p);
+  for_each_part(parts, run);
 }
 
 // body(run, scratch) for the partition's runs, covering every alive bond once per part that owns
@@ -130,10 +141,7 @@ void for_each_bond_run(const BondPartition& part, Body&& body) {
     Scratch scratch;
     for (Index r = part.run_offset[p]; r < part.run_offset[p + 1]; ++r) body(part.runs[r], scratch);
   };
-#ifdef _OPENMP
-#pragma omp parallel for schedule(static, 1) num_threads(parts) if (parts > 1)
-#endif
-  for (int p = 0; p < parts; ++p) run(p);
+  for_each_part(parts, run);
 }
 
 }  // namespace qbond
