@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <span>
 
 #include "parallel.hpp"
 
@@ -60,6 +61,16 @@ Eigen::Index assemble_system(const Model& model, const State& state, const Impli
   return nf;
 }
 
+bool SparsityPattern::matches(const Eigen::SparseMatrix<double>& A) {
+  assert(A.isCompressed());
+  const std::span<const int> o(A.outerIndexPtr(), static_cast<std::size_t>(A.outerSize()) + 1);
+  const std::span<const int> in(A.innerIndexPtr(), static_cast<std::size_t>(A.nonZeros()));
+  if (std::ranges::equal(o, outer) && std::ranges::equal(in, inner)) return true;
+  outer.assign(o.begin(), o.end());
+  inner.assign(in.begin(), in.end());
+  return false;
+}
+
 void DirectSolver::solve(CoupledSolver which, const Model& model, const State& state, const ImplicitSystem& sys,
                          std::vector<Vec3>& y) {
   const std::size_t n = model.num_quanta();
@@ -70,7 +81,8 @@ void DirectSolver::solve(CoupledSolver which, const Model& model, const State& s
   if (which == CoupledSolver::dense) {
     sol = Eigen::MatrixXd(A).partialPivLu().solve(b);  // Gaussian elimination, partial pivoting
   } else {
-    ldlt.compute(A);
+    if (!ldlt_pattern.matches(A)) ldlt.analyzePattern(A);
+    ldlt.factorize(A);
     sol = ldlt.solve(b);
   }
   for (std::size_t i = 0; i < n; ++i)
@@ -82,7 +94,8 @@ bool DirectSolver::solve_lu(const Model& model, const State& state, const Implic
   const Eigen::Index nf = assemble_system(model, state, sys, dof, triplets, A, b);
   y.assign(n, Vec3::Zero());
   if (nf == 0) return true;
-  lu.compute(A);  // the ordering is recomputed too: bonds break between steps
+  if (!lu_pattern.matches(A)) lu.analyzePattern(A);
+  lu.factorize(A);
   if (lu.info() != Eigen::Success) return false;
   const Eigen::VectorXd sol = lu.solve(b);
   if (!sol.allFinite()) return false;

@@ -181,6 +181,18 @@ Eigen::Index assemble_system(const Model& model, const State& state, const Impli
 // The linear solvers of A y = b (b = sys.rhs), shared by the coupled integrator (one solve per step)
 // and the Newton integrators (one per Newton iteration); each owns its scratch.
 
+// The sparsity pattern (a compressed matrix's outer and inner indices) that a factorisation's
+// symbolic analysis was done for. The analysis — the fill-reducing ordering and the elimination
+// tree — depends on the pattern alone, which stays the same from one Newton iteration or step to
+// the next until a bond breaks or forms, so it is redone only then; a factorisation after the kept
+// analysis gives the bits a fresh one would.
+struct SparsityPattern {
+  std::vector<int> outer, inner;
+  // Whether A (compressed) has this pattern; if not, the pattern becomes A's and the caller
+  // analyses A.
+  bool matches(const Eigen::SparseMatrix<double>& A);
+};
+
 // Sparse LDLᵀ or dense Gaussian elimination with partial pivoting on the assembled system; y is
 // overwritten (kinematic rows 0). solve_lu: sparse LU (the Newton integrators' non-symmetric
 // exact Jacobian, sys.exact); false if the factorisation failed (a singular matrix; y is then 0).
@@ -191,6 +203,7 @@ struct DirectSolver {
   Eigen::VectorXd b;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
+  SparsityPattern ldlt_pattern, lu_pattern;  // what ldlt and lu were analysed for
   void solve(CoupledSolver which, const Model& model, const State& state, const ImplicitSystem& sys,
              std::vector<Vec3>& y);
   bool solve_lu(const Model& model, const State& state, const ImplicitSystem& sys, std::vector<Vec3>& y);

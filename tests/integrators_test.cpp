@@ -11,6 +11,7 @@
 
 #include "bond_partition.hpp"
 #include "forces.hpp"
+#include "implicit_system.hpp"
 #include "qbond/checkpoint.hpp"
 #include "qbond/fracture.hpp"
 #include "qbond/ordering.hpp"
@@ -136,6 +137,70 @@ TEST(CoupledImplicit, DenseLdltAndCgAgree) {
   const double scale = test::max_norm(dense.dv);
   EXPECT_LE(test::max_norm_diff(ldlt.dv, dense.dv), 1e-11 * scale);
   EXPECT_LE(test::max_norm_diff(cg.dv, dense.dv), 1e-11 * scale);
+}
+
+// The direct solvers keep their symbolic analysis while the matrix's pattern stays (Newton
+// iterations, steps without a broken bond) and redo it when a bond breaks: each solve gives the
+// bits of a solver that analyses afresh, LDLᵀ on the linearised system and LU on a non-symmetric
+// one (as the Newton integrators' exact Jacobian), over two states of one pattern and one state of
+// another.
+TEST(DirectSolver, KeepsItsAnalysisOnlyWhileThePatternStays) {
+  World w = test::lattice(4, 4, 3, 1000, 1e-3, 0.02, true, Vec3(0, 0, -9.81));
+  test::perturb(w, 1e-3, 0.1);
+  const std::size_t n = w.num_quanta();
+  const std::vector<Vec3> f_ext(n, Vec3::Zero());
+  DirectSolver kept;
+  std::vector<int> analysed;  // the pattern of each solve: whether `kept` analysed it anew
+  for (int round = 0; round < 3; ++round) {
+    if (round == 1) test::perturb(w, 1e-3, 0.1, 11);  // other values, the same pattern
+    if (round == 2) {                                  // one bond fewer: another pattern
+      w.state.alive[w.num_bonds() / 2] = 0;
+      ++w.state.topology_version;
+    }
+    Adjacency adj;
+    build_adjacency(w.model, w.state, adj);
+    ImplicitSystem sys;
+    Projection kin;
+    begin_implicit_step(w.model, w.state, adj, f_ext, {.h = 1e-3}, false, 1, kin, sys);
+    std::vector<Vec3> y, y_fresh;
+    const std::size_t inner = kept.ldlt_pattern.inner.size();
+    kept.solve(CoupledSolver::ldlt, w.model, w.state, sys, y);
+    DirectSolver().solve(CoupledSolver::ldlt, w.model, w.state, sys, y_fresh);
+    ASSERT_EQ(y.size(), n);
+    EXPECT_EQ(std::memcmp(y.data(), y_fresh.data(), n * sizeof(Vec3)), 0) << "LDLT, round " << round;
+    analysed.push_back(kept.ldlt_pattern.inner.size() != inner);
+    // A non-symmetric matrix of the same pattern: each bond's block plus a skew part.
+    sys.exact.resize(w.num_bonds());
+    for (std::size_t b = 0; b < w.num_bonds(); ++b) {
+      Mat3 skew = Mat3::Zero();
+      skew(0, 1) = 0.3 * sys.bonds.Ba[b];
+      skew(1, 0) = -skew(0, 1);
+      sys.exact[b] = block_matrix(sys.bonds.u(b), sys.bonds.Ba[b], sys.bonds.Bb[b]) + skew;
+    }
+    ASSERT_TRUE(kept.solve_lu(w.model, w.state, sys, y));
+    ASSERT_TRUE(DirectSolver().solve_lu(w.model, w.state, sys, y_fresh));
+    EXPECT_EQ(std::memcmp(y.data(), y_fresh.data(), n * sizeof(Vec3)), 0) << "LU, round " << round;
+  }
+  EXPECT_EQ(analysed, (std::vector<int>{1, 0, 1}));
+}
+
+// A pattern matches a matrix of the same pattern whatever its values, and only that.
+TEST(DirectSolver, PatternMatchesOnlyTheSamePattern) {
+  Eigen::SparseMatrix<double> a(3, 3), b(3, 3), c(3, 3);
+  a.insert(0, 0) = 1;
+  a.insert(2, 1) = 2;
+  b.insert(0, 0) = 5;
+  b.insert(2, 1) = -1;
+  c.insert(0, 0) = 1;
+  c.insert(1, 1) = 2;
+  for (auto* m : {&a, &b, &c}) m->makeCompressed();
+  SparsityPattern p;
+  EXPECT_FALSE(p.matches(a));
+  EXPECT_TRUE(p.matches(a));
+  EXPECT_TRUE(p.matches(b));
+  EXPECT_FALSE(p.matches(c));
+  EXPECT_TRUE(p.matches(c));
+  EXPECT_FALSE(p.matches(Eigen::SparseMatrix<double>(2, 2)));
 }
 
 // The plain reference of the implicit step: A = M + h C + h² K and b = h (f_ext + f) − h K Δx₀ −
