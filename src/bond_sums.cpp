@@ -33,13 +33,14 @@ QBOND_VECTOR_INLINE bool affine_block(const Model& m, const State& s, std::size_
   const Index* bi = m.bond_i.data() + b;
   const Index* bj = m.bond_j.data() + b;
   const std::uint8_t* alive = s.alive.data() + b;
+  const Index i0 = bi[0], j0 = bj[0];
   Index off = 0;  // 0 iff bi[k] == bi[0] + k and bj[k] == bj[0] + k (Index arithmetic, as above)
-  unsigned dead = 0;
-  for (Index k = 0; k < kLanes; ++k) {
-    off |= (bi[k] - bi[0] - k) | (bj[k] - bj[0] - k);
-    dead |= alive[k] == 0;
-  }
-  return (off | dead) == 0;
+  QBOND_SIMD_OR(off) for (Index k = 0; k < kLanes; ++k) off |= (bi[k] - i0 - k) | (bj[k] - j0 - k);
+  // Whether one of the eight one-byte flags is 0: the classic test for a zero byte in a word.
+  std::uint64_t flags;
+  std::memcpy(&flags, alive, 8);
+  const std::uint64_t dead = (flags - 0x0101010101010101) & ~flags & 0x8080808080808080;
+  return off == 0 && dead == 0;
 }
 
 // Whether the first `count` (at most eight) of the eight one-byte entries of `a` from b equal a[b]:
@@ -55,24 +56,24 @@ QBOND_VECTOR_INLINE bool uniform_prefix(const T* a, std::size_t b, std::size_t c
 }
 
 // N sums over the alive bonds of [b0, b1): affine blocks of eight, and of two to seven where no
-// whole one starts, that uniform(b, count) accepts, in one vector loop a block adding the N terms
-// of bond b + l, which lane_term(i + l, j + l, b + l, b, t, l) writes to t[·][l] (b the block's
-// first bond), to lanes[·][l] for l < count (the other lanes are computed and add −0.0); every
+// whole one starts, that uniform(b, count) accepts, a block's N terms of bond b + l, which
+// block_terms(i, j, b, t) writes to t[·][l] for all eight lanes (bond b + l joins i + l and
+// j + l; vector loops), added to lanes[·][l] for l < count (the other lanes add −0.0); every
 // other bond into one more partial per sum by bond_term(i, j, b) (its N terms); the lanes added
 // in order, that partial last. Which bonds go where depends on the bonds only, never on the
 // thread.
 template <std::size_t N>
 using Sums = std::array<double, N>;
-template <std::size_t N, class LaneTerm, class BondTerm, class Uniform>
+template <std::size_t N, class BlockTerms, class BondTerm, class Uniform>
 QBOND_VECTOR_INLINE Sums<N> chunk_sums(const Model& m, const State& s, std::size_t b0, std::size_t b1,
-                                       LaneTerm&& lane_term, BondTerm&& bond_term, Uniform&& uniform) {
+                                       BlockTerms&& block_terms, BondTerm&& bond_term, Uniform&& uniform) {
   const std::size_t n = s.x.size();
   double lanes[N][kLanes] = {};
   auto block = [&](std::size_t i, std::size_t j, std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
-    // The terms first (lane_term writes lane l's N terms into t[·][l]), then their sums: GCC
-    // vectorises no loop that adds into two lane arrays as it computes.
+    // The terms first, then their sums: GCC vectorises no loop that adds into two lane arrays as
+    // it computes.
     double t[N][kLanes];
-    QBOND_SIMD for (std::size_t l = 0; l < kLanes; ++l) lane_term(i + l, j + l, b + l, b, t, l);
+    block_terms(i, j, b, t);
     for (std::size_t k = 0; k < N; ++k)
       QBOND_SIMD for (std::size_t l = 0; l < kLanes; ++l) lanes[k][l] += l < count ? t[k][l] : -0.0;
   };
@@ -130,15 +131,16 @@ QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::siz
   const double* rest = s.rest.data();
   const double* k = m.stiffness.data();
   const Law* law = m.law.data();
-  auto lane = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t, double(&t)[1][kLanes],
-                  std::size_t l) QBOND_LAMBDA_INLINE { t[0][l] = linear_energy(k[b], length(x, i, j), rest[b]); };
+  auto block = [=](std::size_t i, std::size_t j, std::size_t b, double(&t)[1][kLanes]) QBOND_LAMBDA_INLINE {
+    QBOND_SIMD for (std::size_t l = 0; l < kLanes; ++l) t[0][l] = linear_energy(k[b + l], length(x, i + l, j + l), rest[b + l]);
+  };
   auto any_law = [&](std::size_t i, std::size_t j, std::size_t b) {
     return Sums<1>{m.law_at(b, length(x, i, j), rest[b]).U};
   };
   auto all_linear = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
     return law[b] == Law::linear && uniform_prefix(law, b, count);
   };
-  return chunk_sums<1>(m, s, b0, b1, lane, any_law, all_linear)[0];
+  return chunk_sums<1>(m, s, b0, b1, block, any_law, all_linear)[0];
 }
 
 // The dampers' work and the bonds' energy at x + Δx (bond_step_sums) over bonds [b0, b1).
@@ -153,46 +155,62 @@ QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const Pro
   const double* k = m.stiffness.data();
   const Law* law = m.law.data();
   const DampingModel* model = m.damping_model.data();
-  // The damper's loss and the end length |(x_j + Δx_j) − (x_i + Δx_i)|. The damping model is an
-  // argument: a block reads its first bond's only, so that its loop has no byte load per lane
-  // (which would make GCC vectorise it in 64 lanes, more than it has).
+  // The damper's loss and the end length |(x_j + Δx_j) − (x_i + Δx_i)| from the bond d + φ Δd
+  // at which the damper is charged, the relative velocity w and the end bond d₁ = d + Δd.
   struct Term {
     double loss, r1;
   };
-  auto term = [=](std::size_t i, std::size_t j, std::size_t b, bool axial) QBOND_LAMBDA_INLINE {
+  auto term = [=](const double (&d)[3], const double (&w)[3], const double (&d1)[3], double Db,
+                  bool axial) QBOND_LAMBDA_INLINE {
     double d2 = 0, wd = 0, w2 = 0, r2 = 0;
     QBOND_UNROLL(3)
     for (std::size_t c = 0; c < 3; ++c) {
-      const std::size_t a = 3 * i + c, e = 3 * j + c;
-      const double d0 = x[e] - x[a], step = dx[e] - dx[a];
-      const double d = d0 + phi * step;
-      const double d1 = d0 + step;
-      const double w = (v[e] + theta * dv[e]) - (v[a] + theta * dv[a]);
-      d2 += d * d;
-      wd += w * d;
-      w2 += w * w;
-      r2 += d1 * d1;
+      d2 += d[c] * d[c];
+      wd += w[c] * d[c];
+      w2 += w[c] * w[c];
+      r2 += d1[c] * d1[c];
     }
     // Both losses computed, then one selected (no branch in a lane), every lane's D loaded (no
     // masked load); a zero-length bond's NaN is not selected.
     const double along = wd * wd / d2;
-    const double loss = h * D[b] * (axial ? along : w2);
+    const double loss = h * Db * (axial ? along : w2);
     return Term{d2 > 0 ? loss : 0.0, std::sqrt(r2)};
   };
-  auto lane = [=](std::size_t i, std::size_t j, std::size_t b, std::size_t first, double(&t)[2][kLanes],
-                  std::size_t l) QBOND_LAMBDA_INLINE {
-    const Term bond = term(i, j, b, model[first] == DampingModel::axial);
-    t[0][l] = bond.loss;
-    t[1][l] = linear_energy(k[b], bond.r1, rest[b]);
+  // d, w and d₁ of the bond joining the triples at a and e (element offsets 3 i, 3 j), or of the
+  // eight bonds of a block from them (k: element k of the eight ends' consecutive triples).
+  auto differences = [=](std::size_t a, std::size_t e, double& d, double& w, double& d1) QBOND_LAMBDA_INLINE {
+    const double d0 = x[e] - x[a], step = dx[e] - dx[a];
+    d = d0 + phi * step;
+    d1 = d0 + step;
+    w = (v[e] + theta * dv[e]) - (v[a] + theta * dv[a]);
+  };
+  auto block = [=](std::size_t i, std::size_t j, std::size_t b, double(&t)[2][kLanes]) QBOND_LAMBDA_INLINE {
+    // The ends' triples are contiguous: the differences are formed on them as stored, element by
+    // element in contiguous vectors, and only d, w and d₁ are then split into their components
+    // (split before, the eight arrays' stride-3 shuffles were half the loop's instructions).
+    constexpr std::size_t K = 3 * kLanes;
+    double d[K], w[K], d1[K];
+    QBOND_SIMD for (std::size_t k = 0; k < K; ++k) differences(3 * i + k, 3 * j + k, d[k], w[k], d1[k]);
+    const bool axial = model[b] == DampingModel::axial;  // the block's first bond's (uniform)
+    QBOND_SIMD for (std::size_t l = 0; l < kLanes; ++l) {
+      const double dl[3] = {d[3 * l], d[3 * l + 1], d[3 * l + 2]};
+      const double wl[3] = {w[3 * l], w[3 * l + 1], w[3 * l + 2]};
+      const double d1l[3] = {d1[3 * l], d1[3 * l + 1], d1[3 * l + 2]};
+      const Term bond = term(dl, wl, d1l, D[b + l], axial);
+      t[0][l] = bond.loss;
+      t[1][l] = linear_energy(k[b + l], bond.r1, rest[b + l]);
+    }
   };
   auto bond = [&](std::size_t i, std::size_t j, std::size_t b) {
-    const Term t = term(i, j, b, model[b] == DampingModel::axial);
+    double d[3], w[3], d1[3];
+    for (std::size_t c = 0; c < 3; ++c) differences(3 * i + c, 3 * j + c, d[c], w[c], d1[c]);
+    const Term t = term(d, w, d1, D[b], model[b] == DampingModel::axial);
     return Sums<2>{t.loss, m.law_at(b, t.r1, rest[b]).U};
   };
   auto uniform = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
     return law[b] == Law::linear && uniform_prefix(law, b, count) && uniform_prefix(model, b, count);
   };
-  return chunk_sums<2>(m, s, b0, b1, lane, bond, uniform);
+  return chunk_sums<2>(m, s, b0, b1, block, bond, uniform);
 }
 
 }  // namespace
