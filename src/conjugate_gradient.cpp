@@ -189,9 +189,11 @@ QBOND_VECTOR_CLONES void first_residual(const ImplicitSystem& sys, const double*
   const Local<6> Dinv(d.Dinv);
   const Local<3> Ay(Ay_in), r(r_in), z(z_in), p(p_in);
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
-    const bool free = inv_mass[q] != 0;
     double rq[3], zq[3];
-    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) r[c][q] = rq[c] = free ? b[3 * q + c] - Ay[c][q] : 0.0;
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      const double bq = b[3 * q + c];  // loaded, then selected (simd.hpp)
+      r[c][q] = rq[c] = inv_mass[q] != 0 ? bq - Ay[c][q] : 0.0;
+    }
     sym_times(Dinv, q, rq[0], rq[1], rq[2], zq);
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) p[c][q] = z[c][q] = zq[c];
   }

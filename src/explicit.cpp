@@ -22,7 +22,6 @@ QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, const double* f0, 
   const double hh = 0.5 * h * h;
   std::uint64_t differ = 0;
   QBOND_SIMD_OR(differ) for (std::size_t q = lo; q < hi; ++q) {
-    const bool free = inv_mass[q] != 0;
     QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
       const std::size_t e = 3 * q + c;
       const double xe = x[e], ve = v[e];
@@ -30,12 +29,12 @@ QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, const double* f0, 
                 (std::bit_cast<std::uint64_t>(ve) ^ std::bit_cast<std::uint64_t>(cv[e]));
       const double ae = inv_mass[q] * (f0[e] + f_ext[e]);
       const double step = h * ve + hh * ae, vt = ve + h * ae;
-      const double d = free ? step : 0.0;
+      const double d = inv_mass[q] != 0 ? step : 0.0;
       const double xn = xe + d;
       dx[e] = d;
       x1[e] = xn;
       rows.x[c][q] = xn;
-      rows.v[c][q] = free ? vt : ve;
+      rows.v[c][q] = inv_mass[q] != 0 ? vt : ve;
       rows.f[c][q] = 0;
     }
   }

@@ -46,7 +46,6 @@ QBOND_VECTOR_CLONES void start_build(const Model& model, const State& state, con
   const double* kdv = kin.dv.data()->data();
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
     const double m = mass[q];
-    const bool free = inv_mass[q] != 0;
     QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
       a.row[c][q] = m;
       a.row[3 + c][q] = 0;
@@ -54,8 +53,8 @@ QBOND_VECTOR_CLONES void start_build(const Model& model, const State& state, con
       a.x[c][q] = x[3 * q + c];
       const double vq = v[3 * q + c], dx = kdx[3 * q + c], dv = kdv[3 * q + c];  // loaded, then selected
       a.v[c][q] = vq;
-      a.dx0[c][q] = free ? h * vq : dx;
-      a.dvk[c][q] = free ? 0.0 : dv;
+      a.dx0[c][q] = inv_mass[q] != 0 ? h * vq : dx;
+      a.dvk[c][q] = inv_mass[q] != 0 ? 0.0 : dv;
     }
   }
 }
