@@ -105,6 +105,15 @@ QBOND_VECTOR_INLINE void prefetch_parameters(const Model& model, const State& st
   __builtin_prefetch(model.damping_model.data() + b);
 }
 
+// The lanes past an affine run's bonds set to −0.0 in each of the N term arrays, so that adding
+// them leaves a row's bits as they are: after the kernel's vector loop, which computes every lane
+// alike (a select per term and lane there cost a fifth of the loop's instructions).
+template <std::size_t N>
+QBOND_VECTOR_INLINE void clear_padding(const BondRun& run, double* const (&terms)[N]) {
+  for (Index q = run.count; q < affine_lanes(run); ++q)
+    for (std::size_t e = 0; e < N; ++e) terms[e][q] = -0.0;
+}
+
 // rows[e][base + k] += terms[e][k] for k in [k0, k1) and each of the N rows.
 template <std::size_t N>
 QBOND_VECTOR_INLINE void add_to_rows(double* const (&rows)[N], Index base, std::size_t k0, std::size_t k1,

@@ -95,13 +95,14 @@ QBOND_VECTOR_CLONES void affine_product(const BondRun& run, const BondBlocks& bl
     const double a = Ba[q], b = Bb[q];
     const double ui = u[0] * yi[0][q] + u[1] * yi[1][q] + u[2] * yi[2][q];
     const double uj = u[0] * yj[0][q] + u[1] * yj[1][q] + u[2] * yj[2][q];
-    const bool coupled = mi[q] != 0 && mj[q] != 0, live = q < run.count;
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
       const double fi = -(a * uj * u[c] + b * yj[c][q]), fj = -(a * ui * u[c] + b * yi[c][q]);
-      t.ti[c][q] = coupled && live ? fi : -0.0;
-      t.tj[c][q] = coupled && live ? fj : -0.0;
+      t.ti[c][q] = mi[q] != 0 && mj[q] != 0 ? fi : -0.0;  // the test in the select: simd.hpp
+      t.tj[c][q] = mi[q] != 0 && mj[q] != 0 ? fj : -0.0;
     }
   });
+  double* const terms[6] = {t.ti[0], t.ti[1], t.ti[2], t.tj[0], t.tj[1], t.tj[2]};
+  clear_padding(run, terms);
   const double* ti[3] = {t.ti[0], t.ti[1], t.ti[2]};
   const double* tj[3] = {t.tj[0], t.tj[1], t.tj[2]};
   add_affine_run(run, out, ti, tj);

@@ -73,17 +73,19 @@ QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& s
       w[c] = vj[c][q] - vi[c][q];
     }
     const double r = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    const bool ok = r > 0, live = q < run.count;
+    const bool ok = r > 0;
     const double inv_r = 1.0 / (ok ? r : 1.0);
     const double T = k[q] * (r - L[q]);
     const double wd = w[0] * d[0] + w[1] * d[1] + w[2] * d[2];
     const double s = kAxial ? (T + D[q] * wd * inv_r) * inv_r : T * inv_r;
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
       const double f = ok ? (kAxial ? s * d[c] : s * d[c] + D[q] * w[c]) : 0.0;
-      t.fi[c][q] = live ? f : -0.0;
-      t.fj[c][q] = live ? -f : -0.0;
+      t.fi[c][q] = f;
+      t.fj[c][q] = -f;
     }
   });
+  double* const terms[6] = {t.fi[0], t.fi[1], t.fi[2], t.fj[0], t.fj[1], t.fj[2]};
+  clear_padding(run, terms);
 }
 
 QBOND_VECTOR_CLONES void affine_forces(const Model& model, const State& state, const ForceRows& rows,

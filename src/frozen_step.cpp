@@ -202,12 +202,12 @@ struct FrozenScratch {
 };
 
 // Bond q's terms (linearise_bond's arithmetic) from its tension T, slope dT, damping (ca axial, cb
-// isotropic) and geometry; an affine run's also from its ends' velocities vi, vj, and only if the
-// lane is one of its bonds (live), else −0.0. !kIsotropic: cb is known to be 0, and its term is
-// left out (0 · v is not 0 for every v, so the compiler cannot drop it).
+// isotropic) and geometry; an affine run's also from its ends' velocities vi, vj.
+// !kIsotropic: cb is known to be 0, and its term is left out (0 · v is not 0 for every v, so the
+// compiler cannot drop it).
 template <bool kAffine, bool kIsotropic = true>
 QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, double T, double dT, double ca, double cb,
-                                    const Geometry& g, const double (&vi)[3], const double (&vj)[3], bool live) {
+                                    const Geometry& g, const double (&vi)[3], const double (&vj)[3]) {
   const double h2 = h * h;
   const double k_transverse = std::max(T * g.inv_r, 0.0), k_axial = std::max(dT, 0.0);
   const double Ba = h * ca + h2 * (k_axial - k_transverse), Bb = h * cb + h2 * k_transverse;
@@ -218,13 +218,11 @@ QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, dou
   if constexpr (kAffine) {
     // Unrolled first: GCC otherwise leaves these loops in the bond loop when vectorising for
     // AVX2, and with them the whole bond loop scalar.
-    QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = live ? B[e] : -0.0;
+    QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
       // Each end's right-hand side s u + h cb v_other.
-      const double ri = kIsotropic ? si * g.u[c] + hcb * vj[c] : si * g.u[c];
-      const double rj = kIsotropic ? sj * g.u[c] + hcb * vi[c] : sj * g.u[c];
-      t.ri[c][q] = live ? ri : -0.0;
-      t.rj[c][q] = live ? rj : -0.0;
+      t.ri[c][q] = kIsotropic ? si * g.u[c] + hcb * vj[c] : si * g.u[c];
+      t.rj[c][q] = kIsotropic ? sj * g.u[c] + hcb * vi[c] : sj * g.u[c];
     }
   } else {
     for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
@@ -251,8 +249,10 @@ QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& st
     const Geometry g = geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vi[0], vi[1], vi[2], vj[0], vj[1], vj[2]);
     const bool ok = g.r > 0;  // a zero-length bond does nothing (laws.hpp)
     const double T = ok ? kq * (g.r - Lq) : 0.0, dT = ok ? kq : 0.0, D_ok = ok ? Dq : 0.0;
-    bond_terms<true, !kAxial>(t, q, h, T, dT, kAxial ? D_ok : 0.0, kAxial ? 0.0 : D_ok, g, vi, vj, q < run.count);
+    bond_terms<true, !kAxial>(t, q, h, T, dT, kAxial ? D_ok : 0.0, kAxial ? 0.0 : D_ok, g, vi, vj);
   });
+  double* const terms[12] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2], t.rj[0], t.rj[1], t.rj[2]};
+  clear_padding(run, terms);
 }
 
 // The terms of an affine run that uniform_linear accepts (axial: its damping model is axial).
@@ -272,7 +272,7 @@ QBOND_VECTOR_CLONES void frozen_terms(const Model& model, const State& state, co
   constexpr double kUnused[3] = {};  // the ends' velocities: added in frozen_scatter
   QBOND_SIMD for (std::size_t q = 0; q < run.count; ++q) {
     const Geometry geo{g.r[q], g.inv_r[q], {g.ux[q], g.uy[q], g.uz[q]}, g.vi[q], g.vj[q]};
-    bond_terms<false>(t, q, h, g.T[q], g.dT[q], g.ca[q], g.cb[q], geo, kUnused, kUnused, true);
+    bond_terms<false>(t, q, h, g.T[q], g.dT[q], g.ca[q], g.cb[q], geo, kUnused, kUnused);
   }
 }
 

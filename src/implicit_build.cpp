@@ -104,15 +104,14 @@ QBOND_VECTOR_INLINE void linear_affine_build(const Model& model, const State& st
     const double uc = u[0] * dc[0] + u[1] * dc[1] + u[2] * dc[2];
     const double aux = Ba * u[0], auy = Ba * u[1];
     const double B[6] = {aux * u[0] + Bb, auy * u[1] + Bb, Ba * u[2] * u[2] + Bb, aux * u[1], aux * u[2], auy * u[2]};
-    const bool live = q < run.count;
-    QBOND_UNROLL(6) for (int c = 0; c < 6; ++c) t.B[c][q] = live ? B[c] : -0.0;
+    QBOND_UNROLL(6) for (int c = 0; c < 6; ++c) t.B[c][q] = B[c];
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
       // f = T u + C_b w; g = h f − h K_b (Δx₀_i − Δx₀_j) − h C_b (Δv_k,i − Δv_k,j).
       const double f = kAxial ? (T + Dok * uw) * u[c] : T * u[c] + Dok * w[c];
       const double Ke = ka * ue * u[c] + kb * e[c], Cc = ca * uc * u[c] + cb * dc[c];
       const double g = h * f - h * Ke - h * Cc;
-      t.gi[c][q] = live ? g : -0.0;
-      t.gj[c][q] = live ? -g : -0.0;
+      t.gi[c][q] = g;
+      t.gj[c][q] = -g;
       t.u[c][q] = u[c];
     }
     t.Ba[q] = Ba;
@@ -130,6 +129,8 @@ QBOND_VECTOR_CLONES void affine_build(const Model& model, const State& state, co
     linear_affine_build<true>(model, state, a, run, h, t);
   else
     linear_affine_build<false>(model, state, a, run, h, t);
+  double* const terms[12] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gi[0], t.gi[1], t.gi[2], t.gj[0], t.gj[1], t.gj[2]};
+  clear_padding(run, terms);
   const double* ti[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gi[0], t.gi[1], t.gi[2]};
   const double* tj[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gj[0], t.gj[1], t.gj[2]};
   add_affine_run(run, a.row, ti, tj);
@@ -214,9 +215,10 @@ QBOND_VECTOR_CLONES void affine_blocks(const BondRun& run, const BondBlocks& blo
     const double aux = Ba[q] * ux[q], auy = Ba[q] * uy[q];
     const double B[6] = {aux * ux[q] + Bb[q], auy * uy[q] + Bb[q], Ba[q] * uz[q] * uz[q] + Bb[q],
                          aux * uy[q],         aux * uz[q],         auy * uz[q]};
-    const bool live = q < run.count;
-    QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = live ? B[e] : -0.0;
+    QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
   });
+  double* const terms[6] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5]};
+  clear_padding(run, terms);
   double* const rows[6] = {a.row[0], a.row[1], a.row[2], a.row[3], a.row[4], a.row[5]};
   const double* tb[6] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5]};
   add_affine_run(run, rows, tb, tb);
