@@ -243,7 +243,7 @@ QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& st
   const double *xj = a.x[0] + j, *yj = a.x[1] + j, *zj = a.x[2] + j;
   const double *vxi = a.v[0] + i, *vyi = a.v[1] + i, *vzi = a.v[2] + i;
   const double *vxj = a.v[0] + j, *vyj = a.v[1] + j, *vzj = a.v[2] + j;
-  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+  for_lanes_flat(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
     const double kq = k[q], Lq = L[q], Dq = D[q];  // loaded unconditionally: selects, not branches
     const double vi[3] = {vxi[q], vyi[q], vzi[q]}, vj[3] = {vxj[q], vyj[q], vzj[q]};
     const Geometry g = geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vi[0], vi[1], vi[2], vj[0], vj[1], vj[2]);
