@@ -132,7 +132,8 @@ QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::siz
   const double* k = m.stiffness.data();
   const Law* law = m.law.data();
   auto block = [=](std::size_t i, std::size_t j, std::size_t b, double(&t)[1][kLanes]) QBOND_LAMBDA_INLINE {
-    QBOND_SIMD for (std::size_t l = 0; l < kLanes; ++l) t[0][l] = linear_energy(k[b + l], length(x, i + l, j + l), rest[b + l]);
+    QBOND_SIMD for (std::size_t l = 0; l < kLanes; ++l)
+      t[0][l] = linear_energy(k[b + l], length(x, i + l, j + l), rest[b + l]);
   };
   auto any_law = [&](std::size_t i, std::size_t j, std::size_t b) {
     return Sums<1>{m.law_at(b, length(x, i, j), rest[b]).U};

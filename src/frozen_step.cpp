@@ -251,7 +251,8 @@ QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& st
     const double T = ok ? kq * (g.r - Lq) : 0.0, dT = ok ? kq : 0.0, D_ok = ok ? Dq : 0.0;
     bond_terms<true, !kAxial>(t, q, h, T, dT, kAxial ? D_ok : 0.0, kAxial ? 0.0 : D_ok, g, vi, vj);
   });
-  double* const terms[12] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2], t.rj[0], t.rj[1], t.rj[2]};
+  double* const terms[12] = {t.B[0],  t.B[1],  t.B[2],  t.B[3],  t.B[4],  t.B[5],
+                             t.ri[0], t.ri[1], t.ri[2], t.rj[0], t.rj[1], t.rj[2]};
   clear_padding(run, terms);
 }
 

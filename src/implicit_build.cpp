@@ -129,7 +129,8 @@ QBOND_VECTOR_CLONES void affine_build(const Model& model, const State& state, co
     linear_affine_build<true>(model, state, a, run, h, t);
   else
     linear_affine_build<false>(model, state, a, run, h, t);
-  double* const terms[12] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gi[0], t.gi[1], t.gi[2], t.gj[0], t.gj[1], t.gj[2]};
+  double* const terms[12] = {t.B[0],  t.B[1],  t.B[2],  t.B[3],  t.B[4],  t.B[5],
+                             t.gi[0], t.gi[1], t.gi[2], t.gj[0], t.gj[1], t.gj[2]};
   clear_padding(run, terms);
   const double* ti[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gi[0], t.gi[1], t.gi[2]};
   const double* tj[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gj[0], t.gj[1], t.gj[2]};
