@@ -375,7 +375,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
                          Projection& out) {
   const std::size_t n = model.num_quanta();
   const double h = ctx.h;
-  out.resize(n);
+  out.resize(n, false);  // solve_rows writes every row
   part.update(model, adj, threads);
   StepArrays a;
   SoaArrays soa(arrays, n, 15);
