@@ -118,19 +118,10 @@ QBOND_VECTOR_INLINE void prefetch_parameters(const Model& model, const State& st
   __builtin_prefetch(model.damping_model.data() + b);
 }
 
-// The lanes past an affine run's bonds set to −0.0 in each of the N term arrays, so that adding
-// them leaves a row's bits as they are: after the kernel's vector loop, which computes every lane
-// alike (a select per term and lane there cost a fifth of the loop's instructions).
-template <std::size_t N>
-QBOND_VECTOR_INLINE void clear_padding(const BondRun& run, double* const (&terms)[N]) {
-  for (Index q = run.count; q < affine_lanes(run); ++q)
-    for (std::size_t e = 0; e < N; ++e) terms[e][q] = -0.0;
-}
-
 // rows[e][base + k] += terms[e][k] for k in [k0, k1) and each of the N rows.
 template <std::size_t N>
 QBOND_VECTOR_INLINE void add_to_rows(double* const (&rows)[N], Index base, std::size_t k0, std::size_t k1,
-                                     const double* const (&terms)[N]) {
+                                     double* const (&terms)[N]) {
   double* r[N];
   for (std::size_t e = 0; e < N; ++e) r[e] = rows[e] + base;
   auto add = [&](std::size_t k) QBOND_LAMBDA_INLINE {
@@ -147,7 +138,7 @@ QBOND_VECTOR_INLINE void add_to_rows(double* const (&rows)[N], Index base, std::
 // terms, in whole vectors (the padded lanes add −0.0) when the part owns every row they reach.
 template <std::size_t N>
 QBOND_VECTOR_INLINE void add_affine_end(const BondRun& run, Index base, double* const (&rows)[N],
-                                        const double* const (&terms)[N]) {
+                                        double* const (&terms)[N]) {
   if (base >= run.lo && base + affine_lanes(run) <= run.hi) {
     add_to_rows(rows, base, 0, affine_lanes(run), terms);
   } else {
@@ -161,9 +152,14 @@ QBOND_VECTOR_INLINE void add_affine_end(const BondRun& run, Index base, double* 
 // end with the higher quanta numbers first: a row q = i0 + k = j0 + k' (j0 > i0) is bond_j of
 // bond k' = k − (j0 − i0) before it is bond_i of bond k, so it receives them in bond order, as a
 // bond-by-bond pass would and whatever the run's pieces: the same bits for any thread count.
+// The kernels' vector loops compute every lane alike (a select per term and lane cost a fifth of
+// their instructions); the lanes past the run's bonds are set to −0.0 here, which added to a row
+// leave its bits as they are.
 template <std::size_t N>
-QBOND_VECTOR_INLINE void add_affine_run(const BondRun& run, double* const (&rows)[N], const double* const (&ti)[N],
-                                        const double* const (&tj)[N]) {
+QBOND_VECTOR_INLINE void add_affine_run(const BondRun& run, double* const (&rows)[N], double* const (&ti)[N],
+                                        double* const (&tj)[N]) {
+  for (Index q = run.count; q < affine_lanes(run); ++q)
+    for (std::size_t e = 0; e < N; ++e) ti[e][q] = tj[e][q] = -0.0;
   if (run.j0 > run.i0) {
     add_affine_end(run, run.j0, rows, tj);
     add_affine_end(run, run.i0, rows, ti);

@@ -101,10 +101,8 @@ QBOND_VECTOR_CLONES void affine_product(const BondRun& run, const BondBlocks& bl
       t.tj[c][q] = mi[q] != 0 && mj[q] != 0 ? fj : -0.0;
     }
   });
-  double* const terms[6] = {t.ti[0], t.ti[1], t.ti[2], t.tj[0], t.tj[1], t.tj[2]};
-  clear_padding(run, terms);
-  const double* ti[3] = {t.ti[0], t.ti[1], t.ti[2]};
-  const double* tj[3] = {t.tj[0], t.tj[1], t.tj[2]};
+  double* const ti[3] = {t.ti[0], t.ti[1], t.ti[2]};
+  double* const tj[3] = {t.tj[0], t.tj[1], t.tj[2]};
   add_affine_run(run, out, ti, tj);
 }
 

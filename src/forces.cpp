@@ -84,8 +84,6 @@ QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& s
       t.fj[c][q] = -f;
     }
   });
-  double* const terms[6] = {t.fi[0], t.fi[1], t.fi[2], t.fj[0], t.fj[1], t.fj[2]};
-  clear_padding(run, terms);
 }
 
 QBOND_VECTOR_CLONES void affine_forces(const Model& model, const State& state, const ForceRows& rows,
@@ -94,8 +92,8 @@ QBOND_VECTOR_CLONES void affine_forces(const Model& model, const State& state, c
     linear_affine_forces<true>(model, state, rows, run, t);
   else
     linear_affine_forces<false>(model, state, rows, run, t);
-  const double* fi[3] = {t.fi[0], t.fi[1], t.fi[2]};
-  const double* fj[3] = {t.fj[0], t.fj[1], t.fj[2]};
+  double* const fi[3] = {t.fi[0], t.fi[1], t.fi[2]};
+  double* const fj[3] = {t.fj[0], t.fj[1], t.fj[2]};
   add_affine_run(run, rows.f, fi, fj);
 }
 

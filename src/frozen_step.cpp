@@ -251,9 +251,6 @@ QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& st
     const double T = ok ? kq * (g.r - Lq) : 0.0, dT = ok ? kq : 0.0, D_ok = ok ? Dq : 0.0;
     bond_terms<true, !kAxial>(t, q, h, T, dT, kAxial ? D_ok : 0.0, kAxial ? 0.0 : D_ok, g, vi, vj);
   });
-  double* const terms[12] = {t.B[0],  t.B[1],  t.B[2],  t.B[3],  t.B[4],  t.B[5],
-                             t.ri[0], t.ri[1], t.ri[2], t.rj[0], t.rj[1], t.rj[2]};
-  clear_padding(run, terms);
 }
 
 // The terms of an affine run that uniform_linear accepts (axial: its damping model is axial).
@@ -307,11 +304,11 @@ QBOND_VECTOR_CLONES void frozen_scatter(const BondRun& run, const RunBonds& g, c
 
 // Adds an affine run's terms to the rows it owns (add_affine_run: in bond order). The part's
 // stretch ends before the run (the run's bonds have distinct bond_i).
-QBOND_VECTOR_CLONES void frozen_affine_scatter(const BondRun& run, const FrozenTerms& t, const StepArrays& a,
+QBOND_VECTOR_CLONES void frozen_affine_scatter(const BondRun& run, FrozenTerms& t, const StepArrays& a,
                                                BondStretch& stretch) {
   stretch.end([&](Index q, const double(&sum)[9]) { a.add(q, sum); });
-  const double* ti[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2]};
-  const double* tj[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.rj[0], t.rj[1], t.rj[2]};
+  double* const ti[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2]};
+  double* const tj[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.rj[0], t.rj[1], t.rj[2]};
   add_affine_run(run, a.row, ti, tj);
 }
 

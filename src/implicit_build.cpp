@@ -129,11 +129,8 @@ QBOND_VECTOR_CLONES void affine_build(const Model& model, const State& state, co
     linear_affine_build<true>(model, state, a, run, h, t);
   else
     linear_affine_build<false>(model, state, a, run, h, t);
-  double* const terms[12] = {t.B[0],  t.B[1],  t.B[2],  t.B[3],  t.B[4],  t.B[5],
-                             t.gi[0], t.gi[1], t.gi[2], t.gj[0], t.gj[1], t.gj[2]};
-  clear_padding(run, terms);
-  const double* ti[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gi[0], t.gi[1], t.gi[2]};
-  const double* tj[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gj[0], t.gj[1], t.gj[2]};
+  double* const ti[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gi[0], t.gi[1], t.gi[2]};
+  double* const tj[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gj[0], t.gj[1], t.gj[2]};
   add_affine_run(run, a.row, ti, tj);
   const Index k0 = run.lo > run.i0 ? std::min(run.lo - run.i0, run.count) : 0;
   const Index k1 = run.hi > run.i0 ? std::min(run.hi - run.i0, run.count) : 0;
@@ -218,10 +215,8 @@ QBOND_VECTOR_CLONES void affine_blocks(const BondRun& run, const BondBlocks& blo
                          aux * uy[q],         aux * uz[q],         auy * uz[q]};
     QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
   });
-  double* const terms[6] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5]};
-  clear_padding(run, terms);
   double* const rows[6] = {a.row[0], a.row[1], a.row[2], a.row[3], a.row[4], a.row[5]};
-  const double* tb[6] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5]};
+  double* const tb[6] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5]};
   add_affine_run(run, rows, tb, tb);
 }
 
