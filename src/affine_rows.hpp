@@ -169,4 +169,43 @@ QBOND_VECTOR_INLINE void add_affine_run(const BondRun& run, double* const (&rows
   }
 }
 
+// Whether an affine run can add its terms to the rows straight from the loop that forms them
+// (add_affine_fused): its part owns every row the run's lanes reach, and its ends are at least
+// 8 quanta apart, so that 8 consecutive bonds reach 16 distinct rows.
+inline bool fusable(const BondRun& run) {
+  const Index lanes = affine_lanes(run);
+  const Index apart = run.j0 > run.i0 ? run.j0 - run.i0 : run.i0 - run.j0;
+  return apart >= 8 && std::min(run.i0, run.j0) >= run.lo && std::max(run.i0, run.j0) + lanes <= run.hi;
+}
+
+// For a fusable run: terms(q, ti, tj) fills bond q's terms on bond_i's rows (ti) and bond_j's (tj),
+// and each is added to its row in the same vector loop, with no term arrays between. A row that
+// is both bond_j of bond k' and bond_i of bond k > k' (or the reverse: |j0 − i0| ≥ 8 bonds apart)
+// gets them from loop iterations in that order, at most 8 of which run together: in bond order,
+// the same sums as add_affine_run's. The lanes past the run's bonds add −0.0.
+template <std::size_t N, class Terms>
+QBOND_VECTOR_INLINE void add_affine_fused(const BondRun& run, double* const (&rows)[N], Terms&& terms) {
+  const std::size_t i0 = run.i0, j0 = run.j0, count = run.count;
+  double* r[N];  // a local copy: the loop's stores might otherwise change the pointers for GCC
+  for (std::size_t e = 0; e < N; ++e) r[e] = rows[e];
+  auto add = [&]<bool kTail>(std::size_t q) QBOND_LAMBDA_INLINE {
+    double ti[N], tj[N];
+    terms(q, ti, tj);
+    if constexpr (kTail) {
+      QBOND_UNROLL(9) for (std::size_t e = 0; e < N; ++e) {
+        ti[e] = q < count ? ti[e] : -0.0;
+        tj[e] = q < count ? tj[e] : -0.0;
+      }
+    }
+    QBOND_UNROLL(9) for (std::size_t e = 0; e < N; ++e) {
+      r[e][i0 + q] += ti[e];
+      r[e][j0 + q] += tj[e];
+    }
+  };
+  const std::size_t whole = count & ~std::size_t{7}, lanes = affine_lanes(run);
+  QBOND_SIMD_SAFELEN(8) for (std::size_t q = 0; q < whole; ++q) add.template operator()<false>(q);  // kVectorLoop
+  for (std::size_t q0 = whole; q0 < lanes; q0 += 4)
+    QBOND_SIMD for (std::size_t l = 0; l < 4; ++l) add.template operator()<true>(q0 + l);  // kVectorLoop
+}
+
 }  // namespace qbond

@@ -52,25 +52,23 @@ QBOND_VECTOR_CLONES void start_forces(const Vec3* x, const Vec3* v, const Vec3* 
   }
 }
 
-// An affine run of linear bonds with one damping model (kAxial: axial): bond_force_on_i's
-// arithmetic in one vector loop over the run's whole vectors, then both ends' sums updated by
-// vector loops in bond order (affine_rows.hpp).
+// An affine run of linear bonds with one damping model (kAxial: axial), bond_force_on_i's
+// arithmetic in one vector loop over the run's whole vectors, both ends' sums updated in bond order
+// (affine_rows.hpp): from that loop when the run is fusable, else from the run's term arrays.
 template <bool kAxial>
 QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& state, const ForceRows& rows,
                                               const BondRun& run, ForceTerms& t) {
   const auto [k, L, D] = RunParameters(model, state, run);
-  const double *xi[3], *xj[3], *vi[3], *vj[3];
-  for (int c = 0; c < 3; ++c) {
-    xi[c] = rows.x[c] + run.i0;
-    xj[c] = rows.x[c] + run.j0;
-    vi[c] = rows.v[c] + run.i0;
-    vj[c] = rows.v[c] + run.j0;
-  }
-  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+  const std::size_t i0 = run.i0, j0 = run.j0;
+  // Copied: the loops store doubles, which GCC assumes may change pointers held in memory.
+  const double* const x[3] = {rows.x[0], rows.x[1], rows.x[2]};
+  const double* const v[3] = {rows.v[0], rows.v[1], rows.v[2]};
+  auto forces = [=](std::size_t q, double(&fi)[3], double(&fj)[3]) QBOND_LAMBDA_INLINE {
+    const std::size_t i = i0 + q, j = j0 + q;
     double d[3], w[3];
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      d[c] = xj[c][q] - xi[c][q];
-      w[c] = vj[c][q] - vi[c][q];
+      d[c] = x[c][j] - x[c][i];
+      w[c] = v[c][j] - v[c][i];
     }
     const double r = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     const bool ok = r > 0;
@@ -79,11 +77,22 @@ QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& s
     const double wd = w[0] * d[0] + w[1] * d[1] + w[2] * d[2];
     const double s = kAxial ? (T + D[q] * wd * inv_r) * inv_r : T * inv_r;
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      const double f = ok ? (kAxial ? s * d[c] : s * d[c] + D[q] * w[c]) : 0.0;
-      t.fi[c][q] = f;
-      t.fj[c][q] = -f;
+      fi[c] = ok ? (kAxial ? s * d[c] : s * d[c] + D[q] * w[c]) : 0.0;
+      fj[c] = -fi[c];
+    }
+  };
+  if (fusable(run)) return add_affine_fused(run, rows.f, forces);
+  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+    double fi[3], fj[3];
+    forces(q, fi, fj);
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      t.fi[c][q] = fi[c];
+      t.fj[c][q] = fj[c];
     }
   });
+  double* const fi[3] = {t.fi[0], t.fi[1], t.fi[2]};
+  double* const fj[3] = {t.fj[0], t.fj[1], t.fj[2]};
+  add_affine_run(run, rows.f, fi, fj);
 }
 
 QBOND_VECTOR_CLONES void affine_forces(const Model& model, const State& state, const ForceRows& rows,
@@ -92,9 +101,6 @@ QBOND_VECTOR_CLONES void affine_forces(const Model& model, const State& state, c
     linear_affine_forces<true>(model, state, rows, run, t);
   else
     linear_affine_forces<false>(model, state, rows, run, t);
-  double* const fi[3] = {t.fi[0], t.fi[1], t.fi[2]};
-  double* const fj[3] = {t.fj[0], t.fj[1], t.fj[2]};
-  add_affine_run(run, rows.f, fi, fj);
 }
 
 // Any other run, bond by bond: each bond's force added to the ends the part owns.

@@ -5,7 +5,7 @@
 // first + k joins i0 + k and j0 + k: a lattice's bonds grouped by offset) whose bonds are linear
 // with one damping model is measured and formed in one vector loop reading the ends' data as
 // contiguous vectors, and its terms are added to the rows (kept as structure of arrays) by
-// vector loops. Other runs compute their per-bond terms in vector loops with the ends' data
+// that loop when its ends are far enough apart, else by vector loops after it. Other runs compute their per-bond terms in vector loops with the ends' data
 // gathered, then update the rows one bond at a time. Either way each row receives its bonds in
 // bond order, so its sum is the same for any thread count. The vector functions are compiled for
 // several instruction sets (simd.hpp).
@@ -201,76 +201,101 @@ struct FrozenScratch {
   BondStretch stretch;
 };
 
-// Bond q's terms (linearise_bond's arithmetic) from its tension T, slope dT, damping (ca axial, cb
-// isotropic) and geometry; an affine run's also from its ends' velocities vi, vj.
-// !kIsotropic: cb is known to be 0, and its term is left out (0 · v is not 0 for every v, so the
-// compiler cannot drop it).
-template <bool kAffine, bool kIsotropic = true>
-QBOND_VECTOR_INLINE void bond_terms(FrozenTerms& t, std::size_t q, double h, double T, double dT, double ca, double cb,
-                                    const Geometry& g, const double (&vi)[3], const double (&vj)[3]) {
+// A bond's block B_b = Ba u uᵀ + Bb I (its six distinct entries) and its right-hand-side
+// coefficients s_i = h T + h ca u·v_j, s_j = −h T + h ca u·v_i and h cb (linearise_bond's
+// arithmetic), from its tension T, slope dT, damping (ca axial, cb isotropic) and geometry.
+struct BondBlock {
+  double B[6], si, sj, hcb;
+};
+QBOND_VECTOR_INLINE BondBlock bond_block(double h, double T, double dT, double ca, double cb, const Geometry& g) {
   const double h2 = h * h;
   const double k_transverse = std::max(T * g.inv_r, 0.0), k_axial = std::max(dT, 0.0);
   const double Ba = h * ca + h2 * (k_axial - k_transverse), Bb = h * cb + h2 * k_transverse;
   const double ux = g.u[0], uy = g.u[1], uz = g.u[2];
   const double aux = Ba * ux, auy = Ba * uy;
-  const double B[6] = {aux * ux + Bb, auy * uy + Bb, Ba * uz * uz + Bb, aux * uy, aux * uz, auy * uz};
-  const double si = h * T + h * ca * g.u_vj, sj = -h * T + h * ca * g.u_vi, hcb = h * cb;
-  if constexpr (kAffine) {
-    // Unrolled first: GCC otherwise leaves these loops in the bond loop when vectorising for
-    // AVX2, and with them the whole bond loop scalar.
-    QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
-    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      // Each end's right-hand side s u + h cb v_other.
-      t.ri[c][q] = kIsotropic ? si * g.u[c] + hcb * vj[c] : si * g.u[c];
-      t.rj[c][q] = kIsotropic ? sj * g.u[c] + hcb * vi[c] : sj * g.u[c];
-    }
-  } else {
-    for (int e = 0; e < 6; ++e) t.B[e][q] = B[e];
-    t.si[q] = si;
-    t.sj[q] = sj;
-    t.hcb[q] = hcb;
-  }
+  return {{aux * ux + Bb, auy * uy + Bb, Ba * uz * uz + Bb, aux * uy, aux * uz, auy * uz},
+          h * T + h * ca * g.u_vj,
+          -h * T + h * ca * g.u_vi,
+          h * cb};
 }
 
-// An affine run of linear bonds with one damping model (kAxial: axial): measured and formed in
-// one vector loop.
+// The terms of bond q of an affine run of linear bonds with one damping model (kAxial: axial) on
+// bond_i's row (ti) and bond_j's (tj), as StepArrays::add takes them: its block, and each end's
+// right-hand side s u + h cb v_other.
 template <bool kAxial>
-QBOND_VECTOR_INLINE void linear_affine_terms(const Model& model, const State& state, const StepArrays& a,
-                                             const BondRun& run, double h, FrozenTerms& t) {
-  const auto [k, L, D] = RunParameters(model, state, run);
-  const Index i = run.i0, j = run.j0;
-  const double *xi = a.x[0] + i, *yi = a.x[1] + i, *zi = a.x[2] + i;
-  const double *xj = a.x[0] + j, *yj = a.x[1] + j, *zj = a.x[2] + j;
-  const double *vxi = a.v[0] + i, *vyi = a.v[1] + i, *vzi = a.v[2] + i;
-  const double *vxj = a.v[0] + j, *vyj = a.v[1] + j, *vzj = a.v[2] + j;
-  for_lanes_flat(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
-    const double kq = k[q], Lq = L[q], Dq = D[q];  // loaded unconditionally: selects, not branches
-    const double vi[3] = {vxi[q], vyi[q], vzi[q]}, vj[3] = {vxj[q], vyj[q], vzj[q]};
-    const Geometry g = geometry(xj[q] - xi[q], yj[q] - yi[q], zj[q] - zi[q], vi[0], vi[1], vi[2], vj[0], vj[1], vj[2]);
+struct LinearAffineBonds {
+  RunParameters p;
+  const double *x[3], *v[3];
+  std::size_t i0, j0;
+  double h;
+
+  LinearAffineBonds(const Model& model, const State& state, const StepArrays& a, const BondRun& run, double h)
+      : p(model, state, run), x{a.x[0], a.x[1], a.x[2]}, v{a.v[0], a.v[1], a.v[2]}, i0(run.i0), j0(run.j0), h(h) {}
+  QBOND_VECTOR_INLINE void operator()(std::size_t q, double (&ti)[9], double (&tj)[9]) const {
+    const double kq = p.k[q], Lq = p.L[q], Dq = p.D[q];  // loaded unconditionally: selects, not branches
+    const std::size_t i = i0 + q, j = j0 + q;
+    const double wi[3] = {v[0][i], v[1][i], v[2][i]}, wj[3] = {v[0][j], v[1][j], v[2][j]};
+    const Geometry g =
+        geometry(x[0][j] - x[0][i], x[1][j] - x[1][i], x[2][j] - x[2][i], wi[0], wi[1], wi[2], wj[0], wj[1], wj[2]);
     const bool ok = g.r > 0;  // a zero-length bond does nothing (laws.hpp)
     const double T = ok ? kq * (g.r - Lq) : 0.0, dT = ok ? kq : 0.0, D_ok = ok ? Dq : 0.0;
-    bond_terms<true, !kAxial>(t, q, h, T, dT, kAxial ? D_ok : 0.0, kAxial ? 0.0 : D_ok, g, vi, vj);
+    const BondBlock k = bond_block(h, T, dT, kAxial ? D_ok : 0.0, kAxial ? 0.0 : D_ok, g);
+    // Unrolled first: GCC otherwise leaves these loops in the bond loop when vectorising for
+    // AVX2, and with them the whole bond loop scalar. Axial: h cb is 0, and its term is left out
+    // (0 · v is not 0 for every v, so the compiler cannot drop it).
+    QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) ti[e] = tj[e] = k.B[e];
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      ti[6 + c] = kAxial ? k.si * g.u[c] : k.si * g.u[c] + k.hcb * wj[c];
+      tj[6 + c] = kAxial ? k.sj * g.u[c] : k.sj * g.u[c] + k.hcb * wi[c];
+    }
+  }
+};
+
+// An affine run of linear bonds with one damping model (kAxial: axial), measured, formed and added
+// to the rows its part owns: straight from the loop that forms the terms (add_affine_fused) when
+// the run is fusable, else through the run's term arrays (add_affine_run).
+template <bool kAxial>
+QBOND_VECTOR_INLINE void linear_affine_run(const Model& model, const State& state, const StepArrays& a,
+                                           const BondRun& run, double h, FrozenTerms& t) {
+  const LinearAffineBonds<kAxial> bonds(model, state, a, run, h);
+  if (fusable(run)) return add_affine_fused(run, a.row, bonds);
+  for_lanes_flat(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+    double ti[9], tj[9];
+    bonds(q, ti, tj);
+    QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = ti[e];
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      t.ri[c][q] = ti[6 + c];
+      t.rj[c][q] = tj[6 + c];
+    }
   });
+  double* const ti[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2]};
+  double* const tj[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.rj[0], t.rj[1], t.rj[2]};
+  add_affine_run(run, a.row, ti, tj);
 }
 
-// The terms of an affine run that uniform_linear accepts (axial: its damping model is axial).
-QBOND_VECTOR_CLONES void affine_terms(const Model& model, const State& state, const StepArrays& a, const BondRun& run,
-                                      double h, bool axial, FrozenTerms& t) {
+// An affine run that uniform_linear accepts (axial: its damping model is axial), after the part's
+// stretch (its bonds have distinct bond_i).
+QBOND_VECTOR_CLONES void affine_run(const Model& model, const State& state, const StepArrays& a, const BondRun& run,
+                                    double h, bool axial, FrozenTerms& t, BondStretch& stretch) {
   prefetch_parameters(model, state, run);
+  stretch.end([&](Index q, const double(&sum)[9]) { a.add(q, sum); });
   if (axial)
-    linear_affine_terms<true>(model, state, a, run, h, t);
+    linear_affine_run<true>(model, state, a, run, h, t);
   else
-    linear_affine_terms<false>(model, state, a, run, h, t);
+    linear_affine_run<false>(model, state, a, run, h, t);
 }
 
 // The terms of any other run (the per-bond path): measured (measure_run), then formed.
 QBOND_VECTOR_CLONES void frozen_terms(const Model& model, const State& state, const BondRun& run, double h,
                                       RunBonds& g, FrozenTerms& t) {
   measure_run(model, state, run, g);
-  constexpr double kUnused[3] = {};  // the ends' velocities: added in frozen_scatter
   QBOND_SIMD for (std::size_t q = 0; q < run.count; ++q) {
     const Geometry geo{g.r[q], g.inv_r[q], {g.ux[q], g.uy[q], g.uz[q]}, g.vi[q], g.vj[q]};
-    bond_terms<false>(t, q, h, g.T[q], g.dT[q], g.ca[q], g.cb[q], geo, kUnused, kUnused);
+    const BondBlock k = bond_block(h, g.T[q], g.dT[q], g.ca[q], g.cb[q], geo);
+    for (int e = 0; e < 6; ++e) t.B[e][q] = k.B[e];
+    t.si[q] = k.si;
+    t.sj[q] = k.sj;
+    t.hcb[q] = k.hcb;
   }
 }
 
@@ -300,16 +325,6 @@ QBOND_VECTOR_CLONES void frozen_scatter(const BondRun& run, const RunBonds& g, c
   }
   if (run.last) s.end(flush);
   stretch = s;
-}
-
-// Adds an affine run's terms to the rows it owns (add_affine_run: in bond order). The part's
-// stretch ends before the run (the run's bonds have distinct bond_i).
-QBOND_VECTOR_CLONES void frozen_affine_scatter(const BondRun& run, FrozenTerms& t, const StepArrays& a,
-                                               BondStretch& stretch) {
-  stretch.end([&](Index q, const double(&sum)[9]) { a.add(q, sum); });
-  double* const ti[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2]};
-  double* const tj[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.rj[0], t.rj[1], t.rj[2]};
-  add_affine_run(run, a.row, ti, tj);
 }
 
 // Each row's start for quanta [lo, hi): A_ii = m_i I and b_i = m_i v_i + h f_i (Eq. 12 before
@@ -381,11 +396,11 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   soa.take(a.v);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_rows(model, state, f_ext, h, a, lo, hi); });
   for_each_bond_run<FrozenScratch>(part, [&](const BondRun& run, FrozenScratch& s) {
-    // The same runs for every partition (bond_partition.hpp), so the same path for each bond.
+    // The same runs for every partition (bond_partition.hpp), so the same path for each bond (an
+    // affine run adds its terms from its loop or after it, the same sums either way).
     const int kind = run.affine ? uniform_linear(model, run) : -1;
     if (kind >= 0) {
-      affine_terms(model, state, a, run, h, kind == 0, s.terms);
-      frozen_affine_scatter(run, s.terms, a, s.stretch);
+      affine_run(model, state, a, run, h, kind == 0, s.terms, s.stretch);
     } else {
       frozen_terms(model, state, run, h, s.bonds, s.terms);
       frozen_scatter(run, s.bonds, s.terms, state.v.data(), a, s.stretch);

@@ -25,7 +25,8 @@
 // without proving that its gathers and stores do not alias (OpenMP's simd; nothing without
 // OpenMP).
 // QBOND_SIMD_OR(x): the same for a loop that also ORs into x; QBOND_SIMD_SUM(x): that adds into x
-// (in any order: only for sums whose order does not matter).
+// (in any order: only for sums whose order does not matter); QBOND_SIMD_SAFELEN(n): for a loop
+// whose iterations depend only on iterations at least n earlier (at most n run together).
 // QBOND_UNROLL(n) before a loop of n iterations: unrolled before the enclosing loop is vectorised.
 // In such a loop, a select tests its condition itself (inv_mass[q] != 0 ? a : b) rather than a
 // bool the enclosing loop computed: GCC 12 left verlet_stage, start_build and first_residual
@@ -36,10 +37,12 @@
 #define QBOND_SIMD _Pragma("omp simd")
 #define QBOND_SIMD_OR(x) _Pragma(QBOND_STRINGIFY(omp simd reduction(| : x)))
 #define QBOND_SIMD_SUM(x) _Pragma(QBOND_STRINGIFY(omp simd reduction(+ : x)))
+#define QBOND_SIMD_SAFELEN(n) _Pragma(QBOND_STRINGIFY(omp simd safelen(n)))
 #else
 #define QBOND_SIMD
 #define QBOND_SIMD_OR(x)
 #define QBOND_SIMD_SUM(x)
+#define QBOND_SIMD_SAFELEN(n)
 #endif
 #if defined(__clang__)
 #define QBOND_UNROLL(n) _Pragma(QBOND_STRINGIFY(unroll n))
