@@ -76,29 +76,36 @@ QBOND_VECTOR_INLINE void prefetch_blocks(const BondBlocks& blocks, const BondRun
 }
 
 // An affine run's −B_b y_j and −B_b y_i (−0.0, which leaves a row's bits as they are, when an end
-// is kinematic, its unknown eliminated, and in the lanes past the run) in one vector loop, added to the rows the part owns in bond order.
+// is kinematic, its unknown eliminated) in one vector loop, added to the rows the part owns in
+// bond order: from that loop when the run is fusable, else from the run's term arrays.
 QBOND_VECTOR_CLONES void affine_product(const BondRun& run, const BondBlocks& blocks, const double* inv_mass,
-                                        const Soa& y, const Soa& out, ProductTerms& t) {
+                                        const Soa& y_in, const Soa& out, ProductTerms& t) {
   // inv_mass: the padded copy (CgArrays), read up to a vector past the run's last quanta.
   prefetch_blocks(blocks, run);
   const double *ux = blocks.ux.data() + run.first, *uy = blocks.uy.data() + run.first,
                *uz = blocks.uz.data() + run.first;
   const double *Ba = blocks.Ba.data() + run.first, *Bb = blocks.Bb.data() + run.first;
-  const double *mi = inv_mass + run.i0, *mj = inv_mass + run.j0;
-  const double *yi[3], *yj[3];  // local: see Local
-  for (int c = 0; c < 3; ++c) {
-    yi[c] = y[c] + run.i0;
-    yj[c] = y[c] + run.j0;
-  }
-  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+  const Local<3> y(y_in);
+  const std::size_t i0 = run.i0, j0 = run.j0;
+  auto terms = [=](std::size_t q, double(&ti)[3], double(&tj)[3]) QBOND_LAMBDA_INLINE {
+    const std::size_t i = i0 + q, j = j0 + q;
     const double u[3] = {ux[q], uy[q], uz[q]};
-    const double a = Ba[q], b = Bb[q];
-    const double ui = u[0] * yi[0][q] + u[1] * yi[1][q] + u[2] * yi[2][q];
-    const double uj = u[0] * yj[0][q] + u[1] * yj[1][q] + u[2] * yj[2][q];
+    const double a = Ba[q], b = Bb[q], mi = inv_mass[i], mj = inv_mass[j];  // loaded first: simd.hpp
+    const double ui = u[0] * y[0][i] + u[1] * y[1][i] + u[2] * y[2][i];
+    const double uj = u[0] * y[0][j] + u[1] * y[1][j] + u[2] * y[2][j];
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      const double fi = -(a * uj * u[c] + b * yj[c][q]), fj = -(a * ui * u[c] + b * yi[c][q]);
-      t.ti[c][q] = mi[q] != 0 && mj[q] != 0 ? fi : -0.0;  // the test in the select: simd.hpp
-      t.tj[c][q] = mi[q] != 0 && mj[q] != 0 ? fj : -0.0;
+      const double fi = -(a * uj * u[c] + b * y[c][j]), fj = -(a * ui * u[c] + b * y[c][i]);
+      ti[c] = mi != 0 && mj != 0 ? fi : -0.0;  // the test in the select: simd.hpp
+      tj[c] = mi != 0 && mj != 0 ? fj : -0.0;
+    }
+  };
+  if (fusable(run)) return add_affine_fused(run, out, terms);
+  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+    double ti[3], tj[3];
+    terms(q, ti, tj);
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      t.ti[c][q] = ti[c];
+      t.tj[c][q] = tj[c];
     }
   });
   double* const ti[3] = {t.ti[0], t.ti[1], t.ti[2]};
