@@ -85,26 +85,31 @@ struct StepArrays {
   }
 };
 
-// A bond's r, 1/r, u, u·v_i and u·v_j from d = x_j − x_i and its ends' velocities. A zero-length
-// bond has no direction: u = 0 (its tension, slope and damping are then masked to 0). The
-// division's operand is selected first, and the division done unconditionally, so that a loop
-// calling this has no branch.
+// A bond's r, 1/r, u, u·v_i and u·v_j from d = x_j − x_i and its ends' velocities (oriented: with
+// r and 1/r given, affine_lengths). A zero-length bond has no direction: u = 0 (its tension, slope
+// and damping are then masked to 0). The division's operand is selected first, and the division
+// done unconditionally, so that a loop calling this has no branch.
 struct Geometry {
   double r, inv_r, u[3], u_vi, u_vj;
 };
-QBOND_VECTOR_INLINE Geometry geometry(double dx, double dy, double dz, double vix, double viy, double viz, double vjx,
-                                      double vjy, double vjz) {
+QBOND_VECTOR_INLINE Geometry oriented(double r, double inv_r, double dx, double dy, double dz, double vix, double viy,
+                                      double viz, double vjx, double vjy, double vjz) {
   Geometry g;
-  g.r = std::sqrt(dx * dx + dy * dy + dz * dz);
-  const bool ok = g.r > 0;
-  const double inv_any = 1.0 / (ok ? g.r : 1.0);
-  g.inv_r = ok ? inv_any : 0.0;
+  g.r = r;
+  g.inv_r = inv_r;
   g.u[0] = g.inv_r * dx;
   g.u[1] = g.inv_r * dy;
   g.u[2] = g.inv_r * dz;
   g.u_vi = g.u[0] * vix + g.u[1] * viy + g.u[2] * viz;
   g.u_vj = g.u[0] * vjx + g.u[1] * vjy + g.u[2] * vjz;
   return g;
+}
+QBOND_VECTOR_INLINE Geometry geometry(double dx, double dy, double dz, double vix, double viy, double viz, double vjx,
+                                      double vjy, double vjz) {
+  const double r = std::sqrt(dx * dx + dy * dy + dz * dz);
+  const bool ok = r > 0;
+  const double inv_any = 1.0 / (ok ? r : 1.0);
+  return oriented(r, ok ? inv_any : 0.0, dx, dy, dz, vix, viy, viz, vjx, vjy, vjz);
 }
 QBOND_VECTOR_INLINE void set_geometry(RunBonds& t, std::size_t q, const Geometry& g) {
   t.r[q] = g.r;
@@ -192,6 +197,7 @@ struct FrozenTerms {
   alignas(64) double B[6][kBondRun];
   alignas(64) double si[kBondRun], sj[kBondRun], hcb[kBondRun];
   alignas(64) double ri[3][kBondRun], rj[3][kBondRun];
+  alignas(64) double r[kBondRun], inv_r[kBondRun];  // an affine run's lengths (affine_lengths)
 };
 
 // What a part keeps from run to run.
@@ -221,22 +227,30 @@ QBOND_VECTOR_INLINE BondBlock bond_block(double h, double T, double dT, double c
 
 // The terms of bond q of an affine run of linear bonds with one damping model (kAxial: axial) on
 // bond_i's row (ti) and bond_j's (tj), as StepArrays::add takes them: its block, and each end's
-// right-hand side s u + h cb v_other.
+// right-hand side s u + h cb v_other; the bonds' lengths r and 1/r already in r, inv_r.
 template <bool kAxial>
 struct LinearAffineBonds {
   RunParameters p;
-  const double *x[3], *v[3];
+  const double *x[3], *v[3], *r, *inv_r;
   std::size_t i0, j0;
   double h;
 
-  LinearAffineBonds(const Model& model, const State& state, const StepArrays& a, const BondRun& run, double h)
-      : p(model, state, run), x{a.x[0], a.x[1], a.x[2]}, v{a.v[0], a.v[1], a.v[2]}, i0(run.i0), j0(run.j0), h(h) {}
+  LinearAffineBonds(const Model& model, const State& state, const StepArrays& a, const BondRun& run, double h,
+                    const FrozenTerms& t)
+      : p(model, state, run),
+        x{a.x[0], a.x[1], a.x[2]},
+        v{a.v[0], a.v[1], a.v[2]},
+        r(t.r),
+        inv_r(t.inv_r),
+        i0(run.i0),
+        j0(run.j0),
+        h(h) {}
   QBOND_VECTOR_INLINE void operator()(std::size_t q, double (&ti)[9], double (&tj)[9]) const {
     const double kq = p.k[q], Lq = p.L[q], Dq = p.D[q];  // loaded unconditionally: selects, not branches
     const std::size_t i = i0 + q, j = j0 + q;
     const double wi[3] = {v[0][i], v[1][i], v[2][i]}, wj[3] = {v[0][j], v[1][j], v[2][j]};
-    const Geometry g =
-        geometry(x[0][j] - x[0][i], x[1][j] - x[1][i], x[2][j] - x[2][i], wi[0], wi[1], wi[2], wj[0], wj[1], wj[2]);
+    const Geometry g = oriented(r[q], inv_r[q], x[0][j] - x[0][i], x[1][j] - x[1][i], x[2][j] - x[2][i], wi[0], wi[1],
+                                wi[2], wj[0], wj[1], wj[2]);
     const bool ok = g.r > 0;  // a zero-length bond does nothing (laws.hpp)
     const double T = ok ? kq * (g.r - Lq) : 0.0, dT = ok ? kq : 0.0, D_ok = ok ? Dq : 0.0;
     const BondBlock k = bond_block(h, T, dT, kAxial ? D_ok : 0.0, kAxial ? 0.0 : D_ok, g);
@@ -257,7 +271,8 @@ struct LinearAffineBonds {
 template <bool kAxial>
 QBOND_VECTOR_INLINE void linear_affine_run(const Model& model, const State& state, const StepArrays& a,
                                            const BondRun& run, double h, FrozenTerms& t) {
-  const LinearAffineBonds<kAxial> bonds(model, state, a, run, h);
+  affine_lengths(run, a.x, t.r, t.inv_r);
+  const LinearAffineBonds<kAxial> bonds(model, state, a, run, h, t);
   if (fusable(run)) return add_affine_fused(run, a.row, bonds);
   for_lanes_flat(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
     double ti[9], tj[9];
