@@ -230,4 +230,22 @@ QBOND_VECTOR_INLINE void add_affine_fused(const BondRun& run, double* const (&ro
     QBOND_SIMD for (std::size_t l = 0; l < 4; ++l) add.template operator()<true>(q0 + l);  // kVectorLoop
 }
 
+// Adds an affine run's terms (terms(q, ti, tj), as add_affine_fused takes them) to the rows its
+// part owns: from the loop that forms them when the run is fusable, else through the term arrays
+// ti and tj (kBondRun entries each) and add_affine_run.
+template <std::size_t N, class Terms>
+QBOND_VECTOR_INLINE void add_affine_terms(const BondRun& run, double* const (&rows)[N], Terms&& terms,
+                                          double* const (&ti)[N], double* const (&tj)[N]) {
+  if (fusable(run)) return add_affine_fused(run, rows, terms);
+  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+    double a[N], b[N];
+    terms(q, a, b);
+    QBOND_UNROLL(9) for (std::size_t e = 0; e < N; ++e) {
+      ti[e][q] = a[e];
+      tj[e][q] = b[e];
+    }
+  });
+  add_affine_run(run, rows, ti, tj);
+}
+
 }  // namespace qbond

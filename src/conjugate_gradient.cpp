@@ -99,18 +99,7 @@ QBOND_VECTOR_CLONES void affine_product(const BondRun& run, const BondBlocks& bl
       tj[c] = mi != 0 && mj != 0 ? fj : -0.0;
     }
   };
-  if (fusable(run)) return add_affine_fused(run, out, terms);
-  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
-    double ti[3], tj[3];
-    terms(q, ti, tj);
-    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      t.ti[c][q] = ti[c];
-      t.tj[c][q] = tj[c];
-    }
-  });
-  double* const ti[3] = {t.ti[0], t.ti[1], t.ti[2]};
-  double* const tj[3] = {t.tj[0], t.tj[1], t.tj[2]};
-  add_affine_run(run, out, ti, tj);
+  add_affine_terms(run, out, terms, {t.ti[0], t.ti[1], t.ti[2]}, {t.tj[0], t.tj[1], t.tj[2]});
 }
 
 // Any other run, bond by bond: −B_b y_j onto row i and −B_b y_i onto row j where the part owns

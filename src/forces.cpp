@@ -81,18 +81,7 @@ QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& s
       fj[c] = -fi[c];
     }
   };
-  if (fusable(run)) return add_affine_fused(run, rows.f, forces);
-  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
-    double fi[3], fj[3];
-    forces(q, fi, fj);
-    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      t.fi[c][q] = fi[c];
-      t.fj[c][q] = fj[c];
-    }
-  });
-  double* const fi[3] = {t.fi[0], t.fi[1], t.fi[2]};
-  double* const fj[3] = {t.fj[0], t.fj[1], t.fj[2]};
-  add_affine_run(run, rows.f, fi, fj);
+  add_affine_terms(run, rows.f, forces, {t.fi[0], t.fi[1], t.fi[2]}, {t.fj[0], t.fj[1], t.fj[2]});
 }
 
 QBOND_VECTOR_CLONES void affine_forces(const Model& model, const State& state, const ForceRows& rows,
