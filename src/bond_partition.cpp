@@ -94,6 +94,28 @@ void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
   }
 }
 
+// Each run's reach and settled mark (BondRun), from the last run of each part back.
+void mark_reach(BondPartition& part, const Model& model) {
+  for (int p = 0; p < part.parts(); ++p) {
+    const Index hi = part.first[p + 1];
+    Index below = hi;  // the lowest quanta the part's later runs join (hi: none)
+    for (Index r = part.run_offset[p + 1]; r-- > part.run_offset[p];) {
+      BondRun& run = part.runs[r];
+      run.settled = below;
+      Index lo_end = run.affine ? std::min(run.i0, run.j0) : ~Index{0};
+      Index hi_end = run.affine ? std::max(run.i0, run.j0) + affine_lanes(run.count) : 0;
+      if (!run.affine)
+        for (Index k = 0; k < run.count; ++k) {
+          const Index b = run.bond(k), i = model.bond_i[b], j = model.bond_j[b];
+          lo_end = std::min({lo_end, i, j});
+          hi_end = std::max({hi_end, i + 1, j + 1});
+        }
+      run.reach = hi_end;
+      below = std::min(below, lo_end);
+    }
+  }
+}
+
 }  // namespace
 
 void BondPartition::update(const Model& model, const Adjacency& adj, int threads_wanted) {
@@ -120,6 +142,7 @@ void BondPartition::update(const Model& model, const Adjacency& adj, int threads
   num_quanta = n;
   num_bonds = nb;
   build_runs(*this, model, adj);
+  mark_reach(*this, model);
   version = adj.version;
   threads = threads_wanted;
 }

@@ -23,7 +23,9 @@ namespace qbond {
 // null) is a piece of an affine segment (for_each_affine_segment): bond first + k joins
 // i0 + k and j0 + k, so that its ends' data are contiguous; bonds exist up to affine_lanes(count)
 // (vector loops over an affine run need no remainder). The part updates the
-// ends in [lo, hi) only; `last` marks its last run.
+// ends in [lo, hi) only; `last` marks its last run. `reach` is one past the highest quanta the
+// run's bonds (an affine run's whole lanes) join, and the part's rows below `settled` receive
+// nothing from its later runs (set by BondPartition::update).
 inline constexpr Index kBondRun = 64;
 struct BondRun {
   const Index* list;
@@ -31,6 +33,7 @@ struct BondRun {
   bool last;
   bool affine;
   Index i0, j0;
+  Index reach = 0, settled = 0;
   Index bond(Index k) const { return list ? list[k] : first + k; }
   bool owns(Index q) const { return q >= lo && q < hi; }
 };

@@ -205,6 +205,7 @@ struct FrozenScratch {
   RunBonds bonds;
   FrozenTerms terms;
   BondStretch stretch;
+  Index started = 0, solved = 0;  // the part's rows from its first are started up to here, solved up to here
 };
 
 // A bond's block B_b = Ba u uᵀ + Bb I (its six distinct entries) and its right-hand-side
@@ -342,12 +343,24 @@ QBOND_VECTOR_CLONES void frozen_scatter(const BondRun& run, const RunBonds& g, c
   stretch = s;
 }
 
+// The structure-of-arrays copies of x and v the affine runs load, for quanta [lo, hi).
+QBOND_VECTOR_CLONES void copy_state(const State& state, const StepArrays& a, std::size_t lo, std::size_t hi) {
+  const double* x = state.x.data()->data();
+  const double* v = state.v.data()->data();
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    QBOND_UNROLL(3)
+    for (std::size_t c = 0; c < 3; ++c) {
+      a.x[c][q] = x[3 * q + c];
+      a.v[c][q] = v[3 * q + c];
+    }
+  }
+}
+
 // Each row's start for quanta [lo, hi): A_ii = m_i I and b_i = m_i v_i + h f_i (Eq. 12 before
-// any bond), and the structure-of-arrays copies of x and v the affine runs load.
+// any bond).
 QBOND_VECTOR_CLONES void start_rows(const Model& model, const State& state, const std::vector<Vec3>& f_ext, double h,
                                     const StepArrays& a, std::size_t lo, std::size_t hi) {
   const double* mass = model.mass.data();
-  const double* x = state.x.data()->data();
   const double* v = state.v.data()->data();
   const double* f = f_ext.data()->data();
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
@@ -357,8 +370,6 @@ QBOND_VECTOR_CLONES void start_rows(const Model& model, const State& state, cons
       a.row[c][q] = m;
       a.row[3 + c][q] = 0;
       a.row[6 + c][q] = m * v[3 * q + c] + h * f[3 * q + c];
-      a.x[c][q] = x[3 * q + c];
-      a.v[c][q] = v[3 * q + c];
     }
   }
 }
@@ -409,8 +420,21 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   soa.take(a.row);
   soa.take(a.x);
   soa.take(a.v);
-  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_rows(model, state, f_ext, h, a, lo, hi); });
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { copy_state(state, a, lo, hi); });
+  // Each part's rows are started just before its runs reach them and solved once its later runs
+  // no longer do (BondRun::reach, settled), in pieces of at least kWake quanta: the rows are then
+  // in the second-level cache through the bond pass, and are not streamed from memory by passes
+  // of their own before and after it. A row's sum is the same either way.
+  const auto start = [&](Index lo, Index hi) { start_rows(model, state, f_ext, h, a, lo, hi); };
+  // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
+  const auto solve = [&](Index lo, Index hi) { solve_rows(model, state, a, h, lo, hi, out); };
   for_each_bond_run<FrozenScratch>(part, [&](const BondRun& run, FrozenScratch& s) {
+    if (s.started < run.lo) s.started = s.solved = run.lo;  // the part's first run
+    if (s.started < std::min(run.reach, run.hi)) {
+      const Index to = std::min(run.hi, std::max(run.reach, s.started + wake));
+      start(s.started, to);
+      s.started = to;
+    }
     // The same runs for every partition (bond_partition.hpp), so the same path for each bond (an
     // affine run adds its terms from its loop or after it, the same sums either way).
     const int kind = run.affine ? uniform_linear(model, run) : -1;
@@ -420,9 +444,25 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
       frozen_terms(model, state, run, h, s.bonds, s.terms);
       frozen_scatter(run, s.bonds, s.terms, state.v.data(), a, s.stretch);
     }
+    if (run.last) {
+      start(s.started, run.hi);
+      solve(s.solved, run.hi);
+      return;
+    }
+    // Not past the rows started (the rows between that no bond joins are started later), nor past
+    // a row whose stretch is still open (its last terms are to come).
+    const Index settled = std::min({run.settled, run.hi, s.started, s.stretch.q});
+    if (settled >= s.solved + wake) {
+      solve(s.solved, settled);
+      s.solved = settled;
+    }
   });
-  // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { solve_rows(model, state, a, h, lo, hi, out); });
+  // The rows of parts without bonds.
+  for (int p = 0; p < part.parts(); ++p)
+    if (part.run_offset[p] == part.run_offset[p + 1]) {
+      start(part.first[p], part.first[p + 1]);
+      solve(part.first[p], part.first[p + 1]);
+    }
   project_kinematic(model, state, ctx, out);
 }
 

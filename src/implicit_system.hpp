@@ -148,6 +148,7 @@ void gather_edges(const Model& model, const Adjacency& adj, int threads, Implici
 struct FrozenStep {
   BondPartition part;
   std::vector<double> arrays;  // A_ii's six entries, b_i, x and v as structure of arrays (frozen_step.cpp)
+  Index wake = 512;            // the fewest rows started or solved at a time in the bond pass (tests: fewer)
   void project(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
                const StepContext& ctx, int threads, Projection& out);
 };

@@ -104,15 +104,17 @@ inline void expect_same_bits(const State& a, const State& b) {
   EXPECT_EQ(std::memcmp(a.v.data(), b.v.data(), a.v.size() * sizeof(Vec3)), 0);
 }
 
+// The largest norm of a[i] − b[i] (of a[i]); NaN if one is NaN (std::max would pass it over,
+// and a check of the result against a tolerance would then pass).
 inline double max_norm_diff(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
   double d = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) d = std::max(d, (a[i] - b[i]).norm());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const double e = (a[i] - b[i]).norm();
+    if (std::isnan(e)) return e;
+    d = std::max(d, e);
+  }
   return d;
 }
-inline double max_norm(const std::vector<Vec3>& a) {
-  double d = 0;
-  for (const Vec3& x : a) d = std::max(d, x.norm());
-  return d;
-}
+inline double max_norm(const std::vector<Vec3>& a) { return max_norm_diff(a, std::vector<Vec3>(a.size(), Vec3::Zero())); }
 
 }  // namespace qbond::test
