@@ -7,7 +7,8 @@
 // contiguous vectors, and its terms are added to the rows (kept as structure of arrays) by
 // that loop when its ends are far enough apart, else by vector loops after it. Other runs compute their per-bond terms in vector loops with the ends' data
 // gathered, then update the rows one bond at a time. Either way each row receives its bonds in
-// bond order, so its sum is the same for any thread count. The vector functions are compiled for
+// bond order, so its sum is the same for any thread count. A part's rows are started and solved
+// in the wake of its bond pass, while they are in cache. The vector functions are compiled for
 // several instruction sets (simd.hpp).
 #include <algorithm>
 #include <cmath>
@@ -422,7 +423,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   soa.take(a.v);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { copy_state(state, a, lo, hi); });
   // Each part's rows are started just before its runs reach them and solved once its later runs
-  // no longer do (BondRun::reach, settled), in pieces of at least kWake quanta: the rows are then
+  // no longer do (BondRun::reach, settled), in pieces of at least `wake` quanta: the rows are then
   // in the second-level cache through the bond pass, and are not streamed from memory by passes
   // of their own before and after it. A row's sum is the same either way.
   const auto start = [&](Index lo, Index hi) { start_rows(model, state, f_ext, h, a, lo, hi); };
