@@ -34,18 +34,16 @@ QBOND_VECTOR_INLINE void for_lanes(std::size_t lanes, Lane&& lane) {
   if (whole != lanes) QBOND_SIMD for (std::size_t l = 0; l < 4; ++l) lane(whole + l);
 }
 
-// The same lanes as one loop over the whole vectors of 8 (GCC sees from the mask that its trip
-// count is a multiple of 8, and needs no remainder), then at most one vector of 4. For a lane that
-// reads and writes many arrays: in for_lanes' nested loops GCC recomputes every array's address at
-// each vector of 8 (~65 instructions for the frozen step's 27 arrays on AVX2, spilled), which the
-// flat loop does not (the frozen step: 10% fewer instructions); for the force pass's lane, with
-// fewer arrays, the flat loop took 12% more (callgrind).
-template <class Lane>
-QBOND_VECTOR_INLINE void for_lanes_flat(std::size_t lanes, Lane&& lane) {
-  const std::size_t whole = lanes & ~std::size_t{7};
-  QBOND_SIMD for (std::size_t q = 0; q < whole; ++q) lane(q);
-  if (whole != lanes) QBOND_SIMD for (std::size_t l = 0; l < 4; ++l) lane(whole + l);
-}
+// Local copies of a structure-of-arrays vector's pointers: held in registers through a loop (read
+// through a reference, GCC reloads them every iteration and does not vectorise it).
+template <std::size_t N>
+struct Local {
+  double* a[N];
+  explicit Local(double* const (&from)[N]) {
+    for (std::size_t e = 0; e < N; ++e) a[e] = from[e];
+  }
+  double* operator[](std::size_t e) const { return a[e]; }
+};
 
 // The distance between the kernels' per-quanta arrays (structure of arrays, n entries each, and
 // padding past n for the affine runs' whole vectors): 3 cache lines more than a multiple of
@@ -170,6 +168,17 @@ QBOND_VECTOR_INLINE void add_affine_run(const BondRun& run, double* const (&rows
   }
 }
 
+// r = |d| and 1/r, 0 for r = 0 (a zero-length bond has no direction). The division's operand is
+// selected first and the division done unconditionally, so that a loop calling this has no branch.
+struct Length {
+  double r, inv_r;
+};
+QBOND_VECTOR_INLINE Length length(double dx, double dy, double dz) {
+  const double r = std::sqrt(dx * dx + dy * dy + dz * dz);
+  const double inv_any = 1.0 / (r > 0 ? r : 1.0);
+  return {r, r > 0 ? inv_any : 0.0};
+}
+
 // The lengths r = |x_j − x_i| of an affine run's bonds and 1/r (0 for r = 0), from positions as
 // structure of arrays, in a loop of their own before the loop that forms the bonds' terms: there
 // the square root and the division (~33 cycles of latency on Zen 3) began each bond's chain of
@@ -183,11 +192,9 @@ QBOND_VECTOR_INLINE void affine_lengths(const BondRun& run, const double* const 
     xj[c] = x[c] + run.j0;
   }
   for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
-    const double dx = xj[0][q] - xi[0][q], dy = xj[1][q] - xi[1][q], dz = xj[2][q] - xi[2][q];
-    const double rq = std::sqrt(dx * dx + dy * dy + dz * dz);
-    const double inv_any = 1.0 / (rq > 0 ? rq : 1.0);
-    r[q] = rq;
-    inv_r[q] = rq > 0 ? inv_any : 0.0;
+    const Length l = length(xj[0][q] - xi[0][q], xj[1][q] - xi[1][q], xj[2][q] - xi[2][q]);
+    r[q] = l.r;
+    inv_r[q] = l.inv_r;
   });
 }
 
@@ -208,8 +215,7 @@ inline bool fusable(const BondRun& run) {
 template <std::size_t N, class Terms>
 QBOND_VECTOR_INLINE void add_affine_fused(const BondRun& run, double* const (&rows)[N], Terms&& terms) {
   const std::size_t i0 = run.i0, j0 = run.j0, count = run.count;
-  double* r[N];  // a local copy: the loop's stores might otherwise change the pointers for GCC
-  for (std::size_t e = 0; e < N; ++e) r[e] = rows[e];
+  const Local<N> r(rows);
   auto add = [&]<bool kTail>(std::size_t q) QBOND_LAMBDA_INLINE {
     double ti[N], tj[N];
     terms(q, ti, tj);

@@ -26,17 +26,6 @@ struct Diagonals {
   double* Dinv[6];
 };
 
-// Local copies of a structure-of-arrays vector's pointers: held in registers through a loop (read
-// through a reference, GCC reloads them every iteration and does not vectorise it).
-template <std::size_t N>
-struct Local {
-  double* a[N];
-  explicit Local(double* const (&from)[N]) {
-    for (std::size_t e = 0; e < N; ++e) a[e] = from[e];
-  }
-  double* operator[](std::size_t e) const { return a[e]; }
-};
-
 // The symmetric block (xx, yy, zz, xy, xz, yz entries of s at q) times (v0, v1, v2) at q, into out.
 QBOND_VECTOR_INLINE void sym_times(const Local<6>& s, std::size_t q, double v0, double v1, double v2,
                                    double (&out)[3]) {

@@ -60,9 +60,7 @@ QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& s
                                               const BondRun& run, ForceTerms& t) {
   const auto [k, L, D] = RunParameters(model, state, run);
   const std::size_t i0 = run.i0, j0 = run.j0;
-  // Copied: the loops store doubles, which GCC assumes may change pointers held in memory.
-  const double* const x[3] = {rows.x[0], rows.x[1], rows.x[2]};
-  const double* const v[3] = {rows.v[0], rows.v[1], rows.v[2]};
+  const Local<3> x(rows.x), v(rows.v);
   auto forces = [=](std::size_t q, double(&fi)[3], double(&fj)[3]) QBOND_LAMBDA_INLINE {
     const std::size_t i = i0 + q, j = j0 + q;
     double d[3], w[3];

@@ -5,8 +5,9 @@
 // first + k joins i0 + k and j0 + k: a lattice's bonds grouped by offset) whose bonds are linear
 // with one damping model is measured and formed in one vector loop reading the ends' data as
 // contiguous vectors, and its terms are added to the rows (kept as structure of arrays) by
-// that loop when its ends are far enough apart, else by vector loops after it. Other runs compute their per-bond terms in vector loops with the ends' data
-// gathered, then update the rows one bond at a time. Either way each row receives its bonds in
+// that loop when its ends are far enough apart, else by vector loops after it. Other runs
+// compute their per-bond terms in vector loops with the ends' data gathered, then update the
+// rows one bond at a time. Either way each row receives its bonds in
 // bond order, so its sum is the same for any thread count. A part's rows are started and solved
 // in the wake of its bond pass, while they are in cache. The vector functions are compiled for
 // several instruction sets (simd.hpp).
@@ -86,10 +87,9 @@ struct StepArrays {
   }
 };
 
-// A bond's r, 1/r, u, u·v_i and u·v_j from d = x_j − x_i and its ends' velocities (oriented: with
-// r and 1/r given, affine_lengths). A zero-length bond has no direction: u = 0 (its tension, slope
-// and damping are then masked to 0). The division's operand is selected first, and the division
-// done unconditionally, so that a loop calling this has no branch.
+// A bond's r, 1/r (length), u, u·v_i and u·v_j from d = x_j − x_i and its ends' velocities
+// (oriented: with r and 1/r given, affine_lengths). A zero-length bond has no direction: u = 0
+// (its tension, slope and damping are then masked to 0).
 struct Geometry {
   double r, inv_r, u[3], u_vi, u_vj;
 };
@@ -107,10 +107,8 @@ QBOND_VECTOR_INLINE Geometry oriented(double r, double inv_r, double dx, double 
 }
 QBOND_VECTOR_INLINE Geometry geometry(double dx, double dy, double dz, double vix, double viy, double viz, double vjx,
                                       double vjy, double vjz) {
-  const double r = std::sqrt(dx * dx + dy * dy + dz * dz);
-  const bool ok = r > 0;
-  const double inv_any = 1.0 / (ok ? r : 1.0);
-  return oriented(r, ok ? inv_any : 0.0, dx, dy, dz, vix, viy, viz, vjx, vjy, vjz);
+  const Length l = length(dx, dy, dz);
+  return oriented(l.r, l.inv_r, dx, dy, dz, vix, viy, viz, vjx, vjy, vjz);
 }
 QBOND_VECTOR_INLINE void set_geometry(RunBonds& t, std::size_t q, const Geometry& g) {
   t.r[q] = g.r;
@@ -268,26 +266,14 @@ struct LinearAffineBonds {
 };
 
 // An affine run of linear bonds with one damping model (kAxial: axial), measured, formed and added
-// to the rows its part owns: straight from the loop that forms the terms (add_affine_fused) when
-// the run is fusable, else through the run's term arrays (add_affine_run).
+// to the rows its part owns (add_affine_terms; bond_i's and bond_j's terms share the blocks).
 template <bool kAxial>
 QBOND_VECTOR_INLINE void linear_affine_run(const Model& model, const State& state, const StepArrays& a,
                                            const BondRun& run, double h, FrozenTerms& t) {
   affine_lengths(run, a.x, t.r, t.inv_r);
   const LinearAffineBonds<kAxial> bonds(model, state, a, run, h, t);
-  if (fusable(run)) return add_affine_fused(run, a.row, bonds);
-  for_lanes_flat(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
-    double ti[9], tj[9];
-    bonds(q, ti, tj);
-    QBOND_UNROLL(6) for (int e = 0; e < 6; ++e) t.B[e][q] = ti[e];
-    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      t.ri[c][q] = ti[6 + c];
-      t.rj[c][q] = tj[6 + c];
-    }
-  });
-  double* const ti[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2]};
-  double* const tj[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.rj[0], t.rj[1], t.rj[2]};
-  add_affine_run(run, a.row, ti, tj);
+  add_affine_terms(run, a.row, bonds, {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2]},
+                   {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.rj[0], t.rj[1], t.rj[2]});
 }
 
 // An affine run that uniform_linear accepts (axial: its damping model is axial), after the part's
