@@ -2,6 +2,7 @@
 // and framing, colour ranges and input scripts. The window itself is tested by viewer_test.py.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -96,6 +97,37 @@ TEST(OrbitCamera, FramingPutsTheBoxInView) {
       EXPECT_LE(py, h);
     }
   }
+}
+
+TEST(OrbitCamera, KeepInViewMovesJustEnoughAndOnlyWhenNeeded) {
+  view::OrbitCamera cam;
+  cam.target = view::Vec3f(0.2f, 0.1f, 0.0f);
+  cam.distance = 1.5f, cam.yaw = 0.7f, cam.pitch = 0.3f;
+  const float w = 1000, h = 600, zone = 0.6f;
+  // Inside the middle 60 %: the camera stays.
+  const view::Vec3f inside = cam.target + view::Vec3f(0.05f, 0.0f, 0.05f);
+  EXPECT_FALSE(cam.keep_in_view(inside, w / h, zone));
+  EXPECT_EQ(cam.target, view::Vec3f(0.2f, 0.1f, 0.0f));
+  // A point gone far off to the side comes back to the zone's edge, not to the middle; the view's
+  // direction and distance are kept.
+  for (const view::Vec3f& away : {view::Vec3f(3.0f, -2.0f, 0.4f), view::Vec3f(0.2f, 0.1f, -4.0f)}) {
+    const float yaw = cam.yaw, pitch = cam.pitch, distance = cam.distance;
+    EXPECT_TRUE(cam.keep_in_view(away, w / h, zone));
+    EXPECT_EQ(cam.yaw, yaw);
+    EXPECT_EQ(cam.pitch, pitch);
+    EXPECT_EQ(cam.distance, distance);
+    float px = 0, py = 0;
+    ASSERT_TRUE(cam.to_pixel(away, w, h, px, py));
+    const float nx = std::abs(2 * px / w - 1), ny = std::abs(1 - 2 * py / h);
+    EXPECT_NEAR(std::max(nx, ny), zone, 1e-4);  // on the edge
+    EXPECT_LE(nx, zone + 1e-4f);
+    EXPECT_LE(ny, zone + 1e-4f);
+    EXPECT_FALSE(cam.keep_in_view(away, w / h, zone));  // and then left alone
+  }
+  // Behind the eye: aimed at.
+  const view::Vec3f behind = cam.eye() - (cam.target - cam.eye());
+  EXPECT_TRUE(cam.keep_in_view(behind, w / h, zone));
+  EXPECT_EQ(cam.target, behind);
 }
 
 TEST(Colors, RangeRisesAtOnceAndDecaysSlowly) {

@@ -65,6 +65,26 @@ void OrbitCamera::frame(const Vec3f& lo, const Vec3f& hi, float aspect) {
   distance = 1.1f * radius / std::sin(half);
 }
 
+bool OrbitCamera::keep_in_view(const Vec3f& p, float aspect, float zone) {
+  const Vec3f f = forward(yaw, pitch);
+  const Vec3f s = f.cross(Vec3f::UnitZ()).normalized();
+  const Vec3f u = s.cross(f);
+  const Vec3f d = p - eye();
+  const float depth = d.dot(f);
+  if (depth <= 0.01f * distance) {  // behind the eye or at the near plane
+    target = p;
+    return true;
+  }
+  // Moving the target (and the eye) by a s + b u moves p's view coordinates by (−a, −b) at the
+  // same depth, where the view's half-width is depth tan(fov/2) aspect.
+  const float half_y = zone * depth * std::tan(fov_y / 2), half_x = half_y * aspect;
+  const float x = d.dot(s), y = d.dot(u);
+  const float a = x - std::clamp(x, -half_x, half_x), b = y - std::clamp(y, -half_y, half_y);
+  if (std::max(std::abs(a), std::abs(b)) <= 1e-3f * half_y) return false;  // on the edge, to round-off
+  target += a * s + b * u;
+  return true;
+}
+
 Ray OrbitCamera::ray(double px, double py, double w, double h) const {
   const Vec3f f = forward(yaw, pitch);
   const Vec3f s = f.cross(Vec3f::UnitZ()).normalized();

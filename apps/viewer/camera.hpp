@@ -33,6 +33,11 @@ struct OrbitCamera {
   void zoom(float factor);
   /// Aims at the box [lo, hi] from the current direction so that all of it is in view.
   void frame(const Vec3f& lo, const Vec3f& hi, float aspect);
+  /// Keeps p in view (a dead zone, as game cameras track a moving subject): when p lies outside
+  /// the middle `zone` of the view (that fraction of the half-width and half-height), moves the
+  /// target and the eye across the view just far enough to put it on the zone's edge; when p is
+  /// behind the eye, aims at it. Returns whether the camera moved.
+  bool keep_in_view(const Vec3f& p, float aspect, float zone);
 
   /// The ray through pixel (px, py) of a w × h viewport (origin top left, as the mouse reports).
   Ray ray(double px, double py, double w, double h) const;

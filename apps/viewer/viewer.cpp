@@ -12,6 +12,7 @@
 #include <cfloat>
 #include <cstring>
 #include <numbers>
+#include <limits>
 #include <numeric>
 #include <chrono>
 #include <cmath>
@@ -368,10 +369,18 @@ class Viewer {
 
   void draw() {
     const int vw = viewport_width();
-    if (follow_) {
+    {
+      // The camera aims at the quanta's box with "camera follows"; otherwise, while the bodies
+      // move, it keeps them in the middle of the view (a thrown body does not leave the window),
+      // and a view the user moved away from bodies at rest stays where it is.
       Vec3 lo, hi;
       bounds(world().state.x, lo, hi);
-      cam_.target = ((lo + hi) / 2).cast<float>();
+      const Vec3f centre = ((lo + hi) / 2).cast<float>();
+      if (follow_)
+        cam_.target = centre;
+      else if (centre != last_centre_)
+        cam_.keep_in_view(centre, static_cast<float>(vw) / static_cast<float>(std::max(fb_h_, 1)), 0.6f);
+      last_centre_ = centre;
     }
     renderer_.begin(0, 0, vw, fb_h_, cam_);
     const Model& m = world().model;
@@ -676,6 +685,7 @@ class Viewer {
   OrbitCamera cam_;
   std::vector<Obstacle> obstacles_;
   Vec3 lo_, hi_;
+  Vec3f last_centre_ = Vec3f::Constant(std::numeric_limits<float>::quiet_NaN());  // the box's centre at the last frame
   double size_ = 1, radius_ = 0.01;
 
   std::size_t next_event_ = 0;
