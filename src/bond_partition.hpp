@@ -38,9 +38,11 @@ struct BondRun {
   bool owns(Index q) const { return q >= lo && q < hi; }
 };
 
-// What counts as a lattice's affine segment when choosing a numbering (ordering.hpp): as long as a
-// wide register.
-inline constexpr Index kMinAffine = 8;
+// What counts as a lattice's affine segment when choosing a numbering (ordering.hpp): as long as
+// one vector of the kernels' affine runs (4 lanes). With 8 (an AVX-512 register), a body of 5³
+// (rows of 4 bonds) got no affine runs: its bonds took the per-bond path, and a step of the
+// cube_drop scene cost 1.8 times as much.
+inline constexpr Index kMinAffine = 4;
 // The shortest segment the kernels take as an affine run: the vector path runs whole vectors
 // (padded lanes), so even two bonds cost one vector iteration, far less than the per-bond
 // path's gathers and per-run set-up.

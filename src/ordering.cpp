@@ -88,6 +88,28 @@ double spacing(const Model& m, const State& s, double extent) {
   return *mid;
 }
 
+// The scene's bonds' order for a numbering of the quanta (quanta i becomes rank[i]): grouped by
+// block of first ends and offset when that puts at least half of them in affine segments, else
+// by (first end, second end); and how many are in affine segments grouped.
+struct BondOrder {
+  std::vector<Index> rank;
+  std::size_t affine;
+};
+
+BondOrder bond_order(const Model& m, const std::vector<Index>& rank, std::size_t scene_bonds) {
+  std::vector<Index> bi(scene_bonds), bj(scene_bonds);
+  for (std::size_t b = 0; b < scene_bonds; ++b) {
+    bi[b] = rank[m.bond_i[b]];
+    bj[b] = rank[m.bond_j[b]];
+  }
+  const std::vector<Index> grouped = offset_grouped(bi, bj);
+  const std::size_t affine = affine_bonds(grouped, bi, bj);
+  if (2 * affine >= scene_bonds) return {rank_of(grouped), affine};
+  std::vector<std::uint64_t> key(scene_bonds);
+  for (std::size_t b = 0; b < scene_bonds; ++b) key[b] = std::uint64_t{bi[b]} << 32 | bj[b];
+  return {rank_by(key), affine};
+}
+
 }  // namespace
 
 Renumbering locality_order(const World& world) {
@@ -120,20 +142,19 @@ Renumbering locality_order(const World& world) {
     key[i] = std::uint64_t(q.z()) << 42 | std::uint64_t(q.y()) << 21 | std::uint64_t(q.x());
   }
   r.quanta = rank_by(key);
-
-  std::vector<Index> bi(scene_bonds), bj(scene_bonds);
-  for (std::size_t b = 0; b < scene_bonds; ++b) {
-    bi[b] = r.quanta[m.bond_i[b]];
-    bj[b] = r.quanta[m.bond_j[b]];
+  BondOrder bonds = bond_order(m, r.quanta, scene_bonds);
+  // A body built as a lattice and then rotated is numbered row by row in its own axes, which bins
+  // in the world's axes scramble: its bonds then form no affine runs and every bond kernel takes
+  // its per-bond path. Keep the given numbering when its bonds form more affine runs.
+  std::vector<Index> same(n);
+  std::iota(same.begin(), same.end(), Index{0});
+  if (bonds.affine < scene_bonds && r.quanta != same) {
+    if (BondOrder kept = bond_order(m, same, scene_bonds); kept.affine > bonds.affine) {
+      r.quanta = std::move(same);
+      bonds = std::move(kept);
+    }
   }
-  const std::vector<Index> grouped = offset_grouped(bi, bj);
-  if (2 * affine_bonds(grouped, bi, bj) >= scene_bonds) {
-    r.bonds = rank_of(grouped);
-  } else {
-    key.resize(scene_bonds);
-    for (std::size_t b = 0; b < scene_bonds; ++b) key[b] = std::uint64_t{bi[b]} << 32 | bj[b];
-    r.bonds = rank_by(key);
-  }
+  r.bonds = std::move(bonds.rank);
   for (std::size_t b = scene_bonds; b < nb; ++b) r.bonds.push_back(static_cast<Index>(b));
   return r;
 }

@@ -31,8 +31,10 @@ struct Renumbering {
 /// of them in affine runs (consecutive bonds whose ends both advance by one, which the paper's
 /// hybrid step loads and updates as contiguous vectors: a lattice), else by their (first end,
 /// second end) (a mesh or packing); ties by index. Bonds formed during the run (State::formed)
-/// keep their slots at the end. A builder's lattice, made x fastest, keeps its quanta order; a
-/// sorted world maps to the identity.
+/// keep their slots at the end. The quanta keep their given order instead when it puts more
+/// bonds in affine runs (a lattice built row by row and then rotated, whose rows the world's
+/// bins cut across). A builder's lattice, made x fastest, keeps its quanta order, rotated or
+/// not; a sorted world maps to the identity.
 Renumbering locality_order(const World& world);
 
 /// Renumbers every per-quanta and per-bond array of the world, the quanta of its motions and
