@@ -12,14 +12,22 @@ constexpr float kMaxPitch = std::numbers::pi_v<float> / 2 - 0.01f;
 Vec3f forward(float yaw, float pitch) {  // from the eye toward the target
   return -Vec3f(std::cos(pitch) * std::cos(yaw), std::cos(pitch) * std::sin(yaw), std::sin(pitch));
 }
+
+// The view's axes: forward (eye to target), side (to the right on screen) and up.
+struct Axes {
+  Vec3f f, s, u;
+};
+Axes axes(float yaw, float pitch) {
+  const Vec3f f = forward(yaw, pitch);
+  const Vec3f s = f.cross(Vec3f::UnitZ()).normalized();
+  return {f, s, s.cross(f)};
+}
 }  // namespace
 
 Vec3f OrbitCamera::eye() const { return target - distance * forward(yaw, pitch); }
 
 Mat4f OrbitCamera::view() const {
-  const Vec3f f = forward(yaw, pitch);
-  const Vec3f s = f.cross(Vec3f::UnitZ()).normalized();
-  const Vec3f u = s.cross(f);
+  const auto [f, s, u] = axes(yaw, pitch);
   const Vec3f e = eye();
   Mat4f m = Mat4f::Identity();
   m.block<1, 3>(0, 0) = s.transpose();
@@ -49,9 +57,7 @@ void OrbitCamera::orbit(float dx, float dy) {
 }
 
 void OrbitCamera::pan(float dx, float dy, float height) {
-  const Vec3f f = forward(yaw, pitch);
-  const Vec3f s = f.cross(Vec3f::UnitZ()).normalized();
-  const Vec3f u = s.cross(f);
+  const auto [f, s, u] = axes(yaw, pitch);
   const float per_pixel = 2 * distance * std::tan(fov_y / 2) / height;
   target += per_pixel * (-dx * s + dy * u);
 }
@@ -66,9 +72,7 @@ void OrbitCamera::frame(const Vec3f& lo, const Vec3f& hi, float aspect) {
 }
 
 bool OrbitCamera::keep_in_view(const Vec3f& p, float aspect, float zone) {
-  const Vec3f f = forward(yaw, pitch);
-  const Vec3f s = f.cross(Vec3f::UnitZ()).normalized();
-  const Vec3f u = s.cross(f);
+  const auto [f, s, u] = axes(yaw, pitch);
   const Vec3f d = p - eye();
   const float depth = d.dot(f);
   if (depth <= 0.01f * distance) {  // behind the eye or at the near plane
@@ -86,9 +90,7 @@ bool OrbitCamera::keep_in_view(const Vec3f& p, float aspect, float zone) {
 }
 
 Ray OrbitCamera::ray(double px, double py, double w, double h) const {
-  const Vec3f f = forward(yaw, pitch);
-  const Vec3f s = f.cross(Vec3f::UnitZ()).normalized();
-  const Vec3f u = s.cross(f);
+  const auto [f, s, u] = axes(yaw, pitch);
   const double t = std::tan(fov_y / 2);
   const double nx = (2 * px / w - 1) * t * w / h, ny = (1 - 2 * py / h) * t;
   const Eigen::Vector3d d = (f.cast<double>() + nx * s.cast<double>() + ny * u.cast<double>()).normalized();
