@@ -94,9 +94,14 @@ void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
   }
 }
 
-// Each run's reach and settled mark (BondRun), from the last run of each part back.
+// Each run's reach and settled mark (BondRun), from the last run of each part back, and the
+// quanta each part has alone (BondPartition::alone_lo, alone_hi).
 void mark_reach(BondPartition& part, const Model& model) {
-  for (int p = 0; p < part.parts(); ++p) {
+  const int parts = part.parts();
+  // The quanta part p's runs join lie in [joins_lo[p], joins_hi[p]) (empty for a part without runs).
+  std::vector<Index> joins_lo(part.first.begin() + 1, part.first.end());
+  std::vector<Index> joins_hi(part.first.begin(), part.first.end() - 1);
+  for (int p = 0; p < parts; ++p) {
     const Index hi = part.first[p + 1];
     Index below = hi;  // the lowest quanta the part's later runs join (hi: none)
     for (Index r = part.run_offset[p + 1]; r-- > part.run_offset[p];) {
@@ -112,7 +117,23 @@ void mark_reach(BondPartition& part, const Model& model) {
         }
       run.reach = hi_end;
       below = std::min(below, lo_end);
+      joins_hi[p] = std::max(joins_hi[p], hi_end);
     }
+    joins_lo[p] = below;
+  }
+  // The ranges are contiguous: the parts before p join quanta up to the highest of their joins_hi,
+  // the parts after it from the lowest of their joins_lo.
+  part.alone_lo.resize(static_cast<std::size_t>(parts));
+  part.alone_hi.resize(static_cast<std::size_t>(parts));
+  Index below = 0;
+  for (int p = 0; p < parts; ++p) {
+    part.alone_lo[p] = std::max(part.first[p], below);
+    below = std::max(below, joins_hi[p]);
+  }
+  Index above = part.first[parts];
+  for (int p = parts; p-- > 0;) {
+    part.alone_hi[p] = std::max(part.alone_lo[p], std::min(part.first[p + 1], above));
+    above = std::min(above, joins_lo[p]);
   }
 }
 

@@ -84,6 +84,9 @@ struct BondPartition {
   // nothing).
   std::vector<BondRun> runs;
   std::vector<Index> run_offset;
+  // (parts): part p's quanta that no other part's runs join (an affine run's whole lanes
+  // included), [alone_lo[p], alone_hi[p]): a kernel may write those while the other parts run.
+  std::vector<Index> alone_lo, alone_hi;
   std::vector<std::uint8_t> mark;  // scratch of update
   // One part and every bond alive: for_each_bond visits bonds 0..nb-1 and the lists are not
   // built (offset all 0, bonds empty).

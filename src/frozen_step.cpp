@@ -8,8 +8,9 @@
 // that loop when its ends are far enough apart, else by vector loops after it. Other runs
 // compute their per-bond terms in vector loops with the ends' data gathered, then update the
 // rows one bond at a time. Either way each row receives its bonds in
-// bond order, so its sum is the same for any thread count. A part's rows are started and solved
-// in the wake of its bond pass, while they are in cache. The vector functions are compiled for
+// bond order, so its sum is the same for any thread count. A part's rows are started and solved,
+// and its positions and velocities copied for the affine runs, in the wake of its bond pass, while
+// they are in cache. The vector functions are compiled for
 // several instruction sets (simd.hpp).
 #include <algorithm>
 #include <cmath>
@@ -204,6 +205,7 @@ struct FrozenScratch {
   RunBonds bonds;
   FrozenTerms terms;
   BondStretch stretch;
+  int part = -1;                  // which part, from its first run on
   Index started = 0, solved = 0;  // the part's rows from its first are started up to here, solved up to here
 };
 
@@ -407,19 +409,31 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   soa.take(a.row);
   soa.take(a.x);
   soa.take(a.v);
-  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { copy_state(state, a, lo, hi); });
-  // Each part's rows are started just before its runs reach them and solved once its later runs
-  // no longer do (BondRun::reach, settled), in pieces of at least `wake` quanta: the rows are then
-  // in the second-level cache through the bond pass, and are not streamed from memory by passes
-  // of their own before and after it. A row's sum is the same either way.
-  const auto start = [&](Index lo, Index hi) { start_rows(model, state, f_ext, h, a, lo, hi); };
+  // Each part's rows are started, and its x and v copied, just before its runs reach them, and
+  // its rows solved once its later runs no longer reach them (BondRun::reach, settled), in pieces
+  // of at least `wake` quanta: the rows and copies are then in the second-level cache through the
+  // bond pass, and are not streamed from memory by passes of their own before and after it. A
+  // row's sum is the same either way. The quanta other parts' runs join are copied first, so
+  // that no part reads an entry another is writing.
+  for_each_part(part.parts(), [&](int p) {
+    copy_state(state, a, part.first[p], part.alone_lo[p]);
+    copy_state(state, a, part.alone_hi[p], part.first[p + 1]);
+  });
+  const auto start = [&](const FrozenScratch& s, Index lo, Index hi) {
+    start_rows(model, state, f_ext, h, a, lo, hi);
+    copy_state(state, a, std::max(lo, part.alone_lo[s.part]), std::min(hi, part.alone_hi[s.part]));
+  };
   // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
   const auto solve = [&](Index lo, Index hi) { solve_rows(model, state, a, h, lo, hi, out); };
   for_each_bond_run<FrozenScratch>(part, [&](const BondRun& run, FrozenScratch& s) {
-    if (s.started < run.lo) s.started = s.solved = run.lo;  // the part's first run
+    if (s.part < 0) {
+      const auto after = std::upper_bound(part.first.begin(), part.first.end(), run.lo);
+      s.part = static_cast<int>(after - part.first.begin()) - 1;
+      s.started = s.solved = run.lo;
+    }
     if (s.started < std::min(run.reach, run.hi)) {
       const Index to = std::min(run.hi, std::max(run.reach, s.started + wake));
-      start(s.started, to);
+      start(s, s.started, to);
       s.started = to;
     }
     // The same runs for every partition (bond_partition.hpp), so the same path for each bond (an
@@ -432,7 +446,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
       frozen_scatter(run, s.bonds, s.terms, state.v.data(), a, s.stretch);
     }
     if (run.last) {
-      start(s.started, run.hi);
+      start(s, s.started, run.hi);
       solve(s.solved, run.hi);
       return;
     }
@@ -447,7 +461,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   // The rows of parts without bonds.
   for (int p = 0; p < part.parts(); ++p)
     if (part.run_offset[p] == part.run_offset[p + 1]) {
-      start(part.first[p], part.first[p + 1]);
+      start_rows(model, state, f_ext, h, a, part.first[p], part.first[p + 1]);
       solve(part.first[p], part.first[p + 1]);
     }
   project_kinematic(model, state, ctx, out);
