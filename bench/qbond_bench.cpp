@@ -8,14 +8,15 @@
 // canonical workload (samples.hpp: n³ simple-cubic lattice, face diagonals, x = 0 face anchored,
 // gravity, h = 1e-4 s unless --dt says otherwise; with --as-run each step as `qbond run` takes it,
 // energy ledger and rollback copy included), and a STREAM-style triad measuring this machine's memory bandwidth in the
-// same run, so that a step's time can be set against the bandwidth bound of the bytes it must
-// move. Counters: quanta, bonds, threads, bytes_per_step (the traffic model below).
+// same run on each thread count, so that a step's time can be set against the bandwidth bound of
+// the bytes it must move on as many threads. Counters: quanta, bonds, threads, bytes_per_step (the traffic model below).
 //
 // With --solve: the time to reach the backward-Euler solution of one step at h = 1/60 s to a
 // relative residual of 1e-6, by qbond's default (matrix-free CG, 3×3 block-Jacobi) and by Eigen's
 // CG (diagonal preconditioner) and sparse Cholesky (SimplicialLLT) on the same assembled system.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -29,6 +30,7 @@
 #include <Eigen/SparseCholesky>
 
 #include "implicit_system.hpp"  // internal: the linear system the implicit integrators solve
+#include "parallel.hpp"         // internal: the engine's parallel loops, for the triad
 #include "qbond/ordering.hpp"
 #include "qbond/samples.hpp"
 #include "qbond/simulation.hpp"
@@ -115,18 +117,29 @@ void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, i
   st.counters["bytes_per_step"] = bytes_per_step(quanta, bonds);
 }
 
-// STREAM's triad a = b + s c over arrays far larger than the caches; bytes counted as STREAM
-// does (two reads and one write of 8 B per element).
-void triad_benchmark(benchmark::State& st) {
+// STREAM's triad a = b + s c over arrays far larger than the caches, on `threads` threads by
+// qbond's own parallel loops (each thread touching first the pages it will use); bytes counted as
+// STREAM does (two reads and one write of 8 B per element).
+void triad_benchmark(benchmark::State& st, int threads) {
   const std::size_t n = std::size_t{1} << 24;  // 3 × 128 MiB
-  std::vector<double> a(n, 0.0), b(n, 1.0), c(n, 2.0);
+  std::unique_ptr<double[]> a(new double[n]), b(new double[n]), c(new double[n]);
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
+    std::fill(a.get() + lo, a.get() + hi, 0.0);
+    std::fill(b.get() + lo, b.get() + hi, 1.0);
+    std::fill(c.get() + lo, c.get() + hi, 2.0);
+  });
   const double s = 3.0;
   for (auto _ : st) {
-    for (std::size_t i = 0; i < n; ++i) a[i] = b[i] + s * c[i];
-    benchmark::DoNotOptimize(a.data());
+    parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
+      double* __restrict ap = a.get();
+      const double *__restrict bp = b.get(), *__restrict cp = c.get();
+      for (std::size_t i = lo; i < hi; ++i) ap[i] = bp[i] + s * cp[i];
+    });
+    benchmark::DoNotOptimize(a.get());
     benchmark::ClobberMemory();
   }
   st.counters["bytes_per_iteration"] = 24.0 * static_cast<double>(n);
+  st.counters["threads"] = threads;
 }
 
 constexpr double kSolveStep = 1.0 / 60, kSolveTolerance = 1e-6;
@@ -273,7 +286,11 @@ int main(int argc, char** argv) {
     return 0;
   }
   const auto all = known_integrators();
-  benchmark::RegisterBenchmark("triad", triad_benchmark)->UseRealTime()->Unit(benchmark::kMillisecond);
+  for (int t : threads)
+    benchmark::RegisterBenchmark(("triad/threads:" + std::to_string(t)).c_str(),
+                                 [t](benchmark::State& st) { triad_benchmark(st, t); })
+        ->UseRealTime()
+        ->Unit(benchmark::kMillisecond);
   for (const std::string& name : names) {
     const NamedIntegrator* integ = nullptr;
     for (const auto& i : all)

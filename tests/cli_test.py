@@ -306,17 +306,26 @@ def test_adaptive_finishes_what_fixed_blows_up():
 
 
 def test_bench_quick():
-    """`qbond bench --quick` (what CI runs so the suite cannot rot): one table row per integrator,
-    the same rows in the JSON, every figure finite and positive, counts those of the workload."""
+    """`qbond bench --quick` (what CI runs so the suite cannot rot): one table row per integrator
+    and thread count, the same rows in the JSON, every figure finite and positive, counts those of
+    the workload, the triad measured on each thread count and each row's bound taken with its own."""
     os.makedirs(fresh("bench"))
     path = os.path.join(WORK, "bench", "bench.json")
-    r = qbond("bench", "--quick", "--json", path, check_code=0)
-    if "x bound" not in r.stdout or "GB/s" not in r.stdout:
+    r = qbond("bench", "--quick", "-j", "1,2", "--json", path, check_code=0)
+    if "x bound" not in r.stdout or "vs 1T" not in r.stdout or "2 threads" not in r.stdout:
         fail(f"no table printed:\n{r.stdout}")
     doc = json.load(open(path))
-    names = sorted(row["integrator"] for row in doc["rows"])
-    if names != ["default", "hybrid_frozen", "hybrid_sweep", "velocity_verlet"]:
+    names = sorted((row["integrator"], row["threads"]) for row in doc["rows"])
+    if names != [(i, t) for i in ["default", "hybrid_frozen", "hybrid_sweep", "velocity_verlet"] for t in (1, 2)]:
         fail(f"rows {names}")
+    by_threads = doc["triad_bytes_per_second_by_threads"]
+    if sorted(by_threads) != ["1", "2"] or doc["triad_bytes_per_second"] != by_threads["1"]:
+        fail(f"triad {by_threads}, {doc['triad_bytes_per_second']}")
+    for row in doc["rows"]:
+        if row["bandwidth_bytes_per_second"] != by_threads[str(row["threads"])]:
+            fail(f"bound not taken on the row's thread count: {row}")
+        if not (row["speedup_over_one_thread"] > 0) or (row["threads"] == 1 and row["speedup_over_one_thread"] != 1):
+            fail(f"speed-up {row}")
     for row in doc["rows"]:
         # n = 10: 1000 quanta; bonds along x, y, z (3 * 10 * 10 * 9) and face diagonals (6 * 10 * 9 * 9).
         if row["quanta"] != 1000 or row["bonds"] != 2700 + 4860:

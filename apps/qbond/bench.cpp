@@ -74,17 +74,37 @@ RunName parse_run_name(const json& b) {
   return {name.substr(s1 + 1, s2 - s1 - 1), name.substr(s2 + 3, s3 == std::string::npos ? s3 : s3 - s2 - 3)};
 }
 
-// Rows "step/INTEGRATOR/n:N/threads:T": time per step against the bandwidth bound (sets `bandwidth`).
-template <class Wanted>
-json step_table(const json& report, const Wanted& wanted, double h, double& bandwidth) {
+// The triad's bandwidth [B/s] on each thread count it ran on ("triad/threads:T").
+std::map<int, double> triad_bandwidths(const json& report, const auto& wanted) {
+  std::map<int, double> bandwidth;
   for (const json& b : report.at("benchmarks"))
-    if (wanted(b) && is_triad(b)) bandwidth = b.at("bytes_per_iteration").get<double>() / seconds(b);
-  if (!(bandwidth > 0)) throw std::runtime_error("qbond bench: the triad did not run");
+    if (wanted(b) && is_triad(b))
+      bandwidth[static_cast<int>(b.at("threads").get<double>())] = b.at("bytes_per_iteration").get<double>() / seconds(b);
+  if (bandwidth.empty()) throw std::runtime_error("qbond bench: the triad did not run");
+  return bandwidth;
+}
+
+// Rows "step/INTEGRATOR/n:N/threads:T": time per step against the bandwidth bound on as many
+// threads, and against the same step on one thread when that ran too.
+json step_table(const json& report, const auto& wanted, double h, const std::map<int, double>& bandwidth) {
   std::printf("qbond bench: canonical workload (n^3 cubic lattice, face diagonals, x = 0 anchored, h = %g s)\n", h);
-  std::printf("memory bandwidth (STREAM triad, this run): %.2f GB/s; bound = bytes a step must move / bandwidth\n\n",
-              bandwidth * 1e-9);
-  std::printf("%-10s %-16s %8s %8s %7s %10s %11s %12s %11s %9s\n", "workload", "integrator", "quanta", "bonds", "threads",
-              "ms/step", "ns/bond", "ns/quanta", "bytes/qnt", "x bound");
+  std::printf("memory bandwidth (STREAM triad, this run):");
+  for (const char* sep = " "; const auto& [threads, bw] : bandwidth) {
+    std::printf("%s%d thread%s %.2f GB/s", sep, threads, threads == 1 ? "" : "s", bw * 1e-9);
+    if (threads != 1 && bandwidth.contains(1)) std::printf(" (%.2fx one)", bw / bandwidth.at(1));
+    sep = "; ";
+  }
+  std::printf("\nbound = bytes a step must move / the bandwidth on as many threads; vs 1T = speed-up over one thread\n\n");
+  std::printf("%-10s %-16s %8s %8s %7s %10s %11s %12s %11s %9s %7s\n", "workload", "integrator", "quanta", "bonds",
+              "threads", "ms/step", "ns/bond", "ns/quanta", "bytes/qnt", "x bound", "vs 1T");
+  std::map<std::string, double> one_thread;  // seconds a step on one thread, by run name without threads
+  auto key = [](const json& b) {
+    const std::string name = b.at("run_name");
+    const auto t = name.find("/threads:"), end = name.find('/', t + 1);
+    return name.substr(0, t) + (end == std::string::npos ? "" : name.substr(end));
+  };
+  for (const json& b : report.at("benchmarks"))
+    if (wanted(b) && !is_triad(b) && b.at("threads").get<double>() == 1) one_thread[key(b)] = seconds(b);
   json rows = json::array();
   for (const json& b : report.at("benchmarks")) {
     if (!wanted(b) || is_triad(b)) continue;
@@ -93,10 +113,14 @@ json step_table(const json& report, const Wanted& wanted, double h, double& band
     if (as_run) integrator += "+run";
     const double t = seconds(b), quanta = b.at("quanta"), bonds = b.at("bonds"), threads = b.at("threads"),
                  bytes = b.at("bytes_per_step");
-    const double ratio = t / (bytes / bandwidth);
-    std::printf("%-10s %-16s %8.0f %8.0f %7.0f %10.4f %11.3f %12.2f %11.1f %9.2f\n", ("n=" + n).c_str(),
+    const auto bw = bandwidth.find(static_cast<int>(threads));
+    const double bytes_per_second = bw != bandwidth.end() ? bw->second : bandwidth.begin()->second;
+    const double ratio = t / (bytes / bytes_per_second);
+    const auto one = one_thread.find(key(b));
+    const double speedup = one != one_thread.end() ? one->second / t : NAN;
+    std::printf("%-10s %-16s %8.0f %8.0f %7.0f %10.4f %11.3f %12.2f %11.1f %9.2f %7.2f\n", ("n=" + n).c_str(),
                 integrator.c_str(), quanta, bonds, threads, t * 1e3, t / bonds * 1e9, t / quanta * 1e9, bytes / quanta,
-                ratio);
+                ratio, speedup);
     rows.push_back({{"workload", "lattice n=" + n},
                     {"integrator", integrator},
                     {"as_run", as_run},
@@ -108,7 +132,9 @@ json step_table(const json& report, const Wanted& wanted, double h, double& band
                     {"ns_per_bond_step", t / bonds * 1e9},
                     {"ns_per_quanta_step", t / quanta * 1e9},
                     {"bytes_per_quanta_step", bytes / quanta},
-                    {"ratio_to_bandwidth_bound", ratio}});
+                    {"bandwidth_bytes_per_second", bytes_per_second},
+                    {"ratio_to_bandwidth_bound", ratio},
+                    {"speedup_over_one_thread", std::isnan(speedup) ? json(nullptr) : json(speedup)}});
   }
   return rows;
 }
@@ -180,16 +206,20 @@ int bench(const BenchArgs& a) {
                                b.value("error_message", "failed"));
     return reps > 1 ? b.value("aggregate_name", "") == "median" : b.value("run_type", "iteration") == "iteration";
   };
-  double bandwidth = 0;  // [B/s]; the solver comparison runs no triad
+  std::map<int, double> bandwidth;  // [B/s] by thread count; the solver comparison runs no triad
+  if (!a.solve) bandwidth = triad_bandwidths(report, wanted);
   const json rows = a.solve ? solve_table(report, wanted) : step_table(report, wanted, a.dt > 0 ? a.dt : 1e-4, bandwidth);
   if (!a.json.empty()) {
     const std::time_t now = std::time(nullptr);
     char date[32];
     std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+    json by_threads = json::object();  // the triad's bandwidth by thread count; the one-thread figure alone too
+    for (const auto& [threads, bw] : bandwidth) by_threads[std::to_string(threads)] = bw;
     const json doc = {{"date", date},
                       {"machine", machine()},
                       {"repetitions", reps},
-                      {"triad_bytes_per_second", a.solve ? json(nullptr) : json(bandwidth)},
+                      {"triad_bytes_per_second", bandwidth.contains(1) ? json(bandwidth.at(1)) : json(nullptr)},
+                      {"triad_bytes_per_second_by_threads", by_threads},
                       {"rows", rows}};
     write_file_atomic(a.json, doc.dump(1) + "\n");
   }
