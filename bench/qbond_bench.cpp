@@ -16,7 +16,6 @@
 // CG (diagonal preconditioner) and sparse Cholesky (SimplicialLLT) on the same assembled system.
 #include <benchmark/benchmark.h>
 
-#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -30,7 +29,6 @@
 #include <Eigen/SparseCholesky>
 
 #include "implicit_system.hpp"  // internal: the linear system the implicit integrators solve
-#include "parallel.hpp"         // internal: the engine's parallel loops, for the triad
 #include "qbond/ordering.hpp"
 #include "qbond/samples.hpp"
 #include "qbond/simulation.hpp"
@@ -117,25 +115,24 @@ void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, i
   st.counters["bytes_per_step"] = bytes_per_step(quanta, bonds);
 }
 
-// STREAM's triad a = b + s c over arrays far larger than the caches, on `threads` threads by
-// qbond's own parallel loops (each thread touching first the pages it will use); bytes counted as
-// STREAM does (two reads and one write of 8 B per element).
+// STREAM's triad a = b + s c over arrays far larger than the caches, on `threads` threads, each
+// taking one contiguous share (and touching its pages first); bytes counted as STREAM does (two
+// reads and one write of 8 B per element).
 void triad_benchmark(benchmark::State& st, int threads) {
-  const std::size_t n = std::size_t{1} << 24;  // 3 × 128 MiB
+  const auto n = std::ptrdiff_t{1} << 24;  // 3 × 128 MiB
   std::unique_ptr<double[]> a(new double[n]), b(new double[n]), c(new double[n]);
-  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
-    std::fill(a.get() + lo, a.get() + hi, 0.0);
-    std::fill(b.get() + lo, b.get() + hi, 1.0);
-    std::fill(c.get() + lo, c.get() + hi, 2.0);
-  });
+  double *ap = a.get(), *bp = b.get(), *cp = c.get();
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    ap[i] = 0.0;
+    bp[i] = 1.0;
+    cp[i] = 2.0;
+  }
   const double s = 3.0;
   for (auto _ : st) {
-    parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
-      double* __restrict ap = a.get();
-      const double *__restrict bp = b.get(), *__restrict cp = c.get();
-      for (std::size_t i = lo; i < hi; ++i) ap[i] = bp[i] + s * cp[i];
-    });
-    benchmark::DoNotOptimize(a.get());
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (std::ptrdiff_t i = 0; i < n; ++i) ap[i] = bp[i] + s * cp[i];
+    benchmark::DoNotOptimize(ap);
     benchmark::ClobberMemory();
   }
   st.counters["bytes_per_iteration"] = 24.0 * static_cast<double>(n);
