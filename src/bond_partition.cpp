@@ -127,7 +127,7 @@ void mark_reach(BondPartition& part, const Model& model) {
   part.alone_hi.resize(static_cast<std::size_t>(parts));
   Index below = 0;
   for (int p = 0; p < parts; ++p) {
-    part.alone_lo[p] = std::max(part.first[p], below);
+    part.alone_lo[p] = std::clamp(below, part.first[p], part.first[p + 1]);
     below = std::max(below, joins_hi[p]);
   }
   Index above = part.first[parts];

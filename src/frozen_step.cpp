@@ -7,11 +7,10 @@
 // contiguous vectors, and its terms are added to the rows (kept as structure of arrays) by
 // that loop when its ends are far enough apart, else by vector loops after it. Other runs
 // compute their per-bond terms in vector loops with the ends' data gathered, then update the
-// rows one bond at a time. Either way each row receives its bonds in
-// bond order, so its sum is the same for any thread count. A part's rows are started and solved,
-// and its positions and velocities copied for the affine runs, in the wake of its bond pass, while
-// they are in cache. The vector functions are compiled for
-// several instruction sets (simd.hpp).
+// rows one bond at a time. Either way each row receives its bonds in bond order, so its sum is
+// the same for any thread count. A part's rows are started and solved, and its positions and
+// velocities copied for the affine runs, in the wake of its bond pass, while they are in cache.
+// The vector functions are compiled for several instruction sets (simd.hpp).
 #include <algorithm>
 #include <cmath>
 

@@ -270,6 +270,52 @@ TEST(BondPartition, CgProductMatchesTheAssembledMatrixAndGivesTheSameBitsAtAnyTh
   }
 }
 
+// alone_lo/alone_hi: within the part's range, and no other part's runs (an affine run's whole
+// lanes) join a quanta there; on a lattice, and on a chain whose long bonds reach across the
+// middle part of three, which then has no quanta alone.
+TEST(BondPartition, AQuantaAloneIsJoinedByNoOtherPartsRuns) {
+  World chain;
+  for (int q = 0; q < 6000; ++q) chain.add_quanta(Vec3(0.01 * q, 0, 0), Vec3::Zero(), 1e-3);
+  for (Index q = 0; q + 1 < 6000; ++q) chain.add_bond(q, q + 1, {.law = Law::linear, .stiffness = 1000});
+  for (Index q = 0; q + 2500 < 6000; ++q) chain.add_bond(q, q + 2500, {.law = Law::linear, .stiffness = 1000});
+  const World grouped = grouped_lattice(true);
+  bool some_alone = false, one_empty = false;
+  for (const World* w : {&grouped, static_cast<const World*>(&chain)}) {
+    Adjacency adj;
+    build_adjacency(w->model, w->state, adj);
+    for (int threads : {1, 2, 3}) {
+      BondPartition part;
+      part.update(w->model, adj, threads);
+      std::vector<int> joined_by(w->num_quanta() + kBondRun, -1);  // a part whose runs join it, -2: two parts
+      for (int p = 0; p < part.parts(); ++p)
+        for (Index r = part.run_offset[p]; r < part.run_offset[p + 1]; ++r) {
+          const BondRun& run = part.runs[r];
+          auto join = [&](Index q) { joined_by[q] = joined_by[q] == -1 || joined_by[q] == p ? p : -2; };
+          for (Index k = 0; k < (run.affine ? affine_lanes(run.count) : run.count); ++k) {
+            const Index b = run.bond(k);
+            join(run.affine ? run.i0 + k : w->model.bond_i[b]);
+            join(run.affine ? run.j0 + k : w->model.bond_j[b]);
+          }
+        }
+      for (int p = 0; p < part.parts(); ++p) {
+        const std::string what = std::to_string(threads) + " threads, part " + std::to_string(p);
+        ASSERT_LE(part.first[p], part.alone_lo[p]) << what;
+        ASSERT_LE(part.alone_lo[p], part.alone_hi[p]) << what;
+        ASSERT_LE(part.alone_hi[p], part.first[p + 1]) << what;
+        for (Index q = part.alone_lo[p]; q < part.alone_hi[p]; ++q)
+          ASSERT_TRUE(joined_by[q] == -1 || joined_by[q] == p) << what << ", quanta " << q;
+        some_alone |= part.parts() > 1 && part.alone_hi[p] > part.alone_lo[p];
+        one_empty |= part.parts() == 3 && part.alone_hi[p] == part.alone_lo[p];
+      }
+      if (threads == 1) {
+        EXPECT_EQ(part.alone_hi[0] - part.alone_lo[0], w->num_quanta());
+      }
+    }
+  }
+  EXPECT_TRUE(some_alone);
+  EXPECT_TRUE(one_empty);  // the chain's middle part
+}
+
 TEST(BondPartition, RebuildsWhenTheTopologyChanges) {
   World w = random_lattice();
   Adjacency adj;

@@ -213,7 +213,7 @@ int bench(const BenchArgs& a) {
     const std::time_t now = std::time(nullptr);
     char date[32];
     std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
-    json by_threads = json::object();  // the triad's bandwidth by thread count; the one-thread figure alone too
+    json by_threads = json::object();  // the triad's bandwidth by thread count
     for (const auto& [threads, bw] : bandwidth) by_threads[std::to_string(threads)] = bw;
     const json doc = {{"date", date},
                       {"machine", machine()},
