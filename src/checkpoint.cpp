@@ -2,6 +2,7 @@
 
 #include <cstring>
 
+#include "forces.hpp"  // verlet_carry_size
 #include "qbond/files.hpp"
 
 namespace qbond {
@@ -132,7 +133,8 @@ State deserialize_state(std::string_view bytes) {
   if (!r.bytes.empty()) throw CheckpointError("state: " + std::to_string(r.bytes.size()) + " unexpected bytes at the end");
   if (s.v.size() != s.x.size() || s.alive.size() != s.rest.size() || s.bond_time.size() != s.rest.size() ||
       (!s.warm.empty() && s.warm.size() != s.x.size() && s.warm.size() != 2 * s.x.size() + 1 &&
-       s.warm.size() != 3 * s.x.size() + 1))
+       s.warm.size() != verlet_carry_size(s.x.size()) &&
+       s.warm.size() != 3 * s.x.size() + 1))  // velocity_verlet's older layout, which a step then drops
     throw CheckpointError("state: inconsistent array lengths");
   return s;
 }

@@ -1,8 +1,10 @@
 // Explicit integrators: the particle method and its better-behaved relatives.
+#include <algorithm>
 #include <bit>
 #include <cstdint>
 #include <functional>
 
+#include "affine_rows.hpp"
 #include "forces.hpp"
 #include "integrator_common.hpp"
 #include "parallel.hpp"
@@ -11,29 +13,50 @@
 namespace qbond {
 namespace {
 
+// Velocity Verlet's carry-over in State::warm, as triples: the bond forces f₁ and the positions
+// x₁ the step left, as structure of arrays (three arrays each, soa_stride(n) doubles apart: the
+// force pass's own rows, written there by the stage and the pass), then its v₁ (n triples), then
+// a tag (topology version, 0, 0): verlet_carry_size(n) triples. T is double or const double.
+template <class T>
+struct Carry {
+  T* f[3];
+  T* x[3];
+  T* v;
+  Carry(T* warm, std::size_t n) : v(warm + 6 * soa_stride(n)) {
+    for (std::size_t c = 0; c < 3; ++c) {
+      f[c] = warm + c * soa_stride(n);
+      x[c] = warm + (3 + c) * soa_stride(n);
+    }
+  }
+};
+
+// Three read-only arrays, one per component, passed by value (their pointers then stay in
+// registers through a vector loop).
+struct Columns {
+  const double* c[3];
+};
+
 // Verlet's first half for quanta [lo, hi), from the step's first accelerations a = m⁻¹ (f0 + f_ext):
 // the free quanta's Δx = h v + h²/2 a into dx (0 for kinematic ones: project_kinematic writes
-// those that move); x₁ = x + Δx, as the step will apply it, into x1 and the bond pass's rows; the
-// velocity the forces are taken at, ṽ = v + h a (kinematic: v), into the rows; the force sums
-// zeroed. Returns whether x and v equal cx and cv bit for bit.
-QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, const double* f0, const double* f_ext, const double* x,
-                                      const double* v, const double* cx, const double* cv, double h, double* dx,
-                                      double* x1, ForceRows rows, std::size_t lo, std::size_t hi) {
+// those that move); x₁ = x + Δx, as the step will apply it, into the bond pass's rows (the next
+// carry-over's); the velocity the forces are taken at, ṽ = v + h a (kinematic: v), into the rows;
+// the force sums zeroed. Returns whether x and v equal cx and cv bit for bit.
+QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, Columns f0, const double* f_ext, const double* x,
+                                      const double* v, Columns cx, const double* cv, double h, double* dx,
+                                      ForceRows rows, std::size_t lo, std::size_t hi) {
   const double hh = 0.5 * h * h;
   std::uint64_t differ = 0;
   QBOND_SIMD_OR(differ) for (std::size_t q = lo; q < hi; ++q) {
     QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
       const std::size_t e = 3 * q + c;
       const double xe = x[e], ve = v[e];
-      differ |= (std::bit_cast<std::uint64_t>(xe) ^ std::bit_cast<std::uint64_t>(cx[e])) |
+      differ |= (std::bit_cast<std::uint64_t>(xe) ^ std::bit_cast<std::uint64_t>(cx.c[c][q])) |
                 (std::bit_cast<std::uint64_t>(ve) ^ std::bit_cast<std::uint64_t>(cv[e]));
-      const double ae = inv_mass[q] * (f0[e] + f_ext[e]);
+      const double ae = inv_mass[q] * (f0.c[c][q] + f_ext[e]);
       const double step = h * ve + hh * ae, vt = ve + h * ae;
       const double d = inv_mass[q] != 0 ? step : 0.0;
-      const double xn = xe + d;
       dx[e] = d;
-      x1[e] = xn;
-      rows.x[c][q] = xn;
+      rows.x[c][q] = xe + d;
       rows.v[c][q] = inv_mass[q] != 0 ? vt : ve;
       rows.f[c][q] = 0;
     }
@@ -41,20 +64,19 @@ QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, const double* f0, 
   return differ == 0;
 }
 
-// Verlet's second half for quanta [lo, hi): the bond forces at the stage into f1 (the carry-over),
-// the free quanta's Δv = h/2 (m⁻¹ (f0 + f_ext) + m⁻¹ (f1 + f_ext)) into dv (0 for kinematic
-// ones), and v₁ = v + Δv into v1.
-QBOND_VECTOR_CLONES void verlet_finish(const double* inv_mass, ForceRows rows, const double* f_ext, const double* f0,
-                                       const double* v, double h, double* dv, double* f1, double* v1, std::size_t lo,
+// Verlet's second half for quanta [lo, hi): with the bond forces at the stage in rows.f (the
+// carry-over's f₁), the free quanta's Δv = h/2 (m⁻¹ (f0 + f_ext) + m⁻¹ (f1 + f_ext)) into dv (0
+// for kinematic ones), and v₁ = v + Δv into v1.
+QBOND_VECTOR_CLONES void verlet_finish(const double* inv_mass, ForceRows rows, const double* f_ext, Columns f0,
+                                       const double* v, double h, double* dv, double* v1, std::size_t lo,
                                        std::size_t hi) {
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
     const bool free = inv_mass[q] != 0;
     QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
       const std::size_t e = 3 * q + c;
-      const double f = rows.f[c][q];
-      const double kick = (0.5 * h) * (inv_mass[q] * (f0[e] + f_ext[e]) + inv_mass[q] * (f + f_ext[e]));
+      const double kick =
+          (0.5 * h) * (inv_mass[q] * (f0.c[c][q] + f_ext[e]) + inv_mass[q] * (rows.f[c][q] + f_ext[e]));
       const double d = free ? kick : 0.0;
-      f1[e] = f;
       dv[e] = d;
       v1[e] = v[e] + d;
     }
@@ -127,71 +149,77 @@ class ExplicitIntegrator final : public Integrator {
   // where a is the last step's a₁ (first same as last: one force pass a step). Undamped, a does
   // not depend on the velocity and this is velocity Verlet itself; with damping, ṽ − v₁ =
   // h/2 (a − a₁) = O(h²) keeps the step second order. The last step's bond forces travel in
-  // State::warm with the x₁, v₁ it left (carries_forces); when the state is not exactly that
-  // (a heuristic, a contact, a rollback or the user changed it) a = a(x, v) is evaluated afresh.
+  // State::warm with the x₁, v₁ it left (Carry); when the state is not exactly that (a
+  // heuristic, a contact, a rollback or the user changed it) a = a(x, v) is evaluated afresh.
   void verlet(const Model& model, const State& state, const std::vector<Vec3>& f_ext, const StepContext& ctx,
               Projection& out) {
-    const std::size_t n = model.num_quanta();
+    const std::size_t n = model.num_quanta(), size = verlet_carry_size(n);
     const double h = ctx.h, t1 = ctx.t + h;
     const int threads = config_.threads;
-    // The new carry-over: [bond forces at (x₁, ṽ) | x₁ | v₁ | (topology version, 0, 0)].
-    out.warm.resize(3 * n + 1);
+    out.warm.resize(size);
     out.warm_needs_bonds = true;
-    double* f1 = out.warm.data()->data();
-    double* x1 = f1 + 3 * n;
-    double* v1 = x1 + 3 * n;
+    const Carry<double> next(out.warm.data()->data(), n);
+    // The bond pass's rows: f₁ and x₁ in the new carry-over (their padding zeroed: the affine runs
+    // read up to a vector past the last quanta, and a checkpoint saves it), ṽ in forces_.
+    ForceRows rows = force_rows(forces_, n);
+    for (std::size_t c = 0; c < 3; ++c) {
+      rows.f[c] = next.f[c];
+      rows.x[c] = next.x[c];
+      std::fill(next.f[c] + n, next.f[c] + soa_stride(n), 0.0);
+      std::fill(next.x[c] + n, next.x[c] + soa_stride(n), 0.0);
+    }
     const double* inv_mass = model.inv_mass.data();
     const double* x = state.x.data()->data();
     const double* v = state.v.data()->data();
     const double* fe = f_ext.data()->data();
     double* dx = out.dx.data()->data();
     double* dv = out.dv.data()->data();
-    // With the carried forces while checking that the state is the one they were left for; if it
-    // is not, again with a(x, v) evaluated afresh.
-    const bool carried = carries_forces(state, n);
-    const double* f0 = carried ? state.warm.data()->data() : fresh_forces(model, state);
-    const double* cx = carried ? f0 + 3 * n : x;
-    const double* cv = carried ? f0 + 6 * n : v;
-    const ForceRows rows = force_rows(forces_, n);  // fresh_forces fills the same storage's rows
-    auto stage = [&](std::size_t lo, std::size_t hi) {
-      return verlet_stage(inv_mass, f0, fe, x, v, cx, cv, h, dx, x1, rows, lo, hi);
+    // With the carried forces, for the topology they were left for, while checking that the state
+    // is the one they were left for; if it is not, again with a(x, v) evaluated afresh into
+    // forces_'s f and x, which the stage does not write (cx is then x itself).
+    Columns f0{}, cx{};
+    const double* cv = v;
+    auto take = [](Columns& to, const auto& from) {
+      for (std::size_t c = 0; c < 3; ++c) to.c[c] = from[c];
     };
-    if (!reduce_chunks(n, threads, true, stage, std::logical_and<>{})) {
-      f0 = fresh_forces(model, state);
-      cx = x, cv = v;
+    if (state.warm.size() == size && state.warm[size - 1][0] == static_cast<double>(state.topology_version)) {
+      const Carry<const double> last(state.warm.data()->data(), n);
+      take(f0, last.f);
+      take(cx, last.x);
+      cv = last.v;
+    }
+    auto stage = [&](std::size_t lo, std::size_t hi) {
+      return verlet_stage(inv_mass, f0, fe, x, v, cx, cv, h, dx, rows, lo, hi);
+    };
+    if (!f0.c[0] || !reduce_chunks(n, threads, true, stage, std::logical_and<>{})) {
+      const ForceRows fresh = bond_force_rows(model, state, part_, state.x.data(), state.v.data(), threads, forces_);
+      take(f0, fresh.f);
+      take(cx, fresh.x);
+      cv = v;
       reduce_chunks(n, threads, true, stage, std::logical_and<>{});
     }
+    // The prescribed quanta where the step will place them (place_kinematic).
     for (const Motion& motion : model.motions)
       for (std::size_t k = 0; k < motion.quanta.size(); ++k) {
         const Index q = motion.quanta[k];
         Vec3 xq, vq;
         motion.at(k, t1, xq, vq);
         for (int c = 0; c < 3; ++c) {
-          x1[3 * q + c] = rows.x[c][q] = xq[c];
+          rows.x[c][q] = xq[c];
           rows.v[c][q] = vq[c];
         }
       }
     add_bond_forces(model, state, part_, rows);
     parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
-      verlet_finish(inv_mass, rows, fe, f0, v, h, dv, f1, v1, lo, hi);
+      verlet_finish(inv_mass, rows, fe, f0, v, h, dv, next.v, lo, hi);
     });
     project_kinematic(model, state, ctx, out);
-    place_kinematic(model, t1, out.warm.data() + n, out.warm.data() + 2 * n);
-    out.warm[3 * n] = Vec3(static_cast<double>(state.topology_version), 0, 0);
-  }
-
-  // The bond forces at (x, v), evaluated afresh.
-  const double* fresh_forces(const Model& model, const State& state) {
-    a2_.resize(model.num_quanta());
-    bond_force_sums(model, state, part_, state.x.data(), state.v.data(), config_.threads, forces_, a2_.data());
-    return a2_.data()->data();
-  }
-
-  // Whether State::warm holds the bond forces a Verlet step left, for the present topology (the
-  // stage then checks that the positions and velocities are still the ones it left, bit for bit).
-  // Edits of bond parameters that keep the topology drop the carry-over: Projection::bonds_edited.
-  static bool carries_forces(const State& state, std::size_t n) {
-    return state.warm.size() == 3 * n + 1 && state.warm[3 * n][0] == static_cast<double>(state.topology_version);
+    for (const Motion& motion : model.motions)
+      for (std::size_t k = 0; k < motion.quanta.size(); ++k) {
+        const Index q = motion.quanta[k];
+        for (int c = 0; c < 3; ++c) next.v[3 * q + c] = rows.v[c][q];
+      }
+    out.warm[size - 1] = Vec3(static_cast<double>(state.topology_version), 0, 0);
   }
 
   static void set_free(Projection& out, std::size_t i, const Vec3& dx, const Vec3& dv) {
@@ -233,6 +261,8 @@ class ExplicitIntegrator final : public Integrator {
 };
 
 }  // namespace
+
+std::size_t verlet_carry_size(std::size_t n) { return 2 * soa_stride(n) + n + 1; }
 
 std::unique_ptr<Integrator> make_explicit_integrator(const IntegratorConfig& config) {
   return std::make_unique<ExplicitIntegrator>(config);

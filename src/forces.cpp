@@ -121,14 +121,22 @@ QBOND_VECTOR_CLONES void write_out(const Model& model, const ForceRows& rows, bo
   }
 }
 
-// f_ext + the bond forces at x and v, divided by the masses if per_mass, into out.
-void force_pass(const Model& model, const State& state, const BondPartition& part, const Vec3* x, const Vec3* v,
-                const Vec3* f_ext, int threads, bool per_mass, ForceArrays& work, Vec3* out) {
+// work's rows with x, v and f_ext (0 when null) + the bond forces at them.
+ForceRows force_sums(const Model& model, const State& state, const BondPartition& part, const Vec3* x, const Vec3* v,
+                     const Vec3* f_ext, int threads, ForceArrays& work) {
   const std::size_t n = model.num_quanta();
   const ForceRows rows = force_rows(work, n);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_forces(x, v, f_ext, rows, lo, hi); });
   add_bond_forces(model, state, part, rows);
-  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { write_out(model, rows, per_mass, lo, hi, out); });
+  return rows;
+}
+
+// f_ext + the bond forces at x and v, divided by the masses if per_mass, into out.
+void force_pass(const Model& model, const State& state, const BondPartition& part, const Vec3* x, const Vec3* v,
+                const Vec3* f_ext, int threads, bool per_mass, ForceArrays& work, Vec3* out) {
+  const ForceRows rows = force_sums(model, state, part, x, v, f_ext, threads, work);
+  parallel_ranges(model.num_quanta(), threads,
+                  [&](std::size_t lo, std::size_t hi) { write_out(model, rows, per_mass, lo, hi, out); });
 }
 
 const Vec3* external(const std::vector<Vec3>& f_ext) { return f_ext.empty() ? nullptr : f_ext.data(); }
@@ -162,9 +170,9 @@ void bond_force_sums(const Model& model, const State& state, const BondPartition
   force_pass(model, state, part, x.data(), v.data(), external(f_ext), threads, false, work, f.data());
 }
 
-void bond_force_sums(const Model& model, const State& state, const BondPartition& part, const Vec3* x, const Vec3* v,
-                     int threads, ForceArrays& work, Vec3* f) {
-  force_pass(model, state, part, x, v, nullptr, threads, false, work, f);
+ForceRows bond_force_rows(const Model& model, const State& state, const BondPartition& part, const Vec3* x,
+                          const Vec3* v, int threads, ForceArrays& work) {
+  return force_sums(model, state, part, x, v, nullptr, threads, work);
 }
 
 void accelerations(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,

@@ -43,9 +43,13 @@ void add_bond_forces(const Model& model, const State& state, const BondPartition
 void bond_force_sums(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
                      const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, ForceArrays& work,
                      std::vector<Vec3>& f);
-// The bond forces alone (no external force) for arrays of the model's quanta count.
-void bond_force_sums(const Model& model, const State& state, const BondPartition& part, const Vec3* x, const Vec3* v,
-                     int threads, ForceArrays& work, Vec3* f);
+// work's rows (force_rows) holding x, v and the bond forces alone (no external force) at them, as
+// bond_force_sums sums them.
+ForceRows bond_force_rows(const Model& model, const State& state, const BondPartition& part, const Vec3* x,
+                          const Vec3* v, int threads, ForceArrays& work);
+
+// The size of velocity Verlet's carry-over in State::warm for n quanta, in triples (explicit.cpp).
+std::size_t verlet_carry_size(std::size_t n);
 
 // a = (f_ext + the bond forces at x, v) / m for free quanta, 0 for kinematic ones (bond_force_sums).
 void accelerations(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,

@@ -539,7 +539,7 @@ TEST(VelocityVerlet, IsGrootWarrenWithTheLastStepsForces) {
     Simulation sim(w, cfg, h);
     for (int k = 0; k < steps; ++k) sim.step();
     EXPECT_LE(test::max_norm_diff(sim.world().state.x, ref), tol) << threads << " threads";
-    EXPECT_EQ(sim.world().state.warm.size(), 3 * w.num_quanta() + 1);
+    EXPECT_EQ(sim.world().state.warm.size(), verlet_carry_size(w.num_quanta()));
   }
 }
 
@@ -581,7 +581,7 @@ TEST(VelocityVerlet, CarriesItsForcesOnlyForTheStateItLeft) {
 // them in steps where no bond flowed.
 TEST(VelocityVerlet, PlasticFlowDropsTheCarriedForces) {
   World w = test::two_quanta(1e-3, 1000, 0.01, 2e-4, 0.0, 0.01);
-  const std::size_t carry = 3 * w.num_quanta() + 1;
+  const std::size_t carry = verlet_carry_size(w.num_quanta());
   Simulation sim(std::move(w), test::config(IntegratorType::velocity_verlet), 1e-5);
   sim.add_heuristic(make_plastic_heuristic({.yield_strain = 0.01}));  // the 2% stretch flows at once
   sim.step();
