@@ -214,6 +214,7 @@ class ExplicitIntegrator final : public Integrator {
       verlet_finish(inv_mass, rows, fe, f0, v, h, dv, next.v, lo, hi);
     });
     project_kinematic(model, state, ctx, out);
+    // and their v₁ as placed (verlet_finish wrote their v).
     for (const Motion& motion : model.motions)
       for (std::size_t k = 0; k < motion.quanta.size(); ++k) {
         const Index q = motion.quanta[k];
