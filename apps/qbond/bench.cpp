@@ -177,7 +177,12 @@ int bench(const BenchArgs& a) {
                     " --benchmark_out_format=json --benchmark_format=console";
   const int reps = a.quick ? 1 : std::max(1, a.repetitions);
   cmd += " --benchmark_min_time=" + std::string(a.quick ? "0.01" : "0.3");
-  if (reps > 1) cmd += " --benchmark_repetitions=" + std::to_string(reps) + " --benchmark_report_aggregates_only=true";
+  // Repetitions in random order: the host's speed drifts over a run (another tenant, the memory
+  // bandwidth), and a drift then moves every row's median alike, not the later rows' alone — the
+  // ratios (× bound, vs 1T) compare rows measured in the same stretch of time.
+  if (reps > 1)
+    cmd += " --benchmark_repetitions=" + std::to_string(reps) +
+           " --benchmark_report_aggregates_only=true --benchmark_enable_random_interleaving=true";
   cmd += " --n=" + quoted(a.sizes.empty() ? (a.quick ? "10" : "10,20,40") : a.sizes);
   if (a.solve) {
     cmd += " --solve";

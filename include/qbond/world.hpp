@@ -127,8 +127,9 @@ struct State {
   /// (velocity change of every quanta, n), the initial guess of WarmStart::previous; or bdf2's
   /// previous state (x then v of every quanta, then (t, h, step) of that state: 2n + 1); or
   /// velocity_verlet's last bond forces with the x and v it left and its topology version
-  /// (3n + 1; reused only while the state is exactly that one: clear it after editing bond
-  /// parameters by hand); empty otherwise. Kept here so that checkpoints and rollbacks carry it.
+  /// (forces and positions as padded structure of arrays, then v, then the version: see
+  /// docs/integrators.md; reused only while the state is exactly that one: clear it after
+  /// editing bond parameters by hand); empty otherwise. Kept here so that checkpoints and rollbacks carry it.
   std::vector<Vec3> warm;
   /// Per recorded obstacle (Obstacle::record), the impulse it has given (n_obstacles).
   std::vector<ObstacleImpulse> obstacle_impulse;
