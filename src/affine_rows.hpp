@@ -198,20 +198,23 @@ QBOND_VECTOR_INLINE void affine_lengths(const BondRun& run, const double* const 
   });
 }
 
+// How many quanta apart an affine run's ends are.
+inline Index ends_apart(const BondRun& run) { return run.j0 > run.i0 ? run.j0 - run.i0 : run.i0 - run.j0; }
+
 // Whether an affine run can add its terms to the rows straight from the loop that forms them
 // (add_affine_fused): its part owns every row the run's lanes reach, and its ends are at least
-// 8 quanta apart, so that 8 consecutive bonds reach 16 distinct rows.
+// 4 quanta apart, so that a vector of 4 consecutive bonds reaches 8 distinct rows.
 inline bool fusable(const BondRun& run) {
   const Index lanes = affine_lanes(run);
-  const Index apart = run.j0 > run.i0 ? run.j0 - run.i0 : run.i0 - run.j0;
-  return apart >= 8 && std::min(run.i0, run.j0) >= run.lo && std::max(run.i0, run.j0) + lanes <= run.hi;
+  return ends_apart(run) >= 4 && std::min(run.i0, run.j0) >= run.lo && std::max(run.i0, run.j0) + lanes <= run.hi;
 }
 
 // For a fusable run: terms(q, ti, tj) fills bond q's terms on bond_i's rows (ti) and bond_j's (tj),
 // and each is added to its row in the same vector loop, with no term arrays between. A row that
-// is both bond_j of bond k' and bond_i of bond k > k' (or the reverse: |j0 − i0| ≥ 8 bonds apart)
-// gets them from loop iterations in that order, at most 8 of which run together: in bond order,
-// the same sums as add_affine_run's. The lanes past the run's bonds add −0.0.
+// is both bond_j of bond k' and bond_i of bond k > k' (or the reverse: |j0 − i0| bonds apart)
+// gets them from loop iterations in that order, of which run together at most 8 when the ends are
+// 8 or more apart, else 4: in bond order, the same sums as add_affine_run's. The lanes past the
+// run's bonds add −0.0.
 template <std::size_t N, class Terms>
 QBOND_VECTOR_INLINE void add_affine_fused(const BondRun& run, double* const (&rows)[N], Terms&& terms) {
   const std::size_t i0 = run.i0, j0 = run.j0, count = run.count;
@@ -230,7 +233,7 @@ QBOND_VECTOR_INLINE void add_affine_fused(const BondRun& run, double* const (&ro
       r[e][j0 + q] += tj[e];
     }
   };
-  const std::size_t whole = count & ~std::size_t{7}, lanes = affine_lanes(run);
+  const std::size_t whole = ends_apart(run) >= 8 ? count & ~std::size_t{7} : 0, lanes = affine_lanes(run);
   QBOND_SIMD_SAFELEN(8) for (std::size_t q = 0; q < whole; ++q) add.template operator()<false>(q);  // kVectorLoop
   for (std::size_t q0 = whole; q0 < lanes; q0 += 4)
     QBOND_SIMD for (std::size_t l = 0; l < 4; ++l) add.template operator()<true>(q0 + l);  // kVectorLoop

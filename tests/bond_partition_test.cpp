@@ -172,11 +172,12 @@ std::vector<Vec3> force_pass(const World& w, const BondPartition& part, int thre
   return f;
 }
 
-// random_lattice's size and anchors in the offset-grouped order, where most bonds form affine
+// random_lattice's size and anchors (or, small, a body of 5 × 6 × 4, whose affine runs' ends are
+// 1, 4, 5, 6 and more quanta apart) in the offset-grouped order, where most bonds form affine
 // runs, with test::mix_bonds' uniform runs of each damping model and mixed ones; perturbed, and
 // with every 97th bond broken if asked.
-World grouped_lattice(bool broken) {
-  World w = test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true);
+World grouped_lattice(bool broken, bool small = false) {
+  World w = small ? test::lattice(5, 6, 4, 1000, 1e-3, 0.02, true) : test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true);
   renumber(w, locality_order(w));
   test::mix_bonds(w);
   test::perturb(w, 2e-3, 0.2);
@@ -190,10 +191,11 @@ World grouped_lattice(bool broken) {
 // builder's order with mixed laws and damping every bond takes the per-bond path; in the
 // offset-grouped order most take the vector loops of affine runs.
 TEST(BondPartition, ForcePassMatchesASerialPassAndGivesTheSameBitsAtAnyThreadCount) {
-  const World grouped = grouped_lattice(true);
+  const World grouped = grouped_lattice(true), small = grouped_lattice(true, true);
   const World builders = random_lattice();
-  for (bool is_grouped : {false, true}) {
-    const World& w = is_grouped ? grouped : builders;
+  for (const World* pw : {&builders, &grouped, &small}) {
+    const World& w = *pw;
+    const bool is_grouped = pw != &builders;
     std::vector<double> scale;  // Σ |f_b| over each quanta's bonds
     const std::vector<Vec3> ref = plain_forces(w, scale);
     Adjacency adj;
@@ -223,9 +225,9 @@ TEST(BondPartition, ForcePassMatchesASerialPassAndGivesTheSameBitsAtAnyThreadCou
 // the grouped one (intact, broken), with an anchored face whose unknowns are eliminated (their
 // rows 0, their entries of y ignored); the same bits at 1-3 threads.
 TEST(BondPartition, CgProductMatchesTheAssembledMatrixAndGivesTheSameBitsAtAnyThreadCount) {
-  const World grouped = grouped_lattice(false), grouped_broken = grouped_lattice(true);
+  const World grouped = grouped_lattice(false), grouped_broken = grouped_lattice(true), small = grouped_lattice(false, true);
   const World builders = random_lattice();
-  for (const World* w : std::initializer_list<const World*>{&builders, &grouped, &grouped_broken}) {
+  for (const World* w : std::initializer_list<const World*>{&builders, &grouped, &grouped_broken, &small}) {
     const std::size_t n = w->num_quanta();
     Rng rng{3};
     std::vector<Vec3> y(n);
