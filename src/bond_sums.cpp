@@ -57,11 +57,12 @@ QBOND_VECTOR_INLINE bool uniform_prefix(const T* a, std::size_t b, std::size_t c
 
 // N sums over the alive bonds of [b0, b1): affine blocks of eight, and of two to seven where no
 // whole one starts, that uniform(b, count) accepts, a block's N terms of bond b + l, which
-// block_terms(i, j, b, t) writes to t[·][l] for all eight lanes (bond b + l joins i + l and
-// j + l; vector loops), added to lanes[·][l] for l < count (the other lanes add −0.0); every
-// other bond into one more partial per sum by bond_term(i, j, b) (its N terms); the lanes added
-// in order, that partial last. Which bonds go where depends on the bonds only, never on the
-// thread.
+// block_terms<L>(i, j, b, t) writes to t[·][l] for its first L lanes (bond b + l joins i + l and
+// j + l; vector loops), added to lanes[·][l] for l < count (the other lanes add −0.0, or, past
+// the first four for a block of at most four, nothing: the same sums, for half the arithmetic in
+// a small body's rows of four); every other bond into one more partial per sum by
+// bond_term(i, j, b) (its N terms); the lanes added in order, that partial last. Which bonds go
+// where depends on the bonds only, never on the thread.
 template <std::size_t N>
 using Sums = std::array<double, N>;
 template <std::size_t N, class BlockTerms, class BondTerm, class Uniform>
@@ -69,13 +70,19 @@ QBOND_VECTOR_INLINE Sums<N> chunk_sums(const Model& m, const State& s, std::size
                                        BlockTerms&& block_terms, BondTerm&& bond_term, Uniform&& uniform) {
   const std::size_t n = s.x.size();
   double lanes[N][kLanes] = {};
-  auto block = [&](std::size_t i, std::size_t j, std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
+  auto lanes_of = [&]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
     // The terms first, then their sums: GCC vectorises no loop that adds into two lane arrays as
     // it computes.
     double t[N][kLanes];
-    block_terms(i, j, b, t);
+    block_terms.template operator()<L>(i, j, b, t);
     for (std::size_t k = 0; k < N; ++k)
-      QBOND_SIMD for (std::size_t l = 0; l < kLanes; ++l) lanes[k][l] += l < count ? t[k][l] : -0.0;
+      QBOND_SIMD for (std::size_t l = 0; l < L; ++l) lanes[k][l] += l < count ? t[k][l] : -0.0;
+  };
+  auto block = [&](std::size_t i, std::size_t j, std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
+    if (count > kLanes / 2)
+      lanes_of.template operator()<kLanes>(i, j, b, count);
+    else
+      lanes_of.template operator()<kLanes / 2>(i, j, b, count);
   };
   Sums<N> others{};
   std::size_t b = b0;
@@ -131,8 +138,9 @@ QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::siz
   const double* rest = s.rest.data();
   const double* k = m.stiffness.data();
   const Law* law = m.law.data();
-  auto block = [=](std::size_t i, std::size_t j, std::size_t b, double(&t)[1][kLanes]) QBOND_LAMBDA_INLINE {
-    QBOND_SIMD for (std::size_t l = 0; l < kLanes; ++l)
+  auto block = [=]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, double(&t)[1][kLanes])
+                   QBOND_LAMBDA_INLINE {
+    QBOND_SIMD for (std::size_t l = 0; l < L; ++l)
       t[0][l] = linear_energy(k[b + l], length(x, i + l, j + l), rest[b + l]);
   };
   auto any_law = [&](std::size_t i, std::size_t j, std::size_t b) {
@@ -185,15 +193,16 @@ QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const Pro
     d1 = d0 + step;
     w = (v[e] + theta * dv[e]) - (v[a] + theta * dv[a]);
   };
-  auto block = [=](std::size_t i, std::size_t j, std::size_t b, double(&t)[2][kLanes]) QBOND_LAMBDA_INLINE {
+  auto block = [=]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, double(&t)[2][kLanes])
+                   QBOND_LAMBDA_INLINE {
     // The ends' triples are contiguous: the differences are formed on them as stored, element by
     // element in contiguous vectors, and only d, w and d₁ are then split into their components
     // (split before, the eight arrays' stride-3 shuffles were half the loop's instructions).
-    constexpr std::size_t K = 3 * kLanes;
+    constexpr std::size_t K = 3 * L;
     double d[K], w[K], d1[K];
     QBOND_SIMD for (std::size_t k = 0; k < K; ++k) differences(3 * i + k, 3 * j + k, d[k], w[k], d1[k]);
     const bool axial = model[b] == DampingModel::axial;  // the block's first bond's (uniform)
-    QBOND_SIMD for (std::size_t l = 0; l < kLanes; ++l) {
+    QBOND_SIMD for (std::size_t l = 0; l < L; ++l) {
       const double dl[3] = {d[3 * l], d[3 * l + 1], d[3 * l + 2]};
       const double wl[3] = {w[3 * l], w[3 * l + 1], w[3 * l + 2]};
       const double d1l[3] = {d1[3 * l], d1[3 * l + 1], d1[3 * l + 2]};
