@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -201,8 +202,15 @@ int bench(const BenchArgs& a) {
     fs::remove(out);
     throw std::runtime_error("qbond bench: qbond_bench failed (" + cmd + ")");
   }
-  const json report = json::parse(nan_to_null(read_file(out)));
+  json report = json::parse(nan_to_null(read_file(out)));
   fs::remove(out);
+  // In the order the benchmarks were registered (integrator, size, threads), not the random one
+  // they ran in.
+  auto order = [](const json& b) {
+    return std::pair(b.value("family_index", 0.0), b.value("per_family_instance_index", 0.0));
+  };
+  std::stable_sort(report.at("benchmarks").begin(), report.at("benchmarks").end(),
+                   [&](const json& a, const json& b) { return order(a) < order(b); });
 
   // The median of the repetitions (or the single run).
   const auto wanted = [&](const json& b) {
