@@ -206,7 +206,8 @@ inline Index ends_apart(const BondRun& run) { return run.j0 > run.i0 ? run.j0 - 
 // 4 quanta apart, so that a vector of 4 consecutive bonds reaches 8 distinct rows.
 inline bool fusable(const BondRun& run) {
   const Index lanes = affine_lanes(run);
-  return ends_apart(run) >= 4 && std::min(run.i0, run.j0) >= run.lo && std::max(run.i0, run.j0) + lanes <= run.hi;
+  return ends_apart(run) >= 4 && std::min(run.i0, run.j0) >= run.lo &&
+         std::max(run.i0, run.j0) + lanes <= run.hi;
 }
 
 // For a fusable run: terms(q, ti, tj) fills bond q's terms on bond_i's rows (ti) and bond_j's (tj),

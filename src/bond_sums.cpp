@@ -70,7 +70,8 @@ QBOND_VECTOR_INLINE Sums<N> chunk_sums(const Model& m, const State& s, std::size
                                        BlockTerms&& block_terms, BondTerm&& bond_term, Uniform&& uniform) {
   const std::size_t n = s.x.size();
   double lanes[N][kLanes] = {};
-  auto lanes_of = [&]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
+  auto lanes_of = [&]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, std::size_t count)
+                      QBOND_LAMBDA_INLINE {
     // The terms first, then their sums: GCC vectorises no loop that adds into two lane arrays as
     // it computes.
     double t[N][kLanes];

@@ -177,7 +177,8 @@ std::vector<Vec3> force_pass(const World& w, const BondPartition& part, int thre
 // runs, with test::mix_bonds' uniform runs of each damping model and mixed ones; perturbed, and
 // with every 97th bond broken if asked.
 World grouped_lattice(bool broken, bool small = false) {
-  World w = small ? test::lattice(5, 6, 4, 1000, 1e-3, 0.02, true) : test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true);
+  World w = small ? test::lattice(5, 6, 4, 1000, 1e-3, 0.02, true)
+                  : test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true);
   renumber(w, locality_order(w));
   test::mix_bonds(w);
   test::perturb(w, 2e-3, 0.2);
@@ -225,7 +226,8 @@ TEST(BondPartition, ForcePassMatchesASerialPassAndGivesTheSameBitsAtAnyThreadCou
 // the grouped one (intact, broken), with an anchored face whose unknowns are eliminated (their
 // rows 0, their entries of y ignored); the same bits at 1-3 threads.
 TEST(BondPartition, CgProductMatchesTheAssembledMatrixAndGivesTheSameBitsAtAnyThreadCount) {
-  const World grouped = grouped_lattice(false), grouped_broken = grouped_lattice(true), small = grouped_lattice(false, true);
+  const World grouped = grouped_lattice(false), grouped_broken = grouped_lattice(true);
+  const World small = grouped_lattice(false, true);
   const World builders = random_lattice();
   for (const World* w : std::initializer_list<const World*>{&builders, &grouped, &grouped_broken, &small}) {
     const std::size_t n = w->num_quanta();

@@ -129,7 +129,8 @@ struct State {
   /// velocity_verlet's last bond forces with the x and v it left and its topology version
   /// (forces and positions as padded structure of arrays, then v, then the version: see
   /// docs/integrators.md; reused only while the state is exactly that one: clear it after
-  /// editing bond parameters by hand); empty otherwise. Kept here so that checkpoints and rollbacks carry it.
+  /// editing bond parameters by hand); empty otherwise. Kept here so that checkpoints and
+  /// rollbacks carry it.
   std::vector<Vec3> warm;
   /// Per recorded obstacle (Obstacle::record), the impulse it has given (n_obstacles).
   std::vector<ObstacleImpulse> obstacle_impulse;
