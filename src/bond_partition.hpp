@@ -11,6 +11,7 @@
 // builder-ordered bonds stays within a window of a few lattice planes (in cache).
 #include <algorithm>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "parallel.hpp"
@@ -138,18 +139,28 @@ void for_each_bond(const BondPartition& part, const Model& model, Body&& body) {
   for_each_part(parts, run);
 }
 
-// body(run, scratch) for the partition's runs, covering every alive bond once per part that owns
-// one of its ends (as for_each_bond visits them): a part's runs come in bond order, on the part's
-// thread, with one Scratch (default-initialised) for the part. For kernels that compute a run's
-// per-bond terms in vectorised loops before updating the ends (frozen_step.cpp).
+// body(runs, scratch) once per part, with the part's runs in bond order, on the part's thread,
+// with one Scratch (default-initialised) for the part: the runs cover every alive bond once per
+// part that owns one of its ends (as for_each_bond visits them). For kernels that compute a run's
+// per-bond terms in vectorised loops before updating the ends: a kernel compiled for several
+// instruction sets (simd.hpp) takes a part's runs in one call, since a small body's runs are a
+// vector or two each (cube_drop: 105 of its 120 affine runs have 4 bonds), and a call and its
+// set-up a run cost as much as the run's arithmetic.
+template <class Scratch, class Body>
+void for_each_part_runs(const BondPartition& part, Body&& body) {
+  for_each_part(part.parts(), [&](int p) {
+    Scratch scratch;
+    const Index r0 = part.run_offset[p], r1 = part.run_offset[p + 1];
+    body(std::span<const BondRun>(part.runs.data() + r0, r1 - r0), scratch);
+  });
+}
+
+// body(run, scratch) for each run of for_each_part_runs, one run at a time.
 template <class Scratch, class Body>
 void for_each_bond_run(const BondPartition& part, Body&& body) {
-  const int parts = part.parts();
-  auto run = [&](int p) {
-    Scratch scratch;
-    for (Index r = part.run_offset[p]; r < part.run_offset[p + 1]; ++r) body(part.runs[r], scratch);
-  };
-  for_each_part(parts, run);
+  for_each_part_runs<Scratch>(part, [&](std::span<const BondRun> runs, Scratch& scratch) {
+    for (const BondRun& run : runs) body(run, scratch);
+  });
 }
 
 }  // namespace qbond

@@ -67,7 +67,7 @@ QBOND_VECTOR_INLINE void prefetch_blocks(const BondBlocks& blocks, const BondRun
 // An affine run's −B_b y_j and −B_b y_i (−0.0, which leaves a row's bits as they are, when an end
 // is kinematic, its unknown eliminated) in one vector loop, added to the rows the part owns in
 // bond order: from that loop when the run is fusable, else from the run's term arrays.
-QBOND_VECTOR_CLONES void affine_product(const BondRun& run, const BondBlocks& blocks, const double* inv_mass,
+QBOND_VECTOR_INLINE void affine_product(const BondRun& run, const BondBlocks& blocks, const double* inv_mass,
                                         const Soa& y_in, const Soa& out, ProductTerms& t) {
   // inv_mass: the padded copy (CgArrays), read up to a vector past the run's last quanta.
   prefetch_blocks(blocks, run);
@@ -108,16 +108,23 @@ void run_product(const Model& model, const BondRun& run, const BondBlocks& block
   }
 }
 
+// A part's runs' products (for_each_part_runs).
+QBOND_VECTOR_CLONES void part_product(const Model& model, std::span<const BondRun> runs, const BondBlocks& blocks,
+                                      const double* inv_mass, const Soa& y, const Soa& out, ProductTerms& t) {
+  for (const BondRun& run : runs)
+    if (run.affine)
+      affine_product(run, blocks, inv_mass, y, out, t);
+    else
+      run_product(model, run, blocks, y, out);
+}
+
 // out = A y over free quanta (kinematic rows 0; y's kinematic rows ignored); inv_mass padded.
 void product(const Model& model, const ImplicitSystem& sys, const Diagonals& d, const double* inv_mass, const Soa& y,
              const Soa& out, int threads) {
   parallel_ranges(model.num_quanta(), threads,
                   [&](std::size_t lo, std::size_t hi) { diagonal_times(inv_mass, d, y, out, lo, hi); });
-  for_each_bond_run<ProductTerms>(sys.part, [&](const BondRun& run, ProductTerms& t) {
-    if (run.affine)
-      affine_product(run, sys.bonds, inv_mass, y, out, t);
-    else
-      run_product(model, run, sys.bonds, y, out);
+  for_each_part_runs<ProductTerms>(sys.part, [&](std::span<const BondRun> runs, ProductTerms& t) {
+    part_product(model, runs, sys.bonds, inv_mass, y, out, t);
   });
 }
 

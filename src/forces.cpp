@@ -82,7 +82,7 @@ QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& s
   add_affine_terms(run, rows.f, forces, {t.fi[0], t.fi[1], t.fi[2]}, {t.fj[0], t.fj[1], t.fj[2]});
 }
 
-QBOND_VECTOR_CLONES void affine_forces(const Model& model, const State& state, const ForceRows& rows,
+QBOND_VECTOR_INLINE void affine_forces(const Model& model, const State& state, const ForceRows& rows,
                                        const BondRun& run, bool axial, ForceTerms& t) {
   if (axial)
     linear_affine_forces<true>(model, state, rows, run, t);
@@ -102,6 +102,19 @@ void run_forces(const Model& model, const State& state, const BondRun& run, cons
       if (run.owns(i)) rows.f[c][i] += fb[c];
       if (run.owns(j)) rows.f[c][j] -= fb[c];
     }
+  }
+}
+
+// A part's runs' forces (for_each_part_runs). The same runs for every partition
+// (bond_partition.hpp), so the same path for each bond.
+QBOND_VECTOR_CLONES void part_forces(const Model& model, const State& state, std::span<const BondRun> runs,
+                                     const ForceRows& rows, ForceTerms& t) {
+  for (const BondRun& run : runs) {
+    const int kind = run.affine ? uniform_linear(model, run) : -1;
+    if (kind >= 0)
+      affine_forces(model, state, rows, run, kind == 0, t);
+    else
+      run_forces(model, state, run, rows);
   }
 }
 
@@ -153,13 +166,8 @@ ForceRows force_rows(ForceArrays& work, std::size_t n) {
 }
 
 void add_bond_forces(const Model& model, const State& state, const BondPartition& part, const ForceRows& rows) {
-  for_each_bond_run<ForceTerms>(part, [&](const BondRun& run, ForceTerms& t) {
-    // The same runs for every partition (bond_partition.hpp), so the same path for each bond.
-    const int kind = run.affine ? uniform_linear(model, run) : -1;
-    if (kind >= 0)
-      affine_forces(model, state, rows, run, kind == 0, t);
-    else
-      run_forces(model, state, run, rows);
+  for_each_part_runs<ForceTerms>(part, [&](std::span<const BondRun> runs, ForceTerms& t) {
+    part_forces(model, state, runs, rows, t);
   });
 }
 

@@ -122,7 +122,7 @@ QBOND_VECTOR_INLINE void linear_affine_build(const Model& model, const State& st
 // An affine run that uniform_linear accepts (axial: its damping model is axial): its terms added
 // to the rows its part owns, in bond order, and the blocks of the bonds whose bond_i it owns
 // written (each bond's by one part).
-QBOND_VECTOR_CLONES void affine_build(const Model& model, const State& state, const BuildArrays& a,
+QBOND_VECTOR_INLINE void affine_build(const Model& model, const State& state, const BuildArrays& a,
                                       const BondRun& run, double h, bool axial, BuildTerms& t, BondBlocks& blocks) {
   prefetch_parameters(model, state, run);
   if (axial)
@@ -204,7 +204,7 @@ QBOND_VECTOR_CLONES void start_blocks(const Model& model, const BuildArrays& a, 
 
 // An affine run's blocks B_b (six entries from u, Ba, Bb; −0.0 in the lanes past the run) added to
 // both ends' rows its part owns, in bond order.
-QBOND_VECTOR_CLONES void affine_blocks(const BondRun& run, const BondBlocks& blocks, const BuildArrays& a,
+QBOND_VECTOR_INLINE void affine_blocks(const BondRun& run, const BondBlocks& blocks, const BuildArrays& a,
                                        BuildTerms& t) {
   const double *ux = blocks.ux.data() + run.first, *uy = blocks.uy.data() + run.first,
                *uz = blocks.uz.data() + run.first;
@@ -232,6 +232,29 @@ void run_blocks(const Model& model, const BondRun& run, const BondBlocks& blocks
   }
 }
 
+// A part's runs' blocks (for_each_part_runs).
+QBOND_VECTOR_CLONES void part_blocks(const Model& model, std::span<const BondRun> runs, const BondBlocks& blocks,
+                                     const BuildArrays& a, BuildTerms& t) {
+  for (const BondRun& run : runs)
+    if (run.affine)
+      affine_blocks(run, blocks, a, t);
+    else
+      run_blocks(model, run, blocks, a);
+}
+
+// A part's runs' terms and blocks (for_each_part_runs). The same runs for every partition
+// (bond_partition.hpp), so the same path for each bond.
+QBOND_VECTOR_CLONES void part_build(const Model& model, const State& state, const BuildArrays& a,
+                                    std::span<const BondRun> runs, double h, BuildTerms& t, BondBlocks& blocks) {
+  for (const BondRun& run : runs) {
+    const int kind = run.affine ? uniform_linear(model, run) : -1;
+    if (kind >= 0)
+      affine_build(model, state, a, run, h, kind == 0, t, blocks);
+    else
+      run_build(model, state, a, run, h, blocks);
+  }
+}
+
 }  // namespace
 
 void assemble_blocks(const Model& model, const Adjacency& adj, int threads, bool edges, ImplicitSystem& sys) {
@@ -239,11 +262,8 @@ void assemble_blocks(const Model& model, const Adjacency& adj, int threads, bool
   sys.part.update(model, adj, threads);
   const BuildArrays a(sys.arrays, n);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_blocks(model, a, lo, hi); });
-  for_each_bond_run<BuildTerms>(sys.part, [&](const BondRun& run, BuildTerms& t) {
-    if (run.affine)
-      affine_blocks(run, sys.bonds, a, t);
-    else
-      run_blocks(model, run, sys.bonds, a);
+  for_each_part_runs<BuildTerms>(sys.part, [&](std::span<const BondRun> runs, BuildTerms& t) {
+    part_blocks(model, runs, sys.bonds, a, t);
   });
   finish_rows(model, a, threads, false, sys);
   if (edges) gather_edges(model, adj, threads, sys);
@@ -260,13 +280,8 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
   sys.bonds.resize(model.num_bonds());
   const BuildArrays a(sys.arrays, n);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_build(model, state, f_ext, kin, h, a, lo, hi); });
-  for_each_bond_run<BuildTerms>(sys.part, [&](const BondRun& run, BuildTerms& t) {
-    // The same runs for every partition (bond_partition.hpp), so the same path for each bond.
-    const int kind = run.affine ? uniform_linear(model, run) : -1;
-    if (kind >= 0)
-      affine_build(model, state, a, run, h, kind == 0, t, sys.bonds);
-    else
-      run_build(model, state, a, run, h, sys.bonds);
+  for_each_part_runs<BuildTerms>(sys.part, [&](std::span<const BondRun> runs, BuildTerms& t) {
+    part_build(model, state, a, runs, h, t, sys.bonds);
   });
   finish_rows(model, a, threads, true, sys);
   sys.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return sys.rhs[i].squaredNorm(); }));
