@@ -137,6 +137,27 @@ void mark_reach(BondPartition& part, const Model& model) {
   }
 }
 
+// Each part's grids (BondRun::rows).
+void mark_grids(BondPartition& part) {
+  std::vector<BondRun>& runs = part.runs;
+  auto next_row = [](const BondRun& a, const BondRun& b, Index stride) {
+    return b.affine && b.count == a.count && b.first == a.first + a.count && b.i0 == a.i0 + stride &&
+           b.j0 == a.j0 + stride;
+  };
+  for (int p = 0; p < part.parts(); ++p) {
+    const Index end = part.run_offset[p + 1];
+    for (Index r = part.run_offset[p]; r < end;) {
+      Index e = r + 1;
+      if (runs[r].affine && e < end && runs[e].i0 > runs[r].i0) {
+        const Index stride = runs[e].i0 - runs[r].i0;
+        while (e < end && next_row(runs[e - 1], runs[e], stride)) ++e;
+      }
+      runs[r].rows = e - r;
+      r = e;
+    }
+  }
+}
+
 }  // namespace
 
 void BondPartition::update(const Model& model, const Adjacency& adj, int threads_wanted) {
@@ -164,6 +185,7 @@ void BondPartition::update(const Model& model, const Adjacency& adj, int threads
   num_bonds = nb;
   build_runs(*this, model, adj);
   mark_reach(*this, model);
+  mark_grids(*this);
   version = adj.version;
   threads = threads_wanted;
 }

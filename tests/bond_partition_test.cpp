@@ -320,6 +320,51 @@ TEST(BondPartition, AQuantaAloneIsJoinedByNoOtherPartsRuns) {
   EXPECT_TRUE(one_empty);  // the chain's middle part
 }
 
+// BondRun::rows: a grid is a stretch of one part's affine runs of one count, each taking the
+// bonds after the one before's, its ends the same number of quanta on; the runs after a grid's
+// first are 1, and a run that could have continued the grid before it does. A 5 × 6 × 4 body's
+// rows of four bonds are grids.
+TEST(BondPartition, GridsAreAffineRunsOfOneShapeEachAfterTheOther) {
+  const World small = grouped_lattice(false, true), grouped = grouped_lattice(true);
+  for (const World* w : {&small, &grouped}) {
+    Adjacency adj;
+    build_adjacency(w->model, w->state, adj);
+    for (int threads : {1, 2}) {
+      BondPartition part;
+      part.update(w->model, adj, threads);
+      Index in_grids = 0;
+      for (int p = 0; p < part.parts(); ++p) {
+        const Index end = part.run_offset[p + 1];
+        auto continues = [&](Index r, Index stride) {  // run r continues run r − 1's grid
+          const BondRun &a = part.runs[r - 1], &b = part.runs[r];
+          return a.affine && b.affine && b.count == a.count && b.first == a.first + a.count &&
+                 b.i0 == a.i0 + stride && b.j0 == a.j0 + stride;
+        };
+        for (Index r = part.run_offset[p]; r < end;) {
+          const Index rows = part.runs[r].rows;
+          ASSERT_GE(rows, 1);
+          ASSERT_LE(r + rows, end);
+          if (rows > 1) {
+            const Index stride = part.runs[r + 1].i0 - part.runs[r].i0;
+            for (Index k = r + 1; k < r + rows; ++k) {
+              ASSERT_TRUE(continues(k, stride)) << "run " << k;
+              ASSERT_EQ(part.runs[k].rows, 1) << "run " << k;
+            }
+            if (r + rows < end) {
+              EXPECT_FALSE(continues(r + rows, stride)) << "run " << r + rows;
+            }
+            in_grids += rows;
+          }
+          r += rows;
+        }
+      }
+      if (w == &small) {
+        EXPECT_GT(2 * in_grids, static_cast<Index>(part.runs.size()));
+      }
+    }
+  }
+}
+
 TEST(BondPartition, RebuildsWhenTheTopologyChanges) {
   World w = random_lattice();
   Adjacency adj;
