@@ -116,8 +116,8 @@ QBOND_VECTOR_INLINE void affine_product(const BondRun& run, const BondBlocks& bl
 // A grid's runs (BondRun::rows), each fusable, one after the other as affine_product takes them,
 // with their pointers set up once (a small body's runs are a vector each). (With the other runs'
 // path in the same loop, term arrays and all, cube_drop's step was 12% slower than with this.)
-QBOND_VECTOR_INLINE void grid_product(std::span<const BondRun> grid, const BondBlocks& blocks, const double* inv_mass,
-                                      const Soa& y, const Soa& out) {
+QBOND_VECTOR_INLINE void grid_product(std::span<const BondRun> grid, const BondBlocks& blocks,
+                                      const double* inv_mass, const Soa& y, const Soa& out) {
   const Index stride = grid[1].i0 - grid[0].i0;
   AffineProduct terms(grid[0], blocks, inv_mass, y);
   BondRun row = grid[0];
@@ -149,8 +149,9 @@ void run_product(const Model& model, const BondRun& run, const BondBlocks& block
 }
 
 // A part's runs' products (for_each_part_runs).
-QBOND_VECTOR_CLONES void part_product(const Model& model, std::span<const BondRun> runs, const BondBlocks& blocks,
-                                      const double* inv_mass, const Soa& y, const Soa& out, ProductTerms& t) {
+QBOND_VECTOR_CLONES void part_product(const Model& model, std::span<const BondRun> runs,
+                                      const BondBlocks& blocks, const double* inv_mass, const Soa& y,
+                                      const Soa& out, ProductTerms& t) {
   for (std::size_t r = 0; r < runs.size();) {
     const BondRun& run = runs[r];
     if (run.rows > 1 && fusable(run) && fusable(runs[r + run.rows - 1])) {  // each row between too

@@ -233,8 +233,8 @@ void run_blocks(const Model& model, const BondRun& run, const BondBlocks& blocks
 }
 
 // A part's runs' blocks (for_each_part_runs).
-QBOND_VECTOR_CLONES void part_blocks(const Model& model, std::span<const BondRun> runs, const BondBlocks& blocks,
-                                     const BuildArrays& a, BuildTerms& t) {
+QBOND_VECTOR_CLONES void part_blocks(const Model& model, std::span<const BondRun> runs,
+                                     const BondBlocks& blocks, const BuildArrays& a, BuildTerms& t) {
   for (const BondRun& run : runs)
     if (run.affine)
       affine_blocks(run, blocks, a, t);
@@ -245,7 +245,8 @@ QBOND_VECTOR_CLONES void part_blocks(const Model& model, std::span<const BondRun
 // A part's runs' terms and blocks (for_each_part_runs). The same runs for every partition
 // (bond_partition.hpp), so the same path for each bond.
 QBOND_VECTOR_CLONES void part_build(const Model& model, const State& state, const BuildArrays& a,
-                                    std::span<const BondRun> runs, double h, BuildTerms& t, BondBlocks& blocks) {
+                                    std::span<const BondRun> runs, double h, BuildTerms& t,
+                                    BondBlocks& blocks) {
   for (const BondRun& run : runs) {
     const int kind = run.affine ? uniform_linear(model, run) : -1;
     if (kind >= 0)
