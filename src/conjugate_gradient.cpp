@@ -1,10 +1,11 @@
 // Matrix-free block-Jacobi-preconditioned CG (ConjugateGradient in implicit_system.hpp) on
 // structure-of-arrays vectors: the product's bond pass takes an affine run (bond_partition.hpp)
-// in one vector loop reading its blocks and both ends' entries as contiguous vectors and adds the
-// terms to the rows in bond order (affine_rows.hpp), the other runs bond by bond; the per-quanta
-// loops and the dot products are vector loops too. Each row receives its bonds in bond order and
-// each dot product is summed over fixed chunks in fixed lanes, so the iterates are the same bits
-// for any thread count. The vector functions are compiled for several instruction sets (simd.hpp).
+// in one vector loop (a grid of them in one loop over its rows) reading its blocks and both ends'
+// entries as contiguous vectors and adds the terms to the rows in bond order (affine_rows.hpp),
+// the other runs bond by bond; the per-quanta loops and the dot products are vector loops too.
+// Each row receives its bonds in bond order and each dot product is summed over fixed chunks in
+// fixed lanes, so the iterates are the same bits for any thread count. The vector functions are
+// compiled for several instruction sets (simd.hpp).
 #include <algorithm>
 #include <cmath>
 
@@ -53,14 +54,13 @@ struct ProductTerms {
   alignas(64) double ti[3][kBondRun], tj[3][kBondRun];
 };
 
-// Asks for the blocks of bonds [first, first + count) a few runs on: the product streams five
-// arrays of them beside a dozen other streams, more than the hardware prefetcher follows far
-// enough ahead.
-QBOND_VECTOR_INLINE void prefetch_blocks(const BondBlocks& blocks, std::size_t first, std::size_t count) {
+// Asks for the blocks of the bonds a few runs on: the product streams five arrays of them beside
+// a dozen other streams, more than the hardware prefetcher follows far enough ahead.
+QBOND_VECTOR_INLINE void prefetch_blocks(const BondBlocks& blocks, const BondRun& run) {
   constexpr std::size_t kAhead = 4 * kBondRun;
-  const std::size_t b = first + kAhead;
-  if (b + count > blocks.Ba.size()) return;
-  for (std::size_t k = 0; k < count; k += 8)  // a cache line of doubles
+  const std::size_t b = run.first + kAhead;
+  if (b + run.count > blocks.Ba.size()) return;
+  for (std::size_t k = 0; k < run.count; k += 8)  // a cache line of doubles
     for (const std::vector<double>* a : {&blocks.ux, &blocks.uy, &blocks.uz, &blocks.Ba, &blocks.Bb})
       __builtin_prefetch(a->data() + b + k);
 }
@@ -108,7 +108,7 @@ struct AffineProduct {
 // forms them when the run is fusable, else from the run's term arrays.
 QBOND_VECTOR_INLINE void affine_product(const BondRun& run, const BondBlocks& blocks, const double* inv_mass,
                                         const Soa& y, const Soa& out, ProductTerms& t) {
-  prefetch_blocks(blocks, run.first, run.count);
+  prefetch_blocks(blocks, run);
   add_affine_terms(run, out, AffineProduct(run, blocks, inv_mass, y), {t.ti[0], t.ti[1], t.ti[2]},
                    {t.tj[0], t.tj[1], t.tj[2]});
 }
@@ -122,7 +122,7 @@ QBOND_VECTOR_INLINE void grid_product(std::span<const BondRun> grid, const BondB
   AffineProduct terms(grid[0], blocks, inv_mass, y);
   BondRun row = grid[0];
   for (std::size_t k = 0; k < grid.size(); ++k) {
-    prefetch_blocks(blocks, row.first, row.count);
+    prefetch_blocks(blocks, row);
     add_affine_fused(row, out, terms);
     row.first += row.count;
     terms.next_row(row.count, stride);
