@@ -120,14 +120,10 @@ QBOND_VECTOR_INLINE void grid_product(std::span<const BondRun> grid, const BondB
                                       const double* inv_mass, const Soa& y, const Soa& out) {
   const Index stride = grid[1].i0 - grid[0].i0;
   AffineProduct terms(grid[0], blocks, inv_mass, y);
-  BondRun row = grid[0];
-  for (std::size_t k = 0; k < grid.size(); ++k) {
+  for (const BondRun& row : grid) {
     prefetch_blocks(blocks, row);
     add_affine_fused(row, out, terms);
-    row.first += row.count;
     terms.next_row(row.count, stride);
-    row.i0 += stride;
-    row.j0 += stride;
   }
 }
 
