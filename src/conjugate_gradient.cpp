@@ -217,18 +217,19 @@ QBOND_VECTOR_CLONES void load(const Model& model, const ImplicitSystem& sys, con
   }
 }
 
-// r = b − A y for free quanta (0 for kinematic ones), z = A_qq⁻¹ r, p = z, over [lo, hi).
+// r = b − A y for free quanta (0 for kinematic ones), z = A_qq⁻¹ r, p = z, over [lo, hi); with
+// y_zero, A y is not read: r = b (b − A·0 has the same bits).
 QBOND_VECTOR_CLONES void first_residual(const ImplicitSystem& sys, const double* inv_mass, const Diagonals& d,
-                                        const Soa& Ay_in, const Soa& r_in, const Soa& z_in, const Soa& p_in,
-                                        std::size_t lo, std::size_t hi) {
+                                        bool y_zero, const Soa& Ay_in, const Soa& r_in, const Soa& z_in,
+                                        const Soa& p_in, std::size_t lo, std::size_t hi) {
   const double* b = sys.rhs.data()->data();
   const Local<6> Dinv(d.Dinv);
   const Local<3> Ay(Ay_in), r(r_in), z(z_in), p(p_in);
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
     double rq[3], zq[3];
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      const double bq = b[3 * q + c];  // loaded, then selected (simd.hpp)
-      r[c][q] = rq[c] = inv_mass[q] != 0 ? bq - Ay[c][q] : 0.0;
+      const double bq = b[3 * q + c], Ayq = y_zero ? 0.0 : Ay[c][q];  // loaded, then selected (simd.hpp)
+      r[c][q] = rq[c] = inv_mass[q] != 0 ? bq - Ayq : 0.0;
     }
     sym_times(Dinv, q, rq[0], rq[1], rq[2], zq);
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) p[c][q] = z[c][q] = zq[c];
@@ -302,13 +303,15 @@ void apply_system(const Model& model, const ImplicitSystem& sys, const std::vect
 }
 
 void ConjugateGradient::solve(const Model& model, const ImplicitSystem& sys, double tolerance, int cap, int threads,
-                              std::vector<Vec3>& y, SolveStats& stats) {
+                              std::vector<Vec3>& y, bool y_zero, SolveStats& stats) {
   const std::size_t n = model.num_quanta();
   CgArrays a(arrays, n);
   auto ranges = [&](auto&& body) { parallel_ranges(n, threads, body); };
   ranges([&](std::size_t lo, std::size_t hi) { load(model, sys, y, a.y, a.d, a.inv_mass, lo, hi); });
-  product(model, sys, a.d, a.inv_mass, a.y, a.Ap, threads);
-  ranges([&](std::size_t lo, std::size_t hi) { first_residual(sys, a.inv_mass, a.d, a.Ap, a.r, a.z, a.p, lo, hi); });
+  if (!y_zero) product(model, sys, a.d, a.inv_mass, a.y, a.Ap, threads);
+  ranges([&](std::size_t lo, std::size_t hi) {
+    first_residual(sys, a.inv_mass, a.d, y_zero, a.Ap, a.r, a.z, a.p, lo, hi);
+  });
   // Dot products over free quanta: kinematic rows of r, z, p and Ap are 0.
   double rz = dot(n, threads, a.r, a.z);
   const double bnorm = sys.rhs_norm;

@@ -24,14 +24,15 @@ class CoupledIntegrator final : public Integrator {
       case CoupledSolver::ldlt:
         direct_.solve(config_.solver, model, state, sys_, y_);
         break;
-      case CoupledSolver::cg:
+      case CoupledSolver::cg: {
         topo_.update(model, adj);
-        initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, y_);
-        cg_.solve(model, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_, stats_);
+        const bool guessed = initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, y_);
+        cg_.solve(model, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_, !guessed, stats_);
         if (config_.restore_momentum)
           restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
         if (config_.warm_start == WarmStart::previous) out.warm = y_;
         break;
+      }
       case CoupledSolver::sweep:
         assert(false && "make_integrator rejects coupled_implicit with sweep");
         break;

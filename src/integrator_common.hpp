@@ -13,8 +13,9 @@ std::unique_ptr<Integrator> make_hybrid_integrator(const IntegratorConfig& confi
 std::unique_ptr<Integrator> make_coupled_implicit_integrator(const IntegratorConfig& config);
 std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& config);
 
-// Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0).
-void initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
+// Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0); false when it
+// is zero (WarmStart::zero, or no previous step), which spares CG its first product.
+bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
                    const std::vector<Vec3>& previous, std::vector<Vec3>& y);
 
 // Caches what depends only on topology (colours, free components), rebuilt when it changes.

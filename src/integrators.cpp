@@ -137,18 +137,20 @@ void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v) {
     for (std::size_t k = 0; k < motion.quanta.size(); ++k) motion.at(k, t, x[motion.quanta[k]], v[motion.quanta[k]]);
 }
 
-void initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
+bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
                    const std::vector<Vec3>& previous, std::vector<Vec3>& y) {
   const std::size_t n = model.num_quanta();
   y.assign(n, Vec3::Zero());
+  if (mode == WarmStart::zero || (mode == WarmStart::previous && previous.size() != n)) return false;
   for (std::size_t i = 0; i < n; ++i) {
     if (model.is_kinematic(static_cast<Index>(i))) continue;
     switch (mode) {
       case WarmStart::zero: break;
       case WarmStart::external: y[i] = (h * model.inv_mass[i]) * f_ext[i]; break;
-      case WarmStart::previous: if (previous.size() == n) y[i] = previous[i]; break;
+      case WarmStart::previous: y[i] = previous[i]; break;
     }
   }
+  return true;
 }
 
 void TopologyCache::update(const Model& model, const Adjacency& adj) {

@@ -515,7 +515,7 @@ class NewtonIntegrator final : public Integrator {
         break;
       case CoupledSolver::cg:
         delta_.assign(n, Vec3::Zero());
-        cg_.solve(model, sys_, eta, cg_cap(config_, topo_), threads, delta_, inner);
+        cg_.solve(model, sys_, eta, cg_cap(config_, topo_), threads, delta_, /*y_zero=*/true, inner);
         break;
       case CoupledSolver::sweep:
         delta_.assign(n, Vec3::Zero());
