@@ -30,11 +30,12 @@ std::vector<Candidate> candidates() {
     c.warm_start = ws;
     return c;
   };
-  auto coupled = [](CoupledSolver s) {
+  auto coupled = [](CoupledSolver s, WarmStart ws = WarmStart::automatic) {
     IntegratorConfig c;
     c.type = IntegratorType::coupled_implicit;
     c.solver = s;
     c.tolerance = 1e-6;
+    c.warm_start = ws;
     return c;
   };
   IntegratorConfig se;
@@ -46,7 +47,8 @@ std::vector<Candidate> candidates() {
           {"hybrid sweep x1, start h f/m", hybrid(NeighbourModel::sweep, 1, WarmStart::external)},
           {"hybrid jacobi x4, start 0", hybrid(NeighbourModel::jacobi, 4, WarmStart::zero)},
           {"coupled ldlt", coupled(CoupledSolver::ldlt)},
-          {"coupled cg 1e-6 (default)", coupled(CoupledSolver::cg)}};
+          {"coupled cg 1e-6, start 0", coupled(CoupledSolver::cg, WarmStart::zero)},
+          {"coupled cg 1e-6, start previous (default)", coupled(CoupledSolver::cg)}};
 }
 
 World cube(int n, bool anchored, Vec3 gravity) {

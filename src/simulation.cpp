@@ -29,7 +29,10 @@ Simulation::Simulation(World world, const IntegratorConfig& config, double h)
   }
 }
 
-void Simulation::set_integrator(const IntegratorConfig& config) { integrator_ = make_integrator(config); }
+void Simulation::set_integrator(const IntegratorConfig& config) {
+  integrator_ = make_integrator(config);
+  world_.state.warm.clear();  // the carry-over was the old integrator's
+}
 
 const Adjacency& Simulation::adjacency() {
   if (adj_.version != world_.state.topology_version) build_adjacency(world_.model, world_.state, adj_);

@@ -456,6 +456,34 @@ TEST(CoupledImplicit, CgStopsAtItsTolerance) {
   EXPECT_GT(tight.integrator().stats().iterations, sim.integrator().stats().iterations);
 }
 
+// WarmStart::automatic, the default: the previous step's Δv for CG (the coupled integrator's
+// default solver), zero for the sweeps (which blow up from it) and every other solver.
+TEST(WarmStart, AutomaticIsThePreviousStepForCgAndZeroOtherwise) {
+  EXPECT_EQ(default_integrator().warm_start, WarmStart::automatic);
+  EXPECT_EQ(make_integrator(default_integrator())->config().warm_start, WarmStart::previous);
+  for (const IntegratorConfig& c : {coupled(CoupledSolver::ldlt), hybrid(NeighbourModel::sweep),
+                                    hybrid(NeighbourModel::jacobi), test::config(IntegratorType::bdf2),
+                                    test::config(IntegratorType::energy_momentum)})
+    EXPECT_EQ(make_integrator(c)->config().warm_start, WarmStart::zero) << to_string(c.type);
+  EXPECT_EQ(parse_warm_start(to_string(WarmStart::automatic)), WarmStart::automatic);
+}
+
+// CG scales its guess by yᵀb / yᵀA y before iterating: a guess along the solution (twice it, or
+// minus three times it) is scaled onto it, and CG stops at once.
+TEST(CoupledImplicit, CgScalesItsGuessOntoTheSolution) {
+  const World w = stressed_lattice();
+  const Projection exact = test::project_once(w, coupled(CoupledSolver::cg, 1e-14), kStiffStep);
+  for (double f : {2.0, -3.0}) {
+    World guessed = w;
+    guessed.state.warm.resize(w.num_quanta());
+    for (std::size_t i = 0; i < w.num_quanta(); ++i) guessed.state.warm[i] = f * exact.dv[i];
+    Simulation sim(guessed, coupled(CoupledSolver::cg, 1e-9), kStiffStep);
+    sim.begin_step();
+    EXPECT_EQ(sim.integrator().stats().iterations, 0) << f;
+    EXPECT_LE(test::max_norm_diff(sim.projection().dv, exact.dv), 1e-12 * test::max_norm(exact.dv)) << f;
+  }
+}
+
 TEST(Integrators, NamesRoundTripAndBadOptionsAreRejected) {
   for (auto t : {IntegratorType::explicit_euler, IntegratorType::symplectic_euler, IntegratorType::velocity_verlet,
                  IntegratorType::rk4, IntegratorType::hybrid_implicit, IntegratorType::coupled_implicit})

@@ -87,11 +87,13 @@ enum class CoupledSolver : std::uint8_t {
           ///< sweeps per Newton iteration; the coupled integrator's is hybrid_implicit/sweep)
 };
 
-/// Initial guess of the iterative solvers (sweep, jacobi, cg).
+/// Initial guess of the iterative solvers (sweep, jacobi, cg). CG scales a guess by the factor
+/// that minimises its error in A's norm, so that no guess starts it worse than zero.
 enum class WarmStart : std::uint8_t {
-  zero,      ///< dv = 0
-  external,  ///< dv = h f_ext / m: exact for a free body under uniform gravity
-  previous,  ///< the previous step's dv
+  zero,       ///< dv = 0
+  external,   ///< dv = h f_ext / m: exact for a free body under uniform gravity
+  previous,   ///< the previous step's dv
+  automatic,  ///< `previous` for coupled_implicit with cg, `zero` otherwise (make_integrator)
 };
 
 /// Every option of every integrator; each integrator reads the ones that concern it.
@@ -110,8 +112,8 @@ struct IntegratorConfig {
   /// Costs one or two LU solves per step (docs/integrators.md, "Polishing").
   bool newton_polish = false;
   double chebyshev_rho = 0;  ///< sweep: spectral radius estimate for Chebyshev acceleration (0 = off)
-  WarmStart warm_start = WarmStart::zero;  ///< sweeps from `previous` blow up, from `external`
-                                           ///< they pump energy into anchored bodies
+  WarmStart warm_start = WarmStart::automatic;  ///< sweeps from `previous` blow up, from
+                                               ///< `external` they pump energy into anchored bodies
   int threads = 0;  ///< OpenMP threads (0: OpenMP's default, OMP_NUM_THREADS or every core);
                     ///< results are the same bits for any count
   bool restore_momentum = true;  ///< iterative solvers: give each free component its exact
