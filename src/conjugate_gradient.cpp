@@ -221,15 +221,17 @@ QBOND_VECTOR_CLONES void load(const Model& model, const ImplicitSystem& sys, con
 // [lo, hi), from Ay = A y before the scaling; with y_zero (y = 0), neither Ay nor y is read: r = b
 // (b − A·0 has the same bits).
 QBOND_VECTOR_CLONES void first_residual(const ImplicitSystem& sys, const double* inv_mass, const Diagonals& d,
-                                        bool y_zero, double s, const Soa& Ay_in, const Soa& y_in, const Soa& r_in,
-                                        const Soa& z_in, const Soa& p_in, std::size_t lo, std::size_t hi) {
+                                        bool y_zero, double s, const Soa& Ay_in, const Soa& y_in,
+                                        const Soa& r_in, const Soa& z_in, const Soa& p_in, std::size_t lo,
+                                        std::size_t hi) {
   const double* b = sys.rhs.data()->data();
   const Local<6> Dinv(d.Dinv);
   const Local<3> Ay(Ay_in), y(y_in), r(r_in), z(z_in), p(p_in);
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
     double rq[3], zq[3];
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      const double bq = b[3 * q + c], Ayq = y_zero ? 0.0 : Ay[c][q], yq = y[c][q];  // loaded, then selected (simd.hpp)
+      // Loaded, then selected (simd.hpp).
+      const double bq = b[3 * q + c], Ayq = y_zero ? 0.0 : Ay[c][q], yq = y[c][q];
       y[c][q] = y_zero ? yq : s * yq;
       r[c][q] = rq[c] = inv_mass[q] != 0 ? bq - s * Ayq : 0.0;
     }

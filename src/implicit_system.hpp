@@ -211,8 +211,10 @@ struct DirectSolver {
 };
 
 // Matrix-free CG preconditioned by blockdiag(A_ii)⁻¹ (the hybrid's 3×3 blocks), from the initial
-// guess in y (y_zero: all zero, so that the first residual is b itself, without a product), until ‖b − A y‖/‖b‖ ≤ tolerance or `cap` iterations; fills stats. The product runs
-// over sys.part, which begin_implicit_step or assemble_blocks has brought up to date.
+// guess in y (scaled first: conjugate_gradient.cpp; y_zero: all zero, so that the first residual is
+// b itself, without a product), until ‖b − A y‖/‖b‖ ≤ tolerance or `cap` iterations; fills stats.
+// The product runs over sys.part, which begin_implicit_step or assemble_blocks has brought up to
+// date.
 struct ConjugateGradient {
   std::vector<double> arrays;  // y, r, z, p, Ap and A's diagonal blocks as structure of arrays
   void solve(const Model& model, const ImplicitSystem& sys, double tolerance, int cap, int threads,

@@ -16,9 +16,10 @@ std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& config) {
   IntegratorConfig c = config;
   // CG from the previous step's Δv: fewer iterations wherever a step's Δv is like the last one's
   // (cube_drop 14.4 -> 5.9 a step), no more elsewhere; sweeps from it blow up (docs/integrators.md).
-  if (c.warm_start == WarmStart::automatic)
-    c.warm_start = c.type == IntegratorType::coupled_implicit && c.solver == CoupledSolver::cg ? WarmStart::previous
-                                                                                               : WarmStart::zero;
+  if (c.warm_start == WarmStart::automatic) {
+    const bool cg = c.type == IntegratorType::coupled_implicit && c.solver == CoupledSolver::cg;
+    c.warm_start = cg ? WarmStart::previous : WarmStart::zero;
+  }
   if (c.iterations < 1) throw std::invalid_argument("integrator.iterations: must be >= 1");
   if (c.threads < 0) throw std::invalid_argument("integrator.threads: must be >= 0 (0: all cores)");
   if (c.max_iterations < 0) throw std::invalid_argument("integrator.max_iterations: must be >= 0");
@@ -123,8 +124,8 @@ CoupledSolver parse_coupled_solver(std::string_view s) {
                     "solver");
 }
 WarmStart parse_warm_start(std::string_view s) {
-  return parse_name(s, std::array{WarmStart::zero, WarmStart::external, WarmStart::previous, WarmStart::automatic},
-                    "warm start");
+  constexpr std::array all{WarmStart::zero, WarmStart::external, WarmStart::previous, WarmStart::automatic};
+  return parse_name(s, all, "warm start");
 }
 
 void project_kinematic(const Model& model, const State& state, const StepContext& ctx,
