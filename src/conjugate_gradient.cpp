@@ -217,23 +217,31 @@ QBOND_VECTOR_CLONES void load(const Model& model, const ImplicitSystem& sys, con
   }
 }
 
-// y ← s y and r = b − A y for free quanta (0 for kinematic ones), z = A_qq⁻¹ r, p = z, over
-// [lo, hi), from Ay = A y before the scaling; with y_zero (y = 0), neither Ay nor y is read: r = b
-// (b − A·0 has the same bits).
+// y ← s y and Ay ← s Ay over [lo, hi): CG's guess scaled (ConjugateGradient::solve).
+QBOND_VECTOR_CLONES void scale_guess(double s, const Soa& y_in, const Soa& Ay_in, std::size_t lo,
+                                     std::size_t hi) {
+  const Local<3> y(y_in), Ay(Ay_in);
+  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      y[c][q] *= s;
+      Ay[c][q] *= s;
+    }
+  }
+}
+
+// r = b − A y for free quanta (0 for kinematic ones), z = A_qq⁻¹ r, p = z, over [lo, hi); with
+// y_zero (y = 0), A y is not read: r = b (b − A·0 has the same bits).
 QBOND_VECTOR_CLONES void first_residual(const ImplicitSystem& sys, const double* inv_mass, const Diagonals& d,
-                                        bool y_zero, double s, const Soa& Ay_in, const Soa& y_in,
-                                        const Soa& r_in, const Soa& z_in, const Soa& p_in, std::size_t lo,
-                                        std::size_t hi) {
+                                        bool y_zero, const Soa& Ay_in, const Soa& r_in, const Soa& z_in,
+                                        const Soa& p_in, std::size_t lo, std::size_t hi) {
   const double* b = sys.rhs.data()->data();
   const Local<6> Dinv(d.Dinv);
-  const Local<3> Ay(Ay_in), y(y_in), r(r_in), z(z_in), p(p_in);
+  const Local<3> Ay(Ay_in), r(r_in), z(z_in), p(p_in);
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
     double rq[3], zq[3];
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      // Loaded, then selected (simd.hpp).
-      const double bq = b[3 * q + c], Ayq = y_zero ? 0.0 : Ay[c][q], yq = y[c][q];
-      y[c][q] = y_zero ? yq : s * yq;
-      r[c][q] = rq[c] = inv_mass[q] != 0 ? bq - s * Ayq : 0.0;
+      const double bq = b[3 * q + c], Ayq = y_zero ? 0.0 : Ay[c][q];  // loaded, then selected (simd.hpp)
+      r[c][q] = rq[c] = inv_mass[q] != 0 ? bq - Ayq : 0.0;
     }
     sym_times(Dinv, q, rq[0], rq[1], rq[2], zq);
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) p[c][q] = z[c][q] = zq[c];
@@ -315,17 +323,17 @@ void ConjugateGradient::solve(const Model& model, const ImplicitSystem& sys, dou
   // A guess is first scaled by s = yᵀb / yᵀA y, which minimises the error's A-norm along it: the
   // start is then never worse than zero in that norm (a previous step's Δv at another step length,
   // or after an impulse, can be), and often better than the guess as it is.
-  double s = 1;
   if (!y_zero) {
     product(model, sys, a.d, a.inv_mass, a.y, a.Ap, threads);
     const double yAy = dot(n, threads, a.y, a.Ap);
     const double yb = deterministic_sum(n, threads, [&](std::size_t i) {
       return model.inv_mass[i] != 0 ? y[i].dot(sys.rhs[i]) : 0.0;
     });
-    s = yAy > 0 ? yb / yAy : 0.0;
+    const double s = yAy > 0 ? yb / yAy : 0.0;
+    ranges([&](std::size_t lo, std::size_t hi) { scale_guess(s, a.y, a.Ap, lo, hi); });
   }
   ranges([&](std::size_t lo, std::size_t hi) {
-    first_residual(sys, a.inv_mass, a.d, y_zero, s, a.Ap, a.y, a.r, a.z, a.p, lo, hi);
+    first_residual(sys, a.inv_mass, a.d, y_zero, a.Ap, a.r, a.z, a.p, lo, hi);
   });
   // Dot products over free quanta: kinematic rows of r, z, p and Ap are 0.
   double rz = dot(n, threads, a.r, a.z);
