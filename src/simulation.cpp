@@ -217,15 +217,16 @@ void Simulation::update_ledger() {
 
 namespace {
 
-// Arrays moved out of a state and back, so that a copy of the state leaves them out: the
-// integrator's carry-over (always: see copy_last_good) and, with `bonds`, the per-bond arrays.
+// Arrays moved out of a state and back, so that a copy of the state leaves them out: positions,
+// velocities and the integrator's carry-over (always: see copy_last_good) and, with `bonds`, the
+// per-bond arrays.
 struct KeptArrays {
-  std::vector<Vec3> warm;
+  std::vector<Vec3> x, v, warm;
   std::vector<double> rest;
   std::vector<std::uint8_t> alive;
   std::vector<double> bond_time;
   std::vector<FormedBond> formed;
-  KeptArrays(State& s, bool bonds) : warm(std::move(s.warm)) {
+  KeptArrays(State& s, bool bonds) : x(std::move(s.x)), v(std::move(s.v)), warm(std::move(s.warm)) {
     if (!bonds) return;
     rest = std::move(s.rest);
     alive = std::move(s.alive);
@@ -233,6 +234,8 @@ struct KeptArrays {
     formed = std::move(s.formed);
   }
   void put_back(State& s, bool bonds) {
+    s.x = std::move(x);
+    s.v = std::move(v);
     s.warm = std::move(warm);
     if (!bonds) return;
     s.rest = std::move(rest);
@@ -244,13 +247,13 @@ struct KeptArrays {
 
 }  // namespace
 
-void Simulation::copy_last_good(bool save, bool warm_swapped) {
+void Simulation::copy_last_good(bool save, bool applied) {
   State& s = world_.state;
   if (save) last_good_has_bonds_ = !heuristics_.empty();
   // Only heuristics edit bonds during a step: without them the copy leaves out the bond arrays,
-  // most of a lattice's state, and the world's state keeps its own. The carry-over is never
-  // copied: until end_step swaps in the step's own it is the one before the step, and after the
-  // swap the projection holds that one.
+  // most of a lattice's state, and the world's state keeps its own. Positions, velocities and the
+  // carry-over are never copied: until end_step swaps in the step's own they are the ones before
+  // the step, and after the swap next_x_, next_v_ and the projection hold those.
   const bool bonds = !last_good_has_bonds_;
   KeptArrays kept(s, bonds);
   if (save)
@@ -258,7 +261,11 @@ void Simulation::copy_last_good(bool save, bool warm_swapped) {
   else
     s = last_good_;
   kept.put_back(s, bonds);
-  if (warm_swapped) s.warm.swap(projection_.warm);
+  if (applied) {
+    s.x.swap(next_x_);
+    s.v.swap(next_v_);
+    s.warm.swap(projection_.warm);
+  }
 }
 
 StepReport Simulation::end_step() {

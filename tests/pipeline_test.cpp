@@ -127,10 +127,10 @@ class BondEditor : public Heuristic {
 
 // Explicit Euler (h sqrt(k/m) = 5) and velocity Verlet (0.8, past its stability limit on this
 // lattice) gain energy every step; with keep_last_good the step that trips the runaway check is
-// undone, so the world holds exactly the state before it: positions, velocities and the ledger;
-// the bonds, which the copy leaves out when no heuristic can edit them and holds when one does;
+// undone, so the world holds exactly the state before it: the ledger; the bonds, which the copy
+// leaves out when no heuristic can edit them and holds when one does; and positions, velocities
 // and Verlet's carry-over, which the copy always leaves out (the step had already swapped in its
-// own: the rollback swaps it back).
+// own: the rollback swaps them back).
 TEST(Pipeline, EnergyRunawayIsRolledBackToTheLastGoodState) {
   for (const auto& [type, edits] : {std::pair{IntegratorType::explicit_euler, false}, {IntegratorType::explicit_euler, true},
                                    {IntegratorType::velocity_verlet, false}, {IntegratorType::velocity_verlet, true}}) {

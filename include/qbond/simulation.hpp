@@ -76,8 +76,9 @@ class Simulation {
   /// over the bonds).
   void set_track_energy(bool on) { track_energy_ = on; }
   /// Whether each step first copies the state so that an energy runaway, found only after the
-  /// step applied, can be undone (costs one state copy per step, of all but the bond arrays when
-  /// no heuristic is on; runs that save the last good state on blow-up turn it on).
+  /// step applied, can be undone (costs one copy per step of the state's small fields, and of its
+  /// bond arrays when a heuristic is on: positions and velocities are kept by the step's own
+  /// swap; runs that save the last good state on blow-up turn it on).
   void set_keep_last_good(bool on) { keep_last_good_ = on; }
   const Adjacency& adjacency();
 
@@ -87,9 +88,9 @@ class Simulation {
   StepReport check_projection();
   StepReport check_energy() const;
   /// The state before the step into last_good_ (save, set_keep_last_good), or back from it;
-  /// warm_swapped: the step's carry-over is already in the state (end_step), the one before it
-  /// in the projection.
-  void copy_last_good(bool save, bool warm_swapped = false);
+  /// applied: the step's positions, velocities and carry-over are already in the state (end_step),
+  /// the ones before it in next_x_, next_v_ and the projection.
+  void copy_last_good(bool save, bool applied = false);
 
   World world_;
   std::unique_ptr<Integrator> integrator_;
