@@ -315,16 +315,20 @@ class NewtonIntegrator final : public Integrator {
       sub_out_.dv[i] = y_[i];
       sub_out_.dx[i] = step_.dx(model, y_, static_cast<Index>(i));
     }
+    sub_x1_.resize(n);
+    sub_v1_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      sub_x1_[i] = sub_.x[i] + sub_out_.dx[i];
+      sub_v1_[i] = sub_.v[i] + sub_out_.dv[i];
+    }
     // The ledger's accounts over this substep, from the substep itself (loads are linear in Δx:
     // the ledger's whole-step charge is exact for them).
-    const StepWork w = step_work(model, sub_, adj, sub_out_, f_ext, H, damping_theta(), damping_direction_theta(),
-                                 discrete_gradient(), config_.threads);
+    const StepWork w = step_work(model, sub_, adj, sub_out_, {sub_x1_, sub_v1_}, f_ext, H, damping_theta(),
+                                 damping_direction_theta(), discrete_gradient(), config_.threads);
     out.work_anchors += w.anchors;
     out.dissipated_damping += w.damping;
-    for (std::size_t i = 0; i < n; ++i) {
-      sub_.x[i] += sub_out_.dx[i];
-      sub_.v[i] += sub_out_.dv[i];
-    }
+    sub_.x.swap(sub_x1_);
+    sub_.v.swap(sub_v1_);
     // Kinematic quanta exactly on their path (as Simulation::end_step puts them).
     for (const Motion& motion : model.motions)
       for (std::size_t k = 0; k < motion.quanta.size(); ++k)
@@ -535,6 +539,7 @@ class NewtonIntegrator final : public Integrator {
   std::vector<Mat3> exact_;  // sys_.exact set aside while the modified system is solved
   State sub_;                // substepping: the state the substeps have reached
   Projection sub_out_;       // substepping: one substep's projection
+  std::vector<Vec3> sub_x1_, sub_v1_;  // substepping: the state a substep applies
   DirectSolver direct_;
   ConjugateGradient cg_;
   GaussSeidel gs_;

@@ -206,9 +206,9 @@ void Simulation::update_ledger() {
   // summed over them (Projection::has_work): the whole-step estimate would not be what it applied.
   const Projection& p = projection_;
   EnergyLedger& l = world_.state.energy;
-  const StepWork w = step_work(world_.model, world_.state, adjacency(), p, f_ext_, ctx_.h, integrator_->damping_theta(),
-                               integrator_->damping_direction_theta(), integrator_->discrete_gradient(),
-                               integrator_->config().threads);
+  const StepWork w = step_work(world_.model, world_.state, adjacency(), p, {next_x_, next_v_}, f_ext_, ctx_.h,
+                               integrator_->damping_theta(), integrator_->damping_direction_theta(),
+                               integrator_->discrete_gradient(), integrator_->config().threads);
   l.work_loads += w.loads;
   l.work_anchors += p.has_work ? p.work_anchors : w.anchors;
   l.dissipated_damping += p.has_work ? p.dissipated_damping : w.damping;

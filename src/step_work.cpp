@@ -2,12 +2,11 @@
 
 #include <cmath>
 
-#include "bond_sums.hpp"
 #include "parallel.hpp"
 
 namespace qbond {
 
-StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const Projection& p,
+StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const Projection& p, const AppliedState& a,
                    const std::vector<Vec3>& f_ext, double h, double theta, double phi, bool discrete_gradient,
                    int threads) {
   const double loads = deterministic_sum(m.num_quanta(), threads, [&](std::size_t i) {
@@ -18,7 +17,7 @@ StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const P
   };
   // The bond at the fraction φ of the step where the integrator took the axial damper's direction.
   auto damper_bond = [&](Index i, Index j) -> Vec3 { return s.x[j] - s.x[i] + phi * (p.dx[j] - p.dx[i]); };
-  const BondStepSums bonds = bond_step_sums(m, s, p, h, theta, phi, threads);
+  const BondStepSums bonds = bond_step_sums(m, s, a, h, theta, phi, threads);
   // Only bonds with a moving prescribed end do work on the anchors: found through those quanta's
   // adjacency, each bond once (from its first such end), summed in quanta order. A prescribed
   // quanta that stays put this step (an anchor) does none.

@@ -51,33 +51,56 @@ double sum_tolerance(std::size_t n, double plain) {
   return static_cast<double>(n + 4) * std::numeric_limits<double>::epsilon() * std::abs(plain);
 }
 
+// The state a projection applies, x + Δx and v + Δv (Simulation::check_projection's).
+struct Applied {
+  std::vector<Vec3> x, v;
+  Applied(const State& s, const Projection& p) : x(s.x), v(s.v) {
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      x[i] += p.dx[i];
+      v[i] += p.dv[i];
+    }
+  }
+  AppliedState state() const { return {x, v}; }
+};
+
+// Every damper point the kernels tell apart (bond_sums.cpp): θ = 1, 0 or between at the start's
+// bond, and the midpoint's θ = φ = ½, and one more of each.
 TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
   for (bool grouped : {false, true}) {
     for (bool broken : {false, true}) {
-      const std::string what = std::string(grouped ? "grouped" : "builder's order") + (broken ? ", broken" : "");
+      const std::string where = std::string(grouped ? "grouped" : "builder's order") + (broken ? ", broken" : "");
       const World w = mixed_lattice(10, 4, 3, grouped, broken);
       const Model& m = w.model;
       const State& s = w.state;
       const Projection p = random_projection(w, 3);
-      const double h = 1e-3, theta = 0.5, phi = 0.25;
-      double energy = 0, damping = 0, energy_after = 0;
+      const Applied a(s, p);
+      const double h = 1e-3;
+      double energy = 0, energy_after = 0;
       for (std::size_t b = 0; b < w.num_bonds(); ++b) {
         if (!s.alive[b]) continue;
         const Index i = m.bond_i[b], j = m.bond_j[b];
         energy += m.law_at(b, (s.x[j] - s.x[i]).norm(), s.rest[b]).U;
         energy_after += m.law_at(b, ((s.x[j] + p.dx[j]) - (s.x[i] + p.dx[i])).norm(), s.rest[b]).U;
-        const Vec3 d = s.x[j] - s.x[i] + phi * (p.dx[j] - p.dx[i]);
-        const Vec3 v = (s.v[j] + theta * p.dv[j]) - (s.v[i] + theta * p.dv[i]);
-        const double vu = v.dot(d.normalized());
-        damping += h * m.damping[b] * (m.damping_model[b] == DampingModel::axial ? vu * vu : v.squaredNorm());
       }
-      ASSERT_GT(energy, 0) << what;
-      ASSERT_GT(damping, 0) << what;
-      ASSERT_NE(energy_after, energy) << what;
-      EXPECT_NEAR(bond_energy_sum(m, s, 1), energy, sum_tolerance(w.num_bonds(), energy)) << what;
-      const BondStepSums step = bond_step_sums(m, s, p, h, theta, phi, 1);
-      EXPECT_NEAR(step.damping, damping, sum_tolerance(w.num_bonds(), damping)) << what;
-      EXPECT_NEAR(step.energy_after, energy_after, sum_tolerance(w.num_bonds(), energy_after)) << what;
+      ASSERT_GT(energy, 0) << where;
+      ASSERT_NE(energy_after, energy) << where;
+      EXPECT_NEAR(bond_energy_sum(m, s, 1), energy, sum_tolerance(w.num_bonds(), energy)) << where;
+      for (const auto& [theta, phi] : {std::pair{1.0, 0.0}, {0.0, 0.0}, {0.5, 0.0}, {0.3, 0.0}, {0.5, 0.5}, {1.0, 1.0}}) {
+        const std::string what = where + ", theta " + std::to_string(theta) + ", phi " + std::to_string(phi);
+        double damping = 0;
+        for (std::size_t b = 0; b < w.num_bonds(); ++b) {
+          if (!s.alive[b]) continue;
+          const Index i = m.bond_i[b], j = m.bond_j[b];
+          const Vec3 d = s.x[j] - s.x[i] + phi * (p.dx[j] - p.dx[i]);
+          const Vec3 v = (s.v[j] + theta * p.dv[j]) - (s.v[i] + theta * p.dv[i]);
+          const double vu = v.dot(d.normalized());
+          damping += h * m.damping[b] * (m.damping_model[b] == DampingModel::axial ? vu * vu : v.squaredNorm());
+        }
+        ASSERT_GT(damping, 0) << what;
+        const BondStepSums step = bond_step_sums(m, s, a.state(), h, theta, phi, 1);
+        EXPECT_NEAR(step.damping, damping, sum_tolerance(w.num_bonds(), damping)) << what;
+        EXPECT_NEAR(step.energy_after, energy_after, sum_tolerance(w.num_bonds(), energy_after)) << what;
+      }
     }
   }
 }
@@ -87,11 +110,12 @@ TEST(EnergyLedger, BondSumsGiveTheSameBitsAtAnyThreadCount) {
   const World w = mixed_lattice(16, 12, 8, true, true);
   ASSERT_GT(w.num_bonds(), 8 * kSumChunk);
   const Projection p = random_projection(w, 4);
+  const Applied a(w.state, p);
   const double e1 = bond_energy_sum(w.model, w.state, 1);
-  const BondStepSums s1 = bond_step_sums(w.model, w.state, p, 1e-3, 1, 0, 1);
+  const BondStepSums s1 = bond_step_sums(w.model, w.state, a.state(), 1e-3, 1, 0, 1);
   for (int threads : {2, 3}) {
     EXPECT_EQ(bond_energy_sum(w.model, w.state, threads), e1) << threads << " threads";
-    const BondStepSums st = bond_step_sums(w.model, w.state, p, 1e-3, 1, 0, threads);
+    const BondStepSums st = bond_step_sums(w.model, w.state, a.state(), 1e-3, 1, 0, threads);
     EXPECT_EQ(st.damping, s1.damping) << threads << " threads";
     EXPECT_EQ(st.energy_after, s1.energy_after) << threads << " threads";
   }
@@ -144,7 +168,7 @@ TEST(EnergyLedger, AnchorWorkCountsEveryBondOfAMovingPrescribedQuantaOnce) {
   const double plain = plain_anchor_work(m, w.state, p);
   ASSERT_GT(std::abs(plain), 0);
   for (int threads : {1, 2}) {
-    const StepWork sw = step_work(m, w.state, adj, p, f_ext, 1e-3, 1, 0, false, threads);
+    const StepWork sw = step_work(m, w.state, adj, p, Applied(w.state, p).state(), f_ext, 1e-3, 1, 0, false, threads);
     EXPECT_NEAR(sw.anchors, plain, 1e-12 * std::abs(plain)) << threads << " threads";
   }
 }
