@@ -2,6 +2,7 @@
 
 #include <array>
 #include <bit>
+#include <cassert>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -162,7 +163,8 @@ enum class DamperPoint { start_end, start_start, start_any, any_any };
 // [b0, b1), the dampers evaluated at kPoint.
 template <DamperPoint kPoint>
 QBOND_VECTOR_INLINE Sums<2> step_chunk_at(const Model& m, const State& s, const double* x1, const double* v1,
-                                          double h, double theta, double phi, std::size_t b0, std::size_t b1) {
+                                          double h, double theta, double phi, std::size_t b0,
+                                          std::size_t b1) {
   constexpr bool kStartBond = kPoint != DamperPoint::any_any;
   const double* x = s.x.data()->data();
   const double* v = s.v.data()->data();
@@ -237,8 +239,8 @@ QBOND_VECTOR_INLINE Sums<2> step_chunk_at(const Model& m, const State& s, const 
   return chunk_sums<2>(m, s, b0, b1, block, bond, uniform);
 }
 
-QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const double* x1, const double* v1, double h,
-                                       double theta, double phi, std::size_t b0, std::size_t b1) {
+QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const double* x1, const double* v1,
+                                       double h, double theta, double phi, std::size_t b0, std::size_t b1) {
   using enum DamperPoint;
   if (phi != 0) return step_chunk_at<any_any>(m, s, x1, v1, h, theta, phi, b0, b1);
   if (theta == 1) return step_chunk_at<start_end>(m, s, x1, v1, h, theta, phi, b0, b1);
@@ -254,14 +256,16 @@ double bond_energy_sum(const Model& m, const State& s, int threads) {
       std::plus<>{});
 }
 
-BondStepSums bond_step_sums(const Model& m, const State& s, const AppliedState& a, double h, double theta, double phi,
-                            int threads) {
-  const double* x1 = a.x.data()->data();
-  const double* v1 = a.v.data()->data();
-  const Sums<2> sums = reduce_chunks(
-      m.num_bonds(), threads, Sums<2>{},
-      [&](std::size_t b0, std::size_t b1) { return step_chunk(m, s, x1, v1, h, theta, phi, b0, b1); },
-      [](const Sums<2>& a, const Sums<2>& b) { return Sums<2>{a[0] + b[0], a[1] + b[1]}; });
+BondStepSums bond_step_sums(const Model& m, const State& s, const AppliedState& a, double h, double theta,
+                            double phi, int threads) {
+  assert(a.x.size() == m.num_quanta() && a.v.size() == m.num_quanta());
+  auto chunk = [&](std::size_t b0, std::size_t b1) {  // a chunk has bonds, so quanta: the arrays have data
+    return step_chunk(m, s, a.x.data()->data(), a.v.data()->data(), h, theta, phi, b0, b1);
+  };
+  const Sums<2> sums =
+      reduce_chunks(m.num_bonds(), threads, Sums<2>{}, chunk, [](const Sums<2>& p, const Sums<2>& q) {
+        return Sums<2>{p[0] + q[0], p[1] + q[1]};
+      });
   return {sums[0], sums[1]};
 }
 

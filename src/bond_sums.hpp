@@ -38,7 +38,7 @@ struct BondStepSums {
 /// Both sums of BondStepSums in one pass over the bonds. The dampers evaluated at the start's
 /// bond (φ = 0) and at the start's or end's velocities (θ = 0 or 1), as most integrators take
 /// them, read three of the four arrays.
-BondStepSums bond_step_sums(const Model& m, const State& s, const AppliedState& a, double h, double theta, double phi,
-                            int threads);
+BondStepSums bond_step_sums(const Model& m, const State& s, const AppliedState& a, double h, double theta,
+                            double phi, int threads);
 
 }  // namespace qbond

@@ -6,9 +6,9 @@
 
 namespace qbond {
 
-StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const Projection& p, const AppliedState& a,
-                   const std::vector<Vec3>& f_ext, double h, double theta, double phi, bool discrete_gradient,
-                   int threads) {
+StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const Projection& p,
+                   const AppliedState& a, const std::vector<Vec3>& f_ext, double h, double theta, double phi,
+                   bool discrete_gradient, int threads) {
   const double loads = deterministic_sum(m.num_quanta(), threads, [&](std::size_t i) {
     return m.is_kinematic(static_cast<Index>(i)) ? 0.0 : (f_ext[i] - m.mass[i] * m.gravity).dot(p.dx[i]);
   });

@@ -21,8 +21,8 @@ struct StepWork {
 // rule, or the discrete gradient the integrator applied when `discrete_gradient`; dampers are
 // charged at the velocity v + θ Δv along the bond d + φ Δd at which the integrator evaluated them.
 // `adj` is the adjacency of the alive bonds; `a` the state the step applies (x + Δx, v + Δv).
-StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const Projection& p, const AppliedState& a,
-                   const std::vector<Vec3>& f_ext, double h, double theta, double phi, bool discrete_gradient,
-                   int threads);
+StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const Projection& p,
+                   const AppliedState& a, const std::vector<Vec3>& f_ext, double h, double theta, double phi,
+                   bool discrete_gradient, int threads);
 
 }  // namespace qbond

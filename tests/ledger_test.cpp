@@ -68,7 +68,8 @@ struct Applied {
 TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
   for (bool grouped : {false, true}) {
     for (bool broken : {false, true}) {
-      const std::string where = std::string(grouped ? "grouped" : "builder's order") + (broken ? ", broken" : "");
+      const std::string where =
+          std::string(grouped ? "grouped" : "builder's order") + (broken ? ", broken" : "");
       const World w = mixed_lattice(10, 4, 3, grouped, broken);
       const Model& m = w.model;
       const State& s = w.state;
@@ -85,7 +86,8 @@ TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
       ASSERT_GT(energy, 0) << where;
       ASSERT_NE(energy_after, energy) << where;
       EXPECT_NEAR(bond_energy_sum(m, s, 1), energy, sum_tolerance(w.num_bonds(), energy)) << where;
-      for (const auto& [theta, phi] : {std::pair{1.0, 0.0}, {0.0, 0.0}, {0.5, 0.0}, {0.3, 0.0}, {0.5, 0.5}, {1.0, 1.0}}) {
+      for (const auto& [theta, phi] :
+           {std::pair{1.0, 0.0}, {0.0, 0.0}, {0.5, 0.0}, {0.3, 0.0}, {0.5, 0.5}, {1.0, 1.0}}) {
         const std::string what = where + ", theta " + std::to_string(theta) + ", phi " + std::to_string(phi);
         double damping = 0;
         for (std::size_t b = 0; b < w.num_bonds(); ++b) {
@@ -94,7 +96,8 @@ TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
           const Vec3 d = s.x[j] - s.x[i] + phi * (p.dx[j] - p.dx[i]);
           const Vec3 v = (s.v[j] + theta * p.dv[j]) - (s.v[i] + theta * p.dv[i]);
           const double vu = v.dot(d.normalized());
-          damping += h * m.damping[b] * (m.damping_model[b] == DampingModel::axial ? vu * vu : v.squaredNorm());
+          damping +=
+              h * m.damping[b] * (m.damping_model[b] == DampingModel::axial ? vu * vu : v.squaredNorm());
         }
         ASSERT_GT(damping, 0) << what;
         const BondStepSums step = bond_step_sums(m, s, a.state(), h, theta, phi, 1);
@@ -168,7 +171,8 @@ TEST(EnergyLedger, AnchorWorkCountsEveryBondOfAMovingPrescribedQuantaOnce) {
   const double plain = plain_anchor_work(m, w.state, p);
   ASSERT_GT(std::abs(plain), 0);
   for (int threads : {1, 2}) {
-    const StepWork sw = step_work(m, w.state, adj, p, Applied(w.state, p).state(), f_ext, 1e-3, 1, 0, false, threads);
+    const StepWork sw =
+        step_work(m, w.state, adj, p, Applied(w.state, p).state(), f_ext, 1e-3, 1, 0, false, threads);
     EXPECT_NEAR(sw.anchors, plain, 1e-12 * std::abs(plain)) << threads << " threads";
   }
 }
