@@ -57,7 +57,13 @@ inline std::size_t soa_stride(std::size_t n) { return (n + 511) / 512 * 512 + 24
 class SoaArrays {
  public:
   SoaArrays(std::vector<double>& buffer, std::size_t n, std::size_t count) : stride_(soa_stride(n)) {
-    buffer.resize(count * stride_);
+    // Grown, never shrunk: a buffer that two kernels share (ImplicitSystem::arrays) keeps the
+    // larger size, and resizing it back up would write every entry added. Its entries are
+    // scratch, so a growing buffer lets go of the old ones first (a copy would hold both).
+    if (buffer.size() < count * stride_) {
+      std::vector<double>().swap(buffer);
+      buffer.resize(count * stride_);
+    }
     next_ = buffer.data();
   }
   double* next() { return (next_ += stride_) - stride_; }

@@ -217,7 +217,7 @@ QBOND_VECTOR_CLONES void load(const Model& model, const ImplicitSystem& sys, con
   }
 }
 
-// y ← s y and Ay ← s Ay over [lo, hi): CG's guess scaled (ConjugateGradient::solve).
+// y ← s y and Ay ← s Ay over [lo, hi): CG's guess scaled (conjugate_gradient).
 QBOND_VECTOR_CLONES void scale_guess(double s, const Soa& y_in, const Soa& Ay_in, std::size_t lo,
                                      std::size_t hi) {
   const Local<3> y(y_in), Ay(Ay_in);
@@ -314,10 +314,10 @@ void apply_system(const Model& model, const ImplicitSystem& sys, const std::vect
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { store(a.Ap, out, lo, hi); });
 }
 
-void ConjugateGradient::solve(const Model& model, const ImplicitSystem& sys, double tolerance, int cap, int threads,
-                              std::vector<Vec3>& y, bool y_zero, SolveStats& stats) {
+void conjugate_gradient(const Model& model, ImplicitSystem& sys, double tolerance, int cap, int threads,
+                        std::vector<Vec3>& y, bool y_zero, SolveStats& stats) {
   const std::size_t n = model.num_quanta();
-  CgArrays a(arrays, n);
+  CgArrays a(sys.arrays, n);
   auto ranges = [&](auto&& body) { parallel_ranges(n, threads, body); };
   ranges([&](std::size_t lo, std::size_t hi) { load(model, sys, y, a.y, a.d, a.inv_mass, lo, hi); });
   // A guess is first scaled by s = yᵀb / yᵀA y, which minimises the error's A-norm along it: the

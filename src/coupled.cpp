@@ -27,7 +27,7 @@ class CoupledIntegrator final : public Integrator {
       case CoupledSolver::cg: {
         topo_.update(model, adj);
         const bool guessed = initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, y_);
-        cg_.solve(model, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_, !guessed,
+        conjugate_gradient(model, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_, !guessed,
                   stats_);
         if (config_.restore_momentum)
           restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
@@ -46,7 +46,6 @@ class CoupledIntegrator final : public Integrator {
   TopologyCache topo_;
   std::vector<Vec3> y_;
   DirectSolver direct_;
-  ConjugateGradient cg_;
 };
 
 }  // namespace

@@ -111,7 +111,8 @@ struct ImplicitSystem {
   // empty otherwise.
   std::vector<Mat3> exact;  // (nb when used)
   // The bond-centric passes' partition (begin_implicit_step and assemble_blocks keep it current;
-  // CG's product runs over it) and begin_implicit_step's scratch (implicit_build.cpp).
+  // CG's product runs over it) and the per-quanta scratch of the build (implicit_build.cpp) and then
+  // of CG (conjugate_gradient): one buffer, since their uses do not overlap.
   BondPartition part;
   std::vector<double> arrays;
 };
@@ -214,12 +215,10 @@ struct DirectSolver {
 // guess in y (scaled first: conjugate_gradient.cpp; y_zero: all zero, so that the first residual is
 // b itself, without a product), until ‖b − A y‖/‖b‖ ≤ tolerance or `cap` iterations; fills stats.
 // The product runs over sys.part, which begin_implicit_step or assemble_blocks has brought up to
-// date.
-struct ConjugateGradient {
-  std::vector<double> arrays;  // y, r, z, p, Ap and A's diagonal blocks as structure of arrays
-  void solve(const Model& model, const ImplicitSystem& sys, double tolerance, int cap, int threads,
-             std::vector<Vec3>& y, bool y_zero, SolveStats& stats);
-};
+// date. Its vectors (y, r, z, p, Ap and A's diagonal blocks as structure of arrays) take
+// sys.arrays, the build's scratch, which the built system no longer needs.
+void conjugate_gradient(const Model& model, ImplicitSystem& sys, double tolerance, int cap, int threads,
+                        std::vector<Vec3>& y, bool y_zero, SolveStats& stats);
 
 // Block Gauss–Seidel sweeps in graph-colour order (quanta of one colour share no bond, so their
 // 3×3 updates run in parallel), from the initial guess in y, at most `sweeps` or until the

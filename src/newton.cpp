@@ -519,7 +519,7 @@ class NewtonIntegrator final : public Integrator {
         break;
       case CoupledSolver::cg:
         delta_.assign(n, Vec3::Zero());
-        cg_.solve(model, sys_, eta, cg_cap(config_, topo_), threads, delta_, /*y_zero=*/true, inner);
+        conjugate_gradient(model, sys_, eta, cg_cap(config_, topo_), threads, delta_, /*y_zero=*/true, inner);
         break;
       case CoupledSolver::sweep:
         delta_.assign(n, Vec3::Zero());
@@ -541,7 +541,6 @@ class NewtonIntegrator final : public Integrator {
   Projection sub_out_;       // substepping: one substep's projection
   std::vector<Vec3> sub_x1_, sub_v1_;  // substepping: the state a substep applies
   DirectSolver direct_;
-  ConjugateGradient cg_;
   GaussSeidel gs_;
 };
 
