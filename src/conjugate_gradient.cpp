@@ -35,16 +35,15 @@ QBOND_VECTOR_INLINE void sym_times(const Local<6>& s, std::size_t q, double v0, 
   out[2] = s[4][q] * v0 + s[5][q] * v1 + s[2][q] * v2;
 }
 
-// out_q = A_qq y_q for free quanta, 0 for kinematic ones, over [lo, hi).
-QBOND_VECTOR_CLONES void diagonal_times(const double* inv_mass, const Diagonals& d, const Soa& y_in, const Soa& out_in,
+// out_q = A_qq y_q over [lo, hi) (0 for kinematic quanta, whose y_q is 0).
+QBOND_VECTOR_CLONES void diagonal_times(const Diagonals& d, const Soa& y_in, const Soa& out_in,
                                         std::size_t lo, std::size_t hi) {
   const Local<6> D(d.D);
   const Local<3> y(y_in), out(out_in);
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
     double Dy[3];
     sym_times(D, q, y[0][q], y[1][q], y[2][q], Dy);
-    const bool free = inv_mass[q] != 0;
-    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) out[c][q] = free ? Dy[c] : 0.0;
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) out[c][q] = Dy[c];
   }
 }
 
@@ -65,35 +64,33 @@ QBOND_VECTOR_INLINE void prefetch_blocks(const BondBlocks& blocks, const BondRun
       __builtin_prefetch(a->data() + b + k);
 }
 
-// An affine run's −B_b y_j and −B_b y_i (−0.0, which leaves a row's bits as they are, when an end
-// is kinematic, its unknown eliminated), bond q's as add_affine_terms takes them: the run's blocks
-// from ux, uy, uz, Ba, Bb on, its ends i0 + q and j0 + q. inv_mass: the padded copy (CgArrays),
-// read up to a vector past the run's last quanta.
+// An affine run's −B_b y_j and −B_b y_i, bond q's as add_affine_terms takes them: the run's
+// blocks from ux, uy, uz, Ba, Bb on, its ends i0 + q and j0 + q. No end is tested: a kinematic
+// quanta's unknown is eliminated and its entry of y is 0 (CG's vectors keep it 0), so a free row
+// receives ∓0 from it, and what the bond adds to a kinematic row is never read.
 struct AffineProduct {
-  const double *ux, *uy, *uz, *Ba, *Bb, *inv_mass;
+  const double *ux, *uy, *uz, *Ba, *Bb;
   Local<3> y;
   std::size_t i0, j0;
 
-  AffineProduct(const BondRun& run, const BondBlocks& blocks, const double* inv_mass, const Soa& y_in)
+  AffineProduct(const BondRun& run, const BondBlocks& blocks, const Soa& y_in)
       : ux(blocks.ux.data() + run.first),
         uy(blocks.uy.data() + run.first),
         uz(blocks.uz.data() + run.first),
         Ba(blocks.Ba.data() + run.first),
         Bb(blocks.Bb.data() + run.first),
-        inv_mass(inv_mass),
         y(y_in),
         i0(run.i0),
         j0(run.j0) {}
   QBOND_VECTOR_INLINE void operator()(std::size_t q, double (&ti)[3], double (&tj)[3]) const {
     const std::size_t i = i0 + q, j = j0 + q;
     const double u[3] = {ux[q], uy[q], uz[q]};
-    const double a = Ba[q], b = Bb[q], mi = inv_mass[i], mj = inv_mass[j];  // loaded first: simd.hpp
+    const double a = Ba[q], b = Bb[q];
     const double ui = u[0] * y[0][i] + u[1] * y[1][i] + u[2] * y[2][i];
     const double uj = u[0] * y[0][j] + u[1] * y[1][j] + u[2] * y[2][j];
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      const double fi = -(a * uj * u[c] + b * y[c][j]), fj = -(a * ui * u[c] + b * y[c][i]);
-      ti[c] = mi != 0 && mj != 0 ? fi : -0.0;  // the test in the select: simd.hpp
-      tj[c] = mi != 0 && mj != 0 ? fj : -0.0;
+      ti[c] = -(a * uj * u[c] + b * y[c][j]);
+      tj[c] = -(a * ui * u[c] + b * y[c][i]);
     }
   }
   // On to the next run of a grid: bonds count on, ends stride on.
@@ -106,20 +103,20 @@ struct AffineProduct {
 
 // An affine run's products added to the rows the part owns in bond order: from the loop that
 // forms them when the run is fusable, else from the run's term arrays.
-QBOND_VECTOR_INLINE void affine_product(const BondRun& run, const BondBlocks& blocks, const double* inv_mass,
-                                        const Soa& y, const Soa& out, ProductTerms& t) {
+QBOND_VECTOR_INLINE void affine_product(const BondRun& run, const BondBlocks& blocks, const Soa& y,
+                                        const Soa& out, ProductTerms& t) {
   prefetch_blocks(blocks, run);
-  add_affine_terms(run, out, AffineProduct(run, blocks, inv_mass, y), {t.ti[0], t.ti[1], t.ti[2]},
+  add_affine_terms(run, out, AffineProduct(run, blocks, y), {t.ti[0], t.ti[1], t.ti[2]},
                    {t.tj[0], t.tj[1], t.tj[2]});
 }
 
 // A grid's runs (BondRun::rows), each fusable, one after the other as affine_product takes them,
 // with their pointers set up once (a small body's runs are a vector each). (With the other runs'
 // path in the same loop, term arrays and all, cube_drop's step was 12% slower than with this.)
-QBOND_VECTOR_INLINE void grid_product(std::span<const BondRun> grid, const BondBlocks& blocks,
-                                      const double* inv_mass, const Soa& y, const Soa& out) {
+QBOND_VECTOR_INLINE void grid_product(std::span<const BondRun> grid, const BondBlocks& blocks, const Soa& y,
+                                      const Soa& out) {
   const Index stride = grid[1].i0 - grid[0].i0;
-  AffineProduct terms(grid[0], blocks, inv_mass, y);
+  AffineProduct terms(grid[0], blocks, y);
   for (const BondRun& row : grid) {
     prefetch_blocks(blocks, row);
     add_affine_fused(row, out, terms);
@@ -146,30 +143,31 @@ void run_product(const Model& model, const BondRun& run, const BondBlocks& block
 
 // A part's runs' products (for_each_part_runs).
 QBOND_VECTOR_CLONES void part_product(const Model& model, std::span<const BondRun> runs,
-                                      const BondBlocks& blocks, const double* inv_mass, const Soa& y,
-                                      const Soa& out, ProductTerms& t) {
+                                      const BondBlocks& blocks, const Soa& y, const Soa& out,
+                                      ProductTerms& t) {
   for (std::size_t r = 0; r < runs.size();) {
     const BondRun& run = runs[r];
     if (run.rows > 1 && fusable(run) && fusable(runs[r + run.rows - 1])) {  // each row between too
-      grid_product(runs.subspan(r, run.rows), blocks, inv_mass, y, out);
+      grid_product(runs.subspan(r, run.rows), blocks, y, out);
       r += run.rows;
       continue;
     }
     if (run.affine)
-      affine_product(run, blocks, inv_mass, y, out, t);
+      affine_product(run, blocks, y, out, t);
     else
       run_product(model, run, blocks, y, out);
     ++r;
   }
 }
 
-// out = A y over free quanta (kinematic rows 0; y's kinematic rows ignored); inv_mass padded.
-void product(const Model& model, const ImplicitSystem& sys, const Diagonals& d, const double* inv_mass, const Soa& y,
-             const Soa& out, int threads) {
+// out = A y over free quanta; y's kinematic rows must be 0, out's are left as the bonds make them
+// (cg_update and store set them to 0).
+void product(const Model& model, const ImplicitSystem& sys, const Diagonals& d, const Soa& y, const Soa& out,
+             int threads) {
   parallel_ranges(model.num_quanta(), threads,
-                  [&](std::size_t lo, std::size_t hi) { diagonal_times(inv_mass, d, y, out, lo, hi); });
+                  [&](std::size_t lo, std::size_t hi) { diagonal_times(d, y, out, lo, hi); });
   for_each_part_runs<ProductTerms>(sys.part, [&](std::span<const BondRun> runs, ProductTerms& t) {
-    part_product(model, runs, sys.bonds, inv_mass, y, out, t);
+    part_product(model, runs, sys.bonds, y, out, t);
   });
 }
 
@@ -197,8 +195,9 @@ double dot(std::size_t n, int threads, const Soa& a, const Soa& b) {
       [](double x, double y) { return x + y; });
 }
 
-// The solve's start for quanta [lo, hi): y, A's diagonal blocks and their inverses, and the
-// inverse masses as structure of arrays.
+// The solve's start for quanta [lo, hi): y (0 for kinematic quanta, whose unknowns are
+// eliminated: the product reads them), A's diagonal blocks and their inverses, and the inverse
+// masses as structure of arrays.
 QBOND_VECTOR_CLONES void load(const Model& model, const ImplicitSystem& sys, const std::vector<Vec3>& y0, const Soa& y_in,
                               const Diagonals& d, double* inv_mass, std::size_t lo, std::size_t hi) {
   const double* D = sys.diag.data()->data();  // Mat3: column-major, symmetric
@@ -212,8 +211,12 @@ QBOND_VECTOR_CLONES void load(const Model& model, const ImplicitSystem& sys, con
       Ds[e][q] = D[9 * q + kEntry[e]];
       Dinvs[e][q] = Dinv[9 * q + kEntry[e]];
     }
-    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) y[c][q] = yp[3 * q + c];
-    inv_mass[q] = model.inv_mass[q];
+    const double im = model.inv_mass[q];
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      const double yq = yp[3 * q + c];  // loaded, then selected (simd.hpp)
+      y[c][q] = im != 0 ? yq : 0.0;
+    }
+    inv_mass[q] = im;
   }
 }
 
@@ -248,16 +251,19 @@ QBOND_VECTOR_CLONES void first_residual(const ImplicitSystem& sys, const double*
   }
 }
 
-// y += α p, r −= α Ap, z = A_qq⁻¹ r over [lo, hi).
-QBOND_VECTOR_CLONES void cg_update(double alpha, const Diagonals& d, const Soa& p_in, const Soa& Ap_in, const Soa& y_in,
-                                   const Soa& r_in, const Soa& z_in, std::size_t lo, std::size_t hi) {
+// y += α p, r −= α Ap (kinematic rows stay 0: the product leaves theirs of Ap as the bonds make
+// them), z = A_qq⁻¹ r over [lo, hi).
+QBOND_VECTOR_CLONES void cg_update(double alpha, const double* inv_mass, const Diagonals& d, const Soa& p_in,
+                                   const Soa& Ap_in, const Soa& y_in, const Soa& r_in, const Soa& z_in,
+                                   std::size_t lo, std::size_t hi) {
   const Local<6> Dinv(d.Dinv);
   const Local<3> p(p_in), Ap(Ap_in), y(y_in), r(r_in), z(z_in);
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
     double rq[3], zq[3];
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
       y[c][q] += alpha * p[c][q];
-      r[c][q] = rq[c] = r[c][q] - alpha * Ap[c][q];
+      const double rn = r[c][q] - alpha * Ap[c][q];
+      r[c][q] = rq[c] = inv_mass[q] != 0 ? rn : 0.0;
     }
     sym_times(Dinv, q, rq[0], rq[1], rq[2], zq);
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) z[c][q] = zq[c];
@@ -272,12 +278,16 @@ QBOND_VECTOR_CLONES void new_direction(double beta, const Soa& z_in, const Soa& 
   }
 }
 
-// Back to one Vec3 a quanta, over [lo, hi).
-QBOND_VECTOR_CLONES void store(const Soa& y_in, std::vector<Vec3>& out, std::size_t lo, std::size_t hi) {
+// Back to one Vec3 a quanta (0 for kinematic quanta), over [lo, hi).
+QBOND_VECTOR_CLONES void store(const double* inv_mass, const Soa& y_in, std::vector<Vec3>& out,
+                               std::size_t lo, std::size_t hi) {
   const Local<3> y(y_in);
   double* o = out.data()->data();
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
-    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) o[3 * q + c] = y[c][q];
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      const double yq = y[c][q];
+      o[3 * q + c] = inv_mass[q] != 0 ? yq : 0.0;
+    }
   }
 }
 
@@ -286,7 +296,7 @@ QBOND_VECTOR_CLONES void store(const Soa& y_in, std::vector<Vec3>& out, std::siz
 struct CgArrays {
   double *y[3], *r[3], *z[3], *p[3], *Ap[3];
   Diagonals d;
-  double* inv_mass;  // padded with 0 (kinematic): the lanes past the last quanta are masked
+  double* inv_mass;
   CgArrays(std::vector<double>& buffer, std::size_t n) {
     SoaArrays soa(buffer, n, 28);
     soa.take(y);
@@ -297,7 +307,6 @@ struct CgArrays {
     soa.take(d.D);
     soa.take(d.Dinv);
     inv_mass = soa.next();
-    std::fill(inv_mass + n, inv_mass + soa.stride(), 0.0);
   }
 };
 
@@ -309,9 +318,9 @@ void apply_system(const Model& model, const ImplicitSystem& sys, const std::vect
   std::vector<double> buffer;
   CgArrays a(buffer, n);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { load(model, sys, y, a.y, a.d, a.inv_mass, lo, hi); });
-  product(model, sys, a.d, a.inv_mass, a.y, a.Ap, threads);
+  product(model, sys, a.d, a.y, a.Ap, threads);
   out.resize(n);
-  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { store(a.Ap, out, lo, hi); });
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { store(a.inv_mass, a.Ap, out, lo, hi); });
 }
 
 void conjugate_gradient(const Model& model, ImplicitSystem& sys, double tolerance, int cap, int threads,
@@ -324,7 +333,7 @@ void conjugate_gradient(const Model& model, ImplicitSystem& sys, double toleranc
   // start is then never worse than zero in that norm (a previous step's Δv at another step length,
   // or after an impulse, can be), and often better than the guess as it is.
   if (!y_zero) {
-    product(model, sys, a.d, a.inv_mass, a.y, a.Ap, threads);
+    product(model, sys, a.d, a.y, a.Ap, threads);
     const double yAy = dot(n, threads, a.y, a.Ap);
     const double yb = deterministic_sum(n, threads, [&](std::size_t i) {
       return model.inv_mass[i] != 0 ? y[i].dot(sys.rhs[i]) : 0.0;
@@ -342,11 +351,13 @@ void conjugate_gradient(const Model& model, ImplicitSystem& sys, double toleranc
   stats.residual = rel(dot(n, threads, a.r, a.r));
   int it = 0;
   while (it < cap && stats.residual > tolerance) {
-    product(model, sys, a.d, a.inv_mass, a.p, a.Ap, threads);
+    product(model, sys, a.d, a.p, a.Ap, threads);
     const double pAp = dot(n, threads, a.p, a.Ap);
     if (!(pAp > 0)) break;  // exact solution reached (p = 0) or loss of positivity
     const double alpha = rz / pAp;
-    ranges([&](std::size_t lo, std::size_t hi) { cg_update(alpha, a.d, a.p, a.Ap, a.y, a.r, a.z, lo, hi); });
+    ranges([&](std::size_t lo, std::size_t hi) {
+      cg_update(alpha, a.inv_mass, a.d, a.p, a.Ap, a.y, a.r, a.z, lo, hi);
+    });
     const double rz_new = dot(n, threads, a.r, a.z);
     const double beta = rz_new / rz;
     rz = rz_new;
@@ -355,7 +366,7 @@ void conjugate_gradient(const Model& model, ImplicitSystem& sys, double toleranc
     stats.residual = rel(dot(n, threads, a.r, a.r));
   }
   stats.iterations = it;
-  ranges([&](std::size_t lo, std::size_t hi) { store(a.y, y, lo, hi); });
+  ranges([&](std::size_t lo, std::size_t hi) { store(a.inv_mass, a.y, y, lo, hi); });
 }
 
 }  // namespace qbond

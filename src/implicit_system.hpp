@@ -166,8 +166,9 @@ inline Vec3 neighbours_times(const Adjacency& adj, const ImplicitSystem& sys, In
 
 // out = A y over free quanta (y's kinematic rows are ignored; out's kinematic rows are 0) as CG
 // computes it: diag, then bond-centric over sys.part (sys.bonds in bond order), −B_b y_j into row
-// i and −B_b y_i into row j for bonds between free quanta (conjugate_gradient.cpp). Allocates its
-// scratch: for checks, CG keeps its own.
+// i and −B_b y_i into row j (y's kinematic rows taken as 0, so a bond to a kinematic quanta adds
+// nothing to its free end's row; conjugate_gradient.cpp). Allocates its scratch: for checks, CG
+// keeps its own.
 void apply_system(const Model& model, const ImplicitSystem& sys, const std::vector<Vec3>& y, int threads,
                   std::vector<Vec3>& out);
 
