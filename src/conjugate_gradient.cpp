@@ -160,8 +160,9 @@ QBOND_VECTOR_CLONES void part_product(const Model& model, std::span<const BondRu
   }
 }
 
-// out = A y over free quanta; y's kinematic rows must be 0, out's are left as the bonds make them
-// (cg_update and store set them to 0).
+// out = A y over free quanta; y's kinematic rows must be 0, out's are left as the bonds make them:
+// its readers ignore them (first_residual and cg_update keep r's kinematic rows 0, store writes 0,
+// and the dot products multiply them by p's or y's 0).
 void product(const Model& model, const ImplicitSystem& sys, const Diagonals& d, const Soa& y, const Soa& out,
              int threads) {
   parallel_ranges(model.num_quanta(), threads,
