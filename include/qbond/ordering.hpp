@@ -1,5 +1,5 @@
 #pragma once
-/// Renumbering quanta and bonds for memory locality (docs/performance.md, "Locality order").
+/// Renumbering quanta and bonds for memory locality (docs/performance-history.md, session 9: "locality order, measured").
 ///
 /// A step streams the bonds and reads both ends' positions and velocities; when bonds joining
 /// nearby quanta sit near each other in memory and so do their ends, those reads hit the cache.
@@ -7,7 +7,7 @@
 /// loading renumbers the world as LAMMPS sorts its atoms (atom_modify sort): quanta by spatial
 /// bin, x fastest, then y, then z, so that a lattice's neighbours sit at a few fixed offsets that
 /// the hardware prefetcher streams (a Morton order, measured, keeps neighbours closer but
-/// scatters them and ran up to 1.36× slower, docs/performance.md); bonds so that a lattice's
+/// scatters them and ran up to 1.36× slower, docs/performance-history.md); bonds so that a lattice's
 /// form affine runs (locality_order). As LAMMPS does with its atom tags, the user's ids stay
 /// with the quanta and bonds (Model::quanta_id, Model::bond_id): outputs and selections speak
 /// them.
