@@ -188,14 +188,15 @@ WarmStart parse_warm_start(std::string_view s);
 
 /// Fills the kinematic quanta's rows of a projection with their prescribed motion over
 /// [ctx.t, ctx.t + h] (free rows untouched). Every integrator calls it first. On `threads`
-/// threads as for_each_prescribed splits them.
+/// threads in a world of at least 4096 quanta, each motion's list cut into one consecutive piece
+/// a thread.
 void project_kinematic(const Model& model, const State& state, const StepContext& ctx, Projection& out,
                        int threads = 1);
 
 /// Puts the kinematic quanta that follow a motion exactly on their prescribed path at time t:
 /// x[i], v[i] = their position and velocity there (arrays of the model's quanta count). What a
 /// step applies to them, so that they do not drift by round-off. On `threads` threads as
-/// for_each_prescribed splits them.
+/// project_kinematic.
 void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v, int threads = 1);
 
 }  // namespace qbond
