@@ -188,15 +188,14 @@ WarmStart parse_warm_start(std::string_view s);
 
 /// Fills the kinematic quanta's rows of a projection with their prescribed motion over
 /// [ctx.t, ctx.t + h] (free rows untouched). Every integrator calls it first. On `threads`
-/// threads in a world of at least 4096 quanta, each motion's list cut into one consecutive piece
-/// a thread.
+/// threads as for_each_prescribed splits them.
 void project_kinematic(const Model& model, const State& state, const StepContext& ctx, Projection& out,
                        int threads = 1);
 
 /// Puts the kinematic quanta that follow a motion exactly on their prescribed path at time t:
 /// x[i], v[i] = their position and velocity there (arrays of the model's quanta count). What a
 /// step applies to them, so that they do not drift by round-off. On `threads` threads as
-/// project_kinematic.
+/// for_each_prescribed splits them.
 void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v, int threads = 1);
 
 }  // namespace qbond
