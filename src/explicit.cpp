@@ -103,7 +103,7 @@ class ExplicitIntegrator final : public Integrator {
     const bool verlet_step = config_.type == IntegratorType::velocity_verlet;
     out.resize(n, !verlet_step);  // Verlet writes every row
     if (verlet_step) return verlet(model, state, f_ext, ctx, out);
-    project_kinematic(model, state, ctx, out, config_.threads);
+    project_kinematic(model, state, ctx, out);
     accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, forces_, a1_);
     switch (config_.type) {
       case IntegratorType::explicit_euler:
@@ -199,25 +199,27 @@ class ExplicitIntegrator final : public Integrator {
       reduce_chunks(n, threads, true, stage, std::logical_and<>{});
     }
     // The prescribed quanta where the step will place them (place_kinematic).
-    for_each_prescribed(model, threads, [&](const Motion& motion, std::size_t k) {
-      const Index q = motion.quanta[k];
-      Vec3 xq, vq;
-      motion.at(k, t1, xq, vq);
-      for (int c = 0; c < 3; ++c) {
-        rows.x[c][q] = xq[c];
-        rows.v[c][q] = vq[c];
+    for (const Motion& motion : model.motions)
+      for (std::size_t k = 0; k < motion.quanta.size(); ++k) {
+        const Index q = motion.quanta[k];
+        Vec3 xq, vq;
+        motion.at(k, t1, xq, vq);
+        for (int c = 0; c < 3; ++c) {
+          rows.x[c][q] = xq[c];
+          rows.v[c][q] = vq[c];
+        }
       }
-    });
     add_bond_forces(model, state, part_, rows);
     parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
       verlet_finish(inv_mass, rows, fe, f0, v, h, dv, next.v, lo, hi);
     });
-    project_kinematic(model, state, ctx, out, threads);
+    project_kinematic(model, state, ctx, out);
     // and their v₁ as placed (verlet_finish wrote their v).
-    for_each_prescribed(model, threads, [&](const Motion& motion, std::size_t k) {
-      const Index q = motion.quanta[k];
-      for (int c = 0; c < 3; ++c) next.v[3 * q + c] = rows.v[c][q];
-    });
+    for (const Motion& motion : model.motions)
+      for (std::size_t k = 0; k < motion.quanta.size(); ++k) {
+        const Index q = motion.quanta[k];
+        for (int c = 0; c < 3; ++c) next.v[3 * q + c] = rows.v[c][q];
+      }
     out.warm[size - 1] = Vec3(static_cast<double>(state.topology_version), 0, 0);
   }
 

@@ -463,7 +463,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
       start_rows(model, state, f_ext, h, a, part.first[p], part.first[p + 1]);
       solve(part.first[p], part.first[p + 1]);
     }
-  project_kinematic(model, state, ctx, out, threads);
+  project_kinematic(model, state, ctx, out);
 }
 
 }  // namespace qbond

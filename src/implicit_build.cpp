@@ -275,7 +275,7 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
                          Projection& kin, ImplicitSystem& sys) {
   const std::size_t n = model.num_quanta();
   kin.resize(n);
-  project_kinematic(model, state, ctx, kin, threads);
+  project_kinematic(model, state, ctx, kin);
   const double h = ctx.h;
   sys.part.update(model, adj, threads);
   sys.bonds.resize(model.num_bonds());

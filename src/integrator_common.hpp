@@ -4,7 +4,6 @@
 #include <vector>
 
 #include "coloring.hpp"
-#include "parallel.hpp"
 #include "qbond/integrators.hpp"
 
 namespace qbond {
@@ -13,21 +12,6 @@ std::unique_ptr<Integrator> make_explicit_integrator(const IntegratorConfig& con
 std::unique_ptr<Integrator> make_hybrid_integrator(const IntegratorConfig& config);
 std::unique_ptr<Integrator> make_coupled_implicit_integrator(const IntegratorConfig& config);
 std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& config);
-
-// body(motion, k) for quanta k of each motion, in a world of at least kParallelMin quanta on
-// `threads` threads, each motion's list cut into equal consecutive pieces (one a thread, in
-// order). A lattice's prescribed face is listed by index, so each thread then writes the rows of
-// the quanta whose other data its per-quanta passes (static halves of the index range) write:
-// with one thread writing all of them, the other's next passes waited on their cache lines and
-// took 3–4 times as long (session 27, docs/performance-history.md).
-template <class Body>
-void for_each_prescribed(const Model& model, int threads, Body&& body) {
-  constexpr std::size_t kMinPrescribed = 64;  // fewer: one thread (a parallel region costs more)
-  const int t = model.num_quanta() >= kParallelMin ? threads : 1;
-  for (const Motion& m : model.motions)
-    parallel_for(
-        m.quanta.size(), t, [&](std::size_t k) { body(m, k); }, kMinPrescribed);
-}
 
 // Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0); false when it
 // is zero (WarmStart::zero, or no previous step), which spares CG its first product.

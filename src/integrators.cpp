@@ -128,20 +128,22 @@ WarmStart parse_warm_start(std::string_view s) {
   return parse_name(s, all, "warm start");
 }
 
-void project_kinematic(const Model& model, const State& state, const StepContext& ctx, Projection& out,
-                       int threads) {
-  for_each_prescribed(model, threads, [&](const Motion& m, std::size_t k) {
-    const Index i = m.quanta[k];
-    Vec3 x1, v1;
-    m.at(k, ctx.t + ctx.h, x1, v1);
-    out.dx[i] = x1 - state.x[i];
-    out.dv[i] = v1 - state.v[i];
-  });
+void project_kinematic(const Model& model, const State& state, const StepContext& ctx,
+                       Projection& out) {
+  for (const Motion& m : model.motions) {
+    for (std::size_t k = 0; k < m.quanta.size(); ++k) {
+      const Index i = m.quanta[k];
+      Vec3 x1, v1;
+      m.at(k, ctx.t + ctx.h, x1, v1);
+      out.dx[i] = x1 - state.x[i];
+      out.dv[i] = v1 - state.v[i];
+    }
+  }
 }
 
-void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v, int threads) {
-  for_each_prescribed(model, threads,
-                      [&](const Motion& m, std::size_t k) { m.at(k, t, x[m.quanta[k]], v[m.quanta[k]]); });
+void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v) {
+  for (const Motion& motion : model.motions)
+    for (std::size_t k = 0; k < motion.quanta.size(); ++k) motion.at(k, t, x[motion.quanta[k]], v[motion.quanta[k]]);
 }
 
 bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,

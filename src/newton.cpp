@@ -229,7 +229,7 @@ class NewtonIntegrator final : public Integrator {
     const std::size_t n = model.num_quanta();
     const double h = ctx.h;
     out.resize(n);
-    project_kinematic(model, state, ctx, out, config_.threads);
+    project_kinematic(model, state, ctx, out);
     topo_.update(model, adj);
     stats_ = {};
 
@@ -294,7 +294,7 @@ class NewtonIntegrator final : public Integrator {
     const double H = t1 - t0;
     sub_out_.dx.resize(n);
     sub_out_.dv.resize(n);
-    project_kinematic(model, sub_, StepContext{H, t0, step}, sub_out_, config_.threads);
+    project_kinematic(model, sub_, StepContext{H, t0, step}, sub_out_);
     // A substep's initial guess: the configured one at this step length (the previous step's
     // Δv, of the whole step, is not one: zero then).
     initial_guess(config_.warm_start == WarmStart::previous ? WarmStart::zero : config_.warm_start, model, f_ext,

@@ -295,7 +295,7 @@ StepReport Simulation::end_step() {
   s.x.swap(next_x_);  // x + Δx and v + Δv, formed by check_projection
   s.v.swap(next_v_);
   const double t1 = ctx_.t + ctx_.h;
-  place_kinematic(m, t1, s.x.data(), s.v.data(), integrator_->config().threads);
+  place_kinematic(m, t1, s.x.data(), s.v.data());
   s.time = t1;
   s.step = ctx_.step + 1;
   s.warm.swap(projection_.warm);

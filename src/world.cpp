@@ -149,21 +149,17 @@ void World::sync_formed_bonds() {
 
 void World::prescribe(std::vector<Index> quanta, Motion motion) {
   motion.t0 = state.time;
-  motion.quanta.clear();
   motion.x0.clear();
   if (motion.type == MotionType::rotate) {
     if (!(motion.axis.norm() > 0)) throw std::invalid_argument("rotation axis must be non-zero");
     motion.axis.normalize();
   }
-  std::vector<bool> listed(num_quanta(), false);
   for (Index i : quanta) {
     if (i >= num_quanta()) throw std::invalid_argument("prescribed quanta out of range");
-    if (listed[i]) continue;
-    listed[i] = true;
     model.inv_mass[i] = 0.0;
-    motion.quanta.push_back(i);
     motion.x0.push_back(state.x[i]);
   }
+  motion.quanta = std::move(quanta);
   for (std::size_t k = 0; k < motion.quanta.size(); ++k) {
     Vec3 x, v;
     motion.at(k, state.time, x, v);

@@ -549,38 +549,6 @@ std::vector<Vec3> plain_verlet(World w, double h, int steps, bool carry) {
   return s.x;
 }
 
-// The prescribed quanta's rows are written by as many threads as the step has (each motion's list
-// split between them): the same values on any thread count; a quanta listed twice is kept once.
-TEST(Kinematic, ProjectedAndPlacedAlikeOnAnyThreadCount) {
-  World w = test::lattice(20, 16, 16, 1000, 1e-3, 0.01, false);
-  ASSERT_GE(w.num_quanta(), kParallelMin);
-  std::vector<Index> face;
-  for (std::size_t i = 0; i < w.num_quanta(); ++i)
-    if (w.state.x[i].x() == 0) face.push_back(static_cast<Index>(i));
-  ASSERT_GE(face.size(), 128u);
-  const std::size_t listed = face.size();
-  face.push_back(face[3]);  // listed twice
-  Motion spin;
-  spin.type = MotionType::rotate;
-  spin.axis = Vec3(1, 0, 0);
-  spin.center = Vec3(0, -0.1, 0);  // off the face: every one moves
-  spin.rate = 2.0;
-  w.prescribe(face, spin);
-  ASSERT_EQ(w.model.motions.back().quanta.size(), listed);
-  const StepContext ctx{.h = 1e-3, .t = 0.25, .step = 0};
-  auto run = [&](int threads) {
-    Projection p;
-    p.resize(w.num_quanta());
-    project_kinematic(w.model, w.state, ctx, p, threads);
-    std::vector<Vec3> x = w.state.x, v = w.state.v;
-    place_kinematic(w.model, 0.5, x.data(), v.data(), threads);
-    return std::array{p.dx, p.dv, x, v};
-  };
-  const auto one = run(1);
-  for (const Index i : face) EXPECT_NE(one[0][i], Vec3::Zero()) << i;
-  for (int threads : {2, 3}) EXPECT_EQ(run(threads), one) << threads << " threads";
-}
-
 // qbond's Verlet takes one force pass a step by carrying the last one over: it must be Groot and
 // Warren's method to round-off (the vector kernels sum in another order), on 1 and 2 threads, and
 // measurably not the two-pass method it replaced.

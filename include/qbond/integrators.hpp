@@ -187,15 +187,13 @@ CoupledSolver parse_coupled_solver(std::string_view s);
 WarmStart parse_warm_start(std::string_view s);
 
 /// Fills the kinematic quanta's rows of a projection with their prescribed motion over
-/// [ctx.t, ctx.t + h] (free rows untouched). Every integrator calls it first. On `threads`
-/// threads as for_each_prescribed splits them.
-void project_kinematic(const Model& model, const State& state, const StepContext& ctx, Projection& out,
-                       int threads = 1);
+/// [ctx.t, ctx.t + h] (free rows untouched). Every integrator calls it first.
+void project_kinematic(const Model& model, const State& state, const StepContext& ctx,
+                       Projection& out);
 
 /// Puts the kinematic quanta that follow a motion exactly on their prescribed path at time t:
 /// x[i], v[i] = their position and velocity there (arrays of the model's quanta count). What a
-/// step applies to them, so that they do not drift by round-off. On `threads` threads as
-/// for_each_prescribed splits them.
-void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v, int threads = 1);
+/// step applies to them, so that they do not drift by round-off.
+void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v);
 
 }  // namespace qbond

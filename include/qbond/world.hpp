@@ -170,8 +170,7 @@ struct World {
   /// Adds a bond between quanta i and j. Returns its id.
   Index add_bond(Index i, Index j, const BondSpec& spec);
   /// Makes quanta kinematic with a prescribed motion, starting from their current positions at
-  /// the current time; their velocities are set to the prescribed ones. A quanta listed twice is
-  /// kept once (a step writes each listed quanta's rows, a motion's list split between threads).
+  /// the current time; their velocities are set to the prescribed ones.
   void prescribe(std::vector<Index> quanta, Motion motion);
   /// Adds a constant load (total force spread evenly over `quanta`).
   void add_load(std::vector<Index> quanta, const Vec3& total_force);
