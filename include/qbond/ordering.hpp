@@ -1,5 +1,6 @@
 #pragma once
-/// Renumbering quanta and bonds for memory locality (docs/performance-history.md, session 9: "locality order, measured").
+/// Renumbering quanta and bonds for memory locality (docs/performance-history.md, session 9:
+/// "locality order, measured").
 ///
 /// A step streams the bonds and reads both ends' positions and velocities; when bonds joining
 /// nearby quanta sit near each other in memory and so do their ends, those reads hit the cache.
