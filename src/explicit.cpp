@@ -154,7 +154,7 @@ class ExplicitIntegrator final : public Integrator {
   void verlet(const Model& model, const State& state, const std::vector<Vec3>& f_ext, const StepContext& ctx,
               Projection& out) {
     const std::size_t n = model.num_quanta(), size = verlet_carry_size(n);
-    const double h = ctx.h, t1 = ctx.t + h;
+    const double h = ctx.h;
     const int threads = config_.threads;
     out.warm.resize(size);
     out.warm_needs_bonds = true;
@@ -188,8 +188,17 @@ class ExplicitIntegrator final : public Integrator {
       take(cx, last.x);
       cv = last.v;
     }
+    // The prescribed quanta where the step will place them (place_kinematic), written with their
+    // range's (PrescribedAt says why).
+    prescribed_.update(model, ctx.t + h);
     auto stage = [&](std::size_t lo, std::size_t hi) {
-      return verlet_stage(inv_mass, f0, fe, x, v, cx, cv, h, dx, rows, lo, hi);
+      const bool same = verlet_stage(inv_mass, f0, fe, x, v, cx, cv, h, dx, rows, lo, hi);
+      for (const PrescribedAt::Quanta& p : prescribed_.in(lo, hi))
+        for (int c = 0; c < 3; ++c) {
+          rows.x[c][p.q] = p.x[c];
+          rows.v[c][p.q] = p.v[c];
+        }
+      return same;
     };
     if (!f0.c[0] || !reduce_chunks(n, threads, true, stage, std::logical_and<>{})) {
       const ForceRows fresh = bond_force_rows(model, state, part_, state.x.data(), state.v.data(), threads, forces_);
@@ -198,28 +207,15 @@ class ExplicitIntegrator final : public Integrator {
       cv = v;
       reduce_chunks(n, threads, true, stage, std::logical_and<>{});
     }
-    // The prescribed quanta where the step will place them (place_kinematic).
-    for (const Motion& motion : model.motions)
-      for (std::size_t k = 0; k < motion.quanta.size(); ++k) {
-        const Index q = motion.quanta[k];
-        Vec3 xq, vq;
-        motion.at(k, t1, xq, vq);
-        for (int c = 0; c < 3; ++c) {
-          rows.x[c][q] = xq[c];
-          rows.v[c][q] = vq[c];
-        }
-      }
     add_bond_forces(model, state, part_, rows);
+    // The prescribed quanta's rows of the projection (project_kinematic) and their v₁ as placed
+    // (verlet_finish wrote their v).
     parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
       verlet_finish(inv_mass, rows, fe, f0, v, h, dv, next.v, lo, hi);
+      prescribed_.project(state, lo, hi, out);
+      for (const PrescribedAt::Quanta& p : prescribed_.in(lo, hi))
+        for (int c = 0; c < 3; ++c) next.v[3 * p.q + c] = p.v[c];
     });
-    project_kinematic(model, state, ctx, out);
-    // and their v₁ as placed (verlet_finish wrote their v).
-    for (const Motion& motion : model.motions)
-      for (std::size_t k = 0; k < motion.quanta.size(); ++k) {
-        const Index q = motion.quanta[k];
-        for (int c = 0; c < 3; ++c) next.v[3 * q + c] = rows.v[c][q];
-      }
     out.warm[size - 1] = Vec3(static_cast<double>(state.topology_version), 0, 0);
   }
 
@@ -259,6 +255,7 @@ class ExplicitIntegrator final : public Integrator {
   std::vector<Vec3> a1_, a2_, a3_, a4_, xs_, vs_, v2_, v3_;
   BondPartition part_;
   ForceArrays forces_;
+  PrescribedAt prescribed_;  // Verlet's
 };
 
 }  // namespace

@@ -364,8 +364,8 @@ QBOND_VECTOR_CLONES void start_rows(const Model& model, const State& state, cons
 
 // v_i + Δv_i = A_ii⁻¹ b_i for quanta [lo, hi) — the adjugate of the symmetric block (positive
 // definite) over its determinant — and Δv_i, Δx_i = h (v_i + Δv_i) written out, in one vector
-// loop. Kinematic quanta get zeros (their rows are not theirs to solve): project_kinematic then
-// writes the prescribed ones' motion.
+// loop. Kinematic quanta get zeros (their rows are not theirs to solve): the prescribed ones'
+// motion is then written over them (PrescribedAt::project).
 QBOND_VECTOR_CLONES void solve_rows(const Model& model, const State& state, const StepArrays& a, double h,
                                     std::size_t lo, std::size_t hi, Projection& out) {
   const double* inv_mass = model.inv_mass.data();
@@ -423,7 +423,12 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     copy_state(state, a, std::max(lo, part.alone_lo[s.part]), std::min(hi, part.alone_hi[s.part]));
   };
   // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-  const auto solve = [&](Index lo, Index hi) { solve_rows(model, state, a, h, lo, hi, out); };
+  // The prescribed quanta's rows with their range's (PrescribedAt says why).
+  prescribed.update(model, ctx.t + h);
+  const auto solve = [&](Index lo, Index hi) {
+    solve_rows(model, state, a, h, lo, hi, out);
+    prescribed.project(state, lo, hi, out);
+  };
   for_each_bond_run<FrozenScratch>(part, [&](const BondRun& run, FrozenScratch& s) {
     if (s.part < 0) {
       const auto after = std::upper_bound(part.first.begin(), part.first.end(), run.lo);
@@ -463,7 +468,6 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
       start_rows(model, state, f_ext, h, a, part.first[p], part.first[p + 1]);
       solve(part.first[p], part.first[p + 1]);
     }
-  project_kinematic(model, state, ctx, out);
 }
 
 }  // namespace qbond

@@ -144,12 +144,13 @@ void gather_edges(const Model& model, const Adjacency& adj, int threads, Implici
 // the K_i and C_i v_i terms: A_ii (v_i + Δv_i) = m v_i + h f_ext,i + h Σ_b (T_b u_b + C_b v_j).
 // Each bond is linearised once, in vectorised runs (frozen_step.cpp), and added to both ends' A_ii
 // (kept as its six distinct entries) and that right-hand side; then, for free quanta,
-// v_i + Δv_i = A_ii⁻¹ (…) goes straight into `out` (dx = h (v + Δv), Eq. 10), whose kinematic rows
-// come from project_kinematic.
+// v_i + Δv_i = A_ii⁻¹ (…) goes straight into `out` (dx = h (v + Δv), Eq. 10), whose prescribed
+// rows are project_kinematic's (written with their range's: PrescribedAt).
 struct FrozenStep {
   BondPartition part;
   std::vector<double> arrays;  // A_ii's six entries, b_i, x and v as structure of arrays (frozen_step.cpp)
   Index wake = 512;            // the fewest rows started or solved at a time in the bond pass (tests: fewer)
+  PrescribedAt prescribed;
   void project(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
                const StepContext& ctx, int threads, Projection& out);
 };

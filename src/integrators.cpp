@@ -1,5 +1,7 @@
+#include <algorithm>
 #include <array>
 #include <cassert>
+#include <functional>
 #include <stdexcept>
 #include <string>
 
@@ -144,6 +146,50 @@ void project_kinematic(const Model& model, const State& state, const StepContext
 void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v) {
   for (const Motion& motion : model.motions)
     for (std::size_t k = 0; k < motion.quanta.size(); ++k) motion.at(k, t, x[motion.quanta[k]], v[motion.quanta[k]]);
+}
+
+void PrescribedAt::update(const Model& model, double t) {
+  list_.clear();
+  for (const Motion& motion : model.motions)
+    for (std::size_t k = 0; k < motion.quanta.size(); ++k) {
+      Quanta& p = list_.emplace_back();
+      p.q = motion.quanta[k];
+      p.order = static_cast<Index>(list_.size());
+      motion.at(k, t, p.x, p.v);
+    }
+  auto below = [](const Quanta& a, const Quanta& b) { return a.q < b.q; };
+  if (std::adjacent_find(list_.begin(), list_.end(), std::not_fn(below)) !=
+      list_.end()) {  // not the usual case
+    std::sort(list_.begin(), list_.end(), [](const Quanta& a, const Quanta& b) {
+      return a.q < b.q || (a.q == b.q && a.order < b.order);
+    });
+    auto kept = list_.begin();
+    for (auto p = list_.begin(); p != list_.end(); ++p)
+      if (p + 1 == list_.end() || (p + 1)->q != p->q) *kept++ = *p;  // the last of each quanta's
+    list_.erase(kept, list_.end());
+  }
+  index_.resize(list_.size());
+  for (std::size_t k = 0; k < list_.size(); ++k) index_[k] = list_[k].q;
+}
+
+std::span<const PrescribedAt::Quanta> PrescribedAt::in(std::size_t lo, std::size_t hi) const {
+  const auto a = std::lower_bound(index_.begin(), index_.end(), lo);
+  const auto b = std::lower_bound(a, index_.end(), hi);
+  return {list_.begin() + (a - index_.begin()), list_.begin() + (b - index_.begin())};
+}
+
+void PrescribedAt::project(const State& state, std::size_t lo, std::size_t hi, Projection& out) const {
+  for (const Quanta& p : in(lo, hi)) {
+    out.dx[p.q] = p.x - state.x[p.q];
+    out.dv[p.q] = p.v - state.v[p.q];
+  }
+}
+
+void PrescribedAt::place(std::size_t lo, std::size_t hi, Vec3* x, Vec3* v) const {
+  for (const Quanta& p : in(lo, hi)) {
+    x[p.q] = p.x;
+    v[p.q] = p.v;
+  }
 }
 
 bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,

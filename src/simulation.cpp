@@ -121,8 +121,13 @@ StepReport Simulation::check_projection() {
   const double* dv = projection_.dv.data()->data();
   double* xn = next_x_.data()->data();
   double* vn = next_v_.data()->data();
+  // The prescribed quanta exactly on their path (place_kinematic), so that they do not drift by
+  // round-off, placed with their range (PrescribedAt says why).
+  prescribed_.update(m, ctx_.t + ctx_.h);
   auto fast = [&](std::size_t lo, std::size_t hi) {
-    return advance_checked(x, v, dx, dv, m.inv_mass.data(), limit2, xn, vn, lo, hi);
+    const bool ok = advance_checked(x, v, dx, dv, m.inv_mass.data(), limit2, xn, vn, lo, hi);
+    prescribed_.place(lo, hi, next_x_.data(), next_v_.data());
+    return ok;
   };
   if (reduce_chunks(m.num_quanta(), integrator_->config().threads, true, fast, std::logical_and<>{}))
     return {};
@@ -292,11 +297,9 @@ StepReport Simulation::end_step() {
   if (track_energy_ || restore) update_ledger();
 
   const Model& m = world_.model;
-  s.x.swap(next_x_);  // x + Δx and v + Δv, formed by check_projection
+  s.x.swap(next_x_);  // x + Δx and v + Δv (the prescribed quanta placed), formed by check_projection
   s.v.swap(next_v_);
-  const double t1 = ctx_.t + ctx_.h;
-  place_kinematic(m, t1, s.x.data(), s.v.data());
-  s.time = t1;
+  s.time = ctx_.t + ctx_.h;
   s.step = ctx_.step + 1;
   s.warm.swap(projection_.warm);
   clear_forces();

@@ -88,8 +88,9 @@ TEST(Pipeline, AnyThreadCountGivesTheSameBits) {
   em_sweep.solver = CoupledSolver::sweep;
   em_sweep.iterations = 2;
   IntegratorConfig bdf2 = test::config(IntegratorType::bdf2);
-  for (const IntegratorConfig& c : {default_integrator(), sweep, frozen, jacobi, test::config(IntegratorType::rk4),
-                                    em_cg, em_sweep, bdf2}) {
+  for (const IntegratorConfig& c :
+       {default_integrator(), sweep, frozen, jacobi, test::config(IntegratorType::rk4),
+        test::config(IntegratorType::velocity_verlet), em_cg, em_sweep, bdf2}) {
     for (bool broken : {false, true}) {
       const State one = run(c, 1, broken);
       for (int threads : {2, 3}) {

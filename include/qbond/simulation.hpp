@@ -111,7 +111,9 @@ class Simulation {
   StepContext ctx_;
   std::vector<BondEvent> events_;
   std::vector<Vec3> dv_forces_;  ///< the projection's dv before the heuristics [m/s] (n)
-  std::vector<Vec3> next_x_, next_v_;  ///< x + Δx, v + Δv of the step being applied (check_projection)
+  /// x + Δx, v + Δv of the step being applied, the prescribed quanta placed (check_projection)
+  std::vector<Vec3> next_x_, next_v_;
+  PrescribedAt prescribed_;  ///< where the step leaves the prescribed quanta
 };
 
 }  // namespace qbond
