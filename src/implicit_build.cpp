@@ -275,12 +275,17 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
                          Projection& kin, ImplicitSystem& sys) {
   const std::size_t n = model.num_quanta();
   kin.resize(n);
-  project_kinematic(model, state, ctx, kin);
   const double h = ctx.h;
   sys.part.update(model, adj, threads);
   sys.bonds.resize(model.num_bonds());
   const BuildArrays a(sys.arrays, n);
-  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_build(model, state, f_ext, kin, h, a, lo, hi); });
+  // The kinematic rows (project_kinematic's), each range's by the thread that reads them first
+  // (PrescribedAt says why).
+  sys.prescribed.update(model, ctx.t + h);
+  parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
+    sys.prescribed.project(state, lo, hi, kin);
+    start_build(model, state, f_ext, kin, h, a, lo, hi);
+  });
   for_each_part_runs<BuildTerms>(sys.part, [&](std::span<const BondRun> runs, BuildTerms& t) {
     part_build(model, state, a, runs, h, t, sys.bonds);
   });

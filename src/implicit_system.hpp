@@ -115,6 +115,7 @@ struct ImplicitSystem {
   // of CG (conjugate_gradient): one buffer, since their uses do not overlap.
   BondPartition part;
   std::vector<double> arrays;
+  PrescribedAt prescribed;  // begin_implicit_step's
 };
 
 // Starts an implicit step: sizes `out` and fills its kinematic rows (project_kinematic), then

@@ -438,7 +438,8 @@ TEST(Integrators, PrescribedRowsAreProjectKinematicsOnAnyThreadCount) {
   Projection kin;
   kin.resize(w.num_quanta());
   project_kinematic(w.model, w.state, ctx, kin);
-  for (IntegratorConfig cfg : {hybrid(NeighbourModel::frozen), test::config(IntegratorType::velocity_verlet)})
+  for (IntegratorConfig cfg : {hybrid(NeighbourModel::frozen), hybrid(NeighbourModel::sweep),
+                               test::config(IntegratorType::velocity_verlet), default_integrator()})
     for (int threads : {1, 2, 3}) {
       cfg.threads = threads;
       const Projection p = test::project_once(w, cfg, h);
