@@ -37,8 +37,8 @@ struct Columns {
 };
 
 // Verlet's first half for quanta [lo, hi), from the step's first accelerations a = m⁻¹ (f0 + f_ext):
-// the free quanta's Δx = h v + h²/2 a into dx (0 for kinematic ones: project_kinematic writes
-// those that move); x₁ = x + Δx, as the step will apply it, into the bond pass's rows (the next
+// the free quanta's Δx = h v + h²/2 a into dx (0 for kinematic ones: the prescribed ones' rows,
+// project_kinematic's, are written after); x₁ = x + Δx, as the step will apply it, into the bond pass's rows (the next
 // carry-over's); the velocity the forces are taken at, ṽ = v + h a (kinematic: v), into the rows;
 // the force sums zeroed. Returns whether x and v equal cx and cv bit for bit.
 QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, Columns f0, const double* f_ext, const double* x,
