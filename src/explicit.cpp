@@ -38,9 +38,9 @@ struct Columns {
 
 // Verlet's first half for quanta [lo, hi), from the step's first accelerations a = m⁻¹ (f0 + f_ext):
 // the free quanta's Δx = h v + h²/2 a into dx (0 for kinematic ones: the prescribed ones' rows,
-// project_kinematic's, are written after); x₁ = x + Δx, as the step will apply it, into the bond pass's rows (the next
-// carry-over's); the velocity the forces are taken at, ṽ = v + h a (kinematic: v), into the rows;
-// the force sums zeroed. Returns whether x and v equal cx and cv bit for bit.
+// project_kinematic's, are written after); x₁ = x + Δx, as the step will apply it, into the bond
+// pass's rows (the next carry-over's); the velocity the forces are taken at, ṽ = v + h a
+// (kinematic: v), into the rows; the force sums zeroed. Returns whether x and v equal cx and cv bit for bit.
 QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, Columns f0, const double* f_ext, const double* x,
                                       const double* v, Columns cx, const double* cv, double h, double* dx,
                                       ForceRows rows, std::size_t lo, std::size_t hi) {
