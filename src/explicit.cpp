@@ -37,13 +37,15 @@ struct Columns {
 };
 
 // Verlet's first half for quanta [lo, hi), from the step's first accelerations a = m⁻¹ (f0 + f_ext):
-// the free quanta's Δx = h v + h²/2 a into dx (0 for kinematic ones: the prescribed ones' rows,
-// project_kinematic's, are written after); x₁ = x + Δx, as the step will apply it, into the bond
-// pass's rows (the next carry-over's); the velocity the forces are taken at, ṽ = v + h a
-// (kinematic: v), into the rows; the force sums zeroed. Returns whether x and v equal cx and cv bit for bit.
-QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, Columns f0, const double* f_ext, const double* x,
-                                      const double* v, Columns cx, const double* cv, double h, double* dx,
-                                      ForceRows rows, std::size_t lo, std::size_t hi) {
+// the free quanta's Δx = h v + h²/2 a into dx unless the step is direct (kDx false; 0 for
+// kinematic ones: the prescribed ones' rows, project_kinematic's, are written after); x₁ = x + Δx,
+// as the step will apply it, into the bond pass's rows (the next carry-over's); the velocity the
+// forces are taken at, ṽ = v + h a (kinematic: v), into the rows; the force sums zeroed. Returns
+// whether x and v equal cx and cv bit for bit.
+template <bool kDx>
+QBOND_VECTOR_INLINE bool stage_range(const double* inv_mass, Columns f0, const double* f_ext, const double* x,
+                                     const double* v, Columns cx, const double* cv, double h, double* dx,
+                                     ForceRows rows, std::size_t lo, std::size_t hi) {
   const double hh = 0.5 * h * h;
   std::uint64_t differ = 0;
   QBOND_SIMD_OR(differ) for (std::size_t q = lo; q < hi; ++q) {
@@ -55,7 +57,7 @@ QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, Columns f0, const 
       const double ae = inv_mass[q] * (f0.c[c][q] + f_ext[e]);
       const double step = h * ve + hh * ae, vt = ve + h * ae;
       const double d = inv_mass[q] != 0 ? step : 0.0;
-      dx[e] = d;
+      if constexpr (kDx) dx[e] = d;
       rows.x[c][q] = xe + d;
       rows.v[c][q] = inv_mass[q] != 0 ? vt : ve;
       rows.f[c][q] = 0;
@@ -64,23 +66,63 @@ QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, Columns f0, const 
   return differ == 0;
 }
 
+// stage_range, writing dx unless it is null.
+QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, Columns f0, const double* f_ext,
+                                      const double* x, const double* v, Columns cx, const double* cv,
+                                      double h, double* dx, ForceRows rows, std::size_t lo, std::size_t hi) {
+  return dx ? stage_range<true>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi)
+            : stage_range<false>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi);
+}
+
+// Where verlet_finish writes: Δv into dv, or for a direct step (kApplied; dv null) x₁ (the bond
+// pass's rows' x) and v₁ into the state the step applies, x_to and v_to.
+struct FinishOut {
+  double* dv;
+  double* x_to;
+  double* v_to;
+};
+
 // Verlet's second half for quanta [lo, hi): with the bond forces at the stage in rows.f (the
-// carry-over's f₁), the free quanta's Δv = h/2 (m⁻¹ (f0 + f_ext) + m⁻¹ (f1 + f_ext)) into dv (0
-// for kinematic ones), and v₁ = v + Δv into v1.
-QBOND_VECTOR_CLONES void verlet_finish(const double* inv_mass, ForceRows rows, const double* f_ext, Columns f0,
-                                       const double* v, double h, double* dv, double* v1, std::size_t lo,
-                                       std::size_t hi) {
-  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
-    const bool free = inv_mass[q] != 0;
+// carry-over's f₁), the free quanta's Δv = h/2 (m⁻¹ (f0 + f_ext) + m⁻¹ (f1 + f_ext)) (0 for
+// kinematic ones) and v₁ = v + Δv into v1; Δv, or x₁ and v₁, into `out`. Returns, for a direct
+// step, whether every value written is finite and no free quanta faster than sqrt(limit2)
+// (advance_checked's test, in the same branch-free form); true otherwise.
+template <bool kApplied>
+QBOND_VECTOR_INLINE bool finish_range(const double* inv_mass, ForceRows rows, const double* f_ext, Columns f0,
+                                      const double* v, double h, double limit2, double* v1, FinishOut out,
+                                      std::size_t lo, std::size_t hi) {
+  std::uint64_t bad = 0;
+  QBOND_SIMD_OR(bad) for (std::size_t q = lo; q < hi; ++q) {
+    double speed2 = 0, nan_if_bad = 0;
     QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
       const std::size_t e = 3 * q + c;
       const double kick =
           (0.5 * h) * (inv_mass[q] * (f0.c[c][q] + f_ext[e]) + inv_mass[q] * (rows.f[c][q] + f_ext[e]));
-      const double d = free ? kick : 0.0;
-      dv[e] = d;
-      v1[e] = v[e] + d;
+      const double d = inv_mass[q] != 0 ? kick : 0.0;
+      const double ve = v[e] + d;
+      v1[e] = ve;
+      if constexpr (kApplied) {
+        const double xe = rows.x[c][q];
+        out.x_to[e] = xe;
+        out.v_to[e] = ve;
+        nan_if_bad += (xe - xe) + (ve - ve);
+        speed2 += ve * ve;
+      } else {
+        out.dv[e] = d;
+      }
     }
+    if constexpr (kApplied)
+      bad |= static_cast<std::uint64_t>((nan_if_bad != 0) | ((speed2 > limit2) & (inv_mass[q] != 0)));
   }
+  return bad == 0;
+}
+
+// finish_range, into the applied state if out.dv is null.
+QBOND_VECTOR_CLONES bool verlet_finish(const double* inv_mass, ForceRows rows, const double* f_ext,
+                                       Columns f0, const double* v, double h, double limit2, double* v1,
+                                       FinishOut out, std::size_t lo, std::size_t hi) {
+  return out.dv ? finish_range<false>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi)
+                : finish_range<true>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi);
 }
 
 class ExplicitIntegrator final : public Integrator {
@@ -101,8 +143,8 @@ class ExplicitIntegrator final : public Integrator {
     const double h = ctx.h;
     part_.update(model, adj, config_.threads);
     const bool verlet_step = config_.type == IntegratorType::velocity_verlet;
-    out.resize(n, !verlet_step);  // Verlet writes every row
     if (verlet_step) return verlet(model, state, f_ext, ctx, out);
+    out.resize(n);
     project_kinematic(model, state, ctx, out);
     accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, forces_, a1_);
     switch (config_.type) {
@@ -156,6 +198,10 @@ class ExplicitIntegrator final : public Integrator {
     const std::size_t n = model.num_quanta(), size = verlet_carry_size(n);
     const double h = ctx.h;
     const int threads = config_.threads;
+    if (ctx.direct)
+      out.resize_applied(n);
+    else
+      out.resize(n, false);  // every row written
     out.warm.resize(size);
     out.warm_needs_bonds = true;
     const Carry<double> next(out.warm.data()->data(), n);
@@ -172,8 +218,10 @@ class ExplicitIntegrator final : public Integrator {
     const double* x = state.x.data()->data();
     const double* v = state.v.data()->data();
     const double* fe = f_ext.data()->data();
-    double* dx = out.dx.data()->data();
-    double* dv = out.dv.data()->data();
+    double* dx = ctx.direct ? nullptr : out.dx.data()->data();
+    const FinishOut finish_out =
+        ctx.direct ? FinishOut{nullptr, out.applied.x.data()->data(), out.applied.v.data()->data()}
+                   : FinishOut{out.dv.data()->data(), nullptr, nullptr};
     // With the carried forces, for the topology they were left for, while checking that the state
     // is the one they were left for; if it is not, again with a(x, v) evaluated afresh into
     // forces_'s f and x, which the stage does not write (cx is then x itself).
@@ -208,14 +256,25 @@ class ExplicitIntegrator final : public Integrator {
       reduce_chunks(n, threads, true, stage, std::logical_and<>{});
     }
     add_bond_forces(model, state, part_, rows);
-    // The prescribed quanta's rows of the projection (project_kinematic) and their v₁ as placed
-    // (verlet_finish wrote their v).
-    parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
-      verlet_finish(inv_mass, rows, fe, f0, v, h, dv, next.v, lo, hi);
-      prescribed_.project(state, lo, hi, out);
+    // The prescribed quanta's v₁ as placed (verlet_finish wrote their v), and their rows of the
+    // projection (project_kinematic), or of the applied state (place_kinematic: the stage put
+    // their x₁ in the rows).
+    const double limit2 = ctx.max_speed * ctx.max_speed;
+    auto finish = [&](std::size_t lo, std::size_t hi) {
+      bool ok = verlet_finish(inv_mass, rows, fe, f0, v, h, limit2, next.v, finish_out, lo, hi);
       for (const PrescribedAt::Quanta& p : prescribed_.in(lo, hi))
         for (int c = 0; c < 3; ++c) next.v[3 * p.q + c] = p.v[c];
-    });
+      if (!ctx.direct) {
+        prescribed_.project(state, lo, hi, out);
+        return ok;
+      }
+      for (const PrescribedAt::Quanta& p : prescribed_.in(lo, hi)) {
+        out.applied.v[p.q] = p.v;
+        ok = ok && p.x.allFinite() && p.v.allFinite();
+      }
+      return ok;
+    };
+    out.applied.ok = reduce_chunks(n, threads, true, finish, std::logical_and<>{});
     out.warm[size - 1] = Vec3(static_cast<double>(state.topology_version), 0, 0);
   }
 

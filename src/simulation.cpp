@@ -66,15 +66,23 @@ void Simulation::gather_external_forces() {
   }
 }
 
-void Simulation::begin_step() {
+void Simulation::begin_step() { project(false); }
+
+void Simulation::project(bool direct) {
   const Adjacency& adj = adjacency();
   gather_external_forces();
-  ctx_ = {h_, world_.state.time, world_.state.step};
+  ctx_ = {.h = h_,
+          .t = world_.state.time,
+          .step = world_.state.step,
+          .direct = direct,
+          .max_speed = limits_.max_speed};
   integrator_->project(world_.model, world_.state, adj, f_ext_, ctx_, projection_);
 }
 
 StepReport Simulation::step() {
-  begin_step();
+  // Nothing between the projection and its application reads dx and dv without heuristics and the
+  // ledger: the integrator may then hand over the state to apply (StepContext::direct).
+  project(heuristics_.empty() && !track_energy_ && !integrator_->config().restore_energy);
   return end_step();
 }
 
@@ -104,14 +112,9 @@ QBOND_VECTOR_CLONES bool advance_checked(const double* x, const double* v, const
 
 }  // namespace
 
-StepReport Simulation::check_projection() {
+bool Simulation::advance(double limit2) {
   const Model& m = world_.model;
   const State& s = world_.state;
-  const double limit2 = limits_.max_speed * limits_.max_speed;
-  // First the plain test every step passes: no free quanta too fast, nothing non-finite (x − x is
-  // 0 for every finite x, NaN otherwise). Branch-free loops over the components, so they vectorise.
-  // The pass also forms the state the step will apply, x + Δx and v + Δv, into next_x_, next_v_:
-  // one pass over the quanta for the check and the application.
   const std::size_t n = m.num_quanta();
   next_x_.resize(n);
   next_v_.resize(n);
@@ -129,8 +132,21 @@ StepReport Simulation::check_projection() {
     prescribed_.place(lo, hi, next_x_.data(), next_v_.data());
     return ok;
   };
-  if (reduce_chunks(m.num_quanta(), integrator_->config().threads, true, fast, std::logical_and<>{}))
-    return {};
+  return reduce_chunks(n, integrator_->config().threads, true, fast, std::logical_and<>{});
+}
+
+StepReport Simulation::check_projection() {
+  const Model& m = world_.model;
+  const double limit2 = limits_.max_speed * limits_.max_speed;
+  // First the plain test every step passes, no free quanta too fast and nothing non-finite, with
+  // the state the step will apply formed into next_x_, next_v_: by the integrator (StepContext::
+  // direct), else by advance.
+  Projection::Applied& applied = projection_.applied;
+  if (applied.written) {
+    next_x_.swap(applied.x);
+    next_v_.swap(applied.v);
+  }
+  if (applied.written ? applied.ok : advance(limit2)) return {};
   // A step to stop: the first quanta (by index) with a non-finite result, else the fastest free
   // one (the first of equals), for the message: a reduction over fixed chunks, the same on any
   // thread count.
@@ -141,8 +157,8 @@ StepReport Simulation::check_projection() {
   };
   auto fold = [&](Worst w, std::size_t i) {
     if (!w.finite) return w;
-    const Vec3 v1 = s.v[i] + projection_.dv[i];
-    const Vec3 x1 = s.x[i] + projection_.dx[i];
+    const Vec3& v1 = next_v_[i];
+    const Vec3& x1 = next_x_[i];
     if (!v1.allFinite() || !x1.allFinite()) return Worst{w.speed2, static_cast<Index>(i), false};
     const double speed2 = v1.squaredNorm();
     if (!m.is_kinematic(static_cast<Index>(i)) && speed2 > w.speed2)

@@ -1,6 +1,7 @@
 // The step pipeline, the world's bookkeeping and kinematic motion.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <string>
 
@@ -105,6 +106,54 @@ TEST(Pipeline, AnyThreadCountGivesTheSameBits) {
       }
     }
   }
+}
+
+// Without heuristics and the energy ledger, Simulation::step lets the integrator write the state
+// the step applies (StepContext::direct): the same bits as the steps that form dx and dv for the
+// ledger and apply them, on any thread count, and the same report when a step blows up.
+TEST(Pipeline, DirectStepsGiveTheSameBitsAndReportsAsStepsThroughDxDv) {
+  Scene scene = canonical_lattice(16);
+  World& w0 = scene.world;
+  test::perturb(w0, 1e-4, 0.01);
+  Motion spin;  // its velocity changes every step
+  spin.type = MotionType::rotate;
+  spin.axis = Vec3(0, 0, 1);
+  spin.rate = 20;
+  const Index last = static_cast<Index>(w0.num_quanta() - 1);
+  w0.prescribe({last, last - 7, 2000}, spin);
+  enum class Last { ok, too_fast, not_finite };
+  auto run = [&](const IntegratorConfig& c, bool direct, int threads, Last last_step) {
+    IntegratorConfig cfg = c;
+    cfg.threads = threads;
+    Simulation sim(w0, cfg, scene.timestep);
+    sim.set_track_energy(!direct);
+    for (int n = 0; n < 4; ++n) EXPECT_EQ(sim.step().status, StepReport::Status::ok);
+    if (last_step == Last::too_fast) sim.limits().max_speed = 1e-3;
+    if (last_step == Last::not_finite) sim.world().state.v[3000].y() = std::nan("");
+    const StepReport r = sim.step();
+    return std::pair{r, sim.world().state};
+  };
+  IntegratorConfig frozen = test::config(IntegratorType::hybrid_implicit);
+  frozen.neighbours = NeighbourModel::frozen;
+  for (const IntegratorConfig& c : {test::config(IntegratorType::velocity_verlet), frozen,
+                                    default_integrator(), test::config(IntegratorType::rk4)})
+    for (Last last_step : {Last::ok, Last::too_fast, Last::not_finite}) {
+      const auto [r0, s0] = run(c, false, 1, last_step);
+      EXPECT_EQ(r0.status == StepReport::Status::ok, last_step == Last::ok);
+      for (int threads : {1, 2}) {
+        const auto [r, s] = run(c, true, threads, last_step);
+        const std::string what = std::string(to_string(c.type)) + "/" + std::string(to_string(c.neighbours)) +
+                                 ", " + std::to_string(threads) + " threads, last step " +
+                                 std::to_string(static_cast<int>(last_step));
+        EXPECT_EQ(r.status, r0.status) << what;
+        EXPECT_EQ(r.message, r0.message) << what;
+        EXPECT_EQ(r.worst, r0.worst) << what;
+        EXPECT_EQ(s.step, s0.step) << what;
+        EXPECT_EQ(std::memcmp(s.x.data(), s0.x.data(), s.x.size() * sizeof(Vec3)), 0) << what;
+        EXPECT_EQ(std::memcmp(s.v.data(), s0.v.data(), s.v.size() * sizeof(Vec3)), 0) << what;
+        EXPECT_TRUE(s.warm == s0.warm) << what;
+      }
+    }
 }
 
 // A heuristic that edits the bonds every step, as fracture and plasticity do: breaks the first

@@ -2,6 +2,7 @@
 /// Integrators (DESIGN §5). Every integrator, explicit or implicit, only *projects* a step: it
 /// returns the change of position and velocity of every quanta without moving anything, so that
 /// heuristics can edit the projection before the step applies it (DESIGN §4).
+#include <cmath>
 #include <memory>
 #include <span>
 #include <string>
@@ -18,12 +19,25 @@ struct StepContext {
   double h = 1e-3;        ///< timestep [s]
   double t = 0;           ///< time at the start of the step [s]
   std::uint64_t step = 0; ///< index of the step being taken
+  /// Set by Simulation::step when nothing reads dx and dv after the integrator (no heuristic, no
+  /// energy ledger): an integrator may then write the state the step applies into
+  /// Projection::applied instead, and check it against max_speed, in the passes that form it.
+  bool direct = false;
+  double max_speed = HUGE_VAL;  ///< [m/s] the blow-up limit a direct projection is checked against
 };
 
 /// The change a step will make (Eqs. 8–9): dx = Δp, dv = Δv for every quanta.
 struct Projection {
-  std::vector<Vec3> dx;  ///< [m] (n)
-  std::vector<Vec3> dv;  ///< [m/s] (n)
+  std::vector<Vec3> dx;  ///< [m] (n; empty when the integrator wrote `applied` instead)
+  std::vector<Vec3> dv;  ///< [m/s] (n; empty when the integrator wrote `applied` instead)
+  /// The state the step applies, x + dx and v + dv (the same bits) with the prescribed quanta
+  /// placed (place_kinematic), when the integrator wrote it instead of dx and dv
+  /// (StepContext::direct): one pass over the quanta fewer, and no dx, dv streamed out and back.
+  struct Applied {
+    std::vector<Vec3> x, v;  ///< [m], [m/s] (n)
+    bool written = false;
+    bool ok = false;  ///< every value finite and no free quanta faster than StepContext::max_speed
+  } applied;
   /// The solver's solution to keep as State::warm when the step applies (WarmStart::previous
   /// only; empty otherwise). Kept apart from dv, which round-off makes differ from it.
   std::vector<Vec3> warm;
@@ -42,6 +56,7 @@ struct Projection {
   /// Sizes for n quanta and clears the rest; dx and dv zeroed unless `zero` is false (for an
   /// integrator that writes every row).
   void resize(std::size_t n, bool zero = true) {
+    applied.written = false;
     if (zero) {
       dx.assign(n, Vec3::Zero());
       dv.assign(n, Vec3::Zero());
@@ -49,6 +64,22 @@ struct Projection {
       dx.resize(n);
       dv.resize(n);
     }
+    clear_rest();
+  }
+  /// Sizes `applied` for n quanta (its values are the integrator's to write) and empties dx and dv
+  /// (their capacity kept), for StepContext::direct; clears the rest.
+  void resize_applied(std::size_t n) {
+    applied.x.resize(n);
+    applied.v.resize(n);
+    applied.written = true;
+    applied.ok = false;
+    dx.clear();
+    dv.clear();
+    clear_rest();
+  }
+
+ private:
+  void clear_rest() {
     warm.clear();
     warm_needs_bonds = bonds_edited = false;
     has_work = false;

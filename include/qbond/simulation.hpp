@@ -66,6 +66,9 @@ class Simulation {
   World& world() { return world_; }
   const World& world() const { return world_; }
   const Integrator& integrator() const { return *integrator_; }
+  /// The last projection: dx and dv after begin_step; after step() with no heuristic and no
+  /// energy ledger they may be empty, the integrator having written the state to apply instead
+  /// (StepContext::direct).
   const Projection& projection() const { return projection_; }
   /// Topology changes the heuristics made during the last step (cleared when a step begins).
   const std::vector<BondEvent>& events() const { return events_; }
@@ -84,7 +87,12 @@ class Simulation {
 
  private:
   void gather_external_forces();
+  /// begin_step's work; direct: the integrator may write the state to apply (StepContext::direct).
+  void project(bool direct);
   void update_ledger();
+  /// x + Δx, v + Δv into next_x_, next_v_, the prescribed quanta placed; whether every value is
+  /// finite and no free quanta faster than sqrt(limit2) (one pass, branch-free: it vectorises).
+  bool advance(double limit2);
   StepReport check_projection();
   StepReport check_energy() const;
   /// The state before the step into last_good_ (save, set_keep_last_good), or back from it;
