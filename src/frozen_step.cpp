@@ -12,6 +12,7 @@
 // velocities copied for the affine runs, in the wake of its bond pass, while they are in cache.
 // The vector functions are compiled for several instruction sets (simd.hpp).
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "affine_rows.hpp"
@@ -363,35 +364,67 @@ QBOND_VECTOR_CLONES void start_rows(const Model& model, const State& state, cons
 }
 
 // v_i + Δv_i = A_ii⁻¹ b_i for quanta [lo, hi) — the adjugate of the symmetric block (positive
-// definite) over its determinant — and Δv_i, Δx_i = h (v_i + Δv_i) written out, in one vector
-// loop. Kinematic quanta get zeros (their rows are not theirs to solve): the prescribed ones'
-// motion is then written over them (PrescribedAt::project).
-QBOND_VECTOR_CLONES void solve_rows(const Model& model, const State& state, const StepArrays& a, double h,
-                                    std::size_t lo, std::size_t hi, Projection& out) {
+// definite) over its determinant — and, in one vector loop, Δv_i and Δx_i = h (v_i + Δv_i) written
+// out or, for a direct step (kApplied), the state the step applies, x_i + Δx_i and v_i + Δv_i (the
+// same bits), checked as advance_checked checks it (the result; true otherwise). Kinematic quanta
+// get zeros, or their x and v (their rows are not theirs to solve): the prescribed ones' motion is
+// then written over them (PrescribedAt).
+template <bool kApplied>
+QBOND_VECTOR_INLINE bool solve_range(const Model& model, const State& state, const StepArrays& a, double h,
+                                     double limit2, std::size_t lo, std::size_t hi, Projection& out) {
   const double* inv_mass = model.inv_mass.data();
   const double *a0 = a.row[0], *a1 = a.row[1], *a2 = a.row[2], *a3 = a.row[3], *a4 = a.row[4], *a5 = a.row[5];
   const double *bx = a.row[6], *by = a.row[7], *bz = a.row[8];
   const double* v = state.v.data()->data();
-  double* dv = out.dv.data()->data();
-  double* dx = out.dx.data()->data();
-  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+  double* dv = kApplied ? out.applied.v.data()->data() : out.dv.data()->data();
+  double* dx = kApplied ? out.applied.x.data()->data() : out.dx.data()->data();
+  std::uint64_t bad = 0;
+  QBOND_SIMD_OR(bad) for (std::size_t q = lo; q < hi; ++q) {
     const double c00 = a1[q] * a2[q] - a5[q] * a5[q], c11 = a0[q] * a2[q] - a4[q] * a4[q];
     const double c22 = a0[q] * a1[q] - a3[q] * a3[q], c01 = a4[q] * a5[q] - a3[q] * a2[q];
     const double c02 = a3[q] * a5[q] - a4[q] * a1[q], c12 = a3[q] * a4[q] - a0[q] * a5[q];
     const double inv_det = 1.0 / (a0[q] * c00 + a3[q] * c01 + a4[q] * c02);
     const double x = bx[q], y = by[q], z = bz[q];
+    double speed2 = 0, nan_if_bad = 0;
     auto write = [&](std::size_t c, double v1) QBOND_LAMBDA_INLINE {
-      dv[3 * q + c] = v1 - v[3 * q + c];
-      dx[3 * q + c] = h * v1;
+      if constexpr (kApplied) {  // dx, dv hold x + Δx, v + Δv
+        const double x1 = a.x[c][q] + h * v1, vq = a.v[c][q], v1_applied = vq + (v1 - vq);
+        dx[3 * q + c] = x1;
+        dv[3 * q + c] = v1_applied;
+        nan_if_bad += (x1 - x1) + (v1_applied - v1_applied);
+        speed2 += v1_applied * v1_applied;
+      } else {
+        dv[3 * q + c] = v1 - v[3 * q + c];
+        dx[3 * q + c] = h * v1;
+      }
     };
     write(0, inv_det * (c00 * x + c01 * y + c02 * z));
     write(1, inv_det * (c01 * x + c11 * y + c12 * z));
     write(2, inv_det * (c02 * x + c12 * y + c22 * z));
+    if constexpr (kApplied)
+      bad |= static_cast<std::uint64_t>(((nan_if_bad != 0) | (speed2 > limit2)) & (inv_mass[q] != 0));
   }
   // After the vector loop, not a select in it (GCC would mask the strided loads of v, which it
   // cannot vectorise).
-  for (std::size_t q = lo; q < hi; ++q)
-    if (inv_mass[q] == 0) out.dv[q] = out.dx[q] = Vec3::Zero();
+  for (std::size_t q = lo; q < hi; ++q) {
+    if (inv_mass[q] != 0) continue;
+    if constexpr (kApplied) {
+      out.applied.x[q] = state.x[q];
+      out.applied.v[q] = state.v[q];
+      bad |= static_cast<std::uint64_t>(!state.x[q].allFinite() || !state.v[q].allFinite());
+    } else {
+      out.dv[q] = out.dx[q] = Vec3::Zero();
+    }
+  }
+  return bad == 0;
+}
+
+// solve_range, into the state the step applies if `applied`.
+QBOND_VECTOR_CLONES bool solve_rows(const Model& model, const State& state, const StepArrays& a, double h,
+                                    bool applied, double limit2, std::size_t lo, std::size_t hi,
+                                    Projection& out) {
+  return applied ? solve_range<true>(model, state, a, h, limit2, lo, hi, out)
+                 : solve_range<false>(model, state, a, h, limit2, lo, hi, out);
 }
 
 }  // namespace
@@ -401,7 +434,10 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
                          Projection& out) {
   const std::size_t n = model.num_quanta();
   const double h = ctx.h;
-  out.resize(n, false);  // solve_rows writes every row
+  if (ctx.direct)
+    out.resize_applied(n);
+  else
+    out.resize(n, false);  // solve_rows writes every row
   part.update(model, adj, threads);
   StepArrays a;
   SoaArrays soa(arrays, n, 15);
@@ -423,11 +459,18 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     copy_state(state, a, std::max(lo, part.alone_lo[s.part]), std::min(hi, part.alone_hi[s.part]));
   };
   // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
-  // The prescribed quanta's rows with their range's (PrescribedAt says why).
+  // The prescribed quanta's rows, or their place in the applied state, with their range's
+  // (PrescribedAt says why).
   prescribed.update(model, ctx.t + h);
+  const double limit2 = ctx.max_speed * ctx.max_speed;
+  std::atomic<bool> ok = true;  // the applied state's check (StepContext::direct): an AND, in any order
   const auto solve = [&](Index lo, Index hi) {
-    solve_rows(model, state, a, h, lo, hi, out);
-    prescribed.project(state, lo, hi, out);
+    bool range_ok = solve_rows(model, state, a, h, ctx.direct, limit2, lo, hi, out);
+    if (!ctx.direct) return prescribed.project(state, lo, hi, out);
+    prescribed.place(lo, hi, out.applied.x.data(), out.applied.v.data());
+    for (const PrescribedAt::Quanta& p : prescribed.in(lo, hi))
+      range_ok = range_ok && p.x.allFinite() && p.v.allFinite();
+    if (!range_ok) ok.store(false, std::memory_order_relaxed);
   };
   for_each_bond_run<FrozenScratch>(part, [&](const BondRun& run, FrozenScratch& s) {
     if (s.part < 0) {
@@ -468,6 +511,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
       start_rows(model, state, f_ext, h, a, part.first[p], part.first[p + 1]);
       solve(part.first[p], part.first[p + 1]);
     }
+  out.applied.ok = ok.load(std::memory_order_relaxed);
 }
 
 }  // namespace qbond

@@ -146,7 +146,8 @@ void gather_edges(const Model& model, const Adjacency& adj, int threads, Implici
 // Each bond is linearised once, in vectorised runs (frozen_step.cpp), and added to both ends' A_ii
 // (kept as its six distinct entries) and that right-hand side; then, for free quanta,
 // v_i + Δv_i = A_ii⁻¹ (…) goes straight into `out` (dx = h (v + Δv), Eq. 10), whose prescribed
-// rows are project_kinematic's (written with their range's: PrescribedAt).
+// rows are project_kinematic's (written with their range's: PrescribedAt), or, for a direct step
+// (StepContext::direct), into the state the step applies, checked there.
 struct FrozenStep {
   BondPartition part;
   std::vector<double> arrays;  // A_ii's six entries, b_i, x and v as structure of arrays (frozen_step.cpp)
