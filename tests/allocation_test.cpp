@@ -84,16 +84,19 @@ TEST(Allocation, TheCounterSeesAllocations) {
 TEST(Allocation, StepsAfterTheFirstAllocateNothing) {
   if (!QBOND_COUNTS_ALLOCATIONS) GTEST_SKIP() << "AddressSanitizer interposes malloc itself";
   for (const Case& c : fast_integrators())
-    for (int threads : {1, 2}) {
-      IntegratorConfig cfg = c.config;
-      cfg.threads = threads;
-      // Large enough that the passes run in parallel (kParallelMin).
-      Simulation sim(test::lattice(24, 16, 12, 1000, 1e-3, 0.01, true, Vec3(0, 0, -9.81)), cfg, 1e-4);
-      for (int k = 0; k < 3; ++k) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
-      const long before = g_allocations.load();
-      for (int k = 0; k < 10; ++k) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
-      EXPECT_EQ(g_allocations.load() - before, 0) << c.name << ", " << threads << " thread(s)";
-    }
+    for (int threads : {1, 2})
+      for (bool ledger : {true, false}) {  // without it the steps are direct (StepContext::direct)
+        IntegratorConfig cfg = c.config;
+        cfg.threads = threads;
+        // Large enough that the passes run in parallel (kParallelMin).
+        Simulation sim(test::lattice(24, 16, 12, 1000, 1e-3, 0.01, true, Vec3(0, 0, -9.81)), cfg, 1e-4);
+        sim.set_track_energy(ledger);
+        for (int k = 0; k < 3; ++k) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
+        const long before = g_allocations.load();
+        for (int k = 0; k < 10; ++k) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
+        EXPECT_EQ(g_allocations.load() - before, 0)
+            << c.name << ", " << threads << " thread(s)" << (ledger ? "" : ", no ledger");
+      }
 }
 
 }  // namespace
