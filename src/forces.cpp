@@ -84,6 +84,7 @@ QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& s
 
 QBOND_VECTOR_INLINE void affine_forces(const Model& model, const State& state, const ForceRows& rows,
                                        const BondRun& run, bool axial, ForceTerms& t) {
+  prefetch_parameters(model, state, run);
   if (axial)
     linear_affine_forces<true>(model, state, rows, run, t);
   else
