@@ -1,11 +1,13 @@
 #!/usr/bin/python3
 """qbond, LAMMPS and Bullet side by side on the canonical workload (docs/performance.md).
 
-Usage: bench/peers/peers.py BUILD_DIR BULLET_EXE [--n 10,20,40] [--steps 200] [--json FILE]
+Usage: bench/peers/peers.py BUILD_DIR BULLET_EXE [--n 10,20,40] [--steps 200] [--rounds 3] [--json FILE]
 Run by bench/peers/run, which installs LAMMPS and Bullet (Debian packages) and builds
-BULLET_EXE. Prints, for each n, ns per bond per step of each engine measured in this run, then
-each method's largest stable timestep (bisection on the 10^3 lattice) and its cost per
-simulated second at that step on the largest n.
+BULLET_EXE. Prints, for each n, ns per bond per step of each engine measured in this run; then
+qbond's velocity Verlet against LAMMPS's in `rounds` alternating runs (the shared host's load
+moves both by 20% and more within minutes: each round's ratio sets two runs a few seconds apart
+side by side); then each method's largest stable timestep (bisection on the 10^3 lattice) and
+its cost per simulated second at that step on the largest n.
 
 The workload: n^3 simple-cubic lattice, spacing 0.01 m, 1 g quanta, bonds to nearest and
 face-diagonal neighbours (k = 1000 N/m), the x = 0 face anchored, gravity -9.81 m/s^2 along z.
@@ -116,6 +118,16 @@ def qbond_bench(build, n_list, integrators, dt=None):
     return {(r["integrator"], int(round(r["quanta"] ** (1 / 3)))): r["seconds_per_step"] for r in doc["rows"]}, doc
 
 
+def verlet_against_lammps(build, n, rounds, steps, work):
+    """[(LAMMPS's, qbond's velocity Verlet's seconds per step)] of `rounds` alternating runs."""
+    pairs = []
+    for _ in range(rounds):
+        t_l, _ = lammps(n, 1e-4, steps, work)
+        t_q = qbond_bench(build, [n], ["velocity_verlet"])[0][("velocity_verlet", n)]
+        pairs.append((t_l, t_q))
+    return pairs
+
+
 def qbond_stable(build, integrator_args, h, work):
     """Whether `qbond run` of the 10^3 workload at step h finishes 0.05 s without a blow-up."""
     scene = {
@@ -154,6 +166,7 @@ def main():
     ap.add_argument("bullet")
     ap.add_argument("--n", default="10,20,40")
     ap.add_argument("--steps", type=int, default=200)
+    ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--json")
     a = ap.parse_args()
     n_list = [int(x) for x in a.n.split(",")]
@@ -174,6 +187,19 @@ def main():
         rows.append(row)
         print(f"{n:>4} {nb:>8} {t_l / nb * 1e9:>9.2f} {t_b / nb * 1e9:>9.2f} " +
               " ".join(f"{q[(i, n)] / nb * 1e9:>22.2f}" for i in integrators))
+
+    print(f"\nqbond's velocity Verlet / LAMMPS, per step, {a.rounds} alternating rounds (h = 1e-4 s, one thread)")
+    for row in rows:
+        n = row["n"]
+        # At least ~0.5 s of LAMMPS's loop a round at n = 40, as qbond's benchmark times its own.
+        steps = max(100, a.steps * 1000 // n ** 3)
+        pairs = verlet_against_lammps(a.build, n, a.rounds, steps, work)
+        ratios = sorted(q_t / l_t for l_t, q_t in pairs)
+        row["verlet_against_lammps"] = [{"lammps": l_t, "qbond_velocity_verlet": q_t} for l_t, q_t in pairs]
+        row["verlet_over_lammps_median"] = ratios[len(ratios) // 2]
+        print(f"{n:>4}  median {row['verlet_over_lammps_median']:.2f}  rounds " +
+              "  ".join(f"{q_t / l_t:.2f} ({q_t / row['bonds'] * 1e9:.2f} / {l_t / row['bonds'] * 1e9:.2f} ns)"
+                        for l_t, q_t in pairs))
 
     print("\nlargest stable step (10^3 lattice, bisection), and cost per simulated second on n =", n_list[-1])
     n = n_list[-1]
