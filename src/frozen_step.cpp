@@ -376,8 +376,10 @@ QBOND_VECTOR_INLINE bool solve_range(const Model& model, const State& state, con
   const double *a0 = a.row[0], *a1 = a.row[1], *a2 = a.row[2], *a3 = a.row[3], *a4 = a.row[4], *a5 = a.row[5];
   const double *bx = a.row[6], *by = a.row[7], *bz = a.row[8];
   const double* v = state.v.data()->data();
-  double* dv = kApplied ? out.applied.v.data()->data() : out.dv.data()->data();
-  double* dx = kApplied ? out.applied.x.data()->data() : out.dx.data()->data();
+  double* dv = kApplied ? nullptr : out.dv.data()->data();
+  double* dx = kApplied ? nullptr : out.dx.data()->data();
+  double* x_to = kApplied ? out.applied.x.data()->data() : nullptr;
+  double* v_to = kApplied ? out.applied.v.data()->data() : nullptr;
   std::uint64_t bad = 0;
   QBOND_SIMD_OR(bad) for (std::size_t q = lo; q < hi; ++q) {
     const double c00 = a1[q] * a2[q] - a5[q] * a5[q], c11 = a0[q] * a2[q] - a4[q] * a4[q];
@@ -387,10 +389,10 @@ QBOND_VECTOR_INLINE bool solve_range(const Model& model, const State& state, con
     const double x = bx[q], y = by[q], z = bz[q];
     double speed2 = 0, nan_if_bad = 0;
     auto write = [&](std::size_t c, double v1) QBOND_LAMBDA_INLINE {
-      if constexpr (kApplied) {  // dx, dv hold x + Δx, v + Δv
+      if constexpr (kApplied) {
         const double x1 = a.x[c][q] + h * v1, vq = a.v[c][q], v1_applied = vq + (v1 - vq);
-        dx[3 * q + c] = x1;
-        dv[3 * q + c] = v1_applied;
+        x_to[3 * q + c] = x1;
+        v_to[3 * q + c] = v1_applied;
         nan_if_bad += (x1 - x1) + (v1_applied - v1_applied);
         speed2 += v1_applied * v1_applied;
       } else {
