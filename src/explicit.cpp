@@ -262,16 +262,13 @@ class ExplicitIntegrator final : public Integrator {
     const double limit2 = ctx.max_speed * ctx.max_speed;
     auto finish = [&](std::size_t lo, std::size_t hi) {
       bool ok = verlet_finish(inv_mass, rows, fe, f0, v, h, limit2, next.v, finish_out, lo, hi);
-      for (const PrescribedAt::Quanta& p : prescribed_.in(lo, hi))
-        for (int c = 0; c < 3; ++c) next.v[3 * p.q + c] = p.v[c];
-      if (!ctx.direct) {
-        prescribed_.project(state, lo, hi, out);
-        return ok;
-      }
       for (const PrescribedAt::Quanta& p : prescribed_.in(lo, hi)) {
+        for (int c = 0; c < 3; ++c) next.v[3 * p.q + c] = p.v[c];
+        if (!ctx.direct) continue;
         out.applied.v[p.q] = p.v;
         ok = ok && p.x.allFinite() && p.v.allFinite();
       }
+      if (!ctx.direct) prescribed_.project(state, lo, hi, out);
       return ok;
     };
     out.applied.ok = reduce_chunks(n, threads, true, finish, std::logical_and<>{});
