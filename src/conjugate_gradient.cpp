@@ -7,6 +7,7 @@
 // fixed lanes, so the iterates are the same bits for any thread count. The vector functions are
 // compiled for several instruction sets (simd.hpp).
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "affine_rows.hpp"
@@ -160,33 +161,65 @@ QBOND_VECTOR_CLONES void part_product(const Model& model, std::span<const BondRu
   }
 }
 
-// out = A y over free quanta; y's kinematic rows must be 0, out's are left as the bonds make them:
-// its readers ignore them (first_residual and cg_update keep r's kinematic rows 0, store writes 0,
-// and the dot products multiply them by p's or y's 0).
-void product(const Model& model, const ImplicitSystem& sys, const Diagonals& d, const Soa& y, const Soa& out,
-             int threads) {
-  parallel_ranges(model.num_quanta(), threads,
-                  [&](std::size_t lo, std::size_t hi) { diagonal_times(d, y, out, lo, hi); });
+// out += the bonds' part of A y, out holding A_qq y: A y over free quanta. y's kinematic rows
+// must be 0; out's are left as the bonds make them: its readers ignore them (first_residual and
+// cg_update keep r's kinematic rows 0, store writes 0, and the dot products multiply them by p's
+// or y's 0).
+void bond_product(const Model& model, const ImplicitSystem& sys, const Soa& y, const Soa& out) {
   for_each_part_runs<ProductTerms>(sys.part, [&](std::span<const BondRun> runs, ProductTerms& t) {
     part_product(model, runs, sys.bonds, y, out, t);
   });
 }
 
-// Σ_q a_q · b_q over [lo, hi) in eight lanes (q's in lane q − lo mod 8), added in lane order.
-QBOND_VECTOR_CLONES double lane_dot(const Soa& a_in, const Soa& b_in, std::size_t lo, std::size_t hi) {
-  const Local<3> a(a_in), b(b_in);
-  double lanes[8] = {};
+// out = A y (bond_product's conditions).
+void product(const Model& model, const ImplicitSystem& sys, const Diagonals& d, const Soa& y, const Soa& out,
+             int threads) {
+  parallel_ranges(model.num_quanta(), threads,
+                  [&](std::size_t lo, std::size_t hi) { diagonal_times(d, y, out, lo, hi); });
+  bond_product(model, sys, y, out);
+}
+
+// N sums Σ_q t_k(q) over [lo, hi), term(q, t) writing t_0(q) .. t_{N-1}(q) (and whatever else q's
+// iteration does), each in eight lanes (q's in lane q − lo mod 8) added in lane order: a chunk of
+// the dot products.
+template <std::size_t N, class Term>
+QBOND_VECTOR_INLINE std::array<double, N> lane_sums(std::size_t lo, std::size_t hi, Term&& term) {
+  static_assert(N <= 2);  // the unrolled copy below
+  double lanes[N][8] = {};
   std::size_t q = lo;
   for (; q + 8 <= hi; q += 8) {
+    // The terms first, then their sums: GCC vectorises no loop that adds into two lane arrays as
+    // it computes (bond_sums.cpp).
+    double t[N][8];
     QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {
-      const std::size_t k = q + l;
-      lanes[l] += a[0][k] * b[0][k] + a[1][k] * b[1][k] + a[2][k] * b[2][k];
+      double tl[N];
+      term(q + l, tl);
+      QBOND_UNROLL(2) for (std::size_t k = 0; k < N; ++k) t[k][l] = tl[k];
     }
+    for (std::size_t k = 0; k < N; ++k) QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) lanes[k][l] += t[k][l];
   }
-  for (std::size_t l = 0; q < hi; ++q, ++l) lanes[l] += a[0][q] * b[0][q] + a[1][q] * b[1][q] + a[2][q] * b[2][q];
-  double s = 0;
-  for (double l : lanes) s += l;
+  for (std::size_t l = 0; q < hi; ++q, ++l) {
+    double tl[N];
+    term(q, tl);
+    for (std::size_t k = 0; k < N; ++k) lanes[k][l] += tl[k];
+  }
+  std::array<double, N> s{};
+  for (std::size_t k = 0; k < N; ++k)
+    for (double l : lanes[k]) s[k] += l;
   return s;
+}
+
+// a_q · b_q, its components' products added in order.
+QBOND_VECTOR_INLINE double dot3(const double (&a)[3], const double (&b)[3]) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+// Σ_q a_q · b_q over [lo, hi) (lane_sum).
+QBOND_VECTOR_CLONES double lane_dot(const Soa& a_in, const Soa& b_in, std::size_t lo, std::size_t hi) {
+  const Local<3> a(a_in), b(b_in);
+  return lane_sums<1>(lo, hi, [&](std::size_t k, double(&t)[1]) QBOND_LAMBDA_INLINE {
+    t[0] = dot3({a[0][k], a[1][k], a[2][k]}, {b[0][k], b[1][k], b[2][k]});
+  })[0];
 }
 
 // Σ_q a_q · b_q over fixed chunks: the same bits for any thread count.
@@ -233,33 +266,40 @@ QBOND_VECTOR_CLONES void scale_guess(double s, const Soa& y_in, const Soa& Ay_in
   }
 }
 
-// r = b − A y for free quanta (0 for kinematic ones), z = A_qq⁻¹ r, p = z, over [lo, hi); with
-// y_zero (y = 0), A y is not read: r = b (b − A·0 has the same bits).
+// r = b − A y for free quanta (0 for kinematic ones), z = A_qq⁻¹ r, p = z, over [lo, hi), and
+// A_qq p into Ap for the first product (bond_product), where A y was (not read with y_zero, y = 0:
+// r = b, as b − A·0 has the same bits).
 QBOND_VECTOR_CLONES void first_residual(const ImplicitSystem& sys, const double* inv_mass, const Diagonals& d,
-                                        bool y_zero, const Soa& Ay_in, const Soa& r_in, const Soa& z_in,
+                                        bool y_zero, const Soa& Ap_in, const Soa& r_in, const Soa& z_in,
                                         const Soa& p_in, std::size_t lo, std::size_t hi) {
   const double* b = sys.rhs.data()->data();
-  const Local<6> Dinv(d.Dinv);
-  const Local<3> Ay(Ay_in), r(r_in), z(z_in), p(p_in);
+  const Local<6> D(d.D), Dinv(d.Dinv);
+  const Local<3> Ap(Ap_in), r(r_in), z(z_in), p(p_in);
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
-    double rq[3], zq[3];
+    double rq[3], zq[3], Dz[3];
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
-      const double bq = b[3 * q + c], Ayq = y_zero ? 0.0 : Ay[c][q];  // loaded, then selected (simd.hpp)
+      const double bq = b[3 * q + c], Ayq = y_zero ? 0.0 : Ap[c][q];  // loaded, then selected (simd.hpp)
       r[c][q] = rq[c] = inv_mass[q] != 0 ? bq - Ayq : 0.0;
     }
     sym_times(Dinv, q, rq[0], rq[1], rq[2], zq);
-    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) p[c][q] = z[c][q] = zq[c];
+    sym_times(D, q, zq[0], zq[1], zq[2], Dz);
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
+      p[c][q] = z[c][q] = zq[c];
+      Ap[c][q] = Dz[c];
+    }
   }
 }
 
 // y += α p, r −= α Ap (kinematic rows stay 0: the product leaves theirs of Ap as the bonds make
-// them), z = A_qq⁻¹ r over [lo, hi).
-QBOND_VECTOR_CLONES void cg_update(double alpha, const double* inv_mass, const Diagonals& d, const Soa& p_in,
-                                   const Soa& Ap_in, const Soa& y_in, const Soa& r_in, const Soa& z_in,
-                                   std::size_t lo, std::size_t hi) {
+// them), z = A_qq⁻¹ r over [lo, hi), and that chunk's r·z and r·r as lane_dot sums them: the
+// update and the two dot products in one pass over the vectors.
+QBOND_VECTOR_CLONES std::array<double, 2> cg_update(double alpha, const double* inv_mass, const Diagonals& d,
+                                                    const Soa& p_in, const Soa& Ap_in, const Soa& y_in,
+                                                    const Soa& r_in, const Soa& z_in, std::size_t lo,
+                                                    std::size_t hi) {
   const Local<6> Dinv(d.Dinv);
   const Local<3> p(p_in), Ap(Ap_in), y(y_in), r(r_in), z(z_in);
-  QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
+  return lane_sums<2>(lo, hi, [&](std::size_t q, double(&t)[2]) QBOND_LAMBDA_INLINE {
     double rq[3], zq[3];
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) {
       y[c][q] += alpha * p[c][q];
@@ -268,14 +308,21 @@ QBOND_VECTOR_CLONES void cg_update(double alpha, const double* inv_mass, const D
     }
     sym_times(Dinv, q, rq[0], rq[1], rq[2], zq);
     QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) z[c][q] = zq[c];
-  }
+    t[0] = dot3(rq, zq);
+    t[1] = dot3(rq, rq);
+  });
 }
 
-// p = z + β p over [lo, hi).
-QBOND_VECTOR_CLONES void new_direction(double beta, const Soa& z_in, const Soa& p_in, std::size_t lo, std::size_t hi) {
-  const Local<3> z(z_in), p(p_in);
+// p = z + β p, and A_qq p into Ap for the next product (bond_product), over [lo, hi).
+QBOND_VECTOR_CLONES void new_direction(double beta, const Diagonals& d, const Soa& z_in, const Soa& p_in,
+                                       const Soa& Ap_in, std::size_t lo, std::size_t hi) {
+  const Local<6> D(d.D);
+  const Local<3> z(z_in), p(p_in), Ap(Ap_in);
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
-    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) p[c][q] = z[c][q] + beta * p[c][q];
+    double pq[3], Dp[3];
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) p[c][q] = pq[c] = z[c][q] + beta * p[c][q];
+    sym_times(D, q, pq[0], pq[1], pq[2], Dp);
+    QBOND_UNROLL(3) for (int c = 0; c < 3; ++c) Ap[c][q] = Dp[c];
   }
 }
 
@@ -350,21 +397,30 @@ void conjugate_gradient(const Model& model, ImplicitSystem& sys, double toleranc
   const double bnorm = sys.rhs_norm;
   auto rel = [&](double r2) { return bnorm > 0 ? std::sqrt(r2) / bnorm : std::sqrt(r2); };
   stats.residual = rel(dot(n, threads, a.r, a.r));
+  // An iteration in four passes, so four parallel regions: p's new direction with A_qq p (after
+  // the first, whose are first_residual's), the bonds' part of A p, pᵀA p, and the update with
+  // rᵀz and rᵀr. The same arithmetic and sums as separate passes for each: the same bits.
+  using Sums2 = std::array<double, 2>;
+  auto plus2 = [](const Sums2& u, const Sums2& v) { return Sums2{u[0] + v[0], u[1] + v[1]}; };
   int it = 0;
+  double beta = 0;
   while (it < cap && stats.residual > tolerance) {
-    product(model, sys, a.d, a.p, a.Ap, threads);
+    if (it > 0)
+      ranges([&](std::size_t lo, std::size_t hi) { new_direction(beta, a.d, a.z, a.p, a.Ap, lo, hi); });
+    bond_product(model, sys, a.p, a.Ap);
     const double pAp = dot(n, threads, a.p, a.Ap);
     if (!(pAp > 0)) break;  // exact solution reached (p = 0) or loss of positivity
     const double alpha = rz / pAp;
-    ranges([&](std::size_t lo, std::size_t hi) {
-      cg_update(alpha, a.inv_mass, a.d, a.p, a.Ap, a.y, a.r, a.z, lo, hi);
-    });
-    const double rz_new = dot(n, threads, a.r, a.z);
-    const double beta = rz_new / rz;
-    rz = rz_new;
-    ranges([&](std::size_t lo, std::size_t hi) { new_direction(beta, a.z, a.p, lo, hi); });
+    const Sums2 sums = reduce_chunks(
+        n, threads, Sums2{},
+        [&](std::size_t lo, std::size_t hi) {
+          return cg_update(alpha, a.inv_mass, a.d, a.p, a.Ap, a.y, a.r, a.z, lo, hi);
+        },
+        plus2);
+    beta = sums[0] / rz;
+    rz = sums[0];
     ++it;
-    stats.residual = rel(dot(n, threads, a.r, a.r));
+    stats.residual = rel(sums[1]);
   }
   stats.iterations = it;
   ranges([&](std::size_t lo, std::size_t hi) { store(a.inv_mass, a.y, y, lo, hi); });
