@@ -48,7 +48,8 @@ std::vector<Candidate> candidates() {
           {"hybrid jacobi x4, start 0", hybrid(NeighbourModel::jacobi, 4, WarmStart::zero)},
           {"coupled ldlt", coupled(CoupledSolver::ldlt)},
           {"coupled cg 1e-6, start 0", coupled(CoupledSolver::cg, WarmStart::zero)},
-          {"coupled cg 1e-6, start previous (default)", coupled(CoupledSolver::cg)}};
+          {"coupled cg 1e-6, start previous", coupled(CoupledSolver::cg, WarmStart::previous)},
+          {"coupled cg 1e-6, start extrapolated (default)", coupled(CoupledSolver::cg)}};
 }
 
 World cube(int n, bool anchored, Vec3 gravity) {

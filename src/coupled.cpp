@@ -31,7 +31,7 @@ class CoupledIntegrator final : public Integrator {
                            !guessed, stats_);
         if (config_.restore_momentum)
           restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
-        if (config_.warm_start == WarmStart::previous) out.warm = y_;
+        keep_guess(config_.warm_start, y_, ctx.h, state.warm, out.warm);
         break;
       }
       case CoupledSolver::sweep:

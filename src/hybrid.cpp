@@ -36,7 +36,7 @@ class HybridIntegrator final : public Integrator {
     else
       jacobi(adj);
     if (config_.restore_momentum) restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
-    if (config_.warm_start == WarmStart::previous) out.warm = y_;
+    keep_guess(config_.warm_start, y_, ctx.h, state.warm, out.warm);
     write_free_rows(model, state, ctx.h, y_, out);
   }
 

@@ -13,10 +13,18 @@ std::unique_ptr<Integrator> make_hybrid_integrator(const IntegratorConfig& confi
 std::unique_ptr<Integrator> make_coupled_implicit_integrator(const IntegratorConfig& config);
 std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& config);
 
-// Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0); false when it
-// is zero (WarmStart::zero, or no previous step), which spares CG its first product.
+// Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0) from State::warm
+// as keep_guess left it; false when it is zero (WarmStart::zero, or no previous step), which
+// spares CG its first product.
 bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
                    const std::vector<Vec3>& previous, std::vector<Vec3>& y);
+
+// The carry-over a step of length h whose solve found y leaves for the next one's initial_guess
+// (State::warm, `previous` as the step found it): y for WarmStart::previous; for extrapolated, y,
+// the Δv before it (zeros if none) and (h, that step's h or 0, kExtrapolationTag); nothing
+// otherwise.
+void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const std::vector<Vec3>& previous,
+                std::vector<Vec3>& warm);
 
 // Caches what depends only on topology (colours, free components), rebuilt when it changes.
 struct TopologyCache {

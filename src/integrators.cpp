@@ -16,11 +16,12 @@ IntegratorConfig default_integrator() {
 
 std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& config) {
   IntegratorConfig c = config;
-  // CG from the previous step's Δv: fewer iterations wherever a step's Δv is like the last one's
-  // (cube_drop 14.4 -> 5.9 a step), no more elsewhere; sweeps from it blow up (docs/integrators.md).
+  // CG from the line through the last two steps' Δv: fewer iterations wherever Δv changes
+  // smoothly from step to step (cube_drop 14.5 a step from zero, 5.9 from the previous Δv, 3.2
+  // extrapolated), no more elsewhere; sweeps from such guesses blow up (docs/integrators.md).
   if (c.warm_start == WarmStart::automatic) {
     const bool cg = c.type == IntegratorType::coupled_implicit && c.solver == CoupledSolver::cg;
-    c.warm_start = cg ? WarmStart::previous : WarmStart::zero;
+    c.warm_start = cg ? WarmStart::extrapolated : WarmStart::zero;
   }
   if (c.iterations < 1) throw std::invalid_argument("integrator.iterations: must be >= 1");
   if (c.threads < 0) throw std::invalid_argument("integrator.threads: must be >= 0 (0: all cores)");
@@ -49,6 +50,10 @@ std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& config) {
       if (c.type == IntegratorType::bdf2 && c.warm_start == WarmStart::previous)
         throw std::invalid_argument(
             "integrator.warm_start: 'previous' is not available with bdf2 (its carry-over is the previous state)");
+      if (c.warm_start == WarmStart::extrapolated)
+        throw std::invalid_argument(
+            "integrator.warm_start: 'extrapolated' is for hybrid_implicit and coupled_implicit (a Newton "
+            "integrator's substeps have no previous steps of their length)");
       return make_newton_integrator(c);
   }
   throw std::invalid_argument("unknown integrator type");
@@ -104,6 +109,7 @@ std::string_view to_string(WarmStart w) {
     case WarmStart::external: return "external";
     case WarmStart::previous: return "previous";
     case WarmStart::automatic: return "auto";
+    case WarmStart::extrapolated: return "extrapolated";
   }
   return "?";
 }
@@ -126,7 +132,8 @@ CoupledSolver parse_coupled_solver(std::string_view s) {
                     "solver");
 }
 WarmStart parse_warm_start(std::string_view s) {
-  constexpr std::array all{WarmStart::zero, WarmStart::external, WarmStart::previous, WarmStart::automatic};
+  constexpr std::array all{WarmStart::zero, WarmStart::external, WarmStart::previous, WarmStart::automatic,
+                           WarmStart::extrapolated};
   return parse_name(s, all, "warm start");
 }
 
@@ -192,21 +199,66 @@ void PrescribedAt::place(std::size_t lo, std::size_t hi, Vec3* x, Vec3* v) const
   }
 }
 
+namespace {
+
+// keep_guess's last entry for WarmStart::extrapolated: (h, the step before's h, the tag), the tag
+// telling it from bdf2's carry-over of the same size, whose last entry is (t, h, step ≥ 0).
+constexpr double kExtrapolationTag = -1;
+
+// Whether `warm` is keep_guess's extrapolated carry-over for n quanta.
+bool extrapolation_carry(const std::vector<Vec3>& warm, std::size_t n) {
+  return warm.size() == 2 * n + 1 && warm[2 * n][2] == kExtrapolationTag;
+}
+
+// Whether `warm` starts with a previous step's Δv: `previous`'s carry-over, or an extrapolated one
+// (either way, as a checkpoint or a change of warm start may have left it).
+bool has_previous(const std::vector<Vec3>& warm, std::size_t n) {
+  return warm.size() == n || extrapolation_carry(warm, n);
+}
+
+}  // namespace
+
 bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
                    const std::vector<Vec3>& previous, std::vector<Vec3>& y) {
   const std::size_t n = model.num_quanta();
   y.assign(n, Vec3::Zero());
-  if (mode == WarmStart::zero || (mode == WarmStart::previous && previous.size() != n)) return false;
+  const bool from_previous = mode == WarmStart::previous || mode == WarmStart::extrapolated;
+  if (mode == WarmStart::zero || (from_previous && !has_previous(previous, n))) return false;
+  // Linear extrapolation only between steps of one length: Δv over a step grows with its length.
+  const bool extrapolate = mode == WarmStart::extrapolated && extrapolation_carry(previous, n) &&
+                           previous[2 * n][0] == h && previous[2 * n][1] == h;
   for (std::size_t i = 0; i < n; ++i) {
     if (model.is_kinematic(static_cast<Index>(i))) continue;
     switch (mode) {
       case WarmStart::zero: break;
       case WarmStart::external: y[i] = (h * model.inv_mass[i]) * f_ext[i]; break;
       case WarmStart::previous: y[i] = previous[i]; break;
+      case WarmStart::extrapolated:
+        y[i] = extrapolate ? Vec3(2 * previous[i] - previous[n + i]) : previous[i];
+        break;
       case WarmStart::automatic: assert(false && "make_integrator resolves it"); break;
     }
   }
   return true;
+}
+
+void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const std::vector<Vec3>& previous,
+                std::vector<Vec3>& warm) {
+  const std::size_t n = y.size();
+  if (mode == WarmStart::previous) {
+    warm = y;
+    return;
+  }
+  if (mode != WarmStart::extrapolated) return;
+  const auto at = [&](std::size_t k) { return warm.begin() + static_cast<std::ptrdiff_t>(k); };
+  warm.resize(2 * n + 1);
+  std::copy(y.begin(), y.end(), at(0));
+  if (has_previous(previous, n))
+    std::copy(previous.begin(), previous.begin() + static_cast<std::ptrdiff_t>(n), at(n));
+  else
+    std::fill(at(n), at(2 * n), Vec3::Zero());
+  // The step before's length: known from an extrapolated carry-over; 0 (never a step's) otherwise.
+  warm[2 * n] = Vec3(h, extrapolation_carry(previous, n) ? previous[2 * n][0] : 0.0, kExtrapolationTag);
 }
 
 void TopologyCache::update(const Model& model, const Adjacency& adj) {

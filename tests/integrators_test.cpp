@@ -12,9 +12,11 @@
 #include "bond_partition.hpp"
 #include "forces.hpp"
 #include "implicit_system.hpp"
+#include "integrator_common.hpp"
 #include "qbond/checkpoint.hpp"
 #include "qbond/fracture.hpp"
 #include "qbond/ordering.hpp"
+#include "qbond/samples.hpp"
 #include "test_util.hpp"
 
 namespace qbond {
@@ -493,16 +495,78 @@ TEST(CoupledImplicit, CgStopsAtItsTolerance) {
   EXPECT_GT(tight.integrator().stats().iterations, sim.integrator().stats().iterations);
 }
 
-// WarmStart::automatic, the default: the previous step's Δv for CG (the coupled integrator's
-// default solver), zero for the sweeps (which blow up from it) and every other solver.
-TEST(WarmStart, AutomaticIsThePreviousStepForCgAndZeroOtherwise) {
+// WarmStart::automatic, the default: extrapolated from the last two steps' Δv for CG (the coupled
+// integrator's default solver), zero for the sweeps (which blow up from it) and every other solver.
+TEST(WarmStart, AutomaticIsExtrapolatedForCgAndZeroOtherwise) {
   EXPECT_EQ(default_integrator().warm_start, WarmStart::automatic);
-  EXPECT_EQ(make_integrator(default_integrator())->config().warm_start, WarmStart::previous);
+  EXPECT_EQ(make_integrator(default_integrator())->config().warm_start, WarmStart::extrapolated);
   for (const IntegratorConfig& c : {coupled(CoupledSolver::ldlt), hybrid(NeighbourModel::sweep),
                                     hybrid(NeighbourModel::jacobi), test::config(IntegratorType::bdf2),
                                     test::config(IntegratorType::energy_momentum)})
     EXPECT_EQ(make_integrator(c)->config().warm_start, WarmStart::zero) << to_string(c.type);
-  EXPECT_EQ(parse_warm_start(to_string(WarmStart::automatic)), WarmStart::automatic);
+  for (WarmStart w : {WarmStart::automatic, WarmStart::extrapolated, WarmStart::previous})
+    EXPECT_EQ(parse_warm_start(to_string(w)), w);
+  // A Newton integrator's substeps have no earlier steps of their length to extrapolate from.
+  IntegratorConfig newton = test::config(IntegratorType::implicit_midpoint);
+  newton.warm_start = WarmStart::extrapolated;
+  EXPECT_THROW(make_integrator(newton), std::invalid_argument);
+}
+
+// The extrapolated guess: 2 Δv₋₁ − Δv₋₂ after two steps of this step's length, the previous Δv
+// after steps of another length or a `previous` carry-over, nothing from no carry-over or bdf2's
+// (of the same size); kinematic rows 0.
+TEST(WarmStart, ExtrapolatesOnlyBetweenStepsOfTheSameLength) {
+  World w = test::lattice(3, 2, 2, 1000, 1e-3, 0.01, true);
+  const Model& m = w.model;
+  const std::size_t n = w.num_quanta();
+  std::vector<Vec3> dv1(n), dv2(n), f(n, Vec3::Zero()), carry1, carry2, y;
+  for (std::size_t i = 0; i < n; ++i) {
+    dv1[i] = Vec3(0.1 * i, 1, -2);
+    dv2[i] = Vec3(0.3 * i, -1, 5);
+  }
+  const double h = 1e-3;
+  keep_guess(WarmStart::extrapolated, dv1, h, {}, carry1);
+  keep_guess(WarmStart::extrapolated, dv2, h, carry1, carry2);
+  auto expect_free_rows = [&](const auto& want) {
+    for (std::size_t i = 0; i < n; ++i)
+      EXPECT_EQ(y[i], m.is_kinematic(static_cast<Index>(i)) ? Vec3::Zero() : Vec3(want(i))) << i;
+  };
+  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, carry2, y));
+  expect_free_rows([&](std::size_t i) { return 2 * dv2[i] - dv1[i]; });
+  // After one step only (no Δv₋₂), at another length, or from `previous`'s carry-over: Δv₋₁.
+  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, carry1, y));
+  expect_free_rows([&](std::size_t i) { return dv1[i]; });
+  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, 2 * h, carry2, y));
+  expect_free_rows([&](std::size_t i) { return dv2[i]; });
+  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, dv2, y));
+  expect_free_rows([&](std::size_t i) { return dv2[i]; });
+  ASSERT_TRUE(initial_guess(WarmStart::previous, m, f, h, carry2, y));
+  expect_free_rows([&](std::size_t i) { return dv2[i]; });
+  // bdf2's carry-over, x and v then (t, h, step): not a Δv.
+  std::vector<Vec3> bdf2(2 * n + 1, Vec3::Ones());
+  bdf2[2 * n] = Vec3(0.5, h, 7);
+  EXPECT_FALSE(initial_guess(WarmStart::extrapolated, m, f, h, bdf2, y));
+  EXPECT_FALSE(initial_guess(WarmStart::extrapolated, m, f, h, {}, y));
+}
+
+// On the canonical lattice sagging under gravity (a smooth motion), CG from the extrapolated guess
+// reaches the same tolerance in fewer iterations than from the previous step's Δv.
+TEST(CoupledImplicit, ExtrapolatedGuessTakesFewerIterationsOnASmoothMotion) {
+  auto iterations = [](WarmStart start) {
+    Scene scene = canonical_lattice(10);
+    IntegratorConfig c = default_integrator();
+    c.warm_start = start;
+    Simulation sim(std::move(scene.world), c, scene.timestep);
+    int total = 0;
+    for (int k = 0; k < 20; ++k) {
+      EXPECT_EQ(sim.step().status, StepReport::Status::ok);
+      EXPECT_LE(sim.integrator().stats().residual, c.tolerance);
+      if (k >= 2) total += sim.integrator().stats().iterations;
+    }
+    return total;
+  };
+  const int previous = iterations(WarmStart::previous), extrapolated = iterations(WarmStart::extrapolated);
+  EXPECT_LT(extrapolated, previous) << "iterations over 18 steps from each start";
 }
 
 // CG scales its guess by yᵀb / yᵀA y before iterating: a guess along the solution (twice it, or

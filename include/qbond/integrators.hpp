@@ -38,8 +38,9 @@ struct Projection {
     bool written = false;
     bool ok = false;  ///< every value finite and no free quanta faster than StepContext::max_speed
   } applied;
-  /// The solver's solution to keep as State::warm when the step applies (WarmStart::previous
-  /// only; empty otherwise). Kept apart from dv, which round-off makes differ from it.
+  /// The solver's solution to keep as State::warm when the step applies (WarmStart::previous and
+  /// extrapolated only, keep_guess; empty otherwise). Kept apart from dv, which round-off makes
+  /// differ from it.
   std::vector<Vec3> warm;
   /// Whether `warm` holds values that hold only for the bonds' present parameters (velocity_verlet's
   /// bond forces); the step then drops it if a heuristic sets `bonds_edited`.
@@ -125,7 +126,10 @@ enum class WarmStart : std::uint8_t {
   zero,       ///< dv = 0
   external,   ///< dv = h f_ext / m: exact for a free body under uniform gravity
   previous,   ///< the previous step's dv
-  automatic,  ///< `previous` for coupled_implicit with cg, `zero` otherwise (make_integrator)
+  automatic,  ///< `extrapolated` for coupled_implicit with cg, `zero` otherwise (make_integrator)
+  /// 2 dv₋₁ − dv₋₂ from the last two steps' dv when both had this step's length, else `previous`
+  /// (hybrid_implicit and coupled_implicit only)
+  extrapolated,
 };
 
 /// Every option of every integrator; each integrator reads the ones that concern it.
