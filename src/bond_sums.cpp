@@ -252,8 +252,8 @@ QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const dou
 
 double bond_energy_sum(const Model& m, const State& s, int threads) {
   return reduce_chunks(
-      m.num_bonds(), threads, 0.0, [&](std::size_t b0, std::size_t b1) { return energy_chunk(m, s, b0, b1); },
-      std::plus<>{});
+      m.num_bonds(), bond_pass_threads(m.num_quanta(), threads), 0.0,
+      [&](std::size_t b0, std::size_t b1) { return energy_chunk(m, s, b0, b1); }, std::plus<>{});
 }
 
 BondStepSums bond_step_sums(const Model& m, const State& s, const AppliedState& a, double h, double theta,
@@ -262,10 +262,10 @@ BondStepSums bond_step_sums(const Model& m, const State& s, const AppliedState& 
   auto chunk = [&](std::size_t b0, std::size_t b1) {  // a chunk has bonds, so quanta: the arrays have data
     return step_chunk(m, s, a.x.data()->data(), a.v.data()->data(), h, theta, phi, b0, b1);
   };
-  const Sums<2> sums =
-      reduce_chunks(m.num_bonds(), threads, Sums<2>{}, chunk, [](const Sums<2>& p, const Sums<2>& q) {
-        return Sums<2>{p[0] + q[0], p[1] + q[1]};
-      });
+  const Sums<2> sums = reduce_chunks(m.num_bonds(), bond_pass_threads(m.num_quanta(), threads), Sums<2>{},
+                                     chunk, [](const Sums<2>& p, const Sums<2>& q) {
+                                       return Sums<2>{p[0] + q[0], p[1] + q[1]};
+                                     });
   return {sums[0], sums[1]};
 }
 

@@ -12,7 +12,7 @@ namespace qbond {
 void bond_forces(const Model& model, const State& state, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
                  int threads, std::vector<Vec3>& force) {
   force.resize(model.num_bonds());
-  parallel_for(model.num_bonds(), threads, [&](std::size_t b) {
+  parallel_for(model.num_bonds(), bond_pass_threads(model.num_quanta(), threads), [&](std::size_t b) {
     if (!state.alive[b]) {
       force[b].setZero();
       return;

@@ -67,7 +67,7 @@ class BreakHeuristic final : public Heuristic {
       }
       virial_stress(m, w.state, x_, v_, sigma_);
     }
-    parallel_for(nb, ctx.threads, [&](std::size_t b) {
+    parallel_for(nb, bond_pass_threads(m.num_quanta(), ctx.threads), [&](std::size_t b) {
       why_[b] = kNone;
       if (!w.state.alive[b] || !applies(rule_.quanta, m, b)) return;
       const Stretch st = stretch(m, w.state, p, b);
@@ -112,17 +112,18 @@ class PlasticHeuristic final : public Heuristic {
     const std::size_t nb = m.num_bonds();
     edit_.resize(nb);
     // Each bond's flow is its own; the energy it releases is summed in a fixed order.
-    const double released = deterministic_sum(nb, ctx.threads, [&](std::size_t b) {
-      edit_[b] = kKept;
-      if (!s.alive[b] || !applies(rule_.quanta, m, b)) return 0.0;
-      const double L0 = m.rest0[b], L = s.rest[b];
-      const Stretch st = stretch(m, s, p, b);
-      const double L1 = plastic_rest_length(rule_, st.r, L, L0);
-      if (L1 == L) return 0.0;
-      s.rest[b] = L1;
-      edit_[b] = std::abs(L1 - L0) > rule_.max_plastic_strain * L0 ? kDuctile : kFlowed;
-      return m.law_at(b, st.r, L).U - m.law_at(b, st.r, L1).U;
-    });
+    const double released =
+        deterministic_sum(nb, bond_pass_threads(m.num_quanta(), ctx.threads), [&](std::size_t b) {
+          edit_[b] = kKept;
+          if (!s.alive[b] || !applies(rule_.quanta, m, b)) return 0.0;
+          const double L0 = m.rest0[b], L = s.rest[b];
+          const Stretch st = stretch(m, s, p, b);
+          const double L1 = plastic_rest_length(rule_, st.r, L, L0);
+          if (L1 == L) return 0.0;
+          s.rest[b] = L1;
+          edit_[b] = std::abs(L1 - L0) > rule_.max_plastic_strain * L0 ? kDuctile : kFlowed;
+          return m.law_at(b, st.r, L).U - m.law_at(b, st.r, L1).U;
+        });
     s.energy.dissipated_heuristics += released;
     for (std::size_t b = 0; b < nb; ++b) {
       p.bonds_edited |= edit_[b] != kKept;

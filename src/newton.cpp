@@ -146,7 +146,7 @@ void newton_bonds(const Model& model, const State& state, const NewtonStep& st, 
   const bool exact = sys && st.exact;
   if (sys) sys->exact.resize(exact ? nb : 0);
   const double sh = st.s * st.h;
-  parallel_for(nb, threads, [&](std::size_t b) {
+  parallel_for(nb, bond_pass_threads(model.num_quanta(), threads), [&](std::size_t b) {
     const Index i = model.bond_i[b], j = model.bond_j[b];
     BondStep bs;
     BondJacobian jac;

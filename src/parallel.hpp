@@ -13,6 +13,12 @@ namespace qbond {
 
 // Below this many iterations a loop runs on the calling thread (starting threads costs more).
 inline constexpr std::size_t kParallelMin = 4096;
+// The threads a pass over a world's bonds gets: one for a world of fewer than kParallelMin
+// quanta, which then steps on the calling thread alone, as its quanta passes and bond partitions
+// (BondPartition) do. A bond pass of its own in OpenMP would gain microseconds and leave the
+// other threads spinning in the runtime between steps: a whole core busy for nothing.
+inline int bond_pass_threads(std::size_t quanta, int threads) { return quanta < kParallelMin ? 1 : threads; }
+
 // Partial sums of deterministic_sum: each adds at least kSumChunk terms, and there are at most
 // kMaxPartials of them (so they live on the stack). Both depend on the term count only.
 inline constexpr std::size_t kSumChunk = 1024;

@@ -48,7 +48,10 @@ class SpatialHash {
             const std::size_t h = hash(c);
             for (Index k = start_[h]; k < start_[h + 1]; ++k) {
               const Index j = bucket_[k];
-              if (j <= i || cells_[j] != c) continue;  // other cells sharing the bucket
+              // Other cells sharing the bucket; compared by element (the array's != is a
+              // memcmp call, a tenth of a contact step).
+              const auto& cj = cells_[j];
+              if (j <= i || cj[0] != c[0] || cj[1] != c[1] || cj[2] != c[2]) continue;
               if ((pos[j] - pos[i]).squaredNorm() >= cell_ * cell_) continue;
               visit(i, j);
             }
