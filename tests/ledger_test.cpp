@@ -109,9 +109,11 @@ TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
 }
 
 TEST(EnergyLedger, BondSumsGiveTheSameBitsAtAnyThreadCount) {
-  // Enough bonds for reduce_chunks to split them among threads.
-  const World w = mixed_lattice(16, 12, 8, true, true);
+  // Enough bonds for reduce_chunks to split them among threads, in a world large enough for its
+  // bond passes to take them (bond_pass_threads).
+  const World w = mixed_lattice(20, 16, 14, true, true);
   ASSERT_GT(w.num_bonds(), 8 * kSumChunk);
+  ASSERT_GE(w.num_quanta(), kParallelMin);
   const Projection p = random_projection(w, 4);
   const Applied a(w.state, p);
   const double e1 = bond_energy_sum(w.model, w.state, 1);
