@@ -27,26 +27,6 @@ _mg = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(_mg)
 
 
-def pcg(A, b, prec, tol=1e-6, maxit=5000):
-    x = np.zeros_like(b)
-    r = b.copy()
-    z = prec(r)
-    p = z.copy()
-    rz = r @ z
-    nb = np.linalg.norm(b)
-    for it in range(1, maxit):
-        Ap = A @ p
-        a = rz / (p @ Ap)
-        x += a * p
-        r -= a * Ap
-        if np.linalg.norm(r) <= tol * nb:
-            return it
-        z = prec(r)
-        rz, rz_old = r @ z, rz
-        p = z + rz / rz_old * p
-    return maxit
-
-
 def split(A):
     """A's block diagonal D and strictly lower block triangle L (3x3 blocks)."""
     C = A.tocoo()
@@ -54,12 +34,6 @@ def split(A):
     D = sp.csr_matrix((C.data[same], (C.row[same], C.col[same])), shape=A.shape)
     L = sp.csr_matrix((C.data[lower], (C.row[lower], C.col[lower])), shape=A.shape)
     return D, L
-
-
-def jacobi(A):
-    D, _ = split(A)
-    lu = sla.splu(D.tocsc())
-    return lu.solve
 
 
 def ssor(A, w):
@@ -85,10 +59,11 @@ def main():
         order = np.argsort(colour, kind='stable')
         dof = (3 * order[:, None] + np.arange(3)).ravel()
         Ac, bc = A[dof][:, dof].tocsr(), b[dof]
-        print(f'| {n} | block Jacobi | | {pcg(A, b, jacobi(A))} |', flush=True)
+        inv = _mg.block_diagonal_inverse(A, 3)
+        print(f'| {n} | block Jacobi | | {_mg.pcg(A, b, lambda r: _mg.apply_blocks(inv, r))} |', flush=True)
         for w in (1.0, 1.3, 1.5, 1.7):
-            print(f'| {n} | block SSOR, natural order | {w} | {pcg(A, b, ssor(A, w))} |', flush=True)
-            print(f'| {n} | block SSOR, 8 colours | {w} | {pcg(Ac, bc, ssor(Ac, w))} |', flush=True)
+            print(f'| {n} | block SSOR, natural order | {w} | {_mg.pcg(A, b, ssor(A, w))} |', flush=True)
+            print(f'| {n} | block SSOR, 8 colours | {w} | {_mg.pcg(Ac, bc, ssor(Ac, w))} |', flush=True)
 
 
 if __name__ == '__main__':
