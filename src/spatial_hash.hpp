@@ -1,13 +1,13 @@
 #pragma once
-// A uniform grid hashed into a table of about 2n buckets, filled by counting sort: finding the
-// pairs of points closer than the cell size costs time linear in the points (bounded density),
-// with no allocation once the buffers have grown. Used by contacts and bond formation. Below it,
-// pairs_within: the one-shot search between two subsets, inclusive of the radius (scene
-// building, packings).
+// A uniform grid whose rows are hashed into a table of about 2n buckets, filled by counting sort:
+// finding the pairs of points closer than the cell size costs time linear in the points (bounded
+// density; a binary search in a row's points), with no allocation once the buffers have grown.
+// Used by contacts and bond formation. Below it, pairs_within: the one-shot search between two
+// subsets, inclusive of the radius (scene building, packings).
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <algorithm>
 #include <unordered_map>
 #include <vector>
 
@@ -17,7 +17,9 @@ namespace qbond {
 
 class SpatialHash {
  public:
-  // Bins `pos` into cells of side `cell` (> 0).
+  // Bins `pos` into cells of side `cell` (> 0): the grid's rows along x (cells of one y and z)
+  // hashed into the table, each bucket's points sorted by cell (y, z, then x), in increasing index
+  // within a cell, so that a row's three cells around a point are one contiguous range.
   void build(const std::vector<Vec3>& pos, double cell) {
     const std::size_t n = pos.size();
     cell_ = cell;
@@ -25,57 +27,67 @@ class SpatialHash {
     while (table_ < 2 * n) table_ <<= 1;
     cells_.resize(n);
     start_.assign(table_ + 1, 0);
+    auto at = [&](std::size_t i, int axis) {
+      return static_cast<std::int64_t>(std::floor(pos[i][axis] / cell));
+    };
     for (std::size_t i = 0; i < n; ++i) {
-      for (int k = 0; k < 3; ++k) cells_[i][k] = static_cast<std::int64_t>(std::floor(pos[i][k] / cell));
-      ++start_[hash(cells_[i]) + 1];
+      cells_[i] = {at(i, 1), at(i, 2), at(i, 0)};
+      ++start_[row_hash(cells_[i][0], cells_[i][1]) + 1];
     }
     for (std::size_t b = 0; b < table_; ++b) start_[b + 1] += start_[b];
     bucket_.resize(n);
+    keys_.resize(n);
     fill_.assign(start_.begin(), start_.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) bucket_[fill_[hash(cells_[i])]++] = static_cast<Index>(i);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t k = fill_[row_hash(cells_[i][0], cells_[i][1])]++;
+      bucket_[k] = static_cast<Index>(i);
+      keys_[k] = cells_[i];
+    }
+    // Filled in increasing index; an insertion sort (stable) by cell on each bucket's few points.
+    for (std::size_t b = 0; b < table_; ++b)
+      for (std::size_t k = start_[b] + 1; k < start_[b + 1]; ++k)
+        for (std::size_t m = k; m > start_[b] && keys_[m] < keys_[m - 1]; --m) {
+          std::swap(keys_[m], keys_[m - 1]);
+          std::swap(bucket_[m], bucket_[m - 1]);
+        }
   }
 
   // Calls visit(i, j) for every pair i < j closer than the cell size, in increasing i, then in
-  // the grid's scan order (deterministic for given points).
+  // the grid's scan order: the 27 cells around i's by z, y, x, each cell's points in increasing
+  // index (deterministic for given points).
   template <class F>
   void pairs(const std::vector<Vec3>& pos, F&& visit) const {
     for (std::size_t q = 0; q < cells_.size(); ++q) {
       const auto i = static_cast<Index>(q);
-      // hash() of the 27 cells around i's from each axis's three terms: 9 multiplications, not 81.
-      std::uint64_t term[3][3];
-      for (int a = 0; a < 3; ++a)
-        for (int d = 0; d < 3; ++d) term[a][d] = axis_term(a, cells_[i][a] + d - 1);
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const std::array<std::int64_t, 3> c{cells_[i][0] + dx, cells_[i][1] + dy, cells_[i][2] + dz};
-            const std::size_t h = (term[0][dx + 1] ^ term[1][dy + 1] ^ term[2][dz + 1]) & (table_ - 1);
-            for (Index k = start_[h]; k < start_[h + 1]; ++k) {
-              const Index j = bucket_[k];
-              // Other cells sharing the bucket; compared by element (the array's != is a
-              // memcmp call, a tenth of a contact step).
-              const auto& cj = cells_[j];
-              if (j <= i || cj[0] != c[0] || cj[1] != c[1] || cj[2] != c[2]) continue;
-              if ((pos[j] - pos[i]).squaredNorm() >= cell_ * cell_) continue;
-              visit(i, j);
-            }
+      const auto [cy, cz, cx] = cells_[i];
+      for (std::int64_t z = cz - 1; z <= cz + 1; ++z)
+        for (std::int64_t y = cy - 1; y <= cy + 1; ++y) {
+          // Row (y, z)'s points with x from cx − 1 to cx + 1, the three cells in scan order.
+          const std::size_t h = row_hash(y, z);
+          const auto first = keys_.begin() + start_[h], last = keys_.begin() + start_[h + 1];
+          for (auto k = std::lower_bound(first, last, Key{y, z, cx - 1});
+               k != last && *k <= Key{y, z, cx + 1}; ++k) {
+            const Index j = bucket_[static_cast<std::size_t>(k - keys_.begin())];
+            if (j <= i) continue;
+            if ((pos[j] - pos[i]).squaredNorm() >= cell_ * cell_) continue;
+            visit(i, j);
           }
+        }
     }
   }
 
  private:
-  static std::uint64_t axis_term(int axis, std::int64_t c) {
-    constexpr std::uint64_t kPrime[3] = {73856093u, 19349663u, 83492791u};
-    return static_cast<std::uint64_t>(c) * kPrime[axis];
-  }
-  std::size_t hash(const std::array<std::int64_t, 3>& c) const {
-    return static_cast<std::size_t>(axis_term(0, c[0]) ^ axis_term(1, c[1]) ^ axis_term(2, c[2])) &
+  using Key = std::array<std::int64_t, 3>;  // a cell as y, z, x: the order of a bucket's points
+  std::size_t row_hash(std::int64_t y, std::int64_t z) const {
+    return static_cast<std::size_t>((static_cast<std::uint64_t>(y) * 19349663u) ^
+                                    (static_cast<std::uint64_t>(z) * 83492791u)) &
            (table_ - 1);
   }
 
   double cell_ = 1;
   std::size_t table_ = 1;
-  std::vector<std::array<std::int64_t, 3>> cells_;
+  std::vector<Key> cells_;  // by point
+  std::vector<Key> keys_;   // cells_[bucket_[k]]
   std::vector<Index> start_, fill_, bucket_;
 };
 

@@ -17,6 +17,7 @@
 #include "qbond/ordering.hpp"
 #include "qbond/samples.hpp"
 #include "qbond/scene.hpp"
+#include "spatial_hash.hpp"
 
 namespace qbond {
 namespace {
@@ -179,6 +180,37 @@ TEST(PairsWithinRadius, ExactlyThePairsBruteForceFinds) {
       for (int i = 0; i < 3; ++i) grid.emplace_back(0.25 * i, 0.25 * j, 0.25 * k);
   EXPECT_EQ(pairs_within_radius(grid, 0.25).size(), 54u);
   EXPECT_EQ(pairs_within_radius(grid, 0.25), brute_pairs(grid, 0.25));
+}
+
+// SpatialHash::pairs (contacts, bond formation) against its documented order, by brute force:
+// for each i, the 27 cells around its cell by z, y, x, each cell's points j > i by index, those
+// closer than the cell size. The order matters: contacts are resolved and bonds formed in it.
+TEST(SpatialHash, FindsThePairsCloserThanACellInScanOrder) {
+  Rng rng{11};
+  std::vector<Vec3> x;
+  for (int k = 0; k < 400; ++k)  // a sparse gas across the origin (negative cells too)
+    x.emplace_back(0.2 * rng.uniform() - 0.1, 0.2 * rng.uniform() - 0.1, 0.1 * rng.uniform());
+  for (int k = 0; k < 6; ++k)  // a dense lattice, rows of many points, in scrambled order
+    for (int j = 0; j < 6; ++j)
+      for (int i = 0; i < 12; ++i) x.emplace_back(0.3 + 0.005 * ((7 * i) % 12), 0.005 * j, 0.005 * k);
+  for (double cell : {0.0055, 0.02}) {
+    auto at = [&](const Vec3& p, int a) { return static_cast<std::int64_t>(std::floor(p[a] / cell)); };
+    std::vector<std::pair<Index, Index>> brute;
+    for (std::size_t i = 0; i < x.size(); ++i)
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx)
+            for (std::size_t j = i + 1; j < x.size(); ++j)
+              if (at(x[j], 0) == at(x[i], 0) + dx && at(x[j], 1) == at(x[i], 1) + dy &&
+                  at(x[j], 2) == at(x[i], 2) + dz && (x[j] - x[i]).squaredNorm() < cell * cell)
+                brute.emplace_back(static_cast<Index>(i), static_cast<Index>(j));
+    SpatialHash grid;
+    grid.build(x, cell);
+    std::vector<std::pair<Index, Index>> fast;
+    grid.pairs(x, [&](Index i, Index j) { fast.emplace_back(i, j); });
+    ASSERT_GT(brute.size(), 100u) << cell;
+    EXPECT_EQ(fast, brute) << cell;
+  }
 }
 
 TEST(PointPacking, BondsEveryPairWithinTheRadiusAtItsDistance) {
