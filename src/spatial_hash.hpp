@@ -27,19 +27,18 @@ class SpatialHash {
     while (table_ < 2 * n) table_ <<= 1;
     cells_.resize(n);
     start_.assign(table_ + 1, 0);
-    auto at = [&](std::size_t i, int axis) {
-      return static_cast<std::int64_t>(std::floor(pos[i][axis] / cell));
-    };
     for (std::size_t i = 0; i < n; ++i) {
-      cells_[i] = {at(i, 1), at(i, 2), at(i, 0)};
-      ++start_[row_hash(cells_[i][0], cells_[i][1]) + 1];
+      const Vec3& p = pos[i];
+      cells_[i] =
+          coordinate(p.y(), cell) << 2 * kBits | coordinate(p.z(), cell) << kBits | coordinate(p.x(), cell);
+      ++start_[row_hash(cells_[i]) + 1];
     }
     for (std::size_t b = 0; b < table_; ++b) start_[b + 1] += start_[b];
     bucket_.resize(n);
     keys_.resize(n);
     fill_.assign(start_.begin(), start_.end() - 1);
     for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t k = fill_[row_hash(cells_[i][0], cells_[i][1])]++;
+      const std::size_t k = fill_[row_hash(cells_[i])]++;
       bucket_[k] = static_cast<Index>(i);
       keys_[k] = cells_[i];
     }
@@ -59,14 +58,14 @@ class SpatialHash {
   void pairs(const std::vector<Vec3>& pos, F&& visit) const {
     for (std::size_t q = 0; q < cells_.size(); ++q) {
       const auto i = static_cast<Index>(q);
-      const auto [cy, cz, cx] = cells_[i];
-      for (std::int64_t z = cz - 1; z <= cz + 1; ++z)
-        for (std::int64_t y = cy - 1; y <= cy + 1; ++y) {
-          // Row (y, z)'s points with x from cx − 1 to cx + 1, the three cells in scan order.
-          const std::size_t h = row_hash(y, z);
+      const std::uint64_t c = cells_[i], x = c & kMask;
+      for (std::uint64_t z = (c >> kBits & kMask) - 1, z1 = z + 2; z <= z1; ++z)
+        for (std::uint64_t y = (c >> 2 * kBits) - 1, y1 = y + 2; y <= y1; ++y) {
+          // Row (y, z)'s points with x from x − 1 to x + 1, the three cells in scan order.
+          const std::uint64_t row = y << 2 * kBits | z << kBits, lo = row | (x - 1), hi = row | (x + 1);
+          const std::size_t h = row_hash(row);
           const auto first = keys_.begin() + start_[h], last = keys_.begin() + start_[h + 1];
-          for (auto k = std::lower_bound(first, last, Key{y, z, cx - 1});
-               k != last && *k <= Key{y, z, cx + 1}; ++k) {
+          for (auto k = std::lower_bound(first, last, lo); k != last && *k <= hi; ++k) {
             const Index j = bucket_[static_cast<std::size_t>(k - keys_.begin())];
             if (j <= i) continue;
             if ((pos[j] - pos[i]).squaredNorm() >= cell_ * cell_) continue;
@@ -77,17 +76,28 @@ class SpatialHash {
   }
 
  private:
-  using Key = std::array<std::int64_t, 3>;  // a cell as y, z, x: the order of a bucket's points
-  std::size_t row_hash(std::int64_t y, std::int64_t z) const {
-    return static_cast<std::size_t>((static_cast<std::uint64_t>(y) * 19349663u) ^
-                                    (static_cast<std::uint64_t>(z) * 83492791u)) &
+  // A cell is three coordinates of kBits bits packed as y, z, x (y highest): keys in increasing
+  // order are cells by y, then z, then x. Each is floor(p / cell) clamped to ±(2^20 − 2) (cells
+  // a point apart stay neighbours; NaN goes to the low end, and no cast overflows) plus 2^20, so
+  // that it and its neighbours ±1 are in [0, 2^21).
+  static constexpr int kBits = 21;
+  static constexpr std::uint64_t kMask = (std::uint64_t{1} << kBits) - 1;
+  static std::uint64_t coordinate(double p, double cell) {
+    constexpr double kBias = double(std::uint64_t{1} << (kBits - 1)), kMax = kBias - 2;
+    const double c = std::floor(p / cell);
+    return static_cast<std::uint64_t>((c >= -kMax ? (c <= kMax ? c : kMax) : -kMax) + kBias);
+  }
+  // The bucket of a cell's row (its y and z).
+  std::size_t row_hash(std::uint64_t cell) const {
+    return static_cast<std::size_t>(((cell >> 2 * kBits) * 19349663u) ^
+                                    ((cell >> kBits & kMask) * 83492791u)) &
            (table_ - 1);
   }
 
   double cell_ = 1;
   std::size_t table_ = 1;
-  std::vector<Key> cells_;  // by point
-  std::vector<Key> keys_;   // cells_[bucket_[k]]
+  std::vector<std::uint64_t> cells_;  // by point
+  std::vector<std::uint64_t> keys_;   // cells_[bucket_[k]]
   std::vector<Index> start_, fill_, bucket_;
 };
 
