@@ -169,6 +169,20 @@ def test_push_matches_load():
         fail(f"the viewer's push and the scene's load give positions {diff:.3g} m apart")
 
 
+def test_tank_walls():
+    """A tank's near walls, seen from their solid side, are not drawn over the liquid inside it."""
+    img, stats = view("tank_walls", os.path.join(SOURCE, "scenes", "liquid_blob.json"), "--frames", "15")
+    vp = viewport(img, stats)
+    x0, y0, x1, y1 = (int(v) for v in stats["quanta_px"])
+    box = vp[max(y0, 0):y1 + 1, max(x0, 0):x1 + 1]
+    # The quanta are drawn light (white and strain colours); the walls a grey under 0.6 (0% of the
+    # box bright when the near walls covered the blob, 66% without them).
+    bright = (box.max(axis=2) > 0.6).mean()
+    if bright < 0.2:
+        fail(f"the liquid's box {stats['quanta_px']} is {bright:.0%} bright: something is drawn over the quanta")
+    print(f"tank walls: the liquid's box is {bright:.0%} bright")
+
+
 def test_mouse_drag():
     """The mouse path itself: a press on the pixel where the pendulum's cube quanta is drawn picks
     that quanta (ray casting), moving the mouse 250 px to the right pulls it along the plane

@@ -460,7 +460,8 @@ class Viewer {
 
   /// Obstacles, and the ground under the structure wherever it has gone: planes as a checkered
   /// square of three scene sizes, or without one a reference grid at the scene's starting floor.
-  /// Both are patterned in world coordinates, so that motion over them shows.
+  /// Both are patterned in world coordinates, so that motion over them shows. A plane seen from
+  /// its solid side is left out: a tank's near walls would hide what is inside it (liquid_blob).
   void draw_ground() {
     bool plane = false;
     Vec3 lo, hi;
@@ -483,6 +484,7 @@ class Viewer {
         const Vec3 n = ob.normal.normalized();
         const Vec3 a = n.unitOrthogonal(), b = n.cross(a);
         const Vec3 c = centre - (centre - ob.center).dot(n) * n;
+        if (n.dot(cam_.eye().cast<double>() - c) < 0) continue;
         Mat4f model = Mat4f::Identity();
         model.block<3, 1>(0, 0) = (1.5 * size_ * a).cast<float>();
         model.block<3, 1>(0, 1) = (1.5 * size_ * b).cast<float>();
