@@ -296,30 +296,22 @@ class QuantaContactHeuristic final : public Heuristic {
   std::vector<std::uint8_t> impulse_done_;
 };
 
-}  // namespace
-
-double Obstacle::distance(const Vec3& p, Vec3& n) const {
-  if (inside && shape != Shape::plane) {
-    // A container's free side is its inside: the solid's distance and normal, turned over.
-    Obstacle solid = *this;
-    solid.inside = false;
-    const double d = solid.distance(p, n);
-    n = -n;
-    return -d;
-  }
-  switch (shape) {
-    case Shape::plane:
-      n = normal;
-      return normal.dot(p - center);
+// The signed distance of p from the solid shape o describes, positive outside it, and the unit
+// normal pointing out of it (Obstacle::distance for a solid).
+double solid_distance(const Obstacle& o, const Vec3& p, Vec3& n) {
+  using Shape = Obstacle::Shape;
+  const Vec3& center = o.center;
+  switch (o.shape) {
+    case Shape::plane: n = o.normal; return o.normal.dot(p - center);
     case Shape::sphere: {
       const Vec3 q = p - center;
       const double len = q.norm();
       n = len > 0 ? Vec3(q / len) : Vec3::UnitZ();
-      return len - radius;
+      return len - o.radius;
     }
     case Shape::box: {
-      const Vec3 q = rotation.transpose() * (p - center);
-      const Vec3 d = q.cwiseAbs() - half_extents;
+      const Vec3 q = o.rotation.transpose() * (p - center);
+      const Vec3 d = q.cwiseAbs() - o.half_extents;
       const Vec3 sign(q.x() < 0 ? -1 : 1, q.y() < 0 ? -1 : 1, q.z() < 0 ? -1 : 1);
       const Vec3 out = d.cwiseMax(0.0);
       const double outside = out.norm();
@@ -332,12 +324,22 @@ double Obstacle::distance(const Vec3& p, Vec3& n) const {
         local = Vec3::Zero();
         local[k] = sign[k];
       }
-      n = rotation * local;
+      n = o.rotation * local;
       return outside > 0 ? outside : d.maxCoeff();
     }
   }
   n = Vec3::UnitZ();
   return 0;
+}
+
+}  // namespace
+
+double Obstacle::distance(const Vec3& p, Vec3& n) const {
+  const double d = solid_distance(*this, p, n);
+  if (!inside || shape == Shape::plane) return d;
+  // A container's free side is its inside: the solid's distance and normal, turned over.
+  n = -n;
+  return -d;
 }
 
 double Obstacle::contact_area() const {
