@@ -31,7 +31,8 @@ bool write_all(int fd, std::string_view bytes) {
 
 }  // namespace
 
-void write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {
+void write_file_atomic(const std::filesystem::path& path, std::string_view bytes, Durability durability) {
+  const bool sync = durability == Durability::durable;
   const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : ".";
   // A hidden name beside the target: same file system, so the rename is atomic.
   std::string name = path.filename().string();
@@ -40,7 +41,7 @@ void write_file_atomic(const std::filesystem::path& path, std::string_view bytes
   const std::filesystem::path tmp = dir / name;
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) fail("create", tmp);
-  if (!write_all(fd, bytes) || ::fsync(fd) != 0) {
+  if (!write_all(fd, bytes) || (sync && ::fsync(fd) != 0)) {
     const int saved = errno;
     ::close(fd);
     ::unlink(tmp.c_str());
@@ -54,10 +55,21 @@ void write_file_atomic(const std::filesystem::path& path, std::string_view bytes
     fail("write", path);
   }
   // The rename itself is durable only once the directory is synced.
+  if (!sync) return;
   if (const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
     ::fsync(dfd);
     ::close(dfd);
   }
+}
+
+void flush_file_system(const std::filesystem::path& dir) {
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) fail("open", dir);
+  const int status = ::syncfs(fd);
+  const int saved = errno;
+  ::close(fd);
+  errno = saved;
+  if (status != 0) fail("flush", dir);
 }
 
 std::string read_file(const std::filesystem::path& path) {

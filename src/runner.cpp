@@ -186,7 +186,11 @@ struct Runner::Impl {
     series.write(out(kPvd));
   }
 
-  void checkpoint() { save_checkpoint(out(kCheckpoint), metadata(), sim.world().state); }
+  // The checkpoint, durable, and before it the frames and rows written so far (Durability).
+  void checkpoint() {
+    flush_file_system(settings.out_dir);
+    save_checkpoint(out(kCheckpoint), metadata(), sim.world().state);
+  }
 
   void write_run_json(const std::string& status, const RunResult* r) const {
     const State& s = sim.world().state;

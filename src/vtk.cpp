@@ -137,7 +137,7 @@ void write_vtp(const std::filesystem::path& path, const Model& model, const Stat
   xml += "</Lines>\n</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">\n_";
   xml += a.block;
   xml += "\n</AppendedData>\n</VTKFile>\n";
-  write_file_atomic(path, xml);
+  write_file_atomic(path, xml, Durability::atomic);
 }
 
 void PvdSeries::add(double time, std::string file) { frames_.emplace_back(time, std::move(file)); }
@@ -152,7 +152,7 @@ void PvdSeries::write(const std::filesystem::path& pvd) const {
     xml += "<DataSet timestep=\"" + std::string(t) + "\" group=\"\" part=\"0\" file=\"" + escape(file) + "\"/>\n";
   }
   xml += "</Collection>\n</VTKFile>\n";
-  write_file_atomic(pvd, xml);
+  write_file_atomic(pvd, xml, Durability::atomic);
 }
 
 }  // namespace qbond

@@ -89,6 +89,25 @@ TEST(Checkpoint, EveryTruncationAndEveryFlippedByteIsRefused) {
 
 // A mass m hanging at rest from an anchored quanta on one bond stretched by m g / k: the support
 // holds it with m g upward, and the torque about a point d to the side is d × (m g).
+// Both durabilities write the whole file under its name and leave no temporary beside it; the
+// file system flush names a directory it cannot open.
+TEST(Files, AtomicAndDurableWritesLeaveTheFileAloneAndFlushNamesItsDirectory) {
+  const fs::path d = temp_dir("files");
+  write_file_atomic(d / "a.txt", "atomic", Durability::atomic);
+  write_file_atomic(d / "b.txt", "durable", Durability::durable);
+  write_file_atomic(d / "a.txt", "atomic, again", Durability::atomic);
+  EXPECT_EQ(read_file(d / "a.txt"), "atomic, again");
+  EXPECT_EQ(read_file(d / "b.txt"), "durable");
+  EXPECT_EQ(std::distance(fs::directory_iterator(d), fs::directory_iterator()), 2);
+  EXPECT_NO_THROW(flush_file_system(d));
+  try {
+    flush_file_system(d / "missing");
+    ADD_FAILURE() << "no error for a missing directory";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("missing"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Probes, ReactionOfAHangingMassIsItsWeight) {
   World w;
   const double m = 2.0, k = 500.0, g = 9.81;
