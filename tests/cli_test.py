@@ -13,6 +13,7 @@ import struct
 import subprocess
 import sys
 import time
+import xml.etree.ElementTree as ET
 
 QBOND, SOURCE, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
 BAD_SCENES = os.path.join(SOURCE, "tests", "bad_scenes")
@@ -147,6 +148,17 @@ def whole_and_halves(name, scene, steps, every):
     if state_bytes(os.path.join(whole, "checkpoint.qbc")) != state_bytes(os.path.join(halves, "checkpoint.qbc")):
         fail(f"{scene}: resumed state differs from the uninterrupted one")
     return whole, halves
+
+
+def test_series_lists_every_frame():
+    """series.pvd, rewritten only as it grows by a sixteenth during a run, lists every frame at
+    its end: 41 frames, the last rewrite during the run at the 40th."""
+    out = fresh("series")
+    qbond("run", "--steps", "400", "--every", "10", "--out", out, "-q", check_code=0)
+    files = [d.get("file") for d in ET.parse(os.path.join(out, "series.pvd")).getroot().findall("./Collection/DataSet")]
+    on_disk = sorted("frames/" + f for f in os.listdir(os.path.join(out, "frames")))
+    if files != on_disk or len(files) != 41:
+        fail(f"series.pvd lists {len(files)} frames, {len(on_disk)} on disk")
 
 
 def test_resume_is_bit_for_bit():
