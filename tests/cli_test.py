@@ -103,6 +103,15 @@ def test_bad_options():
         r = qbond(*args, "--out", fresh("bad_option"))
         if r.returncode != 2 or not r.stderr.strip():
             fail(f"qbond {' '.join(args)}: exit {r.returncode}, stderr {r.stderr!r}")
+    # A bound broken is named with the option, in a line that says the bound.
+    for args, says in ((["run", "--steps", "-3"], "--steps: must be >= 0, got -3"),
+                       (["run", "--dt", "0"], "--dt: must be > 0, got 0"),
+                       (["bench", "--repetitions", "0"], "--repetitions: must be > 0, got 0"),
+                       (["view", "--frames", "-1"], "--frames: must be > 0, got -1")):
+        r = qbond(*args)
+        first = r.stderr.strip().splitlines()[0] if r.stderr.strip() else ""
+        if r.returncode != 2 or first != says:
+            fail(f"qbond {' '.join(args)}: exit {r.returncode}, first line of stderr {first!r}, wanted {says!r}")
 
 
 def test_outputs_and_vtk():

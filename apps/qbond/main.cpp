@@ -31,6 +31,20 @@ constexpr int kExitFailure = 1;   // an output could not be written, or another 
 constexpr int kExitBadInput = 2;  // bad scene, checkpoint or option; nothing was written
 constexpr int kExitBlowup = 3;    // the simulation blew up; the last good state was written
 
+// Lower bounds on a number with a short message ("--dt: must be > 0, got -1"): CLI11's
+// PositiveNumber and NonNegativeNumber print their range up to the largest double, digit by digit.
+CLI::Validator at_least_zero(bool strict) {
+  return CLI::Validator(
+      [strict](std::string& text) -> std::string {
+        double value = 0;
+        if (!CLI::detail::lexical_cast(text, value)) return "must be a number, got '" + text + "'";
+        if (strict ? value > 0 : value >= 0) return {};
+        return std::string(strict ? "must be > 0" : "must be >= 0") + ", got " + text;
+      },
+      strict ? "POSITIVE" : "NONNEGATIVE");
+}
+const CLI::Validator kPositive = at_least_zero(true), kNonNegative = at_least_zero(false);
+
 // The one piece of process-wide state a signal handler needs; the first SIGINT/SIGTERM asks the
 // run to stop after the current step, a second one kills the process as usual.
 volatile std::sig_atomic_t g_signal = 0;
@@ -295,27 +309,29 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--list", o.list, "list the built-in scenes");
   run_cmd->add_option("--resume", o.resume, "continue from a checkpoint (e.g. out/checkpoint.qbc)");
   auto* steps = run_cmd->add_option("--steps", o.steps, "run until this step count (default: the scene's)")
-                    ->check(CLI::NonNegativeNumber);
+                    ->check(kNonNegative);
   run_cmd->add_option("--duration", o.duration, "run until this simulated time [s]")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->excludes(steps);
-  run_cmd->add_option("--dt", o.timestep, "timestep [s] (default: the scene's)")->check(CLI::PositiveNumber);
+  run_cmd->add_option("--dt", o.timestep, "timestep [s] (default: the scene's)")->check(kPositive);
   run_cmd->add_option("-o,--out", o.out, "output directory (default: the scene's output.dir)");
-  run_cmd->add_option("--every", o.every, "steps between output rows and frames")->check(CLI::PositiveNumber);
-  run_cmd->add_option("--checkpoint-every", o.checkpoint_every, "steps between checkpoints (0: at the end only)")
-      ->check(CLI::NonNegativeNumber);
+  run_cmd->add_option("--every", o.every, "steps between output rows and frames")->check(kPositive);
+  run_cmd
+      ->add_option("--checkpoint-every", o.checkpoint_every, "steps between checkpoints (0: at the end only)")
+      ->check(kNonNegative);
   run_cmd->add_flag("--no-vtk", o.no_vtk, "write no ParaView frames");
   run_cmd->add_option("--integrator", o.integrator, "integrator override (e.g. hybrid_implicit)");
   run_cmd->add_option("--neighbours", o.neighbours, "hybrid neighbour model: frozen, sweep, jacobi");
   run_cmd->add_option("--solver", o.solver, "coupled solver: dense, ldlt, cg");
   run_cmd->add_option("--iterations", o.iterations, "sweeps per step (hybrid sweep/jacobi)")
-      ->check(CLI::PositiveNumber);
+      ->check(kPositive);
   run_cmd->add_option("--tolerance", o.tolerance, "relative residual of the iterative solvers")
-      ->check(CLI::PositiveNumber);
-  run_cmd->add_option("-j,--threads", o.threads,
-                      "threads (0: all cores; default: the scene's integrator.threads); the results are the "
-                      "same bits for any count")
-      ->check(CLI::NonNegativeNumber);
+      ->check(kPositive);
+  run_cmd
+      ->add_option("-j,--threads", o.threads,
+                   "threads (0: all cores; default: the scene's integrator.threads); the results are the "
+                   "same bits for any count")
+      ->check(kNonNegative);
   run_cmd->add_flag("-q,--quiet", o.quiet, "print nothing but errors");
 
   std::vector<std::string> to_validate;
@@ -342,25 +358,27 @@ int main(int argc, char** argv) {
   bench_cmd->add_flag("--as-run", ba.as_run,
                       "time each step as `qbond run` takes it: energy ledger (blow-up check, diagnostics) and the "
                       "copy kept for a rollback (rows named INTEGRATOR+run)");
-  bench_cmd->add_option("--dt", ba.dt, "timestep [s] (default: the workload's 1e-4)")->check(CLI::PositiveNumber);
+  bench_cmd->add_option("--dt", ba.dt, "timestep [s] (default: the workload's 1e-4)")->check(kPositive);
   bench_cmd->add_option("--repetitions", ba.repetitions, "repetitions; the median is reported (default: 3)")
-      ->check(CLI::PositiveNumber);
+      ->check(kPositive);
   bench_cmd->add_option("--json", ba.json, "also write the table as JSON to this file");
   std::string view_scene;
   qbond::view::ViewOptions vo;
   CLI::App* view_cmd = app.add_subcommand("view", "the real-time viewer: watch a scene and pull on it with the mouse "
                                                   "(default scene: the pendulum; docs/viewer.md)");
   view_cmd->add_option("scene", view_scene, "scene file (.json) or built-in scene name");
-  auto* frames = view_cmd->add_option("--frames", vo.frames, "run this many frames without user input, then exit")
-                     ->check(CLI::PositiveNumber);
+  auto* frames =
+      view_cmd->add_option("--frames", vo.frames, "run this many frames without user input, then exit")
+          ->check(kPositive);
   view_cmd->add_option("--screenshot", vo.screenshot, "write the last frame as a PNG (with --frames)")->needs(frames);
   view_cmd->add_option("--record", vo.record, "write every frame as DIR/frame_NNNNN.png");
   view_cmd->add_option("--script", vo.script, "scripted mouse and key input (JSON; docs/viewer.md)");
   view_cmd->add_option("--stats", vo.stats, "write the measured frame and step times as JSON at the end");
   view_cmd->add_option("--save", vo.save, "write the final state as a VTK PolyData file (.vtp)");
-  view_cmd->add_option("--steps-per-frame", vo.steps_per_frame,
-                       "with --frames: steps per frame (default: 1/60 s of simulated time)")
-      ->check(CLI::PositiveNumber)
+  view_cmd
+      ->add_option("--steps-per-frame", vo.steps_per_frame,
+                   "with --frames: steps per frame (default: 1/60 s of simulated time)")
+      ->check(kPositive)
       ->needs(frames);
   view_cmd->add_option("--size", vo.width, "window width in pixels (height: 9/16 of it)")->check(CLI::Range(64, 8192));
   view_cmd->add_flag("!--no-ui", vo.ui, "hide the control panel");
