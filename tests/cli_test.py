@@ -112,6 +112,11 @@ def test_bad_options():
         first = r.stderr.strip().splitlines()[0] if r.stderr.strip() else ""
         if r.returncode != 2 or first != says:
             fail(f"qbond {' '.join(args)}: exit {r.returncode}, first line of stderr {first!r}, wanted {says!r}")
+    # A --json that cannot be written is refused before the benchmark runs.
+    missing = os.path.join(fresh("bench_json"), "no_such_dir")
+    r = qbond("bench", "--quick", "--json", os.path.join(missing, "table.json"))
+    if r.returncode != 2 or f"no directory {missing}" not in r.stderr or "qbond_bench" in r.stderr:
+        fail(f"qbond bench --json into a missing directory: exit {r.returncode}, stderr {r.stderr!r}")
 
 
 def test_outputs_and_vtk():
