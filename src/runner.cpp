@@ -21,6 +21,15 @@ using json = nlohmann::json;
 
 namespace {
 
+// The run's output directory and its frames/, or an error that names them.
+void make_output_dirs(const fs::path& out_dir) {
+  std::error_code ec;
+  fs::create_directories(out_dir / "frames", ec);
+  if (ec)
+    throw std::runtime_error("cannot create the output directory " + (out_dir / "frames").string() + ": " +
+                             ec.message());
+}
+
 constexpr const char* kCsv = "diagnostics.csv";
 constexpr const char* kPvd = "series.pvd";
 constexpr const char* kCheckpoint = "checkpoint.qbc";
@@ -240,7 +249,7 @@ Runner::~Runner() = default;
 Runner::Runner(Scene scene, RunSettings settings)
     : impl_(std::make_unique<Impl>(std::move(scene), std::move(settings))) {
   Impl& r = *impl_;
-  fs::create_directories(r.settings.out_dir / "frames");
+  make_output_dirs(r.settings.out_dir);
   // Stale frames of an earlier run would show up in a file browser beside the new series.
   for (const auto& e : fs::directory_iterator(r.settings.out_dir / "frames"))
     if (e.path().extension() == ".vtp" && e.path().filename().string().starts_with("frame_")) fs::remove(e.path());
@@ -275,7 +284,7 @@ Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene
   auto impl = std::make_unique<Impl>(std::move(scene), std::move(settings));
   Impl& r = *impl;
   r.resumed_from = fs::absolute(checkpoint).string();
-  fs::create_directories(r.settings.out_dir / "frames");
+  make_output_dirs(r.settings.out_dir);
 
   // Keep the rows (and their frames) a run that never stopped would have written up to here:
   // those on the output schedule up to the checkpoint's step; drop the rest.

@@ -112,6 +112,11 @@ def test_bad_options():
         first = r.stderr.strip().splitlines()[0] if r.stderr.strip() else ""
         if r.returncode != 2 or first != says:
             fail(f"qbond {' '.join(args)}: exit {r.returncode}, first line of stderr {first!r}, wanted {says!r}")
+    # An output directory that cannot be made is named (exit 1: an output could not be written).
+    blocked = os.path.join(SOURCE, "README.md", "out")
+    r = qbond("run", "--steps", "2", "--out", blocked)
+    if r.returncode != 1 or f"cannot create the output directory {blocked}" not in r.stderr:
+        fail(f"qbond run --out {blocked}: exit {r.returncode}, stderr {r.stderr!r}")
     # A --json that cannot be written is refused before the benchmark runs.
     missing = os.path.join(fresh("bench_json"), "no_such_dir")
     r = qbond("bench", "--quick", "--json", os.path.join(missing, "table.json"))
