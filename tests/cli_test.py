@@ -117,11 +117,14 @@ def test_bad_options():
     r = qbond("run", "--steps", "2", "--out", blocked)
     if r.returncode != 1 or f"cannot create the output directory {blocked}" not in r.stderr:
         fail(f"qbond run --out {blocked}: exit {r.returncode}, stderr {r.stderr!r}")
-    # A --json that cannot be written is refused before the benchmark runs.
-    missing = os.path.join(fresh("bench_json"), "no_such_dir")
-    r = qbond("bench", "--quick", "--json", os.path.join(missing, "table.json"))
-    if r.returncode != 2 or f"no directory {missing}" not in r.stderr or "qbond_bench" in r.stderr:
-        fail(f"qbond bench --json into a missing directory: exit {r.returncode}, stderr {r.stderr!r}")
+    # An output file that cannot be written is refused before the work that would write it: a
+    # benchmark, a viewer run (refused before any window opens, so no display is needed here).
+    missing = os.path.join(fresh("missing_dir"), "no_such_dir")
+    for args in (["bench", "--quick", "--json"], ["view", "--frames", "1", "--screenshot"],
+                 ["view", "--frames", "1", "--stats"]):
+        r = qbond(*args, os.path.join(missing, "out"))
+        if r.returncode != 2 or f"{args[-1]} {os.path.join(missing, 'out')}: no directory {missing}" not in r.stderr:
+            fail(f"qbond {' '.join(args)} into a missing directory: exit {r.returncode}, stderr {r.stderr!r}")
 
 
 def test_outputs_and_vtk():

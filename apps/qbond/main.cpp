@@ -45,6 +45,15 @@ CLI::Validator at_least_zero(bool strict) {
 }
 const CLI::Validator kPositive = at_least_zero(true), kNonNegative = at_least_zero(false);
 
+// An output file whose directory does not exist is bad input, said before the work that would
+// write it (a benchmark, a viewer run), not after.
+void require_directory_of(const char* option, const std::string& path) {
+  if (path.empty()) return;
+  const fs::path dir = fs::absolute(path).parent_path();
+  if (!fs::is_directory(dir))
+    throw std::invalid_argument(std::string(option) + " " + path + ": no directory " + dir.string());
+}
+
 // The one piece of process-wide state a signal handler needs; the first SIGINT/SIGTERM asks the
 // run to stop after the current step, a second one kills the process as usual.
 volatile std::sig_atomic_t g_signal = 0;
@@ -400,8 +409,14 @@ int main(int argc, char** argv) {
   try {
     if (run_cmd->parsed()) return run(o);
     if (validate_cmd->parsed()) return validate(to_validate);
-    if (bench_cmd->parsed()) return qbond::cli::bench(ba);
+    if (bench_cmd->parsed()) {
+      require_directory_of("--json", ba.json);
+      return qbond::cli::bench(ba);
+    }
     if (view_cmd->parsed()) {
+      require_directory_of("--screenshot", vo.screenshot);
+      require_directory_of("--stats", vo.stats);
+      require_directory_of("--save", vo.save);
       vo.height = vo.width * 9 / 16;
       return qbond::view::run_viewer(load_any(view_scene), vo);
     }
