@@ -87,8 +87,6 @@ TEST(Checkpoint, EveryTruncationAndEveryFlippedByteIsRefused) {
   }
 }
 
-// A mass m hanging at rest from an anchored quanta on one bond stretched by m g / k: the support
-// holds it with m g upward, and the torque about a point d to the side is d × (m g).
 // Both durabilities write the whole file under its name and leave no temporary beside it; the
 // file system flush names a directory it cannot open.
 TEST(Files, AtomicAndDurableWritesLeaveTheFileAloneAndFlushNamesItsDirectory) {
@@ -108,6 +106,8 @@ TEST(Files, AtomicAndDurableWritesLeaveTheFileAloneAndFlushNamesItsDirectory) {
   }
 }
 
+// A mass m hanging at rest from an anchored quanta on one bond stretched by m g / k: the support
+// holds it with m g upward, and the torque about a point d to the side is d × (m g).
 TEST(Probes, ReactionOfAHangingMassIsItsWeight) {
   World w;
   const double m = 2.0, k = 500.0, g = 9.81;
