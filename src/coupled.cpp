@@ -26,19 +26,20 @@ class CoupledIntegrator final : public Integrator {
         break;
       case CoupledSolver::cg: {
         topo_.update(model, adj);
-        const bool guessed = initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, y_);
+        const bool guessed =
+            initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, config_.threads, y_);
         conjugate_gradient(model, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
                            !guessed, stats_);
         if (config_.restore_momentum)
           restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
-        keep_guess(config_.warm_start, y_, ctx.h, state.warm, out.warm);
+        keep_guess(config_.warm_start, y_, ctx.h, state.warm, config_.threads, out.warm);
         break;
       }
       case CoupledSolver::sweep:
         assert(false && "make_integrator rejects coupled_implicit with sweep");
         break;
     }
-    write_free_rows(model, state, ctx.h, y_, out);
+    write_free_rows(model, state, ctx.h, y_, config_.threads, out);
   }
 
  private:

@@ -274,7 +274,7 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
                          const std::vector<Vec3>& f_ext, const StepContext& ctx, bool edges, int threads,
                          Projection& kin, ImplicitSystem& sys) {
   const std::size_t n = model.num_quanta();
-  kin.resize(n);
+  kin.resize(n, false);  // the free rows are the solve's to write (write_free_rows)
   const double h = ctx.h;
   sys.part.update(model, adj, threads);
   sys.bonds.resize(model.num_bonds());
@@ -283,6 +283,8 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
   // (PrescribedAt says why).
   sys.prescribed.update(model, ctx.t + h);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) {
+    for (std::size_t q = lo; q < hi; ++q)
+      if (model.is_kinematic(static_cast<Index>(q))) kin.dx[q] = kin.dv[q] = Vec3::Zero();
     sys.prescribed.project(state, lo, hi, kin);
     start_build(model, state, f_ext, kin, h, a, lo, hi);
   });

@@ -15,16 +15,17 @@ std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& confi
 
 // Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0) from State::warm
 // as keep_guess left it; false when it is zero (WarmStart::zero, or no previous step), which
-// spares CG its first product.
+// spares CG its first product. On `threads` (parallel.hpp), as keep_guess and write_free_rows:
+// per-quanta loops left on one thread are what keeps a second from speeding up a step.
 bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
-                   const std::vector<Vec3>& previous, std::vector<Vec3>& y);
+                   const std::vector<Vec3>& previous, int threads, std::vector<Vec3>& y);
 
 // The carry-over a step of length h whose solve found y leaves for the next one's initial_guess
 // (State::warm, `previous` as the step found it): y for WarmStart::previous; for extrapolated, y,
 // the Δv before it (zeros if none) and (h, that step's h or 0, kExtrapolationTag); nothing
 // otherwise.
 void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const std::vector<Vec3>& previous,
-                std::vector<Vec3>& warm);
+                int threads, std::vector<Vec3>& warm);
 
 // Caches what depends only on topology (colours, free components), rebuilt when it changes.
 struct TopologyCache {
@@ -48,6 +49,6 @@ void restore_component_momentum(const Model& model, const FreeComponents& comps,
 
 // Writes the free quanta's rows of a projection from Δv: dx = h (v + Δv) (Eq. 10).
 void write_free_rows(const Model& model, const State& state, double h, const std::vector<Vec3>& dv,
-                     Projection& out);
+                     int threads, Projection& out);
 
 }  // namespace qbond

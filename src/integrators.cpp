@@ -6,6 +6,7 @@
 #include <string>
 
 #include "integrator_common.hpp"
+#include "parallel.hpp"
 
 namespace qbond {
 
@@ -219,16 +220,19 @@ bool has_previous(const std::vector<Vec3>& warm, std::size_t n) {
 }  // namespace
 
 bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
-                   const std::vector<Vec3>& previous, std::vector<Vec3>& y) {
+                   const std::vector<Vec3>& previous, int threads, std::vector<Vec3>& y) {
   const std::size_t n = model.num_quanta();
-  y.assign(n, Vec3::Zero());
+  y.resize(n);
   const bool from_previous = mode == WarmStart::previous || mode == WarmStart::extrapolated;
-  if (mode == WarmStart::zero || (from_previous && !has_previous(previous, n))) return false;
+  const bool zero = mode == WarmStart::zero || (from_previous && !has_previous(previous, n));
   // Linear extrapolation only between steps of one length: Δv over a step grows with its length.
   const bool extrapolate = mode == WarmStart::extrapolated && extrapolation_carry(previous, n) &&
                            previous[2 * n][0] == h && previous[2 * n][1] == h;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (model.is_kinematic(static_cast<Index>(i))) continue;
+  parallel_for(n, threads, [&](std::size_t i) {
+    if (zero || model.is_kinematic(static_cast<Index>(i))) {
+      y[i] = Vec3::Zero();
+      return;
+    }
     switch (mode) {
       case WarmStart::zero: break;
       case WarmStart::external: y[i] = (h * model.inv_mass[i]) * f_ext[i]; break;
@@ -238,27 +242,24 @@ bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& 
         break;
       case WarmStart::automatic: assert(false && "make_integrator resolves it"); break;
     }
-  }
-  return true;
+  });
+  return !zero;
 }
 
 void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const std::vector<Vec3>& previous,
-                std::vector<Vec3>& warm) {
+                int threads, std::vector<Vec3>& warm) {
+  if (mode != WarmStart::previous && mode != WarmStart::extrapolated) return;
   const std::size_t n = y.size();
-  if (mode == WarmStart::previous) {
-    warm = y;
-    return;
-  }
-  if (mode != WarmStart::extrapolated) return;
-  const auto at = [&](std::size_t k) { return warm.begin() + static_cast<std::ptrdiff_t>(k); };
-  warm.resize(2 * n + 1);
-  std::copy(y.begin(), y.end(), at(0));
-  if (has_previous(previous, n))
-    std::copy(previous.begin(), previous.begin() + static_cast<std::ptrdiff_t>(n), at(n));
-  else
-    std::fill(at(n), at(2 * n), Vec3::Zero());
+  const bool extrapolated = mode == WarmStart::extrapolated,
+             before = extrapolated && has_previous(previous, n);
+  warm.resize(extrapolated ? 2 * n + 1 : n);
+  parallel_for(n, threads, [&](std::size_t i) {
+    warm[i] = y[i];
+    if (extrapolated) warm[n + i] = before ? previous[i] : Vec3::Zero();
+  });
   // The step before's length: known from an extrapolated carry-over; 0 (never a step's) otherwise.
-  warm[2 * n] = Vec3(h, extrapolation_carry(previous, n) ? previous[2 * n][0] : 0.0, kExtrapolationTag);
+  if (extrapolated)
+    warm[2 * n] = Vec3(h, extrapolation_carry(previous, n) ? previous[2 * n][0] : 0.0, kExtrapolationTag);
 }
 
 void TopologyCache::update(const Model& model, const Adjacency& adj) {
@@ -284,12 +285,12 @@ void restore_component_momentum(const Model& model, const FreeComponents& comps,
 }
 
 void write_free_rows(const Model& model, const State& state, double h, const std::vector<Vec3>& dv,
-                     Projection& out) {
-  for (std::size_t i = 0; i < model.num_quanta(); ++i) {
-    if (model.is_kinematic(static_cast<Index>(i))) continue;
+                     int threads, Projection& out) {
+  parallel_for(model.num_quanta(), threads, [&](std::size_t i) {
+    if (model.is_kinematic(static_cast<Index>(i))) return;
     out.dv[i] = dv[i];
     out.dx[i] = h * (state.v[i] + dv[i]);
-  }
+  });
 }
 
 }  // namespace qbond

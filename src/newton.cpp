@@ -242,7 +242,7 @@ class NewtonIntegrator final : public Integrator {
       v_prev_.assign(state.warm.begin() + static_cast<std::ptrdiff_t>(n),
                      state.warm.begin() + static_cast<std::ptrdiff_t>(2 * n));
     }
-    initial_guess(config_.warm_start, model, f_ext, h, bdf2 ? no_history_ : state.warm, y_);
+    initial_guess(config_.warm_start, model, f_ext, h, bdf2 ? no_history_ : state.warm, config_.threads, y_);
     double residual = 0;
     const bool converged = solve(model, state, adj, f_ext, scheme, out, h, residual);
     stats_.residual = residual;
@@ -297,8 +297,8 @@ class NewtonIntegrator final : public Integrator {
     project_kinematic(model, sub_, StepContext{H, t0, step}, sub_out_);
     // A substep's initial guess: the configured one at this step length (the previous step's
     // Δv, of the whole step, is not one: zero then).
-    initial_guess(config_.warm_start == WarmStart::previous ? WarmStart::zero : config_.warm_start, model, f_ext,
-                  H, no_history_, y_);
+    initial_guess(config_.warm_start == WarmStart::previous ? WarmStart::zero : config_.warm_start, model,
+                  f_ext, H, no_history_, config_.threads, y_);
     double residual = 0;
     const bool converged = solve(model, sub_, adj, f_ext, scheme, sub_out_, H, residual);
     if (!converged && depth < kMaxDepth) {

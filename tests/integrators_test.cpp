@@ -525,28 +525,28 @@ TEST(WarmStart, ExtrapolatesOnlyBetweenStepsOfTheSameLength) {
     dv2[i] = Vec3(0.3 * i, -1, 5);
   }
   const double h = 1e-3;
-  keep_guess(WarmStart::extrapolated, dv1, h, {}, carry1);
-  keep_guess(WarmStart::extrapolated, dv2, h, carry1, carry2);
+  keep_guess(WarmStart::extrapolated, dv1, h, {}, 1, carry1);
+  keep_guess(WarmStart::extrapolated, dv2, h, carry1, 1, carry2);
   auto expect_free_rows = [&](const auto& want) {
     for (std::size_t i = 0; i < n; ++i)
       EXPECT_EQ(y[i], m.is_kinematic(static_cast<Index>(i)) ? Vec3::Zero() : Vec3(want(i))) << i;
   };
-  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, carry2, y));
+  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, carry2, 1, y));
   expect_free_rows([&](std::size_t i) { return 2 * dv2[i] - dv1[i]; });
   // After one step only (no Δv₋₂), at another length, or from `previous`'s carry-over: Δv₋₁.
-  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, carry1, y));
+  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, carry1, 1, y));
   expect_free_rows([&](std::size_t i) { return dv1[i]; });
-  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, 2 * h, carry2, y));
+  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, 2 * h, carry2, 1, y));
   expect_free_rows([&](std::size_t i) { return dv2[i]; });
-  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, dv2, y));
+  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, dv2, 1, y));
   expect_free_rows([&](std::size_t i) { return dv2[i]; });
-  ASSERT_TRUE(initial_guess(WarmStart::previous, m, f, h, carry2, y));
+  ASSERT_TRUE(initial_guess(WarmStart::previous, m, f, h, carry2, 1, y));
   expect_free_rows([&](std::size_t i) { return dv2[i]; });
   // bdf2's carry-over, x and v then (t, h, step): not a Δv.
   std::vector<Vec3> bdf2(2 * n + 1, Vec3::Ones());
   bdf2[2 * n] = Vec3(0.5, h, 7);
-  EXPECT_FALSE(initial_guess(WarmStart::extrapolated, m, f, h, bdf2, y));
-  EXPECT_FALSE(initial_guess(WarmStart::extrapolated, m, f, h, {}, y));
+  EXPECT_FALSE(initial_guess(WarmStart::extrapolated, m, f, h, bdf2, 1, y));
+  EXPECT_FALSE(initial_guess(WarmStart::extrapolated, m, f, h, {}, 1, y));
 }
 
 // On the canonical lattice sagging under gravity (a smooth motion), CG from the extrapolated guess
