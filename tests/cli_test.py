@@ -387,6 +387,29 @@ def test_bench_quick():
         fail(f"an unknown integrator was accepted: {r.returncode} {r.stderr}")
 
 
+
+def test_bench_ab():
+    """bench/ab.py (the interleaved comparison of two builds performance.md's figures come from):
+    one row a benchmark, both builds' times and the two ratios finite and positive (no bound on
+    them: they are timings), and a filter matching nothing is an error that says so."""
+    bench = os.path.join(os.path.dirname(os.path.abspath(QBOND)), "qbond_bench")
+    script = os.path.join(SOURCE, "bench", "ab.py")
+    r = subprocess.run([sys.executable, script, bench, bench, "--filter", "step/velocity_verlet/n:10/",
+                        "--rounds", "2", "--min-time", "0.01", "--", "--integrators=velocity_verlet", "--n=10"],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        fail(f"ab.py failed ({r.returncode}): {r.stderr}")
+    lines = r.stdout.splitlines()
+    if len(lines) != 2 or not lines[0].startswith("row") or not lines[1].startswith("step/velocity_verlet/n:10/"):
+        fail(f"ab.py printed:\n{r.stdout}")
+    figures = [float(x) for x in lines[1].split()[2:]]
+    if len(figures) != 6 or not all(0 < x < 1e9 for x in figures):
+        fail(f"figures {figures}")
+    r = subprocess.run([sys.executable, script, bench, bench, "--filter", "nothing/matches", "--rounds", "1"],
+                       capture_output=True, text=True)
+    if r.returncode == 0 or "no benchmark matches 'nothing/matches'" not in r.stderr:
+        fail(f"an empty filter was accepted: {r.returncode} {r.stderr}")
+
 if __name__ == "__main__":
     os.makedirs(WORK, exist_ok=True)
     globals()["test_" + sys.argv[4]]()
