@@ -387,9 +387,8 @@ def test_bench_quick():
         fail(f"an unknown integrator was accepted: {r.returncode} {r.stderr}")
 
 
-
 def test_bench_ab():
-    """bench/ab.py (the interleaved comparison of two builds performance.md's figures come from):
+    """bench/ab.py (two builds' benchmark rows timed in interleaved rounds, performance.md):
     one row a benchmark, both builds' times and the two ratios finite and positive (no bound on
     them: they are timings), and a filter matching nothing is an error that says so."""
     bench = os.path.join(os.path.dirname(os.path.abspath(QBOND)), "qbond_bench")
