@@ -507,10 +507,12 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
       s.solved = settled;
     }
   });
-  // The rows of parts without bonds.
+  // The rows of parts without bonds, and their copies of x and v, which a direct step's solve
+  // reads (the copies before the bond pass take only the quanta other parts' runs join).
   for (int p = 0; p < part.parts(); ++p)
     if (part.run_offset[p] == part.run_offset[p + 1]) {
       start_rows(model, state, f_ext, h, a, part.first[p], part.first[p + 1]);
+      copy_state(state, a, part.first[p], part.first[p + 1]);
       solve(part.first[p], part.first[p + 1]);
     }
   out.applied.ok = ok.load(std::memory_order_relaxed);
