@@ -36,14 +36,26 @@ struct Columns {
   const double* c[3];
 };
 
+// The step's external forces: f_ext as doubles, or gravity alone, m_q g, where f is null (an empty
+// f_ext: Integrator::forms_gravity). Simulation's m_q g has the same bits.
+struct External {
+  const double* f;
+  const double* mass;
+  double g[3];
+  template <bool kGravity>
+  QBOND_VECTOR_INLINE double at(std::size_t q, std::size_t c) const {
+    return kGravity ? mass[q] * g[c] : f[3 * q + c];
+  }
+};
+
 // Verlet's first half for quanta [lo, hi), from the step's first accelerations a = m⁻¹ (f0 + f_ext):
 // the free quanta's Δx = h v + h²/2 a into dx unless the step is direct (kDx false; 0 for
 // kinematic ones: the prescribed ones' rows, project_kinematic's, are written after); x₁ = x + Δx,
 // as the step will apply it, into the bond pass's rows (the next carry-over's); the velocity the
 // forces are taken at, ṽ = v + h a (kinematic: v), into the rows; the force sums zeroed. Returns
 // whether x and v equal cx and cv bit for bit.
-template <bool kDx>
-QBOND_VECTOR_INLINE bool stage_range(const double* inv_mass, Columns f0, const double* f_ext, const double* x,
+template <bool kDx, bool kGravity>
+QBOND_VECTOR_INLINE bool stage_range(const double* inv_mass, Columns f0, External f_ext, const double* x,
                                      const double* v, Columns cx, const double* cv, double h, double* dx,
                                      ForceRows rows, std::size_t lo, std::size_t hi) {
   const double hh = 0.5 * h * h;
@@ -54,7 +66,7 @@ QBOND_VECTOR_INLINE bool stage_range(const double* inv_mass, Columns f0, const d
       const double xe = x[e], ve = v[e];
       differ |= (std::bit_cast<std::uint64_t>(xe) ^ std::bit_cast<std::uint64_t>(cx.c[c][q])) |
                 (std::bit_cast<std::uint64_t>(ve) ^ std::bit_cast<std::uint64_t>(cv[e]));
-      const double ae = inv_mass[q] * (f0.c[c][q] + f_ext[e]);
+      const double ae = inv_mass[q] * (f0.c[c][q] + f_ext.at<kGravity>(q, c));
       const double step = h * ve + hh * ae, vt = ve + h * ae;
       const double d = inv_mass[q] != 0 ? step : 0.0;
       if constexpr (kDx) dx[e] = d;
@@ -67,11 +79,14 @@ QBOND_VECTOR_INLINE bool stage_range(const double* inv_mass, Columns f0, const d
 }
 
 // stage_range, writing dx unless it is null.
-QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, Columns f0, const double* f_ext,
-                                      const double* x, const double* v, Columns cx, const double* cv,
-                                      double h, double* dx, ForceRows rows, std::size_t lo, std::size_t hi) {
-  return dx ? stage_range<true>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi)
-            : stage_range<false>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi);
+QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, Columns f0, External f_ext, const double* x,
+                                      const double* v, Columns cx, const double* cv, double h, double* dx,
+                                      ForceRows rows, std::size_t lo, std::size_t hi) {
+  if (!f_ext.f)
+    return dx ? stage_range<true, true>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi)
+              : stage_range<false, true>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi);
+  return dx ? stage_range<true, false>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi)
+            : stage_range<false, false>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi);
 }
 
 // Where verlet_finish writes: Δv into dv, or for a direct step (kApplied; dv null) x₁ (the bond
@@ -87,8 +102,8 @@ struct FinishOut {
 // kinematic ones) and v₁ = v + Δv into v1; Δv, or x₁ and v₁, into `out`. Returns, for a direct
 // step, whether every value written is finite and no free quanta faster than sqrt(limit2)
 // (advance_checked's test, in the same branch-free form); true otherwise.
-template <bool kApplied>
-QBOND_VECTOR_INLINE bool finish_range(const double* inv_mass, ForceRows rows, const double* f_ext, Columns f0,
+template <bool kApplied, bool kGravity>
+QBOND_VECTOR_INLINE bool finish_range(const double* inv_mass, ForceRows rows, External f_ext, Columns f0,
                                       const double* v, double h, double limit2, double* v1, FinishOut out,
                                       std::size_t lo, std::size_t hi) {
   std::uint64_t bad = 0;
@@ -96,8 +111,8 @@ QBOND_VECTOR_INLINE bool finish_range(const double* inv_mass, ForceRows rows, co
     double speed2 = 0, nan_if_bad = 0;
     QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
       const std::size_t e = 3 * q + c;
-      const double kick =
-          (0.5 * h) * (inv_mass[q] * (f0.c[c][q] + f_ext[e]) + inv_mass[q] * (rows.f[c][q] + f_ext[e]));
+      const double fe = f_ext.at<kGravity>(q, c);
+      const double kick = (0.5 * h) * (inv_mass[q] * (f0.c[c][q] + fe) + inv_mass[q] * (rows.f[c][q] + fe));
       const double d = inv_mass[q] != 0 ? kick : 0.0;
       const double ve = v[e] + d;
       v1[e] = ve;
@@ -118,16 +133,21 @@ QBOND_VECTOR_INLINE bool finish_range(const double* inv_mass, ForceRows rows, co
 }
 
 // finish_range, into the applied state if out.dv is null.
-QBOND_VECTOR_CLONES bool verlet_finish(const double* inv_mass, ForceRows rows, const double* f_ext,
-                                       Columns f0, const double* v, double h, double limit2, double* v1,
-                                       FinishOut out, std::size_t lo, std::size_t hi) {
-  return out.dv ? finish_range<false>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi)
-                : finish_range<true>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi);
+QBOND_VECTOR_CLONES bool verlet_finish(const double* inv_mass, ForceRows rows, External f_ext, Columns f0,
+                                       const double* v, double h, double limit2, double* v1, FinishOut out,
+                                       std::size_t lo, std::size_t hi) {
+  if (!f_ext.f)
+    return out.dv ? finish_range<false, true>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi)
+                  : finish_range<true, true>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi);
+  return out.dv ? finish_range<false, false>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi)
+                : finish_range<true, false>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi);
 }
 
 class ExplicitIntegrator final : public Integrator {
  public:
   explicit ExplicitIntegrator(const IntegratorConfig& c) : Integrator(c) {}
+
+  bool forms_gravity() const override { return config_.type == IntegratorType::velocity_verlet; }
 
   double damping_theta() const override {
     switch (config_.type) {
@@ -217,7 +237,9 @@ class ExplicitIntegrator final : public Integrator {
     const double* inv_mass = model.inv_mass.data();
     const double* x = state.x.data()->data();
     const double* v = state.v.data()->data();
-    const double* fe = f_ext.data()->data();
+    const Vec3& g = model.gravity;
+    const External fe{
+        f_ext.empty() ? nullptr : f_ext.data()->data(), model.mass.data(), {g.x(), g.y(), g.z()}};
     double* dx = ctx.direct ? nullptr : out.dx.data()->data();
     const FinishOut finish_out =
         ctx.direct ? FinishOut{nullptr, out.applied.x.data()->data(), out.applied.v.data()->data()}

@@ -346,21 +346,45 @@ QBOND_VECTOR_CLONES void copy_state(const State& state, const StepArrays& a, std
 }
 
 // Each row's start for quanta [lo, hi): A_ii = m_i I and b_i = m_i v_i + h f_i (Eq. 12 before
-// any bond).
-QBOND_VECTOR_CLONES void start_rows(const Model& model, const State& state, const std::vector<Vec3>& f_ext, double h,
-                                    const StepArrays& a, std::size_t lo, std::size_t hi) {
+// any bond), with f_i = m_i g when kGravity (gravity alone: Integrator::forms_gravity) and else
+// from f; with kCopy the copies of x and v too (copy_state), in the same loop, which reads v
+// for both.
+template <bool kGravity, bool kCopy>
+QBOND_VECTOR_INLINE void start_range(const Model& model, const State& state, const double* f, double h,
+                                     const StepArrays& a, std::size_t lo, std::size_t hi) {
   const double* mass = model.mass.data();
+  const double* x = state.x.data()->data();
   const double* v = state.v.data()->data();
-  const double* f = f_ext.data()->data();
+  const double g[3] = {model.gravity.x(), model.gravity.y(), model.gravity.z()};
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
     const double m = mass[q];
     QBOND_UNROLL(3)
     for (std::size_t c = 0; c < 3; ++c) {
+      const double vq = v[3 * q + c];
+      const double fq = kGravity ? m * g[c] : f[3 * q + c];  // Simulation's m_i g: the same bits
       a.row[c][q] = m;
       a.row[3 + c][q] = 0;
-      a.row[6 + c][q] = m * v[3 * q + c] + h * f[3 * q + c];
+      a.row[6 + c][q] = m * vq + h * fq;
+      if constexpr (kCopy) {
+        a.x[c][q] = x[3 * q + c];
+        a.v[c][q] = vq;
+      }
     }
   }
+}
+
+// start_range for quanta [lo, hi), f_ext empty for gravity alone, with the copies of x and v if
+// `copy`.
+QBOND_VECTOR_CLONES void start_rows(const Model& model, const State& state, const std::vector<Vec3>& f_ext,
+                                    double h, const StepArrays& a, bool copy, std::size_t lo,
+                                    std::size_t hi) {
+  if (f_ext.empty()) {
+    if (copy) return start_range<true, true>(model, state, nullptr, h, a, lo, hi);
+    return start_range<true, false>(model, state, nullptr, h, a, lo, hi);
+  }
+  const double* f = f_ext.data()->data();
+  if (copy) return start_range<false, true>(model, state, f, h, a, lo, hi);
+  start_range<false, false>(model, state, f, h, a, lo, hi);
 }
 
 // v_i + Δv_i = A_ii⁻¹ b_i for quanta [lo, hi) — the adjugate of the symmetric block (positive
@@ -457,8 +481,10 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     copy_state(state, a, part.alone_hi[p], part.first[p + 1]);
   });
   const auto start = [&](const FrozenScratch& s, Index lo, Index hi) {
-    start_rows(model, state, f_ext, h, a, lo, hi);
-    copy_state(state, a, std::max(lo, part.alone_lo[s.part]), std::min(hi, part.alone_hi[s.part]));
+    const Index copy_lo = std::max(lo, part.alone_lo[s.part]), copy_hi = std::min(hi, part.alone_hi[s.part]);
+    const bool whole = copy_lo == lo && copy_hi == hi;  // else some are copied above, or empty
+    start_rows(model, state, f_ext, h, a, whole, lo, hi);
+    if (!whole) copy_state(state, a, copy_lo, copy_hi);
   };
   // m I + Σ B_b with B_b positive semi-definite: symmetric positive definite.
   // The prescribed quanta's rows, or their place in the applied state, with their range's
@@ -511,8 +537,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   // reads (the copies before the bond pass take only the quanta other parts' runs join).
   for (int p = 0; p < part.parts(); ++p)
     if (part.run_offset[p] == part.run_offset[p + 1]) {
-      start_rows(model, state, f_ext, h, a, part.first[p], part.first[p + 1]);
-      copy_state(state, a, part.first[p], part.first[p + 1]);
+      start_rows(model, state, f_ext, h, a, /*copy=*/true, part.first[p], part.first[p + 1]);
       solve(part.first[p], part.first[p + 1]);
     }
   out.applied.ok = ok.load(std::memory_order_relaxed);

@@ -17,6 +17,7 @@ class HybridIntegrator final : public Integrator {
   explicit HybridIntegrator(const IntegratorConfig& c) : Integrator(c) {}
 
   double damping_theta() const override { return 1.0; }
+  bool forms_gravity() const override { return config_.neighbours == NeighbourModel::frozen; }
 
   void project(const Model& model, const State& state, const Adjacency& adj,
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {

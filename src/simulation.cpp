@@ -70,13 +70,19 @@ void Simulation::begin_step() { project(false); }
 
 void Simulation::project(bool direct) {
   const Adjacency& adj = adjacency();
-  gather_external_forces();
+  // Gravity alone, in a direct step, is formed by an integrator that can in its own passes: no
+  // pass over the quanta to fill f_ext, and none of its reads.
+  static const std::vector<Vec3> kGravityAlone;
+  const bool gravity_alone =
+      direct && !forces_queued_ && world_.model.loads.empty() && integrator_->forms_gravity();
+  if (!gravity_alone) gather_external_forces();
   ctx_ = {.h = h_,
           .t = world_.state.time,
           .step = world_.state.step,
           .direct = direct,
           .max_speed = limits_.max_speed};
-  integrator_->project(world_.model, world_.state, adj, f_ext_, ctx_, projection_);
+  integrator_->project(world_.model, world_.state, adj, gravity_alone ? kGravityAlone : f_ext_, ctx_,
+                       projection_);
 }
 
 StepReport Simulation::step() {

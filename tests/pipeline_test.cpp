@@ -183,6 +183,38 @@ TEST(Pipeline, DirectFrozenStepsWithoutBondsGiveTheSameBitsAsStepsThroughDxDv) {
   }
 }
 
+// A direct step of the frozen hybrid or Verlet forms gravity itself (Integrator::forms_gravity)
+// only when gravity is the only external force: with a load or a queued force it takes
+// Simulation's array, and gives the bits of a step through dx and dv, which always does.
+TEST(Pipeline, DirectStepsTakeLoadsAndQueuedForces) {
+  Scene scene = canonical_lattice(6);
+  IntegratorConfig frozen = test::config(IntegratorType::hybrid_implicit);
+  frozen.neighbours = NeighbourModel::frozen;
+  for (const IntegratorConfig& c : {frozen, test::config(IntegratorType::velocity_verlet)}) {
+    auto run = [&](bool direct, bool load, bool force) {
+      World w = scene.world;
+      if (load) w.model.loads.push_back({{200, 201, 215}, Vec3(0.3, -0.2, 1.0)});
+      Simulation sim(w, c, scene.timestep);
+      sim.set_track_energy(!direct);
+      for (int n = 0; n < 3; ++n) {
+        if (force) sim.add_force(100, Vec3(0.5, 0.1, -0.4));
+        EXPECT_EQ(sim.step().status, StepReport::Status::ok);
+      }
+      return sim.world().state;
+    };
+    const State plain = run(true, false, false);
+    for (const auto& [load, force] :
+         {std::pair{true, false}, std::pair{false, true}, std::pair{true, true}}) {
+      const State s0 = run(false, load, force), s = run(true, load, force);
+      const std::string what =
+          std::string(to_string(c.type)) + (load ? " load" : "") + (force ? " force" : "");
+      EXPECT_EQ(std::memcmp(s.x.data(), s0.x.data(), s.x.size() * sizeof(Vec3)), 0) << what;
+      EXPECT_EQ(std::memcmp(s.v.data(), s0.v.data(), s.v.size() * sizeof(Vec3)), 0) << what;
+      EXPECT_NE(std::memcmp(s.v.data(), plain.v.data(), s.v.size() * sizeof(Vec3)), 0) << what;
+    }
+  }
+}
+
 // A heuristic that edits the bonds every step, as fracture and plasticity do: breaks the first
 // alive bond, doubles its rest length and stamps its time (energy neutral: a broken bond has none).
 class BondEditor : public Heuristic {

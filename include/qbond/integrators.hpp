@@ -186,9 +186,14 @@ class Integrator {
  public:
   virtual ~Integrator() = default;
   /// Projects one step of length ctx.h from `state` into `out` (resized to the quanta count).
-  /// `f_ext` holds the external force on every quanta for this step [N].
+  /// `f_ext` holds the external force on every quanta for this step [N], or is empty for gravity
+  /// alone, m_i g on every quanta, when the integrator forms_gravity().
   virtual void project(const Model& model, const State& state, const Adjacency& adj,
                        const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) = 0;
+  /// Whether project() takes an empty `f_ext` for gravity alone in a direct step
+  /// (StepContext::direct), forming m_i g in its own passes: Simulation then skips the pass that
+  /// fills the array when no load or queued force adds to gravity.
+  virtual bool forms_gravity() const { return false; }
   /// Fraction θ of the step's velocity change at which this integrator evaluates damping forces
   /// (0: start of step, 1: end, ½: between). The energy ledger charges damping work at v + θ dv.
   virtual double damping_theta() const = 0;
