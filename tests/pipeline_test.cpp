@@ -47,6 +47,13 @@ TEST(Pipeline, HeuristicsRunInOrderBetweenProjectionAndApplication) {
   EXPECT_NE(sim.world().state.x[1], x1);
 }
 
+// Whether two states' positions and velocities are the same bits.
+void expect_same_motion(const State& s, const State& s0, const std::string& what) {
+  ASSERT_EQ(s.x.size(), s0.x.size()) << what;
+  EXPECT_EQ(std::memcmp(s.x.data(), s0.x.data(), s.x.size() * sizeof(Vec3)), 0) << what;
+  EXPECT_EQ(std::memcmp(s.v.data(), s0.v.data(), s.v.size() * sizeof(Vec3)), 0) << what;
+}
+
 TEST(Pipeline, SameInputsSameBits) {
   auto run = [] {
     Scene s = builtin_scene("pendulum");
@@ -55,9 +62,7 @@ TEST(Pipeline, SameInputsSameBits) {
     return sim.world().state;
   };
   const State a = run(), b = run();
-  ASSERT_EQ(a.x.size(), b.x.size());
-  EXPECT_EQ(std::memcmp(a.x.data(), b.x.data(), a.x.size() * sizeof(Vec3)), 0);
-  EXPECT_EQ(std::memcmp(a.v.data(), b.v.data(), a.v.size() * sizeof(Vec3)), 0);
+  expect_same_motion(a, b, "");
   EXPECT_TRUE(a.energy == b.energy);  // field by field: the ledger has padding bytes
 }
 
@@ -99,9 +104,7 @@ TEST(Pipeline, AnyThreadCountGivesTheSameBits) {
         const std::string what = std::string(to_string(c.type)) + "/" + std::string(to_string(c.neighbours)) +
                                  "/" + std::string(to_string(c.solver)) + ", " + std::to_string(threads) +
                                  " threads" + (broken ? ", broken bonds" : "");
-        ASSERT_EQ(one.x.size(), many.x.size());
-        EXPECT_EQ(std::memcmp(one.x.data(), many.x.data(), one.x.size() * sizeof(Vec3)), 0) << what;
-        EXPECT_EQ(std::memcmp(one.v.data(), many.v.data(), one.v.size() * sizeof(Vec3)), 0) << what;
+        expect_same_motion(many, one, what);
         EXPECT_TRUE(one.energy == many.energy) << what;
       }
     }
@@ -149,8 +152,7 @@ TEST(Pipeline, DirectStepsGiveTheSameBitsAndReportsAsStepsThroughDxDv) {
         EXPECT_EQ(r.message, r0.message) << what;
         EXPECT_EQ(r.worst, r0.worst) << what;
         EXPECT_EQ(s.step, s0.step) << what;
-        EXPECT_EQ(std::memcmp(s.x.data(), s0.x.data(), s.x.size() * sizeof(Vec3)), 0) << what;
-        EXPECT_EQ(std::memcmp(s.v.data(), s0.v.data(), s.v.size() * sizeof(Vec3)), 0) << what;
+        expect_same_motion(s, s0, what);
         EXPECT_TRUE(s.warm == s0.warm) << what;
       }
     }
@@ -180,8 +182,7 @@ TEST(Pipeline, DirectStepsWithoutBondsGiveTheSameBitsAsStepsThroughDxDv) {
     for (int threads : {1, 2, 3}) {
       const State s = run(true, threads);
       const std::string what = std::string(to_string(c.type)) + ", " + std::to_string(threads) + " threads";
-      EXPECT_EQ(std::memcmp(s.x.data(), s0.x.data(), s.x.size() * sizeof(Vec3)), 0) << what;
-      EXPECT_EQ(std::memcmp(s.v.data(), s0.v.data(), s.v.size() * sizeof(Vec3)), 0) << what;
+      expect_same_motion(s, s0, what);
     }
   }
 }
@@ -211,8 +212,7 @@ TEST(Pipeline, DirectStepsTakeLoadsAndQueuedForces) {
       const State s0 = run(false, load, force), s = run(true, load, force);
       const std::string what =
           std::string(to_string(c.type)) + (load ? " load" : "") + (force ? " force" : "");
-      EXPECT_EQ(std::memcmp(s.x.data(), s0.x.data(), s.x.size() * sizeof(Vec3)), 0) << what;
-      EXPECT_EQ(std::memcmp(s.v.data(), s0.v.data(), s.v.size() * sizeof(Vec3)), 0) << what;
+      expect_same_motion(s, s0, what);
       EXPECT_NE(std::memcmp(s.v.data(), plain.v.data(), s.v.size() * sizeof(Vec3)), 0) << what;
     }
   }
