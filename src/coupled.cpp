@@ -14,6 +14,7 @@ class CoupledIntegrator final : public Integrator {
   explicit CoupledIntegrator(const IntegratorConfig& c) : Integrator(c) {}
 
   double damping_theta() const override { return 1.0; }
+  bool forms_gravity() const override { return true; }
 
   void project(const Model& model, const State& state, const Adjacency& adj,
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {

@@ -13,6 +13,12 @@ std::unique_ptr<Integrator> make_hybrid_integrator(const IntegratorConfig& confi
 std::unique_ptr<Integrator> make_coupled_implicit_integrator(const IntegratorConfig& config);
 std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& config);
 
+// The external force on quanta i: f_ext's, or m_i g for gravity alone (an empty f_ext:
+// Integrator::forms_gravity), with the bits of Simulation's.
+inline Vec3 external_force(const Model& model, const std::vector<Vec3>& f_ext, Index i) {
+  return f_ext.empty() ? Vec3(model.mass[i] * model.gravity) : f_ext[i];
+}
+
 // Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0) from State::warm
 // as keep_guess left it; false when it is zero (WarmStart::zero, or no previous step), which
 // spares CG its first product. On `threads` (parallel.hpp), as keep_guess and write_free_rows:

@@ -235,7 +235,9 @@ bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& 
     }
     switch (mode) {
       case WarmStart::zero: break;
-      case WarmStart::external: y[i] = (h * model.inv_mass[i]) * f_ext[i]; break;
+      case WarmStart::external:
+        y[i] = (h * model.inv_mass[i]) * external_force(model, f_ext, static_cast<Index>(i));
+        break;
       case WarmStart::previous: y[i] = previous[i]; break;
       case WarmStart::extrapolated:
         y[i] = extrapolate ? Vec3(2 * previous[i] - previous[n + i]) : previous[i];
@@ -276,7 +278,7 @@ void restore_component_momentum(const Model& model, const FreeComponents& comps,
     Vec3 wanted = Vec3::Zero(), got = Vec3::Zero();
     for (Index k = comps.offset[c]; k < comps.offset[c + 1]; ++k) {
       const Index i = comps.quanta[k];
-      wanted += h * f_ext[i];
+      wanted += h * external_force(model, f_ext, i);
       got += model.mass[i] * dv[i];
     }
     const Vec3 shift = (wanted - got) / comps.mass[c];

@@ -187,14 +187,16 @@ TEST(Pipeline, DirectStepsWithoutBondsGiveTheSameBitsAsStepsThroughDxDv) {
   }
 }
 
-// A direct step of the frozen hybrid or Verlet forms gravity itself (Integrator::forms_gravity)
-// only when gravity is the only external force: with a load or a queued force it takes
-// Simulation's array, and gives the bits of a step through dx and dv, which always does.
+// A direct step of the frozen hybrid, Verlet or the coupled step forms gravity itself
+// (Integrator::forms_gravity) only when gravity is the only external force: with a load or a
+// queued force it takes Simulation's array, and gives the bits of a step through dx and dv, which
+// always does.
 TEST(Pipeline, DirectStepsTakeLoadsAndQueuedForces) {
   Scene scene = canonical_lattice(6);
   IntegratorConfig frozen = test::config(IntegratorType::hybrid_implicit);
   frozen.neighbours = NeighbourModel::frozen;
-  for (const IntegratorConfig& c : {frozen, test::config(IntegratorType::velocity_verlet)}) {
+  for (const IntegratorConfig& c :
+       {frozen, test::config(IntegratorType::velocity_verlet), default_integrator()}) {
     auto run = [&](bool direct, bool load, bool force) {
       World w = scene.world;
       if (load) w.model.loads.push_back({{200, 201, 215}, Vec3(0.3, -0.2, 1.0)});
@@ -216,6 +218,22 @@ TEST(Pipeline, DirectStepsTakeLoadsAndQueuedForces) {
       EXPECT_NE(std::memcmp(s.v.data(), plain.v.data(), s.v.size() * sizeof(Vec3)), 0) << what;
     }
   }
+}
+
+// The coupled step's other reads of the external forces, formed for gravity alone in a direct
+// step: the initial guess from them (WarmStart::external) and the momentum a free body must gain.
+TEST(Pipeline, DirectCoupledStepsFormGravityForTheGuessAndTheMomentum) {
+  const World w0 = test::lattice(5, 4, 3, 1000, 1e-3, 0.01, false, Vec3(0.5, 0, -9.81));
+  IntegratorConfig c = default_integrator();
+  c.warm_start = WarmStart::external;
+  c.restore_momentum = true;
+  auto run = [&](bool direct) {
+    Simulation sim(w0, c, 1e-3);
+    sim.set_track_energy(!direct);
+    for (int n = 0; n < 3; ++n) EXPECT_EQ(sim.step().status, StepReport::Status::ok);
+    return sim.world().state;
+  };
+  expect_same_motion(run(true), run(false), "coupled, external guess, momentum restored");
 }
 
 // A heuristic that edits the bonds every step, as fracture and plasticity do: breaks the first
