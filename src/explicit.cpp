@@ -36,18 +36,6 @@ struct Columns {
   const double* c[3];
 };
 
-// The step's external forces: f_ext as doubles, or gravity alone, m_q g, where f is null (an empty
-// f_ext: Integrator::forms_gravity). Simulation's m_q g has the same bits.
-struct External {
-  const double* f;
-  const double* mass;
-  double g[3];
-  template <bool kGravity>
-  QBOND_VECTOR_INLINE double at(std::size_t q, std::size_t c) const {
-    return kGravity ? mass[q] * g[c] : f[3 * q + c];
-  }
-};
-
 // Verlet's first half for quanta [lo, hi), from the step's first accelerations a = m⁻¹ (f0 + f_ext):
 // the free quanta's Δx = h v + h²/2 a into dx unless the step is direct (kDx false; 0 for
 // kinematic ones: the prescribed ones' rows, project_kinematic's, are written after); x₁ = x + Δx,
@@ -237,9 +225,7 @@ class ExplicitIntegrator final : public Integrator {
     const double* inv_mass = model.inv_mass.data();
     const double* x = state.x.data()->data();
     const double* v = state.v.data()->data();
-    const Vec3& g = model.gravity;
-    const External fe{
-        f_ext.empty() ? nullptr : f_ext.data()->data(), model.mass.data(), {g.x(), g.y(), g.z()}};
+    const External fe(model, f_ext);
     double* dx = ctx.direct ? nullptr : out.dx.data()->data();
     const FinishOut finish_out =
         ctx.direct ? FinishOut{nullptr, out.applied.x.data()->data(), out.applied.v.data()->data()}

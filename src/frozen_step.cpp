@@ -17,6 +17,7 @@
 
 #include "affine_rows.hpp"
 #include "implicit_system.hpp"
+#include "integrator_common.hpp"
 #include "simd.hpp"
 
 namespace qbond {
@@ -346,25 +347,22 @@ QBOND_VECTOR_CLONES void copy_state(const State& state, const StepArrays& a, std
 }
 
 // Each row's start for quanta [lo, hi): A_ii = m_i I and b_i = m_i v_i + h f_i (Eq. 12 before
-// any bond), with f_i = m_i g when kGravity (gravity alone: Integrator::forms_gravity) and else
-// from f; with kCopy the copies of x and v too (copy_state), in the same loop, which reads v
-// for both.
+// any bond), f_i as External gives it (kGravity: gravity alone); with kCopy the copies of x and v
+// too (copy_state), in the same loop, which reads v for both.
 template <bool kGravity, bool kCopy>
-QBOND_VECTOR_INLINE void start_range(const Model& model, const State& state, const double* f, double h,
+QBOND_VECTOR_INLINE void start_range(const Model& model, const State& state, External f, double h,
                                      const StepArrays& a, std::size_t lo, std::size_t hi) {
   const double* mass = model.mass.data();
   const double* x = state.x.data()->data();
   const double* v = state.v.data()->data();
-  const double g[3] = {model.gravity.x(), model.gravity.y(), model.gravity.z()};
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
     const double m = mass[q];
     QBOND_UNROLL(3)
     for (std::size_t c = 0; c < 3; ++c) {
       const double vq = v[3 * q + c];
-      const double fq = kGravity ? m * g[c] : f[3 * q + c];  // Simulation's m_i g: the same bits
       a.row[c][q] = m;
       a.row[3 + c][q] = 0;
-      a.row[6 + c][q] = m * vq + h * fq;
+      a.row[6 + c][q] = m * vq + h * f.at<kGravity>(q, c);
       if constexpr (kCopy) {
         a.x[c][q] = x[3 * q + c];
         a.v[c][q] = vq;
@@ -378,11 +376,11 @@ QBOND_VECTOR_INLINE void start_range(const Model& model, const State& state, con
 QBOND_VECTOR_CLONES void start_rows(const Model& model, const State& state, const std::vector<Vec3>& f_ext,
                                     double h, const StepArrays& a, bool copy, std::size_t lo,
                                     std::size_t hi) {
-  if (f_ext.empty()) {
-    if (copy) return start_range<true, true>(model, state, nullptr, h, a, lo, hi);
-    return start_range<true, false>(model, state, nullptr, h, a, lo, hi);
+  const External f(model, f_ext);
+  if (!f.f) {
+    if (copy) return start_range<true, true>(model, state, f, h, a, lo, hi);
+    return start_range<true, false>(model, state, f, h, a, lo, hi);
   }
-  const double* f = f_ext.data()->data();
   if (copy) return start_range<false, true>(model, state, f, h, a, lo, hi);
   start_range<false, false>(model, state, f, h, a, lo, hi);
 }

@@ -11,6 +11,7 @@
 
 #include "affine_rows.hpp"
 #include "implicit_system.hpp"
+#include "integrator_common.hpp"
 #include "parallel.hpp"
 #include "simd.hpp"
 
@@ -34,16 +35,15 @@ struct BuildArrays {
   }
 };
 
-// Rows' start for quanta [lo, hi), A_ii = m I and b_i = h f_ext,i (m_i g when kGravity: gravity
-// alone, Integrator::forms_gravity), and the copies.
+// Rows' start for quanta [lo, hi), A_ii = m I and b_i = h f_ext,i as External gives it (kGravity:
+// gravity alone), and the copies.
 template <bool kGravity>
-QBOND_VECTOR_INLINE void start_range(const Model& model, const State& state, const double* f,
+QBOND_VECTOR_INLINE void start_range(const Model& model, const State& state, External f,
                                      const Projection& kin, double h, const BuildArrays& a, std::size_t lo,
                                      std::size_t hi) {
   const double *mass = model.mass.data(), *inv_mass = model.inv_mass.data();
   const double* x = state.x.data()->data();
   const double* v = state.v.data()->data();
-  const double g[3] = {model.gravity.x(), model.gravity.y(), model.gravity.z()};
   const double* kdx = kin.dx.data()->data();
   const double* kdv = kin.dv.data()->data();
   QBOND_SIMD for (std::size_t q = lo; q < hi; ++q) {
@@ -51,7 +51,7 @@ QBOND_VECTOR_INLINE void start_range(const Model& model, const State& state, con
     QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
       a.row[c][q] = m;
       a.row[3 + c][q] = 0;
-      a.row[6 + c][q] = h * (kGravity ? m * g[c] : f[3 * q + c]);
+      a.row[6 + c][q] = h * f.at<kGravity>(q, c);
       a.x[c][q] = x[3 * q + c];
       const double vq = v[3 * q + c], dx = kdx[3 * q + c], dv = kdv[3 * q + c];  // loaded, then selected
       a.v[c][q] = vq;
@@ -65,8 +65,9 @@ QBOND_VECTOR_INLINE void start_range(const Model& model, const State& state, con
 QBOND_VECTOR_CLONES void start_build(const Model& model, const State& state, const std::vector<Vec3>& f_ext,
                                      const Projection& kin, double h, const BuildArrays& a, std::size_t lo,
                                      std::size_t hi) {
-  if (f_ext.empty()) return start_range<true>(model, state, nullptr, kin, h, a, lo, hi);
-  start_range<false>(model, state, f_ext.data()->data(), kin, h, a, lo, hi);
+  const External f(model, f_ext);
+  if (!f.f) return start_range<true>(model, state, f, kin, h, a, lo, hi);
+  start_range<false>(model, state, f, kin, h, a, lo, hi);
 }
 
 // A run's terms, by bond k of the run: B_b's six entries, the right-hand-side term g_b on bond_i

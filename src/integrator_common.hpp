@@ -5,6 +5,7 @@
 
 #include "coloring.hpp"
 #include "qbond/integrators.hpp"
+#include "simd.hpp"
 
 namespace qbond {
 
@@ -18,6 +19,22 @@ std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& confi
 inline Vec3 external_force(const Model& model, const std::vector<Vec3>& f_ext, Index i) {
   return f_ext.empty() ? Vec3(model.mass[i] * model.gravity) : f_ext[i];
 }
+
+// The same for the vector kernels, by component: f_ext as doubles, or m_q g where f is null
+// (kGravity; passed by value, its pointers stay in registers through a loop).
+struct External {
+  const double* f;
+  const double* mass;
+  double g[3];
+  External(const Model& model, const std::vector<Vec3>& f_ext)
+      : f(f_ext.empty() ? nullptr : f_ext.data()->data()),
+        mass(model.mass.data()),
+        g{model.gravity.x(), model.gravity.y(), model.gravity.z()} {}
+  template <bool kGravity>
+  QBOND_VECTOR_INLINE double at(std::size_t q, std::size_t c) const {
+    return kGravity ? mass[q] * g[c] : f[3 * q + c];
+  }
+};
 
 // Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0) from State::warm
 // as keep_guess left it; false when it is zero (WarmStart::zero, or no previous step), which
