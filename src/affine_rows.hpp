@@ -240,8 +240,14 @@ QBOND_VECTOR_INLINE void add_affine_fused(const BondRun& run, double* const (&ro
       r[e][j0 + q] += tj[e];
     }
   };
-  const std::size_t whole = ends_apart(run) >= 8 ? count & ~std::size_t{7} : 0, lanes = affine_lanes(run);
+  const bool wide = ends_apart(run) >= 8;
+  const std::size_t whole = wide ? count & ~std::size_t{7} : 0, lanes = affine_lanes(run);
   QBOND_SIMD_SAFELEN(8) for (std::size_t q = 0; q < whole; ++q) add.template operator()<false>(q);  // kVectorLoop
+  if (wide &&
+      lanes - whole == 8) {  // one vector of 8 rather than two of 4 (a lattice row's 39 bonds: 32 + 8)
+    QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) add.template operator()<true>(whole + l);  // kVectorLoop
+    return;
+  }
   for (std::size_t q0 = whole; q0 < lanes; q0 += 4)
     QBOND_SIMD for (std::size_t l = 0; l < 4; ++l) add.template operator()<true>(q0 + l);  // kVectorLoop
 }

@@ -397,6 +397,8 @@ QBOND_VECTOR_INLINE bool solve_range(const Model& model, const State& state, con
   const double* inv_mass = model.inv_mass.data();
   const double *a0 = a.row[0], *a1 = a.row[1], *a2 = a.row[2], *a3 = a.row[3], *a4 = a.row[4], *a5 = a.row[5];
   const double *bx = a.row[6], *by = a.row[7], *bz = a.row[8];
+  // Local copies: read through `a` in the loop, GCC gathers them lane by lane.
+  const double *xs[3] = {a.x[0], a.x[1], a.x[2]}, *vs[3] = {a.v[0], a.v[1], a.v[2]};
   const double* v = state.v.data()->data();
   double* dv = kApplied ? nullptr : out.dv.data()->data();
   double* dx = kApplied ? nullptr : out.dx.data()->data();
@@ -412,7 +414,7 @@ QBOND_VECTOR_INLINE bool solve_range(const Model& model, const State& state, con
     double speed2 = 0, nan_if_bad = 0;
     auto write = [&](std::size_t c, double v1) QBOND_LAMBDA_INLINE {
       if constexpr (kApplied) {
-        const double x1 = a.x[c][q] + h * v1, vq = a.v[c][q], v1_applied = vq + (v1 - vq);
+        const double x1 = xs[c][q] + h * v1, vq = vs[c][q], v1_applied = vq + (v1 - vq);
         x_to[3 * q + c] = x1;
         v_to[3 * q + c] = v1_applied;
         nan_if_bad += (x1 - x1) + (v1_applied - v1_applied);
