@@ -34,6 +34,24 @@ QBOND_VECTOR_INLINE void for_lanes(std::size_t lanes, Lane&& lane) {
   if (whole != lanes) QBOND_SIMD for (std::size_t l = 0; l < 4; ++l) lane(whole + l);
 }
 
+// lane(q) for q in [0, lanes) as for_lanes takes them, each after lead(q), which prepares what it
+// reads (AffineLengths): a vector of 8 lanes' lead in the iteration before theirs, so that the two
+// overlap (lead's square roots and divisions use the divider, lane's arithmetic the other units).
+template <class Lead, class Lane>
+QBOND_VECTOR_INLINE void for_lanes_led(std::size_t lanes, Lead&& lead, Lane&& lane) {
+  const std::size_t whole = lanes & ~std::size_t{7};
+  if (whole == 0) {
+    for_lanes(lanes, lead);
+    return for_lanes(lanes, lane);
+  }
+  QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) lead(l);
+  for (std::size_t q0 = 0; q0 < whole; q0 += 8) QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) {
+      if (q0 + 8 + l < lanes) lead(q0 + 8 + l);
+      lane(q0 + l);
+    }
+  if (whole != lanes) QBOND_SIMD for (std::size_t l = 0; l < 4; ++l) lane(whole + l);
+}
+
 // Local copies of a structure-of-arrays vector's pointers: held in registers through a loop (read
 // through a reference, GCC reloads them every iteration and does not vectorise it).
 template <std::size_t N>
@@ -185,24 +203,32 @@ QBOND_VECTOR_INLINE Length length(double dx, double dy, double dz) {
   return {r, r > 0 ? inv_any : 0.0};
 }
 
-// The lengths r = |x_j − x_i| of an affine run's bonds and 1/r (0 for r = 0), from positions as
-// structure of arrays, in a loop of their own before the loop that forms the bonds' terms: there
-// the square root and the division (~33 cycles of latency on Zen 3) began each bond's chain of
-// dependent operations, and the out-of-order window, ~1.5 iterations of that loop, could not
-// overlap enough iterations to hide it (llvm-mca: the frozen step's loop 87 cycles per vector of
-// four, 42 + 14 split).
-QBOND_VECTOR_INLINE void affine_lengths(const BondRun& run, const double* const (&x)[3], double* r, double* inv_r) {
+// The lengths r = |x_j − x_i| of an affine run's bonds and 1/r (0 for r = 0), lane q's by
+// operator()(q), from positions as structure of arrays, ahead of the loop that forms the bonds'
+// terms (add_affine_terms' `lead`): at the head of that loop's chain of dependent operations, the
+// square root and the division (~33 cycles of latency on Zen 3, ~40 on the Xeon) left the
+// out-of-order window, ~1.5 iterations of that loop, too little to hide them.
+struct AffineLengths {
   const double *xi[3], *xj[3];
-  for (int c = 0; c < 3; ++c) {
-    xi[c] = x[c] + run.i0;
-    xj[c] = x[c] + run.j0;
+  double *r, *inv_r;
+  AffineLengths(const BondRun& run, const double* const (&x)[3], double* r, double* inv_r)
+      : r(r), inv_r(inv_r) {
+    for (int c = 0; c < 3; ++c) {
+      xi[c] = x[c] + run.i0;
+      xj[c] = x[c] + run.j0;
+    }
   }
-  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+  QBOND_VECTOR_INLINE void operator()(std::size_t q) const {
     const Length l = length(xj[0][q] - xi[0][q], xj[1][q] - xi[1][q], xj[2][q] - xi[2][q]);
     r[q] = l.r;
     inv_r[q] = l.inv_r;
-  });
-}
+  }
+};
+
+// No lead (add_affine_terms): the terms need nothing computed ahead of them.
+struct NoLead {
+  QBOND_VECTOR_INLINE void operator()(std::size_t) const {}
+};
 
 // How many quanta apart an affine run's ends are.
 inline Index ends_apart(const BondRun& run) { return run.j0 > run.i0 ? run.j0 - run.i0 : run.i0 - run.j0; }
@@ -221,9 +247,12 @@ inline bool fusable(const BondRun& run) {
 // is both bond_j of bond k' and bond_i of bond k > k' (or the reverse: |j0 − i0| bonds apart)
 // gets them from loop iterations in that order, of which run together at most 8 when the ends are
 // 8 or more apart, else 4: in bond order, the same sums as add_affine_run's. The lanes past the
-// run's bonds add −0.0.
-template <std::size_t N, class Terms>
-QBOND_VECTOR_INLINE void add_affine_fused(const BondRun& run, double* const (&rows)[N], Terms&& terms) {
+// run's bonds add −0.0. lead(q) prepares what terms(q, ...) reads (AffineLengths): for a vector of
+// 8 lanes one iteration ahead of it, so that the two overlap (lead's square roots and divisions
+// use the divider, terms' arithmetic the other units), else for every lane first.
+template <std::size_t N, class Terms, class Lead = NoLead>
+QBOND_VECTOR_INLINE void add_affine_fused(const BondRun& run, double* const (&rows)[N], Terms&& terms,
+                                          Lead&& lead = {}) {
   const std::size_t i0 = run.i0, j0 = run.j0, count = run.count;
   const Local<N> r(rows);
   auto add = [&]<bool kTail>(std::size_t q) QBOND_LAMBDA_INLINE {
@@ -242,7 +271,15 @@ QBOND_VECTOR_INLINE void add_affine_fused(const BondRun& run, double* const (&ro
   };
   const bool wide = ends_apart(run) >= 8;
   const std::size_t whole = wide ? count & ~std::size_t{7} : 0, lanes = affine_lanes(run);
-  QBOND_SIMD_SAFELEN(8) for (std::size_t q = 0; q < whole; ++q) add.template operator()<false>(q);  // kVectorLoop
+  if (wide && lanes >= 8) {
+    QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) lead(l);  // kVectorLoop
+  } else {
+    for_lanes(lanes, lead);
+  }
+  QBOND_SIMD_SAFELEN(8) for (std::size_t q = 0; q < whole; ++q) {  // kVectorLoop
+    if (q + 8 < lanes) lead(q + 8);
+    add.template operator()<false>(q);
+  }
   if (wide &&
       lanes - whole == 8) {  // one vector of 8 rather than two of 4 (a lattice row's 39 bonds: 32 + 8)
     QBOND_SIMD for (std::size_t l = 0; l < 8; ++l) add.template operator()<true>(whole + l);  // kVectorLoop
@@ -252,14 +289,14 @@ QBOND_VECTOR_INLINE void add_affine_fused(const BondRun& run, double* const (&ro
     QBOND_SIMD for (std::size_t l = 0; l < 4; ++l) add.template operator()<true>(q0 + l);  // kVectorLoop
 }
 
-// Adds an affine run's terms (terms(q, ti, tj), as add_affine_fused takes them) to the rows its
-// part owns: from the loop that forms them when the run is fusable, else through the term arrays
-// ti and tj (kBondRun entries each) and add_affine_run.
-template <std::size_t N, class Terms>
+// Adds an affine run's terms (terms(q, ti, tj), as add_affine_fused takes them, after lead(q)) to
+// the rows its part owns: from the loop that forms them when the run is fusable, else through the
+// term arrays ti and tj (kBondRun entries each) and add_affine_run.
+template <std::size_t N, class Terms, class Lead = NoLead>
 QBOND_VECTOR_INLINE void add_affine_terms(const BondRun& run, double* const (&rows)[N], Terms&& terms,
-                                          double* const (&ti)[N], double* const (&tj)[N]) {
-  if (fusable(run)) return add_affine_fused(run, rows, terms);
-  for_lanes(affine_lanes(run), [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
+                                          double* const (&ti)[N], double* const (&tj)[N], Lead&& lead = {}) {
+  if (fusable(run)) return add_affine_fused(run, rows, terms, lead);
+  for_lanes_led(affine_lanes(run), lead, [&](std::size_t q) QBOND_LAMBDA_INLINE {  // kVectorLoop
     double a[N], b[N];
     terms(q, a, b);
     QBOND_UNROLL(9) for (std::size_t e = 0; e < N; ++e) {

@@ -90,7 +90,7 @@ struct StepArrays {
 };
 
 // A bond's r, 1/r (length), u, u·v_i and u·v_j from d = x_j − x_i and its ends' velocities
-// (oriented: with r and 1/r given, affine_lengths). A zero-length bond has no direction: u = 0
+// (oriented: with r and 1/r given, AffineLengths). A zero-length bond has no direction: u = 0
 // (its tension, slope and damping are then masked to 0).
 struct Geometry {
   double r, inv_r, u[3], u_vi, u_vj;
@@ -198,7 +198,7 @@ struct FrozenTerms {
   alignas(64) double B[6][kBondRun];
   alignas(64) double si[kBondRun], sj[kBondRun], hcb[kBondRun];
   alignas(64) double ri[3][kBondRun], rj[3][kBondRun];
-  alignas(64) double r[kBondRun], inv_r[kBondRun];  // an affine run's lengths (affine_lengths)
+  alignas(64) double r[kBondRun], inv_r[kBondRun];  // an affine run's lengths (AffineLengths)
 };
 
 // What a part keeps from run to run.
@@ -273,10 +273,11 @@ struct LinearAffineBonds {
 template <bool kAxial>
 QBOND_VECTOR_INLINE void linear_affine_run(const Model& model, const State& state, const StepArrays& a,
                                            const BondRun& run, double h, FrozenTerms& t) {
-  affine_lengths(run, a.x, t.r, t.inv_r);
   const LinearAffineBonds<kAxial> bonds(model, state, a, run, h, t);
-  add_affine_terms(run, a.row, bonds, {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2]},
-                   {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.rj[0], t.rj[1], t.rj[2]});
+  add_affine_terms(run, a.row, bonds,
+                   {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2]},
+                   {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.rj[0], t.rj[1], t.rj[2]},
+                   AffineLengths(run, a.x, t.r, t.inv_r));
 }
 
 // An affine run that uniform_linear accepts (axial: its damping model is axial), after the part's
