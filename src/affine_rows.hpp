@@ -137,8 +137,6 @@ QBOND_VECTOR_INLINE void prefetch_parameters(const Model& model, const State& st
     __builtin_prefetch(state.rest.data() + b + k);
     __builtin_prefetch(model.damping.data() + b + k);
   }
-  __builtin_prefetch(model.law.data() + b);
-  __builtin_prefetch(model.damping_model.data() + b);
 }
 
 // rows[e][base + k] += terms[e][k] for k in [k0, k1) and each of the N rows.

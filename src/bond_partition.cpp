@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cassert>
 
+#include "affine_rows.hpp"
+
 namespace qbond {
 
 namespace {
@@ -186,6 +188,7 @@ void BondPartition::update(const Model& model, const Adjacency& adj, int threads
   build_runs(*this, model, adj);
   mark_reach(*this, model);
   mark_grids(*this);
+  for (BondRun& run : runs) run.kind = static_cast<std::int8_t>(run.affine ? uniform_linear(model, run) : -1);
   version = adj.version;
   threads = threads_wanted;
 }

@@ -40,6 +40,11 @@ struct BondRun {
   // body's rows of one offset: cube_drop's 120 runs are 16 grids and 2 runs). Kernels may take a
   // grid's runs in one loop, with what does not change from run to run set up once.
   Index rows = 1;
+  // An affine run's uniform_linear (affine_rows.hpp) when the partition was built: 0 every bond
+  // linear with axial damping, 1 with isotropic, −1 otherwise or not affine (the per-bond path).
+  // Kept, not tested each pass: reading each bond's law and damping model is 2 bytes a bond more
+  // from memory, and they change only with the topology (World::form_bond).
+  std::int8_t kind = -1;
   Index bond(Index k) const { return list ? list[k] : first + k; }
   bool owns(Index q) const { return q >= lo && q < hi; }
 };

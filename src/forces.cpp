@@ -111,9 +111,8 @@ void run_forces(const Model& model, const State& state, const BondRun& run, cons
 QBOND_VECTOR_CLONES void part_forces(const Model& model, const State& state, std::span<const BondRun> runs,
                                      const ForceRows& rows, ForceTerms& t) {
   for (const BondRun& run : runs) {
-    const int kind = run.affine ? uniform_linear(model, run) : -1;
-    if (kind >= 0)
-      affine_forces(model, state, rows, run, kind == 0, t);
+    if (run.kind >= 0)
+      affine_forces(model, state, rows, run, run.kind == 0, t);
     else
       run_forces(model, state, run, rows);
   }

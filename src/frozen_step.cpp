@@ -514,9 +514,8 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     }
     // The same runs for every partition (bond_partition.hpp), so the same path for each bond (an
     // affine run adds its terms from its loop or after it, the same sums either way).
-    const int kind = run.affine ? uniform_linear(model, run) : -1;
-    if (kind >= 0) {
-      affine_run(model, state, a, run, h, kind == 0, s.terms, s.stretch);
+    if (run.kind >= 0) {
+      affine_run(model, state, a, run, h, run.kind == 0, s.terms, s.stretch);
     } else {
       frozen_terms(model, state, run, h, s.bonds, s.terms);
       frozen_scatter(run, s.bonds, s.terms, state.v.data(), a, s.stretch);

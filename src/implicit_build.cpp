@@ -259,9 +259,8 @@ QBOND_VECTOR_CLONES void part_build(const Model& model, const State& state, cons
                                     std::span<const BondRun> runs, double h, BuildTerms& t,
                                     BondBlocks& blocks) {
   for (const BondRun& run : runs) {
-    const int kind = run.affine ? uniform_linear(model, run) : -1;
-    if (kind >= 0)
-      affine_build(model, state, a, run, h, kind == 0, t, blocks);
+    if (run.kind >= 0)
+      affine_build(model, state, a, run, h, run.kind == 0, t, blocks);
     else
       run_build(model, state, a, run, h, blocks);
   }

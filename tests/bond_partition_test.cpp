@@ -382,5 +382,33 @@ TEST(BondPartition, RebuildsWhenTheTopologyChanges) {
   for (Index k : part.bonds) EXPECT_NE(k, static_cast<Index>(b));
 }
 
+// BondRun::kind is uniform_linear's answer for each affine run (−1 for the others), and is
+// formed again when a bond's law changes with the topology version bumped (world.hpp).
+TEST(BondPartition, RunKindsAreEachRunsLawsAndFollowALawChange) {
+  World w = grouped_lattice(false);
+  Adjacency adj;
+  build_adjacency(w.model, w.state, adj);
+  BondPartition part;
+  part.update(w.model, adj, 2);
+  const BondRun* linear = nullptr;
+  std::set<int> kinds;
+  for (const BondRun& run : part.runs) {
+    EXPECT_EQ(run.kind, run.affine ? uniform_linear(w.model, run) : -1);
+    kinds.insert(run.kind);
+    if (!linear && run.kind == 0) linear = &run;
+  }
+  EXPECT_EQ(kinds, (std::set<int>{-1, 0, 1}));
+  ASSERT_NE(linear, nullptr);
+  const Index first = linear->first, b = first + linear->count / 2;
+  w.model.law[b] = Law::inverse;
+  ++w.state.topology_version;
+  build_adjacency(w.model, w.state, adj);
+  part.update(w.model, adj, 2);
+  for (const BondRun& run : part.runs)
+    if (run.affine && run.first <= b && b < run.first + run.count) {
+      EXPECT_EQ(run.kind, -1) << "run from bond " << run.first;
+    }
+}
+
 }  // namespace
 }  // namespace qbond

@@ -53,8 +53,10 @@ struct Model {
   std::vector<Index> bond_i, bond_j;         ///< endpoints (nb)
   std::vector<Index> bond_id;                ///< the user's id of each bond (nb): creation order
                                              ///< or formed slot, kept by renumbering
-  std::vector<Law> law;                      ///< (nb)
-  std::vector<DampingModel> damping_model;   ///< (nb)
+  /// (nb) law and damping model: the bond passes read them when the topology changes
+  /// (State::topology_version), so a change to an existing bond's must bump it.
+  std::vector<Law> law;
+  std::vector<DampingModel> damping_model;  ///< (nb) see `law`
   std::vector<double> stiffness;  ///< k [N/m] for linear, F [N] for inverse (nb)
   std::vector<double> damping;    ///< D [N·s/m] (nb)
   std::vector<double> eps;        ///< inverse-law regularisation length [m] (nb)
