@@ -16,6 +16,8 @@
 // CG (diagonal preconditioner) and sparse Cholesky (SimplicialLLT) on the same assembled system.
 #include <benchmark/benchmark.h>
 
+#include <Eigen/IterativeLinearSolvers>
+#include <Eigen/SparseCholesky>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -25,9 +27,7 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/IterativeLinearSolvers>
-#include <Eigen/SparseCholesky>
-
+#include "bench_integrators.hpp"
 #include "implicit_system.hpp"  // internal: the linear system the implicit integrators solve
 #include "qbond/ordering.hpp"
 #include "qbond/samples.hpp"
@@ -37,21 +37,8 @@ namespace {
 
 using namespace qbond;
 
-struct NamedIntegrator {
-  std::string name;
-  IntegratorConfig config;
-};
-
-std::vector<NamedIntegrator> known_integrators() {
-  IntegratorConfig frozen, sweep, verlet;
-  frozen.type = sweep.type = IntegratorType::hybrid_implicit;
-  frozen.neighbours = NeighbourModel::frozen;
-  sweep.neighbours = NeighbourModel::sweep;
-  sweep.iterations = 1;
-  sweep.tolerance = 0;
-  verlet.type = IntegratorType::velocity_verlet;
-  return {{"hybrid_frozen", frozen}, {"hybrid_sweep", sweep}, {"velocity_verlet", verlet}, {"default", default_integrator()}};
-}
+using bench::known_integrators;
+using bench::NamedIntegrator;
 
 // The bytes one step must move at the least, streaming every array once: per bond its two end
 // indices (2 × 4 B) and stiffness, rest length and damping (3 × 8 B); per quanta position and

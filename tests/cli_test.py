@@ -409,6 +409,26 @@ def test_bench_ab():
     if r.returncode == 0 or "no benchmark matches 'nothing/matches'" not in r.stderr:
         fail(f"an empty filter was accepted: {r.returncode} {r.stderr}")
 
+def test_step_times():
+    """qbond_step_times (each step timed on its own, performance.md): its four figures in order
+    (min <= p10 <= p25 <= median, all finite and positive), and an unknown integrator or a step
+    count that is not a positive integer is an error that says so."""
+    program = os.path.join(os.path.dirname(os.path.abspath(QBOND)), "qbond_step_times")
+    r = subprocess.run([program, "--n=6", "--integrator=velocity_verlet", "--steps=20", "--threads=2"],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        fail(f"qbond_step_times failed ({r.returncode}): {r.stderr}")
+    words = r.stdout.split()
+    if words[:4] != ["velocity_verlet", "n=6", "threads=2", "steps=20"] or words[5::2] != ["min", "p10", "p25", "median"]:
+        fail(f"qbond_step_times printed: {r.stdout}")
+    figures = [float(x) for x in words[6::2]]
+    if not all(0 < x < 1e6 for x in figures) or figures != sorted(figures):
+        fail(f"figures {figures}")
+    for bad, says in (("--integrator=nope", "unknown integrator: nope"), ("--steps=0", "not a positive integer")):
+        r = subprocess.run([program, "--n=6", bad], capture_output=True, text=True)
+        if r.returncode != 2 or says not in r.stderr:
+            fail(f"{bad} gave {r.returncode}: {r.stderr}")
+
 if __name__ == "__main__":
     os.makedirs(WORK, exist_ok=True)
     globals()["test_" + sys.argv[4]]()
