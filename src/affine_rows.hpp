@@ -202,10 +202,11 @@ QBOND_VECTOR_INLINE Length length(double dx, double dy, double dz) {
 }
 
 // The lengths r = |x_j − x_i| of an affine run's bonds and 1/r (0 for r = 0), lane q's by
-// operator()(q), from positions as structure of arrays, ahead of the loop that forms the bonds'
-// terms (add_affine_terms' `lead`): at the head of that loop's chain of dependent operations, the
-// square root and the division (~33 cycles of latency on Zen 3, ~40 on the Xeon) left the
-// out-of-order window, ~1.5 iterations of that loop, too little to hide them.
+// operator()(q), from positions as structure of arrays: a vector ahead, in the loop that forms the
+// bonds' terms (add_affine_terms' `lead`). Inline at the head of that loop's chain of dependent
+// operations, the square root and the division (~33 cycles of latency on Zen 3, ~40 on the Xeon)
+// left the out-of-order window, ~1.5 iterations of that loop, too little to hide them; in a loop
+// of their own before it (until session 35) the divider and the other units took turns.
 struct AffineLengths {
   const double *xi[3], *xj[3];
   double *r, *inv_r;
