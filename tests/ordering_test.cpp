@@ -67,11 +67,12 @@ TEST(Ordering, ALatticesBondsFormAffineRunsAPackingsDoNot) {
   renumber(w, locality_order(w));
   const Model& m = w.model;
   // Rows of 12 quanta: a row's run along x has 11 bonds, the diagonals' 10 or 11, and the runs
-  // along y and z go on over whole planes, cut at the 128-quanta blocks.
+  // along y and z go on over whole planes, cut at the blocks of first ends: 10 whole rows, 120
+  // quanta.
   EXPECT_GT(affine_bonds(w), 9 * w.num_bonds() / 10);
   auto key = [&](std::size_t b) {
     const Index i = m.bond_i[b], j = m.bond_j[b];
-    return std::tuple(i / 128, std::int64_t{j} - i, i);
+    return std::tuple(i / 120, std::int64_t{j} - i, i);
   };
   for (std::size_t b = 1; b < w.num_bonds(); ++b) EXPECT_LT(key(b - 1), key(b)) << b;
   const Renumbering again = locality_order(w);
@@ -87,6 +88,38 @@ TEST(Ordering, ALatticesBondsFormAffineRunsAPackingsDoNot) {
   EXPECT_LT(affine_bonds(p), p.num_bonds() / 10);
   for (std::size_t b = 1; b < p.num_bonds(); ++b)
     EXPECT_LT(std::pair(p.model.bond_i[b - 1], p.model.bond_j[b - 1]), std::pair(p.model.bond_i[b], p.model.bond_j[b]));
+}
+
+// The lengths of the affine segments (bond_partition.hpp) of bonds joining quanta one apart.
+std::vector<Index> segments_along_x(const World& w) {
+  std::vector<Index> lengths;
+  for_each_affine_segment(
+      w.model.bond_i.data(), w.model.bond_j.data(), static_cast<Index>(w.num_bonds()), kMinAffine,
+      [](Index) { return true; },
+      [&](Index b, Index n) {
+        if (w.model.bond_j[b] - w.model.bond_i[b] == 1) lengths.push_back(n);
+      });
+  return lengths;
+}
+
+// The blocks of first ends hold whole rows: a row's bonds along x are one affine segment, not
+// cut where a block of 128 would end (rows of 40: three rows a block). A row longer than a block
+// is cut into equal pieces (200: two of 100).
+TEST(Ordering, TheBlocksOfFirstEndsHoldWholeRows) {
+  World w = test::lattice(40, 5, 3, 1000, 1e-3, 0.01, true);
+  renumber(w, locality_order(w));
+  const std::vector<Index> rows = segments_along_x(w);
+  EXPECT_EQ(rows.size(), 5u * 3u);
+  for (Index n : rows) EXPECT_EQ(n, 39);
+
+  World l = test::lattice(200, 2, 2, 1000, 1e-3, 0.01, true);
+  renumber(l, locality_order(l));
+  const std::vector<Index> pieces = segments_along_x(l);
+  ASSERT_EQ(pieces.size(), 2u * 2u * 2u);
+  for (std::size_t k = 0; k < pieces.size(); k += 2) {
+    EXPECT_EQ(pieces[k], 100);     // first ends 0..99 of the row
+    EXPECT_EQ(pieces[k + 1], 99);  // 100..198
+  }
 }
 
 // A lattice built and then rotated (as a scene's "rotation" places a body) is numbered row by
