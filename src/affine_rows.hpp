@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "bond_partition.hpp"
+#include "qbond/line_vector.hpp"
 #include "qbond/world.hpp"
 #include "simd.hpp"
 
@@ -70,33 +71,22 @@ struct Local {
 // would wait on stores to other arrays).
 inline std::size_t soa_stride(std::size_t n) { return (n + 511) / 512 * 512 + 24; }
 
-// The first cache-line boundary at or after `data`, at most kLineSlack doubles on. Arrays that
-// start there (and soa_stride(n), a multiple of 8, apart) hold quanta 8k .. 8k + 7 in one line: a
-// lattice's rows start at multiples of 8 quanta (40 at n = 40), so most of a kernel's 8-wide
-// loads and stores take one line, not two. A std::vector's large block starts 16 bytes past a
-// line (glibc's mmap'd chunks), where every 8-wide access split across two: the frozen step
-// took 1.17 times as long (session 36).
-inline constexpr std::size_t kLineSlack = 7;
-template <class T>
-T* line_aligned(T* data) {
-  const std::uintptr_t at = reinterpret_cast<std::uintptr_t>(data);
-  return data + (64 - at % 64) % 64 / sizeof(T);
-}
-
-// A kernel's per-quanta arrays carved from one buffer sized for `count` of them, from its first
-// cache-line boundary (line_aligned), soa_stride(n) apart: next() is the next array, take(a)
-// points each of a's pointers at the next ones.
+// A kernel's per-quanta arrays carved from one buffer sized for `count` of them, soa_stride(n)
+// apart: next() is the next array, take(a) points each of a's pointers at the next ones. The
+// buffer starts on a cache line and soa_stride(n) is a multiple of 8, so every array does: a
+// lattice's rows start at multiples of 8 quanta (40 at n = 40), and the kernels' 8-wide loads and
+// stores at them take one line, not two (line_vector.hpp).
 class SoaArrays {
  public:
-  SoaArrays(std::vector<double>& buffer, std::size_t n, std::size_t count) : stride_(soa_stride(n)) {
+  SoaArrays(LineVector<double>& buffer, std::size_t n, std::size_t count) : stride_(soa_stride(n)) {
     // Grown, never shrunk: a buffer that two kernels share (ImplicitSystem::arrays) keeps the
     // larger size, and resizing it back up would write every entry added. Its entries are
     // scratch, so a growing buffer lets go of the old ones first (a copy would hold both).
-    if (buffer.size() < count * stride_ + kLineSlack) {
-      std::vector<double>().swap(buffer);
-      buffer.resize(count * stride_ + kLineSlack);
+    if (buffer.size() < count * stride_) {
+      LineVector<double>().swap(buffer);
+      buffer.resize(count * stride_);
     }
-    next_ = line_aligned(buffer.data());
+    next_ = buffer.data();
   }
   double* next() { return (next_ += stride_) - stride_; }
   template <std::size_t N>

@@ -32,8 +32,8 @@ class Writer {
   void pod(const T& v) {
     out.append(reinterpret_cast<const char*>(&v), sizeof v);
   }
-  template <class T>
-  void vec(const std::vector<T>& v) {
+  template <class T, class A>
+  void vec(const std::vector<T, A>& v) {
     pod<std::uint64_t>(v.size());
     if (!v.empty()) out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
   }
@@ -51,11 +51,11 @@ class Reader {
     bytes.remove_prefix(sizeof v);
     return v;
   }
-  template <class T>
-  std::vector<T> vec() {
+  template <class T, class A = std::allocator<T>>
+  std::vector<T, A> vec() {
     const auto n = pod<std::uint64_t>();
     if (n > bytes.size() / sizeof(T)) throw CheckpointError("state: a vector runs past the end");
-    std::vector<T> v(n);
+    std::vector<T, A> v(n);
     if (n > 0) std::memcpy(static_cast<void*>(v.data()), bytes.data(), n * sizeof(T));  // T is plain data (doubles)
     bytes.remove_prefix(n * sizeof(T));
     return v;
@@ -128,7 +128,7 @@ State deserialize_state(std::string_view bytes) {
     *d = r.pod<double>();
   e.initialised = r.pod<std::uint8_t>() != 0;
   s.topology_version = r.pod<std::uint64_t>();
-  s.warm = r.vec<Vec3>();
+  s.warm = r.vec<Vec3, LineAllocator<Vec3>>();
   s.obstacle_impulse = r.vec<ObstacleImpulse>();
   if (!r.bytes.empty()) throw CheckpointError("state: " + std::to_string(r.bytes.size()) + " unexpected bytes at the end");
   if (s.v.size() != s.x.size() || s.alive.size() != s.rest.size() || s.bond_time.size() != s.rest.size() ||

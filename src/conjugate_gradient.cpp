@@ -345,7 +345,7 @@ struct CgArrays {
   double *y[3], *r[3], *z[3], *p[3], *Ap[3];
   Diagonals d;
   double* inv_mass;
-  CgArrays(std::vector<double>& buffer, std::size_t n) {
+  CgArrays(LineVector<double>& buffer, std::size_t n) {
     SoaArrays soa(buffer, n, 28);
     soa.take(y);
     soa.take(r);
@@ -363,7 +363,7 @@ struct CgArrays {
 void apply_system(const Model& model, const ImplicitSystem& sys, const std::vector<Vec3>& y, int threads,
                   std::vector<Vec3>& out) {
   const std::size_t n = model.num_quanta();
-  std::vector<double> buffer;
+  LineVector<double> buffer;
   CgArrays a(buffer, n);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { load(model, sys, y, a.y, a.d, a.inv_mass, lo, hi); });
   product(model, sys, a.d, a.y, a.Ap, threads);

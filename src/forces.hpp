@@ -16,7 +16,7 @@ void bond_forces(const Model& model, const State& state, const std::vector<Vec3>
 // What accelerations keeps from call to call (so that a step allocates nothing): its per-quanta
 // arrays.
 struct ForceArrays {
-  std::vector<double> data;
+  LineVector<double> data;
 };
 
 // The force pass's per-quanta arrays as structure of arrays: the force sums f and the positions

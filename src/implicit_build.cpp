@@ -25,7 +25,7 @@ namespace {
 struct BuildArrays {
   double* row[9];
   double *x[3], *v[3], *dx0[3], *dvk[3];
-  BuildArrays(std::vector<double>& buffer, std::size_t n) {
+  BuildArrays(LineVector<double>& buffer, std::size_t n) {
     SoaArrays soa(buffer, n, 21);
     soa.take(row);
     soa.take(x);

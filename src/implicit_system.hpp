@@ -114,7 +114,7 @@ struct ImplicitSystem {
   // CG's product runs over it) and the per-quanta scratch of the build (implicit_build.cpp) and then
   // of CG (conjugate_gradient): one buffer, since their uses do not overlap.
   BondPartition part;
-  std::vector<double> arrays;
+  LineVector<double> arrays;
   PrescribedAt prescribed;  // begin_implicit_step's
 };
 
@@ -150,7 +150,7 @@ void gather_edges(const Model& model, const Adjacency& adj, int threads, Implici
 // (StepContext::direct), into the state the step applies, checked there.
 struct FrozenStep {
   BondPartition part;
-  std::vector<double> arrays;  // A_ii's six entries, b_i, x and v as structure of arrays (frozen_step.cpp)
+  LineVector<double> arrays;   // A_ii's six entries, b_i, x and v as structure of arrays (frozen_step.cpp)
   Index wake = 512;            // the fewest rows started or solved at a time in the bond pass (tests: fewer)
   PrescribedAt prescribed;
   void project(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,

@@ -41,14 +41,14 @@ struct External {
 // spares CG its first product. On `threads` (parallel.hpp), as keep_guess and write_free_rows:
 // per-quanta loops left on one thread are what keeps a second from speeding up a step.
 bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
-                   const std::vector<Vec3>& previous, int threads, std::vector<Vec3>& y);
+                   const LineVector<Vec3>& previous, int threads, std::vector<Vec3>& y);
 
 // The carry-over a step of length h whose solve found y leaves for the next one's initial_guess
 // (State::warm, `previous` as the step found it): y for WarmStart::previous; for extrapolated, y,
 // the Δv before it (zeros if none) and (h, that step's h or 0, kExtrapolationTag); nothing
 // otherwise.
-void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const std::vector<Vec3>& previous,
-                int threads, std::vector<Vec3>& warm);
+void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const LineVector<Vec3>& previous,
+                int threads, LineVector<Vec3>& warm);
 
 // Caches what depends only on topology (colours, free components), rebuilt when it changes.
 struct TopologyCache {

@@ -207,20 +207,20 @@ namespace {
 constexpr double kExtrapolationTag = -1;
 
 // Whether `warm` is keep_guess's extrapolated carry-over for n quanta.
-bool extrapolation_carry(const std::vector<Vec3>& warm, std::size_t n) {
+bool extrapolation_carry(const LineVector<Vec3>& warm, std::size_t n) {
   return warm.size() == 2 * n + 1 && warm[2 * n][2] == kExtrapolationTag;
 }
 
 // Whether `warm` starts with a previous step's Δv: `previous`'s carry-over, or an extrapolated one
 // (either way, as a checkpoint or a change of warm start may have left it).
-bool has_previous(const std::vector<Vec3>& warm, std::size_t n) {
+bool has_previous(const LineVector<Vec3>& warm, std::size_t n) {
   return warm.size() == n || extrapolation_carry(warm, n);
 }
 
 }  // namespace
 
 bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
-                   const std::vector<Vec3>& previous, int threads, std::vector<Vec3>& y) {
+                   const LineVector<Vec3>& previous, int threads, std::vector<Vec3>& y) {
   const std::size_t n = model.num_quanta();
   y.resize(n);
   const bool from_previous = mode == WarmStart::previous || mode == WarmStart::extrapolated;
@@ -248,8 +248,8 @@ bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& 
   return !zero;
 }
 
-void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const std::vector<Vec3>& previous,
-                int threads, std::vector<Vec3>& warm) {
+void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const LineVector<Vec3>& previous,
+                int threads, LineVector<Vec3>& warm) {
   if (mode != WarmStart::previous && mode != WarmStart::extrapolated) return;
   const std::size_t n = y.size();
   const bool extrapolated = mode == WarmStart::extrapolated,

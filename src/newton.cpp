@@ -281,7 +281,8 @@ class NewtonIntegrator final : public Integrator {
       std::copy(state.v.begin(), state.v.end(), out.warm.begin() + static_cast<std::ptrdiff_t>(n));
       out.warm[2 * n] = Vec3(ctx.t, h, static_cast<double>(ctx.step));
     } else if (config_.warm_start == WarmStart::previous) {
-      out.warm = stats_.substeps > 0 ? out.dv : y_;
+      const std::vector<Vec3>& kept = stats_.substeps > 0 ? out.dv : y_;
+      out.warm.assign(kept.begin(), kept.end());
     }
   }
 
@@ -534,7 +535,7 @@ class NewtonIntegrator final : public Integrator {
   ImplicitSystem sys_;
   TopologyCache topo_;
   std::vector<Vec3> y_, y0_, y_best_, delta_, force_, R_, impulse_, x_prev_, v_prev_;
-  const std::vector<Vec3> no_history_;
+  const LineVector<Vec3> no_history_;
   std::vector<double> scale_;
   std::vector<Mat3> exact_;  // sys_.exact set aside while the modified system is solved
   State sub_;                // substepping: the state the substeps have reached

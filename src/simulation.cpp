@@ -248,7 +248,8 @@ namespace {
 // velocities and the integrator's carry-over (always: see copy_last_good) and, with `bonds`, the
 // per-bond arrays.
 struct KeptArrays {
-  std::vector<Vec3> x, v, warm;
+  std::vector<Vec3> x, v;
+  LineVector<Vec3> warm;
   std::vector<double> rest;
   std::vector<std::uint8_t> alive;
   std::vector<double> bond_time;

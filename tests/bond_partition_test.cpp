@@ -410,17 +410,11 @@ TEST(BondPartition, RunKindsAreEachRunsLawsAndFollowALawChange) {
     }
 }
 
-// The kernels' per-quanta arrays start on cache-line boundaries whatever their buffer's address
-// (affine_rows.hpp: an 8-wide access at a multiple of 8 quanta then takes one line), the buffer
-// keeps its size when asked for fewer arrays, and the arrays fit in it.
+// The kernels' per-quanta arrays start on cache lines (affine_rows.hpp: an 8-wide access at a
+// multiple of 8 quanta then takes one line), their buffer keeps its size when asked for fewer
+// arrays, and the arrays fit in it; so does State::warm, which Verlet's force pass updates.
 TEST(SoaArrays, StartOnCacheLinesAndFitTheirBuffer) {
-  std::vector<double> storage(64);
-  for (std::size_t shift = 0; shift < 8; ++shift) {
-    double* p = storage.data() + shift;
-    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(line_aligned(p)) % 64, 0u);
-    EXPECT_LE(line_aligned(p) - p, static_cast<std::ptrdiff_t>(kLineSlack));
-  }
-  std::vector<double> buffer;
+  LineVector<double> buffer;
   for (std::size_t n : {std::size_t{1}, std::size_t{1000}, std::size_t{700}}) {
     const std::size_t count = 5;
     SoaArrays soa(buffer, n, count);
@@ -430,7 +424,12 @@ TEST(SoaArrays, StartOnCacheLinesAndFitTheirBuffer) {
       EXPECT_LE(a + soa.stride(), buffer.data() + buffer.size());
     }
   }
-  EXPECT_EQ(buffer.size(), 5 * soa_stride(1000) + kLineSlack);
+  EXPECT_EQ(buffer.size(), 5 * soa_stride(1000));
+  for (std::size_t size : {1, 3, 1000, 100000}) {
+    State s;
+    s.warm.resize(size);
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(s.warm.data()) % 64, 0u) << size;
+  }
 }
 }  // namespace
 }  // namespace qbond

@@ -519,7 +519,8 @@ TEST(WarmStart, ExtrapolatesOnlyBetweenStepsOfTheSameLength) {
   World w = test::lattice(3, 2, 2, 1000, 1e-3, 0.01, true);
   const Model& m = w.model;
   const std::size_t n = w.num_quanta();
-  std::vector<Vec3> dv1(n), dv2(n), f(n, Vec3::Zero()), carry1, carry2, y;
+  std::vector<Vec3> dv1(n), dv2(n), f(n, Vec3::Zero()), y;
+  LineVector<Vec3> carry1, carry2;
   for (std::size_t i = 0; i < n; ++i) {
     dv1[i] = Vec3(0.1 * i, 1, -2);
     dv2[i] = Vec3(0.3 * i, -1, 5);
@@ -538,12 +539,12 @@ TEST(WarmStart, ExtrapolatesOnlyBetweenStepsOfTheSameLength) {
   expect_free_rows([&](std::size_t i) { return dv1[i]; });
   ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, 2 * h, carry2, 1, y));
   expect_free_rows([&](std::size_t i) { return dv2[i]; });
-  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, dv2, 1, y));
+  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, LineVector<Vec3>(dv2.begin(), dv2.end()), 1, y));
   expect_free_rows([&](std::size_t i) { return dv2[i]; });
   ASSERT_TRUE(initial_guess(WarmStart::previous, m, f, h, carry2, 1, y));
   expect_free_rows([&](std::size_t i) { return dv2[i]; });
   // bdf2's carry-over, x and v then (t, h, step): not a Δv.
-  std::vector<Vec3> bdf2(2 * n + 1, Vec3::Ones());
+  LineVector<Vec3> bdf2(2 * n + 1, Vec3::Ones());
   bdf2[2 * n] = Vec3(0.5, h, 7);
   EXPECT_FALSE(initial_guess(WarmStart::extrapolated, m, f, h, bdf2, 1, y));
   EXPECT_FALSE(initial_guess(WarmStart::extrapolated, m, f, h, {}, 1, y));

@@ -41,7 +41,7 @@ struct Projection {
   /// The solver's solution to keep as State::warm when the step applies (WarmStart::previous and
   /// extrapolated only, keep_guess; empty otherwise). Kept apart from dv, which round-off makes
   /// differ from it.
-  std::vector<Vec3> warm;
+  LineVector<Vec3> warm;
   /// Whether `warm` holds values that hold only for the bonds' present parameters (velocity_verlet's
   /// bond forces); the step then drops it if a heuristic sets `bonds_edited`.
   bool warm_needs_bonds = false;

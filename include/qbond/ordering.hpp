@@ -46,8 +46,8 @@ void renumber(World& world, const Renumbering& r);
 
 /// Moves values[offset + k] to values[offset + p[k]] for k < p.size(): a per-quanta array
 /// (p = Renumbering::quanta) or per-bond array (p = Renumbering::bonds) to the new numbering.
-template <class T>
-void permute(std::vector<T>& values, const std::vector<Index>& p, std::size_t offset = 0) {
+template <class T, class A>
+void permute(std::vector<T, A>& values, const std::vector<Index>& p, std::size_t offset = 0) {
   assert(values.size() >= offset + p.size());
   std::vector<T> old(values.begin() + static_cast<std::ptrdiff_t>(offset),
                      values.begin() + static_cast<std::ptrdiff_t>(offset + p.size()));

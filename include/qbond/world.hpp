@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "qbond/laws.hpp"
+#include "qbond/line_vector.hpp"
 #include "qbond/math.hpp"
 #include "qbond/rng.hpp"
 
@@ -132,8 +133,8 @@ struct State {
   /// (forces and positions as padded structure of arrays, then v, then the version: see
   /// docs/integrators.md; reused only while the state is exactly that one: clear it after
   /// editing bond parameters by hand); empty otherwise. Kept here so that checkpoints and
-  /// rollbacks carry it.
-  std::vector<Vec3> warm;
+  /// rollbacks carry it. On a cache line (line_vector.hpp): Verlet's force pass updates its rows.
+  LineVector<Vec3> warm;
   /// Per recorded obstacle (Obstacle::record), the impulse it has given (n_obstacles).
   std::vector<ObstacleImpulse> obstacle_impulse;
 };
