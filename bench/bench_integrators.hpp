@@ -3,7 +3,7 @@
 #include <string>
 #include <vector>
 
-#include "qbond/integrators.hpp"
+#include "qbond/integrators/integrators.hpp"
 
 namespace qbond::bench {
 

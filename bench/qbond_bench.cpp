@@ -28,10 +28,10 @@
 #include <vector>
 
 #include "bench_integrators.hpp"
-#include "implicit_system.hpp"  // internal: the linear system the implicit integrators solve
-#include "qbond/ordering.hpp"
-#include "qbond/samples.hpp"
-#include "qbond/simulation.hpp"
+#include "integrators/backward_euler.hpp"  // internal: the linear system the implicit integrators solve
+#include "qbond/model/ordering.hpp"
+#include "qbond/builders/samples.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 namespace {
 

@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "bench_integrators.hpp"
-#include "qbond/samples.hpp"
-#include "qbond/simulation.hpp"
+#include "qbond/builders/samples.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 namespace {
 

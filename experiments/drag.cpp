@@ -5,11 +5,11 @@
 #include <vector>
 
 #include "experiment.hpp"
-#include "qbond/analysis.hpp"
-#include "qbond/builders.hpp"
-#include "qbond/samples.hpp"
-#include "qbond/simulation.hpp"
-#include "qbond/statics.hpp"
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/builders/builders.hpp"
+#include "qbond/builders/samples.hpp"
+#include "qbond/simulation/simulation.hpp"
+#include "qbond/solvers/statics.hpp"
 
 namespace qbond::experiments {
 namespace {

@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "experiment.hpp"
-#include "qbond/analysis.hpp"
-#include "qbond/builders.hpp"
-#include "qbond/simulation.hpp"
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/builders/builders.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 namespace qbond::experiments {
 namespace {

@@ -3,9 +3,9 @@
 #include <cmath>
 #include <cstdio>
 
-#include "qbond/builders.hpp"
-#include "qbond/files.hpp"
-#include "qbond/materials.hpp"
+#include "qbond/builders/builders.hpp"
+#include "qbond/io/files.hpp"
+#include "qbond/laws/materials.hpp"
 
 namespace qbond::experiments {
 

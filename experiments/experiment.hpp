@@ -8,8 +8,8 @@
 #include <string_view>
 #include <vector>
 
-#include "qbond/integrators.hpp"
-#include "qbond/world.hpp"
+#include "qbond/integrators/integrators.hpp"
+#include "qbond/model/world.hpp"
 
 namespace qbond::experiments {
 

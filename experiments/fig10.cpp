@@ -5,11 +5,11 @@
 #include <vector>
 
 #include "experiment.hpp"
-#include "qbond/materials.hpp"
-#include "qbond/ordering.hpp"
-#include "qbond/samples.hpp"
-#include "qbond/simulation.hpp"
-#include "qbond/statics.hpp"
+#include "qbond/laws/materials.hpp"
+#include "qbond/model/ordering.hpp"
+#include "qbond/builders/samples.hpp"
+#include "qbond/simulation/simulation.hpp"
+#include "qbond/solvers/statics.hpp"
 
 namespace qbond::experiments {
 namespace {

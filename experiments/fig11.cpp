@@ -8,9 +8,9 @@
 #include <vector>
 
 #include "experiment.hpp"
-#include "qbond/materials.hpp"
-#include "qbond/probes.hpp"
-#include "qbond/statics.hpp"
+#include "qbond/laws/materials.hpp"
+#include "qbond/io/probes.hpp"
+#include "qbond/solvers/statics.hpp"
 
 namespace qbond::experiments {
 namespace {

@@ -8,9 +8,9 @@
 #include <vector>
 
 #include "experiment.hpp"
-#include "qbond/fracture.hpp"
-#include "qbond/packing.hpp"
-#include "qbond/simulation.hpp"
+#include "qbond/heuristics/fracture.hpp"
+#include "qbond/builders/packing.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 namespace qbond::experiments {
 namespace {

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "experiment.hpp"
-#include "qbond/builders.hpp"
-#include "qbond/simulation.hpp"
+#include "qbond/builders/builders.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 namespace qbond::experiments {
 namespace {

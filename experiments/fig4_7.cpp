@@ -5,8 +5,8 @@
 #include <vector>
 
 #include "experiment.hpp"
-#include "qbond/analysis.hpp"
-#include "qbond/simulation.hpp"
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 namespace qbond::experiments {
 namespace {

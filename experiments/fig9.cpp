@@ -4,9 +4,9 @@
 #include <vector>
 
 #include "experiment.hpp"
-#include "qbond/materials.hpp"
-#include "qbond/statics.hpp"
-#include "qbond/stress.hpp"
+#include "qbond/laws/materials.hpp"
+#include "qbond/solvers/statics.hpp"
+#include "qbond/analysis/stress.hpp"
 
 namespace qbond::experiments {
 

@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "experiment.hpp"
-#include "qbond/analysis.hpp"
-#include "qbond/contacts.hpp"
-#include "qbond/gas.hpp"
-#include "qbond/simulation.hpp"
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/heuristics/contacts.hpp"
+#include "qbond/builders/gas.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 namespace qbond::experiments {
 namespace {

@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "qbond/analysis.hpp"
-#include "qbond/builders.hpp"
-#include "qbond/samples.hpp"
-#include "qbond/simulation.hpp"
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/builders/builders.hpp"
+#include "qbond/builders/samples.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 using namespace qbond;
 

@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "experiment.hpp"
-#include "qbond/analysis.hpp"
-#include "qbond/samples.hpp"
-#include "qbond/simulation.hpp"
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/builders/samples.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 namespace qbond::experiments {
 

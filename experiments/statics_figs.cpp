@@ -4,9 +4,9 @@
 #include <vector>
 
 #include "experiment.hpp"
-#include "qbond/materials.hpp"
-#include "qbond/simulation.hpp"
-#include "qbond/statics.hpp"
+#include "qbond/laws/materials.hpp"
+#include "qbond/simulation/simulation.hpp"
+#include "qbond/solvers/statics.hpp"
 
 namespace qbond::experiments {
 namespace {

@@ -4,8 +4,8 @@
 
 #include <cmath>
 
-#include "qbond/adaptive.hpp"
-#include "qbond/analysis.hpp"
+#include "qbond/integrators/adaptive.hpp"
+#include "qbond/analysis/analysis.hpp"
 #include "test_util.hpp"
 
 namespace qbond {

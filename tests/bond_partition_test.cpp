@@ -5,12 +5,12 @@
 #include <set>
 #include <tuple>
 
-#include "affine_rows.hpp"
-#include "bond_partition.hpp"
-#include "forces.hpp"
-#include "implicit_system.hpp"
-#include "qbond/ordering.hpp"
-#include "qbond/rng.hpp"
+#include "integrators/affine_run_terms.hpp"
+#include "integrators/bond_partition.hpp"
+#include "integrators/bond_forces.hpp"
+#include "integrators/backward_euler.hpp"
+#include "qbond/model/ordering.hpp"
+#include "qbond/core/rng.hpp"
 #include "test_util.hpp"
 
 namespace qbond {
@@ -187,7 +187,7 @@ World grouped_lattice(bool broken, bool small = false) {
   return w;
 }
 
-// The force pass (forces.hpp) against the plain one: each quanta's sum to round-off (the vector
+// The force pass (bond_forces.hpp) against the plain one: each quanta's sum to round-off (the vector
 // loops order a bond's arithmetic their own way), and the same bits at 1, 2 and 3 threads. In the
 // builder's order with mixed laws and damping every bond takes the per-bond path; in the
 // offset-grouped order most take the vector loops of affine runs.
@@ -410,7 +410,7 @@ TEST(BondPartition, RunKindsAreEachRunsLawsAndFollowALawChange) {
     }
 }
 
-// The kernels' per-quanta arrays start on cache lines (affine_rows.hpp: an 8-wide access at a
+// The kernels' per-quanta arrays start on cache lines (affine_run_terms.hpp: an 8-wide access at a
 // multiple of 8 quanta then takes one line), their buffer keeps its size when asked for fewer
 // arrays, and the arrays fit in it; so does State::warm, which Verlet's force pass updates.
 TEST(SoaArrays, StartOnCacheLinesAndFitTheirBuffer) {

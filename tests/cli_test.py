@@ -38,7 +38,7 @@ def fail(msg):
 
 
 def state_bytes(checkpoint):
-    """The State part of a checkpoint (format: include/qbond/checkpoint.hpp)."""
+    """The State part of a checkpoint (format: include/qbond/io/checkpoint.hpp)."""
     data = open(checkpoint, "rb").read()
     if data[:8] != b"QBONDCKP":
         fail(f"{checkpoint}: bad magic")

@@ -1,12 +1,12 @@
-// Energy restoration (IntegratorConfig::restore_energy, src/energy_restore.hpp): the velocity
+// Energy restoration (IntegratorConfig::restore_energy, src/integrators/energy_restore.hpp): the velocity
 // correction changes the kinetic energy by what is asked and keeps each free component's momenta;
 // on a dissipative integrator it closes the energy budget.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "energy_restore.hpp"
-#include "qbond/analysis.hpp"
+#include "integrators/energy_restore.hpp"
+#include "qbond/analysis/analysis.hpp"
 #include "test_util.hpp"
 
 namespace qbond {

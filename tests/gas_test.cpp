@@ -5,13 +5,13 @@
 #include <cmath>
 #include <limits>
 
-#include "qbond/analysis.hpp"
-#include "qbond/checkpoint.hpp"
-#include "qbond/contacts.hpp"
-#include "qbond/gas.hpp"
-#include "qbond/samples.hpp"
-#include "qbond/scene.hpp"
-#include "qbond/simulation.hpp"
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/io/checkpoint.hpp"
+#include "qbond/heuristics/contacts.hpp"
+#include "qbond/builders/gas.hpp"
+#include "qbond/builders/samples.hpp"
+#include "qbond/io/scene.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 namespace qbond {
 namespace {

@@ -5,11 +5,11 @@
 #include <algorithm>
 #include <cmath>
 
-#include "qbond/contacts.hpp"
-#include "qbond/formation.hpp"
-#include "qbond/checkpoint.hpp"
-#include "qbond/fracture.hpp"
-#include "qbond/scene.hpp"
+#include "qbond/heuristics/contacts.hpp"
+#include "qbond/heuristics/formation.hpp"
+#include "qbond/io/checkpoint.hpp"
+#include "qbond/heuristics/fracture.hpp"
+#include "qbond/io/scene.hpp"
 #include "test_util.hpp"
 
 namespace qbond {

@@ -9,14 +9,14 @@
 #include <string>
 #include <tuple>
 
-#include "bond_partition.hpp"
-#include "forces.hpp"
-#include "implicit_system.hpp"
-#include "integrator_common.hpp"
-#include "qbond/checkpoint.hpp"
-#include "qbond/fracture.hpp"
-#include "qbond/ordering.hpp"
-#include "qbond/samples.hpp"
+#include "integrators/bond_partition.hpp"
+#include "integrators/bond_forces.hpp"
+#include "integrators/backward_euler.hpp"
+#include "integrators/integrator_common.hpp"
+#include "qbond/io/checkpoint.hpp"
+#include "qbond/heuristics/fracture.hpp"
+#include "qbond/model/ordering.hpp"
+#include "qbond/builders/samples.hpp"
 #include "test_util.hpp"
 
 namespace qbond {
@@ -288,7 +288,7 @@ ReferenceStep plain_implicit_step(const World& w, double h, bool coupled = true)
 // block: both laws (the inverse law softening and compressed bonds: clamped), both damping
 // models, plastic rest lengths, broken bonds, a turning anchored face and gravity. The inverse law and
 // mixed damping models are given to bonds of the second half only, so that the frozen step's runs
-// of 64 bonds (frozen_step.cpp) include uniform ones (its vectorised law) and mixed ones; the
+// of 64 bonds (hybrid_frozen_kernel.cpp) include uniform ones (its vectorised law) and mixed ones; the
 // lattice is stepped with and
 // without broken bonds (its runs then are lists, or the consecutive bonds), and in the builder's
 // bond order and in the offset-grouped order of scene loading (ordering.hpp), where most runs
@@ -338,7 +338,7 @@ TEST(ImplicitStep, MatchesThePlainAssemblyOnARandomLattice) {
 }
 
 // The frozen step starts each part's rows just before its bond pass reaches them and solves them
-// once the pass is past them (frozen_step.cpp). On three lattices, the first two numbered apart by
+// once the pass is past them (hybrid_frozen_kernel.cpp). On three lattices, the first two numbered apart by
 // more than one of the pass's pieces, with unbonded quanta numbered between them (rows that no
 // run reaches), their runs affine and uniform, the third's of both laws and damping models and
 // broken bonds (the per-bond path, whose last row's sum is added only when the next run begins),

@@ -4,8 +4,8 @@
 
 #include <vector>
 
-#include "forces.hpp"
-#include "qbond/laws.hpp"
+#include "integrators/bond_forces.hpp"
+#include "qbond/laws/laws.hpp"
 #include "test_util.hpp"
 
 namespace qbond {

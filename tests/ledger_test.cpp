@@ -1,4 +1,4 @@
-// The energy ledger's per-step sums (bond_sums.hpp, step_work.hpp) against the plain bond-by-bond
+// The energy ledger's per-step sums (energy_sums.hpp, step_work.hpp) against the plain bond-by-bond
 // sums they replace: the bonds' energy and the dampers' work, whose affine blocks of eight are one
 // vector loop, and the anchors' work, found through the moving prescribed quanta only.
 #include <gtest/gtest.h>
@@ -7,10 +7,10 @@
 #include <limits>
 #include <string>
 
-#include "bond_sums.hpp"
-#include "parallel.hpp"
-#include "qbond/ordering.hpp"
-#include "step_work.hpp"
+#include "ledger/energy_sums.hpp"
+#include "core/parallel.hpp"
+#include "qbond/model/ordering.hpp"
+#include "ledger/step_work.hpp"
 #include "test_util.hpp"
 
 namespace qbond {
@@ -63,7 +63,7 @@ struct Applied {
   AppliedState state() const { return {x, v}; }
 };
 
-// Every damper point the kernels tell apart (bond_sums.cpp): θ = 1, 0 or between at the start's
+// Every damper point the kernels tell apart (energy_sums.cpp): θ = 1, 0 or between at the start's
 // bond, and the midpoint's θ = φ = ½, and one more of each.
 TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
   for (bool grouped : {false, true}) {

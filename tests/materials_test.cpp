@@ -7,10 +7,10 @@
 #include <cmath>
 #include <string>
 
-#include "qbond/materials.hpp"
-#include "qbond/scene.hpp"
-#include "qbond/statics.hpp"
-#include "qbond/stress.hpp"
+#include "qbond/laws/materials.hpp"
+#include "qbond/io/scene.hpp"
+#include "qbond/solvers/statics.hpp"
+#include "qbond/analysis/stress.hpp"
 #include "test_util.hpp"
 
 namespace qbond {

@@ -1,4 +1,4 @@
-// The Newton-solved integrators (src/newton.hpp): energy_momentum conserves energy and both
+// The Newton-solved integrators (src/integrators/newton.hpp): energy_momentum conserves energy and both
 // momenta at any step and its ledger closes with damping; polished, both conservative schemes
 // keep angular momentum to round-off; a split step is its substeps taken as steps, with the same
 // bits for any thread count; implicit_midpoint conserves a quadratic energy exactly; all three
@@ -11,9 +11,9 @@
 #include <cstring>
 #include <limits>
 
-#include "newton.hpp"
-#include "parallel.hpp"
-#include "qbond/checkpoint.hpp"
+#include "integrators/newton.hpp"
+#include "core/parallel.hpp"
+#include "qbond/io/checkpoint.hpp"
 #include "test_util.hpp"
 
 namespace qbond {

@@ -7,9 +7,9 @@
 #include <random>
 #include <tuple>
 
-#include "bond_partition.hpp"
-#include "qbond/ordering.hpp"
-#include "qbond/packing.hpp"
+#include "integrators/bond_partition.hpp"
+#include "qbond/model/ordering.hpp"
+#include "qbond/builders/packing.hpp"
 #include "test_util.hpp"
 
 namespace qbond {

@@ -3,12 +3,12 @@
 
 #include <filesystem>
 
-#include "qbond/checkpoint.hpp"
-#include "qbond/diagnostics.hpp"
-#include "qbond/files.hpp"
-#include "qbond/ordering.hpp"
-#include "qbond/probes.hpp"
-#include "qbond/vtk.hpp"
+#include "qbond/io/checkpoint.hpp"
+#include "qbond/io/diagnostics.hpp"
+#include "qbond/io/files.hpp"
+#include "qbond/model/ordering.hpp"
+#include "qbond/io/probes.hpp"
+#include "qbond/io/vtk.hpp"
 #include "test_util.hpp"
 
 namespace qbond {

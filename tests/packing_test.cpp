@@ -1,6 +1,6 @@
 // Packings and geometry (packing.hpp): Poisson-disk and random points, bonds within a radius,
 // the OBJ/STL readers, the closed-mesh check, voxelisation, and the scene's packing/mesh bodies.
-#include "qbond/packing.hpp"
+#include "qbond/builders/packing.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -13,11 +13,11 @@
 #include <map>
 #include <numbers>
 
-#include "qbond/files.hpp"
-#include "qbond/ordering.hpp"
-#include "qbond/samples.hpp"
-#include "qbond/scene.hpp"
-#include "spatial_hash.hpp"
+#include "qbond/io/files.hpp"
+#include "qbond/model/ordering.hpp"
+#include "qbond/builders/samples.hpp"
+#include "qbond/io/scene.hpp"
+#include "heuristics/spatial_hash.hpp"
 
 namespace qbond {
 namespace {

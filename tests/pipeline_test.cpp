@@ -5,9 +5,9 @@
 #include <cstring>
 #include <string>
 
-#include "forces.hpp"  // verlet_carry_size
-#include "qbond/samples.hpp"
-#include "qbond/scene.hpp"
+#include "integrators/bond_forces.hpp"  // verlet_carry_size
+#include "qbond/builders/samples.hpp"
+#include "qbond/io/scene.hpp"
 #include "test_util.hpp"
 
 namespace qbond {

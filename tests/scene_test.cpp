@@ -5,13 +5,13 @@
 #include <fstream>
 #include <map>
 
-#include "qbond/analysis.hpp"
-#include "qbond/builders.hpp"
-#include "qbond/files.hpp"
-#include "qbond/ordering.hpp"
-#include "qbond/packing.hpp"
-#include "qbond/scene.hpp"
-#include "qbond/selection.hpp"
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/builders/builders.hpp"
+#include "qbond/io/files.hpp"
+#include "qbond/model/ordering.hpp"
+#include "qbond/builders/packing.hpp"
+#include "qbond/io/scene.hpp"
+#include "qbond/model/selection.hpp"
 
 namespace qbond {
 namespace {

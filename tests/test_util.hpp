@@ -6,10 +6,10 @@
 #include <cstring>
 #include <vector>
 
-#include "qbond/analysis.hpp"
-#include "qbond/builders.hpp"
-#include "qbond/integrators.hpp"
-#include "qbond/simulation.hpp"
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/builders/builders.hpp"
+#include "qbond/integrators/integrators.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 namespace qbond::test {
 

@@ -9,10 +9,10 @@
 
 #include <filesystem>
 
-#include "parallel.hpp"
-#include "qbond/fracture.hpp"
-#include "qbond/samples.hpp"
-#include "qbond/simulation.hpp"
+#include "core/parallel.hpp"
+#include "qbond/heuristics/fracture.hpp"
+#include "qbond/builders/samples.hpp"
+#include "qbond/simulation/simulation.hpp"
 
 namespace qbond {
 namespace {

@@ -9,9 +9,9 @@
 
 #include "camera.hpp"
 #include "colors.hpp"
-#include "qbond/interaction.hpp"
-#include "qbond/ordering.hpp"
-#include "qbond/samples.hpp"
+#include "qbond/simulation/interaction.hpp"
+#include "qbond/model/ordering.hpp"
+#include "qbond/builders/samples.hpp"
 #include "script.hpp"
 
 namespace qbond {

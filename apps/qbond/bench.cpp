@@ -13,7 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "qbond/files.hpp"
+#include "qbond/io/files.hpp"
 
 namespace qbond::cli {
 namespace {

@@ -17,10 +17,10 @@
 
 #include "bench.hpp"
 #include "experiment.hpp"
-#include "qbond/analysis.hpp"
-#include "qbond/checkpoint.hpp"
-#include "qbond/runner.hpp"
-#include "qbond/samples.hpp"
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/io/checkpoint.hpp"
+#include "qbond/simulation/runner.hpp"
+#include "qbond/builders/samples.hpp"
 #include "viewer.hpp"
 
 namespace {

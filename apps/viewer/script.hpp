@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "qbond/math.hpp"
+#include "qbond/core/math.hpp"
 
 namespace qbond::view {
 

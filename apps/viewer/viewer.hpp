@@ -6,7 +6,7 @@
 #include <string>
 
 #include "colors.hpp"
-#include "qbond/scene.hpp"
+#include "qbond/io/scene.hpp"
 
 namespace qbond::view {
 

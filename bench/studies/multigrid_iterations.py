@@ -4,7 +4,7 @@
 Usage: bench/studies/multigrid_iterations.py [--n 10,20,40]
 Needs Debian's python3-numpy and python3-scipy (not a build dependency: a study, not part of the
 suite). Assembles the linearised backward-Euler system A = M + h C + h^2 K of the canonical
-lattice at rest (src/implicit_system.hpp: B_b = (h D + h^2 k) u u^T per bond, the x = 0 face
+lattice at rest (src/integrators/backward_euler.hpp: B_b = (h D + h^2 k) u u^T per bond, the x = 0 face
 eliminated) at h = 1/60 s, the system `qbond bench --solve` times, and counts preconditioned CG
 iterations to a relative residual of 1e-6 with
   - block Jacobi (A's 3x3 diagonal blocks): what qbond's CG uses;

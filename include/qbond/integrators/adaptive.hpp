@@ -1,0 +1,54 @@
+#pragma once
+/// Adaptive timestep (issue 9, "beyond the paper"): error control that grows the step when it can
+/// and shrinks it before a blow-up, plus an energy-drift criterion, for any integrator.
+///
+/// Error estimate. Every integrator projects Δx and Δv; the trapezoidal rule would have moved each
+/// quanta by h (v + v₁)/2. Their difference
+///     e_i = |Δx_i − h (v_i + (v_i + Δv_i)) / 2|
+/// is an embedded estimate of the step's local position error: h Δv/2 for backward Euler (whose
+/// local error is (h²/2) a), h² (a₀ − a₁)/4 for velocity Verlet; it needs no second solve. A step is
+/// accepted when max_i e_i ≤ `error`; the next step is h · clamp(safety √(error / e), 0.2, 2)
+/// (the estimate is O(h²) for the first-order schemes, hence the square root).
+///
+/// Energy drift. After a step, the energy the integrator itself created or destroyed (the energy
+/// budget's `numerical` term, analysis.hpp) may change by at most
+///     energy · E_scale · h / horizon,
+/// so that over the horizon the drift stays below `energy` · E_scale (E_scale: the larger of |E(0)|
+/// and the current kinetic + bond energy). A step that breaks it, or blows up, is undone (the
+/// state is restored) and retried at a quarter of the step; at `min_step` the step is taken anyway
+/// and a blow-up is reported as such.
+#include <functional>
+
+#include "qbond/simulation/simulation.hpp"
+
+namespace qbond {
+
+struct AdaptiveConfig {
+  bool enabled = false;
+  double error = 1e-6;      ///< largest local position error per step [m]
+  double energy = 1e-2;     ///< largest relative energy drift over `horizon`
+  double min_step = 1e-8;   ///< [s]
+  double max_step = 0;      ///< [s]; 0: no limit
+  double safety = 0.9;      ///< factor on the predicted step
+  double horizon = 1;       ///< [s] the run's length, over which the energy budget is spread
+};
+
+/// What one adaptive step did.
+struct AdaptiveReport {
+  StepReport step;          ///< of the accepted step (blow-up only at min_step)
+  double h = 0;             ///< the step taken [s]
+  double error = 0;         ///< its error estimate [m]
+  int rejected = 0;         ///< tries undone before it
+};
+
+/// Takes one accepted step of at most t_end − t, starting from sim.timestep() (the proposal the
+/// last call left there), and leaves the next proposal in sim.timestep(); a step that reaches
+/// t_end ends exactly there. One-step forces (Simulation::add_force, e.g. a viewer's drag) must be
+/// queued by `forces`, which is called before every try: a retry needs them again.
+AdaptiveReport adaptive_step(Simulation& sim, const AdaptiveConfig& config, double t_end,
+                             const std::function<void()>& forces = {});
+
+/// The embedded error estimate max_i |Δx_i − h (2 v_i + Δv_i)/2| over free quanta [m].
+double step_error(const Model& model, const State& state, const Projection& p, double h);
+
+}  // namespace qbond

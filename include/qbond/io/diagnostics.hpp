@@ -1,0 +1,35 @@
+#pragma once
+/// diagnostics.csv (DESIGN §10; columns documented in docs/running.md): one row per output step.
+#include <string>
+#include <vector>
+
+#include "qbond/heuristics/contacts.hpp"
+#include "qbond/integrators/integrators.hpp"
+#include "qbond/io/probes.hpp"
+
+namespace qbond {
+
+/// Formats the rows of diagnostics.csv: DESIGN §10's fifteen columns, then per probe its mean
+/// position, its reaction force and torque when anchored, its mean stress tensor and largest
+/// von Mises stress when its quanta have volumes (stress.hpp), then per recorded obstacle k the
+/// impulse it has given (obstacle<k>_jx, _jy, _jz, _jn: State::obstacle_impulse) and, for a
+/// container, its mean pressure since the accounts opened, jn / (contact area × elapsed time)
+/// (obstacle<k>_pressure), then work, numerical dissipation and the last step's solver iterations
+/// and residual. Numbers are printed with 17
+/// significant digits so that they read back exactly.
+class Diagnostics {
+ public:
+  Diagnostics(const Model& model, std::vector<Probe> probes, std::vector<Obstacle> obstacles = {});
+  /// The header line (no newline).
+  std::string header() const;
+  /// The row of a state (no newline); `timestep` is the step that led to it [s] (adaptive runs
+  /// vary it).
+  std::string row(const Model& model, const State& state, const SolveStats& stats, double timestep = 0) const;
+
+ private:
+  std::vector<Probe> probes_;
+  std::vector<bool> reaction_, stress_;
+  std::vector<Obstacle> obstacles_;  // the recorded ones
+};
+
+}  // namespace qbond

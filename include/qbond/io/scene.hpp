@@ -1,0 +1,91 @@
+#pragma once
+/// Scene files (DESIGN §9; every key in docs/scene-format.md): one JSON document describing a
+/// world, how to step it and what to output. Loading is strict: every error names the JSON path
+/// and the rule it breaks, and nothing is built from a scene that has one.
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "qbond/integrators/adaptive.hpp"
+#include "qbond/heuristics/contacts.hpp"
+#include "qbond/heuristics/formation.hpp"
+#include "qbond/heuristics/fracture.hpp"
+#include "qbond/integrators/integrators.hpp"
+#include "qbond/simulation/simulation.hpp"
+#include "qbond/model/world.hpp"
+
+namespace qbond {
+
+/// A scene error: what() is "SOURCE: PATH: RULE", e.g.
+/// "beam.json: bodies[2].spacing: must be > 0, got -0.01".
+class SceneError : public std::runtime_error {
+ public:
+  SceneError(const std::string& source, std::string path, std::string rule);
+  std::string path;  ///< JSON path ("bodies[2].spacing"); empty for the document itself
+  std::string rule;  ///< the rule broken
+};
+
+/// A probe of the scene's output: a named selection (probes.hpp measures it).
+struct ProbeSpec {
+  std::string name;
+  std::vector<Index> quanta;
+  std::optional<Vec3> about;  ///< torque reference point
+};
+
+/// The scene's `output` section.
+struct OutputSpec {
+  std::string dir = "out";             ///< relative to the current directory
+  std::uint64_t every = 1;             ///< steps between rows and frames
+  bool vtk = true;                     ///< write ParaView frames
+  std::uint64_t checkpoint_every = 0;  ///< steps between checkpoints (0: end and stops only)
+  std::vector<ProbeSpec> probes;
+};
+
+/// One entry of the scene's `heuristics` list.
+using HeuristicSpec = std::variant<BreakRule, PlasticRule, Obstacle, QuantaContactRule, FormRule>;
+/// Creates the heuristic an entry describes.
+std::unique_ptr<Heuristic> make_heuristic(const HeuristicSpec& spec);
+
+/// A loaded scene: the world built, the run's parameters, and the scene with every default
+/// filled in (`resolved`: what run.json and checkpoints record; it rebuilds the same world).
+struct Scene {
+  std::string name, description;
+  std::uint64_t seed = 1;
+  double timestep = 0;      ///< [s]
+  std::uint64_t steps = 0;  ///< from `steps`, or ceil(duration / timestep)
+  IntegratorConfig integrator;
+  AdaptiveConfig adaptive;  ///< `adaptive`: error-controlled steps; the run then ends at time
+                            ///< steps × timestep (its horizon) rather than after `steps` steps
+  BlowupLimits limits;
+  World world;
+  std::vector<HeuristicSpec> heuristics;  ///< in the order the step applies them
+  OutputSpec output;
+  nlohmann::json resolved;
+};
+
+/// Where the files a scene names (a mesh body's `file`) are read from.
+struct SceneFiles {
+  std::filesystem::path dir{};  ///< relative paths are relative to it (empty: to the current directory)
+  bool builtin = false;       ///< relative paths name the files of scenes/ compiled in (built-in scenes)
+};
+
+/// Parses a scene from JSON text; `source` names it in errors. Throws SceneError.
+Scene parse_scene(std::string_view json_text, const std::string& source = "<string>", const SceneFiles& files = {});
+/// Loads a scene file; its name defaults to the file's stem, and the files it names are relative
+/// to its directory. Throws SceneError.
+Scene load_scene(const std::filesystem::path& file);
+
+/// Largest stable step of symplectic Euler for the scene's bonds: 2/ω_max, with ω_max² bounded
+/// by Gershgorin's theorem, max over free quanta of 2 Σ k_b / m_i (k_b the bond's stiffness at
+/// rest: k for linear bonds, F/ε² for inverse ones; damping ignored). Infinite without bonds.
+double explicit_step_hint(const World& world);
+
+/// What `qbond validate` prints: counts, mass, bounding box, step and stability hint.
+std::string scene_summary(const Scene& scene);
+
+}  // namespace qbond

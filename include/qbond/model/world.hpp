@@ -1,0 +1,194 @@
+#pragma once
+/// The world (DESIGN §2): quanta and bonds as structure of arrays, split into what a step only
+/// reads (`Model`) and what it changes (`State`, exactly what a checkpoint saves).
+#include <string>
+#include <vector>
+
+#include "qbond/laws/laws.hpp"
+#include "qbond/core/line_vector.hpp"
+#include "qbond/core/math.hpp"
+#include "qbond/core/rng.hpp"
+
+namespace qbond {
+
+/// Prescribed motion of kinematic quanta (inverse mass 0).
+enum class MotionType : std::uint8_t {
+  fixed,      ///< stays at its reference position
+  translate,  ///< x(t) = x0 + velocity (t - t0)
+  rotate,     ///< x(t) = center + R(axis, rate (t - t0)) (x0 - center)
+};
+
+/// A prescribed motion shared by a selection of kinematic quanta.
+struct Motion {
+  MotionType type = MotionType::fixed;
+  Vec3 velocity = Vec3::Zero();  ///< translate: [m/s]
+  Vec3 axis = Vec3::UnitZ();     ///< rotate: unit axis
+  Vec3 center = Vec3::Zero();    ///< rotate: a point on the axis [m]
+  double rate = 0;               ///< rotate: angular rate [rad/s], right-handed about `axis`
+  double t0 = 0;                 ///< time at which quanta sat at their reference positions [s]
+  std::vector<Index> quanta;     ///< quanta that follow this motion
+  std::vector<Vec3> x0;          ///< their reference positions [m] (same length as `quanta`)
+
+  /// Position and velocity at time t of the k-th quanta of this motion.
+  void at(std::size_t k, double t, Vec3& x, Vec3& v) const;
+};
+
+/// A constant total force spread evenly over a selection of quanta.
+struct Load {
+  std::vector<Index> quanta;
+  Vec3 force = Vec3::Zero();  ///< total force [N]
+};
+
+/// Everything a step only reads: masses, bond parameters, gravity, loads, prescribed motions.
+struct Model {
+  // quanta (n)
+  std::vector<double> mass;      ///< [kg] (n)
+  std::vector<double> inv_mass;  ///< [1/kg] (n); 0 = kinematic (anchored or prescribed)
+  std::vector<Index> body;       ///< body id (n)
+  std::vector<double> volume;    ///< volume the quanta stands for [m³] (n); 0 = unknown, then
+                                 ///< it has no stress (stress.hpp). Builders set it.
+  std::vector<Index> quanta_id;  ///< the user's id of each quanta (n): creation order, kept when
+                                 ///< the world is renumbered for locality (ordering.hpp)
+  std::vector<std::string> body_names;  ///< (bodies)
+  // bonds (nb)
+  std::vector<Index> bond_i, bond_j;         ///< endpoints (nb)
+  std::vector<Index> bond_id;                ///< the user's id of each bond (nb): creation order
+                                             ///< or formed slot, kept by renumbering
+  /// (nb) law and damping model: the bond passes read them when the topology changes
+  /// (State::topology_version), so a change to an existing bond's must bump it.
+  std::vector<Law> law;
+  std::vector<DampingModel> damping_model;  ///< (nb) see `law`
+  std::vector<double> stiffness;  ///< k [N/m] for linear, F [N] for inverse (nb)
+  std::vector<double> damping;    ///< D [N·s/m] (nb)
+  std::vector<double> eps;        ///< inverse-law regularisation length [m] (nb)
+  std::vector<double> rest0;      ///< rest length the bond was made with [m] (nb); plastic strain
+                                  ///< is measured from it (State::rest is the current one)
+  // environment
+  Vec3 gravity = Vec3::Zero();    ///< [m/s²]
+  std::vector<Load> loads;
+  std::vector<Motion> motions;
+
+  std::size_t num_quanta() const { return mass.size(); }
+  std::size_t num_bonds() const { return bond_i.size(); }
+  bool is_kinematic(Index i) const { return inv_mass[i] == 0.0; }
+  /// Bond b's law at length r for rest length L.
+  LawValue law_at(std::size_t b, double r, double L) const { return evaluate_law(law[b], r, L, stiffness[b], eps[b]); }
+};
+
+/// Running energy accounts (DESIGN §8); with the current energies they close the budget
+/// E(t) - E(0) = work_loads + work_anchors - dissipated_damping - dissipated_heuristics
+///               - (numerical dissipation), see analysis.hpp.
+struct EnergyLedger {
+  double initial_total = 0;         ///< E(0) = kinetic + bond + gravity potential [J]
+  double initial_gravity = 0;       ///< gravity potential at t = 0 [J]
+  double initial_time = 0;          ///< time at which the accounts were opened [s]
+  double work_loads = 0;            ///< work of loads and user forces on free quanta [J]
+  double work_anchors = 0;          ///< work done on the structure by prescribed quanta [J]
+  double dissipated_damping = 0;    ///< energy removed by bond dampers [J]
+  double dissipated_heuristics = 0; ///< energy removed by heuristics (plastic work, contacts) [J]
+  bool initialised = false;
+
+  bool operator==(const EnergyLedger&) const = default;
+};
+
+/// The impulse an obstacle has given the quanta since the world was built: its contacts' momentum
+/// changes, summed (contacts.hpp). The normal part over the time and the wall's area is the
+/// pressure on it (docs/gases.md).
+struct ObstacleImpulse {
+  Vec3 total = Vec3::Zero();  ///< Σ m Δv over its contacts [N·s]
+  double normal = 0;          ///< Σ m Δv · n, n the surface normal toward the free side [N·s]
+
+  bool operator==(const ObstacleImpulse&) const = default;
+};
+
+/// A bond made during the run (bond formation): its Model entries, kept in the State so that a
+/// checkpoint carries them.
+struct FormedBond {
+  Index i = 0, j = 0;
+  Law law = Law::linear;
+  DampingModel damping_model = DampingModel::axial;
+  double stiffness = 0, damping = 0, eps = 0, rest0 = 0;
+};
+
+/// Everything a step changes; a checkpoint of this continues a run bit for bit.
+struct State {
+  std::vector<Vec3> x;           ///< position [m] (n)
+  std::vector<Vec3> v;           ///< velocity [m/s] (n)
+  std::vector<double> rest;      ///< rest length L [m] (nb); plasticity edits it
+  std::vector<std::uint8_t> alive;  ///< 1 while the bond holds (nb)
+  std::vector<double> bond_time; ///< [s] when the bond was last made or broken (nb; 0 for the
+                                 ///< scene's bonds until they break)
+  /// The bonds made during the run: the model's last formed.size() bonds (the first
+  /// rest.size() - formed.size() come from the scene). Their slots are reused once broken.
+  std::vector<FormedBond> formed;
+  double time = 0;               ///< [s]
+  std::uint64_t step = 0;
+  Rng rng;
+  EnergyLedger energy;
+  std::uint64_t topology_version = 0;  ///< bumped whenever bonds appear or break
+  /// What the integrator carries from one step to the next: the last step's solver solution
+  /// (velocity change of every quanta, n), the initial guess of WarmStart::previous; or bdf2's
+  /// previous state (x then v of every quanta, then (t, h, step) of that state: 2n + 1); or
+  /// velocity_verlet's last bond forces with the x and v it left and its topology version
+  /// (forces and positions as padded structure of arrays, then v, then the version: see
+  /// docs/integrators.md; reused only while the state is exactly that one: clear it after
+  /// editing bond parameters by hand); empty otherwise. Kept here so that checkpoints and
+  /// rollbacks carry it. On a cache line (line_vector.hpp): Verlet's force pass updates its rows.
+  LineVector<Vec3> warm;
+  /// Per recorded obstacle (Obstacle::record), the impulse it has given (n_obstacles).
+  std::vector<ObstacleImpulse> obstacle_impulse;
+};
+
+/// CSR adjacency of alive bonds, derived from the bond list (never edited by hand).
+struct Adjacency {
+  std::vector<Index> offset;    ///< (n + 1): quanta i's entries are [offset[i], offset[i+1])
+  std::vector<Index> bond;      ///< bond id of each entry
+  std::vector<Index> other;     ///< the other endpoint of each entry
+  std::uint64_t version = ~0ull;  ///< the State::topology_version it was built from
+};
+
+/// Builds the CSR adjacency of the alive bonds (entries ordered by bond id).
+void build_adjacency(const Model& model, const State& state, Adjacency& adj);
+
+/// Parameters of a new bond.
+struct BondSpec {
+  Law law = Law::linear;
+  double stiffness = 0;  ///< k [N/m] (linear) or F [N] (inverse)
+  double damping = 0;    ///< D [N·s/m]
+  DampingModel damping_model = DampingModel::axial;
+  double rest_length = -1;  ///< [m]; negative: the current distance
+  double eps = -1;          ///< [m]; negative: kDefaultInverseEpsFraction × rest length
+};
+
+/// A model and its state, with helpers that keep the arrays consistent.
+struct World {
+  Model model;
+  State state;
+
+  /// Adds a body name and returns its id.
+  Index add_body(std::string name);
+  /// Adds a quanta standing for `volume` m³ (0: unknown); mass 0 makes it kinematic (inverse
+  /// mass 0). Returns its id.
+  Index add_quanta(const Vec3& x, const Vec3& v, double mass, Index body = 0, double volume = 0);
+  /// Adds a bond between quanta i and j. Returns its id.
+  Index add_bond(Index i, Index j, const BondSpec& spec);
+  /// Makes quanta kinematic with a prescribed motion, starting from their current positions at
+  /// the current time; their velocities are set to the prescribed ones.
+  void prescribe(std::vector<Index> quanta, Motion motion);
+  /// Adds a constant load (total force spread evenly over `quanta`).
+  void add_load(std::vector<Index> quanta, const Vec3& total_force);
+  /// Marks a bond broken at the current time; it leaves the solver from the next adjacency build.
+  void break_bond(Index b);
+  /// Makes a bond during the run (bond formation): rest length and rest0 = `rest_length`, in
+  /// formed slot `slot` (a broken one to reuse), or appended when slot == num_bonds().
+  Index form_bond(Index i, Index j, const BondSpec& spec, double rest_length, Index slot);
+  /// Makes the model's formed bonds those of state.formed again (after the state was replaced:
+  /// a rollback or a resumed checkpoint).
+  void sync_formed_bonds();
+
+  std::size_t num_quanta() const { return model.num_quanta(); }
+  std::size_t num_bonds() const { return model.num_bonds(); }
+  std::size_t num_alive_bonds() const;
+};
+
+}  // namespace qbond

@@ -1,0 +1,87 @@
+#pragma once
+/// A run of a scene with its outputs (DESIGN §10): diagnostics.csv, ParaView frames and series,
+/// run.json and checkpoints, continued bit for bit from any checkpoint. The `qbond run` program
+/// is this plus a progress bar and signal handling; the library keeps no global state.
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "qbond/io/scene.hpp"
+#include "qbond/simulation/simulation.hpp"
+
+namespace qbond {
+
+/// How a scene is run. Saved in checkpoints, so that a resumed run goes on the same way.
+struct RunSettings {
+  std::filesystem::path out_dir = "out";  ///< made absolute when the run starts
+  std::uint64_t steps = 0;                ///< the step count at which the run ends (total, not remaining)
+  std::uint64_t every = 1;                ///< steps between diagnostics rows and frames
+  std::uint64_t checkpoint_every = 0;     ///< steps between checkpoints; 0: at the end and on stops only
+  bool vtk = true;                        ///< write .vtp frames and the .pvd series
+};
+
+/// The settings a scene asks for (its `steps` and `output` section).
+RunSettings settings_of(const Scene& scene);
+
+/// Where a run stands, for progress displays.
+struct RunProgress {
+  std::uint64_t step = 0;        ///< steps taken so far (state.step)
+  std::uint64_t first_step = 0;  ///< step at which this invocation started
+  std::uint64_t last_step = 0;   ///< step at which the run ends
+  double time = 0;               ///< simulated time [s]
+  double wall_seconds = 0;       ///< wall time of this invocation so far [s]
+  /// Whether the step adapts: the run then ends at a time, not at last_step (an estimate).
+  bool adaptive = false;
+  double fraction = 0;  ///< of this invocation's run done: by steps, or by simulated time if adaptive
+};
+
+/// How a run ended.
+enum class RunStatus : std::uint8_t { completed, stopped, blowup };
+
+struct RunResult {
+  RunStatus status = RunStatus::completed;
+  std::string message;  ///< blow-up: what, where and when
+  std::uint64_t steps_taken = 0;
+  double wall_seconds = 0;
+};
+
+/// One run: the simulation and the files it writes into settings.out_dir:
+///   diagnostics.csv   one row per output step (columns: diagnostics.hpp)
+///   frames/*.vtp      one VTK PolyData frame per output step, when settings.vtk
+///   series.pvd        the frames as a ParaView time series
+///   checkpoint.qbc    the latest checkpoint (checkpoint.hpp)
+///   run.json          the resolved scene, settings, version, status and timings
+class Runner {
+ public:
+  /// Starts a fresh run: creates the output directory, writes run.json, the CSV header and the
+  /// step-0 row and frame. Frames of an earlier run in the same directory are removed.
+  Runner(Scene scene, RunSettings settings);
+  /// Continues from a checkpoint. `adjust` may change the scene and settings before the run is
+  /// rebuilt (later end, other output directory); outputs already written past the checkpoint's
+  /// step are dropped so that the directory reads as if the run had never stopped.
+  static Runner resume(const std::filesystem::path& checkpoint,
+                       const std::function<void(Scene&, RunSettings&)>& adjust = {});
+  ~Runner();
+  Runner(Runner&&) noexcept;
+  Runner& operator=(Runner&&) = delete;
+
+  /// Steps until settings.steps, a blow-up, or `stop()` returning true (checked after every
+  /// step). Then writes the final row, frame, checkpoint and run.json. `progress` is called after
+  /// every step.
+  RunResult run(const std::function<bool()>& stop = {},
+                const std::function<void(const RunProgress&)>& progress = {});
+
+  const Scene& scene() const;
+  const RunSettings& settings() const;
+  Simulation& simulation();
+
+ private:
+  struct Impl;
+  explicit Runner(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace qbond

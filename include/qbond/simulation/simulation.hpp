@@ -1,0 +1,127 @@
+#pragma once
+/// The step pipeline (DESIGN §4): gather external forces → project → heuristics → apply →
+/// observers. Same inputs, same bits: nothing here depends on timing or thread count.
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "qbond/heuristics/heuristics.hpp"
+#include "qbond/integrators/integrators.hpp"
+#include "qbond/model/world.hpp"
+
+namespace qbond {
+
+/// Limits past which a step counts as a blow-up.
+struct BlowupLimits {
+  double max_speed = 1e5;  ///< [m/s] any free quanta faster than this
+  /// Kinetic + bond energy may not exceed this factor times the energy the system could have
+  /// gained (initial kinetic + bond energy + |gravity work| + |load and anchor work|).
+  double energy_growth = 1e3;
+  double energy_floor = 1e-9;  ///< [J] absolute slack so that systems at rest don't trip it
+};
+
+/// Outcome of one step.
+struct StepReport {
+  enum class Status { ok, blowup } status = Status::ok;
+  std::string message;      ///< set on blow-up: what, where and when
+  Index worst = 0;          ///< quanta with the worst value on blow-up (its index; the message
+                            ///< names its user id, Model::quanta_id)
+};
+
+/// Something that looks at the world after every applied step (diagnostics, outputs, viewer).
+class Observer {
+ public:
+  virtual ~Observer() = default;
+  virtual void observe(const Model& model, const State& state, const StepContext& ctx) = 0;
+};
+
+/// A world, the integrator that steps it, its heuristics and observers.
+class Simulation {
+ public:
+  Simulation(World world, const IntegratorConfig& config, double h);
+
+  /// One whole step. On blow-up the world keeps the last good state when the projection
+  /// itself is bad (non-finite or too fast); an energy runaway is caught right after applying,
+  /// and rolled back too when set_keep_last_good(true).
+  StepReport step();
+  /// Split step for interactive use: `begin_step` gathers forces and projects; the caller may
+  /// add forces before it or edit the projection after it; `end_step` runs heuristics, applies,
+  /// checks and notifies observers.
+  void begin_step();
+  StepReport end_step();
+
+  /// Adds a force [N] to quanta i for the next step only (viewer drags, scripted pushes).
+  void add_force(Index i, const Vec3& f);
+  /// Drops the forces add_force queued for the next step (a step retried re-queues them).
+  void clear_forces();
+  /// Appends a heuristic to the ordered list.
+  void add_heuristic(std::unique_ptr<Heuristic> h) { heuristics_.push_back(std::move(h)); }
+  /// Removes every heuristic (a viewer turning them off).
+  void clear_heuristics() { heuristics_.clear(); }
+  void add_observer(Observer* o) { observers_.push_back(o); }
+  /// Replaces the integrator (keeps the world, drops the old one's carry-over, State::warm).
+  void set_integrator(const IntegratorConfig& config);
+
+  World& world() { return world_; }
+  const World& world() const { return world_; }
+  const Integrator& integrator() const { return *integrator_; }
+  /// The last projection: dx and dv after begin_step; after step() with no heuristic and no
+  /// energy ledger they may be empty, the integrator having written the state to apply instead
+  /// (StepContext::direct).
+  const Projection& projection() const { return projection_; }
+  /// Topology changes the heuristics made during the last step (cleared when a step begins).
+  const std::vector<BondEvent>& events() const { return events_; }
+  double timestep() const { return h_; }
+  void set_timestep(double h) { h_ = h; }
+  BlowupLimits& limits() { return limits_; }
+  /// Whether the energy ledger is updated, and checked for a runaway, every step (costs one pass
+  /// over the bonds).
+  void set_track_energy(bool on) { track_energy_ = on; }
+  /// Whether each step first copies the state so that an energy runaway, found only after the
+  /// step applied, can be undone (costs one copy per step of the state's small fields, and of its
+  /// bond arrays when a heuristic is on: positions and velocities are kept by the step's own
+  /// swap; runs that save the last good state on blow-up turn it on).
+  void set_keep_last_good(bool on) { keep_last_good_ = on; }
+  const Adjacency& adjacency();
+
+ private:
+  void gather_external_forces();
+  /// begin_step's work; direct: the integrator may write the state to apply (StepContext::direct).
+  void project(bool direct);
+  void update_ledger();
+  /// x + Δx, v + Δv into next_x_, next_v_, the prescribed quanta placed; whether every value is
+  /// finite and no free quanta faster than sqrt(limit2) (one pass, branch-free: it vectorises).
+  bool advance(double limit2);
+  StepReport check_projection();
+  StepReport check_energy() const;
+  /// The state before the step into last_good_ (save, set_keep_last_good), or back from it;
+  /// applied: the step's positions, velocities and carry-over are already in the state (end_step),
+  /// the ones before it in next_x_, next_v_ and the projection.
+  void copy_last_good(bool save, bool applied = false);
+
+  World world_;
+  std::unique_ptr<Integrator> integrator_;
+  std::vector<std::unique_ptr<Heuristic>> heuristics_;
+  std::vector<Observer*> observers_;
+  double h_;
+  BlowupLimits limits_;
+  bool track_energy_ = true;
+  double bonds_after_ = 0;  ///< the bonds' energy after the step, from update_ledger [J]
+  bool keep_last_good_ = false;
+  State last_good_;
+  bool last_good_has_bonds_ = false;  ///< whether last_good_ holds the bond arrays too
+  Adjacency adj_;
+  std::vector<Vec3> f_ext_;    ///< external force of this step [N] (n)
+  std::vector<Vec3> f_user_;   ///< one-step forces queued by add_force [N] (n)
+  bool forces_queued_ = false;  ///< f_user_ holds a force (else it is all zero)
+  Projection projection_;
+  StepContext ctx_;
+  std::vector<BondEvent> events_;
+  std::vector<Vec3> dv_forces_;  ///< the projection's dv before the heuristics [m/s] (n)
+  /// x + Δx, v + Δv of the step being applied, the prescribed quanta placed (check_projection)
+  std::vector<Vec3> next_x_, next_v_;
+  PrescribedAt prescribed_;  ///< where the step leaves the prescribed quanta
+};
+
+}  // namespace qbond

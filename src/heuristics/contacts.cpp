@@ -1,0 +1,384 @@
+#include "qbond/heuristics/contacts.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "heuristics/spatial_hash.hpp"
+
+namespace qbond {
+namespace {
+
+// Snapshots the projection rows of the quanta a contact edits, to charge the energy the edits
+// remove: kinetic, gravity and bond energy of the projected end-of-step state, before minus after.
+class EditLedger {
+ public:
+  void begin(std::size_t n) {
+    if (touched_.size() != n) {
+      touched_.assign(n, 0);
+      slot_.resize(n);
+    }
+    list_.clear();
+    old_dx_.clear();
+    old_dv_.clear();
+  }
+  void touch(Index i, const Projection& p) {
+    if (touched_[i]) return;
+    touched_[i] = 1;
+    slot_[i] = static_cast<Index>(list_.size());
+    list_.push_back(i);
+    old_dx_.push_back(p.dx[i]);
+    old_dv_.push_back(p.dv[i]);
+  }
+  // Energy the edits removed [J]; clears the marks.
+  double released(const World& w, const Projection& p, const Adjacency& adj) {
+    const Model& m = w.model;
+    const State& s = w.state;
+    double e = 0;
+    for (std::size_t k = 0; k < list_.size(); ++k) {
+      const Index i = list_[k];
+      const Vec3 v_old = s.v[i] + old_dv_[k], v_new = s.v[i] + p.dv[i];
+      e += 0.5 * m.mass[i] * (v_old.squaredNorm() - v_new.squaredNorm());
+      e -= m.mass[i] * m.gravity.dot(old_dx_[k] - p.dx[i]);
+    }
+    // Old end-of-step position of any quanta (touched ones from the snapshot).
+    auto old_pos = [&](Index j) -> Vec3 { return touched_[j] ? Vec3(s.x[j] + old_dx_[slot_[j]]) : projected(s, p, j); };
+    for (std::size_t k = 0; k < list_.size(); ++k) {
+      const Index i = list_[k];
+      for (Index a = adj.offset[i]; a < adj.offset[i + 1]; ++a) {
+        const Index b = adj.bond[a], j = adj.other[a];
+        if (!s.alive[b] || (touched_[j] && j < i)) continue;  // each bond once
+        const double r_old = (old_pos(j) - (s.x[i] + old_dx_[k])).norm();
+        const double r_new = (projected(s, p, j) - projected(s, p, i)).norm();
+        e += m.law_at(b, r_old, s.rest[b]).U -
+             m.law_at(b, r_new, s.rest[b]).U;
+      }
+    }
+    for (Index i : list_) touched_[i] = 0;
+    return e;
+  }
+  /// The quanta touched so far, in the order they were first touched.
+  const std::vector<Index>& touched() const { return list_; }
+
+ private:
+  std::vector<std::uint8_t> touched_;
+  std::vector<Index> list_;
+  std::vector<Index> slot_;  // per quanta: its index in list_ while touched
+  std::vector<Vec3> old_dx_, old_dv_;
+};
+
+// Velocity change of a contact with unit normal n (pointing at the body receiving it), for the
+// relative velocity w1 at the end of the step and w0 at its start (of the body, relative to the
+// other side). Restitution applies to the approach speed the body brought into the step (with what
+// earlier contacts of the step gave it: brought()), never
+// to the speed the step's own forces pressed it in with (a resting contact must not bounce, or it
+// would pump energy); Coulomb friction is bounded by μ times the normal change. Zero unless w1
+// approaches (w1·n < 0).
+Vec3 contact_velocity_change(const Vec3& w1, const Vec3& w0, const Vec3& n, const ContactMaterial& mat) {
+  const double vn = w1.dot(n);
+  if (!(vn < 0)) return Vec3::Zero();
+  const double dvn = mat.restitution * std::max(0.0, -w0.dot(n)) - vn;
+  const Vec3 vt = w1 - vn * n;
+  const double slide = vt.norm();
+  Vec3 dv = dvn * n;
+  if (slide > 0) dv -= std::min(slide, mat.friction * dvn) / slide * vt;
+  return dv;
+}
+
+// The velocity quanta i brought into the step plus what earlier contacts of the step gave it, for
+// its current projected velocity `now`: `now` less the integrator's velocity change (the step's
+// forces). Restitution returns this approach speed; without the integrator's change, the start
+// velocity.
+Vec3 brought(const State& s, const HeuristicContext& ctx, Index i, const Vec3& now) {
+  return ctx.dv_forces.empty() ? s.v[i] : Vec3(now - ctx.dv_forces[i]);
+}
+
+// Smallest t in [0, 1] at which a + t (b - a) leaves a container shrunk by its margin, given that
+// a is inside it; negative when the segment stays inside.
+double container_exit(const Obstacle& o, const Vec3& a, const Vec3& b) {
+  const Vec3 d = b - a;
+  if (o.shape == Obstacle::Shape::sphere) {
+    const double R = o.radius - o.margin;
+    const Vec3 q = a - o.center;
+    const double A = d.squaredNorm(), B = q.dot(d), C = q.squaredNorm() - R * R;
+    if (C >= 0) return 0.0;
+    if (A == 0) return -1.0;
+    // C < 0: the roots straddle 0; the larger one is where the path crosses the sphere.
+    const double t = (-B + std::sqrt(B * B - A * C)) / A;
+    return t <= 1 ? t : -1.0;
+  }
+  // Box: the first slab face the path reaches in the direction it moves.
+  const Vec3 qa = o.rotation.transpose() * (a - o.center), qd = o.rotation.transpose() * d;
+  double t = INFINITY;
+  for (int k = 0; k < 3; ++k) {
+    if (qd[k] == 0) continue;
+    const double face = (qd[k] > 0 ? 1.0 : -1.0) * (o.half_extents[k] - o.margin);
+    t = std::min(t, std::max(0.0, (face - qa[k]) / qd[k]));
+  }
+  return t <= 1 ? t : -1.0;
+}
+
+// Smallest t in [0, 1] at which a + t (b - a) enters the obstacle inflated by its margin (leaves
+// a container shrunk by it), given that a is on the free side; negative when it does not.
+double entry(const Obstacle& o, const Vec3& a, const Vec3& b) {
+  if (o.inside) return container_exit(o, a, b);
+  const Vec3 d = b - a;
+  switch (o.shape) {
+    case Obstacle::Shape::plane: {
+      const double da = o.normal.dot(a - o.center) - o.margin, db = o.normal.dot(b - o.center) - o.margin;
+      return db < 0 ? std::clamp(da / (da - db), 0.0, 1.0) : -1.0;
+    }
+    case Obstacle::Shape::sphere: {
+      const double R = o.radius + o.margin;
+      const Vec3 q = a - o.center;
+      const double A = d.squaredNorm(), B = q.dot(d), C = q.squaredNorm() - R * R;
+      if (C <= 0) return 0.0;
+      if (A == 0) return -1.0;
+      const double disc = B * B - A * C;
+      if (disc < 0) return -1.0;
+      const double t = (-B - std::sqrt(disc)) / A;
+      return t >= 0 && t <= 1 ? t : -1.0;
+    }
+    case Obstacle::Shape::box: {
+      // Slabs of the box grown by the margin, in the box's axes.
+      const Vec3 qa = o.rotation.transpose() * (a - o.center), qd = o.rotation.transpose() * d;
+      double t0 = 0, t1 = 1;
+      for (int k = 0; k < 3; ++k) {
+        const double h = o.half_extents[k] + o.margin;
+        if (qd[k] == 0) {
+          if (std::abs(qa[k]) > h) return -1.0;
+          continue;
+        }
+        double ta = (-h - qa[k]) / qd[k], tb = (h - qa[k]) / qd[k];
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+        if (t0 > t1) return -1.0;
+      }
+      return t0;
+    }
+  }
+  return -1.0;
+}
+
+class ObstacleHeuristic final : public Heuristic {
+ public:
+  explicit ObstacleHeuristic(std::vector<Obstacle> o) : obstacles_(std::move(o)) {}
+  std::string_view name() const override { return "obstacles"; }
+
+  void apply(World& w, Projection& p, const HeuristicContext& ctx) override {
+    const Model& m = w.model;
+    const State& s = w.state;
+    ledger_.begin(m.num_quanta());
+    for (std::size_t q = 0; q < m.num_quanta(); ++q) {
+      const auto i = static_cast<Index>(q);
+      if (m.is_kinematic(i)) continue;
+      for (const Obstacle& o : obstacles_) {
+        Vec3 n;
+        const Vec3 x1 = s.x[i] + p.dx[i];
+        const bool start_outside = o.distance(s.x[i], n) >= o.margin;
+        Vec3 target;
+        if (start_outside) {
+          // Swept: stop where the path enters; keep the motion along the surface there.
+          const double t = entry(o, s.x[i], x1);
+          if (t < 0) continue;
+          const Vec3 at = s.x[i] + t * p.dx[i];
+          o.distance(at, n);
+          target = x1 + std::max(0.0, n.dot(at - x1)) * n;
+        } else {
+          const double d = o.distance(x1, n) - o.margin;
+          if (d >= 0) continue;
+          target = x1 - d * n;
+        }
+        // A curved surface can leave the target slightly inside: finish along the local normal.
+        Vec3 n2;
+        const double left = o.distance(target, n2) - o.margin;
+        if (left < 0) target -= left * n2;
+        ledger_.touch(i, p);
+        p.dx[i] = target - s.x[i];
+        const Vec3 v1 = s.v[i] + p.dv[i];
+        const Vec3 dv = contact_velocity_change(v1, brought(s, ctx, i, v1), n, o.material);
+        p.dv[i] += dv;
+        if (o.record >= 0) {
+          // The obstacle's impulse on the quanta is its momentum change; its normal part
+          // (toward the free side) is what pushes on the wall: pressure × area × time.
+          auto& rec = w.state.obstacle_impulse;
+          const auto slot = static_cast<std::size_t>(o.record);
+          if (rec.size() <= slot) rec.resize(slot + 1);
+          const Vec3 J = m.mass[i] * dv;
+          rec[slot].total += J;
+          rec[slot].normal += J.dot(n);
+        }
+      }
+    }
+    if (!ledger_.touched().empty()) w.state.energy.dissipated_heuristics += ledger_.released(w, p, ctx.adj);
+  }
+
+ private:
+  std::vector<Obstacle> obstacles_;
+  EditLedger ledger_;
+};
+
+class QuantaContactHeuristic final : public Heuristic {
+ public:
+  explicit QuantaContactHeuristic(QuantaContactRule r) : rule_(r) {}
+  std::string_view name() const override { return "contact"; }
+
+  void apply(World& w, Projection& p, const HeuristicContext& ctx) override {
+    const Model& m = w.model;
+    const State& s = w.state;
+    const std::size_t n = m.num_quanta();
+    pos_.resize(n);
+    vel_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      pos_[i] = s.x[i] + p.dx[i];
+      vel_[i] = s.v[i] + p.dv[i];
+    }
+    find_pairs(m, ctx.adj);
+    if (pairs_.empty()) return;
+    ledger_.begin(n);
+    impulse_done_.assign(pairs_.size(), 0);
+    const double contact = 2 * rule_.radius;
+    for (int it = 0; it < rule_.iterations; ++it) {
+      for (std::size_t k = 0; k < pairs_.size(); ++k) {
+        const auto [i, j] = pairs_[k];
+        const Vec3 d = pos_[j] - pos_[i];
+        const double dist = d.norm();
+        if (dist >= contact) continue;
+        const double wi = m.inv_mass[i], wj = m.inv_mass[j], wsum = wi + wj;
+        // Coincident centres have no line between them: separate along z, deterministically.
+        const Vec3 nrm = dist > 0 ? Vec3(d / dist) : Vec3::UnitZ();
+        const double depth = contact - dist;
+        ledger_.touch(i, p);
+        ledger_.touch(j, p);
+        pos_[i] -= (wi / wsum * depth) * nrm;
+        pos_[j] += (wj / wsum * depth) * nrm;
+        if (impulse_done_[k]) continue;
+        impulse_done_[k] = 1;
+        // Velocity change of j relative to i, split as equal and opposite impulses.
+        const Vec3 dw = contact_velocity_change(vel_[j] - vel_[i],
+                                                brought(s, ctx, j, vel_[j]) - brought(s, ctx, i, vel_[i]), nrm,
+                                                rule_.material);
+        const Vec3 impulse = dw / wsum;
+        vel_[i] -= wi * impulse;
+        vel_[j] += wj * impulse;
+      }
+    }
+    if (ledger_.touched().empty()) return;
+    for (Index i : ledger_.touched()) {
+      if (m.is_kinematic(i)) continue;
+      p.dx[i] = pos_[i] - s.x[i];
+      p.dv[i] = vel_[i] - s.v[i];
+    }
+    w.state.energy.dissipated_heuristics += ledger_.released(w, p, ctx.adj);
+  }
+
+ private:
+  // Pairs (i < j) closer than 2 radius at their projected positions that share no bond, in
+  // increasing i then scan order.
+  void find_pairs(const Model& m, const Adjacency& adj) {
+    pairs_.clear();
+    grid_.build(pos_, 2 * rule_.radius);
+    grid_.pairs(pos_, [&](Index i, Index j) {
+      if (m.is_kinematic(i) && m.is_kinematic(j)) return;
+      if (!rule_.same_body && m.body[i] == m.body[j]) return;
+      for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e)
+        if (adj.other[e] == j) return;
+      pairs_.emplace_back(i, j);
+    });
+  }
+
+  QuantaContactRule rule_;
+  EditLedger ledger_;
+  std::vector<Vec3> pos_, vel_;
+  SpatialHash grid_;
+  std::vector<std::pair<Index, Index>> pairs_;
+  std::vector<std::uint8_t> impulse_done_;
+};
+
+// The signed distance of p from the solid shape o describes, positive outside it, and the unit
+// normal pointing out of it (Obstacle::distance for a solid).
+double solid_distance(const Obstacle& o, const Vec3& p, Vec3& n) {
+  using Shape = Obstacle::Shape;
+  const Vec3& center = o.center;
+  switch (o.shape) {
+    case Shape::plane: n = o.normal; return o.normal.dot(p - center);
+    case Shape::sphere: {
+      const Vec3 q = p - center;
+      const double len = q.norm();
+      n = len > 0 ? Vec3(q / len) : Vec3::UnitZ();
+      return len - o.radius;
+    }
+    case Shape::box: {
+      const Vec3 q = o.rotation.transpose() * (p - center);
+      const Vec3 d = q.cwiseAbs() - o.half_extents;
+      const Vec3 sign(q.x() < 0 ? -1 : 1, q.y() < 0 ? -1 : 1, q.z() < 0 ? -1 : 1);
+      const Vec3 out = d.cwiseMax(0.0);
+      const double outside = out.norm();
+      Vec3 local;
+      if (outside > 0) {
+        local = sign.cwiseProduct(out) / outside;
+      } else {
+        Eigen::Index k;
+        d.maxCoeff(&k);
+        local = Vec3::Zero();
+        local[k] = sign[k];
+      }
+      n = o.rotation * local;
+      return outside > 0 ? outside : d.maxCoeff();
+    }
+  }
+  n = Vec3::UnitZ();
+  return 0;
+}
+
+}  // namespace
+
+double Obstacle::distance(const Vec3& p, Vec3& n) const {
+  const double d = solid_distance(*this, p, n);
+  if (!inside || shape == Shape::plane) return d;
+  // A container's free side is its inside: the solid's distance and normal, turned over.
+  n = -n;
+  return -d;
+}
+
+double Obstacle::contact_area() const {
+  constexpr double pi = 3.14159265358979323846;
+  switch (shape) {
+    case Shape::plane: return INFINITY;
+    case Shape::sphere: {
+      const double R = inside ? radius - margin : radius + margin;
+      return 4 * pi * R * R;
+    }
+    case Shape::box: {
+      if (inside) {
+        const Vec3 e = 2 * (half_extents - Vec3::Constant(margin));
+        return 2 * (e.x() * e.y() + e.y() * e.z() + e.z() * e.x());
+      }
+      // The box grown by the margin: faces, quarter cylinders along the 12 edges, a sphere at the corners.
+      const Vec3 e = 2 * half_extents;
+      return 2 * (e.x() * e.y() + e.y() * e.z() + e.z() * e.x()) + 2 * pi * margin * e.sum() + 4 * pi * margin * margin;
+    }
+  }
+  return 0;
+}
+
+double Obstacle::contact_volume() const {
+  if (!inside || shape == Shape::plane) return 0;
+  if (shape == Shape::sphere) {
+    const double R = radius - margin;
+    return 4.0 / 3.0 * 3.14159265358979323846 * R * R * R;
+  }
+  const Vec3 e = 2 * (half_extents - Vec3::Constant(margin));
+  return e.prod();
+}
+
+std::unique_ptr<Heuristic> make_obstacle_heuristic(std::vector<Obstacle> obstacles) {
+  return std::make_unique<ObstacleHeuristic>(std::move(obstacles));
+}
+
+std::unique_ptr<Heuristic> make_quanta_contact_heuristic(QuantaContactRule rule) {
+  return std::make_unique<QuantaContactHeuristic>(rule);
+}
+
+}  // namespace qbond

@@ -1,0 +1,105 @@
+#include "qbond/heuristics/formation.hpp"
+
+#include <algorithm>
+#include <unordered_set>
+
+#include "heuristics/spatial_hash.hpp"
+
+namespace qbond {
+namespace {
+
+std::uint64_t pair_key(Index a, Index b) {
+  return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+}
+
+class FormHeuristic final : public Heuristic {
+ public:
+  explicit FormHeuristic(FormRule r) : rule_(std::move(r)) {}
+  std::string_view name() const override { return "form"; }
+
+  void apply(World& w, Projection& p, const HeuristicContext& ctx) override {
+    const Model& m = w.model;
+    State& s = w.state;
+    const std::size_t n = m.num_quanta();
+    // Earlier rules of this step may have changed the bonds: count from the current ones.
+    const Adjacency* adj = &ctx.adj;
+    if (ctx.adj.version != s.topology_version) {
+      build_adjacency(m, s, own_adj_);
+      adj = &own_adj_;
+    }
+    // Per quanta, its alive formed bonds; pairs whose bond broke within min_age; the broken
+    // formed slots to reuse, in order.
+    degree_.assign(n, 0);
+    recent_.clear();
+    free_.clear();
+    const std::size_t first_formed = m.num_bonds() - s.formed.size();
+    for (std::size_t b = 0; b < m.num_bonds(); ++b) {
+      if (s.alive[b]) {
+        if (b >= first_formed) {
+          ++degree_[m.bond_i[b]];
+          ++degree_[m.bond_j[b]];
+        }
+        continue;
+      }
+      if (rule_.min_age > 0 && s.bond_time[b] > s.time - rule_.min_age) recent_.insert(pair_key(m.bond_i[b], m.bond_j[b]));
+      if (b >= first_formed) free_.push_back(static_cast<Index>(b));
+    }
+    pos_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) pos_[i] = projected(s, p, static_cast<Index>(i));
+    pairs_.clear();
+    grid_.build(pos_, rule_.capture_radius);
+    grid_.pairs(pos_, [&](Index i, Index j) {
+      if (!rule_.quanta.empty() && !(rule_.quanta[i] && rule_.quanta[j])) return;
+      if (m.is_kinematic(i) && m.is_kinematic(j)) return;
+      if (rule_.pairs == FormPairs::same_body && m.body[i] != m.body[j]) return;
+      if (rule_.pairs == FormPairs::other_body && m.body[i] == m.body[j]) return;
+      for (Index e = adj->offset[i]; e < adj->offset[i + 1]; ++e)
+        if (adj->other[e] == j) return;
+      if (!recent_.empty() && recent_.count(pair_key(i, j))) return;
+      pairs_.emplace_back(i, j);
+    });
+    std::size_t next_free = 0;
+    for (const auto& [i, j] : pairs_) {
+      if (rule_.max_bonds > 0 && (degree_[i] >= static_cast<Index>(rule_.max_bonds) ||
+                                  degree_[j] >= static_cast<Index>(rule_.max_bonds)))
+        continue;
+      const double r = (pos_[j] - pos_[i]).norm();
+      const double L = rule_.rest_length >= 0 ? rule_.rest_length : r;
+      const Index slot = next_free < free_.size() ? free_[next_free++] : static_cast<Index>(m.num_bonds());
+      const Index b = w.form_bond(i, j, rule_.bond, L, slot);
+      ++degree_[i];
+      ++degree_[j];
+      const LawValue lv = m.law_at(b, r, L);
+      s.energy.dissipated_heuristics -= lv.U;  // energy the new bond holds was added by the rule
+      BondEvent e;
+      e.kind = BondEvent::Kind::formed;
+      e.reason = BondEvent::Reason::capture;
+      e.step = ctx.step.step;
+      e.time = ctx.step.t + ctx.step.h;
+      e.bond = b;
+      e.i = i;
+      e.j = j;
+      e.strain = L > 0 ? (r - L) / L : 0.0;
+      e.tension = lv.T;
+      ctx.events.push_back(e);
+    }
+  }
+
+ private:
+  FormRule rule_;
+  Adjacency own_adj_;
+  SpatialHash grid_;
+  std::vector<Vec3> pos_;
+  std::vector<Index> degree_, free_;
+  std::vector<std::pair<Index, Index>> pairs_;
+  std::unordered_set<std::uint64_t> recent_;
+};
+
+}  // namespace
+
+std::unique_ptr<Heuristic> make_form_heuristic(FormRule rule) {
+  if (!(rule.capture_radius > 0)) throw std::invalid_argument("form: capture_radius must be > 0");
+  return std::make_unique<FormHeuristic>(std::move(rule));
+}
+
+}  // namespace qbond

@@ -1,0 +1,333 @@
+// Explicit integrators: the particle method and its better-behaved relatives.
+#include <algorithm>
+#include <bit>
+#include <cstdint>
+#include <functional>
+
+#include "integrators/affine_run_terms.hpp"
+#include "integrators/bond_forces.hpp"
+#include "integrators/integrator_common.hpp"
+#include "core/parallel.hpp"
+#include "core/simd.hpp"
+
+namespace qbond {
+namespace {
+
+// Velocity Verlet's carry-over in State::warm, as triples: the bond forces f₁ and the positions
+// x₁ the step left, as structure of arrays (three arrays each, soa_stride(n) doubles apart: the
+// force pass's own rows, written there by the stage and the pass), then its v₁ (n triples), then
+// a tag (topology version, 0, 0): verlet_carry_size(n) triples. T is double or const double.
+template <class T>
+struct Carry {
+  T* f[3];
+  T* x[3];
+  T* v;
+  Carry(T* warm, std::size_t n) : v(warm + 6 * soa_stride(n)) {
+    for (std::size_t c = 0; c < 3; ++c) {
+      f[c] = warm + c * soa_stride(n);
+      x[c] = warm + (3 + c) * soa_stride(n);
+    }
+  }
+};
+
+// Three read-only arrays, one per component, passed by value (their pointers then stay in
+// registers through a vector loop).
+struct Columns {
+  const double* c[3];
+};
+
+// Verlet's first half for quanta [lo, hi), from the step's first accelerations a = m⁻¹ (f0 + f_ext):
+// the free quanta's Δx = h v + h²/2 a into dx unless the step is direct (kDx false; 0 for
+// kinematic ones: the prescribed ones' rows, project_kinematic's, are written after); x₁ = x + Δx,
+// as the step will apply it, into the bond pass's rows (the next carry-over's); the velocity the
+// forces are taken at, ṽ = v + h a (kinematic: v), into the rows; the force sums zeroed. Returns
+// whether x and v equal cx and cv bit for bit.
+template <bool kDx, bool kGravity>
+QBOND_VECTOR_INLINE bool stage_range(const double* inv_mass, Columns f0, External f_ext, const double* x,
+                                     const double* v, Columns cx, const double* cv, double h, double* dx,
+                                     ForceRows rows, std::size_t lo, std::size_t hi) {
+  const double hh = 0.5 * h * h;
+  std::uint64_t differ = 0;
+  QBOND_SIMD_OR(differ) for (std::size_t q = lo; q < hi; ++q) {
+    QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
+      const std::size_t e = 3 * q + c;
+      const double xe = x[e], ve = v[e];
+      differ |= (std::bit_cast<std::uint64_t>(xe) ^ std::bit_cast<std::uint64_t>(cx.c[c][q])) |
+                (std::bit_cast<std::uint64_t>(ve) ^ std::bit_cast<std::uint64_t>(cv[e]));
+      const double ae = inv_mass[q] * (f0.c[c][q] + f_ext.at<kGravity>(q, c));
+      const double step = h * ve + hh * ae, vt = ve + h * ae;
+      const double d = inv_mass[q] != 0 ? step : 0.0;
+      if constexpr (kDx) dx[e] = d;
+      rows.x[c][q] = xe + d;
+      rows.v[c][q] = inv_mass[q] != 0 ? vt : ve;
+      rows.f[c][q] = 0;
+    }
+  }
+  return differ == 0;
+}
+
+// stage_range, writing dx unless it is null.
+QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, Columns f0, External f_ext, const double* x,
+                                      const double* v, Columns cx, const double* cv, double h, double* dx,
+                                      ForceRows rows, std::size_t lo, std::size_t hi) {
+  if (!f_ext.f)
+    return dx ? stage_range<true, true>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi)
+              : stage_range<false, true>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi);
+  return dx ? stage_range<true, false>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi)
+            : stage_range<false, false>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi);
+}
+
+// Where verlet_finish writes: Δv into dv, or for a direct step (kApplied; dv null) x₁ (the bond
+// pass's rows' x) and v₁ into the state the step applies, x_to and v_to.
+struct FinishOut {
+  double* dv;
+  double* x_to;
+  double* v_to;
+};
+
+// Verlet's second half for quanta [lo, hi): with the bond forces at the stage in rows.f (the
+// carry-over's f₁), the free quanta's Δv = h/2 (m⁻¹ (f0 + f_ext) + m⁻¹ (f1 + f_ext)) (0 for
+// kinematic ones) and v₁ = v + Δv into v1; Δv, or x₁ and v₁, into `out`. Returns, for a direct
+// step, whether every value written is finite and no free quanta faster than sqrt(limit2)
+// (advance_checked's test, in the same branch-free form); true otherwise.
+template <bool kApplied, bool kGravity>
+QBOND_VECTOR_INLINE bool finish_range(const double* inv_mass, ForceRows rows, External f_ext, Columns f0,
+                                      const double* v, double h, double limit2, double* v1, FinishOut out,
+                                      std::size_t lo, std::size_t hi) {
+  std::uint64_t bad = 0;
+  QBOND_SIMD_OR(bad) for (std::size_t q = lo; q < hi; ++q) {
+    double speed2 = 0, nan_if_bad = 0;
+    QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
+      const std::size_t e = 3 * q + c;
+      const double fe = f_ext.at<kGravity>(q, c);
+      const double kick = (0.5 * h) * (inv_mass[q] * (f0.c[c][q] + fe) + inv_mass[q] * (rows.f[c][q] + fe));
+      const double d = inv_mass[q] != 0 ? kick : 0.0;
+      const double ve = v[e] + d;
+      v1[e] = ve;
+      if constexpr (kApplied) {
+        const double xe = rows.x[c][q];
+        out.x_to[e] = xe;
+        out.v_to[e] = ve;
+        nan_if_bad += (xe - xe) + (ve - ve);
+        speed2 += ve * ve;
+      } else {
+        out.dv[e] = d;
+      }
+    }
+    if constexpr (kApplied)
+      bad |= static_cast<std::uint64_t>((nan_if_bad != 0) | ((speed2 > limit2) & (inv_mass[q] != 0)));
+  }
+  return bad == 0;
+}
+
+// finish_range, into the applied state if out.dv is null.
+QBOND_VECTOR_CLONES bool verlet_finish(const double* inv_mass, ForceRows rows, External f_ext, Columns f0,
+                                       const double* v, double h, double limit2, double* v1, FinishOut out,
+                                       std::size_t lo, std::size_t hi) {
+  if (!f_ext.f)
+    return out.dv ? finish_range<false, true>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi)
+                  : finish_range<true, true>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi);
+  return out.dv ? finish_range<false, false>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi)
+                : finish_range<true, false>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi);
+}
+
+class ExplicitIntegrator final : public Integrator {
+ public:
+  explicit ExplicitIntegrator(const IntegratorConfig& c) : Integrator(c) {}
+
+  bool forms_gravity() const override { return config_.type == IntegratorType::velocity_verlet; }
+
+  double damping_theta() const override {
+    switch (config_.type) {
+      case IntegratorType::velocity_verlet:
+      case IntegratorType::rk4: return 0.5;
+      default: return 0.0;  // both Euler variants evaluate damping at the start-of-step velocity
+    }
+  }
+
+  void project(const Model& model, const State& state, const Adjacency& adj,
+               const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
+    const std::size_t n = model.num_quanta();
+    const double h = ctx.h;
+    part_.update(model, adj, config_.threads);
+    const bool verlet_step = config_.type == IntegratorType::velocity_verlet;
+    if (verlet_step) return verlet(model, state, f_ext, ctx, out);
+    out.resize(n);
+    project_kinematic(model, state, ctx, out);
+    accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, forces_, a1_);
+    switch (config_.type) {
+      case IntegratorType::explicit_euler:
+        for_free(model, [&](std::size_t i) { set_free(out, i, h * state.v[i], h * a1_[i]); });
+        break;
+      case IntegratorType::symplectic_euler:
+        for_free(model, [&](std::size_t i) {
+          const Vec3 dv = h * a1_[i];
+          set_free(out, i, h * (state.v[i] + dv), dv);
+        });
+        break;
+      case IntegratorType::rk4: {
+        // Classical RK4 on (x' = v, v' = a(x, v)); kinematic quanta sit on their prescribed
+        // path, interpolated linearly over the step.
+        stage(model, state, out, 0.5, [&](std::size_t i) {
+          return std::pair{Vec3(0.5 * h * state.v[i]), Vec3(0.5 * h * a1_[i])};
+        });
+        v2_ = vs_;
+        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, forces_, a2_);
+        stage(model, state, out, 0.5, [&](std::size_t i) {
+          return std::pair{Vec3(0.5 * h * v2_[i]), Vec3(0.5 * h * a2_[i])};
+        });
+        v3_ = vs_;
+        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, forces_, a3_);
+        stage(model, state, out, 1.0, [&](std::size_t i) {
+          return std::pair{Vec3(h * v3_[i]), Vec3(h * a3_[i])};
+        });
+        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, forces_, a4_);
+        for_free(model, [&](std::size_t i) {
+          set_free(out, i, (h / 6) * (state.v[i] + 2 * v2_[i] + 2 * v3_[i] + vs_[i]),
+                   (h / 6) * (a1_[i] + 2 * a2_[i] + 2 * a3_[i] + a4_[i]));
+        });
+        break;
+      }
+      default:
+        break;
+    }
+  }
+
+ private:
+  // Velocity Verlet in Groot and Warren's form with λ = 1 (J. Chem. Phys. 107, 4423, 1997):
+  //   x₁ = x + h v + h²/2 a,   a₁ = a(x₁, ṽ) with ṽ = v + h a,   v₁ = v + h/2 (a + a₁),
+  // where a is the last step's a₁ (first same as last: one force pass a step). Undamped, a does
+  // not depend on the velocity and this is velocity Verlet itself; with damping, ṽ − v₁ =
+  // h/2 (a − a₁) = O(h²) keeps the step second order. The last step's bond forces travel in
+  // State::warm with the x₁, v₁ it left (Carry); when the state is not exactly that (a
+  // heuristic, a contact, a rollback or the user changed it) a = a(x, v) is evaluated afresh.
+  void verlet(const Model& model, const State& state, const std::vector<Vec3>& f_ext, const StepContext& ctx,
+              Projection& out) {
+    const std::size_t n = model.num_quanta(), size = verlet_carry_size(n);
+    const double h = ctx.h;
+    const int threads = config_.threads;
+    if (ctx.direct)
+      out.resize_applied(n);
+    else
+      out.resize(n, false);  // every row written
+    out.warm.resize(size);
+    out.warm_needs_bonds = true;
+    const Carry<double> next(out.warm.data()->data(), n);
+    // The bond pass's rows: f₁ and x₁ in the new carry-over (their padding zeroed: the affine runs
+    // read up to a vector past the last quanta, and a checkpoint saves it), ṽ in forces_.
+    ForceRows rows = force_rows(forces_, n);
+    for (std::size_t c = 0; c < 3; ++c) {
+      rows.f[c] = next.f[c];
+      rows.x[c] = next.x[c];
+      std::fill(next.f[c] + n, next.f[c] + soa_stride(n), 0.0);
+      std::fill(next.x[c] + n, next.x[c] + soa_stride(n), 0.0);
+    }
+    const double* inv_mass = model.inv_mass.data();
+    const double* x = state.x.data()->data();
+    const double* v = state.v.data()->data();
+    const External fe(model, f_ext);
+    double* dx = ctx.direct ? nullptr : out.dx.data()->data();
+    const FinishOut finish_out =
+        ctx.direct ? FinishOut{nullptr, out.applied.x.data()->data(), out.applied.v.data()->data()}
+                   : FinishOut{out.dv.data()->data(), nullptr, nullptr};
+    // With the carried forces, for the topology they were left for, while checking that the state
+    // is the one they were left for; if it is not, again with a(x, v) evaluated afresh into
+    // forces_'s f and x, which the stage does not write (cx is then x itself).
+    Columns f0{}, cx{};
+    const double* cv = v;
+    auto take = [](Columns& to, const auto& from) {
+      for (std::size_t c = 0; c < 3; ++c) to.c[c] = from[c];
+    };
+    if (state.warm.size() == size && state.warm[size - 1][0] == static_cast<double>(state.topology_version)) {
+      const Carry<const double> last(state.warm.data()->data(), n);
+      take(f0, last.f);
+      take(cx, last.x);
+      cv = last.v;
+    }
+    // The prescribed quanta where the step will place them (place_kinematic), written with their
+    // range's (PrescribedAt says why).
+    prescribed_.update(model, ctx.t + h);
+    auto stage = [&](std::size_t lo, std::size_t hi) {
+      const bool same = verlet_stage(inv_mass, f0, fe, x, v, cx, cv, h, dx, rows, lo, hi);
+      for (const PrescribedAt::Quanta& p : prescribed_.in(lo, hi))
+        for (int c = 0; c < 3; ++c) {
+          rows.x[c][p.q] = p.x[c];
+          rows.v[c][p.q] = p.v[c];
+        }
+      return same;
+    };
+    if (!f0.c[0] || !reduce_chunks(n, threads, true, stage, std::logical_and<>{})) {
+      const ForceRows fresh = bond_force_rows(model, state, part_, state.x.data(), state.v.data(), threads, forces_);
+      take(f0, fresh.f);
+      take(cx, fresh.x);
+      cv = v;
+      reduce_chunks(n, threads, true, stage, std::logical_and<>{});
+    }
+    add_bond_forces(model, state, part_, rows);
+    // The prescribed quanta's v₁ as placed (verlet_finish wrote their v), and their rows of the
+    // projection (project_kinematic), or of the applied state (place_kinematic: the stage put
+    // their x₁ in the rows).
+    const double limit2 = ctx.max_speed * ctx.max_speed;
+    auto finish = [&](std::size_t lo, std::size_t hi) {
+      bool ok = verlet_finish(inv_mass, rows, fe, f0, v, h, limit2, next.v, finish_out, lo, hi);
+      for (const PrescribedAt::Quanta& p : prescribed_.in(lo, hi)) {
+        for (int c = 0; c < 3; ++c) next.v[3 * p.q + c] = p.v[c];
+        if (!ctx.direct) continue;
+        out.applied.v[p.q] = p.v;
+        ok = ok && p.x.allFinite() && p.v.allFinite();
+      }
+      if (!ctx.direct) prescribed_.project(state, lo, hi, out);
+      return ok;
+    };
+    out.applied.ok = reduce_chunks(n, threads, true, finish, std::logical_and<>{});
+    out.warm[size - 1] = Vec3(static_cast<double>(state.topology_version), 0, 0);
+  }
+
+  static void set_free(Projection& out, std::size_t i, const Vec3& dx, const Vec3& dv) {
+    out.dx[i] = dx;
+    out.dv[i] = dv;
+  }
+
+  // body(i) for every free quanta, on the integrator's threads.
+  template <class Body>
+  void for_free(const Model& model, Body&& body) const {
+    parallel_for(model.num_quanta(), config_.threads, [&](std::size_t i) {
+      if (!model.is_kinematic(static_cast<Index>(i))) body(i);
+    });
+  }
+
+  // Stage state (xs_, vs_) = (x, v) + offsets(i) for free quanta, and the fraction c of the
+  // prescribed motion for kinematic quanta.
+  template <class Offsets>
+  void stage(const Model& model, const State& state, const Projection& kin, double c,
+             Offsets offsets) {
+    const std::size_t n = model.num_quanta();
+    xs_.resize(n);
+    vs_.resize(n);
+    parallel_for(n, config_.threads, [&](std::size_t i) {
+      if (model.is_kinematic(static_cast<Index>(i))) {
+        xs_[i] = state.x[i] + c * kin.dx[i];
+        vs_[i] = state.v[i] + c * kin.dv[i];
+      } else {
+        const auto [dx, dv] = offsets(i);
+        xs_[i] = state.x[i] + dx;
+        vs_[i] = state.v[i] + dv;
+      }
+    });
+  }
+
+  std::vector<Vec3> a1_, a2_, a3_, a4_, xs_, vs_, v2_, v3_;
+  BondPartition part_;
+  ForceArrays forces_;
+  PrescribedAt prescribed_;  // Verlet's
+};
+
+}  // namespace
+
+std::size_t verlet_carry_size(std::size_t n) { return 2 * soa_stride(n) + n + 1; }
+
+std::unique_ptr<Integrator> make_explicit_integrator(const IntegratorConfig& config) {
+  return std::make_unique<ExplicitIntegrator>(config);
+}
+
+}  // namespace qbond

@@ -1,0 +1,77 @@
+#pragma once
+// Pieces shared by the integrator implementations (not public API).
+#include <memory>
+#include <vector>
+
+#include "solvers/coloring.hpp"
+#include "qbond/integrators/integrators.hpp"
+#include "core/simd.hpp"
+
+namespace qbond {
+
+std::unique_ptr<Integrator> make_explicit_integrator(const IntegratorConfig& config);
+std::unique_ptr<Integrator> make_hybrid_integrator(const IntegratorConfig& config);
+std::unique_ptr<Integrator> make_coupled_implicit_integrator(const IntegratorConfig& config);
+std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& config);
+
+// The external force on quanta i: f_ext's, or m_i g for gravity alone (an empty f_ext:
+// Integrator::forms_gravity), with the bits of Simulation's.
+inline Vec3 external_force(const Model& model, const std::vector<Vec3>& f_ext, Index i) {
+  return f_ext.empty() ? Vec3(model.mass[i] * model.gravity) : f_ext[i];
+}
+
+// The same for the vector kernels, by component: f_ext as doubles, or m_q g where f is null
+// (kGravity; passed by value, its pointers stay in registers through a loop).
+struct External {
+  const double* f;
+  const double* mass;
+  double g[3];
+  External(const Model& model, const std::vector<Vec3>& f_ext)
+      : f(f_ext.empty() ? nullptr : f_ext.data()->data()),
+        mass(model.mass.data()),
+        g{model.gravity.x(), model.gravity.y(), model.gravity.z()} {}
+  template <bool kGravity>
+  QBOND_VECTOR_INLINE double at(std::size_t q, std::size_t c) const {
+    return kGravity ? mass[q] * g[c] : f[3 * q + c];
+  }
+};
+
+// Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0) from State::warm
+// as keep_guess left it; false when it is zero (WarmStart::zero, or no previous step), which
+// spares CG its first product. On `threads` (parallel.hpp), as keep_guess and write_free_rows:
+// per-quanta loops left on one thread are what keeps a second from speeding up a step.
+bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
+                   const LineVector<Vec3>& previous, int threads, std::vector<Vec3>& y);
+
+// The carry-over a step of length h whose solve found y leaves for the next one's initial_guess
+// (State::warm, `previous` as the step found it): y for WarmStart::previous; for extrapolated, y,
+// the Δv before it (zeros if none) and (h, that step's h or 0, kExtrapolationTag); nothing
+// otherwise.
+void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const LineVector<Vec3>& previous,
+                int threads, LineVector<Vec3>& warm);
+
+// Caches what depends only on topology (colours, free components), rebuilt when it changes.
+struct TopologyCache {
+  std::uint64_t version = ~0ull;
+  std::size_t num_quanta = 0;
+  Coloring coloring;
+  FreeComponents components;
+  void update(const Model& model, const Adjacency& adj);
+};
+
+// CG's iteration cap: max_iterations, or three times the free unknowns' count when 0.
+inline int cg_cap(const IntegratorConfig& c, const TopologyCache& topo) {
+  return c.max_iterations > 0 ? c.max_iterations : static_cast<int>(3 * topo.coloring.quanta.size());
+}
+
+// Gives every free component (no bond to a kinematic quanta) its exact momentum change over the
+// step, h Σ f_ext, by a uniform velocity shift: an iterative solve stopped early leaves a small
+// momentum error that would otherwise accumulate (a free body creeping or falling too slowly).
+void restore_component_momentum(const Model& model, const FreeComponents& comps,
+                                const std::vector<Vec3>& f_ext, double h, std::vector<Vec3>& dv);
+
+// Writes the free quanta's rows of a projection from Δv: dx = h (v + Δv) (Eq. 10).
+void write_free_rows(const Model& model, const State& state, double h, const std::vector<Vec3>& dv,
+                     int threads, Projection& out);
+
+}  // namespace qbond

@@ -1,0 +1,554 @@
+// The Newton-solved integrators: energy_momentum (the paper's section 5 "method of integration
+// that paid attention to the total energy"), implicit_midpoint and bdf2. newton.hpp has the
+// schemes and the Newton system; this file evaluates them and runs the iteration with the
+// coupled integrator's linear solvers (backward_euler.hpp).
+#include "integrators/newton.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+
+#include "integrators/integrator_common.hpp"
+#include "core/parallel.hpp"
+#include "ledger/step_work.hpp"
+
+namespace qbond {
+
+namespace {
+// The damper's force on bond_i for relative velocity w along unit u, and the symmetric part of
+// its derivative with respect to the bond's separation (the axial damper turns with the bond:
+// ∂(D (w·u) u)/∂d = D (w·u)/r (I − u uᵀ) + D u wᵀ(I − u uᵀ)/r; the second, non-symmetric term
+// vanishes when w ∥ u and is left out of the Newton block).
+struct Damper {
+  Vec3 f;
+  double transverse;  // D (w·u)/r: coefficient of (I − u uᵀ) in ∂f/∂d
+};
+Damper damper(const Model& m, std::size_t b, const Vec3& u, double r, const Vec3& w) {
+  const double D = m.damping[b];
+  if (m.damping_model[b] == DampingModel::axial) {
+    const double wu = w.dot(u);
+    return {D * wu * u, D * wu / r};
+  }
+  return {D * w, 0.0};
+}
+
+// The damper's full derivatives: ∂f/∂d (both turning terms above) and ∂f/∂w.
+void damper_jacobian(const Model& m, std::size_t b, const Vec3& u, double r, const Vec3& w, Mat3& Kd, Mat3& C) {
+  const double D = m.damping[b];
+  if (m.damping_model[b] == DampingModel::axial) {
+    const Mat3 P = Mat3::Identity() - u * u.transpose();
+    Kd = (D / r) * (w.dot(u) * P + u * (P * w).transpose());
+    C = D * u * u.transpose();
+  } else {
+    Kd.setZero();
+    C = D * Mat3::Identity();
+  }
+}
+
+// Clamps an axial and a transverse coefficient at 0 (as backward_euler.hpp does, so that A stays
+// positive definite) and writes them as ka u uᵀ + kb I.
+void clamp_into(double axial, double transverse, bool clamp, BondStep& s) {
+  if (clamp) {
+    axial = std::max(axial, 0.0);
+    transverse = std::max(transverse, 0.0);
+  }
+  s.ka = axial - transverse;
+  s.kb = transverse;
+}
+}  // namespace
+
+BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme scheme, const Vec3& d0, const Vec3& dd,
+                   const Vec3& w, bool clamp, BondJacobian* exact) {
+  BondStep s;
+  if (exact) *exact = {};
+  const bool axial_damper = model.damping_model[b] == DampingModel::axial;
+  (axial_damper ? s.ca : s.cb) = model.damping[b];
+  if (scheme == NewtonScheme::energy_momentum) {
+    // Discrete gradient (Gonzalez 1996; Simo & Tarnow 1992): f = T̄ d_mid / r̄ with
+    // T̄ = (U(r₁) − U(r₀))/(r₁ − r₀), r̄ = (r₀ + r₁)/2. Since Δd · d_mid = (r₁² − r₀²)/2 = (r₁ − r₀) r̄,
+    // the bond's work f · Δd is exactly U(r₁) − U(r₀); f ∥ d_mid, the lever arm of the midpoint
+    // positions, so the pair exerts no torque about the midpoint configuration: momentum and
+    // angular momentum are kept exactly.
+    const Vec3 dm = d0 + 0.5 * dd, d1 = d0 + dd;
+    const double r0 = d0.norm(), r1 = d1.norm(), rm = dm.norm(), rbar = 0.5 * (r0 + r1);
+    if (!(rm > 0 && rbar > 0)) return s;  // a bond through zero length has no direction
+    s.u = dm / rm;
+    const MeanTension mt = mean_tension(model.law[b], r0, r1, L, model.stiffness[b], model.eps[b]);
+    const double phi = mt.T / rbar;
+    const Damper dmp = damper(model, b, s.u, rm, w);
+    s.f = phi * dm + dmp.f;
+    // ∂f/∂Δd = φ/2 I + d_mid φ_r1 u₁ᵀ (+ the damper's turning, ∂d_mid/∂Δd = ½), with
+    // φ_r1 = ∂(T̄/r̄)/∂r₁ = T̄_r1/r̄ − T̄/(2 r̄²); u₁ is taken as u (see newton.hpp).
+    const double phi_r1 = mt.dT1 / rbar - mt.T / (2 * rbar * rbar);
+    clamp_into(0.5 * phi + rm * phi_r1, 0.5 * (phi + dmp.transverse), clamp, s);
+    if (exact) {
+      damper_jacobian(model, b, s.u, rm, w, exact->K, exact->C);
+      exact->K *= 0.5;
+      exact->K.diagonal().array() += 0.5 * phi;
+      if (r1 > 0) exact->K += (phi_r1 / r1) * dm * d1.transpose();  // d_mid φ_r1 u₁ᵀ
+    }
+    return s;
+  }
+  // Forces at one point of the step: the midpoint (∂d/∂Δd = ½) or the end (1).
+  const double g = scheme == NewtonScheme::implicit_midpoint ? 0.5 : 1.0;
+  const Vec3 d = d0 + g * dd;
+  const double r = d.norm();
+  if (!(r > 0)) return s;
+  s.u = d / r;
+  const LawValue lv = model.law_at(b, r, L);
+  const Damper dmp = damper(model, b, s.u, r, w);
+  s.f = lv.T * s.u + dmp.f;
+  // ∂f/∂d = T' u uᵀ + (T/r)(I − u uᵀ) + the damper's turning (DESIGN §3's K_b).
+  clamp_into(g * lv.dT, g * (lv.T / r + dmp.transverse), clamp, s);
+  if (exact) {
+    damper_jacobian(model, b, s.u, r, w, exact->K, exact->C);
+    exact->K += block_matrix(s.u, lv.dT - lv.T / r, lv.T / r);
+    exact->K *= g;
+  }
+  return s;
+}
+
+void setup_newton_step(NewtonScheme scheme, const Model& model, const State& state, const Projection& kin, double h,
+                       const std::vector<Vec3>* x_prev, const std::vector<Vec3>* v_prev, NewtonStep& st) {
+  const std::size_t n = model.num_quanta();
+  st.scheme = scheme;
+  st.h = h;
+  st.a.resize(n);
+  st.e.assign(n, Vec3::Zero());
+  const bool bdf2 = scheme == NewtonScheme::bdf2;
+  assert(!bdf2 || (x_prev && v_prev && x_prev->size() == n && v_prev->size() == n));
+  switch (scheme) {
+    case NewtonScheme::energy_momentum:
+    case NewtonScheme::implicit_midpoint: st.s = 1; st.c = 0.5 * h; st.theta = 0.5; break;
+    case NewtonScheme::bdf2: st.s = 2.0 / 3; st.c = 2.0 * h / 3; st.theta = 1; break;
+    case NewtonScheme::backward_euler: st.s = 1; st.c = h; st.theta = 1; break;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (model.is_kinematic(static_cast<Index>(i))) {
+      st.a[i] = kin.dx[i];
+      continue;
+    }
+    if (bdf2) {
+      st.a[i] = (state.x[i] - (*x_prev)[i]) / 3 + st.c * state.v[i];
+      st.e[i] = (state.v[i] - (*v_prev)[i]) / 3;
+    } else {
+      st.a[i] = h * state.v[i];
+    }
+  }
+}
+
+void newton_bonds(const Model& model, const State& state, const NewtonStep& st, const std::vector<Vec3>& y,
+                  int threads, std::vector<Vec3>& force, ImplicitSystem* sys) {
+  const std::size_t nb = model.num_bonds();
+  force.resize(nb);
+  if (sys) sys->bonds.resize(nb);
+  const bool exact = sys && st.exact;
+  if (sys) sys->exact.resize(exact ? nb : 0);
+  const double sh = st.s * st.h;
+  parallel_for(nb, bond_pass_threads(model.num_quanta(), threads), [&](std::size_t b) {
+    const Index i = model.bond_i[b], j = model.bond_j[b];
+    BondStep bs;
+    BondJacobian jac;
+    if (state.alive[b]) {
+      const Vec3 d0 = state.x[j] - state.x[i];
+      const Vec3 dd = st.dx(model, y, j) - st.dx(model, y, i);
+      const Vec3 w = (state.v[j] + st.theta * y[j]) - (state.v[i] + st.theta * y[i]);
+      bs = bond_step(model, b, state.rest[b], st.scheme, d0, dd, w, st.clamp, exact ? &jac : nullptr);
+    }
+    if (exact) sys->exact[b] = sh * (st.c * jac.K + st.theta * jac.C);
+    force[b] = bs.f;
+    if (sys) {
+      // B_b = s h (c K̃ + θ C): ∂Δd/∂y = c, ∂w/∂y = θ.
+      sys->bonds.set(b, bs.u, sh * (st.c * bs.ka + st.theta * bs.ca), sh * (st.c * bs.kb + st.theta * bs.cb));
+    }
+  });
+}
+
+ResidualNorms newton_residual(const Model& model, const Adjacency& adj, const NewtonStep& st,
+                              const std::vector<Vec3>& f_ext, const std::vector<Vec3>& force,
+                              const std::vector<Vec3>& y, int threads, std::vector<Vec3>& R,
+                              std::vector<double>& scale) {
+  const std::size_t n = model.num_quanta();
+  const double sh = st.s * st.h;
+  R.resize(n);
+  scale.resize(n);
+  parallel_for(n, threads, [&](std::size_t q) {
+    const auto i = static_cast<Index>(q);
+    if (model.is_kinematic(i)) {
+      R[i].setZero();
+      scale[i] = 0;
+      return;
+    }
+    Vec3 f = f_ext[i];
+    double mag = f_ext[i].norm();
+    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+      const Index b = adj.bond[e];
+      f += model.bond_i[b] == i ? force[b] : Vec3(-force[b]);
+      mag += force[b].norm();
+    }
+    const Vec3 inertia = model.mass[i] * (y[i] - st.e[i]);
+    R[i] = inertia - sh * f;
+    scale[i] = inertia.norm() + sh * mag;
+  });
+  ResidualNorms nr;
+  nr.r2 = deterministic_sum(n, threads, [&](std::size_t i) { return R[i].squaredNorm(); });
+  nr.ref2 = deterministic_sum(n, threads, [&](std::size_t i) { return scale[i] * scale[i]; });
+  return nr;
+}
+
+namespace {
+
+// Each Newton iteration's linear solve (CG, sweeps) stops at this relative residual, or sooner
+// when the step is nearly converged (inexact Newton: the outer residual decides when to stop).
+constexpr double kForcing = 1e-3;
+// Halvings of a Newton step tried before the smallest is taken anyway.
+constexpr int kMaxHalvings = 12;
+// Restarts of a stalled step and their initial guesses y = −β v.
+constexpr int kRestarts = 4;
+constexpr double kRestartBeta[kRestarts] = {1, 2, 0.5, 1.5};
+// Substepping fallback: a step whose Newton iteration does not converge is split in halves, at
+// most this many times (2^kMaxDepth substeps of h / 2^kMaxDepth).
+constexpr int kMaxDepth = 8;
+// Polishing a converged step (NewtonIntegrator::polish): at most this many exact corrections
+// (one or two are taken: from the tolerance exact Newton reaches round-off in one).
+constexpr int kPolishIterations = 3;
+
+class NewtonIntegrator final : public Integrator {
+ public:
+  explicit NewtonIntegrator(const IntegratorConfig& c) : Integrator(c) {}
+
+  // energy_momentum and implicit_midpoint evaluate dampers at the midpoint velocity along the
+  // midpoint bond; bdf2 at the end of the step.
+  double damping_theta() const override { return config_.type == IntegratorType::bdf2 ? 1.0 : 0.5; }
+  double damping_direction_theta() const override { return damping_theta(); }
+  bool discrete_gradient() const override { return config_.type == IntegratorType::energy_momentum; }
+
+  void project(const Model& model, const State& state, const Adjacency& adj,
+               const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
+    const std::size_t n = model.num_quanta();
+    const double h = ctx.h;
+    out.resize(n);
+    project_kinematic(model, state, ctx, out);
+    topo_.update(model, adj);
+    stats_ = {};
+
+    NewtonScheme scheme = NewtonScheme::energy_momentum;
+    if (config_.type == IntegratorType::implicit_midpoint) scheme = NewtonScheme::implicit_midpoint;
+    const bool bdf2 = config_.type == IntegratorType::bdf2;
+    if (bdf2) scheme = has_history(state, ctx) ? NewtonScheme::bdf2 : NewtonScheme::backward_euler;
+    if (scheme == NewtonScheme::bdf2) {
+      x_prev_.assign(state.warm.begin(), state.warm.begin() + static_cast<std::ptrdiff_t>(n));
+      v_prev_.assign(state.warm.begin() + static_cast<std::ptrdiff_t>(n),
+                     state.warm.begin() + static_cast<std::ptrdiff_t>(2 * n));
+    }
+    initial_guess(config_.warm_start, model, f_ext, h, bdf2 ? no_history_ : state.warm, config_.threads, y_);
+    double residual = 0;
+    const bool converged = solve(model, state, adj, f_ext, scheme, out, h, residual);
+    stats_.residual = residual;
+    if (converged || bdf2) {
+      // bdf2 (and its backward-Euler start) is never split: its step reads the state one whole
+      // step back (State::warm), which a substep does not have (docs/integrators.md).
+      if (!converged) ++stats_.unconverged;
+      for (std::size_t i = 0; i < n; ++i) {
+        if (model.is_kinematic(static_cast<Index>(i))) continue;
+        out.dv[i] = y_[i];
+        out.dx[i] = step_.dx(model, y_, static_cast<Index>(i));
+      }
+    } else {
+      // Substepping fallback: a composition of energy-momentum (or midpoint) steps keeps what each
+      // step keeps, so the halves, solved each from the state the one before reached, give a step
+      // with the scheme's conservation properties; halves that do not converge split again, down
+      // to h / 2^kMaxDepth. Kinematic rows keep the whole step's prescribed motion.
+      sub_ = state;
+      out.has_work = true;
+      stats_.residual = 0;  // the largest of the substeps' from here
+      const double t0 = ctx.t, t1 = ctx.t + h, tm = t0 + 0.5 * h;
+      advance(model, adj, f_ext, scheme, t0, tm, ctx.step, 1, out);
+      advance(model, adj, f_ext, scheme, tm, t1, ctx.step, 1, out);
+      for (std::size_t i = 0; i < n; ++i) {
+        if (model.is_kinematic(static_cast<Index>(i))) continue;
+        out.dx[i] = sub_.x[i] - state.x[i];
+        out.dv[i] = sub_.v[i] - state.v[i];
+      }
+    }
+    if (bdf2) {
+      // BDF2's carry-over is the state this step starts from, kept in State::warm (so that a
+      // checkpoint holds it and a rollback restores it): x, v, then (t, h, step) to know it is
+      // the step just before the next one.
+      out.warm.resize(2 * n + 1);
+      std::copy(state.x.begin(), state.x.end(), out.warm.begin());
+      std::copy(state.v.begin(), state.v.end(), out.warm.begin() + static_cast<std::ptrdiff_t>(n));
+      out.warm[2 * n] = Vec3(ctx.t, h, static_cast<double>(ctx.step));
+    } else if (config_.warm_start == WarmStart::previous) {
+      const std::vector<Vec3>& kept = stats_.substeps > 0 ? out.dv : y_;
+      out.warm.assign(kept.begin(), kept.end());
+    }
+  }
+
+ private:
+  // Takes sub_ (the state at t0) to t1: one Newton solve over [t0, t1] or, when it does not
+  // converge and depth < kMaxDepth, two halves. Adds the substep's anchor and damper work to out.
+  void advance(const Model& model, const Adjacency& adj, const std::vector<Vec3>& f_ext, NewtonScheme scheme,
+               double t0, double t1, std::uint64_t step, int depth, Projection& out) {
+    const std::size_t n = model.num_quanta();
+    const double H = t1 - t0;
+    sub_out_.dx.resize(n);
+    sub_out_.dv.resize(n);
+    project_kinematic(model, sub_, StepContext{H, t0, step}, sub_out_);
+    // A substep's initial guess: the configured one at this step length (the previous step's
+    // Δv, of the whole step, is not one: zero then).
+    initial_guess(config_.warm_start == WarmStart::previous ? WarmStart::zero : config_.warm_start, model,
+                  f_ext, H, no_history_, config_.threads, y_);
+    double residual = 0;
+    const bool converged = solve(model, sub_, adj, f_ext, scheme, sub_out_, H, residual);
+    if (!converged && depth < kMaxDepth) {
+      const double tm = t0 + 0.5 * H;
+      advance(model, adj, f_ext, scheme, t0, tm, step, depth + 1, out);
+      advance(model, adj, f_ext, scheme, tm, t1, step, depth + 1, out);
+      return;
+    }
+    ++stats_.substeps;
+    if (!converged) ++stats_.unconverged;
+    stats_.residual = std::max(stats_.residual, residual);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (model.is_kinematic(static_cast<Index>(i))) continue;
+      sub_out_.dv[i] = y_[i];
+      sub_out_.dx[i] = step_.dx(model, y_, static_cast<Index>(i));
+    }
+    sub_x1_.resize(n);
+    sub_v1_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      sub_x1_[i] = sub_.x[i] + sub_out_.dx[i];
+      sub_v1_[i] = sub_.v[i] + sub_out_.dv[i];
+    }
+    // The ledger's accounts over this substep, from the substep itself (loads are linear in Δx:
+    // the ledger's whole-step charge is exact for them).
+    const StepWork w = step_work(model, sub_, adj, sub_out_, {sub_x1_, sub_v1_}, f_ext, H, damping_theta(),
+                                 damping_direction_theta(), discrete_gradient(), config_.threads);
+    out.work_anchors += w.anchors;
+    out.dissipated_damping += w.damping;
+    sub_.x.swap(sub_x1_);
+    sub_.v.swap(sub_v1_);
+    // Kinematic quanta exactly on their path (as Simulation::end_step puts them).
+    for (const Motion& motion : model.motions)
+      for (std::size_t k = 0; k < motion.quanta.size(); ++k)
+        motion.at(k, t1, sub_.x[motion.quanta[k]], sub_.v[motion.quanta[k]]);
+  }
+
+  // Newton's iteration for one step of length h from `state`, starting from y_ (kinematic rows
+  // set here from `kin`, which holds the prescribed motion: project_kinematic). Leaves the
+  // solution (or the best iterate) in y_ and the step's map in step_; returns whether ‖R‖ reached
+  // the tolerance, and the final relative residual.
+  bool solve(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
+             NewtonScheme scheme, const Projection& kin, double h, double& residual) {
+    const std::size_t n = model.num_quanta();
+    const int threads = config_.threads;
+    setup_newton_step(scheme, model, state, kin, h, &x_prev_, &v_prev_, step_);
+    // The modified matrix has the clamped, positive semi-definite blocks: CG and the 3×3 sweeps
+    // need them, and the unclamped (indefinite) blocks made Newton fail more often with LDLᵀ and
+    // dense elimination too (measured on the four-quanta experiment at hω = 10).
+    step_.clamp = true;
+    // Every solver starts with the modified matrix; exact Newton (sparse LU of the full
+    // Jacobian) takes over when a modified iteration fails its line search or reduces ‖R‖ by
+    // less than half, and the modified matrix again when an exact one fails. Measured
+    // (docs/integrators.md): at hω = 100 the modified direction stalls where bonds turn by
+    // radians and exact Newton converges; exact Newton from the first guess, though, often runs
+    // to another of the step's several solutions (four quanta at hω = 10) or to a local minimum
+    // of ‖R‖ (J singular there), which the modified direction leaves.
+    step_.exact = false;
+    // Kinematic rows carry their prescribed Δv through the bond evaluations.
+    for (const Motion& m : model.motions)
+      for (Index i : m.quanta) y_[i] = kin.dv[i];
+
+    const double tol = config_.tolerance;
+    double r = 0, ref = 0;
+    auto evaluate = [&] {
+      newton_bonds(model, state, step_, y_, threads, force_, &sys_);
+      const ResidualNorms nr = newton_residual(model, adj, step_, f_ext, force_, y_, threads, R_, scale_);
+      r = std::sqrt(nr.r2);
+      ref = std::sqrt(nr.ref2);
+      residual = ref > 0 ? r / ref : 0.0;
+      return r <= tol * ref;  // also true when nothing moves or pulls (r = ref = 0)
+    };
+    bool done = evaluate();
+    const bool first_exact = step_.exact;
+    int failed = 0, restarts = 0, iterations = 0;  // line searches failed in a row; restarts taken
+    double best = r;
+    y_best_ = y_;
+    while (!done && iterations < config_.newton_iterations) {
+      solve_linear(model, state, adj, std::min(0.5, std::max(kForcing, 0.1 * tol * ref / r)), step_.exact);
+      // Backtracking on ‖R‖: at large steps (bonds turning by radians per step) the full Newton
+      // step of the approximate block can overshoot; halve it until the residual decreases.
+      y0_ = y_;
+      const double r_old = r;
+      double alpha = 1;
+      for (int k = 0; k < kMaxHalvings; ++k, alpha *= 0.5) {
+        for (std::size_t i = 0; i < n; ++i)
+          if (!model.is_kinematic(static_cast<Index>(i))) y_[i] = y0_[i] + alpha * delta_[i];
+        done = evaluate();
+        if (done || r < (1 - 1e-4 * alpha) * r_old) break;
+      }
+      if (!done && !(r < (1 - 1e-4 * alpha) * r_old)) {
+        step_.exact = !step_.exact;  // this direction is exhausted: the other matrix from here
+        ++stats_.switches;
+        if (++failed == 2 && restarts < kRestarts) {
+          // Both matrices stall: a local minimum of ‖R‖ with R ≠ 0 (J singular there). Start
+          // again from y = −β v (the step's displacement h v (1 − β/2)), keeping the best y.
+          const double beta = kRestartBeta[restarts++];
+          for (std::size_t i = 0; i < n; ++i)
+            if (!model.is_kinematic(static_cast<Index>(i))) y_[i] = -beta * state.v[i];
+          step_.exact = first_exact;
+          failed = 0;
+        }
+        done = evaluate();
+      } else {
+        failed = 0;
+        // The modified matrix converges linearly; slower than halving ‖R‖ per iteration, exact
+        // Newton (quadratic near the root this iteration approaches) takes over.
+        if (!step_.exact && r > 0.5 * r_old) {
+          step_.exact = true;
+          done = evaluate();
+        }
+      }
+      if (r < best) {
+        best = r;
+        y_best_ = y_;
+      }
+      ++iterations;
+    }
+    stats_.iterations += iterations;
+    if (!done && r > best) {  // the iteration cap reached: the best iterate found
+      y_ = y_best_;
+      done = evaluate();
+    }
+    if (done && config_.newton_polish && polishes(scheme))
+      polish(model, state, adj, evaluate, r, ref, residual);
+    if (config_.restore_momentum &&
+        (config_.solver == CoupledSolver::cg || config_.solver == CoupledSolver::sweep)) {
+      // An iterative linear solve stopped early leaves a momentum error of the size of R; the
+      // scheme's momentum change of each free component is exactly Σ (s h f_ext + m e) (bond
+      // forces cancel in pairs), which a uniform shift restores.
+      impulse_.resize(n);
+      for (std::size_t i = 0; i < n; ++i)
+        impulse_[i] = step_.s * f_ext[i] + (model.mass[i] / h) * step_.e[i];
+      restore_component_momentum(model, topo_.components, impulse_, h, y_);
+    }
+    return done;
+  }
+
+  // The schemes whose exact step keeps both momenta (and energy_momentum's the energy): an
+  // accepted step changes L by Σ x_mid × R, so a step left at the tolerance (1e-12 relative to
+  // the residual's terms) drifts; over 10^5 steps 4.1e-9 of L's scale on the experiment's four
+  // quanta at hω = 10, whose modified iteration converges linearly and so stops just under the
+  // tolerance. bdf2 and backward Euler keep nothing that polishing would restore.
+  static bool polishes(NewtonScheme scheme) {
+    return scheme == NewtonScheme::energy_momentum || scheme == NewtonScheme::implicit_midpoint;
+  }
+
+  // IntegratorConfig::newton_polish: once the iteration has met the tolerance, exact-Newton
+  // corrections take ‖R‖ to the round-off of its evaluation. Near the root exact Newton converges
+  // quadratically, so from the tolerance one correction normally lands on round-off. The stop is
+  // where ‖R‖ stagnates, not a tolerance: the round-off floor is not ε times the residual's terms
+  // but the error of the bond forces, ε k |x| h per bond (tensions k (r − L) from positions known
+  // to ε |x|, with r − L ≪ L), measured at 3e-15 to 3e-13 of the terms; a fixed tolerance near it
+  // (1e-15 was tried) is often out of reach, and such steps ran to the iteration cap and were
+  // split. That floor is along each bond and equal and opposite at its ends, so it exerts no
+  // torque: L is then kept to the round-off of the sums and the update. Stops when a
+  // correction does not halve ‖R‖ (undone if it did not lower it at all), or when one converged
+  // so fast that by the quadratic rate (‖R‖ falls by q² where the last correction fell by q) the
+  // next would change ‖R‖ by less than ε times its terms — which saves the confirming correction
+  // on almost every step. The step is converged whatever polishing achieves: it never splits one.
+  template <class Evaluate>
+  void polish(const Model& model, const State& state, const Adjacency& adj, Evaluate& evaluate, double& r,
+              double ref, double& residual) {
+    constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+    const std::size_t n = model.num_quanta();
+    if (!step_.exact) {  // the exact blocks at the converged iterate
+      step_.exact = true;
+      evaluate();
+    }
+    for (int k = 0; k < kPolishIterations && r > 0; ++k) {
+      solve_linear(model, state, adj, kForcing, true);
+      ++stats_.polish_iterations;
+      y0_ = y_;
+      const double r_old = r, residual_old = residual;
+      for (std::size_t i = 0; i < n; ++i)
+        if (!model.is_kinematic(static_cast<Index>(i))) y_[i] = y0_[i] + delta_[i];
+      evaluate();
+      if (!(r < r_old)) {  // at round-off already: the iterate before
+        y_ = y0_;
+        r = r_old;
+        residual = residual_old;
+        return;
+      }
+      const double q = r / r_old;
+      if (q > 0.5 || q * q * r <= kEpsilon * ref) return;
+    }
+  }
+
+  // Whether State::warm holds the state of the step just before this one, taken with this h.
+  // After a timestep change, a resumed checkpoint of another integrator or a fresh start it does
+  // not, and BDF2 restarts with one backward-Euler step (self-starting, first order).
+  static bool has_history(const State& state, const StepContext& ctx) {
+    const std::size_t n = state.x.size();
+    if (state.warm.size() != 2 * n + 1 || ctx.step == 0) return false;
+    const Vec3& tag = state.warm[2 * n];
+    return tag.y() == ctx.h && tag.z() == static_cast<double>(ctx.step - 1) && tag.x() + tag.y() == ctx.t;
+  }
+
+  // (M + Σ B_b) δ = −R: with the exact blocks (sys_.exact) by sparse LU when `exact` (and the
+  // factorisation succeeds), otherwise the modified system with the configured solver.
+  void solve_linear(const Model& model, const State& state, const Adjacency& adj, double eta, bool exact) {
+    const std::size_t n = model.num_quanta();
+    const int threads = config_.threads;
+    assemble_blocks(model, adj, threads, config_.solver == CoupledSolver::sweep, sys_);
+    sys_.rhs.resize(n);
+    parallel_for(n, threads, [&](std::size_t i) { sys_.rhs[i] = -R_[i]; });  // kinematic rows of R are 0
+    sys_.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return R_[i].squaredNorm(); }));
+    if (exact) {
+      ++stats_.exact_iterations;
+      if (direct_.solve_lu(model, state, sys_, delta_)) return;
+    }
+    // The modified system; also where the exact Jacobian is singular (a turning point of R).
+    exact_.swap(sys_.exact);  // assemble_system takes the exact blocks when there are any (exact_ is empty)
+    SolveStats inner;
+    switch (config_.solver) {
+      case CoupledSolver::dense:
+      case CoupledSolver::ldlt:
+        direct_.solve(config_.solver, model, state, sys_, delta_);
+        break;
+      case CoupledSolver::cg:
+        delta_.assign(n, Vec3::Zero());
+        conjugate_gradient(model, sys_, eta, cg_cap(config_, topo_), threads, delta_, /*y_zero=*/true, inner);
+        break;
+      case CoupledSolver::sweep:
+        delta_.assign(n, Vec3::Zero());
+        gs_.solve(adj, sys_, topo_.coloring, config_.iterations, eta, config_.chebyshev_rho, threads, delta_, inner);
+        break;
+    }
+    stats_.linear_iterations += inner.iterations;
+    exact_.swap(sys_.exact);
+  }
+
+  NewtonStep step_;
+  ImplicitSystem sys_;
+  TopologyCache topo_;
+  std::vector<Vec3> y_, y0_, y_best_, delta_, force_, R_, impulse_, x_prev_, v_prev_;
+  const LineVector<Vec3> no_history_;
+  std::vector<double> scale_;
+  std::vector<Mat3> exact_;  // sys_.exact set aside while the modified system is solved
+  State sub_;                // substepping: the state the substeps have reached
+  Projection sub_out_;       // substepping: one substep's projection
+  std::vector<Vec3> sub_x1_, sub_v1_;  // substepping: the state a substep applies
+  DirectSolver direct_;
+  GaussSeidel gs_;
+};
+
+}  // namespace
+
+std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& config) {
+  return std::make_unique<NewtonIntegrator>(config);
+}
+
+}  // namespace qbond

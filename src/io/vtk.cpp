@@ -1,0 +1,158 @@
+#include "qbond/io/vtk.hpp"
+
+#include <cassert>
+#include <cstdio>
+#include <cstring>
+#include <type_traits>
+
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/model/ordering.hpp"
+#include "qbond/analysis/stress.hpp"
+#include "qbond/io/files.hpp"
+
+namespace qbond {
+namespace {
+
+// Builds the XML header and the appended binary block side by side: each array is declared with
+// its offset into the block, where its bytes follow a UInt64 byte count.
+class Appended {
+ public:
+  template <class T>
+  void array(std::string& xml, const char* type, const std::string& name, int components, const T* data,
+             std::size_t count) {
+    xml += "<DataArray type=\"" + std::string(type) + "\"";
+    if (!name.empty()) xml += " Name=\"" + name + "\"";
+    xml += " NumberOfComponents=\"" + std::to_string(components) + "\" format=\"appended\" offset=\"" +
+           std::to_string(block.size()) + "\"/>\n";
+    const std::uint64_t bytes = count * sizeof(T);
+    block.append(reinterpret_cast<const char*>(&bytes), sizeof bytes);
+    block.append(reinterpret_cast<const char*>(data), bytes);
+  }
+  std::string block;
+};
+
+std::string escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+void write_vtp(const std::filesystem::path& path, const Model& model, const State& state,
+               std::span<const PointArray> extra) {
+  const std::size_t n = model.num_quanta();
+  // Point k is the quanta of user id k and lines come in bond-id order, so that files read the
+  // same whatever the world's numbering (ordering.hpp).
+  const std::vector<Index> quanta_at = quanta_by_id(model), bond_at = bonds_by_id(model);
+  // values (n × components, world order) in file order.
+  auto gather = [&](const auto* values, int components) {
+    using T = std::remove_cvref_t<decltype(*values)>;
+    std::vector<T> out(n * static_cast<std::size_t>(components));
+    for (std::size_t k = 0; k < n; ++k)
+      for (int c = 0; c < components; ++c)
+        out[k * components + c] = values[std::size_t{quanta_at[k]} * components + c];
+    return out;
+  };
+  static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 must be three packed doubles");
+  static_assert(sizeof(Mat3) == 9 * sizeof(double), "Mat3 must be nine packed doubles");
+
+  std::vector<double> tension, strain;
+  bond_tension_strain(model, state, tension, strain);
+  std::vector<std::int64_t> line_conn, line_off, vert_conn(n), vert_off(n);
+  std::vector<double> cell_strain(n, 0.0), cell_tension(n, 0.0);
+  std::vector<std::int64_t> cell_bond(n, -1);
+  for (std::size_t i = 0; i < n; ++i) {
+    vert_conn[i] = static_cast<std::int64_t>(i);
+    vert_off[i] = static_cast<std::int64_t>(i + 1);
+  }
+  for (Index b : bond_at) {
+    if (!state.alive[b]) continue;
+    line_conn.push_back(model.quanta_id[model.bond_i[b]]);
+    line_conn.push_back(model.quanta_id[model.bond_j[b]]);
+    line_off.push_back(static_cast<std::int64_t>(line_conn.size()));
+    cell_strain.push_back(strain[b]);
+    cell_tension.push_back(tension[b]);
+    cell_bond.push_back(model.bond_id[b]);
+  }
+  std::vector<std::int64_t> id(n);
+  std::vector<std::int32_t> body(n);
+  std::vector<std::uint8_t> kinematic(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const Index i = quanta_at[k];
+    id[k] = static_cast<std::int64_t>(k);
+    body[k] = static_cast<std::int32_t>(model.body[i]);
+    kinematic[k] = model.is_kinematic(i);
+  }
+  // Stress where volumes are known (stress.hpp); 0 elsewhere.
+  std::vector<Mat3> sigma;
+  virial_stress(model, state, sigma);
+  std::vector<double> mises(n);
+  for (std::size_t k = 0; k < n; ++k) mises[k] = von_mises(sigma[quanta_at[k]]);
+  const auto x = gather(reinterpret_cast<const double*>(state.x.data()), 3);
+  const auto v = gather(reinterpret_cast<const double*>(state.v.data()), 3);
+  const auto mass = gather(model.mass.data(), 1);
+  const auto stress = gather(reinterpret_cast<const double*>(sigma.data()), 9);
+
+  Appended a;
+  std::string xml =
+      "<?xml version=\"1.0\"?>\n"
+      "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
+      "<PolyData>\n<Piece NumberOfPoints=\"" +
+      std::to_string(n) + "\" NumberOfVerts=\"" + std::to_string(n) + "\" NumberOfLines=\"" +
+      std::to_string(line_off.size()) + "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
+  xml += "<PointData Scalars=\"mass\" Vectors=\"velocity\">\n";
+  a.array(xml, "Float64", "velocity", 3, v.data(), 3 * n);
+  a.array(xml, "Float64", "mass", 1, mass.data(), n);
+  a.array(xml, "Int64", "id", 1, id.data(), n);
+  a.array(xml, "Int32", "body", 1, body.data(), n);
+  a.array(xml, "UInt8", "kinematic", 1, kinematic.data(), n);
+  a.array(xml, "Float64", "von_mises", 1, mises.data(), n);
+  a.array(xml, "Float64", "stress", 9, stress.data(), 9 * n);
+  for (const PointArray& p : extra) {
+    assert(p.values.size() == n * static_cast<std::size_t>(p.components));
+    a.array(xml, "Float64", escape(p.name), p.components, gather(p.values.data(), p.components).data(),
+            p.values.size());
+  }
+  xml += "</PointData>\n<CellData Scalars=\"tension\">\n";
+  a.array(xml, "Float64", "strain", 1, cell_strain.data(), cell_strain.size());
+  a.array(xml, "Float64", "tension", 1, cell_tension.data(), cell_tension.size());
+  a.array(xml, "Int64", "bond", 1, cell_bond.data(), cell_bond.size());
+  xml += "</CellData>\n<Points>\n";
+  a.array(xml, "Float64", "", 3, x.data(), 3 * n);
+  xml += "</Points>\n<Verts>\n";
+  a.array(xml, "Int64", "connectivity", 1, vert_conn.data(), n);
+  a.array(xml, "Int64", "offsets", 1, vert_off.data(), n);
+  xml += "</Verts>\n<Lines>\n";
+  a.array(xml, "Int64", "connectivity", 1, line_conn.data(), line_conn.size());
+  a.array(xml, "Int64", "offsets", 1, line_off.data(), line_off.size());
+  xml += "</Lines>\n</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">\n_";
+  xml += a.block;
+  xml += "\n</AppendedData>\n</VTKFile>\n";
+  write_file_atomic(path, xml, Durability::atomic);
+}
+
+void PvdSeries::add(double time, std::string file) { frames_.emplace_back(time, std::move(file)); }
+
+void PvdSeries::write(const std::filesystem::path& pvd) const {
+  std::string xml =
+      "<?xml version=\"1.0\"?>\n"
+      "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n<Collection>\n";
+  char t[32];
+  for (const auto& [time, file] : frames_) {
+    std::snprintf(t, sizeof t, "%.17g", time);
+    xml += "<DataSet timestep=\"" + std::string(t) + "\" group=\"\" part=\"0\" file=\"" + escape(file) + "\"/>\n";
+  }
+  xml += "</Collection>\n</VTKFile>\n";
+  write_file_atomic(pvd, xml, Durability::atomic);
+}
+
+}  // namespace qbond

@@ -1,0 +1,272 @@
+#include "ledger/energy_sums.hpp"
+
+#include <array>
+#include <bit>
+#include <cassert>
+#include <cmath>
+#include <cstring>
+#include <functional>
+
+#include "core/parallel.hpp"
+#include "core/simd.hpp"
+
+namespace qbond {
+namespace {
+
+constexpr std::size_t kLanes = 8;
+
+// How many of bonds b, b + 1, ..., b + 7 in a row are alive and continue bond b's ends (bond b + k
+// joins bond_i[b] + k and bond_j[b] + k): their ends' data are then contiguous, and their terms
+// one vector loop.
+QBOND_VECTOR_INLINE int affine_prefix(const Model& m, const State& s, std::size_t b) {
+  const Index* bi = m.bond_i.data() + b;
+  const Index* bj = m.bond_j.data() + b;
+  const std::uint8_t* alive = s.alive.data() + b;
+  unsigned good = 0;  // bit k: bond b + k continues (compares, no branch per bond)
+  for (Index k = 0; k < kLanes; ++k)
+    good |= static_cast<unsigned>((alive[k] != 0) & (bi[k] == bi[0] + k) & (bj[k] == bj[0] + k)) << k;
+  return std::countr_one(good);
+}
+
+// Whether affine_prefix(m, s, b) is all eight, as one vector loop (the test before every whole
+// block: the per-lane bits above cost as much as a fifth of the block's terms).
+QBOND_VECTOR_INLINE bool affine_block(const Model& m, const State& s, std::size_t b) {
+  const Index* bi = m.bond_i.data() + b;
+  const Index* bj = m.bond_j.data() + b;
+  const std::uint8_t* alive = s.alive.data() + b;
+  const Index i0 = bi[0], j0 = bj[0];
+  Index off = 0;  // 0 iff bi[k] == bi[0] + k and bj[k] == bj[0] + k (Index arithmetic, as above)
+  QBOND_SIMD_OR(off) for (Index k = 0; k < kLanes; ++k) off |= (bi[k] - i0 - k) | (bj[k] - j0 - k);
+  // Whether one of the eight one-byte flags is 0: the classic test for a zero byte in a word.
+  std::uint64_t flags;
+  std::memcpy(&flags, alive, 8);
+  const std::uint64_t dead = (flags - 0x0101010101010101) & ~flags & 0x8080808080808080;
+  return off == 0 && dead == 0;
+}
+
+// Whether the first `count` (at most eight) of the eight one-byte entries of `a` from b equal a[b]:
+// one 64-bit compare (entry l in byte l: little-endian).
+template <class T>
+QBOND_VECTOR_INLINE bool uniform_prefix(const T* a, std::size_t b, std::size_t count) {
+  static_assert(sizeof(T) == 1 && std::endian::native == std::endian::little);
+  std::uint64_t eight;
+  std::memcpy(&eight, a + b, 8);
+  const std::uint64_t first = static_cast<std::uint8_t>(a[b]);
+  const std::uint64_t mask = count >= kLanes ? ~std::uint64_t{0} : (std::uint64_t{1} << (8 * count)) - 1;
+  return ((eight ^ (first * 0x0101010101010101)) & mask) == 0;
+}
+
+// N sums over the alive bonds of [b0, b1): affine blocks of eight, and of two to seven where no
+// whole one starts, that uniform(b, count) accepts, a block's N terms of bond b + l, which
+// block_terms<L>(i, j, b, t) writes to t[·][l] for its first L lanes (bond b + l joins i + l and
+// j + l; vector loops), added to lanes[·][l] for l < count (the other lanes add −0.0, or, past
+// the first four for a block of at most four, nothing: the same sums, for half the arithmetic in
+// a small body's rows of four); every other bond into one more partial per sum by
+// bond_term(i, j, b) (its N terms); the lanes added in order, that partial last. Which bonds go
+// where depends on the bonds only, never on the thread.
+template <std::size_t N>
+using Sums = std::array<double, N>;
+template <std::size_t N, class BlockTerms, class BondTerm, class Uniform>
+QBOND_VECTOR_INLINE Sums<N> chunk_sums(const Model& m, const State& s, std::size_t b0, std::size_t b1,
+                                       BlockTerms&& block_terms, BondTerm&& bond_term, Uniform&& uniform) {
+  const std::size_t n = s.x.size();
+  double lanes[N][kLanes] = {};
+  auto lanes_of = [&]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, std::size_t count)
+                      QBOND_LAMBDA_INLINE {
+    // The terms first, then their sums: GCC vectorises no loop that adds into two lane arrays as
+    // it computes.
+    double t[N][kLanes];
+    block_terms.template operator()<L>(i, j, b, t);
+    for (std::size_t k = 0; k < N; ++k)
+      QBOND_SIMD for (std::size_t l = 0; l < L; ++l) lanes[k][l] += l < count ? t[k][l] : -0.0;
+  };
+  auto block = [&](std::size_t i, std::size_t j, std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
+    if (count > kLanes / 2)
+      lanes_of.template operator()<kLanes>(i, j, b, count);
+    else
+      lanes_of.template operator()<kLanes / 2>(i, j, b, count);
+  };
+  Sums<N> others{};
+  std::size_t b = b0;
+  while (b < b1) {
+    // The whole blocks from b first, then their loop: no branch between one block and the next.
+    std::size_t e = b;
+    while (e + kLanes <= b1 && affine_block(m, s, e) && uniform(e, kLanes)) e += kLanes;
+    for (std::size_t q = b; q < e; q += kLanes) block(m.bond_i[q], m.bond_j[q], q, kLanes);
+    if (e >= b1) break;
+    // A shorter block at e (its vector loop reads all eight lanes' ends and parameters, which
+    // must exist), else bond e alone.
+    const Index i = m.bond_i[e], j = m.bond_j[e];
+    const int count = e + kLanes <= b1 && i + kLanes <= n && j + kLanes <= n ? affine_prefix(m, s, e) : 0;
+    if (count >= 2 && uniform(e, count)) {
+      block(i, j, e, count);
+      b = e + count;
+    } else {
+      if (s.alive[e]) {
+        const Sums<N> t = bond_term(i, j, e);
+        for (std::size_t k = 0; k < N; ++k) others[k] += t[k];
+      }
+      b = e + 1;
+    }
+  }
+  Sums<N> sums{};
+  for (std::size_t k = 0; k < N; ++k) {
+    for (double l : lanes[k]) sums[k] += l;
+    sums[k] += others[k];
+  }
+  return sums;
+}
+
+// |x_j − x_i| for positions stored as consecutive triples.
+QBOND_VECTOR_INLINE double length(const double* x, std::size_t i, std::size_t j) {
+  double r2 = 0;
+  QBOND_UNROLL(3)
+  for (std::size_t c = 0; c < 3; ++c) {
+    const double d = x[3 * j + c] - x[3 * i + c];
+    r2 += d * d;
+  }
+  return std::sqrt(r2);
+}
+
+// U_b of a linear bond of length r (evaluate_law's, Eq. 2), written out so that a block of them
+// vectorises.
+QBOND_VECTOR_INLINE double linear_energy(double k, double r, double rest) {
+  const double e = r - rest;
+  return 0.5 * k * e * e;
+}
+
+QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::size_t b0, std::size_t b1) {
+  const double* x = s.x.data()->data();
+  const double* rest = s.rest.data();
+  const double* k = m.stiffness.data();
+  const Law* law = m.law.data();
+  auto block = [=]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, double(&t)[1][kLanes])
+                   QBOND_LAMBDA_INLINE {
+    QBOND_SIMD for (std::size_t l = 0; l < L; ++l)
+      t[0][l] = linear_energy(k[b + l], length(x, i + l, j + l), rest[b + l]);
+  };
+  auto any_law = [&](std::size_t i, std::size_t j, std::size_t b) {
+    return Sums<1>{m.law_at(b, length(x, i, j), rest[b]).U};
+  };
+  auto all_linear = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
+    return law[b] == Law::linear && uniform_prefix(law, b, count);
+  };
+  return chunk_sums<1>(m, s, b0, b1, block, any_law, all_linear)[0];
+}
+
+// How the step's dampers were evaluated: at the start's bond direction (φ = 0) or along d + φ Δd,
+// and at the start's velocities (θ = 0), the end's (θ = 1) or v + θ Δv. The common cases read
+// fewer arrays and do fewer operations a bond.
+enum class DamperPoint { start_end, start_start, start_any, any_any };
+
+// The dampers' work and the bonds' energy at the applied positions (bond_step_sums) over bonds
+// [b0, b1), the dampers evaluated at kPoint.
+template <DamperPoint kPoint>
+QBOND_VECTOR_INLINE Sums<2> step_chunk_at(const Model& m, const State& s, const double* x1, const double* v1,
+                                          double h, double theta, double phi, std::size_t b0,
+                                          std::size_t b1) {
+  constexpr bool kStartBond = kPoint != DamperPoint::any_any;
+  const double* x = s.x.data()->data();
+  const double* v = s.v.data()->data();
+  const double* D = m.damping.data();
+  const double* rest = s.rest.data();
+  const double* k = m.stiffness.data();
+  const Law* law = m.law.data();
+  const DampingModel* model = m.damping_model.data();
+  // The damper's loss and the end length |x1_j − x1_i| from the bond d at which the damper is
+  // charged, the relative velocity w and the end bond d₁.
+  struct Term {
+    double loss, r1;
+  };
+  auto term = [=](const double (&d)[3], const double (&w)[3], const double (&d1)[3], double Db,
+                  bool axial) QBOND_LAMBDA_INLINE {
+    double d2 = 0, wd = 0, w2 = 0, r2 = 0;
+    QBOND_UNROLL(3)
+    for (std::size_t c = 0; c < 3; ++c) {
+      d2 += d[c] * d[c];
+      wd += w[c] * d[c];
+      w2 += w[c] * w[c];
+      r2 += d1[c] * d1[c];
+    }
+    // Both losses computed, then one selected (no branch in a lane), every lane's D loaded (no
+    // masked load); a zero-length bond's NaN is not selected.
+    const double along = wd * wd / d2;
+    const double loss = h * Db * (axial ? along : w2);
+    return Term{d2 > 0 ? loss : 0.0, std::sqrt(r2)};
+  };
+  // d, w and d₁ of the bond joining the triples at a and e (element offsets 3 i, 3 j), or of the
+  // eight bonds of a block from them (k: element k of the eight ends' consecutive triples).
+  auto differences = [=](std::size_t a, std::size_t e, double& d, double& w, double& d1) QBOND_LAMBDA_INLINE {
+    const double d0 = x[e] - x[a];
+    d1 = x1[e] - x1[a];
+    d = kStartBond ? d0 : d0 + phi * (d1 - d0);
+    if constexpr (kPoint == DamperPoint::start_end) {
+      w = v1[e] - v1[a];
+    } else if constexpr (kPoint == DamperPoint::start_start) {
+      w = v[e] - v[a];
+    } else {
+      const double w0 = v[e] - v[a];
+      w = w0 + theta * ((v1[e] - v1[a]) - w0);
+    }
+  };
+  auto block = [=]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, double(&t)[2][kLanes])
+                   QBOND_LAMBDA_INLINE {
+    // The ends' triples are contiguous: the differences are formed on them as stored, element by
+    // element in contiguous vectors, and only d, w and d₁ are then split into their components
+    // (split before, the eight arrays' stride-3 shuffles were half the loop's instructions).
+    constexpr std::size_t K = 3 * L;
+    double d[K], w[K], d1[K];
+    QBOND_SIMD for (std::size_t k = 0; k < K; ++k) differences(3 * i + k, 3 * j + k, d[k], w[k], d1[k]);
+    const bool axial = model[b] == DampingModel::axial;  // the block's first bond's (uniform)
+    QBOND_SIMD for (std::size_t l = 0; l < L; ++l) {
+      const double dl[3] = {d[3 * l], d[3 * l + 1], d[3 * l + 2]};
+      const double wl[3] = {w[3 * l], w[3 * l + 1], w[3 * l + 2]};
+      const double d1l[3] = {d1[3 * l], d1[3 * l + 1], d1[3 * l + 2]};
+      const Term bond = term(dl, wl, d1l, D[b + l], axial);
+      t[0][l] = bond.loss;
+      t[1][l] = linear_energy(k[b + l], bond.r1, rest[b + l]);
+    }
+  };
+  auto bond = [&](std::size_t i, std::size_t j, std::size_t b) {
+    double d[3], w[3], d1[3];
+    for (std::size_t c = 0; c < 3; ++c) differences(3 * i + c, 3 * j + c, d[c], w[c], d1[c]);
+    const Term t = term(d, w, d1, D[b], model[b] == DampingModel::axial);
+    return Sums<2>{t.loss, m.law_at(b, t.r1, rest[b]).U};
+  };
+  auto uniform = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
+    return law[b] == Law::linear && uniform_prefix(law, b, count) && uniform_prefix(model, b, count);
+  };
+  return chunk_sums<2>(m, s, b0, b1, block, bond, uniform);
+}
+
+QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const double* x1, const double* v1,
+                                       double h, double theta, double phi, std::size_t b0, std::size_t b1) {
+  using enum DamperPoint;
+  if (phi != 0) return step_chunk_at<any_any>(m, s, x1, v1, h, theta, phi, b0, b1);
+  if (theta == 1) return step_chunk_at<start_end>(m, s, x1, v1, h, theta, phi, b0, b1);
+  if (theta == 0) return step_chunk_at<start_start>(m, s, x1, v1, h, theta, phi, b0, b1);
+  return step_chunk_at<start_any>(m, s, x1, v1, h, theta, phi, b0, b1);
+}
+
+}  // namespace
+
+double bond_energy_sum(const Model& m, const State& s, int threads) {
+  return reduce_chunks(
+      m.num_bonds(), bond_pass_threads(m.num_quanta(), threads), 0.0,
+      [&](std::size_t b0, std::size_t b1) { return energy_chunk(m, s, b0, b1); }, std::plus<>{});
+}
+
+BondStepSums bond_step_sums(const Model& m, const State& s, const AppliedState& a, double h, double theta,
+                            double phi, int threads) {
+  assert(a.x.size() == m.num_quanta() && a.v.size() == m.num_quanta());
+  auto chunk = [&](std::size_t b0, std::size_t b1) {  // a chunk has bonds, so quanta: the arrays have data
+    return step_chunk(m, s, a.x.data()->data(), a.v.data()->data(), h, theta, phi, b0, b1);
+  };
+  const Sums<2> sums = reduce_chunks(m.num_bonds(), bond_pass_threads(m.num_quanta(), threads), Sums<2>{},
+                                     chunk, [](const Sums<2>& p, const Sums<2>& q) {
+                                       return Sums<2>{p[0] + q[0], p[1] + q[1]};
+                                     });
+  return {sums[0], sums[1]};
+}
+
+}  // namespace qbond

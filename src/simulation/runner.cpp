@@ -1,0 +1,381 @@
+#include "qbond/simulation/runner.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include "qbond/io/checkpoint.hpp"
+#include "qbond/io/diagnostics.hpp"
+#include "qbond/io/files.hpp"
+#include "qbond/io/probes.hpp"
+#include "qbond/io/vtk.hpp"
+
+namespace qbond {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+// The run's output directory and its frames/, or an error that names them.
+void make_output_dirs(const fs::path& out_dir) {
+  std::error_code ec;
+  fs::create_directories(out_dir / "frames", ec);
+  if (ec)
+    throw std::runtime_error("cannot create the output directory " + (out_dir / "frames").string() + ": " +
+                             ec.message());
+}
+
+constexpr const char* kCsv = "diagnostics.csv";
+constexpr const char* kPvd = "series.pvd";
+constexpr const char* kCheckpoint = "checkpoint.qbc";
+constexpr const char* kRunJson = "run.json";
+constexpr const char* kEvents = "events.csv";
+constexpr const char* kEventsHeader = "step,time,event,reason,bond,i,j,strain,tension";
+
+// One row of events.csv; bond and quanta named by their user ids (Model::bond_id, quanta_id).
+std::string event_row(const BondEvent& e, const Model& m) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, "%llu,%.17g,%s,%s,%llu,%llu,%llu,%.17g,%.17g", static_cast<unsigned long long>(e.step),
+                e.time, std::string(to_string(e.kind)).c_str(), std::string(to_string(e.reason)).c_str(),
+                static_cast<unsigned long long>(m.bond_id[e.bond]),
+                static_cast<unsigned long long>(m.quanta_id[e.i]),
+                static_cast<unsigned long long>(m.quanta_id[e.j]), e.strain, e.tension);
+  return buf;
+}
+
+// Keeps the lines of a CSV file (after its header) for which keep(line) holds; returns them.
+std::vector<std::string> kept_lines(const std::string& text, const std::string& header,
+                                    const std::function<bool(const std::string&)>& keep) {
+  std::vector<std::string> kept;
+  std::istringstream lines(text);
+  std::string line;
+  if (!std::getline(lines, line) || line != header) return kept;
+  while (std::getline(lines, line)) {
+    if (line.empty() || lines.eof()) break;  // a partial last line has no newline
+    if (keep(line)) kept.push_back(line);
+  }
+  return kept;
+}
+
+std::uint64_t leading_step(const std::string& line) { return std::stoull(line.substr(0, line.find(','))); }
+
+std::string frame_name(std::uint64_t step) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "frames/frame_%010llu.vtp", static_cast<unsigned long long>(step));
+  return buf;
+}
+
+std::string utc_now() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+json to_json(const RunSettings& s) {
+  return {{"out_dir", s.out_dir.string()},
+          {"steps", s.steps},
+          {"every", s.every},
+          {"checkpoint_every", s.checkpoint_every},
+          {"vtk", s.vtk}};
+}
+
+RunSettings settings_from_json(const json& j) {
+  RunSettings s;
+  s.out_dir = j.at("out_dir").get<std::string>();
+  s.steps = j.at("steps").get<std::uint64_t>();
+  s.every = j.at("every").get<std::uint64_t>();
+  s.checkpoint_every = j.at("checkpoint_every").get<std::uint64_t>();
+  s.vtk = j.at("vtk").get<bool>();
+  return s;
+}
+
+std::vector<Probe> probes_of(const Scene& scene) {
+  std::vector<Probe> probes;
+  for (const ProbeSpec& p : scene.output.probes) probes.push_back({p.name, p.quanta, p.about});
+  return probes;
+}
+
+std::vector<Obstacle> obstacles_of(const Scene& scene) {
+  std::vector<Obstacle> obstacles;
+  for (const HeuristicSpec& h : scene.heuristics)
+    if (const auto* o = std::get_if<Obstacle>(&h)) obstacles.push_back(*o);
+  return obstacles;
+}
+
+const char* to_string(RunStatus s) {
+  switch (s) {
+    case RunStatus::completed: return "completed";
+    case RunStatus::stopped: return "stopped";
+    case RunStatus::blowup: return "blowup";
+  }
+  return "?";
+}
+
+}  // namespace
+
+RunSettings settings_of(const Scene& scene) {
+  RunSettings s;
+  s.out_dir = scene.output.dir;
+  s.steps = scene.steps;
+  s.every = std::max<std::uint64_t>(1, scene.output.every);
+  s.checkpoint_every = scene.output.checkpoint_every;
+  s.vtk = scene.output.vtk;
+  return s;
+}
+
+struct Runner::Impl {
+  Scene scene;
+  RunSettings settings;
+  Simulation sim;
+  Diagnostics diagnostics;
+  std::unique_ptr<LineFile> csv;
+  std::unique_ptr<LineFile> events;
+  PvdSeries series;
+  std::size_t series_written = 0;  ///< frames series.pvd lists
+  std::uint64_t last_row = ~0ull;  ///< step of the last diagnostics row written
+  std::string started_at = utc_now();
+  std::string resumed_from;
+  std::uint64_t first_step = 0;
+  double last_h = 0;  ///< the step that led to the current state [s]
+
+  Impl(Scene s, RunSettings rs)
+      : scene(std::move(s)),
+        settings(std::move(rs)),
+        sim(std::move(scene.world), scene.integrator, scene.timestep),  // the simulation owns the world
+        diagnostics(sim.world().model, probes_of(scene), obstacles_of(scene)) {
+    if (settings.every == 0) throw std::invalid_argument("output interval must be >= 1 step");
+    settings.out_dir = fs::absolute(settings.out_dir);
+    sim.limits() = scene.limits;
+    sim.set_keep_last_good(true);
+    for (const HeuristicSpec& h : scene.heuristics) sim.add_heuristic(make_heuristic(h));
+    first_step = sim.world().state.step;
+    last_h = scene.timestep;
+  }
+
+  /// Adaptive runs end at the scene's horizon (steps × timestep), fixed ones after `steps` steps.
+  bool finished() const {
+    const State& s = sim.world().state;
+    return scene.adaptive.enabled ? s.time >= end_time() : s.step >= settings.steps;
+  }
+  double end_time() const { return static_cast<double>(settings.steps) * scene.timestep; }
+
+  StepReport step() {
+    if (!scene.adaptive.enabled) return sim.step();
+    const AdaptiveReport a = adaptive_step(sim, scene.adaptive, end_time());
+    last_h = a.h;
+    return a.step;
+  }
+
+  fs::path out(const std::string& name) const { return settings.out_dir / name; }
+
+  std::string metadata() const {
+    return json{{"format", "qbond-run"}, {"qbond_version", QBOND_VERSION}, {"scene", scene.resolved},
+                {"run", to_json(settings)}}
+        .dump();
+  }
+
+  // One diagnostics row and, with VTK on, one frame of the current state.
+  void output() {
+    const World& w = sim.world();
+    const std::uint64_t step = w.state.step;
+    if (step == last_row) return;
+    csv->write_line(diagnostics.row(w.model, w.state, sim.integrator().stats(), last_h));
+    last_row = step;
+    if (!settings.vtk) return;
+    const std::string name = frame_name(step);
+    write_vtp(out(name), w.model, w.state);
+    series.add(w.state.time, name);
+    // Rewritten whole, so only once it has grown by a sixteenth: a frame every step took 1.2 GB
+    // of rewrites over 5 000 frames. The run's end writes the rest (write_series).
+    if (series.size() >= series_written + std::max<std::size_t>(1, series_written / 16)) write_series();
+  }
+
+  void write_series() {
+    if (!settings.vtk || series.size() == series_written) return;
+    series.write(out(kPvd));
+    series_written = series.size();
+  }
+
+  // The checkpoint, durable, and before it the frames and rows written so far (Durability).
+  void checkpoint() {
+    flush_file_system(settings.out_dir);
+    save_checkpoint(out(kCheckpoint), metadata(), sim.world().state);
+  }
+
+  void write_run_json(const std::string& status, const RunResult* r) const {
+    const State& s = sim.world().state;
+    json j = {{"qbond_version", QBOND_VERSION},
+              {"status", status},
+              {"started_at", started_at},
+              {"first_step", first_step},
+              {"last_step", s.step},
+              {"simulated_time", s.time},
+              {"run", to_json(settings)},
+              {"outputs",
+               {{"diagnostics", kCsv},
+                {"events", kEvents},
+                {"series", settings.vtk ? json(kPvd) : json()},
+                {"checkpoint", kCheckpoint}}},
+              {"machine", {{"hardware_threads", std::thread::hardware_concurrency()}}},
+              {"scene", scene.resolved}};
+    if (!resumed_from.empty()) j["resumed_from"] = resumed_from;
+    if (r) {
+      j["finished_at"] = utc_now();
+      j["message"] = r->message;
+      j["steps_taken"] = r->steps_taken;
+      j["wall_seconds"] = r->wall_seconds;
+      j["steps_per_second"] = r->wall_seconds > 0 ? r->steps_taken / r->wall_seconds : 0.0;
+      const World& w = sim.world();
+      j["quanta"] = w.num_quanta();
+      j["bonds"] = w.num_bonds();
+      j["bonds_alive"] = w.num_alive_bonds();
+    }
+    write_file_atomic(out(kRunJson), j.dump(2) + "\n");
+  }
+};
+
+Runner::Runner(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Runner::Runner(Runner&&) noexcept = default;
+Runner::~Runner() = default;
+
+Runner::Runner(Scene scene, RunSettings settings)
+    : impl_(std::make_unique<Impl>(std::move(scene), std::move(settings))) {
+  Impl& r = *impl_;
+  make_output_dirs(r.settings.out_dir);
+  // Stale frames of an earlier run would show up in a file browser beside the new series.
+  for (const auto& e : fs::directory_iterator(r.settings.out_dir / "frames"))
+    if (e.path().extension() == ".vtp" && e.path().filename().string().starts_with("frame_")) fs::remove(e.path());
+  fs::remove(r.out(kPvd));
+  r.write_run_json("running", nullptr);
+  r.csv = std::make_unique<LineFile>(r.out(kCsv), /*truncate=*/true);
+  r.csv->write_line(r.diagnostics.header());
+  r.events = std::make_unique<LineFile>(r.out(kEvents), /*truncate=*/true);
+  r.events->write_line(kEventsHeader);
+  r.output();
+}
+
+Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust) {
+  Checkpoint ck = load_checkpoint(checkpoint);
+  json meta;
+  try {
+    meta = json::parse(ck.metadata);
+    if (meta.at("format") != "qbond-run") throw std::runtime_error("not a run checkpoint");
+  } catch (const std::exception& e) {
+    throw std::runtime_error(checkpoint.string() + ": unreadable run metadata: " + e.what());
+  }
+  Scene scene = parse_scene(meta.at("scene").dump(), checkpoint.string());
+  RunSettings settings = settings_from_json(meta.at("run"));
+  if (adjust) adjust(scene, settings);
+  if (ck.state.x.size() != scene.world.num_quanta() ||
+      ck.state.rest.size() - ck.state.formed.size() != scene.world.num_bonds())
+    throw std::runtime_error(checkpoint.string() + ": state does not match its scene (" +
+                             std::to_string(ck.state.x.size()) + " quanta, " +
+                             std::to_string(ck.state.rest.size() - ck.state.formed.size()) + " scene bonds saved)");
+  scene.world.state = std::move(ck.state);
+  scene.world.sync_formed_bonds();
+  auto impl = std::make_unique<Impl>(std::move(scene), std::move(settings));
+  Impl& r = *impl;
+  r.resumed_from = fs::absolute(checkpoint).string();
+  make_output_dirs(r.settings.out_dir);
+
+  // Keep the rows (and their frames) a run that never stopped would have written up to here:
+  // those on the output schedule up to the checkpoint's step; drop the rest.
+  const std::uint64_t at = r.sim.world().state.step;
+  auto text_of = [&](const char* name) {
+    try {
+      return read_file(r.out(name));
+    } catch (const std::exception&) {
+      return std::string();  // a new directory: the rows before the checkpoint are not there to keep
+    }
+  };
+  const std::string header = r.diagnostics.header();
+  const std::vector<std::string> kept = kept_lines(text_of(kCsv), header, [&](const std::string& line) {
+    const std::uint64_t step = leading_step(line);
+    const bool keep = step <= at && (step % r.settings.every == 0);
+    if (keep) {
+      if (r.settings.vtk && fs::exists(r.out(frame_name(step))))
+        r.series.add(std::strtod(line.c_str() + line.find(',') + 1, nullptr), frame_name(step));
+      r.last_row = step;
+    } else if (r.settings.vtk) {
+      fs::remove(r.out(frame_name(step)));
+    }
+    return keep;
+  });
+  std::string text = header + "\n";
+  for (const std::string& k : kept) text += k + "\n";
+  write_file_atomic(r.out(kCsv), text);
+  if (r.settings.vtk) {
+    r.series.write(r.out(kPvd));
+    r.series_written = r.series.size();
+  }
+  // Events of steps the checkpoint's state has taken (an event's step is the one it happened in).
+  std::string events = std::string(kEventsHeader) + "\n";
+  for (const std::string& k : kept_lines(text_of(kEvents), kEventsHeader,
+                                         [&](const std::string& line) { return leading_step(line) < at; }))
+    events += k + "\n";
+  write_file_atomic(r.out(kEvents), events);
+  r.events = std::make_unique<LineFile>(r.out(kEvents), /*truncate=*/false);
+  r.csv = std::make_unique<LineFile>(r.out(kCsv), /*truncate=*/false);
+  r.write_run_json("running", nullptr);
+  return Runner(std::move(impl));
+}
+
+RunResult Runner::run(const std::function<bool()>& stop, const std::function<void(const RunProgress&)>& progress) {
+  Impl& r = *impl_;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto wall = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  RunResult result;
+  const std::uint64_t start = r.sim.world().state.step;
+  const double start_time = r.sim.world().state.time;
+  RunProgress p;
+  p.first_step = start;
+  p.last_step = r.settings.steps;
+  p.adaptive = r.scene.adaptive.enabled;
+  while (!r.finished()) {
+    const StepReport rep = r.step();
+    if (rep.status != StepReport::Status::ok) {
+      result.status = RunStatus::blowup;
+      result.message = rep.message;
+      break;
+    }
+    for (const BondEvent& e : r.sim.events()) r.events->write_line(event_row(e, r.sim.world().model));
+    const State& s = r.sim.world().state;
+    if (s.step % r.settings.every == 0) r.output();
+    if (r.settings.checkpoint_every && s.step % r.settings.checkpoint_every == 0) r.checkpoint();
+    if (progress) {
+      p.step = s.step;
+      p.time = s.time;
+      p.wall_seconds = wall();
+      const double span = p.adaptive ? r.end_time() - start_time : static_cast<double>(p.last_step - start);
+      const double done = p.adaptive ? s.time - start_time : static_cast<double>(s.step - start);
+      p.fraction = r.finished() || span <= 0 ? 1.0 : std::min(1.0, done / span);
+      progress(p);
+    }
+    if (stop && stop() && !r.finished()) {
+      result.status = RunStatus::stopped;
+      break;
+    }
+  }
+  result.steps_taken = r.sim.world().state.step - start;
+  result.wall_seconds = wall();
+  // The state the run ends with (the last good one after a blow-up) is always saved.
+  r.output();
+  r.write_series();
+  r.checkpoint();
+  r.write_run_json(to_string(result.status), &result);
+  return result;
+}
+
+const Scene& Runner::scene() const { return impl_->scene; }
+const RunSettings& Runner::settings() const { return impl_->settings; }
+Simulation& Runner::simulation() { return impl_->sim; }
+
+}  // namespace qbond
