@@ -181,8 +181,8 @@ void energy_momentum(const Options& opt, Report& rep) {
   // Where Newton converged every step (residual ≤ 1e-12) the discrete gradient's identity holds
   // to that residual: E to 1e-8 and both momenta to steps × 1e-12 (tests/newton_test.cpp).
   // Polished to round-off, each step changes the momenta only by the round-off of the state update
-  // and of the residual's terms, a few ε of their scales (measured: up to 2ε per step, of one
-  // sign, on the lattice at hω = 100): steps × 10ε bounds the drift even when every step's error
+  // and of the residual's terms, a few ε of their scales (up to 2ε per step, of one sign, on the
+  // lattice at hω = 100): steps × 10ε bounds the drift even when every step's error
   // has the same sign.
   constexpr double kRoundoff = 10 * std::numeric_limits<double>::epsilon();
   for (std::size_t k = 0; k < std::size(cases); ++k) {

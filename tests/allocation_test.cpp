@@ -1,4 +1,4 @@
-// "No allocation inside a step" (issue 7's fast path): once a simulation has made its first
+// "No allocation inside a step" (the fast path, docs/performance.md): once a simulation has made its first
 // steps (buffers grown), further steps of the fast integrators allocate nothing.
 //
 // Counts every malloc family call of the process by interposing malloc, calloc, realloc and

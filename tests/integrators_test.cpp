@@ -653,7 +653,7 @@ std::vector<Vec3> plain_verlet(World w, double h, int steps, bool carry) {
 
 // qbond's Verlet takes one force pass a step by carrying the last one over: it must be Groot and
 // Warren's method to round-off (the vector kernels sum in another order), on 1 and 2 threads, and
-// measurably not the two-pass method it replaced.
+// measurably not the two-pass method (a(x, v) evaluated afresh every step).
 TEST(VelocityVerlet, IsGrootWarrenWithTheLastStepsForces) {
   const double h = 1e-4;
   const int steps = 40;

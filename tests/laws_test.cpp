@@ -11,7 +11,7 @@
 namespace qbond {
 namespace {
 
-constexpr double kTol = 1e-6;  // the relative-error bound for finite differences
+constexpr double kTol = 1e-6;  // relative-error bound of the finite-difference checks
 
 struct LawCase {
   Law law;

@@ -1,5 +1,5 @@
-// The energy ledger's per-step sums (energy_sums.hpp, step_work.hpp) against the plain bond-by-bond
-// sums they replace: the bonds' energy and the dampers' work, whose affine blocks of eight are one
+// The energy ledger's per-step sums (energy_sums.hpp, step_work.hpp) against plain bond-by-bond
+// sums: the bonds' energy and the dampers' work, whose affine blocks of eight are one
 // vector loop, and the anchors' work, found through the moving prescribed quanta only.
 #include <gtest/gtest.h>
 

@@ -146,11 +146,11 @@ World spinning_tetrahedron() {
 // newton_polish: both conservative schemes keep angular momentum exactly for the exact solution
 // of their step, and an accepted step changes it by Σ x_mid × R. Polished, R is at the round-off
 // of its evaluation and L changes per step by round-off, about ε of its scale Σ m |x| |v|
-// (measured: at most 2ε per step, of one sign, on the experiment's lattice at hω = 100):
-// steps × 2ε bounds the drift. Stopped at the tolerance (1e-12 relative to R's terms; the code
-// before newton_polish) the drift over these 400 steps is 8.8e-12 (energy_momentum at hω = 20,
-// bonds turning by up to 1.35 rad per step) and 4.5e-12 (implicit_midpoint at hω = 5, up to
-// 0.32 rad), 50 and 25 times the bound; polished 3.3e-14 and 3.9e-15. (implicit_midpoint at
+// (at most 2ε per step, of one sign, on the experiment's lattice at hω = 100): steps × 2ε
+// bounds the drift. Stopped at the tolerance (1e-12 relative to R's terms: no polishing) the
+// drift over these 400 steps is tens of times that bound (energy_momentum at hω = 20, bonds
+// turning by up to 1.35 rad per step; implicit_midpoint at hω = 5, up to 0.32 rad), so the
+// bound tells polished steps from unpolished ones. (implicit_midpoint at
 // hω = 10 gains energy without bound on this system, the blow-up check stopping it within 400
 // steps: docs/integrators.md.) Linear momentum to the same bound.
 struct PolishCase {

@@ -398,7 +398,7 @@ TEST(World, BrokenBondLeavesTheSolverAtOnce) {
   EXPECT_EQ(sim.world().state.v[1], Vec3::Zero());
 }
 
-TEST(Builders, CanonicalLatticeHasTheIssuesBondCount) {
+TEST(Builders, CanonicalLatticeHasTheWorkloadsBondCount) {
   // n³ quanta; nearest 3n²(n-1) and face diagonals 6n(n-1)² bonds (552 240 at n = 40).
   for (int n : {2, 3, 5}) {
     const Scene s = canonical_lattice(n);

@@ -175,8 +175,8 @@ def test_tank_walls():
     vp = viewport(img, stats)
     x0, y0, x1, y1 = (int(v) for v in stats["quanta_px"])
     box = vp[max(y0, 0):y1 + 1, max(x0, 0):x1 + 1]
-    # The quanta are drawn light (white and strain colours); the walls a grey under 0.6 (0% of the
-    # box bright when the near walls covered the blob, 66% without them).
+    # The quanta are drawn light (white and strain colours); the walls a grey under 0.6 (near
+    # walls drawn over the blob would leave none of the box bright; without them about two thirds).
     bright = (box.max(axis=2) > 0.6).mean()
     if bright < 0.2:
         fail(f"the liquid's box {stats['quanta_px']} is {bright:.0%} bright: something is drawn over the quanta")

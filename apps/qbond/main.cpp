@@ -1,4 +1,4 @@
-// The `qbond` program (DESIGN §11): `run` a scene with its outputs, `validate` scene files,
+// The `qbond` program: `run` a scene with its outputs, `validate` scene files,
 // `experiment` (the paper's experiments), `bench` (the performance suite), `view` (the viewer).
 // The work is done by the library (scene.hpp, runner.hpp); this file holds what only a program
 // has: options, the progress display, signals and exit codes.

@@ -1,5 +1,5 @@
 #pragma once
-/// `qbond view`: the real-time interactive viewer (DESIGN §11). A window (GLFW, OpenGL 3.3 core,
+/// `qbond view`: the real-time interactive viewer (docs/viewer.md). A window (GLFW, OpenGL 3.3 core,
 /// Dear ImGui) that steps a scene at its fixed timestep, as many steps per frame as real time
 /// asks and the frame budget allows, draws it, and lets the mouse pull on it.
 #include <cstdint>

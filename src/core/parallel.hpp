@@ -1,5 +1,5 @@
 #pragma once
-// Thread parallelism whose results do not depend on the thread count (DESIGN §13): loops whose
+// Thread parallelism whose results do not depend on the thread count: loops whose
 // iterations write disjoint data, and sums over fixed chunks added in chunk order. Any thread
 // count, including one, gives the same bits.
 #include <algorithm>

@@ -29,8 +29,8 @@
 // whose iterations depend only on iterations at least n earlier (at most n run together).
 // QBOND_UNROLL(n) before a loop of n iterations: unrolled before the enclosing loop is vectorised.
 // In such a loop, a select tests its condition itself (inv_mass[q] != 0 ? a : b) rather than a
-// bool the enclosing loop computed: GCC 12 left verlet_stage, start_build and first_residual
-// scalar in every clone, with the bool, and vectorises them without it. A value a select picks
+// bool the enclosing loop computed: GCC 12 leaves verlet_stage, start_build and first_residual
+// scalar in every clone with the bool, and vectorises them without it. A value a select picks
 // is loaded before the select, not in it (a load under the test stays a branch).
 #define QBOND_STRINGIFY(s) #s
 #ifdef _OPENMP

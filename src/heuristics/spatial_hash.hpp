@@ -88,8 +88,8 @@ class SpatialHash {
     return static_cast<std::uint64_t>((c >= -kMax ? (c <= kMax ? c : kMax) : -kMax) + kBias);
   }
   // The first k in [first, last) with keys_[k] >= key (last if none): a binary search whose
-  // halving is a conditional move, not a branch (std::lower_bound's mispredicted on a liquid's
-  // rows: an eighth of its bond formation).
+  // halving is a conditional move, not a branch (std::lower_bound's mispredict on a liquid's
+  // rows, which bond formation searches every step).
   std::size_t first_not_below(std::size_t first, std::size_t last, std::uint64_t key) const {
     std::size_t len = last - first;
     while (len > 0) {

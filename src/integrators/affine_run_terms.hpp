@@ -209,8 +209,8 @@ QBOND_VECTOR_INLINE Length length(double dx, double dy, double dz) {
 // operator()(q), from positions as structure of arrays: a vector ahead, in the loop that forms the
 // bonds' terms (add_affine_terms' `lead`). Inline at the head of that loop's chain of dependent
 // operations, the square root and the division (~33 cycles of latency on Zen 3, ~40 on the Xeon)
-// left the out-of-order window, ~1.5 iterations of that loop, too little to hide them; in a loop
-// of their own before it (until session 35) the divider and the other units took turns.
+// would outlast the out-of-order window, ~1.5 iterations of that loop; in a loop of their own
+// before it the divider and the other units would take turns instead of overlapping.
 struct AffineLengths {
   const double *xi[3], *xj[3];
   double *r, *inv_r;

@@ -1,6 +1,6 @@
 #pragma once
 // Bond-centric passes that update both ends of every bond in one sweep over the bonds, with the
-// same bits for any thread count (DESIGN §13).
+// same bits for any thread count.
 //
 // The quanta are split into contiguous ranges, one per thread. A thread visits, in increasing
 // bond order, every alive bond with an end in its range and updates only those ends. Each quanta
@@ -51,8 +51,8 @@ struct BondRun {
 
 // What counts as a lattice's affine segment when choosing a numbering (ordering.hpp): as long as
 // one vector of the kernels' affine runs (4 lanes). With 8 (an AVX-512 register), a body of 5³
-// (rows of 4 bonds) got no affine runs: its bonds took the per-bond path, and a step of the
-// cube_drop scene cost 1.8 times as much.
+// (rows of 4 bonds) would get no affine runs, and every bond of it would take the much slower
+// per-bond path.
 inline constexpr Index kMinAffine = 4;
 // The shortest segment the kernels take as an affine run: the vector path runs whole vectors
 // (padded lanes), so even two bonds cost one vector iteration, far less than the per-bond

@@ -99,7 +99,7 @@ BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme sch
   const LawValue lv = model.law_at(b, r, L);
   const Damper dmp = damper(model, b, s.u, r, w);
   s.f = lv.T * s.u + dmp.f;
-  // ∂f/∂d = T' u uᵀ + (T/r)(I − u uᵀ) + the damper's turning (DESIGN §3's K_b).
+  // ∂f/∂d = T' u uᵀ + (T/r)(I − u uᵀ) + the damper's turning (K_b: laws.hpp, stiffness_block).
   clamp_into(g * lv.dT, g * (lv.T / r + dmp.transverse), clamp, s);
   if (exact) {
     damper_jacobian(model, b, s.u, r, w, exact->K, exact->C);
@@ -346,12 +346,12 @@ class NewtonIntegrator final : public Integrator {
     const int threads = config_.threads;
     setup_newton_step(scheme, model, state, kin, h, &x_prev_, &v_prev_, step_);
     // The modified matrix has the clamped, positive semi-definite blocks: CG and the 3×3 sweeps
-    // need them, and the unclamped (indefinite) blocks made Newton fail more often with LDLᵀ and
-    // dense elimination too (measured on the four-quanta experiment at hω = 10).
+    // need them, and the unclamped (indefinite) blocks make Newton fail more often with LDLᵀ and
+    // dense elimination too (the four-quanta experiment at hω = 10: docs/integrators.md).
     step_.clamp = true;
     // Every solver starts with the modified matrix; exact Newton (sparse LU of the full
     // Jacobian) takes over when a modified iteration fails its line search or reduces ‖R‖ by
-    // less than half, and the modified matrix again when an exact one fails. Measured
+    // less than half, and the modified matrix again when an exact one fails
     // (docs/integrators.md): at hω = 100 the modified direction stalls where bonds turn by
     // radians and exact Newton converges; exact Newton from the first guess, though, often runs
     // to another of the step's several solutions (four quanta at hω = 10) or to a local minimum
@@ -439,9 +439,9 @@ class NewtonIntegrator final : public Integrator {
 
   // The schemes whose exact step keeps both momenta (and energy_momentum's the energy): an
   // accepted step changes L by Σ x_mid × R, so a step left at the tolerance (1e-12 relative to
-  // the residual's terms) drifts; over 10^5 steps 4.1e-9 of L's scale on the experiment's four
-  // quanta at hω = 10, whose modified iteration converges linearly and so stops just under the
-  // tolerance. bdf2 and backward Euler keep nothing that polishing would restore.
+  // the residual's terms) drifts, most where the modified iteration converges linearly and so
+  // stops just under the tolerance (four quanta at hω = 10). bdf2 and backward Euler keep nothing
+  // that polishing would restore.
   static bool polishes(NewtonScheme scheme) {
     return scheme == NewtonScheme::energy_momentum || scheme == NewtonScheme::implicit_midpoint;
   }
@@ -451,9 +451,9 @@ class NewtonIntegrator final : public Integrator {
   // quadratically, so from the tolerance one correction normally lands on round-off. The stop is
   // where ‖R‖ stagnates, not a tolerance: the round-off floor is not ε times the residual's terms
   // but the error of the bond forces, ε k |x| h per bond (tensions k (r − L) from positions known
-  // to ε |x|, with r − L ≪ L), measured at 3e-15 to 3e-13 of the terms; a fixed tolerance near it
-  // (1e-15 was tried) is often out of reach, and such steps ran to the iteration cap and were
-  // split. That floor is along each bond and equal and opposite at its ends, so it exerts no
+  // to ε |x|, with r − L ≪ L), some 1e-15 to 1e-13 of the terms; a fixed tolerance near it is
+  // often out of reach, and such steps would run to the iteration cap and be split. That floor
+  // is along each bond and equal and opposite at its ends, so it exerts no
   // torque: L is then kept to the round-off of the sums and the update. Stops when a
   // correction does not halve ‖R‖ (undone if it did not lower it at all), or when one converged
   // so fast that by the quadratic rate (‖R‖ falls by q² where the last correction fell by q) the

@@ -213,7 +213,7 @@ QBOND_VECTOR_INLINE Sums<2> step_chunk_at(const Model& m, const State& s, const 
                    QBOND_LAMBDA_INLINE {
     // The ends' triples are contiguous: the differences are formed on them as stored, element by
     // element in contiguous vectors, and only d, w and d₁ are then split into their components
-    // (split before, the eight arrays' stride-3 shuffles were half the loop's instructions).
+    // (split first, the eight arrays' stride-3 shuffles would be half the loop's instructions).
     constexpr std::size_t K = 3 * L;
     double d[K], w[K], d1[K];
     QBOND_SIMD for (std::size_t k = 0; k < K; ++k) differences(3 * i + k, 3 * j + k, d[k], w[k], d1[k]);

@@ -38,8 +38,8 @@ std::vector<Index> rank_by(const std::vector<std::uint64_t>& key) {
 // joined one to the next by bonds of index offset 1, a lattice's x rows — packed up to
 // kOffsetBlock quanta a block, a longer row cut into equal pieces of at most that many. Blocks
 // cut at fixed multiples cut a lattice's rows too (40-quanta rows in blocks of 128: one row in
-// four split in two), and each piece of a row is one more affine run of each offset along x:
-// a 40³ lattice's frozen step took 1.025 times as long (session 36).
+// four split in two), and each piece of a row is one more affine run of each offset along x,
+// whose set-up every bond kernel pays again.
 constexpr Index kOffsetBlock = 128;
 std::vector<Index> offset_blocks(const std::vector<Index>& i, const std::vector<Index>& j, std::size_t n) {
   std::vector<std::uint8_t> joined(n, 0);  // joined[q]: a bond joins q − 1 and q

@@ -193,8 +193,8 @@ struct Runner::Impl {
     const std::string name = frame_name(step);
     write_vtp(out(name), w.model, w.state);
     series.add(w.state.time, name);
-    // Rewritten whole, so only once it has grown by a sixteenth: a frame every step took 1.2 GB
-    // of rewrites over 5 000 frames. The run's end writes the rest (write_series).
+    // Rewritten whole, so only once it has grown by a sixteenth: rewritten every frame, its bytes
+    // would grow with the square of the frames. The run's end writes the rest (write_series).
     if (series.size() >= series_written + std::max<std::size_t>(1, series_written / 16)) write_series();
   }
 

@@ -1,5 +1,5 @@
 #pragma once
-/// Analysis (DESIGN §8): energies, momenta, speeds of a world's state. Kinematic quanta are
+/// Analysis: energies, momenta, speeds of a world's state. Kinematic quanta are
 /// drivers, not part of the system: they carry no kinetic energy, momentum or gravity potential.
 #include <vector>
 

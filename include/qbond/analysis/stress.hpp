@@ -1,5 +1,5 @@
 #pragma once
-/// Stress (DESIGN §8): the per-quanta virial stress tensor and its von Mises equivalent.
+/// Stress (docs/materials.md): the per-quanta virial stress tensor and its von Mises equivalent.
 #include <span>
 #include <vector>
 

@@ -1,5 +1,5 @@
 #pragma once
-/// Builders (DESIGN §7): lay out quanta and bonds of common structures into a World.
+/// Builders: lay out quanta and bonds of common structures into a World.
 #include <array>
 #include <vector>
 

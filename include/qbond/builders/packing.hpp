@@ -1,5 +1,5 @@
 #pragma once
-/// Irregular bodies (DESIGN §7; docs/geometry.md): Poisson-disk or random point packings bonded
+/// Irregular bodies (docs/geometry.md): Poisson-disk or random point packings bonded
 /// within a radius (the paper's Figure 12 asymmetric structures), and closed triangle meshes
 /// (OBJ, STL) voxelised into a simple-cubic lattice.
 #include <array>

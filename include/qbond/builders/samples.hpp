@@ -35,7 +35,7 @@ inline constexpr std::string_view kDefaultScene = "pendulum";
 /// std::invalid_argument listing the names when unknown.
 Scene builtin_scene(std::string_view name);
 
-/// The performance issue's canonical workload: n×n×n simple-cubic lattice, spacing 0.01 m,
+/// The canonical performance workload (docs/performance.md): n×n×n simple-cubic lattice, spacing 0.01 m,
 /// 1 g quanta, linear bonds to nearest and face-diagonal neighbours (k = 1000 N/m, axial damping
 /// 0.01 N·s/m), x = 0 face anchored, gravity -9.81 m/s² along z, h = 1e-4 s, 1000 steps.
 Scene canonical_lattice(int n);

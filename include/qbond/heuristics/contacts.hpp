@@ -1,5 +1,5 @@
 #pragma once
-/// Collisions (DESIGN §6): static obstacles and quanta–quanta contact, acting on the projection
+/// Collisions (docs/heuristics.md): static obstacles and quanta–quanta contact, acting on the projection
 /// so that no quanta ends a step inside an obstacle or inside another quanta.
 #include <memory>
 #include <vector>

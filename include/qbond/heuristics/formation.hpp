@@ -1,5 +1,5 @@
 #pragma once
-/// Bond formation (DESIGN §6): quanta that come within a capture radius bond — welding,
+/// Bond formation (docs/heuristics.md): quanta that come within a capture radius bond — welding,
 /// sticking, cohesion, and with breaking, liquids (the paper's further research).
 #include <cstdint>
 #include <memory>

@@ -1,5 +1,5 @@
 #pragma once
-/// Fracture and plasticity (DESIGN §6): heuristics that edit bonds from their projected
+/// Fracture and plasticity (docs/heuristics.md): heuristics that edit bonds from their projected
 /// end-of-step length, so that a step never applies a state a rule forbids.
 #include <limits>
 #include <memory>

@@ -1,5 +1,5 @@
 #pragma once
-/// Heuristics (DESIGN §6): rules applied between a step's projection and its application. Each
+/// Heuristics (docs/heuristics.md): rules applied between a step's projection and its application. Each
 /// may edit the projection (collisions), the bonds (fracture, plasticity) or both.
 #include <cstdint>
 #include <span>

@@ -1,5 +1,5 @@
 #pragma once
-/// Adaptive timestep (issue 9, "beyond the paper"): error control that grows the step when it can
+/// Adaptive timestep (docs/integrators.md; beyond the paper): error control that grows the step when it can
 /// and shrinks it before a blow-up, plus an energy-drift criterion, for any integrator.
 ///
 /// Error estimate. Every integrator projects Δx and Δv; the trapezoidal rule would have moved each

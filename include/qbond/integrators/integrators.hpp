@@ -1,7 +1,7 @@
 #pragma once
-/// Integrators (DESIGN §5). Every integrator, explicit or implicit, only *projects* a step: it
+/// Integrators (docs/integrators.md). Every integrator, explicit or implicit, only *projects* a step: it
 /// returns the change of position and velocity of every quanta without moving anything, so that
-/// heuristics can edit the projection before the step applies it (DESIGN §4).
+/// heuristics can edit the projection before the step applies it (simulation.hpp).
 #include <cmath>
 #include <memory>
 #include <span>
@@ -240,8 +240,8 @@ void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v);
 /// The prescribed quanta where a step leaves them (Motion::at at its end), by index, each once (as
 /// the last motion listing it places it): for passes that write the prescribed quanta's rows with
 /// the other quanta of their range, on the thread whose passes own that range. With one thread
-/// writing all of them (project_kinematic, place_kinematic), the other's next passes waited on
-/// those cache lines (docs/performance-history.md, session 27).
+/// writing all of them (project_kinematic, place_kinematic), the others' next passes would wait
+/// on those cache lines.
 class PrescribedAt {
  public:
   struct Quanta {

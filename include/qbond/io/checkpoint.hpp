@@ -1,5 +1,5 @@
 #pragma once
-/// Checkpoints (DESIGN §10): the exact State plus the caller's metadata, versioned and
+/// Checkpoints (docs/running.md): the exact State plus the caller's metadata, versioned and
 /// checksummed, from which a run continues bit for bit.
 ///
 /// File format (little-endian):

@@ -1,5 +1,5 @@
 #pragma once
-/// diagnostics.csv (DESIGN §10; columns documented in docs/running.md): one row per output step.
+/// diagnostics.csv (columns documented in docs/running.md): one row per output step.
 #include <string>
 #include <vector>
 
@@ -9,7 +9,7 @@
 
 namespace qbond {
 
-/// Formats the rows of diagnostics.csv: DESIGN §10's fifteen columns, then per probe its mean
+/// Formats the rows of diagnostics.csv: the fifteen fixed columns, then per probe its mean
 /// position, its reaction force and torque when anchored, its mean stress tensor and largest
 /// von Mises stress when its quanta have volumes (stress.hpp), then per recorded obstacle k the
 /// impulse it has given (obstacle<k>_jx, _jy, _jz, _jn: State::obstacle_impulse) and, for a

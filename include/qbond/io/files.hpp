@@ -1,5 +1,5 @@
 #pragma once
-/// Output files that never show a reader half a write (DESIGN §10).
+/// Output files that never show a reader half a write.
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -9,8 +9,8 @@ namespace qbond {
 /// How far write_file_atomic goes: `atomic`, a reader sees the old file or the new one, never
 /// part of one; `durable`, also flushed to the disk (the file and its directory synced), so that
 /// it survives a crash of the machine too. A run's frames are only atomic, and flushed together
-/// before each checkpoint (flush_file_system): flushing two files a frame took half of
-/// liquid_blob's run.
+/// before each checkpoint (flush_file_system): flushing two files every frame can cost a small
+/// scene (liquid_blob) as much as its steps.
 enum class Durability { atomic, durable };
 
 /// Writes `bytes` to a temporary file beside `path` and renames it over `path` (atomic on POSIX),

@@ -1,5 +1,5 @@
 #pragma once
-/// Probes (DESIGN §8, §10): what a run measures on a selection of quanta at each output step.
+/// Probes (docs/running.md): what a run measures on a selection of quanta at each output step.
 #include <optional>
 #include <span>
 #include <string>

@@ -1,5 +1,5 @@
 #pragma once
-/// Scene files (DESIGN §9; every key in docs/scene-format.md): one JSON document describing a
+/// Scene files (every key in docs/scene-format.md): one JSON document describing a
 /// world, how to step it and what to output. Loading is strict: every error names the JSON path
 /// and the rule it breaks, and nothing is built from a scene that has one.
 #include <filesystem>

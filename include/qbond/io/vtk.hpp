@@ -1,5 +1,5 @@
 #pragma once
-/// ParaView output (DESIGN §10): VTK XML PolyData frames and a .pvd time series.
+/// ParaView output (docs/running.md): VTK XML PolyData frames and a .pvd time series.
 #include <filesystem>
 #include <span>
 #include <string>

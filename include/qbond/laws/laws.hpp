@@ -1,5 +1,5 @@
 #pragma once
-/// Bond force laws (DESIGN §3): a law supplies the scalar tension T(r), its derivative T'(r) and the
+/// Bond force laws (Eqs. 2–3): a law supplies the scalar tension T(r), its derivative T'(r) and the
 /// potential U(r) with U' = T; forces, stiffness and damping blocks are generic over laws.
 /// Sign convention: positive tension pulls the two quanta together.
 #include <algorithm>

@@ -1,5 +1,5 @@
 #pragma once
-/// Materials from engineering constants (DESIGN §7): the elastic constants a central-force
+/// Materials from engineering constants: the elastic constants a central-force
 /// lattice has, the bond stiffness and quanta mass that give it a Young's modulus and density,
 /// and the paper's system reduction (Eqs. 14–15). docs/materials.md has the tables and limits.
 #include <Eigen/Core>

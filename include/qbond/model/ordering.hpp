@@ -1,14 +1,13 @@
 #pragma once
-/// Renumbering quanta and bonds for memory locality (docs/performance-history.md, session 9:
-/// "locality order, measured").
+/// Renumbering quanta and bonds for memory locality (docs/performance.md).
 ///
 /// A step streams the bonds and reads both ends' positions and velocities; when bonds joining
 /// nearby quanta sit near each other in memory and so do their ends, those reads hit the cache.
 /// Scenes built from meshes, packings or shuffled lists do not come in such an order, so scene
 /// loading renumbers the world as LAMMPS sorts its atoms (atom_modify sort): quanta by spatial
 /// bin, x fastest, then y, then z, so that a lattice's neighbours sit at a few fixed offsets that
-/// the hardware prefetcher streams (a Morton order, measured, keeps neighbours closer but
-/// scatters them and ran up to 1.36× slower, docs/performance-history.md); bonds so that a lattice's
+/// the hardware prefetcher streams (a Morton order keeps neighbours closer but scatters them
+/// over more offsets, and steps run slower); bonds so that a lattice's
 /// form affine runs (locality_order). As LAMMPS does with its atom tags, the user's ids stay
 /// with the quanta and bonds (Model::quanta_id, Model::bond_id): outputs and selections speak
 /// them.

@@ -1,5 +1,5 @@
 #pragma once
-/// Selections of quanta for anchors, loads, bonds and probes (DESIGN §9).
+/// Selections of quanta for anchors, loads, bonds and probes (docs/scene-format.md).
 #include <optional>
 #include <utility>
 #include <vector>

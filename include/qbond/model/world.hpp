@@ -1,5 +1,5 @@
 #pragma once
-/// The world (DESIGN §2): quanta and bonds as structure of arrays, split into what a step only
+/// The world: quanta and bonds as structure of arrays, split into what a step only
 /// reads (`Model`) and what it changes (`State`, exactly what a checkpoint saves).
 #include <string>
 #include <vector>
@@ -75,7 +75,7 @@ struct Model {
   LawValue law_at(std::size_t b, double r, double L) const { return evaluate_law(law[b], r, L, stiffness[b], eps[b]); }
 };
 
-/// Running energy accounts (DESIGN §8); with the current energies they close the budget
+/// Running energy accounts (docs/integrators.md); with the current energies they close the budget
 /// E(t) - E(0) = work_loads + work_anchors - dissipated_damping - dissipated_heuristics
 ///               - (numerical dissipation), see analysis.hpp.
 struct EnergyLedger {

@@ -1,5 +1,5 @@
 #pragma once
-/// Interaction (DESIGN §4, stage 1 "viewer/mouse forces"): a spring that pulls one quanta toward
+/// Interaction (docs/viewer.md, "The mouse spring"): a spring that pulls one quanta toward
 /// a point, as a viewer's mouse drag does. Its force reaches the step through
 /// Simulation::add_force, the same path as the scene's loads.
 #include "qbond/model/world.hpp"

@@ -1,5 +1,5 @@
 #pragma once
-/// A run of a scene with its outputs (DESIGN §10): diagnostics.csv, ParaView frames and series,
+/// A run of a scene with its outputs (docs/running.md): diagnostics.csv, ParaView frames and series,
 /// run.json and checkpoints, continued bit for bit from any checkpoint. The `qbond run` program
 /// is this plus a progress bar and signal handling; the library keeps no global state.
 #include <cstdint>

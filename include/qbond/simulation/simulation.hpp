@@ -1,5 +1,5 @@
 #pragma once
-/// The step pipeline (DESIGN §4): gather external forces → project → heuristics → apply →
+/// The step pipeline: gather external forces → project → heuristics → apply →
 /// observers. Same inputs, same bits: nothing here depends on timing or thread count.
 #include <functional>
 #include <memory>
