@@ -1,0 +1,306 @@
+#!/usr/bin/python3
+"""Renders docs/performance.md's measured tables from the results in docs/bench/.
+
+Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default: this script's parent)
+
+Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
+docs/performance.md; the opening marker may carry `machine="..."`, which the provenance line
+quotes. KIND is one of step, asrun, solve, peers, peers_rounds, peers_seconds, memory, targets;
+each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
+the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
+from what the results give (a ctest test), so the tables cannot drift from the results.
+"""
+import json
+import math
+import os
+import re
+import sys
+from collections import defaultdict
+
+# A result file's name: PREFIX-YYYY-MM-DD, an optional letter suffix (a second run that day), an
+# optional -N (a run's number).
+NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z]*)(?:-(?P<run>\d+))?\.json$")
+
+PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "peers": "peers", "peers_rounds": "peers",
+          "peers_seconds": "peers", "memory": "memory"}
+INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
+# The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
+PARALLEL_MIN = 4096
+
+
+def latest(bench_dir, prefix):
+    """The newest result of one kind: by date, then letter suffix, then run number."""
+    found = []
+    for name in os.listdir(bench_dir):
+        m = NAME.match(name)
+        if m and m["prefix"] == prefix:
+            found.append(((m["date"], len(m["suffix"]), m["suffix"], int(m["run"] or 0)), name))
+    if not found:
+        raise SystemExit(f"bench_tables: no docs/bench/{prefix}-DATE.json")
+    name = max(found)[1]
+    with open(os.path.join(bench_dir, name)) as f:
+        return name, json.load(f)
+
+
+def sig(x, digits=3):
+    """x to `digits` significant figures, without exponent for the magnitudes these tables hold."""
+    if x == 0 or not math.isfinite(x):
+        return str(x)
+    decimals = max(0, digits - 1 - int(math.floor(math.log10(abs(x)))))
+    return f"{x:.{decimals}f}"
+
+
+def n_of(row):
+    return int(row["workload"].split("n=")[1])
+
+
+def sizes(rows):
+    return sorted({n_of(r) for r in rows})
+
+
+def date_of(data):
+    return data["date"][:10]
+
+
+def provenance(name, data, machine, command):
+    where = f"{machine} ({data['machine']})" if machine else data["machine"]
+    return f"Measured {date_of(data)} on {where} with `{command}`; results: `docs/bench/{name}`."
+
+
+def bench_command(data, name, extra=""):
+    rows = data["rows"]
+    ints = []
+    for r in rows:
+        i = r["integrator"].removesuffix("+run")
+        if i not in ints:
+            ints.append(i)
+    threads = sorted({r["threads"] for r in rows})
+    cmd = f"build/qbond bench{extra} -n {','.join(map(str, sizes(rows)))} -j {','.join(map(str, threads))}"
+    if sorted(ints) != sorted(INTEGRATORS):
+        cmd += " --integrators " + ",".join(ints)
+    if data["repetitions"] != 3:
+        cmd += f" --repetitions {data['repetitions']}"
+    return cmd + f" --json docs/bench/{name}"
+
+
+def triads(data):
+    by = data["triad_bytes_per_second_by_threads"]
+    parts = [f"{by[t] / 1e9:.2f} GB/s on {t} thread{'s' if t != '1' else ''}" for t in sorted(by, key=int)]
+    return "STREAM triad " + ", ".join(parts)
+
+
+def slopes(data):
+    """Least-squares slope of log(time) against log(bonds), one thread, per integrator."""
+    pts = defaultdict(list)
+    for r in data["rows"]:
+        if r["threads"] == 1:
+            pts[r["integrator"].removesuffix("+run")].append((math.log(r["bonds"]), math.log(r["seconds_per_step"])))
+    out = {}
+    for k, v in pts.items():
+        if len(v) < 2:
+            continue
+        mx = sum(a for a, _ in v) / len(v)
+        my = sum(b for _, b in v) / len(v)
+        out[k] = sum((a - mx) * (b - my) for a, b in v) / sum((a - mx) ** 2 for a, _ in v)
+    return out
+
+
+def shown(rows):
+    """Rows worth a line: not the two-thread rows of worlds that step on one thread anyway."""
+    order = {k: i for i, k in enumerate(INTEGRATORS)}
+    keep = [r for r in rows if r["threads"] == 1 or r["quanta"] >= PARALLEL_MIN]
+    return sorted(keep, key=lambda r: (order.get(r["integrator"].removesuffix("+run"), 9), n_of(r), r["threads"]))
+
+
+def step_table(name, data, machine, extra=""):
+    lines = [provenance(name, data, machine, bench_command(data, name, extra)) + f" {triads(data)}.", "",
+             "| n | integrator | threads | ms/step | ns/bond | × bound | vs 1T |", "|---|---|---|---|---|---|---|"]
+    for r in shown(data["rows"]):
+        s = r["speedup_over_one_thread"]
+        vs = f"{s:.2f}" if r["threads"] > 1 and s is not None else ""
+        lines.append(f"| {n_of(r)} | {r['integrator']} | {r['threads']} | {sig(r['seconds_per_step'] * 1e3)} | "
+                     f"{sig(r['ns_per_bond_step'])} | {r['ratio_to_bandwidth_bound']:.2f} | {vs} |")
+    sl = slopes(data)
+    if len(sizes(data["rows"])) > 2:
+        lines += ["", f"Slopes of time against bonds, n = {sizes(data['rows'])[0]} → {sizes(data['rows'])[-1]} "
+                  "(least squares on log–log, one thread): "
+                  + ", ".join(f"{k} {v:.2f}" for k, v in sl.items()) + "."]
+    return lines
+
+
+def solve_table(name, data, machine):
+    cmd = f"build/qbond bench --solve -n {','.join(map(str, sizes(data['rows'])))} --json docs/bench/{name}"
+    lines = [provenance(name, data, machine, cmd), "",
+             "| n | solver | iterations | ms | relative residual | time / qbond's CG |", "|---|---|---|---|---|---|"]
+    for r in sorted(data["rows"], key=lambda r: (n_of(r), ["qbond_cg", "eigen_cg", "eigen_cholesky"].index(r["solver"]))):
+        it = f"{r['iterations']:.0f}" if r["iterations"] else "direct"
+        lines.append(f"| {n_of(r)} | {r['solver']} | {it} | {sig(r['seconds'] * 1e3)} | {r['relative_residual']:.1e} | "
+                     f"{sig(r['ratio_to_qbond_cg'])} |")
+    return lines
+
+
+def peers_command(name, data):
+    return f"bench/peers/run --n {','.join(str(p['n']) for p in data['per_step'])} --json docs/bench/{name}"
+
+
+def peers_table(name, data, machine):
+    lines = [provenance(name, data, machine, peers_command(name, data)), "",
+             "| n | bonds | LAMMPS | Bullet | qbond velocity_verlet | qbond hybrid_frozen | qbond hybrid_sweep "
+             "| qbond default |", "|---|---|---|---|---|---|---|---|"]
+    keys = ["lammps", "bullet", "qbond_velocity_verlet", "qbond_hybrid_frozen", "qbond_hybrid_sweep", "qbond_default"]
+    for p in data["per_step"]:
+        cells = " | ".join(sig(p[k] / p["bonds"] * 1e9) for k in keys)
+        lines.append(f"| {p['n']} | {p['bonds']} | {cells} |")
+    return lines
+
+
+def median(xs):
+    xs = sorted(xs)
+    m = len(xs) // 2
+    return xs[m] if len(xs) % 2 else (xs[m - 1] + xs[m]) / 2
+
+
+def peers_rounds(name, data, machine):
+    rounds = max(len(p["verlet_against_lammps"]) for p in data["per_step"])
+    head = "| n | " + " | ".join(f"round {i + 1}" for i in range(rounds)) + " | median |"
+    lines = [provenance(name, data, machine, peers_command(name, data)), "", head, "|---" * (rounds + 2) + "|"]
+    for p in data["per_step"]:
+        cells = []
+        for r in p["verlet_against_lammps"]:
+            q, l = r["qbond_velocity_verlet"], r["lammps"]
+            cells.append(f"{q / l:.2f} ({sig(q / p['bonds'] * 1e9)} / {sig(l / p['bonds'] * 1e9)})")
+        med = median([r["qbond_velocity_verlet"] / r["lammps"] for r in p["verlet_against_lammps"]])
+        lines.append(f"| {p['n']} | " + " | ".join(cells) + f" | **{med:.2f}** |")
+    return lines
+
+
+def peers_seconds(name, data, machine):
+    n = max(p["n"] for p in data["per_step"])
+    lines = [provenance(name, data, machine, peers_command(name, data)) + f" n = {n}.", "",
+             "| method | largest stable step [s] | s per step | s per simulated second |", "|---|---|---|---|"]
+    for k, v in sorted(data["per_simulated_second"].items(), key=lambda kv: kv[1]["seconds_per_simulated_second"]):
+        lines.append(f"| {k} | {sig(v['largest_stable_step'])} | {sig(v['seconds_per_step'])} | "
+                     f"{sig(v['seconds_per_simulated_second'])} |")
+    return lines
+
+
+def memory_table(name, data, machine):
+    lines = [provenance(name, data, machine, data["command"]), "",
+             "| integrator | peak resident memory [KiB] | [GB] |", "|---|---|---|"]
+    for r in data["rows"]:
+        lines.append(f"| {r['integrator']} | {r['max_rss_kib']} | {r['max_rss_kib'] * 1024 / 1e9:.2f} |")
+    return lines
+
+
+def targets(bench_dir, machines):
+    sname, step = latest(bench_dir, "qbond")
+    vname, solve = latest(bench_dir, "solve")
+    pname, peers = latest(bench_dir, "peers")
+    mname, mem = latest(bench_dir, "memory")
+    rows = []
+
+    frozen = [r for r in step["rows"] if r["integrator"] == "hybrid_frozen" and n_of(r) == 40 and r["threads"] == 1]
+    x = frozen[0]["ratio_to_bandwidth_bound"]
+    rows.append(("hybrid_frozen, n = 40, one thread: ≤ 2× the bandwidth bound", f"{x:.2f}×", x <= 2, sname))
+
+    by = defaultdict(dict)
+    for r in solve["rows"]:
+        by[n_of(r)][r["solver"]] = r["ratio_to_qbond_cg"]
+    cg = " / ".join(f"{by[n]['eigen_cg']:.2f}×" for n in sorted(by))
+    ch = " / ".join(f"{by[n]['eigen_cholesky']:.0f}×" for n in sorted(by) if "eigen_cholesky" in by[n])
+    chn = " / ".join(str(n) for n in sorted(by) if "eigen_cholesky" in by[n])
+    ok = all(v > 1 for d in by.values() for k, v in d.items() if k != "qbond_cg")
+    rows.append(("default solve at h = 1/60 s faster than Eigen's CG and sparse Cholesky (residual 1e-6)",
+                 f"Eigen's CG takes {cg} qbond's time at n = {' / '.join(map(str, sorted(by)))}; "
+                 f"Cholesky {ch} at n = {chn}", ok, vname))
+
+    sp = [(r["integrator"], n_of(r), r["speedup_over_one_thread"]) for r in step["rows"]
+          if r["threads"] == 2 and r["quanta"] >= PARALLEL_MIN and r["integrator"] != "hybrid_sweep"]
+    met = sum(s >= 1.7 for _, _, s in sp)
+    text = "; ".join(f"{i} " + ", ".join(f"{s:.2f}" for j, _, s in sp if j == i)
+                     for i in ["velocity_verlet", "hybrid_frozen", "default"])
+    rows.append(("two threads ≥ 1.7× one thread, n ≥ 20, same bits",
+                 f"{text} (n = {', '.join(str(n) for n in sorted({n for _, n, _ in sp}))})",
+                 "yes" if met == len(sp) else f"{met} of {len(sp)} rows", sname))
+
+    meds = [median([r["qbond_velocity_verlet"] / r["lammps"] for r in p["verlet_against_lammps"]])
+            for p in peers["per_step"]]
+    rows.append(("velocity_verlet's step faster than LAMMPS's",
+                 "qbond / LAMMPS " + " / ".join(f"{m:.2f}" for m in meds)
+                 + f" at n = {' / '.join(str(p['n']) for p in peers['per_step'])} (medians of alternating rounds)",
+                 all(m < 1 for m in meds), pname))
+
+    ps = peers["per_simulated_second"]
+    q = ps["qbond hybrid_frozen"]["seconds_per_simulated_second"]
+    lam = next(v for k, v in ps.items() if k.startswith("LAMMPS"))["seconds_per_simulated_second"]
+    bul = next(v for k, v in ps.items() if k.startswith("Bullet"))["seconds_per_simulated_second"]
+    rows.append(("a simulated second ≥ 10× cheaper than LAMMPS and Bullet, each at its largest stable step",
+                 f"hybrid_frozen {lam / q:.0f}× cheaper than LAMMPS, {bul / q:.0f}× than Bullet",
+                 lam / q >= 10 and bul / q >= 10, pname))
+
+    sl = slopes(step)
+    three = ["velocity_verlet", "hybrid_frozen", "default"]
+    rows.append((f"cost linear in bonds, n = {sizes(step['rows'])[0]} → {sizes(step['rows'])[-1]}: slope 1.0 ± 0.1",
+                 ", ".join(f"{k} {sl[k]:.2f}" for k in three), all(abs(sl[k] - 1) <= 0.1 for k in three), sname))
+
+    peak = max(r["max_rss_kib"] for r in mem["rows"]) * 1024 / 1e9
+    ints = ", ".join(r["integrator"] for r in mem["rows"])
+    rows.append(("n = 100 under 2 GB resident", f"at most {peak:.2f} GB ({ints})", peak < 2, mname))
+
+    lines = ["| target | measured | met? | results |", "|---|---|---|---|"]
+    for t, m, ok, f in rows:
+        okt = ok if isinstance(ok, str) else ("yes" if ok else "no")
+        lines.append(f"| {t} | {m} | {okt} | `{f}` |")
+    return lines
+
+
+def render(kind, machine, bench_dir):
+    if kind == "targets":
+        return targets(bench_dir, machine)
+    name, data = latest(bench_dir, PREFIX[kind])
+    return {"step": lambda: step_table(name, data, machine),
+            "asrun": lambda: step_table(name, data, machine, " --as-run"),
+            "solve": lambda: solve_table(name, data, machine),
+            "peers": lambda: peers_table(name, data, machine),
+            "peers_rounds": lambda: peers_rounds(name, data, machine),
+            "peers_seconds": lambda: peers_seconds(name, data, machine),
+            "memory": lambda: memory_table(name, data, machine)}[kind]()
+
+
+BLOCK = re.compile(r"(<!-- bench:(?P<kind>\w+)(?P<attrs>[^>]*)-->\n)(?P<body>.*?)(<!-- /bench:(?P=kind) -->)", re.S)
+
+
+def main(argv):
+    check = "--check" in argv
+    args = [a for a in argv if a != "--check"]
+    root = args[0] if args else os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    doc = os.path.join(root, "docs", "performance.md")
+    bench_dir = os.path.join(root, "docs", "bench")
+    with open(doc) as f:
+        text = f.read()
+
+    def fill(m):
+        attr = re.search(r'machine="([^"]*)"', m["attrs"])
+        body = "\n".join(render(m["kind"], attr[1] if attr else "", bench_dir)) + "\n"
+        return m.group(1) + body + m.group(5)
+
+    new, count = BLOCK.subn(fill, text)
+    if count == 0:
+        print("bench_tables: docs/performance.md has no <!-- bench:KIND --> blocks", file=sys.stderr)
+        return 1
+    if check:
+        if new != text:
+            print("bench_tables: docs/performance.md differs from docs/bench/*.json; "
+                  "run /usr/bin/python3 scripts/bench_tables.py", file=sys.stderr)
+            return 1
+        print(f"bench_tables: {count} tables match docs/bench/")
+        return 0
+    if new != text:
+        with open(doc, "w") as f:
+            f.write(new)
+    print(f"bench_tables: {count} tables written")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
