@@ -174,7 +174,7 @@ TEST(EnergyLedger, AnchorWorkCountsEveryBondOfAMovingPrescribedQuantaOnce) {
   ASSERT_GT(std::abs(plain), 0);
   for (int threads : {1, 2}) {
     const StepWork sw =
-        step_work(m, w.state, adj, p, Applied(w.state, p).state(), f_ext, 1e-3, 1, 0, false, threads);
+        step_work(m, w.state, adj, p, Applied(w.state, p).state(), f_ext, 1e-3, {.damping_theta = 1}, threads);
     EXPECT_NEAR(sw.anchors, plain, 1e-12 * std::abs(plain)) << threads << " threads";
   }
 }
