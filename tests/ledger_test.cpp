@@ -51,7 +51,7 @@ double sum_tolerance(std::size_t n, double plain) {
   return static_cast<double>(n + 4) * std::numeric_limits<double>::epsilon() * std::abs(plain);
 }
 
-// The state a projection applies, x + Δx and v + Δv (Simulation::check_projection's).
+// The state a projection applies, x + Δx and v + Δv (apply_checked's, advance.hpp).
 struct Applied {
   std::vector<Vec3> x, v;
   Applied(const State& s, const Projection& p) : x(s.x), v(s.v) {

@@ -326,7 +326,7 @@ class NewtonIntegrator final : public StepIntegrator {
     if (substeps_) substeps_->charge(model, sub_, adj, sub_out_, sub_x1_, sub_v1_, f_ext, H);
     sub_.x.swap(sub_x1_);
     sub_.v.swap(sub_v1_);
-    // Kinematic quanta exactly on their path (as Simulation::end_step puts them).
+    // Kinematic quanta exactly on their path (as the step's apply_checked puts them).
     for (const Motion& motion : model.motions)
       for (std::size_t k = 0; k < motion.quanta.size(); ++k)
         motion.at(k, t1, sub_.x[motion.quanta[k]], sub_.v[motion.quanta[k]]);
