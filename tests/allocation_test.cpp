@@ -85,7 +85,7 @@ TEST(Allocation, StepsAfterTheFirstAllocateNothing) {
   if (!QBOND_COUNTS_ALLOCATIONS) GTEST_SKIP() << "AddressSanitizer interposes malloc itself";
   for (const Case& c : fast_integrators())
     for (int threads : {1, 2})
-      for (bool ledger : {true, false}) {  // without it the steps are direct (StepContext::direct)
+      for (bool ledger : {true, false}) {  // without it the steps advance in place (advance.hpp)
         IntegratorConfig cfg = c.config;
         cfg.threads = threads;
         // Large enough that the passes run in parallel (kParallelMin).

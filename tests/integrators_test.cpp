@@ -381,8 +381,20 @@ TEST(ImplicitStep, FrozenRowsStartedAndSolvedInTheBondPassMatchThePlainStep) {
       FrozenStep step;
       step.wake = wake;
       Projection p;
-      step.project(w.model, w.state, adj, f_ext, ctx, threads, p);
+      step.project(w.model, w.state, adj, f_ext, ctx, threads, p, nullptr);
       const std::string what = std::to_string(threads) + " threads, pieces of " + std::to_string(wake);
+      // Advanced in place, the step writes x + dx and v + dv of its projection, the same bits.
+      FrozenStep fused;
+      fused.wake = wake;
+      Projection empty;
+      Advanced to, applied;
+      fused.project(w.model, w.state, adj, f_ext, ctx, threads, empty, &to);
+      PrescribedAt prescribed;
+      apply_checked(w.model, w.state, p, ctx.t + ctx.h, threads, prescribed, applied);
+      EXPECT_TRUE(to.ok && applied.ok) << what;
+      EXPECT_TRUE(empty.dx.empty() && empty.dv.empty()) << what;
+      EXPECT_EQ(std::memcmp(to.x.data(), applied.x.data(), sizeof(Vec3) * applied.x.size()), 0) << what;
+      EXPECT_EQ(std::memcmp(to.v.data(), applied.v.data(), sizeof(Vec3) * applied.v.size()), 0) << what;
       EXPECT_LE(test::max_norm_diff(p.dv, ref.frozen), 1e-12 * test::max_norm(ref.frozen)) << what;
       if (first.empty())
         first = p.dv;

@@ -51,7 +51,7 @@ double sum_tolerance(std::size_t n, double plain) {
   return static_cast<double>(n + 4) * std::numeric_limits<double>::epsilon() * std::abs(plain);
 }
 
-// The state a projection applies, x + Δx and v + Δv (Simulation::check_projection's).
+// The state a projection applies, x + Δx and v + Δv (apply_checked's, advance.hpp).
 struct Applied {
   std::vector<Vec3> x, v;
   Applied(const State& s, const Projection& p) : x(s.x), v(s.v) {
@@ -174,7 +174,7 @@ TEST(EnergyLedger, AnchorWorkCountsEveryBondOfAMovingPrescribedQuantaOnce) {
   ASSERT_GT(std::abs(plain), 0);
   for (int threads : {1, 2}) {
     const StepWork sw =
-        step_work(m, w.state, adj, p, Applied(w.state, p).state(), f_ext, 1e-3, 1, 0, false, threads);
+        step_work(m, w.state, adj, p, Applied(w.state, p).state(), f_ext, 1e-3, {.damping_theta = 1}, threads);
     EXPECT_NEAR(sw.anchors, plain, 1e-12 * std::abs(plain)) << threads << " threads";
   }
 }

@@ -360,7 +360,7 @@ TEST(EnergyMomentum, LedgerClosesWithDampingLoadsAndAnchors) {
 
 // Steps split into substeps (four quanta at hω = 100, bonds turning by radians per step): the
 // ledger charges the anchor's and the dampers' work summed over the substeps, as the integrator
-// applied it (Projection::has_work); the whole-step estimate from the composite dx, dv would not be.
+// applied it (SubstepLedger); the whole-step estimate from the composite dx, dv would not be.
 TEST(EnergyMomentum, LedgerClosesOverSubsteps) {
   for (DampingModel dm : {DampingModel::axial, DampingModel::isotropic}) {
     World w = four_quanta(0.2);

@@ -4,7 +4,9 @@
 #include <cmath>
 #include <cstring>
 #include <string>
+#include <tuple>
 
+#include "integrators/advance.hpp"  // the integrate stage's private path
 #include "integrators/bond_forces.hpp"  // verlet_carry_size
 #include "qbond/builders/samples.hpp"
 #include "qbond/io/scene.hpp"
@@ -112,7 +114,7 @@ TEST(Pipeline, AnyThreadCountGivesTheSameBits) {
 }
 
 // Without heuristics and the energy ledger, Simulation::step lets the integrator write the state
-// the step applies (StepContext::direct): the same bits as the steps that form dx and dv for the
+// the step applies (StepIntegrator::advance): the same bits as the steps that form dx and dv for the
 // ledger and apply them, on any thread count, and the same report when a step blows up.
 TEST(Pipeline, DirectStepsGiveTheSameBitsAndReportsAsStepsThroughDxDv) {
   Scene scene = canonical_lattice(16);
@@ -158,9 +160,104 @@ TEST(Pipeline, DirectStepsGiveTheSameBitsAndReportsAsStepsThroughDxDv) {
     }
 }
 
+// The integrate stage's private path, called directly: every integrator's advance() gives the
+// state that project() and apply_checked give, bit for bit, with the same verdict and carry-over,
+// over steps that use the carry-over; one that forms gravity gives it for an empty f_ext too
+// (f_ext = m g exactly, as the gather stage forms it). Both verdicts fail together for a step
+// too fast and for a non-finite velocity.
+TEST(Pipeline, AdvanceInPlaceGivesTheBitsOfProjectAndApply) {
+  World w0 = test::lattice(12, 10, 8, 1000, 1e-3, 0.01, false, Vec3(0.3, 0, -9.81));
+  test::perturb(w0, 1e-4, 0.01);
+  Motion spin;
+  spin.type = MotionType::rotate;
+  spin.axis = Vec3(0, 0, 1);
+  spin.rate = 20;
+  w0.prescribe({0, 5, 500}, spin);
+  const Model& m = w0.model;
+  const std::size_t n = w0.num_quanta();
+  std::vector<Vec3> gravity(n);
+  for (std::size_t i = 0; i < n; ++i) gravity[i] = m.mass[i] * m.gravity;
+  const std::vector<Vec3> none;
+  IntegratorConfig frozen = test::config(IntegratorType::hybrid_implicit), sweep = frozen;
+  frozen.neighbours = NeighbourModel::frozen;
+  sweep.neighbours = NeighbourModel::sweep;
+  const IntegratorConfig configs[] = {test::config(IntegratorType::explicit_euler),
+                                      test::config(IntegratorType::velocity_verlet),
+                                      test::config(IntegratorType::rk4),
+                                      frozen,
+                                      sweep,
+                                      default_integrator(),
+                                      test::config(IntegratorType::energy_momentum),
+                                      test::config(IntegratorType::bdf2)};
+  auto same = [](const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
+  };
+  for (const IntegratorConfig& c : configs)
+    for (int threads : {1, 2}) {
+      IntegratorConfig cfg = c;
+      cfg.threads = threads;
+      const std::string what = std::string(to_string(c.type)) + "/" + std::string(to_string(c.neighbours)) + ", " +
+                               std::to_string(threads) + " threads";
+      const auto in_place = make_step_integrator(cfg), in_place_gravity = make_step_integrator(cfg),
+                 projected = make_step_integrator(cfg);
+      const bool forms_gravity = in_place->forms_gravity();
+      State s = w0.state, s_gravity = w0.state, s0 = w0.state;
+      Adjacency adj;
+      build_adjacency(m, s, adj);
+      PrescribedAt prescribed;
+      for (int step = 0; step < 3; ++step) {
+        const StepContext ctx{.h = 1e-4, .t = step * 1e-4, .step = static_cast<std::uint64_t>(step)};
+        Projection p, p_gravity, p0;
+        Advanced a, a_gravity, a0;
+        a.max_speed = a_gravity.max_speed = a0.max_speed = 1e5;
+        in_place->advance(m, s, adj, gravity, ctx, p, a);
+        in_place_gravity->advance(m, s_gravity, adj, forms_gravity ? none : gravity, ctx, p_gravity, a_gravity);
+        projected->project(m, s0, adj, gravity, ctx, p0);
+        apply_checked(m, s0, p0, ctx.t + ctx.h, threads, prescribed, a0);
+        EXPECT_TRUE(a0.ok) << what;
+        for (const auto& [to, carry, how] : {std::tuple{&a, &p, "f_ext"}, {&a_gravity, &p_gravity, "gravity"}}) {
+          EXPECT_EQ(to->ok, a0.ok) << what << ", " << how;
+          EXPECT_TRUE(same(to->x, a0.x)) << what << ", " << how << ", step " << step;
+          EXPECT_TRUE(same(to->v, a0.v)) << what << ", " << how << ", step " << step;
+          EXPECT_TRUE(carry->warm == p0.warm) << what << ", " << how << ", step " << step;
+        }
+        for (auto [state, to, carry] : {std::tuple{&s, &a, &p}, {&s_gravity, &a_gravity, &p_gravity}, {&s0, &a0, &p0}}) {
+          state->x.swap(to->x);
+          state->v.swap(to->v);
+          state->warm.swap(carry->warm);
+          state->time = ctx.t + ctx.h;
+          state->step = ctx.step + 1;
+        }
+      }
+      // The blow-up rule, from a state the step makes too fast or not finite (not for the Newton
+      // integrators, whose default path is the same code, and which split a non-finite step down
+      // to the smallest substep).
+      if (c.type == IntegratorType::energy_momentum || c.type == IntegratorType::bdf2) continue;
+      const StepContext ctx{.h = 1e-4, .t = 3e-4, .step = 3};
+      for (bool finite : {true, false}) {
+        State bad = s0;
+        if (!finite) bad.v[123].y() = std::nan("");
+        Projection p, p0;
+        Advanced a, a0;
+        a.max_speed = a0.max_speed = finite ? 1e-6 : 1e5;
+        make_step_integrator(cfg)->advance(m, bad, adj, gravity, ctx, p, a);
+        make_step_integrator(cfg)->project(m, bad, adj, gravity, ctx, p0);
+        apply_checked(m, bad, p0, ctx.t + ctx.h, threads, prescribed, a0);
+        EXPECT_FALSE(a.ok) << what << (finite ? ", too fast" : ", not finite");
+        EXPECT_FALSE(a0.ok) << what << (finite ? ", too fast" : ", not finite");
+        const Blowup b = find_blowup(m, a.x, a.v, a.max_speed, ctx, threads);
+        const Blowup b0 = find_blowup(m, a0.x, a0.v, a0.max_speed, ctx, threads);
+        EXPECT_TRUE(b.found) << what;
+        EXPECT_EQ(b.who, b0.who) << what;
+        EXPECT_EQ(b.message, b0.message) << what;
+        EXPECT_EQ(b.message.find("non-finite") != std::string::npos, !finite) << b.message;
+      }
+    }
+}
+
 // A world with no bond (a gas with no container) large enough to step on several threads: the
 // bond partition's parts then have no runs, and the frozen step starts and solves their rows
-// after the bond pass, the applied state of a direct step included (Verlet alike).
+// after the bond pass, the applied state of a step advanced in place included (Verlet alike).
 TEST(Pipeline, DirectStepsWithoutBondsGiveTheSameBitsAsStepsThroughDxDv) {
   World w0;
   w0.model.gravity = Vec3(0, 0, -9.81);
@@ -187,8 +284,8 @@ TEST(Pipeline, DirectStepsWithoutBondsGiveTheSameBitsAsStepsThroughDxDv) {
   }
 }
 
-// A direct step of the frozen hybrid, Verlet or the coupled step forms gravity itself
-// (Integrator::forms_gravity) only when gravity is the only external force: with a load or a
+// A step of the frozen hybrid, Verlet or the coupled step advanced in place forms gravity itself
+// (StepIntegrator::forms_gravity) only when gravity is the only external force: with a load or a
 // queued force it takes Simulation's array, and gives the bits of a step through dx and dv, which
 // always does.
 TEST(Pipeline, DirectStepsTakeLoadsAndQueuedForces) {

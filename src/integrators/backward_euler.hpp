@@ -14,7 +14,9 @@
 #include <algorithm>
 #include <vector>
 
+#include "integrators/advance.hpp"
 #include "integrators/bond_partition.hpp"
+#include "integrators/prescribed.hpp"
 #include "solvers/coloring.hpp"
 #include "qbond/model/world.hpp"
 #include "qbond/integrators/integrators.hpp"
@@ -146,15 +148,16 @@ void gather_edges(const Model& model, const Adjacency& adj, int threads, Implici
 // Each bond is linearised once, in vectorised runs (hybrid_frozen_kernel.cpp), and added to both ends' A_ii
 // (kept as its six distinct entries) and that right-hand side; then, for free quanta,
 // v_i + Δv_i = A_ii⁻¹ (…) goes straight into `out` (dx = h (v + Δv), Eq. 10), whose prescribed
-// rows are project_kinematic's (written with their range's: PrescribedAt), or, for a direct step
-// (StepContext::direct), into the state the step applies, checked there.
+// rows are project_kinematic's (written with their range's: PrescribedAt), or, when the step
+// advances in place (`to` not null: advance.hpp), into the state the step applies, checked there
+// (out's dx and dv then left empty).
 struct FrozenStep {
   BondPartition part;
   LineVector<double> arrays;   // A_ii's six entries, b_i, x and v as structure of arrays (hybrid_frozen_kernel.cpp)
   Index wake = 512;            // the fewest rows started or solved at a time in the bond pass (tests: fewer)
   PrescribedAt prescribed;
   void project(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
-               const StepContext& ctx, int threads, Projection& out);
+               const StepContext& ctx, int threads, Projection& out, Advanced* to);
 };
 
 // A's off-diagonal part times y for free quanta i: Σ over i's bonds to free quanta of B_b y_j.

@@ -9,11 +9,11 @@
 namespace qbond {
 namespace {
 
-class CoupledIntegrator final : public Integrator {
+class CoupledIntegrator final : public StepIntegrator {
  public:
-  explicit CoupledIntegrator(const IntegratorConfig& c) : Integrator(c) {}
+  // Dampers at the end-of-step velocity (backward Euler).
+  explicit CoupledIntegrator(const IntegratorConfig& c) : StepIntegrator(c, {.damping_theta = 1.0}) {}
 
-  double damping_theta() const override { return 1.0; }
   bool forms_gravity() const override { return true; }
 
   void project(const Model& model, const State& state, const Adjacency& adj,
@@ -52,7 +52,7 @@ class CoupledIntegrator final : public Integrator {
 
 }  // namespace
 
-std::unique_ptr<Integrator> make_coupled_implicit_integrator(const IntegratorConfig& config) {
+std::unique_ptr<StepIntegrator> make_coupled_implicit_integrator(const IntegratorConfig& config) {
   return std::make_unique<CoupledIntegrator>(config);
 }
 

@@ -1,6 +1,7 @@
 // Explicit integrators: the particle method and its better-behaved relatives.
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 
@@ -37,7 +38,7 @@ struct Columns {
 };
 
 // Verlet's first half for quanta [lo, hi), from the step's first accelerations a = m⁻¹ (f0 + f_ext):
-// the free quanta's Δx = h v + h²/2 a into dx unless the step is direct (kDx false; 0 for
+// the free quanta's Δx = h v + h²/2 a into dx unless the step advances in place (kDx false; 0 for
 // kinematic ones: the prescribed ones' rows, project_kinematic's, are written after); x₁ = x + Δx,
 // as the step will apply it, into the bond pass's rows (the next carry-over's); the velocity the
 // forces are taken at, ṽ = v + h a (kinematic: v), into the rows; the force sums zeroed. Returns
@@ -77,8 +78,8 @@ QBOND_VECTOR_CLONES bool verlet_stage(const double* inv_mass, Columns f0, Extern
             : stage_range<false, false>(inv_mass, f0, f_ext, x, v, cx, cv, h, dx, rows, lo, hi);
 }
 
-// Where verlet_finish writes: Δv into dv, or for a direct step (kApplied; dv null) x₁ (the bond
-// pass's rows' x) and v₁ into the state the step applies, x_to and v_to.
+// Where verlet_finish writes: Δv into dv, or for a step advanced in place (kApplied; dv null) x₁
+// (the bond pass's rows' x) and v₁ into the state the step applies, x_to and v_to.
 struct FinishOut {
   double* dv;
   double* x_to;
@@ -87,16 +88,15 @@ struct FinishOut {
 
 // Verlet's second half for quanta [lo, hi): with the bond forces at the stage in rows.f (the
 // carry-over's f₁), the free quanta's Δv = h/2 (m⁻¹ (f0 + f_ext) + m⁻¹ (f1 + f_ext)) (0 for
-// kinematic ones) and v₁ = v + Δv into v1; Δv, or x₁ and v₁, into `out`. Returns, for a direct
-// step, whether every value written is finite and no free quanta faster than sqrt(limit2)
-// (advance_checked's test, in the same branch-free form); true otherwise.
+// kinematic ones) and v₁ = v + Δv into v1; Δv, or x₁ and v₁, into `out`. Returns, for a step
+// advanced in place, whether every quanta keeps the blow-up rule (QuantaCheck); true otherwise.
 template <bool kApplied, bool kGravity>
 QBOND_VECTOR_INLINE bool finish_range(const double* inv_mass, ForceRows rows, External f_ext, Columns f0,
                                       const double* v, double h, double limit2, double* v1, FinishOut out,
                                       std::size_t lo, std::size_t hi) {
   std::uint64_t bad = 0;
   QBOND_SIMD_OR(bad) for (std::size_t q = lo; q < hi; ++q) {
-    double speed2 = 0, nan_if_bad = 0;
+    QuantaCheck check;
     QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
       const std::size_t e = 3 * q + c;
       const double fe = f_ext.at<kGravity>(q, c);
@@ -108,14 +108,12 @@ QBOND_VECTOR_INLINE bool finish_range(const double* inv_mass, ForceRows rows, Ex
         const double xe = rows.x[c][q];
         out.x_to[e] = xe;
         out.v_to[e] = ve;
-        nan_if_bad += (xe - xe) + (ve - ve);
-        speed2 += ve * ve;
+        check.add(xe, ve);
       } else {
         out.dv[e] = d;
       }
     }
-    if constexpr (kApplied)
-      bad |= static_cast<std::uint64_t>((nan_if_bad != 0) | ((speed2 > limit2) & (inv_mass[q] != 0)));
+    if constexpr (kApplied) bad |= check.bad(limit2, inv_mass[q] != 0);
   }
   return bad == 0;
 }
@@ -131,18 +129,26 @@ QBOND_VECTOR_CLONES bool verlet_finish(const double* inv_mass, ForceRows rows, E
                 : finish_range<true, false>(inv_mass, rows, f_ext, f0, v, h, limit2, v1, out, lo, hi);
 }
 
-class ExplicitIntegrator final : public Integrator {
+// Verlet and RK4 evaluate damping halfway through the velocity change on average; both Euler
+// variants at the start-of-step velocity.
+LedgerHints explicit_hints(IntegratorType type) {
+  const bool half = type == IntegratorType::velocity_verlet || type == IntegratorType::rk4;
+  return {.damping_theta = half ? 0.5 : 0.0};
+}
+
+class ExplicitIntegrator final : public StepIntegrator {
  public:
-  explicit ExplicitIntegrator(const IntegratorConfig& c) : Integrator(c) {}
+  explicit ExplicitIntegrator(const IntegratorConfig& c) : StepIntegrator(c, explicit_hints(c.type)) {}
 
   bool forms_gravity() const override { return config_.type == IntegratorType::velocity_verlet; }
 
-  double damping_theta() const override {
-    switch (config_.type) {
-      case IntegratorType::velocity_verlet:
-      case IntegratorType::rk4: return 0.5;
-      default: return 0.0;  // both Euler variants evaluate damping at the start-of-step velocity
-    }
+  // Verlet's fused kernel writes the state the step applies in its last pass.
+  void advance(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
+               const StepContext& ctx, Projection& out, Advanced& to) override {
+    if (config_.type != IntegratorType::velocity_verlet)
+      return StepIntegrator::advance(model, state, adj, f_ext, ctx, out, to);
+    part_.update(model, adj, config_.threads);
+    verlet(model, state, f_ext, ctx, out, &to);
   }
 
   void project(const Model& model, const State& state, const Adjacency& adj,
@@ -151,7 +157,7 @@ class ExplicitIntegrator final : public Integrator {
     const double h = ctx.h;
     part_.update(model, adj, config_.threads);
     const bool verlet_step = config_.type == IntegratorType::velocity_verlet;
-    if (verlet_step) return verlet(model, state, f_ext, ctx, out);
+    if (verlet_step) return verlet(model, state, f_ext, ctx, out, nullptr);
     out.resize(n);
     project_kinematic(model, state, ctx, out);
     accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, forces_, a1_);
@@ -201,15 +207,17 @@ class ExplicitIntegrator final : public Integrator {
   // h/2 (a − a₁) = O(h²) keeps the step second order. The last step's bond forces travel in
   // State::warm with the x₁, v₁ it left (Carry); when the state is not exactly that (a
   // heuristic, a contact, a rollback or the user changed it) a = a(x, v) is evaluated afresh.
+  // With `to`, the step is advanced in place (advance.hpp): x₁ and v₁ go there, checked.
   void verlet(const Model& model, const State& state, const std::vector<Vec3>& f_ext, const StepContext& ctx,
-              Projection& out) {
+              Projection& out, Advanced* to) {
     const std::size_t n = model.num_quanta(), size = verlet_carry_size(n);
     const double h = ctx.h;
     const int threads = config_.threads;
-    if (ctx.direct)
-      out.resize_applied(n);
-    else
-      out.resize(n, false);  // every row written
+    out.resize(to ? 0 : n, false);  // every row written
+    if (to) {
+      to->x.resize(n);
+      to->v.resize(n);
+    }
     out.warm.resize(size);
     out.warm_needs_bonds = true;
     const Carry<double> next(out.warm.data()->data(), n);
@@ -226,10 +234,9 @@ class ExplicitIntegrator final : public Integrator {
     const double* x = state.x.data()->data();
     const double* v = state.v.data()->data();
     const External fe(model, f_ext);
-    double* dx = ctx.direct ? nullptr : out.dx.data()->data();
-    const FinishOut finish_out =
-        ctx.direct ? FinishOut{nullptr, out.applied.x.data()->data(), out.applied.v.data()->data()}
-                   : FinishOut{out.dv.data()->data(), nullptr, nullptr};
+    double* dx = to ? nullptr : out.dx.data()->data();
+    const FinishOut finish_out = to ? FinishOut{nullptr, to->x.data()->data(), to->v.data()->data()}
+                                    : FinishOut{out.dv.data()->data(), nullptr, nullptr};
     // With the carried forces, for the topology they were left for, while checking that the state
     // is the one they were left for; if it is not, again with a(x, v) evaluated afresh into
     // forces_'s f and x, which the stage does not write (cx is then x itself).
@@ -267,19 +274,20 @@ class ExplicitIntegrator final : public Integrator {
     // The prescribed quanta's v₁ as placed (verlet_finish wrote their v), and their rows of the
     // projection (project_kinematic), or of the applied state (place_kinematic: the stage put
     // their x₁ in the rows).
-    const double limit2 = ctx.max_speed * ctx.max_speed;
+    const double limit2 = to ? to->max_speed * to->max_speed : HUGE_VAL;
     auto finish = [&](std::size_t lo, std::size_t hi) {
       bool ok = verlet_finish(inv_mass, rows, fe, f0, v, h, limit2, next.v, finish_out, lo, hi);
       for (const PrescribedAt::Quanta& p : prescribed_.in(lo, hi)) {
         for (int c = 0; c < 3; ++c) next.v[3 * p.q + c] = p.v[c];
-        if (!ctx.direct) continue;
-        out.applied.v[p.q] = p.v;
+        if (!to) continue;
+        to->v[p.q] = p.v;
         ok = ok && p.x.allFinite() && p.v.allFinite();
       }
-      if (!ctx.direct) prescribed_.project(state, lo, hi, out);
+      if (!to) prescribed_.project(state, lo, hi, out);
       return ok;
     };
-    out.applied.ok = reduce_chunks(n, threads, true, finish, std::logical_and<>{});
+    const bool ok = reduce_chunks(n, threads, true, finish, std::logical_and<>{});
+    if (to) to->ok = ok;
     out.warm[size - 1] = Vec3(static_cast<double>(state.topology_version), 0, 0);
   }
 
@@ -326,7 +334,7 @@ class ExplicitIntegrator final : public Integrator {
 
 std::size_t verlet_carry_size(std::size_t n) { return 2 * soa_stride(n) + n + 1; }
 
-std::unique_ptr<Integrator> make_explicit_integrator(const IntegratorConfig& config) {
+std::unique_ptr<StepIntegrator> make_explicit_integrator(const IntegratorConfig& config) {
   return std::make_unique<ExplicitIntegrator>(config);
 }
 

@@ -12,19 +12,29 @@
 namespace qbond {
 namespace {
 
-class HybridIntegrator final : public Integrator {
+class HybridIntegrator final : public StepIntegrator {
  public:
-  explicit HybridIntegrator(const IntegratorConfig& c) : Integrator(c) {}
+  // Dampers at the end-of-step velocity (backward Euler).
+  explicit HybridIntegrator(const IntegratorConfig& c) : StepIntegrator(c, {.damping_theta = 1.0}) {}
 
-  double damping_theta() const override { return 1.0; }
   bool forms_gravity() const override { return config_.neighbours == NeighbourModel::frozen; }
+
+  // The frozen step's fused kernel writes the state the step applies in its solve pass.
+  void advance(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
+               const StepContext& ctx, Projection& out, Advanced& to) override {
+    if (config_.neighbours != NeighbourModel::frozen)
+      return StepIntegrator::advance(model, state, adj, f_ext, ctx, out, to);
+    stats_ = {};
+    frozen_.project(model, state, adj, f_ext, ctx, config_.threads, out, &to);
+    stats_.iterations = 1;
+  }
 
   void project(const Model& model, const State& state, const Adjacency& adj,
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
     const int threads = config_.threads;
     stats_ = {};
     if (config_.neighbours == NeighbourModel::frozen) {
-      frozen_.project(model, state, adj, f_ext, ctx, threads, out);
+      frozen_.project(model, state, adj, f_ext, ctx, threads, out, nullptr);
       stats_.iterations = 1;
       return;
     }
@@ -84,7 +94,7 @@ class HybridIntegrator final : public Integrator {
 
 }  // namespace
 
-std::unique_ptr<Integrator> make_hybrid_integrator(const IntegratorConfig& config) {
+std::unique_ptr<StepIntegrator> make_hybrid_integrator(const IntegratorConfig& config) {
   return std::make_unique<HybridIntegrator>(config);
 }
 

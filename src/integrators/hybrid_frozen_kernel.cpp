@@ -388,13 +388,14 @@ QBOND_VECTOR_CLONES void start_rows(const Model& model, const State& state, cons
 
 // v_i + Δv_i = A_ii⁻¹ b_i for quanta [lo, hi) — the adjugate of the symmetric block (positive
 // definite) over its determinant — and, in one vector loop, Δv_i and Δx_i = h (v_i + Δv_i) written
-// out or, for a direct step (kApplied), the state the step applies, x_i + Δx_i and v_i + Δv_i (the
-// same bits), checked as advance_checked checks it (the result; true otherwise). Kinematic quanta
-// get zeros, or their x and v (their rows are not theirs to solve): the prescribed ones' motion is
-// then written over them (PrescribedAt).
+// out or, for a step advanced in place (kApplied), the state the step applies, x_i + Δx_i and
+// v_i + Δv_i (the same bits), checked by the blow-up rule (the result; true otherwise). Kinematic
+// quanta get zeros, or their x and v (their rows are not theirs to solve): the prescribed ones'
+// motion is then written over them (PrescribedAt).
 template <bool kApplied>
 QBOND_VECTOR_INLINE bool solve_range(const Model& model, const State& state, const StepArrays& a, double h,
-                                     double limit2, std::size_t lo, std::size_t hi, Projection& out) {
+                                     double limit2, std::size_t lo, std::size_t hi, Projection& out,
+                                     Advanced* to) {
   const double* inv_mass = model.inv_mass.data();
   const double *a0 = a.row[0], *a1 = a.row[1], *a2 = a.row[2], *a3 = a.row[3], *a4 = a.row[4], *a5 = a.row[5];
   const double *bx = a.row[6], *by = a.row[7], *bz = a.row[8];
@@ -403,8 +404,8 @@ QBOND_VECTOR_INLINE bool solve_range(const Model& model, const State& state, con
   const double* v = state.v.data()->data();
   double* dv = kApplied ? nullptr : out.dv.data()->data();
   double* dx = kApplied ? nullptr : out.dx.data()->data();
-  double* x_to = kApplied ? out.applied.x.data()->data() : nullptr;
-  double* v_to = kApplied ? out.applied.v.data()->data() : nullptr;
+  double* x_to = kApplied ? to->x.data()->data() : nullptr;
+  double* v_to = kApplied ? to->v.data()->data() : nullptr;
   std::uint64_t bad = 0;
   QBOND_SIMD_OR(bad) for (std::size_t q = lo; q < hi; ++q) {
     const double c00 = a1[q] * a2[q] - a5[q] * a5[q], c11 = a0[q] * a2[q] - a4[q] * a4[q];
@@ -412,14 +413,13 @@ QBOND_VECTOR_INLINE bool solve_range(const Model& model, const State& state, con
     const double c02 = a3[q] * a5[q] - a4[q] * a1[q], c12 = a3[q] * a4[q] - a0[q] * a5[q];
     const double inv_det = 1.0 / (a0[q] * c00 + a3[q] * c01 + a4[q] * c02);
     const double x = bx[q], y = by[q], z = bz[q];
-    double speed2 = 0, nan_if_bad = 0;
+    QuantaCheck check;
     auto write = [&](std::size_t c, double v1) QBOND_LAMBDA_INLINE {
       if constexpr (kApplied) {
         const double x1 = xs[c][q] + h * v1, vq = vs[c][q], v1_applied = vq + (v1 - vq);
         x_to[3 * q + c] = x1;
         v_to[3 * q + c] = v1_applied;
-        nan_if_bad += (x1 - x1) + (v1_applied - v1_applied);
-        speed2 += v1_applied * v1_applied;
+        check.add(x1, v1_applied);
       } else {
         dv[3 * q + c] = v1 - v[3 * q + c];
         dx[3 * q + c] = h * v1;
@@ -428,16 +428,16 @@ QBOND_VECTOR_INLINE bool solve_range(const Model& model, const State& state, con
     write(0, inv_det * (c00 * x + c01 * y + c02 * z));
     write(1, inv_det * (c01 * x + c11 * y + c12 * z));
     write(2, inv_det * (c02 * x + c12 * y + c22 * z));
-    if constexpr (kApplied)
-      bad |= static_cast<std::uint64_t>(((nan_if_bad != 0) | (speed2 > limit2)) & (inv_mass[q] != 0));
+    // A kinematic quanta's values here are not its own: it is checked below.
+    if constexpr (kApplied) bad |= check.bad(limit2, true) & (inv_mass[q] != 0);
   }
   // After the vector loop, not a select in it (GCC would mask the strided loads of v, which it
   // cannot vectorise).
   for (std::size_t q = lo; q < hi; ++q) {
     if (inv_mass[q] != 0) continue;
     if constexpr (kApplied) {
-      out.applied.x[q] = state.x[q];
-      out.applied.v[q] = state.v[q];
+      to->x[q] = state.x[q];
+      to->v[q] = state.v[q];
       bad |= static_cast<std::uint64_t>(!state.x[q].allFinite() || !state.v[q].allFinite());
     } else {
       out.dv[q] = out.dx[q] = Vec3::Zero();
@@ -446,25 +446,27 @@ QBOND_VECTOR_INLINE bool solve_range(const Model& model, const State& state, con
   return bad == 0;
 }
 
-// solve_range, into the state the step applies if `applied`.
+// solve_range, into the state the step applies if `to` is not null.
 QBOND_VECTOR_CLONES bool solve_rows(const Model& model, const State& state, const StepArrays& a, double h,
-                                    bool applied, double limit2, std::size_t lo, std::size_t hi,
-                                    Projection& out) {
-  return applied ? solve_range<true>(model, state, a, h, limit2, lo, hi, out)
-                 : solve_range<false>(model, state, a, h, limit2, lo, hi, out);
+                                    double limit2, std::size_t lo, std::size_t hi, Projection& out,
+                                    Advanced* to) {
+  return to ? solve_range<true>(model, state, a, h, limit2, lo, hi, out, to)
+            : solve_range<false>(model, state, a, h, limit2, lo, hi, out, to);
 }
 
 }  // namespace
 
 void FrozenStep::project(const Model& model, const State& state, const Adjacency& adj,
                          const std::vector<Vec3>& f_ext, const StepContext& ctx, int threads,
-                         Projection& out) {
+                         Projection& out, Advanced* to) {
   const std::size_t n = model.num_quanta();
   const double h = ctx.h;
-  if (ctx.direct)
-    out.resize_applied(n);
-  else
-    out.resize(n, false);  // solve_rows writes every row
+  const bool in_place = to != nullptr;
+  out.resize(in_place ? 0 : n, false);  // solve_rows writes every row
+  if (in_place) {
+    to->x.resize(n);
+    to->v.resize(n);
+  }
   part.update(model, adj, threads);
   StepArrays a;
   SoaArrays soa(arrays, n, 15);
@@ -491,12 +493,12 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
   // The prescribed quanta's rows, or their place in the applied state, with their range's
   // (PrescribedAt says why).
   prescribed.update(model, ctx.t + h);
-  const double limit2 = ctx.max_speed * ctx.max_speed;
-  std::atomic<bool> ok = true;  // the applied state's check (StepContext::direct): an AND, in any order
+  const double limit2 = in_place ? to->max_speed * to->max_speed : HUGE_VAL;
+  std::atomic<bool> ok = true;  // the applied state's check (in place): an AND, in any order
   const auto solve = [&](Index lo, Index hi) {
-    bool range_ok = solve_rows(model, state, a, h, ctx.direct, limit2, lo, hi, out);
-    if (!ctx.direct) return prescribed.project(state, lo, hi, out);
-    prescribed.place(lo, hi, out.applied.x.data(), out.applied.v.data());
+    bool range_ok = solve_rows(model, state, a, h, limit2, lo, hi, out, to);
+    if (!in_place) return prescribed.project(state, lo, hi, out);
+    prescribed.place(lo, hi, to->x.data(), to->v.data());
     for (const PrescribedAt::Quanta& p : prescribed.in(lo, hi))
       range_ok = range_ok && p.x.allFinite() && p.v.allFinite();
     if (!range_ok) ok.store(false, std::memory_order_relaxed);
@@ -533,14 +535,14 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
       s.solved = settled;
     }
   });
-  // The rows of parts without bonds, and their copies of x and v, which a direct step's solve
+  // The rows of parts without bonds, and their copies of x and v, which an in-place step's solve
   // reads (the copies before the bond pass take only the quanta other parts' runs join).
   for (int p = 0; p < part.parts(); ++p)
     if (part.run_offset[p] == part.run_offset[p + 1]) {
       start_rows(model, state, f_ext, h, a, /*copy=*/true, part.first[p], part.first[p + 1]);
       solve(part.first[p], part.first[p + 1]);
     }
-  out.applied.ok = ok.load(std::memory_order_relaxed);
+  if (in_place) to->ok = ok.load(std::memory_order_relaxed);
 }
 
 }  // namespace qbond

@@ -4,18 +4,19 @@
 #include <vector>
 
 #include "solvers/coloring.hpp"
+#include "integrators/advance.hpp"
 #include "qbond/integrators/integrators.hpp"
 #include "core/simd.hpp"
 
 namespace qbond {
 
-std::unique_ptr<Integrator> make_explicit_integrator(const IntegratorConfig& config);
-std::unique_ptr<Integrator> make_hybrid_integrator(const IntegratorConfig& config);
-std::unique_ptr<Integrator> make_coupled_implicit_integrator(const IntegratorConfig& config);
-std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& config);
+std::unique_ptr<StepIntegrator> make_explicit_integrator(const IntegratorConfig& config);
+std::unique_ptr<StepIntegrator> make_hybrid_integrator(const IntegratorConfig& config);
+std::unique_ptr<StepIntegrator> make_coupled_implicit_integrator(const IntegratorConfig& config);
+std::unique_ptr<StepIntegrator> make_newton_integrator(const IntegratorConfig& config);
 
 // The external force on quanta i: f_ext's, or m_i g for gravity alone (an empty f_ext:
-// Integrator::forms_gravity), with the bits of Simulation's.
+// StepIntegrator::forms_gravity), with the bits of Simulation's.
 inline Vec3 external_force(const Model& model, const std::vector<Vec3>& f_ext, Index i) {
   return f_ext.empty() ? Vec3(model.mass[i] * model.gravity) : f_ext[i];
 }

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "integrators/integrator_common.hpp"
+#include "integrators/prescribed.hpp"
 #include "core/parallel.hpp"
 
 namespace qbond {
@@ -16,6 +17,10 @@ IntegratorConfig default_integrator() {
 }
 
 std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& config) {
+  return make_step_integrator(config);
+}
+
+std::unique_ptr<StepIntegrator> make_step_integrator(const IntegratorConfig& config) {
   IntegratorConfig c = config;
   // CG from the line through the last two steps' Δv: fewer iterations wherever Δv changes
   // smoothly from step to step (cube_drop 14.5 a step from zero, 5.9 from the previous Δv, 3.2

@@ -11,7 +11,6 @@
 
 #include "integrators/integrator_common.hpp"
 #include "core/parallel.hpp"
-#include "ledger/step_work.hpp"
 
 namespace qbond {
 
@@ -214,15 +213,18 @@ constexpr int kMaxDepth = 8;
 // (one or two are taken: from the tolerance exact Newton reaches round-off in one).
 constexpr int kPolishIterations = 3;
 
-class NewtonIntegrator final : public Integrator {
- public:
-  explicit NewtonIntegrator(const IntegratorConfig& c) : Integrator(c) {}
+// energy_momentum and implicit_midpoint evaluate dampers at the midpoint velocity along the
+// midpoint bond, bdf2 at the end of the step; energy_momentum's tensions are discrete gradients.
+LedgerHints newton_hints(IntegratorType type) {
+  const double theta = type == IntegratorType::bdf2 ? 1.0 : 0.5;
+  return {.damping_theta = theta,
+          .damping_direction_theta = theta,
+          .discrete_gradient = type == IntegratorType::energy_momentum};
+}
 
-  // energy_momentum and implicit_midpoint evaluate dampers at the midpoint velocity along the
-  // midpoint bond; bdf2 at the end of the step.
-  double damping_theta() const override { return config_.type == IntegratorType::bdf2 ? 1.0 : 0.5; }
-  double damping_direction_theta() const override { return damping_theta(); }
-  bool discrete_gradient() const override { return config_.type == IntegratorType::energy_momentum; }
+class NewtonIntegrator final : public StepIntegrator {
+ public:
+  explicit NewtonIntegrator(const IntegratorConfig& c) : StepIntegrator(c, newton_hints(c.type)) {}
 
   void project(const Model& model, const State& state, const Adjacency& adj,
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
@@ -261,11 +263,10 @@ class NewtonIntegrator final : public Integrator {
       // with the scheme's conservation properties; halves that do not converge split again, down
       // to h / 2^kMaxDepth. Kinematic rows keep the whole step's prescribed motion.
       sub_ = state;
-      out.has_work = true;
       stats_.residual = 0;  // the largest of the substeps' from here
       const double t0 = ctx.t, t1 = ctx.t + h, tm = t0 + 0.5 * h;
-      advance(model, adj, f_ext, scheme, t0, tm, ctx.step, 1, out);
-      advance(model, adj, f_ext, scheme, tm, t1, ctx.step, 1, out);
+      substep(model, adj, f_ext, scheme, t0, tm, ctx.step, 1);
+      substep(model, adj, f_ext, scheme, tm, t1, ctx.step, 1);
       for (std::size_t i = 0; i < n; ++i) {
         if (model.is_kinematic(static_cast<Index>(i))) continue;
         out.dx[i] = sub_.x[i] - state.x[i];
@@ -288,9 +289,9 @@ class NewtonIntegrator final : public Integrator {
 
  private:
   // Takes sub_ (the state at t0) to t1: one Newton solve over [t0, t1] or, when it does not
-  // converge and depth < kMaxDepth, two halves. Adds the substep's anchor and damper work to out.
-  void advance(const Model& model, const Adjacency& adj, const std::vector<Vec3>& f_ext, NewtonScheme scheme,
-               double t0, double t1, std::uint64_t step, int depth, Projection& out) {
+  // converge and depth < kMaxDepth, two halves. Hands each substep taken to the ledger, when on.
+  void substep(const Model& model, const Adjacency& adj, const std::vector<Vec3>& f_ext, NewtonScheme scheme,
+               double t0, double t1, std::uint64_t step, int depth) {
     const std::size_t n = model.num_quanta();
     const double H = t1 - t0;
     sub_out_.dx.resize(n);
@@ -304,8 +305,8 @@ class NewtonIntegrator final : public Integrator {
     const bool converged = solve(model, sub_, adj, f_ext, scheme, sub_out_, H, residual);
     if (!converged && depth < kMaxDepth) {
       const double tm = t0 + 0.5 * H;
-      advance(model, adj, f_ext, scheme, t0, tm, step, depth + 1, out);
-      advance(model, adj, f_ext, scheme, tm, t1, step, depth + 1, out);
+      substep(model, adj, f_ext, scheme, t0, tm, step, depth + 1);
+      substep(model, adj, f_ext, scheme, tm, t1, step, depth + 1);
       return;
     }
     ++stats_.substeps;
@@ -322,15 +323,10 @@ class NewtonIntegrator final : public Integrator {
       sub_x1_[i] = sub_.x[i] + sub_out_.dx[i];
       sub_v1_[i] = sub_.v[i] + sub_out_.dv[i];
     }
-    // The ledger's accounts over this substep, from the substep itself (loads are linear in Δx:
-    // the ledger's whole-step charge is exact for them).
-    const StepWork w = step_work(model, sub_, adj, sub_out_, {sub_x1_, sub_v1_}, f_ext, H, damping_theta(),
-                                 damping_direction_theta(), discrete_gradient(), config_.threads);
-    out.work_anchors += w.anchors;
-    out.dissipated_damping += w.damping;
+    if (substeps_) substeps_->charge(model, sub_, adj, sub_out_, sub_x1_, sub_v1_, f_ext, H);
     sub_.x.swap(sub_x1_);
     sub_.v.swap(sub_v1_);
-    // Kinematic quanta exactly on their path (as Simulation::end_step puts them).
+    // Kinematic quanta exactly on their path (as the step's apply_checked puts them).
     for (const Motion& motion : model.motions)
       for (std::size_t k = 0; k < motion.quanta.size(); ++k)
         motion.at(k, t1, sub_.x[motion.quanta[k]], sub_.v[motion.quanta[k]]);
@@ -547,7 +543,7 @@ class NewtonIntegrator final : public Integrator {
 
 }  // namespace
 
-std::unique_ptr<Integrator> make_newton_integrator(const IntegratorConfig& config) {
+std::unique_ptr<StepIntegrator> make_newton_integrator(const IntegratorConfig& config) {
   return std::make_unique<NewtonIntegrator>(config);
 }
 

@@ -35,7 +35,7 @@
 // not converge is split in halves, each solved from the state the one before reached, recursively
 // down to h/2^8. A composition of discrete-gradient steps keeps E and both momenta as each step
 // does; the projection is the composite one, and the anchors' and dampers' work summed over the
-// substeps goes to the ledger (Projection::has_work). bdf2 is not split (its history is one
+// substeps goes to the ledger (SubstepLedger, advance.hpp). bdf2 is not split (its history is one
 // whole step back).
 //
 // Polishing (IntegratorConfig::newton_polish; energy_momentum, implicit_midpoint; newton.cpp): a

@@ -1,6 +1,6 @@
 #pragma once
-// The sums over every alive bond that the energy ledger takes each step (Simulation's
-// update_ledger and check_energy): the dampers' work and the bonds' potential energy. Most of a
+// The sums over every alive bond that the energy ledger takes each step (the ledger stage and
+// Simulation's check_energy): the dampers' work and the bonds' potential energy. Most of a
 // lattice's bonds in locality order come in stretches with affine ends (bond b + k joins i + k and
 // j + k, ordering.hpp); eight such bonds at a time are summed by one vector loop over contiguous
 // data, the others bond by bond. Summed in chunks fixed by the bond count (parallel.hpp): the same
@@ -16,7 +16,7 @@ namespace qbond {
 double bond_energy_sum(const Model& m, const State& s, int threads);
 
 /// The positions and velocities a step applies, x + Δx and v + Δv of every quanta (prescribed
-/// ones before they are put on their paths), formed once a step (Simulation::check_projection).
+/// ones before they are put on their paths), formed once a step (Simulation's check stage).
 struct AppliedState {
   std::span<const Vec3> x, v;
 };

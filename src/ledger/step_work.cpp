@@ -7,8 +7,9 @@
 namespace qbond {
 
 StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const Projection& p,
-                   const AppliedState& a, const std::vector<Vec3>& f_ext, double h, double theta, double phi,
-                   bool discrete_gradient, int threads) {
+                   const AppliedState& a, const std::vector<Vec3>& f_ext, double h, const LedgerHints& hints,
+                   int threads) {
+  const double theta = hints.damping_theta, phi = hints.damping_direction_theta;
   const double loads = deterministic_sum(m.num_quanta(), threads, [&](std::size_t i) {
     return m.is_kinematic(static_cast<Index>(i)) ? 0.0 : (f_ext[i] - m.mass[i] * m.gravity).dot(p.dx[i]);
   });
@@ -34,7 +35,7 @@ StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const P
     const Vec3 d1 = d0 + p.dx[j] - p.dx[i];
     const double r1 = d1.norm();
     Vec3 fi;
-    if (discrete_gradient) {
+    if (hints.discrete_gradient) {
       const MeanTension mt = mean_tension(m.law[b], r0, r1, s.rest[b], m.stiffness[b], m.eps[b]);
       fi = (mt.T / (0.5 * (r0 + r1))) * (0.5 * (d0 + d1));
     } else {

@@ -1,7 +1,7 @@
 #pragma once
 // The work one step does on the energy ledger's accounts, from the step's start state and its
-// projection: what Simulation::update_ledger charges, and what the Newton integrators sum over the
-// substeps of a split step (newton.cpp) so that the ledger stays exact there too.
+// projection: what the ledger stage charges for a step, or for each substep of a step an integrator
+// took in substeps (ledger_stage.hpp), so that the ledger stays exact there too.
 #include <vector>
 
 #include "ledger/energy_sums.hpp"
@@ -18,11 +18,12 @@ struct StepWork {
 };
 
 // Loads are constant over the step (their work is exact); anchors' bond forces use the trapezoid
-// rule, or the discrete gradient the integrator applied when `discrete_gradient`; dampers are
-// charged at the velocity v + θ Δv along the bond d + φ Δd at which the integrator evaluated them.
+// rule, or the discrete gradient the integrator applied (hints.discrete_gradient); dampers are
+// charged at the velocity v + θ Δv along the bond d + φ Δd at which the integrator evaluated them
+// (hints.damping_theta, damping_direction_theta).
 // `adj` is the adjacency of the alive bonds; `a` the state the step applies (x + Δx, v + Δv).
 StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const Projection& p,
-                   const AppliedState& a, const std::vector<Vec3>& f_ext, double h, double theta, double phi,
-                   bool discrete_gradient, int threads);
+                   const AppliedState& a, const std::vector<Vec3>& f_ext, double h, const LedgerHints& hints,
+                   int threads);
 
 }  // namespace qbond

@@ -2,9 +2,7 @@
 /// Integrators (docs/integrators.md). Every integrator, explicit or implicit, only *projects* a step: it
 /// returns the change of position and velocity of every quanta without moving anything, so that
 /// heuristics can edit the projection before the step applies it (simulation.hpp).
-#include <cmath>
 #include <memory>
-#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -19,25 +17,12 @@ struct StepContext {
   double h = 1e-3;        ///< timestep [s]
   double t = 0;           ///< time at the start of the step [s]
   std::uint64_t step = 0; ///< index of the step being taken
-  /// Set by Simulation::step when nothing reads dx and dv after the integrator (no heuristic, no
-  /// energy ledger): an integrator may then write the state the step applies into
-  /// Projection::applied instead, and check it against max_speed, in the passes that form it.
-  bool direct = false;
-  double max_speed = HUGE_VAL;  ///< [m/s] the blow-up limit a direct projection is checked against
 };
 
 /// The change a step will make (Eqs. 8–9): dx = Δp, dv = Δv for every quanta.
 struct Projection {
-  std::vector<Vec3> dx;  ///< [m] (n; empty when the integrator wrote `applied` instead)
-  std::vector<Vec3> dv;  ///< [m/s] (n; empty when the integrator wrote `applied` instead)
-  /// The state the step applies, x + dx and v + dv (the same bits) with the prescribed quanta
-  /// placed (place_kinematic), when the integrator wrote it instead of dx and dv
-  /// (StepContext::direct): one pass over the quanta fewer, and no dx, dv streamed out and back.
-  struct Applied {
-    std::vector<Vec3> x, v;  ///< [m], [m/s] (n)
-    bool written = false;
-    bool ok = false;  ///< every value finite and no free quanta faster than StepContext::max_speed
-  } applied;
+  std::vector<Vec3> dx;  ///< [m] (n)
+  std::vector<Vec3> dv;  ///< [m/s] (n)
   /// The solver's solution to keep as State::warm when the step applies (WarmStart::previous and
   /// extrapolated only, keep_guess; empty otherwise). Kept apart from dv, which round-off makes
   /// differ from it.
@@ -48,16 +33,9 @@ struct Projection {
   /// Set by a heuristic that changed bond parameters without a topology change (plasticity's rest
   /// lengths).
   bool bonds_edited = false;
-  /// Set when the integrator took the step in substeps (the Newton integrators' fallback): the
-  /// work of the prescribed quanta and the dampers' loss summed over the substeps, which the
-  /// energy ledger charges instead of its whole-step estimate from dx, dv (docs/integrators.md).
-  bool has_work = false;
-  double work_anchors = 0;        ///< [J]
-  double dissipated_damping = 0;  ///< [J]
   /// Sizes for n quanta and clears the rest; dx and dv zeroed unless `zero` is false (for an
   /// integrator that writes every row).
   void resize(std::size_t n, bool zero = true) {
-    applied.written = false;
     if (zero) {
       dx.assign(n, Vec3::Zero());
       dv.assign(n, Vec3::Zero());
@@ -65,27 +43,24 @@ struct Projection {
       dx.resize(n);
       dv.resize(n);
     }
-    clear_rest();
-  }
-  /// Sizes `applied` for n quanta (its values are the integrator's to write) and empties dx and dv
-  /// (their capacity kept), for StepContext::direct; clears the rest.
-  void resize_applied(std::size_t n) {
-    applied.x.resize(n);
-    applied.v.resize(n);
-    applied.written = true;
-    applied.ok = false;
-    dx.clear();
-    dv.clear();
-    clear_rest();
-  }
-
- private:
-  void clear_rest() {
     warm.clear();
     warm_needs_bonds = bonds_edited = false;
-    has_work = false;
-    work_anchors = dissipated_damping = 0;
   }
+};
+
+/// Where an integrator evaluates what the energy ledger charges, so that the ledger charges the
+/// step the integrator took (docs/integrators.md).
+struct LedgerHints {
+  /// Fraction θ of the step's velocity change at which damping forces are evaluated (0: start of
+  /// step, 1: end, ½: between): the ledger charges damping work at v + θ dv.
+  double damping_theta = 0;
+  /// Fraction φ of the step's displacement at which axial dampers take their direction d + φ Δd
+  /// (0: the start-of-step bond; ½ for the midpoint-evaluated integrators).
+  double damping_direction_theta = 0;
+  /// Whether bond tensions are discrete gradients over the step, T̄ = ΔU/Δr along the midpoint
+  /// bond (energy_momentum): the ledger then charges prescribed quanta that force, so that it
+  /// closes exactly, instead of the trapezoid rule.
+  bool discrete_gradient = false;
 };
 
 /// Which integrator.
@@ -186,30 +161,18 @@ class Integrator {
  public:
   virtual ~Integrator() = default;
   /// Projects one step of length ctx.h from `state` into `out` (resized to the quanta count).
-  /// `f_ext` holds the external force on every quanta for this step [N], or is empty for gravity
-  /// alone, m_i g on every quanta, when the integrator forms_gravity().
+  /// `f_ext` holds the external force on every quanta for this step [N].
   virtual void project(const Model& model, const State& state, const Adjacency& adj,
                        const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) = 0;
-  /// Whether project() takes an empty `f_ext` for gravity alone in a direct step
-  /// (StepContext::direct), forming m_i g in its own passes: Simulation then skips the pass that
-  /// fills the array when no load or queued force adds to gravity.
-  virtual bool forms_gravity() const { return false; }
-  /// Fraction θ of the step's velocity change at which this integrator evaluates damping forces
-  /// (0: start of step, 1: end, ½: between). The energy ledger charges damping work at v + θ dv.
-  virtual double damping_theta() const = 0;
-  /// Fraction φ of the step's displacement at which axial dampers take their direction
-  /// d + φ Δd (0: the start-of-step bond; ½ for the midpoint-evaluated integrators).
-  virtual double damping_direction_theta() const { return 0.0; }
-  /// Whether bond tensions are discrete gradients over the step, T̄ = ΔU/Δr along the midpoint
-  /// bond (energy_momentum); the ledger then charges prescribed quanta that force, so that it
-  /// closes exactly, instead of the trapezoid rule.
-  virtual bool discrete_gradient() const { return false; }
+  /// Where this integrator evaluates damping and bond tensions, for the energy ledger.
+  const LedgerHints& ledger_hints() const { return hints_; }
   const IntegratorConfig& config() const { return config_; }
   const SolveStats& stats() const { return stats_; }
 
  protected:
-  explicit Integrator(const IntegratorConfig& c) : config_(c) {}
+  Integrator(const IntegratorConfig& c, const LedgerHints& hints) : config_(c), hints_(hints) {}
   IntegratorConfig config_;
+  LedgerHints hints_;
   SolveStats stats_;
 };
 
@@ -236,31 +199,5 @@ void project_kinematic(const Model& model, const State& state, const StepContext
 /// x[i], v[i] = their position and velocity there (arrays of the model's quanta count). What a
 /// step applies to them, so that they do not drift by round-off.
 void place_kinematic(const Model& model, double t, Vec3* x, Vec3* v);
-
-/// The prescribed quanta where a step leaves them (Motion::at at its end), by index, each once (as
-/// the last motion listing it places it): for passes that write the prescribed quanta's rows with
-/// the other quanta of their range, on the thread whose passes own that range. With one thread
-/// writing all of them (project_kinematic, place_kinematic), the others' next passes would wait
-/// on those cache lines.
-class PrescribedAt {
- public:
-  struct Quanta {
-    Index q;
-    Index order;  ///< its place in the motions' lists
-    Vec3 x, v;
-  };
-  /// The list for time t (allocates only when it grows).
-  void update(const Model& model, double t);
-  /// The prescribed quanta in [lo, hi).
-  std::span<const Quanta> in(std::size_t lo, std::size_t hi) const;
-  /// project_kinematic's rows for the prescribed quanta in [lo, hi) (the same values).
-  void project(const State& state, std::size_t lo, std::size_t hi, Projection& out) const;
-  /// place_kinematic for the prescribed quanta in [lo, hi).
-  void place(std::size_t lo, std::size_t hi, Vec3* x, Vec3* v) const;
-
- private:
-  std::vector<Quanta> list_;
-  std::vector<Index> index_;  // list_'s quanta alone, to search (it stays in cache)
-};
 
 }  // namespace qbond

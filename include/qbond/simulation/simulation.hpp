@@ -1,6 +1,7 @@
 #pragma once
-/// The step pipeline: gather external forces → project → heuristics → apply →
-/// observers. Same inputs, same bits: nothing here depends on timing or thread count.
+/// The step pipeline, as named stages: gather external forces → integrate →
+/// heuristics → check → energy ledger (optional) → apply → observers (simulation.cpp). Same inputs,
+/// same bits: nothing here depends on timing or thread count.
 #include <functional>
 #include <memory>
 #include <string>
@@ -40,6 +41,9 @@ class Observer {
 class Simulation {
  public:
   Simulation(World world, const IntegratorConfig& config, double h);
+  Simulation(Simulation&&) noexcept;
+  Simulation& operator=(Simulation&&) noexcept;
+  ~Simulation();
 
   /// One whole step. On blow-up the world keeps the last good state when the projection
   /// itself is bad (non-finite or too fast); an energy runaway is caught right after applying,
@@ -67,8 +71,7 @@ class Simulation {
   const World& world() const { return world_; }
   const Integrator& integrator() const { return *integrator_; }
   /// The last projection: dx and dv after begin_step; after step() with no heuristic and no
-  /// energy ledger they may be empty, the integrator having written the state to apply instead
-  /// (StepContext::direct).
+  /// energy ledger they may be empty, the integrator having written the state to apply instead.
   const Projection& projection() const { return projection_; }
   /// Topology changes the heuristics made during the last step (cleared when a step begins).
   const std::vector<BondEvent>& events() const { return events_; }
@@ -86,28 +89,34 @@ class Simulation {
   const Adjacency& adjacency();
 
  private:
-  void gather_external_forces();
-  /// begin_step's work; direct: the integrator may write the state to apply (StepContext::direct).
-  void project(bool direct);
-  void update_ledger();
-  /// x + Δx, v + Δv into next_x_, next_v_, the prescribed quanta placed; whether every value is
-  /// finite and no free quanta faster than sqrt(limit2) (one pass, branch-free: it vectorises).
-  bool advance(double limit2);
-  StepReport check_projection();
+  struct Scratch;  // the stages' private state and buffers (simulation.cpp)
+
+  // The stages of a step, in order (simulation.cpp).
+  void gather_forces(bool in_place);
+  void integrate(bool in_place);
+  void open_books();
+  void run_heuristics();
+  StepReport check();
+  void charge_ledger();
+  void apply();
+  void restore_energy();
   StepReport check_energy() const;
+  void observe();
+  StepReport roll_back(StepReport r, bool applied);
+
+  bool ledger_on() const { return track_energy_ || integrator_->config().restore_energy; }
   /// The state before the step into last_good_ (save, set_keep_last_good), or back from it;
-  /// applied: the step's positions, velocities and carry-over are already in the state (end_step),
-  /// the ones before it in next_x_, next_v_ and the projection.
+  /// applied: the step's positions, velocities and carry-over are already in the state (apply),
+  /// the ones before it in the scratch's next state and the projection.
   void copy_last_good(bool save, bool applied = false);
 
   World world_;
-  std::unique_ptr<Integrator> integrator_;
+  std::unique_ptr<Integrator> integrator_;  // make_step_integrator's: simulation.cpp's stepper()
   std::vector<std::unique_ptr<Heuristic>> heuristics_;
   std::vector<Observer*> observers_;
   double h_;
   BlowupLimits limits_;
   bool track_energy_ = true;
-  double bonds_after_ = 0;  ///< the bonds' energy after the step, from update_ledger [J]
   bool keep_last_good_ = false;
   State last_good_;
   bool last_good_has_bonds_ = false;  ///< whether last_good_ holds the bond arrays too
@@ -119,9 +128,7 @@ class Simulation {
   StepContext ctx_;
   std::vector<BondEvent> events_;
   std::vector<Vec3> dv_forces_;  ///< the projection's dv before the heuristics [m/s] (n)
-  /// x + Δx, v + Δv of the step being applied, the prescribed quanta placed (check_projection)
-  std::vector<Vec3> next_x_, next_v_;
-  PrescribedAt prescribed_;  ///< where the step leaves the prescribed quanta
+  std::unique_ptr<Scratch> scratch_;
 };
 
 }  // namespace qbond

@@ -1,0 +1,94 @@
+#include "integrators/advance.hpp"
+
+#include <functional>
+#include <sstream>
+
+#include "core/parallel.hpp"
+
+namespace qbond {
+namespace {
+
+// xn = x + dx and vn = v + dv for quanta [lo, hi); whether every quanta keeps the blow-up rule.
+// Branch-free, so the loop vectorises.
+QBOND_VECTOR_CLONES bool add_checked(const double* x, const double* v, const double* dx, const double* dv,
+                                     const double* inv_mass, double limit2, double* xn, double* vn,
+                                     std::size_t lo, std::size_t hi) {
+  std::uint64_t bad = 0;
+  QBOND_SIMD_OR(bad) for (std::size_t q = lo; q < hi; ++q) {
+    QuantaCheck check;
+    QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
+      const std::size_t e = 3 * q + c;
+      const double x1 = x[e] + dx[e], v1 = v[e] + dv[e];
+      xn[e] = x1;
+      vn[e] = v1;
+      check.add(x1, v1);
+    }
+    bad |= check.bad(limit2, inv_mass[q] != 0);
+  }
+  return bad == 0;
+}
+
+}  // namespace
+
+void apply_checked(const Model& model, const State& state, const Projection& p, double t1, int threads,
+                   PrescribedAt& prescribed, Advanced& to) {
+  const std::size_t n = model.num_quanta();
+  to.x.resize(n);
+  to.v.resize(n);
+  const double* x = state.x.data()->data();
+  const double* v = state.v.data()->data();
+  const double* dx = p.dx.data()->data();
+  const double* dv = p.dv.data()->data();
+  double* xn = to.x.data()->data();
+  double* vn = to.v.data()->data();
+  const double limit2 = to.max_speed * to.max_speed;
+  // The prescribed quanta exactly on their path (place_kinematic), so that they do not drift by
+  // round-off, placed with their range (PrescribedAt says why).
+  prescribed.update(model, t1);
+  auto range = [&](std::size_t lo, std::size_t hi) {
+    const bool ok = add_checked(x, v, dx, dv, model.inv_mass.data(), limit2, xn, vn, lo, hi);
+    prescribed.place(lo, hi, to.x.data(), to.v.data());
+    return ok;
+  };
+  to.ok = reduce_chunks(n, threads, true, range, std::logical_and<>{});
+}
+
+void StepIntegrator::advance(const Model& model, const State& state, const Adjacency& adj,
+                             const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out,
+                             Advanced& to) {
+  project(model, state, adj, f_ext, ctx, out);
+  apply_checked(model, state, out, ctx.t + ctx.h, config_.threads, placed_, to);
+}
+
+Blowup find_blowup(const Model& model, std::span<const Vec3> x, std::span<const Vec3> v, double max_speed,
+                   const StepContext& ctx, int threads) {
+  struct Worst {
+    double speed2 = -1;  // squared: a square root only for the message
+    Index who = 0;
+    bool finite = true;
+  };
+  auto fold = [&](Worst w, std::size_t i) {
+    if (!w.finite) return w;
+    if (!v[i].allFinite() || !x[i].allFinite()) return Worst{w.speed2, static_cast<Index>(i), false};
+    const double speed2 = v[i].squaredNorm();
+    if (!model.is_kinematic(static_cast<Index>(i)) && speed2 > w.speed2)
+      return Worst{speed2, static_cast<Index>(i), true};
+    return w;
+  };
+  auto combine = [](const Worst& a, const Worst& b) {
+    return !a.finite || (b.finite && b.speed2 <= a.speed2) ? a : b;
+  };
+  const auto [worst2, who, finite] = deterministic_reduce(model.num_quanta(), threads, Worst{}, fold, combine);
+  if (finite && worst2 <= max_speed * max_speed) return {};
+  std::ostringstream msg;
+  msg.precision(6);
+  msg << "blow-up at step " << ctx.step << " (t = " << ctx.t << " s): ";
+  if (!finite)
+    msg << "quanta " << model.quanta_id[who] << " would get a non-finite position or velocity";
+  else
+    msg << "quanta " << model.quanta_id[who] << " would reach speed " << std::sqrt(worst2) << " m/s (limit "
+        << max_speed << " m/s)";
+  return {true, who, msg.str()};
+}
+
+}  // namespace qbond
