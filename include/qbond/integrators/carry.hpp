@@ -24,10 +24,11 @@ struct SolverGuess {
   bool fits(std::size_t n) const { return dv.size() == n; }
   /// Whether it survives a change of bond parameters (a guess only starts a solve).
   bool holds_after_bond_edit() const { return true; }
+  /// Writes its fields (save_carry writes the kind tag before them).
   void save(Writer& w) const;
   /// Reads what save wrote, for n quanta; throws CheckpointError on other sizes.
   void load(Reader& r, std::size_t n);
-  bool operator==(const SolverGuess&) const = default;
+  bool operator==(const SolverGuess&) const = default;  ///< field by field (tests, rollbacks)
 };
 
 /// The last two steps' solver solutions and lengths, for WarmStart::extrapolated's guess
@@ -43,10 +44,10 @@ struct SolverGuessPair {
   /// Whether it extrapolates to a step of length `step_h`: both steps it holds were that long
   /// (Δv over a step grows with its length).
   bool extrapolates(std::size_t n, double step_h) const { return fits(n) && h == step_h && h_before == step_h; }
-  bool holds_after_bond_edit() const { return true; }
-  void save(Writer& w) const;
-  void load(Reader& r, std::size_t n);
-  bool operator==(const SolverGuessPair&) const = default;
+  bool holds_after_bond_edit() const { return true; }  ///< as SolverGuess's
+  void save(Writer& w) const;                         ///< as SolverGuess's
+  void load(Reader& r, std::size_t n);                ///< as SolverGuess's
+  bool operator==(const SolverGuessPair&) const = default;  ///< field by field (tests, rollbacks)
 };
 
 /// BDF2's history: the state the last step started from, and when (its step reads the state one
@@ -64,10 +65,10 @@ struct Bdf2History {
   bool precedes(std::size_t n, double at_t, double at_h, std::uint64_t at) const {
     return x.size() == n && at > 0 && h == at_h && step == at - 1 && t + h == at_t;
   }
-  bool holds_after_bond_edit() const { return true; }
-  void save(Writer& w) const;
-  void load(Reader& r, std::size_t n);
-  bool operator==(const Bdf2History&) const = default;
+  bool holds_after_bond_edit() const { return true; }  ///< as SolverGuess's
+  void save(Writer& w) const;                         ///< as SolverGuess's
+  void load(Reader& r, std::size_t n);                ///< as SolverGuess's
+  bool operator==(const Bdf2History&) const = default;  ///< field by field (tests, rollbacks)
 };
 
 /// Velocity Verlet's last bond forces (first same as last: one force pass a step) with the state
@@ -89,9 +90,9 @@ struct VerletForces {
   bool holds_for(std::size_t n, std::uint64_t version) const { return v.size() == n && topology_version == version; }
   /// They hold only for the bonds' present parameters.
   bool holds_after_bond_edit() const { return false; }
-  void save(Writer& w) const;
-  void load(Reader& r, std::size_t n);
-  bool operator==(const VerletForces&) const = default;
+  void save(Writer& w) const;           ///< as SolverGuess's
+  void load(Reader& r, std::size_t n);  ///< as SolverGuess's
+  bool operator==(const VerletForces&) const = default;  ///< field by field (tests, rollbacks)
 };
 
 /// What the integrator carries from one step to the next (nothing: std::monostate).
