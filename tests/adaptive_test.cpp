@@ -66,5 +66,34 @@ TEST(Adaptive, FinishesWhatTheFixedStepBlowsUp) {
               rejected, smallest, largest, b.dissipated_numerical, scale);
 }
 
+// A step the controller undoes after it applied leaves no trace: the carry-over (Verlet's forces,
+// BDF2's history, CG's guesses) comes back with the state, so the accepted retry is the step a run
+// from the state before takes with the retried length, bit for bit, carry-over included.
+TEST(Adaptive, UndoneStepsRestoreTheCarryOver) {
+  World w = test::lattice(4, 3, 3, 5e4, 0.2, 0.5, true, Vec3(0, 0, -9.81));
+  test::perturb(w, 1e-4, 0.05);
+  for (const auto& [name, cfg] : test::carrying_integrators()) {
+    AdaptiveConfig a;
+    a.enabled = true;
+    a.error = HUGE_VAL;  // no rejection before a step applies: every one is an undo
+    a.energy = 1e-4;
+    Simulation sim(w, cfg, 3e-3);
+    int undone = 0;
+    for (int k = 0; k < 40; ++k) {
+      const World before = sim.world();
+      const AdaptiveReport r = adaptive_step(sim, a, 1.0);
+      ASSERT_EQ(r.step.status, StepReport::Status::ok) << name << ": " << r.step.message;
+      if (r.rejected == 0) continue;
+      ++undone;
+      Simulation replay(before, cfg, r.h);
+      replay.step();
+      test::expect_same_bits(replay.world().state, sim.world().state);
+      EXPECT_TRUE(replay.world().state.carry == sim.world().state.carry) << name << ", step " << k;
+      EXPECT_FALSE(std::holds_alternative<std::monostate>(sim.world().state.carry)) << name;
+    }
+    EXPECT_GT(undone, 0) << name;
+  }
+}
+
 }  // namespace
 }  // namespace qbond

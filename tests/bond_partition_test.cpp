@@ -412,7 +412,8 @@ TEST(BondPartition, RunKindsAreEachRunsLawsAndFollowALawChange) {
 
 // The kernels' per-quanta arrays start on cache lines (affine_run_terms.hpp: an 8-wide access at a
 // multiple of 8 quanta then takes one line), their buffer keeps its size when asked for fewer
-// arrays, and the arrays fit in it; so does State::warm, which Verlet's force pass updates.
+// arrays, and the arrays fit in it; so do velocity Verlet's carried rows, which its force pass
+// updates.
 TEST(SoaArrays, StartOnCacheLinesAndFitTheirBuffer) {
   LineVector<double> buffer;
   for (std::size_t n : {std::size_t{1}, std::size_t{1000}, std::size_t{700}}) {
@@ -425,10 +426,15 @@ TEST(SoaArrays, StartOnCacheLinesAndFitTheirBuffer) {
     }
   }
   EXPECT_EQ(buffer.size(), 5 * soa_stride(1000));
-  for (std::size_t size : {1, 3, 1000, 100000}) {
-    State s;
-    s.warm.resize(size);
-    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(s.warm.data()) % 64, 0u) << size;
+  for (std::size_t n : {1, 3, 1000, 100000}) {
+    VerletForces c;
+    c.resize(n);
+    EXPECT_EQ(c.stride(), soa_stride(n));
+    for (std::size_t k = 0; k < 3; ++k) {
+      EXPECT_EQ(reinterpret_cast<std::uintptr_t>(c.f.data() + k * c.stride()) % 64, 0u) << n;
+      EXPECT_EQ(reinterpret_cast<std::uintptr_t>(c.x.data() + k * c.stride()) % 64, 0u) << n;
+    }
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(c.v.data()) % 64, 0u) << n;
   }
 }
 }  // namespace

@@ -192,6 +192,33 @@ def test_resume_is_bit_for_bit():
         fail(f"diagnostics differ:\n{ta}\n---\n{tb}")
 
 
+# A small loaded block for each kind of carry-over (velocity Verlet's forces, BDF2's history, CG's
+# last solution and last two), and a version-4 checkpoint of each after 20 steps, written by the
+# build before the carry-over had its own format.
+CARRY_SCENES = os.path.join(SOURCE, "tests", "checkpoints_v4")
+CARRY_KINDS = ("velocity_verlet", "bdf2", "cg_previous", "cg_extrapolated")
+
+
+def test_carry_over_resumes_bit_for_bit():
+    """The integrator's carry-over travels in the checkpoint: 40 steps in one go == 20,
+    checkpoint, resume, 20, for each kind."""
+    for kind in CARRY_KINDS:
+        whole_and_halves("carry_" + kind, os.path.join(CARRY_SCENES, f"block_{kind}.json"), 40, 10)
+
+
+def test_version4_checkpoints_resume_bit_for_bit():
+    """A version-4 checkpoint is still read, its carry-over converted: resumed from step 20 it ends
+    in the bytes of 40 steps in one go."""
+    for kind in CARRY_KINDS:
+        whole, resumed = fresh("v4_whole_" + kind), fresh("v4_resumed_" + kind)
+        qbond("run", os.path.join(CARRY_SCENES, f"block_{kind}.json"), "--steps", "40", "--every", "10",
+              "--no-vtk", "-q", "--out", whole, check_code=0)
+        qbond("run", "--resume", os.path.join(CARRY_SCENES, f"block_{kind}.qbc"), "--steps", "40", "--no-vtk",
+              "-q", "--out", resumed, check_code=0)
+        if state_bytes(os.path.join(whole, "checkpoint.qbc")) != state_bytes(os.path.join(resumed, "checkpoint.qbc")):
+            fail(f"{kind}: the run resumed from the version-4 checkpoint differs from the uninterrupted one")
+
+
 def test_events_resume_with_the_run():
     """Fracture events: a resumed run's events.csv equals the uninterrupted run's."""
     whole, halves = whole_and_halves("events", "fracture_bar", 400, 50)

@@ -525,21 +525,25 @@ TEST(WarmStart, AutomaticIsExtrapolatedForCgAndZeroOtherwise) {
 }
 
 // The extrapolated guess: 2 Δv₋₁ − Δv₋₂ after two steps of this step's length, the previous Δv
-// after steps of another length or a `previous` carry-over, nothing from no carry-over or bdf2's
-// (of the same size); kinematic rows 0.
+// after steps of another length or a `previous` carry-over, nothing from no carry-over or bdf2's;
+// kinematic rows 0.
 TEST(WarmStart, ExtrapolatesOnlyBetweenStepsOfTheSameLength) {
   World w = test::lattice(3, 2, 2, 1000, 1e-3, 0.01, true);
   const Model& m = w.model;
   const std::size_t n = w.num_quanta();
   std::vector<Vec3> dv1(n), dv2(n), f(n, Vec3::Zero()), y;
-  LineVector<Vec3> carry1, carry2;
   for (std::size_t i = 0; i < n; ++i) {
     dv1[i] = Vec3(0.1 * i, 1, -2);
     dv2[i] = Vec3(0.3 * i, -1, 5);
   }
   const double h = 1e-3;
-  keep_guess(WarmStart::extrapolated, dv1, h, {}, 1, carry1);
-  keep_guess(WarmStart::extrapolated, dv2, h, carry1, 1, carry2);
+  Projection p1, p2;
+  keep_guess(WarmStart::extrapolated, dv1, h, {}, 1, p1);
+  keep_guess(WarmStart::extrapolated, dv2, h, p1.carry, 1, p2);
+  const Carry &carry1 = p1.carry, &carry2 = p2.carry;
+  ASSERT_TRUE(std::holds_alternative<SolverGuessPair>(carry2));
+  EXPECT_EQ(std::get<SolverGuessPair>(carry2).h_before, h);
+  EXPECT_EQ(std::get<SolverGuessPair>(carry1).h_before, 0.0);
   auto expect_free_rows = [&](const auto& want) {
     for (std::size_t i = 0; i < n; ++i)
       EXPECT_EQ(y[i], m.is_kinematic(static_cast<Index>(i)) ? Vec3::Zero() : Vec3(want(i))) << i;
@@ -551,13 +555,13 @@ TEST(WarmStart, ExtrapolatesOnlyBetweenStepsOfTheSameLength) {
   expect_free_rows([&](std::size_t i) { return dv1[i]; });
   ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, 2 * h, carry2, 1, y));
   expect_free_rows([&](std::size_t i) { return dv2[i]; });
-  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, LineVector<Vec3>(dv2.begin(), dv2.end()), 1, y));
+  ASSERT_TRUE(initial_guess(WarmStart::extrapolated, m, f, h, SolverGuess{LineVector<Vec3>(dv2.begin(), dv2.end())},
+                            1, y));
   expect_free_rows([&](std::size_t i) { return dv2[i]; });
   ASSERT_TRUE(initial_guess(WarmStart::previous, m, f, h, carry2, 1, y));
   expect_free_rows([&](std::size_t i) { return dv2[i]; });
-  // bdf2's carry-over, x and v then (t, h, step): not a Δv.
-  LineVector<Vec3> bdf2(2 * n + 1, Vec3::Ones());
-  bdf2[2 * n] = Vec3(0.5, h, 7);
+  // bdf2's carry-over, x and v of the state before: not a Δv.
+  const Bdf2History bdf2{std::vector<Vec3>(n, Vec3::Ones()), std::vector<Vec3>(n, Vec3::Ones()), 0.5, h, 7};
   EXPECT_FALSE(initial_guess(WarmStart::extrapolated, m, f, h, bdf2, 1, y));
   EXPECT_FALSE(initial_guess(WarmStart::extrapolated, m, f, h, {}, 1, y));
 }
@@ -589,8 +593,8 @@ TEST(CoupledImplicit, CgScalesItsGuessOntoTheSolution) {
   const Projection exact = test::project_once(w, coupled(CoupledSolver::cg, 1e-14), kStiffStep);
   for (double f : {2.0, -3.0}) {
     World guessed = w;
-    guessed.state.warm.resize(w.num_quanta());
-    for (std::size_t i = 0; i < w.num_quanta(); ++i) guessed.state.warm[i] = f * exact.dv[i];
+    SolverGuess& guess = guessed.state.carry.emplace<SolverGuess>();
+    for (std::size_t i = 0; i < w.num_quanta(); ++i) guess.dv.push_back(f * exact.dv[i]);
     Simulation sim(guessed, coupled(CoupledSolver::cg, 1e-9), kStiffStep);
     sim.begin_step();
     EXPECT_EQ(sim.integrator().stats().iterations, 0) << f;
@@ -681,7 +685,7 @@ TEST(VelocityVerlet, IsGrootWarrenWithTheLastStepsForces) {
     Simulation sim(w, cfg, h);
     for (int k = 0; k < steps; ++k) sim.step();
     EXPECT_LE(test::max_norm_diff(sim.world().state.x, ref), tol) << threads << " threads";
-    EXPECT_EQ(sim.world().state.warm.size(), verlet_carry_size(w.num_quanta()));
+    EXPECT_TRUE(std::holds_alternative<VerletForces>(sim.world().state.carry));
   }
 }
 
@@ -694,7 +698,7 @@ TEST(VelocityVerlet, CarriesItsForcesOnlyForTheStateItLeft) {
   Simulation a(pulled_lattice(), cfg, h);
   for (int k = 0; k < 10; ++k) a.step();
   auto fresh = [&](World w) {
-    w.state.warm.clear();
+    w.state.carry = std::monostate{};
     return test::project_once(w, cfg, h);
   };
   const World& now = a.world();
@@ -723,15 +727,14 @@ TEST(VelocityVerlet, CarriesItsForcesOnlyForTheStateItLeft) {
 // them in steps where no bond flowed.
 TEST(VelocityVerlet, PlasticFlowDropsTheCarriedForces) {
   World w = test::two_quanta(1e-3, 1000, 0.01, 2e-4, 0.0, 0.01);
-  const std::size_t carry = verlet_carry_size(w.num_quanta());
   Simulation sim(std::move(w), test::config(IntegratorType::velocity_verlet), 1e-5);
   sim.add_heuristic(make_plastic_heuristic({.yield_strain = 0.01}));  // the 2% stretch flows at once
   sim.step();
-  EXPECT_TRUE(sim.world().state.warm.empty());
+  EXPECT_TRUE(std::holds_alternative<std::monostate>(sim.world().state.carry));
   const double rest = sim.world().state.rest[0];
   sim.step();  // shortening: back within the yield surface
   ASSERT_EQ(sim.world().state.rest[0], rest);
-  EXPECT_EQ(sim.world().state.warm.size(), carry);
+  EXPECT_TRUE(std::holds_alternative<VerletForces>(sim.world().state.carry));
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // Checkpoints, probes, diagnostics rows and VTK frames.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 
 #include "qbond/io/checkpoint.hpp"
@@ -35,7 +36,7 @@ State distinctive_state() {
   s.rng.state = 0xDEADBEEFCAFEF00Dull;
   s.energy = {1, 2, 3, 4, 5, 6, 7, true};
   s.topology_version = 42;
-  s.warm = {Vec3(1e-3, 2e-3, 3e-3), Vec3(-1, -2, -3)};
+  s.carry = SolverGuess{{Vec3(1e-3, 2e-3, 3e-3), Vec3(-1, -2, -3)}};
   return s;
 }
 
@@ -50,6 +51,114 @@ TEST(Checkpoint, RoundTripIsExact) {
   EXPECT_EQ(serialize_state(c.state), bytes);
   EXPECT_EQ(std::distance(fs::directory_iterator(f.parent_path()), fs::directory_iterator{}), 1)
       << "no temporary file is left behind";
+}
+
+// One carry-over of each kind for distinctive_state's two quanta, with values whose bits a pass
+// through decimal text or float would change.
+std::vector<Carry> every_carry() {
+  const double odd = std::nextafter(0.1, 1.0), tiny = 5e-310;  // tiny: subnormal
+  const SolverGuess guess{{Vec3(1e-3, -0.0, odd), Vec3(-1, tiny, 3)}};
+  const SolverGuessPair pair{{Vec3(odd, 2, 3), Vec3(4, -5, tiny)}, {Vec3(-0.0, 1, 2), Vec3(3, odd, 5)}, 1e-3, odd};
+  const Bdf2History history{{Vec3(1, 2, odd), Vec3(tiny, 5, 6)}, {Vec3(-1, -0.0, 3), Vec3(odd, 1, 2)}, 0.125 - 1e-3,
+                            1e-3, 1234567890122ull};
+  VerletForces verlet;
+  verlet.resize(2);
+  for (std::size_t c = 0; c < 3; ++c)
+    for (std::size_t q = 0; q < 2; ++q) {
+      verlet.f[c * verlet.stride() + q] = odd * static_cast<double>(c + 3 * q + 1);
+      verlet.x[c * verlet.stride() + q] = -tiny * static_cast<double>(c + 1) + static_cast<double>(q);
+    }
+  verlet.v = {Vec3(odd, -odd, 1), Vec3(2, tiny, -0.0)};
+  verlet.topology_version = 42;
+  return {std::monostate{}, guess, pair, history, verlet};
+}
+
+// Every kind of carry-over comes back from a checkpoint bit for bit, as the same kind; one for
+// another number of quanta, or of a kind this build does not know, is refused.
+TEST(Checkpoint, EveryCarryKindRoundTripsBitForBit) {
+  for (const Carry& c : every_carry()) {
+    State s = distinctive_state();
+    s.carry = c;
+    const std::string bytes = serialize_state(s);
+    const State back = deserialize_state(bytes);
+    EXPECT_EQ(back.carry.index(), c.index());
+    EXPECT_TRUE(back.carry == c) << c.index();
+    EXPECT_EQ(serialize_state(back), bytes) << c.index();
+    if (std::holds_alternative<std::monostate>(c)) continue;
+    s.x.push_back(Vec3::Zero());
+    s.v.push_back(Vec3::Zero());
+    EXPECT_THROW(deserialize_state(serialize_state(s)), CheckpointError) << c.index();
+  }
+  State s = distinctive_state();
+  s.carry = std::monostate{};
+  std::string bytes = serialize_state(s);
+  // The kind tag is the last byte before the obstacle impulses' (empty) vector.
+  ASSERT_EQ(bytes[bytes.size() - 9], 0);
+  bytes[bytes.size() - 9] = 9;
+  try {
+    deserialize_state(bytes);
+    ADD_FAILURE() << "an unknown carry-over kind was read";
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown carry-over kind 9"), std::string::npos) << e.what();
+  }
+}
+
+// Version 4 kept every carry-over in one array of triples; the reader converts each layout to its
+// kind, bit for bit.
+TEST(Checkpoint, Version4CarryOversAreConverted) {
+  const std::size_t n = 2;
+  const std::vector<Carry> carries = every_carry();
+  const auto& guess = std::get<SolverGuess>(carries[1]);
+  const auto& pair = std::get<SolverGuessPair>(carries[2]);
+  const auto& history = std::get<Bdf2History>(carries[3]);
+  const auto& verlet = std::get<VerletForces>(carries[4]);
+  EXPECT_TRUE(carry_from_version4({}, n) == Carry{});
+  EXPECT_TRUE(carry_from_version4(guess.dv, n) == Carry{guess});
+  LineVector<Vec3> old(pair.dv.begin(), pair.dv.end());
+  old.insert(old.end(), pair.dv_before.begin(), pair.dv_before.end());
+  old.push_back(Vec3(pair.h, pair.h_before, -1));
+  EXPECT_TRUE(carry_from_version4(old, n) == Carry{pair});
+  old.assign(history.x.begin(), history.x.end());
+  old.insert(old.end(), history.v.begin(), history.v.end());
+  old.push_back(Vec3(history.t, history.h, static_cast<double>(history.step)));
+  EXPECT_TRUE(carry_from_version4(old, n) == Carry{history});
+  old.assign(2 * verlet.stride(), Vec3::Zero());
+  std::copy(verlet.f.begin(), verlet.f.end(), old.data()->data());
+  std::copy(verlet.x.begin(), verlet.x.end(), old.data()->data() + 3 * verlet.stride());
+  old.insert(old.end(), verlet.v.begin(), verlet.v.end());
+  old.push_back(Vec3(static_cast<double>(verlet.topology_version), 0, 0));
+  EXPECT_TRUE(carry_from_version4(old, n) == Carry{verlet});
+  EXPECT_TRUE(carry_from_version4(LineVector<Vec3>(3 * n + 1), n) == Carry{});  // Verlet's older layout
+  EXPECT_THROW(carry_from_version4(LineVector<Vec3>(n + 1), n), CheckpointError);
+}
+
+// A run interrupted by a checkpoint file and resumed from it continues bit for bit, carry-over
+// included, whatever its integrator carries from step to step; without the carry-over it would
+// not (the resumed steps would start afresh).
+TEST(Checkpoint, ResumedRunsContinueBitForBit) {
+  World w = test::lattice(4, 3, 3, 5e3, 0.2, 0.5, true, Vec3(0, 0, -9.81));
+  test::perturb(w, 1e-4, 0.05);
+  const fs::path f = temp_dir("resume") / "c.qbc";
+  for (const auto& [name, cfg] : test::carrying_integrators()) {
+    const double h = 5e-4;
+    Simulation a(w, cfg, h);
+    for (int k = 0; k < 10; ++k) a.step();
+    save_checkpoint(f, "{}", a.world().state);
+    World resumed = w, dropped = w;
+    resumed.state = load_checkpoint(f).state;
+    EXPECT_TRUE(resumed.state.carry == a.world().state.carry) << name;
+    dropped.state = resumed.state;
+    dropped.state.carry = std::monostate{};
+    Simulation b(std::move(resumed), cfg, h), c(std::move(dropped), cfg, h);
+    for (int k = 0; k < 10; ++k) {
+      a.step();
+      b.step();
+      c.step();
+    }
+    test::expect_same_bits(a.world().state, b.world().state);
+    EXPECT_TRUE(a.world().state.carry == b.world().state.carry) << name;
+    EXPECT_NE(a.world().state.x, c.world().state.x) << name << ": the carry-over changes nothing";
+  }
 }
 
 TEST(Checkpoint, EveryTruncationAndEveryFlippedByteIsRefused) {
@@ -84,6 +193,7 @@ TEST(Checkpoint, EveryTruncationAndEveryFlippedByteIsRefused) {
     FAIL();
   } catch (const CheckpointError& e) {
     EXPECT_NE(std::string(e.what()).find("unsupported checkpoint version 9"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(bad.string()), std::string::npos) << e.what();
   }
 }
 

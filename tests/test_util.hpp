@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "qbond/analysis/analysis.hpp"
@@ -88,6 +90,20 @@ inline IntegratorConfig coupled(CoupledSolver s, double tol = 1e-8) {
   c.solver = s;
   c.tolerance = tol;
   return c;
+}
+
+// One integrator for each kind of carry-over (State::carry): velocity Verlet's forces, BDF2's
+// history, and CG's last solution (`previous`) and last two (`extrapolated`).
+inline std::vector<std::pair<std::string, IntegratorConfig>> carrying_integrators() {
+  IntegratorConfig bdf2 = coupled(CoupledSolver::cg, 1e-10);
+  bdf2.type = IntegratorType::bdf2;
+  IntegratorConfig previous = coupled(CoupledSolver::cg), extrapolated = previous;
+  previous.warm_start = WarmStart::previous;
+  extrapolated.warm_start = WarmStart::extrapolated;
+  return {{"velocity_verlet", config(IntegratorType::velocity_verlet)},
+          {"bdf2", bdf2},
+          {"cg_previous", previous},
+          {"cg_extrapolated", extrapolated}};
 }
 
 // Projects one step of `w` with `cfg` (no heuristics), without applying it.

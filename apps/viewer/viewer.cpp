@@ -249,7 +249,7 @@ class Viewer {
       m.stiffness[b] = initial_.model.stiffness[b] * stiffness_scale_;
       m.damping[b] = initial_.model.damping[b] * damping_scale_;
     }
-    sim_->world().state.warm.clear();  // velocity_verlet's carried forces were for the old parameters
+    drop_after_bond_edit(sim_->world().state.carry);  // velocity_verlet's forces were for the old ones
   }
 
   void play(const ScriptEvent& e) {

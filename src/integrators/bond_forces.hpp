@@ -48,9 +48,6 @@ void bond_force_sums(const Model& model, const State& state, const BondPartition
 ForceRows bond_force_rows(const Model& model, const State& state, const BondPartition& part, const Vec3* x,
                           const Vec3* v, int threads, ForceArrays& work);
 
-// The size of velocity Verlet's carry-over in State::warm for n quanta, in triples (explicit.cpp).
-std::size_t verlet_carry_size(std::size_t n);
-
 // a = (f_ext + the bond forces at x, v) / m for free quanta, 0 for kinematic ones (bond_force_sums).
 void accelerations(const Model& model, const State& state, const BondPartition& part, const std::vector<Vec3>& x,
                    const std::vector<Vec3>& v, const std::vector<Vec3>& f_ext, int threads, ForceArrays& work,

@@ -28,12 +28,12 @@ class CoupledIntegrator final : public StepIntegrator {
       case CoupledSolver::cg: {
         topo_.update(model, adj);
         const bool guessed =
-            initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, config_.threads, y_);
+            initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, config_.threads, y_);
         conjugate_gradient(model, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
                            !guessed, stats_);
         if (config_.restore_momentum)
           restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
-        keep_guess(config_.warm_start, y_, ctx.h, state.warm, config_.threads, out.warm);
+        keep_guess(config_.warm_start, y_, ctx.h, state.carry, config_.threads, out);
         break;
       }
       case CoupledSolver::sweep:

@@ -14,19 +14,19 @@
 namespace qbond {
 namespace {
 
-// Velocity Verlet's carry-over in State::warm, as triples: the bond forces f₁ and the positions
-// x₁ the step left, as structure of arrays (three arrays each, soa_stride(n) doubles apart: the
-// force pass's own rows, written there by the stage and the pass), then its v₁ (n triples), then
-// a tag (topology version, 0, 0): verlet_carry_size(n) triples. T is double or const double.
+// Velocity Verlet's carry-over (VerletForces) as the passes address it: the rows of the bond
+// forces f₁ and of the positions x₁ the step left (the force pass's own rows, written there by the
+// stage and the pass), and its v₁. T is double or const double.
 template <class T>
-struct Carry {
+struct VerletRows {
   T* f[3];
   T* x[3];
   T* v;
-  Carry(T* warm, std::size_t n) : v(warm + 6 * soa_stride(n)) {
-    for (std::size_t c = 0; c < 3; ++c) {
-      f[c] = warm + c * soa_stride(n);
-      x[c] = warm + (3 + c) * soa_stride(n);
+  template <class Forces>
+  explicit VerletRows(Forces& c) : v(c.v.data()->data()) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      f[k] = c.f.data() + k * c.stride();
+      x[k] = c.x.data() + k * c.stride();
     }
   }
 };
@@ -205,30 +205,28 @@ class ExplicitIntegrator final : public StepIntegrator {
   // where a is the last step's a₁ (first same as last: one force pass a step). Undamped, a does
   // not depend on the velocity and this is velocity Verlet itself; with damping, ṽ − v₁ =
   // h/2 (a − a₁) = O(h²) keeps the step second order. The last step's bond forces travel in
-  // State::warm with the x₁, v₁ it left (Carry); when the state is not exactly that (a
+  // State::carry with the x₁, v₁ it left (VerletForces); when the state is not exactly that (a
   // heuristic, a contact, a rollback or the user changed it) a = a(x, v) is evaluated afresh.
   // With `to`, the step is advanced in place (advance.hpp): x₁ and v₁ go there, checked.
   void verlet(const Model& model, const State& state, const std::vector<Vec3>& f_ext, const StepContext& ctx,
               Projection& out, Advanced* to) {
-    const std::size_t n = model.num_quanta(), size = verlet_carry_size(n);
+    const std::size_t n = model.num_quanta();
     const double h = ctx.h;
     const int threads = config_.threads;
-    out.resize(to ? 0 : n, false);  // every row written
+    out.resize(to ? 0 : n, false);  // every row written; clears the carry-over before keep()
     if (to) {
       to->x.resize(n);
       to->v.resize(n);
     }
-    out.warm.resize(size);
-    out.warm_needs_bonds = true;
-    const Carry<double> next(out.warm.data()->data(), n);
-    // The bond pass's rows: f₁ and x₁ in the new carry-over (their padding zeroed: the affine runs
-    // read up to a vector past the last quanta, and a checkpoint saves it), ṽ in forces_.
+    VerletForces& kept = out.keep<VerletForces>();
+    kept.resize(n);
+    kept.topology_version = state.topology_version;
+    const VerletRows<double> next(kept);
+    // The bond pass's rows: f₁ and x₁ in the new carry-over, ṽ in forces_.
     ForceRows rows = force_rows(forces_, n);
     for (std::size_t c = 0; c < 3; ++c) {
       rows.f[c] = next.f[c];
       rows.x[c] = next.x[c];
-      std::fill(next.f[c] + n, next.f[c] + soa_stride(n), 0.0);
-      std::fill(next.x[c] + n, next.x[c] + soa_stride(n), 0.0);
     }
     const double* inv_mass = model.inv_mass.data();
     const double* x = state.x.data()->data();
@@ -245,8 +243,8 @@ class ExplicitIntegrator final : public StepIntegrator {
     auto take = [](Columns& to, const auto& from) {
       for (std::size_t c = 0; c < 3; ++c) to.c[c] = from[c];
     };
-    if (state.warm.size() == size && state.warm[size - 1][0] == static_cast<double>(state.topology_version)) {
-      const Carry<const double> last(state.warm.data()->data(), n);
+    if (const auto* c = std::get_if<VerletForces>(&state.carry); c && c->holds_for(n, state.topology_version)) {
+      const VerletRows<const double> last(*c);
       take(f0, last.f);
       take(cx, last.x);
       cv = last.v;
@@ -288,7 +286,6 @@ class ExplicitIntegrator final : public StepIntegrator {
     };
     const bool ok = reduce_chunks(n, threads, true, finish, std::logical_and<>{});
     if (to) to->ok = ok;
-    out.warm[size - 1] = Vec3(static_cast<double>(state.topology_version), 0, 0);
   }
 
   static void set_free(Projection& out, std::size_t i, const Vec3& dx, const Vec3& dv) {
@@ -331,8 +328,6 @@ class ExplicitIntegrator final : public StepIntegrator {
 };
 
 }  // namespace
-
-std::size_t verlet_carry_size(std::size_t n) { return 2 * soa_stride(n) + n + 1; }
 
 std::unique_ptr<StepIntegrator> make_explicit_integrator(const IntegratorConfig& config) {
   return std::make_unique<ExplicitIntegrator>(config);

@@ -40,14 +40,14 @@ class HybridIntegrator final : public StepIntegrator {
     }
     begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/true, threads, out, sys_);
     topo_.update(model, adj);
-    initial_guess(config_.warm_start, model, f_ext, ctx.h, state.warm, threads, y_);
+    initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, threads, y_);
     if (config_.neighbours == NeighbourModel::sweep)
       gs_.solve(adj, sys_, topo_.coloring, config_.iterations, config_.tolerance, config_.chebyshev_rho, threads,
                 y_, stats_);
     else
       jacobi(adj);
     if (config_.restore_momentum) restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
-    keep_guess(config_.warm_start, y_, ctx.h, state.warm, threads, out.warm);
+    keep_guess(config_.warm_start, y_, ctx.h, state.carry, threads, out);
     write_free_rows(model, state, ctx.h, y_, threads, out);
   }
 

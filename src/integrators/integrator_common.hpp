@@ -37,19 +37,19 @@ struct External {
   }
 };
 
-// Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0) from State::warm
-// as keep_guess left it; false when it is zero (WarmStart::zero, or no previous step), which
+// Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0) from
+// State::carry as keep_guess left it; false when it is zero (WarmStart::zero, or no previous step), which
 // spares CG its first product. On `threads` (parallel.hpp), as keep_guess and write_free_rows:
 // per-quanta loops left on one thread are what keeps a second from speeding up a step.
 bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
-                   const LineVector<Vec3>& previous, int threads, std::vector<Vec3>& y);
+                   const Carry& carry, int threads, std::vector<Vec3>& y);
 
-// The carry-over a step of length h whose solve found y leaves for the next one's initial_guess
-// (State::warm, `previous` as the step found it): y for WarmStart::previous; for extrapolated, y,
-// the Δv before it (zeros if none) and (h, that step's h or 0, kExtrapolationTag); nothing
-// otherwise.
-void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const LineVector<Vec3>& previous,
-                int threads, LineVector<Vec3>& warm);
+// The carry-over a step of length h whose solve found y leaves in out.carry for the next one's
+// initial_guess (`carry` as the step found it): SolverGuess y for WarmStart::previous; for
+// extrapolated, SolverGuessPair of y, the Δv before it (zeros if none) and their lengths (the
+// one before 0 if unknown); nothing otherwise.
+void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const Carry& carry, int threads,
+                Projection& out);
 
 // Caches what depends only on topology (colours, free components), rebuilt when it changes.
 struct TopologyCache {

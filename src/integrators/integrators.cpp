@@ -207,32 +207,26 @@ void PrescribedAt::place(std::size_t lo, std::size_t hi, Vec3* x, Vec3* v) const
 
 namespace {
 
-// keep_guess's last entry for WarmStart::extrapolated: (h, the step before's h, the tag), the tag
-// telling it from bdf2's carry-over of the same size, whose last entry is (t, h, step ≥ 0).
-constexpr double kExtrapolationTag = -1;
-
-// Whether `warm` is keep_guess's extrapolated carry-over for n quanta.
-bool extrapolation_carry(const LineVector<Vec3>& warm, std::size_t n) {
-  return warm.size() == 2 * n + 1 && warm[2 * n][2] == kExtrapolationTag;
-}
-
-// Whether `warm` starts with a previous step's Δv: `previous`'s carry-over, or an extrapolated one
-// (either way, as a checkpoint or a change of warm start may have left it).
-bool has_previous(const LineVector<Vec3>& warm, std::size_t n) {
-  return warm.size() == n || extrapolation_carry(warm, n);
+// The previous step's Δv in a carry-over for n quanta: `previous`'s, or an extrapolated one's
+// last (either way, as a checkpoint or a change of warm start may have left it); null if none.
+const Vec3* previous_dv(const Carry& carry, std::size_t n) {
+  if (const auto* g = std::get_if<SolverGuess>(&carry); g && g->fits(n)) return g->dv.data();
+  if (const auto* p = std::get_if<SolverGuessPair>(&carry); p && p->fits(n)) return p->dv.data();
+  return nullptr;
 }
 
 }  // namespace
 
 bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
-                   const LineVector<Vec3>& previous, int threads, std::vector<Vec3>& y) {
+                   const Carry& carry, int threads, std::vector<Vec3>& y) {
   const std::size_t n = model.num_quanta();
   y.resize(n);
   const bool from_previous = mode == WarmStart::previous || mode == WarmStart::extrapolated;
-  const bool zero = mode == WarmStart::zero || (from_previous && !has_previous(previous, n));
-  // Linear extrapolation only between steps of one length: Δv over a step grows with its length.
-  const bool extrapolate = mode == WarmStart::extrapolated && extrapolation_carry(previous, n) &&
-                           previous[2 * n][0] == h && previous[2 * n][1] == h;
+  const Vec3* previous = from_previous ? previous_dv(carry, n) : nullptr;
+  const bool zero = mode == WarmStart::zero || (from_previous && !previous);
+  const auto* pair = std::get_if<SolverGuessPair>(&carry);
+  const Vec3* before = mode == WarmStart::extrapolated && pair && pair->extrapolates(n, h) ? pair->dv_before.data()
+                                                                                           : nullptr;
   parallel_for(n, threads, [&](std::size_t i) {
     if (zero || model.is_kinematic(static_cast<Index>(i))) {
       y[i] = Vec3::Zero();
@@ -245,7 +239,7 @@ bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& 
         break;
       case WarmStart::previous: y[i] = previous[i]; break;
       case WarmStart::extrapolated:
-        y[i] = extrapolate ? Vec3(2 * previous[i] - previous[n + i]) : previous[i];
+        y[i] = before ? Vec3(2 * previous[i] - before[i]) : previous[i];
         break;
       case WarmStart::automatic: assert(false && "make_integrator resolves it"); break;
     }
@@ -253,20 +247,27 @@ bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& 
   return !zero;
 }
 
-void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const LineVector<Vec3>& previous,
-                int threads, LineVector<Vec3>& warm) {
-  if (mode != WarmStart::previous && mode != WarmStart::extrapolated) return;
+void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const Carry& carry, int threads,
+                Projection& out) {
   const std::size_t n = y.size();
-  const bool extrapolated = mode == WarmStart::extrapolated,
-             before = extrapolated && has_previous(previous, n);
-  warm.resize(extrapolated ? 2 * n + 1 : n);
-  parallel_for(n, threads, [&](std::size_t i) {
-    warm[i] = y[i];
-    if (extrapolated) warm[n + i] = before ? previous[i] : Vec3::Zero();
-  });
-  // The step before's length: known from an extrapolated carry-over; 0 (never a step's) otherwise.
-  if (extrapolated)
-    warm[2 * n] = Vec3(h, extrapolation_carry(previous, n) ? previous[2 * n][0] : 0.0, kExtrapolationTag);
+  if (mode == WarmStart::previous) {
+    LineVector<Vec3>& dv = out.keep<SolverGuess>().dv;
+    dv.resize(n);
+    parallel_for(n, threads, [&](std::size_t i) { dv[i] = y[i]; });
+  } else if (mode == WarmStart::extrapolated) {
+    const Vec3* previous = previous_dv(carry, n);
+    SolverGuessPair& kept = out.keep<SolverGuessPair>();
+    kept.dv.resize(n);
+    kept.dv_before.resize(n);
+    parallel_for(n, threads, [&](std::size_t i) {
+      kept.dv[i] = y[i];
+      kept.dv_before[i] = previous ? previous[i] : Vec3::Zero();
+    });
+    // The step before's length: known from an extrapolated carry-over; 0 (never a step's) otherwise.
+    const auto* pair = std::get_if<SolverGuessPair>(&carry);
+    kept.h = h;
+    kept.h_before = pair && pair->fits(n) ? pair->h : 0.0;
+  }
 }
 
 void TopologyCache::update(const Model& model, const Adjacency& adj) {

@@ -238,19 +238,20 @@ class NewtonIntegrator final : public StepIntegrator {
     NewtonScheme scheme = NewtonScheme::energy_momentum;
     if (config_.type == IntegratorType::implicit_midpoint) scheme = NewtonScheme::implicit_midpoint;
     const bool bdf2 = config_.type == IntegratorType::bdf2;
-    if (bdf2) scheme = has_history(state, ctx) ? NewtonScheme::bdf2 : NewtonScheme::backward_euler;
-    if (scheme == NewtonScheme::bdf2) {
-      x_prev_.assign(state.warm.begin(), state.warm.begin() + static_cast<std::ptrdiff_t>(n));
-      v_prev_.assign(state.warm.begin() + static_cast<std::ptrdiff_t>(n),
-                     state.warm.begin() + static_cast<std::ptrdiff_t>(2 * n));
-    }
-    initial_guess(config_.warm_start, model, f_ext, h, bdf2 ? no_history_ : state.warm, config_.threads, y_);
+    // BDF2 reads the state one step back from its history when that is the step just before this
+    // one, taken with this h; otherwise (a timestep change, another integrator's run, a fresh
+    // start) it restarts with one backward-Euler step (self-starting, first order).
+    const auto* history = bdf2 ? std::get_if<Bdf2History>(&state.carry) : nullptr;
+    if (history && !history->precedes(n, ctx.t, h, ctx.step)) history = nullptr;
+    if (bdf2) scheme = history ? NewtonScheme::bdf2 : NewtonScheme::backward_euler;
+    history_ = history;
+    initial_guess(config_.warm_start, model, f_ext, h, bdf2 ? no_history_ : state.carry, config_.threads, y_);
     double residual = 0;
     const bool converged = solve(model, state, adj, f_ext, scheme, out, h, residual);
     stats_.residual = residual;
     if (converged || bdf2) {
       // bdf2 (and its backward-Euler start) is never split: its step reads the state one whole
-      // step back (State::warm), which a substep does not have (docs/integrators.md).
+      // step back (Bdf2History), which a substep does not have (docs/integrators.md).
       if (!converged) ++stats_.unconverged;
       for (std::size_t i = 0; i < n; ++i) {
         if (model.is_kinematic(static_cast<Index>(i))) continue;
@@ -274,16 +275,17 @@ class NewtonIntegrator final : public StepIntegrator {
       }
     }
     if (bdf2) {
-      // BDF2's carry-over is the state this step starts from, kept in State::warm (so that a
-      // checkpoint holds it and a rollback restores it): x, v, then (t, h, step) to know it is
-      // the step just before the next one.
-      out.warm.resize(2 * n + 1);
-      std::copy(state.x.begin(), state.x.end(), out.warm.begin());
-      std::copy(state.v.begin(), state.v.end(), out.warm.begin() + static_cast<std::ptrdiff_t>(n));
-      out.warm[2 * n] = Vec3(ctx.t, h, static_cast<double>(ctx.step));
+      // BDF2's carry-over is the state this step starts from, kept in State::carry (so that a
+      // checkpoint holds it and a rollback restores it), with when it was.
+      Bdf2History& kept = out.keep<Bdf2History>();
+      kept.x.assign(state.x.begin(), state.x.end());
+      kept.v.assign(state.v.begin(), state.v.end());
+      kept.t = ctx.t;
+      kept.h = h;
+      kept.step = ctx.step;
     } else if (config_.warm_start == WarmStart::previous) {
-      const std::vector<Vec3>& kept = stats_.substeps > 0 ? out.dv : y_;
-      out.warm.assign(kept.begin(), kept.end());
+      const std::vector<Vec3>& y = stats_.substeps > 0 ? out.dv : y_;
+      out.keep<SolverGuess>().dv.assign(y.begin(), y.end());
     }
   }
 
@@ -340,7 +342,8 @@ class NewtonIntegrator final : public StepIntegrator {
              NewtonScheme scheme, const Projection& kin, double h, double& residual) {
     const std::size_t n = model.num_quanta();
     const int threads = config_.threads;
-    setup_newton_step(scheme, model, state, kin, h, &x_prev_, &v_prev_, step_);
+    setup_newton_step(scheme, model, state, kin, h, history_ ? &history_->x : nullptr,
+                      history_ ? &history_->v : nullptr, step_);
     // The modified matrix has the clamped, positive semi-definite blocks: CG and the 3×3 sweeps
     // need them, and the unclamped (indefinite) blocks make Newton fail more often with LDLᵀ and
     // dense elimination too (the four-quanta experiment at hω = 10: docs/integrators.md).
@@ -483,16 +486,6 @@ class NewtonIntegrator final : public StepIntegrator {
     }
   }
 
-  // Whether State::warm holds the state of the step just before this one, taken with this h.
-  // After a timestep change, a resumed checkpoint of another integrator or a fresh start it does
-  // not, and BDF2 restarts with one backward-Euler step (self-starting, first order).
-  static bool has_history(const State& state, const StepContext& ctx) {
-    const std::size_t n = state.x.size();
-    if (state.warm.size() != 2 * n + 1 || ctx.step == 0) return false;
-    const Vec3& tag = state.warm[2 * n];
-    return tag.y() == ctx.h && tag.z() == static_cast<double>(ctx.step - 1) && tag.x() + tag.y() == ctx.t;
-  }
-
   // (M + Σ B_b) δ = −R: with the exact blocks (sys_.exact) by sparse LU when `exact` (and the
   // factorisation succeeds), otherwise the modified system with the configured solver.
   void solve_linear(const Model& model, const State& state, const Adjacency& adj, double eta, bool exact) {
@@ -530,8 +523,9 @@ class NewtonIntegrator final : public StepIntegrator {
   NewtonStep step_;
   ImplicitSystem sys_;
   TopologyCache topo_;
-  std::vector<Vec3> y_, y0_, y_best_, delta_, force_, R_, impulse_, x_prev_, v_prev_;
-  const LineVector<Vec3> no_history_;
+  std::vector<Vec3> y_, y0_, y_best_, delta_, force_, R_, impulse_;
+  const Carry no_history_;
+  const Bdf2History* history_ = nullptr;  // the step's BDF2 history (State::carry) while it projects
   std::vector<double> scale_;
   std::vector<Mat3> exact_;  // sys_.exact set aside while the modified system is solved
   State sub_;                // substepping: the state the substeps have reached

@@ -2,14 +2,14 @@
 
 #include <cstring>
 
-#include "integrators/bond_forces.hpp"  // verlet_carry_size
+#include "qbond/io/binary.hpp"
 #include "qbond/io/files.hpp"
 
 namespace qbond {
 namespace {
 
 // A new State field must be saved here: update serialize_state, deserialize_state and this size.
-static_assert(sizeof(State) == 3 * sizeof(std::vector<Vec3>) + 2 * sizeof(std::vector<double>) +
+static_assert(sizeof(State) == 2 * sizeof(std::vector<Vec3>) + sizeof(Carry) + 2 * sizeof(std::vector<double>) +
                                    sizeof(std::vector<std::uint8_t>) + sizeof(std::vector<FormedBond>) + 2 * 8 +
                                    sizeof(Rng) + sizeof(EnergyLedger) + 8 +
                                    sizeof(std::vector<ObstacleImpulse>),
@@ -25,46 +25,6 @@ std::uint64_t fnv1a(std::string_view bytes) {
   for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;
   return h;
 }
-
-class Writer {
- public:
-  template <class T>
-  void pod(const T& v) {
-    out.append(reinterpret_cast<const char*>(&v), sizeof v);
-  }
-  template <class T, class A>
-  void vec(const std::vector<T, A>& v) {
-    pod<std::uint64_t>(v.size());
-    if (!v.empty()) out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
-  }
-  std::string out;
-};
-
-class Reader {
- public:
-  explicit Reader(std::string_view b) : bytes(b) {}
-  template <class T>
-  T pod() {
-    T v;
-    need(sizeof v);
-    std::memcpy(&v, bytes.data(), sizeof v);
-    bytes.remove_prefix(sizeof v);
-    return v;
-  }
-  template <class T, class A = std::allocator<T>>
-  std::vector<T, A> vec() {
-    const auto n = pod<std::uint64_t>();
-    if (n > bytes.size() / sizeof(T)) throw CheckpointError("state: a vector runs past the end");
-    std::vector<T, A> v(n);
-    if (n > 0) std::memcpy(static_cast<void*>(v.data()), bytes.data(), n * sizeof(T));  // T is plain data (doubles)
-    bytes.remove_prefix(n * sizeof(T));
-    return v;
-  }
-  void need(std::size_t n) const {
-    if (bytes.size() < n) throw CheckpointError("truncated: the file ends inside its header");
-  }
-  std::string_view bytes;
-};
 
 }  // namespace
 
@@ -93,12 +53,15 @@ std::string serialize_state(const State& s) {
     w.pod(d);
   w.pod<std::uint8_t>(e.initialised);
   w.pod(s.topology_version);
-  w.vec(s.warm);
+  save_carry(w, s.carry);
   w.vec(s.obstacle_impulse);
   return std::move(w.out);
 }
 
-State deserialize_state(std::string_view bytes) {
+namespace {
+
+// The state as a file of `version` wrote it: this build's, or version 4 (its carry-over converted).
+State deserialize(std::string_view bytes, std::uint32_t version) {
   Reader r(bytes);
   State s;
   s.x = r.vec<Vec3>();
@@ -128,16 +91,18 @@ State deserialize_state(std::string_view bytes) {
     *d = r.pod<double>();
   e.initialised = r.pod<std::uint8_t>() != 0;
   s.topology_version = r.pod<std::uint64_t>();
-  s.warm = r.vec<Vec3, LineAllocator<Vec3>>();
+  s.carry = version == 4 ? carry_from_version4(r.vec<Vec3, LineAllocator<Vec3>>(), s.x.size())
+                         : load_carry(r, s.x.size());
   s.obstacle_impulse = r.vec<ObstacleImpulse>();
   if (!r.bytes.empty()) throw CheckpointError("state: " + std::to_string(r.bytes.size()) + " unexpected bytes at the end");
-  if (s.v.size() != s.x.size() || s.alive.size() != s.rest.size() || s.bond_time.size() != s.rest.size() ||
-      (!s.warm.empty() && s.warm.size() != s.x.size() && s.warm.size() != 2 * s.x.size() + 1 &&
-       s.warm.size() != verlet_carry_size(s.x.size()) &&
-       s.warm.size() != 3 * s.x.size() + 1))  // velocity_verlet's older layout, which a step then drops
+  if (s.v.size() != s.x.size() || s.alive.size() != s.rest.size() || s.bond_time.size() != s.rest.size())
     throw CheckpointError("state: inconsistent array lengths");
   return s;
 }
+
+}  // namespace
+
+State deserialize_state(std::string_view bytes) { return deserialize(bytes, kCheckpointVersion); }
 
 void save_checkpoint(const std::filesystem::path& path, std::string_view metadata, const State& state) {
   Writer w;
@@ -166,8 +131,8 @@ Checkpoint load_checkpoint(const std::filesystem::path& path) {
   try {
     Reader r(std::string_view(bytes).substr(8));
     const auto version = r.pod<std::uint32_t>();
-    if (version != kCheckpointVersion)
-      throw CheckpointError("unsupported checkpoint version " + std::to_string(version) + " (this build reads " +
+    if (version != kCheckpointVersion && version != 4)
+      throw CheckpointError("unsupported checkpoint version " + std::to_string(version) + " (this build reads 4 and " +
                             std::to_string(kCheckpointVersion) + ")");
     r.pod<std::uint32_t>();
     const auto m = r.pod<std::uint64_t>();
@@ -192,7 +157,7 @@ Checkpoint load_checkpoint(const std::filesystem::path& path) {
       throw CheckpointError("corrupted: checksum mismatch");
     Checkpoint c;
     c.metadata = bytes.substr(meta_at, m);
-    c.state = deserialize_state(std::string_view(bytes).substr(state_at, s));
+    c.state = deserialize(std::string_view(bytes).substr(state_at, s), version);
     return c;
   } catch (const CheckpointError& e) {
     throw CheckpointError(name + e.what());

@@ -200,7 +200,8 @@ void renumber_quanta(std::vector<Index>& quanta, const Renumbering& r) {
 void renumber(World& world, const Renumbering& r) {
   Model& m = world.model;
   State& s = world.state;
-  const std::size_t n = m.num_quanta(), nb = m.num_bonds();
+  [[maybe_unused]] const std::size_t n = m.num_quanta();
+  const std::size_t nb = m.num_bonds();
   assert(r.quanta.size() == n && r.bonds.size() == nb);
   for (std::size_t b = nb - s.formed.size(); b < nb; ++b) assert(r.bonds[b] == b);  // formed keep slots
 
@@ -211,13 +212,16 @@ void renumber(World& world, const Renumbering& r) {
   permute(m.quanta_id, r.quanta);
   permute(s.x, r.quanta);
   permute(s.v, r.quanta);
-  if (s.warm.size() == n) {
-    permute(s.warm, r.quanta);
-  } else if (s.warm.size() == 2 * n + 1) {  // bdf2: x then v of the previous state
-    permute(s.warm, r.quanta);
-    permute(s.warm, r.quanta, n);
+  if (auto* g = std::get_if<SolverGuess>(&s.carry)) {
+    permute(g->dv, r.quanta);
+  } else if (auto* p = std::get_if<SolverGuessPair>(&s.carry)) {
+    permute(p->dv, r.quanta);
+    permute(p->dv_before, r.quanta);
+  } else if (auto* b = std::get_if<Bdf2History>(&s.carry)) {
+    permute(b->x, r.quanta);
+    permute(b->v, r.quanta);
   } else {
-    s.warm.clear();  // velocity_verlet's forces: the new topology version would drop them anyway
+    s.carry = std::monostate{};  // velocity_verlet's forces: the new topology version would drop them anyway
   }
   for (Motion& motion : m.motions) renumber_quanta(motion.quanta, r);
   for (Load& load : m.loads) renumber_quanta(load.quanta, r);

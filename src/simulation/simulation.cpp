@@ -110,7 +110,7 @@ void Simulation::run_heuristics() {
   dv_forces_ = projection_.dv;
   const HeuristicContext hc{ctx_, adjacency(), integrator_->config().threads, events_, dv_forces_};
   for (auto& h : heuristics_) h->apply(world_, projection_, hc);
-  if (projection_.bonds_edited && projection_.warm_needs_bonds) projection_.warm.clear();
+  if (projection_.bonds_edited) drop_after_bond_edit(projection_.carry);
 }
 
 StepReport Simulation::check() {
@@ -145,7 +145,7 @@ void Simulation::apply() {
   s.v.swap(scratch_->next.v);
   s.time = ctx_.t + ctx_.h;
   s.step = ctx_.step + 1;
-  s.warm.swap(projection_.warm);
+  s.carry.swap(projection_.carry);
   clear_forces();
 }
 
@@ -234,7 +234,7 @@ Simulation::~Simulation() = default;
 
 void Simulation::set_integrator(const IntegratorConfig& config) {
   integrator_ = make_step_integrator(config);
-  world_.state.warm.clear();  // the carry-over was the old integrator's
+  world_.state.carry = std::monostate{};  // the carry-over was the old integrator's
 }
 
 const Adjacency& Simulation::adjacency() {
@@ -260,12 +260,13 @@ namespace {
 // per-bond arrays.
 struct KeptArrays {
   std::vector<Vec3> x, v;
-  LineVector<Vec3> warm;
+  Carry carry;
   std::vector<double> rest;
   std::vector<std::uint8_t> alive;
   std::vector<double> bond_time;
   std::vector<FormedBond> formed;
-  KeptArrays(State& s, bool bonds) : x(std::move(s.x)), v(std::move(s.v)), warm(std::move(s.warm)) {
+  KeptArrays(State& s, bool bonds) : x(std::move(s.x)), v(std::move(s.v)) {
+    carry.swap(s.carry);
     if (!bonds) return;
     rest = std::move(s.rest);
     alive = std::move(s.alive);
@@ -275,7 +276,7 @@ struct KeptArrays {
   void put_back(State& s, bool bonds) {
     s.x = std::move(x);
     s.v = std::move(v);
-    s.warm = std::move(warm);
+    s.carry.swap(carry);
     if (!bonds) return;
     s.rest = std::move(rest);
     s.alive = std::move(alive);
@@ -303,7 +304,7 @@ void Simulation::copy_last_good(bool save, bool applied) {
   if (applied) {
     s.x.swap(scratch_->next.x);
     s.v.swap(scratch_->next.v);
-    s.warm.swap(projection_.warm);
+    s.carry.swap(projection_.carry);
   }
 }
 

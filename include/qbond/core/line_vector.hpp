@@ -1,6 +1,6 @@
 #pragma once
 /// Vectors whose storage starts on a 64-byte cache line: the bond kernels' per-quanta arrays
-/// (structure of arrays) and the integrators' carry-over (State::warm), which the kernels load
+/// (structure of arrays) and the integrators' carry-over (State::carry), which the kernels load
 /// and store eight doubles at a time. A std::vector's large block starts 16 bytes past a line
 /// (glibc's mmap'd chunks), and then every such access spans two lines, which slows the frozen
 /// step by about a sixth. The layout inside the storage, and so every

@@ -5,9 +5,11 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <variant>
 #include <vector>
 
 #include "qbond/core/math.hpp"
+#include "qbond/integrators/carry.hpp"
 #include "qbond/model/world.hpp"
 
 namespace qbond {
@@ -23,15 +25,20 @@ struct StepContext {
 struct Projection {
   std::vector<Vec3> dx;  ///< [m] (n)
   std::vector<Vec3> dv;  ///< [m/s] (n)
-  /// The solver's solution to keep as State::warm when the step applies (WarmStart::previous and
-  /// extrapolated only, keep_guess; empty otherwise). Kept apart from dv, which round-off makes
-  /// differ from it.
-  LineVector<Vec3> warm;
-  /// Whether `warm` holds values that hold only for the bonds' present parameters (velocity_verlet's
-  /// bond forces); the step then drops it if a heuristic sets `bonds_edited`.
-  bool warm_needs_bonds = false;
+  /// What the step leaves in State::carry when it applies (carry.hpp; nothing unless the
+  /// integrator set it with keep). A solver's solution is kept apart from dv, which round-off
+  /// makes differ from it.
+  Carry carry;
+  /// Sets `carry` to a T for the integrator to fill, with the storage of the carry-over the
+  /// projection held before when it was a T too (no allocation once warmed up).
+  template <class T>
+  T& keep() {
+    if (!std::holds_alternative<T>(spare_)) spare_.emplace<T>();
+    carry = std::move(spare_);
+    return std::get<T>(carry);
+  }
   /// Set by a heuristic that changed bond parameters without a topology change (plasticity's rest
-  /// lengths).
+  /// lengths): the step then drops a carry-over that does not hold after it (drop_after_bond_edit).
   bool bonds_edited = false;
   /// Sizes for n quanta and clears the rest; dx and dv zeroed unless `zero` is false (for an
   /// integrator that writes every row).
@@ -43,9 +50,13 @@ struct Projection {
       dx.resize(n);
       dv.resize(n);
     }
-    warm.clear();
-    warm_needs_bonds = bonds_edited = false;
+    if (carry.index() != 0) spare_ = std::move(carry);  // keep's storage for this step
+    carry = std::monostate{};
+    bonds_edited = false;
   }
+
+ private:
+  Carry spare_;
 };
 
 /// Where an integrator evaluates what the energy ledger charges, so that the ledger charges the

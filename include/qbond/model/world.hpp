@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "qbond/integrators/carry.hpp"
 #include "qbond/laws/laws.hpp"
 #include "qbond/core/line_vector.hpp"
 #include "qbond/core/math.hpp"
@@ -126,15 +127,11 @@ struct State {
   Rng rng;
   EnergyLedger energy;
   std::uint64_t topology_version = 0;  ///< bumped whenever bonds appear or break
-  /// What the integrator carries from one step to the next: the last step's solver solution
-  /// (velocity change of every quanta, n), the initial guess of WarmStart::previous; or bdf2's
-  /// previous state (x then v of every quanta, then (t, h, step) of that state: 2n + 1); or
-  /// velocity_verlet's last bond forces with the x and v it left and its topology version
-  /// (forces and positions as padded structure of arrays, then v, then the version: see
-  /// docs/integrators.md; reused only while the state is exactly that one: clear it after
-  /// editing bond parameters by hand); empty otherwise. Kept here so that checkpoints and
-  /// rollbacks carry it. On a cache line (line_vector.hpp): Verlet's force pass updates its rows.
-  LineVector<Vec3> warm;
+  /// What the integrator carries from one step to the next (carry.hpp): the last solver
+  /// solutions, BDF2's previous state or velocity Verlet's last bond forces. Kept here so that
+  /// checkpoints and rollbacks carry it; after editing bond parameters by hand, call
+  /// drop_after_bond_edit on it.
+  Carry carry;
   /// Per recorded obstacle (Obstacle::record), the impulse it has given (n_obstacles).
   std::vector<ObstacleImpulse> obstacle_impulse;
 };

@@ -64,7 +64,7 @@ class Simulation {
   /// Removes every heuristic (a viewer turning them off).
   void clear_heuristics() { heuristics_.clear(); }
   void add_observer(Observer* o) { observers_.push_back(o); }
-  /// Replaces the integrator (keeps the world, drops the old one's carry-over, State::warm).
+  /// Replaces the integrator (keeps the world, drops the old one's carry-over, State::carry).
   void set_integrator(const IntegratorConfig& config);
 
   World& world() { return world_; }
