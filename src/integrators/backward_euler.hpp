@@ -56,7 +56,7 @@ inline BondLinearisation linearise_bond(const Model& model, const State& state, 
   const double D = model.damping[b];
   const bool axial = model.damping_model[b] == DampingModel::axial;
   l.f = axial ? Vec3((lv.T + D * w.dot(l.u)) * l.u) : Vec3(lv.T * l.u + D * w);
-  const StiffnessCoefficients k = stiffness_coefficients(lv.dT, lv.T * inv_r, /*clamp_for_solver=*/true);
+  const StiffnessCoefficients k = clamped_stiffness(lv.dT, lv.T * inv_r);
   l.ka = k.ka();
   l.kb = k.kb();
   (axial ? l.ca : l.cb) = D;

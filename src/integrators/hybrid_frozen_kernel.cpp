@@ -218,7 +218,7 @@ struct BondBlock {
 };
 QBOND_VECTOR_INLINE BondBlock bond_block(double h, double T, double dT, double ca, double cb, const Geometry& g) {
   const double h2 = h * h;
-  const StiffnessCoefficients k = stiffness_coefficients(dT, T * g.inv_r, /*clamp_for_solver=*/true);
+  const StiffnessCoefficients k = clamped_stiffness(dT, T * g.inv_r);
   const double Ba = h * ca + h2 * k.ka(), Bb = h * cb + h2 * k.kb();
   const double ux = g.u[0], uy = g.u[1], uz = g.u[2];
   const double aux = Ba * ux, auy = Ba * uy;

@@ -87,21 +87,23 @@ inline MeanTension mean_tension(Law law, double r0, double r1, double L, double 
 /// as ka u uᵀ + kb I, the form the solvers store.
 struct StiffnessCoefficients {
   double axial = 0, transverse = 0;
-  double ka() const { return axial - transverse; }
-  double kb() const { return transverse; }
+  [[gnu::always_inline]] double ka() const { return axial - transverse; }
+  [[gnu::always_inline]] double kb() const { return transverse; }
 };
 
-/// K_b's coefficients; with `clamp_for_solver` both are clamped at 0 so that the block is
-/// positive semi-definite (compression and softening make it indefinite) for the implicit
-/// solvers, the force itself staying exact. Every K_b in qbond, scalar or lane-wise, takes its
-/// coefficients from here.
-[[gnu::always_inline]] inline StiffnessCoefficients stiffness_coefficients(double axial, double transverse,
-                                                                            bool clamp_for_solver) {
-  if (clamp_for_solver) {
-    axial = std::max(axial, 0.0);
-    transverse = std::max(transverse, 0.0);
-  }
-  return {axial, transverse};
+/// K_b's coefficients clamped at 0, so that the block is positive semi-definite (compression and
+/// softening make it indefinite) for the implicit solvers; the force itself stays exact. Every
+/// clamped K_b in qbond, scalar or lane-wise, takes its coefficients from here.
+[[gnu::always_inline]] inline StiffnessCoefficients clamped_stiffness(double axial, double transverse) {
+  // Always inlined, the transverse clamp first: the vectorised kernels then compile as they did
+  // with the two clamps written in place.
+  const double t = std::max(transverse, 0.0);
+  return {std::max(axial, 0.0), t};
+}
+
+/// K_b's coefficients, clamped (clamped_stiffness) when `clamp_for_solver`.
+inline StiffnessCoefficients stiffness_coefficients(double axial, double transverse, bool clamp_for_solver) {
+  return clamp_for_solver ? clamped_stiffness(axial, transverse) : StiffnessCoefficients{axial, transverse};
 }
 
 /// Stiffness block K_b = T' u uᵀ + (T/r)(I - u uᵀ), with df_i/dx_i = -K_b and df_i/dx_j = +K_b
