@@ -456,6 +456,47 @@ def test_step_times():
         if r.returncode != 2 or says not in r.stderr:
             fail(f"{bad} gave {r.returncode}: {r.stderr}")
 
+def enumerators(header, enum):
+    """The enumerators of `enum class ENUM` in a header, in order."""
+    import re
+    text = open(os.path.join(SOURCE, header)).read()
+    body = text[text.index("enum class " + enum):]
+    body = body[body.index("{") + 1:body.index("};")]
+    body = re.sub(r"//[^\n]*", "", body)
+    return [m.group(1) for m in re.finditer(r"^\s*(\w+)\s*(?:=[^,]*)?,", body, re.M)]
+
+
+def test_integrator_keys():
+    """The integrator table is the one list of integrators: `qbond run --help` lists every
+    IntegratorType with its line, and docs/scene-format.md's `integrator` section every integrator
+    and every option key (IntegratorOption; the scene keys are the enumerators' names)."""
+    header = os.path.join("include", "qbond", "integrators", "integrators.hpp")
+    types = enumerators(header, "IntegratorType")
+    options = enumerators(header, "IntegratorOption")
+    if len(types) < 9 or len(options) < 12:
+        fail(f"parsed {types} and {options} from {header}")
+    help_text = qbond("run", "--help", check_code=0).stdout
+    for t in types:
+        if f"  {t}: " not in help_text:
+            fail(f"`qbond run --help` does not list integrator {t}:\n{help_text}")
+    doc = open(os.path.join(SOURCE, "docs", "scene-format.md")).read()
+    section = doc[doc.index("## `integrator`"):]
+    section = section[:section.index("\n## ", 1)]
+    rows = [line for line in section.splitlines() if line.startswith("| `")]
+    keys = [row.split("`")[1] for row in rows]
+    for o in options:
+        if o not in keys:
+            fail(f"docs/scene-format.md's integrator table has no row for `{o}` (rows: {keys})")
+    type_row = next(row for row in rows if row.startswith("| `type`"))
+    for t in types:
+        if f"`{t}`" not in type_row:
+            fail(f"docs/scene-format.md's `type` row does not list {t}")
+    # An unknown integrator is refused with the table's names.
+    r = qbond("run", "--integrator", "magic", "--out", fresh("integrator_keys"))
+    if r.returncode != 2 or not all(t in r.stderr for t in types):
+        fail(f"--integrator magic: exit {r.returncode}, stderr {r.stderr!r}")
+
+
 if __name__ == "__main__":
     os.makedirs(WORK, exist_ok=True)
     globals()["test_" + sys.argv[4]]()

@@ -5,7 +5,9 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <stdexcept>
 #include <string>
 #include <tuple>
 
@@ -735,6 +737,109 @@ TEST(VelocityVerlet, PlasticFlowDropsTheCarriedForces) {
   sim.step();  // shortening: back within the yield surface
   ASSERT_EQ(sim.world().state.rest[0], rest);
   EXPECT_TRUE(std::holds_alternative<VerletForces>(sim.world().state.carry));
+}
+
+// Whether v is an enumerator of IntegratorType. The switch names every enumerator: -Wswitch (an
+// error in this build) refuses an enumerator left out, so a new integrator must be added here,
+// and the test below then needs its row in the integrator table.
+bool is_integrator_type(int v) {
+  switch (static_cast<IntegratorType>(v)) {
+    case IntegratorType::explicit_euler:
+    case IntegratorType::symplectic_euler:
+    case IntegratorType::velocity_verlet:
+    case IntegratorType::rk4:
+    case IntegratorType::hybrid_implicit:
+    case IntegratorType::coupled_implicit:
+    case IntegratorType::energy_momentum:
+    case IntegratorType::implicit_midpoint:
+    case IntegratorType::bdf2:
+      return true;
+  }
+  return false;
+}
+
+TEST(IntegratorTable, HasEveryIntegratorOnceInEnumOrder) {
+  const auto table = integrator_table();
+  std::size_t count = 0;
+  for (int v = 0; v < 256; ++v) {
+    if (!is_integrator_type(v)) continue;
+    ++count;
+    const auto t = static_cast<IntegratorType>(v);
+    ASSERT_LT(static_cast<std::size_t>(v), table.size()) << "no row for enumerator " << v;
+    EXPECT_EQ(table[static_cast<std::size_t>(v)].type, t);
+    EXPECT_EQ(&integrator_info(t), &table[static_cast<std::size_t>(v)]);
+  }
+  EXPECT_EQ(table.size(), count);
+  for (const IntegratorInfo& row : table) {
+    EXPECT_FALSE(row.description.empty()) << row.key;
+    EXPECT_EQ(to_string(row.type), row.key);
+    EXPECT_EQ(parse_integrator_type(row.key), row.type);
+    // Every integrator reads the options Simulation and the thread pool apply to all.
+    EXPECT_TRUE(row.reads(IntegratorOption::threads)) << row.key;
+    EXPECT_TRUE(row.reads(IntegratorOption::restore_energy)) << row.key;
+    // The value lists go with the options.
+    EXPECT_EQ(row.reads(IntegratorOption::solver), !row.solvers.empty()) << row.key;
+    EXPECT_EQ(row.reads(IntegratorOption::warm_start), !row.warm_starts.empty()) << row.key;
+    // Its constructor makes it from the defaults with its own type.
+    IntegratorConfig c;
+    c.type = row.type;
+    if (!row.solvers.empty()) c.solver = row.solvers.front();
+    EXPECT_EQ(make_integrator(c)->config().type, row.type) << row.key;
+  }
+  EXPECT_THROW(parse_integrator_type("nonsense"), std::invalid_argument);
+}
+
+TEST(IntegratorTable, OptionsAndValuesAreListedOnceAndUsed) {
+  std::uint16_t seen = 0;
+  for (const IntegratorOptionInfo& o : integrator_options()) {
+    const auto bit = static_cast<std::uint16_t>(o.option);
+    EXPECT_EQ(seen & bit, 0) << o.key << " listed twice";
+    seen = static_cast<std::uint16_t>(seen | bit);
+    EXPECT_EQ(to_string(o.option), o.key);
+    EXPECT_FALSE(o.description.empty()) << o.key;
+    const auto table = integrator_table();
+    EXPECT_TRUE(std::any_of(table.begin(), table.end(), [&](const IntegratorInfo& i) { return i.reads(o.option); }))
+        << o.key << " is read by no integrator";
+  }
+  // Every bit an integrator reads is a listed option.
+  for (const IntegratorInfo& i : integrator_table()) EXPECT_EQ(i.options & ~seen, 0) << i.key;
+  for (const auto& n : neighbour_models()) EXPECT_EQ(parse_neighbour_model(n.key), n.value);
+  for (const auto& n : coupled_solvers()) EXPECT_EQ(parse_coupled_solver(n.key), n.value);
+  for (const auto& n : warm_starts()) EXPECT_EQ(parse_warm_start(n.key), n.value);
+}
+
+// The table's value lists are what make_integrator accepts: coupled_implicit takes no sweeps, the
+// Newton integrators no extrapolated start, bdf2 no previous one.
+TEST(IntegratorTable, MakeIntegratorChecksTheTablesValues) {
+  for (const IntegratorInfo& row : integrator_table())
+    for (const auto& s : coupled_solvers()) {
+      IntegratorConfig c;
+      c.type = row.type;
+      c.solver = s.value;
+      const bool listed = std::find(row.solvers.begin(), row.solvers.end(), s.value) != row.solvers.end();
+      if (!row.reads(IntegratorOption::solver) || listed) {
+        EXPECT_NO_THROW(make_integrator(c)) << row.key << " " << s.key;
+      } else {
+        EXPECT_THROW(make_integrator(c), std::invalid_argument) << row.key << " " << s.key;
+      }
+      for (const auto& w : warm_starts()) {
+        IntegratorConfig d;
+        d.type = row.type;
+        d.warm_start = w.value;
+        const bool ok = !row.reads(IntegratorOption::warm_start) ||
+                        std::find(row.warm_starts.begin(), row.warm_starts.end(), w.value) != row.warm_starts.end();
+        if (ok) EXPECT_NO_THROW(make_integrator(d)) << row.key << " " << w.key;
+        else EXPECT_THROW(make_integrator(d), std::invalid_argument) << row.key << " " << w.key;
+      }
+    }
+  IntegratorConfig coupled_sweep;
+  coupled_sweep.type = IntegratorType::coupled_implicit;
+  coupled_sweep.solver = CoupledSolver::sweep;
+  EXPECT_THROW(make_integrator(coupled_sweep), std::invalid_argument);
+  IntegratorConfig bdf2_previous;
+  bdf2_previous.type = IntegratorType::bdf2;
+  bdf2_previous.warm_start = WarmStart::previous;
+  EXPECT_THROW(make_integrator(bdf2_previous), std::invalid_argument);
 }
 
 }  // namespace

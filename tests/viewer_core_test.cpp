@@ -9,6 +9,7 @@
 
 #include "camera.hpp"
 #include "colors.hpp"
+#include "menus.hpp"
 #include "qbond/simulation/interaction.hpp"
 #include "qbond/model/ordering.hpp"
 #include "qbond/builders/samples.hpp"
@@ -185,6 +186,30 @@ TEST(Script, ErrorsNameThePathAndTheRule) {
             "s.json: events[0].mouse.move_by: must be an array of 2 numbers (pixels)");
   EXPECT_EQ(error(R"({"events": [{"frame": 0, "mouse": {"press_on": 9}}]})"),
             "s.json: events[0].mouse.press_on: must be a quanta id in [0, 5)");
+}
+
+// The panel's menus are the integrator table's: every integrator by name in the table's order,
+// and for each the solvers it takes, so that a menu entry never names an integrator by position.
+TEST(Menus, ComeFromTheIntegratorTable) {
+  const view::Menu<IntegratorType> menu = view::integrator_menu();
+  const auto table = integrator_table();
+  ASSERT_EQ(menu.names.size(), table.size());
+  ASSERT_EQ(menu.labels().size(), table.size());
+  for (std::size_t k = 0; k < table.size(); ++k) {
+    EXPECT_EQ(menu.names[k], table[k].key);
+    EXPECT_STREQ(menu.labels()[k], std::string(table[k].key).c_str());
+    EXPECT_EQ(menu.values[k], table[k].type);
+    EXPECT_EQ(menu.index(table[k].type), static_cast<int>(k));
+    const view::Menu<CoupledSolver> solvers = view::solver_menu(table[k].type);
+    ASSERT_EQ(solvers.values.size(), table[k].solvers.size()) << table[k].key;
+    for (std::size_t s = 0; s < solvers.values.size(); ++s) {
+      EXPECT_EQ(solvers.values[s], table[k].solvers[s]);
+      EXPECT_EQ(solvers.names[s], to_string(table[k].solvers[s]));
+    }
+  }
+  const view::Menu<NeighbourModel> models = view::neighbour_menu();
+  ASSERT_EQ(models.values.size(), neighbour_models().size());
+  for (std::size_t k = 0; k < models.values.size(); ++k) EXPECT_EQ(models.names[k], to_string(models.values[k]));
 }
 
 }  // namespace

@@ -81,6 +81,44 @@ struct Options {
   bool quiet = false;
 };
 
+/// `--integrator`'s help: every integrator of the table (integrators.hpp) with its line.
+std::string integrator_help() {
+  std::string help = "integrator override, one of:";
+  for (const qbond::IntegratorInfo& i : qbond::integrator_table())
+    help += "\n  " + std::string(i.key) + ": " + std::string(i.description);
+  return help;
+}
+
+/// An integrator option's help: its line, the integrators that read it and, for `neighbours` and
+/// `solver`, the values each takes.
+std::string option_help(qbond::IntegratorOption option) {
+  using namespace qbond;
+  std::string help;
+  for (const IntegratorOptionInfo& opt : integrator_options())
+    if (opt.option == option) help = std::string(opt.description);
+  auto join = [](auto list) {
+    std::string out;
+    for (auto v : list) out += (out.empty() ? "" : ", ") + std::string(to_string(v));
+    return out;
+  };
+  // Integrators grouped by the values they take.
+  std::vector<std::pair<std::string, std::string>> groups;  // (values, integrators)
+  for (const IntegratorInfo& i : integrator_table()) {
+    if (!i.reads(option)) continue;
+    std::string values;
+    if (option == IntegratorOption::solver) values = join(i.solvers);
+    if (option == IntegratorOption::neighbours)
+      for (const NamedValue<NeighbourModel>& m : neighbour_models())
+        values += (values.empty() ? "" : ", ") + std::string(m.key);
+    auto g = std::find_if(groups.begin(), groups.end(), [&](const auto& p) { return p.first == values; });
+    if (g == groups.end()) groups.emplace_back(values, std::string(i.key));
+    else g->second += ", " + std::string(i.key);
+  }
+  for (const auto& [values, integrators] : groups)
+    help += values.empty() ? " (" + integrators + ")" : "\n  " + values + " (" + integrators + ")";
+  return help;
+}
+
 /// A scene from a file path, or a built-in scene by name (the default one when none is given).
 qbond::Scene load_any(const std::string& arg) {
   if (arg.empty()) return qbond::builtin_scene(qbond::kDefaultScene);
@@ -329,12 +367,12 @@ int main(int argc, char** argv) {
       ->add_option("--checkpoint-every", o.checkpoint_every, "steps between checkpoints (0: at the end only)")
       ->check(kNonNegative);
   run_cmd->add_flag("--no-vtk", o.no_vtk, "write no ParaView frames");
-  run_cmd->add_option("--integrator", o.integrator, "integrator override (e.g. hybrid_implicit)");
-  run_cmd->add_option("--neighbours", o.neighbours, "hybrid neighbour model: frozen, sweep, jacobi");
-  run_cmd->add_option("--solver", o.solver, "coupled solver: dense, ldlt, cg");
-  run_cmd->add_option("--iterations", o.iterations, "sweeps per step (hybrid sweep/jacobi)")
+  run_cmd->add_option("--integrator", o.integrator, integrator_help());
+  run_cmd->add_option("--neighbours", o.neighbours, option_help(qbond::IntegratorOption::neighbours));
+  run_cmd->add_option("--solver", o.solver, option_help(qbond::IntegratorOption::solver));
+  run_cmd->add_option("--iterations", o.iterations, option_help(qbond::IntegratorOption::iterations))
       ->check(kPositive);
-  run_cmd->add_option("--tolerance", o.tolerance, "relative residual of the iterative solvers")
+  run_cmd->add_option("--tolerance", o.tolerance, option_help(qbond::IntegratorOption::tolerance))
       ->check(kPositive);
   run_cmd
       ->add_option("-j,--threads", o.threads,

@@ -58,9 +58,9 @@ inline BondLinearisation linearise_bond(const Model& model, const State& state, 
   const double D = model.damping[b];
   const bool axial = model.damping_model[b] == DampingModel::axial;
   l.f = axial ? Vec3((lv.T + D * w.dot(l.u)) * l.u) : Vec3(lv.T * l.u + D * w);
-  const double k_axial = std::max(lv.dT, 0.0), k_transverse = std::max(lv.T * inv_r, 0.0);
-  l.ka = k_axial - k_transverse;
-  l.kb = k_transverse;
+  const StiffnessCoefficients k = clamped_stiffness(lv.dT, lv.T * inv_r);
+  l.ka = k.ka();
+  l.kb = k.kb();
   (axial ? l.ca : l.cb) = D;
   return l;
 }

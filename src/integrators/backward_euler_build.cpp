@@ -108,7 +108,8 @@ QBOND_VECTOR_INLINE void linear_affine_build(const Model& model, const State& st
     const double u[3] = {inv_r * d[0], inv_r * d[1], inv_r * d[2]};
     const double T = ok ? kq * (r - Lq) : 0.0, dT = ok ? kq : 0.0, Dok = ok ? Dq : 0.0;
     const double ca = kAxial ? Dok : 0.0, cb = kAxial ? 0.0 : Dok;
-    const double kb = std::max(T * inv_r, 0.0), ka = std::max(dT, 0.0) - kb;
+    const StiffnessCoefficients k = clamped_stiffness(dT, T * inv_r);
+    const double kb = k.kb(), ka = k.ka();
     const double Ba = h * ca + h2 * ka, Bb = h * cb + h2 * kb;
     const double uw = u[0] * w[0] + u[1] * w[1] + u[2] * w[2];
     const double ue = u[0] * e[0] + u[1] * e[1] + u[2] * e[2];

@@ -218,8 +218,8 @@ struct BondBlock {
 };
 QBOND_VECTOR_INLINE BondBlock bond_block(double h, double T, double dT, double ca, double cb, const Geometry& g) {
   const double h2 = h * h;
-  const double k_transverse = std::max(T * g.inv_r, 0.0), k_axial = std::max(dT, 0.0);
-  const double Ba = h * ca + h2 * (k_axial - k_transverse), Bb = h * cb + h2 * k_transverse;
+  const StiffnessCoefficients k = clamped_stiffness(dT, T * g.inv_r);
+  const double Ba = h * ca + h2 * k.ka(), Bb = h * cb + h2 * k.kb();
   const double ux = g.u[0], uy = g.u[1], uz = g.u[2];
   const double aux = Ba * ux, auy = Ba * uy;
   return {{aux * ux + Bb, auy * uy + Bb, Ba * uz * uz + Bb, aux * uy, aux * uz, auy * uz},

@@ -2,6 +2,8 @@
 #include <array>
 #include <cassert>
 #include <functional>
+#include <initializer_list>
+#include <span>
 #include <stdexcept>
 #include <string>
 
@@ -16,12 +18,143 @@ IntegratorConfig default_integrator() {
   return c;
 }
 
+namespace {
+
+using O = IntegratorOption;
+constexpr std::uint16_t bits(std::initializer_list<IntegratorOption> options) {
+  std::uint16_t b = 0;
+  for (IntegratorOption o : options) b = static_cast<std::uint16_t>(b | static_cast<std::uint16_t>(o));
+  return b;
+}
+
+constexpr IntegratorOptionInfo kOptions[] = {
+    {O::neighbours, "neighbours", "how the hybrid solve treats a quanta's neighbours"},
+    {O::solver, "solver", "the linear solver"},
+    {O::iterations, "iterations", "sweeps per step (hybrid) or per Newton iteration (solver sweep), >= 1"},
+    {O::max_iterations, "max_iterations", "CG's iteration cap (0: three times the free unknowns)"},
+    {O::tolerance, "tolerance", "relative residual at which sweeps, CG and Newton stop"},
+    {O::chebyshev_rho, "chebyshev_rho", "sweeps: spectral radius for Chebyshev acceleration, [0, 1) (0: off)"},
+    {O::warm_start, "warm_start", "the iterative solvers' initial guess"},
+    {O::restore_momentum, "restore_momentum", "give each free component its exact momentum change"},
+    {O::newton_iterations, "newton_iterations", "Newton iterations per step at most, >= 1"},
+    {O::newton_polish, "newton_polish", "exact-Newton corrections to round-off once the tolerance is met"},
+    {O::threads, "threads", "OpenMP threads (0: all cores); the same bits for any count"},
+    {O::restore_energy, "restore_energy", "give back the energy the integrator removed (or take back what it made)"},
+};
+
+constexpr NamedValue<NeighbourModel> kNeighbourModels[] = {
+    {NeighbourModel::frozen, "frozen", "neighbours held at their start positions and at rest (the paper)"},
+    {NeighbourModel::sweep, "sweep", "block Gauss-Seidel on the coupled system, in graph-colour order"},
+    {NeighbourModel::jacobi, "jacobi", "block Jacobi on the coupled system"},
+};
+constexpr NamedValue<CoupledSolver> kSolvers[] = {
+    {CoupledSolver::dense, "dense", "dense Gaussian elimination (the paper's cubic-cost method)"},
+    {CoupledSolver::ldlt, "ldlt", "sparse LDLT"},
+    {CoupledSolver::cg, "cg", "matrix-free conjugate gradient, block-Jacobi preconditioned"},
+    {CoupledSolver::sweep, "sweep", "block Gauss-Seidel sweeps in colour order"},
+};
+constexpr NamedValue<WarmStart> kWarmStarts[] = {
+    {WarmStart::zero, "zero", "dv = 0"},
+    {WarmStart::external, "external", "dv = h f_ext / m"},
+    {WarmStart::previous, "previous", "the previous step's dv"},
+    {WarmStart::automatic, "auto", "extrapolated for coupled_implicit with cg, zero otherwise"},
+    {WarmStart::extrapolated, "extrapolated", "2 dv(-1) - dv(-2) from the last two steps"},
+};
+
+// What the integrators share: threads and restore_energy concern every one.
+constexpr std::uint16_t kEvery = bits({O::threads, O::restore_energy});
+constexpr std::uint16_t kLinearSolve =
+    kEvery | bits({O::tolerance, O::warm_start, O::restore_momentum});
+constexpr std::uint16_t kNewton =
+    kLinearSolve | bits({O::solver, O::iterations, O::max_iterations, O::chebyshev_rho, O::newton_iterations});
+
+constexpr CoupledSolver kCoupledSolvers[] = {CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg};
+constexpr CoupledSolver kNewtonSolvers[] = {CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg,
+                                            CoupledSolver::sweep};
+constexpr WarmStart kEveryStart[] = {WarmStart::zero, WarmStart::external, WarmStart::previous,
+                                     WarmStart::automatic, WarmStart::extrapolated};
+// A Newton integrator's substeps have no previous steps of their length to extrapolate from...
+constexpr WarmStart kNewtonStarts[] = {WarmStart::zero, WarmStart::external, WarmStart::previous,
+                                       WarmStart::automatic};
+// ... and bdf2's carry-over is the previous state, not a previous Δv.
+constexpr WarmStart kBdf2Starts[] = {WarmStart::zero, WarmStart::external, WarmStart::automatic};
+
+// The integrators: a new one is one row here (with its enumerator and its constructor).
+const IntegratorInfo kIntegrators[] = {
+    {IntegratorType::explicit_euler, "explicit_euler", "the particle method: x += h v, v += h a(x, v)", kEvery, {},
+     {}, make_explicit_integrator},
+    {IntegratorType::symplectic_euler, "symplectic_euler", "v += h a(x, v), then x += h v_new", kEvery, {}, {},
+     make_explicit_integrator},
+    {IntegratorType::velocity_verlet, "velocity_verlet",
+     "second order, symplectic when undamped; one force pass a step", kEvery, {}, {}, make_explicit_integrator},
+    {IntegratorType::rk4, "rk4", "classical fourth-order Runge-Kutta", kEvery, {}, {}, make_explicit_integrator},
+    {IntegratorType::hybrid_implicit, "hybrid_implicit", "Eqs. 11-12: one 3x3 solve per quanta (see neighbours)",
+     kLinearSolve | bits({O::neighbours, O::iterations, O::chebyshev_rho}), {}, kEveryStart, make_hybrid_integrator},
+    {IntegratorType::coupled_implicit, "coupled_implicit",
+     "Eq. 13 linearised (Baraff-Witkin): one global linear solve (sweeps: hybrid_implicit, neighbours sweep)",
+     kLinearSolve | bits({O::solver, O::max_iterations}), kCoupledSolvers, kEveryStart,
+     make_coupled_implicit_integrator},
+    {IntegratorType::energy_momentum, "energy_momentum",
+     "discrete gradient: keeps energy and both momenta at any step; Newton-solved", kNewton | bits({O::newton_polish}),
+     kNewtonSolvers, kNewtonStarts, make_newton_integrator},
+    {IntegratorType::implicit_midpoint, "implicit_midpoint",
+     "forces at the step's midpoint; Newton-solved, second order", kNewton | bits({O::newton_polish}), kNewtonSolvers,
+     kNewtonStarts, make_newton_integrator},
+    {IntegratorType::bdf2, "bdf2", "second-order backward differentiation; Newton-solved, first step backward Euler",
+     kNewton, kNewtonSolvers, kBdf2Starts, make_newton_integrator},
+};
+
+template <class E>
+bool contains(std::span<const E> list, E e) {
+  return std::find(list.begin(), list.end(), e) != list.end();
+}
+
+template <class E>
+std::string names(std::span<const E> list) {
+  std::string out;
+  for (E e : list) out += (out.empty() ? "" : ", ") + std::string(to_string(e));
+  return out;
+}
+
+template <class Row>
+std::string_view key_of(std::span<const Row> rows, decltype(Row{}.value) e) {
+  for (const Row& r : rows)
+    if (r.value == e) return r.key;
+  return "?";
+}
+
+template <class Row>
+auto parse_key(std::span<const Row> rows, std::string_view s, const char* what) {
+  std::string all;
+  for (const Row& r : rows) {
+    if (r.key == s) return r.value;
+    all += (all.empty() ? "" : ", ") + std::string(r.key);
+  }
+  throw std::invalid_argument(std::string("unknown ") + what + " '" + std::string(s) + "' (expected one of: " + all +
+                              ")");
+}
+
+}  // namespace
+
+std::span<const IntegratorInfo> integrator_table() { return kIntegrators; }
+std::span<const IntegratorOptionInfo> integrator_options() { return kOptions; }
+std::span<const NamedValue<NeighbourModel>> neighbour_models() { return kNeighbourModels; }
+std::span<const NamedValue<CoupledSolver>> coupled_solvers() { return kSolvers; }
+std::span<const NamedValue<WarmStart>> warm_starts() { return kWarmStarts; }
+
+const IntegratorInfo& integrator_info(IntegratorType t) {
+  for (const IntegratorInfo& i : kIntegrators)
+    if (i.type == t) return i;
+  throw std::invalid_argument("unknown integrator type " + std::to_string(static_cast<int>(t)));
+}
+
 std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& config) {
   return make_step_integrator(config);
 }
 
 std::unique_ptr<StepIntegrator> make_step_integrator(const IntegratorConfig& config) {
   IntegratorConfig c = config;
+  const IntegratorInfo& info = integrator_info(c.type);
   // CG from the line through the last two steps' Δv: fewer iterations wherever Δv changes
   // smoothly from step to step (cube_drop 14.5 a step from zero, 5.9 from the previous Δv, 3.2
   // extrapolated), no more elsewhere; sweeps from such guesses blow up (docs/integrators.md).
@@ -35,112 +168,47 @@ std::unique_ptr<StepIntegrator> make_step_integrator(const IntegratorConfig& con
   if (!(c.tolerance >= 0)) throw std::invalid_argument("integrator.tolerance: must be >= 0");
   if (!(c.chebyshev_rho >= 0 && c.chebyshev_rho < 1))
     throw std::invalid_argument("integrator.chebyshev_rho: must be in [0, 1)");
-  switch (c.type) {
-    case IntegratorType::explicit_euler:
-    case IntegratorType::symplectic_euler:
-    case IntegratorType::velocity_verlet:
-    case IntegratorType::rk4:
-      return make_explicit_integrator(c);
-    case IntegratorType::hybrid_implicit:
-      return make_hybrid_integrator(c);
-    case IntegratorType::coupled_implicit:
-      if (c.solver == CoupledSolver::sweep)
-        throw std::invalid_argument(
-            "integrator.solver: 'sweep' is for the Newton integrators; coupled_implicit with sweeps is "
-            "hybrid_implicit with neighbours 'sweep'");
-      return make_coupled_implicit_integrator(c);
-    case IntegratorType::energy_momentum:
-    case IntegratorType::implicit_midpoint:
-    case IntegratorType::bdf2:
-      if (c.newton_iterations < 1) throw std::invalid_argument("integrator.newton_iterations: must be >= 1");
-      if (c.type == IntegratorType::bdf2 && c.warm_start == WarmStart::previous)
-        throw std::invalid_argument(
-            "integrator.warm_start: 'previous' is not available with bdf2 (its carry-over is the previous state)");
-      if (c.warm_start == WarmStart::extrapolated)
-        throw std::invalid_argument(
-            "integrator.warm_start: 'extrapolated' is for hybrid_implicit and coupled_implicit (a Newton "
-            "integrator's substeps have no previous steps of their length)");
-      return make_newton_integrator(c);
-  }
-  throw std::invalid_argument("unknown integrator type");
+  if (info.reads(O::solver) && !contains(info.solvers, c.solver))
+    throw std::invalid_argument("integrator.solver: " + std::string(info.key) + " takes " + names(info.solvers) +
+                                ", not '" + std::string(to_string(c.solver)) + "'");
+  if (info.reads(O::warm_start) && !contains(info.warm_starts, c.warm_start))
+    throw std::invalid_argument("integrator.warm_start: " + std::string(info.key) + " takes " +
+                                names(info.warm_starts) + ", not '" + std::string(to_string(c.warm_start)) + "'");
+  if (info.reads(O::newton_iterations) && c.newton_iterations < 1)
+    throw std::invalid_argument("integrator.newton_iterations: must be >= 1");
+  return info.make(c);
 }
-
-namespace {
-template <class E, std::size_t N>
-E parse_name(std::string_view s, const std::array<E, N>& all, const char* what) {
-  std::string names;
-  for (E e : all) {
-    if (to_string(e) == s) return e;
-    names += (names.empty() ? "" : ", ") + std::string(to_string(e));
-  }
-  throw std::invalid_argument(std::string("unknown ") + what + " '" + std::string(s) +
-                              "' (expected one of: " + names + ")");
-}
-}  // namespace
 
 std::string_view to_string(IntegratorType t) {
-  switch (t) {
-    case IntegratorType::explicit_euler: return "explicit_euler";
-    case IntegratorType::symplectic_euler: return "symplectic_euler";
-    case IntegratorType::velocity_verlet: return "velocity_verlet";
-    case IntegratorType::rk4: return "rk4";
-    case IntegratorType::hybrid_implicit: return "hybrid_implicit";
-    case IntegratorType::coupled_implicit: return "coupled_implicit";
-    case IntegratorType::energy_momentum: return "energy_momentum";
-    case IntegratorType::implicit_midpoint: return "implicit_midpoint";
-    case IntegratorType::bdf2: return "bdf2";
-  }
+  for (const IntegratorInfo& i : kIntegrators)
+    if (i.type == t) return i.key;
   return "?";
 }
-std::string_view to_string(NeighbourModel m) {
-  switch (m) {
-    case NeighbourModel::frozen: return "frozen";
-    case NeighbourModel::sweep: return "sweep";
-    case NeighbourModel::jacobi: return "jacobi";
-  }
-  return "?";
-}
-std::string_view to_string(CoupledSolver s) {
-  switch (s) {
-    case CoupledSolver::dense: return "dense";
-    case CoupledSolver::ldlt: return "ldlt";
-    case CoupledSolver::cg: return "cg";
-    case CoupledSolver::sweep: return "sweep";
-  }
-  return "?";
-}
-std::string_view to_string(WarmStart w) {
-  switch (w) {
-    case WarmStart::zero: return "zero";
-    case WarmStart::external: return "external";
-    case WarmStart::previous: return "previous";
-    case WarmStart::automatic: return "auto";
-    case WarmStart::extrapolated: return "extrapolated";
-  }
+std::string_view to_string(NeighbourModel m) { return key_of<NamedValue<NeighbourModel>>(kNeighbourModels, m); }
+std::string_view to_string(CoupledSolver s) { return key_of<NamedValue<CoupledSolver>>(kSolvers, s); }
+std::string_view to_string(WarmStart w) { return key_of<NamedValue<WarmStart>>(kWarmStarts, w); }
+std::string_view to_string(IntegratorOption o) {
+  for (const IntegratorOptionInfo& i : kOptions)
+    if (i.option == o) return i.key;
   return "?";
 }
 
 IntegratorType parse_integrator_type(std::string_view s) {
-  return parse_name(s,
-                    std::array{IntegratorType::explicit_euler, IntegratorType::symplectic_euler,
-                               IntegratorType::velocity_verlet, IntegratorType::rk4,
-                               IntegratorType::hybrid_implicit, IntegratorType::coupled_implicit,
-                               IntegratorType::energy_momentum, IntegratorType::implicit_midpoint,
-                               IntegratorType::bdf2},
-                    "integrator");
+  std::string all;
+  for (const IntegratorInfo& i : kIntegrators) {
+    if (i.key == s) return i.type;
+    all += (all.empty() ? "" : ", ") + std::string(i.key);
+  }
+  throw std::invalid_argument("unknown integrator '" + std::string(s) + "' (expected one of: " + all + ")");
 }
 NeighbourModel parse_neighbour_model(std::string_view s) {
-  return parse_name(s, std::array{NeighbourModel::frozen, NeighbourModel::sweep, NeighbourModel::jacobi},
-                    "neighbour model");
+  return parse_key<NamedValue<NeighbourModel>>(kNeighbourModels, s, "neighbour model");
 }
 CoupledSolver parse_coupled_solver(std::string_view s) {
-  return parse_name(s, std::array{CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg, CoupledSolver::sweep},
-                    "solver");
+  return parse_key<NamedValue<CoupledSolver>>(kSolvers, s, "solver");
 }
 WarmStart parse_warm_start(std::string_view s) {
-  constexpr std::array all{WarmStart::zero, WarmStart::external, WarmStart::previous, WarmStart::automatic,
-                           WarmStart::extrapolated};
-  return parse_name(s, all, "warm start");
+  return parse_key<NamedValue<WarmStart>>(kWarmStarts, s, "warm start");
 }
 
 void project_kinematic(const Model& model, const State& state, const StepContext& ctx,

@@ -45,15 +45,12 @@ void damper_jacobian(const Model& m, std::size_t b, const Vec3& u, double r, con
   }
 }
 
-// Clamps an axial and a transverse coefficient at 0 (as backward_euler.hpp does, so that A stays
-// positive definite) and writes them as ka u uᵀ + kb I.
+// Writes K_b's axial and transverse coefficients as ka u uᵀ + kb I, clamped at 0 when `clamp`
+// (laws.hpp, stiffness_coefficients: so that A stays positive definite).
 void clamp_into(double axial, double transverse, bool clamp, BondStep& s) {
-  if (clamp) {
-    axial = std::max(axial, 0.0);
-    transverse = std::max(transverse, 0.0);
-  }
-  s.ka = axial - transverse;
-  s.kb = transverse;
+  const StiffnessCoefficients k = stiffness_coefficients(axial, transverse, clamp);
+  s.ka = k.ka();
+  s.kb = k.kb();
 }
 }  // namespace
 
@@ -102,7 +99,8 @@ BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme sch
   clamp_into(g * lv.dT, g * (lv.T / r + dmp.transverse), clamp, s);
   if (exact) {
     damper_jacobian(model, b, s.u, r, w, exact->K, exact->C);
-    exact->K += block_matrix(s.u, lv.dT - lv.T / r, lv.T / r);
+    const StiffnessCoefficients k = stiffness_coefficients(lv.dT, lv.T / r, /*clamp_for_solver=*/false);
+    exact->K += block_matrix(s.u, k.ka(), k.kb());
     exact->K *= g;
   }
   return s;

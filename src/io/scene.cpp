@@ -247,9 +247,13 @@ class Builder {
 
  private:
   IntegratorConfig integrator(const json& j) {
-    Obj o(j, "integrator",
-          {"type", "neighbours", "solver", "iterations", "max_iterations", "tolerance", "chebyshev_rho", "warm_start",
-           "restore_momentum", "threads", "newton_iterations", "newton_polish", "restore_energy"});
+    // The keys are the integrator table's options (integrators.hpp); an option the chosen
+    // integrator does not read is accepted and ignored, as resolved scenes list every option.
+    std::vector<std::string> keys = {"type"};
+    for (const IntegratorOptionInfo& opt : integrator_options()) keys.emplace_back(opt.key);
+    std::vector<const char*> key_names;
+    for (const std::string& k : keys) key_names.push_back(k.c_str());
+    Obj o(j, "integrator", key_names);
     IntegratorConfig c = default_integrator();
     auto parse = [&](const char* key, auto fn, auto& field) {
       if (!o.has(key)) return;
@@ -277,6 +281,15 @@ class Builder {
     if (o.has("threads")) c.threads = static_cast<int>(integer(o["threads"], o.at("threads"), 0));
     if (o.has("restore_momentum")) c.restore_momentum = boolean(o["restore_momentum"], o.at("restore_momentum"));
     if (o.has("restore_energy")) c.restore_energy = boolean(o["restore_energy"], o.at("restore_energy"));
+    const IntegratorInfo& info = integrator_info(c.type);
+    auto takes = [&](const char* key, IntegratorOption option, auto list, auto value) {
+      if (!o.has(key) || !info.reads(option) || std::find(list.begin(), list.end(), value) != list.end()) return;
+      std::string names;
+      for (auto v : list) names += (names.empty() ? "" : ", ") + std::string(to_string(v));
+      bad(o.at(key), std::string(info.key) + " takes " + names + ", not '" + std::string(to_string(value)) + "'");
+    };
+    takes("solver", IntegratorOption::solver, info.solvers, c.solver);
+    takes("warm_start", IntegratorOption::warm_start, info.warm_starts, c.warm_start);
     return c;
   }
 

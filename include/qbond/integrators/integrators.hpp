@@ -190,11 +190,68 @@ class Integrator {
 /// Creates the integrator a configuration names. Throws std::invalid_argument on bad options.
 std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& config);
 
+/// The options of IntegratorConfig by scene-file key, as bits: which ones an integrator reads.
+enum class IntegratorOption : std::uint16_t {
+  neighbours = 1 << 0,
+  solver = 1 << 1,
+  iterations = 1 << 2,
+  max_iterations = 1 << 3,
+  tolerance = 1 << 4,
+  chebyshev_rho = 1 << 5,
+  warm_start = 1 << 6,
+  restore_momentum = 1 << 7,
+  newton_iterations = 1 << 8,
+  newton_polish = 1 << 9,
+  threads = 1 << 10,         ///< every integrator
+  restore_energy = 1 << 11,  ///< every integrator (Simulation applies it)
+};
+
+/// An option's scene-file key and what it sets, one line.
+struct IntegratorOptionInfo {
+  IntegratorOption option;
+  std::string_view key;
+  std::string_view description;
+};
+
+/// A value of one of the integrators' enumerations with its scene-file name and one line on it.
+template <class E>
+struct NamedValue {
+  E value;
+  std::string_view key;
+  std::string_view description;
+};
+
+/// One integrator: its scene-file key, one line on it, the options it reads and the values of
+/// `solver` and `warm_start` it takes. The one list of integrators: scene files, the command
+/// line, the viewer's menu and the docs all take their integrators and options from it.
+struct IntegratorInfo {
+  IntegratorType type;
+  std::string_view key;
+  std::string_view description;
+  std::uint16_t options;                   ///< IntegratorOption bits
+  std::span<const CoupledSolver> solvers;  ///< the `solver` values it takes (empty: it reads none)
+  std::span<const WarmStart> warm_starts;  ///< the `warm_start` values it takes (empty: it reads none)
+  std::unique_ptr<Integrator> (*make)(const IntegratorConfig&);  ///< its constructor (options checked)
+  bool reads(IntegratorOption o) const { return (options & static_cast<std::uint16_t>(o)) != 0; }
+};
+
+/// Every integrator, in the order of IntegratorType.
+std::span<const IntegratorInfo> integrator_table();
+/// The row of integrator_table() for `t`.
+const IntegratorInfo& integrator_info(IntegratorType t);
+/// Every option an integrator may read, in the order scene files list them.
+std::span<const IntegratorOptionInfo> integrator_options();
+/// Every neighbour model, coupled solver and warm start, in enumeration order.
+std::span<const NamedValue<NeighbourModel>> neighbour_models();
+std::span<const NamedValue<CoupledSolver>> coupled_solvers();
+std::span<const NamedValue<WarmStart>> warm_starts();
+
 /// Scene-file names.
 std::string_view to_string(IntegratorType t);
 std::string_view to_string(NeighbourModel m);
 std::string_view to_string(CoupledSolver s);
 std::string_view to_string(WarmStart w);
+std::string_view to_string(IntegratorOption o);
 /// Parses scene-file names; throw std::invalid_argument listing the accepted names.
 IntegratorType parse_integrator_type(std::string_view s);
 NeighbourModel parse_neighbour_model(std::string_view s);

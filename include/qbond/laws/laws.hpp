@@ -81,18 +81,37 @@ inline MeanTension mean_tension(Law law, double r0, double r1, double L, double 
   return {};
 }
 
-/// Stiffness block K_b = T' u uᵀ + (T/r)(I - u uᵀ), with df_i/dx_i = -K_b and df_i/dx_j = +K_b.
-/// With `clamp_for_solver` the two coefficients are clamped at 0 so that the block is positive
-/// semi-definite (compression and softening make it indefinite); the force itself stays exact.
+/// The two coefficients of a bond's stiffness block K_b = axial u uᵀ + transverse (I − u uᵀ):
+/// for a law axial = T' and transverse = T/r (the Newton integrators add their damper's turning
+/// and scale both by where in the step they evaluate forces). ka() and kb() give the same block
+/// as ka u uᵀ + kb I, the form the solvers store.
+struct StiffnessCoefficients {
+  double axial = 0, transverse = 0;
+  [[gnu::always_inline]] double ka() const { return axial - transverse; }
+  [[gnu::always_inline]] double kb() const { return transverse; }
+};
+
+/// K_b's coefficients clamped at 0, so that the block is positive semi-definite (compression and
+/// softening make it indefinite) for the implicit solvers; the force itself stays exact. Every
+/// clamped K_b in qbond, scalar or lane-wise, takes its coefficients from here.
+[[gnu::always_inline]] inline StiffnessCoefficients clamped_stiffness(double axial, double transverse) {
+  // Always inlined, the transverse clamp first: the vectorised kernels then compile as they did
+  // with the two clamps written in place.
+  const double t = std::max(transverse, 0.0);
+  return {std::max(axial, 0.0), t};
+}
+
+/// K_b's coefficients, clamped (clamped_stiffness) when `clamp_for_solver`.
+inline StiffnessCoefficients stiffness_coefficients(double axial, double transverse, bool clamp_for_solver) {
+  return clamp_for_solver ? clamped_stiffness(axial, transverse) : StiffnessCoefficients{axial, transverse};
+}
+
+/// Stiffness block K_b = T' u uᵀ + (T/r)(I - u uᵀ), with df_i/dx_i = -K_b and df_i/dx_j = +K_b
+/// (clamped as stiffness_coefficients says).
 inline Mat3 stiffness_block(double T, double dT, double r, const Vec3& u, bool clamp_for_solver) {
-  double axial = dT;
-  double transverse = r > 0 ? T / r : 0.0;
-  if (clamp_for_solver) {
-    axial = std::max(axial, 0.0);
-    transverse = std::max(transverse, 0.0);
-  }
+  const StiffnessCoefficients k = stiffness_coefficients(dT, r > 0 ? T / r : 0.0, clamp_for_solver);
   const Mat3 uu = u * u.transpose();
-  return axial * uu + transverse * (Mat3::Identity() - uu);
+  return k.axial * uu + k.transverse * (Mat3::Identity() - uu);
 }
 
 /// Damping block C_b with df_i/dv_i = -C_b and df_i/dv_j = +C_b.
