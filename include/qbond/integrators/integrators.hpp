@@ -3,6 +3,7 @@
 /// returns the change of position and velocity of every quanta without moving anything, so that
 /// heuristics can edit the projection before the step applies it (simulation.hpp).
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <variant>
@@ -213,6 +214,8 @@ struct IntegratorOptionInfo {
   std::string_view description;
 };
 
+class StepIntegrator;  // the integrators with their private paths (src/integrators/advance.hpp)
+
 /// A value of one of the integrators' enumerations with its scene-file name and one line on it.
 template <class E>
 struct NamedValue {
@@ -231,7 +234,8 @@ struct IntegratorInfo {
   std::uint16_t options;                   ///< IntegratorOption bits
   std::span<const CoupledSolver> solvers;  ///< the `solver` values it takes (empty: it reads none)
   std::span<const WarmStart> warm_starts;  ///< the `warm_start` values it takes (empty: it reads none)
-  std::unique_ptr<Integrator> (*make)(const IntegratorConfig&);  ///< its constructor (options checked)
+  /// Its constructor, options checked (the library's: make_integrator is the public way).
+  std::unique_ptr<StepIntegrator> (*make)(const IntegratorConfig&);
   bool reads(IntegratorOption o) const { return (options & static_cast<std::uint16_t>(o)) != 0; }
 };
 
