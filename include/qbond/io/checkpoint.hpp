@@ -22,8 +22,9 @@ namespace qbond {
 static_assert(std::endian::native == std::endian::little, "checkpoints are written little-endian");
 
 // 2: bond times and formed bonds; 3: obstacle impulses; 4: the state in the world's locality
-// order (ordering.hpp), which a version-3 file of the same scene does not follow.
-inline constexpr std::uint32_t kCheckpointVersion = 4;
+// order (ordering.hpp), which a version-3 file of the same scene does not follow; 5: formed bonds
+// save their law's shape parameters (laws/law.hpp's LawShape) where they saved eps.
+inline constexpr std::uint32_t kCheckpointVersion = 5;
 
 /// A checkpoint that cannot be read: not one, another version, truncated or corrupted.
 class CheckpointError : public std::runtime_error {
