@@ -70,7 +70,7 @@ class BreakHeuristic final : public Heuristic {
     parallel_for(nb, bond_pass_threads(m.num_quanta(), ctx.threads), [&](std::size_t b) {
       why_[b] = kNone;
       if (!w.state.alive[b]) return;
-      const bool can_fail = m.law[b] != Law::linear;  // linear bonds have no failure stretch
+      const bool can_fail = law_breaks(m.law[b]);
       if (!can_fail && !applies(rule_.quanta, m, b)) return;
       const Stretch st = stretch(m, w.state, p, b);
       if (can_fail && st.r - w.state.rest[b] >= m.failure_stretch_at(b, w.state.rest[b])) {

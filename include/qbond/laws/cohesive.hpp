@@ -32,14 +32,14 @@ struct CohesiveLaw {
     const double sp = a.shape[0] * L, sf = a.shape[1] * L;
     return {sp, sf, -a.strength * sp / (sf - sp)};
   }
-  static LawValue at(double s, double k, const Branches& b) {
+  [[gnu::always_inline]] static LawValue at(double s, double k, const Branches& b) {
     if (s <= b.sp) return {k * s, k, 0.5 * k * s * s};
     const double G = 0.5 * k * b.sp * b.sf;
     if (s >= b.sf) return {0, 0, G};
     const double t = b.sf - s;
     return {-b.soft * t, b.soft, G + 0.5 * b.soft * t * t};
   }
-  static LawValue eval(double r, double L, const LawArgs& a) { return at(r - L, a.strength, branches(L, a)); }
+  [[gnu::always_inline]] static LawValue eval(double r, double L, const LawArgs& a) { return at(r - L, a.strength, branches(L, a)); }
 
   /// T is piecewise linear in r, so over each piece of [s0, s1] between the kinks s_p and s_f the
   /// mean tension is T at the piece's middle: T̄ = Σ (len_k/dr) T(mid_k), weights in [0, 1].
@@ -71,7 +71,8 @@ struct CohesiveLaw {
     return m;
   }
   static double rest_stiffness(const LawArgs& a) { return a.strength; }
-  /// s_f: the bond breaks once r − L reaches it.
+  /// It has a failure stretch, s_f: the bond breaks once r − L reaches it.
+  static constexpr bool breaks = true;
   static double failure_stretch(double L, const LawArgs& a) { return a.shape[1] * L; }
   static std::string_view invalid(const LawShape& p) {
     return p[1] > p[0] ? std::string_view{} : "failure_strain must be > peak_strain";

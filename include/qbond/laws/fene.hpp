@@ -22,11 +22,11 @@ struct FeneLaw {
   static constexpr double kFeneLinearFrom = 0.95;
 
   /// The law inside |s| ≤ kFeneLinearFrom R0, from q = R0² − s².
-  static LawValue inner(double s, double K, double R0) {
+  [[gnu::always_inline]] static LawValue inner(double s, double K, double R0) {
     const double R2 = R0 * R0, q = R2 - s * s;
     return {K * s * R2 / q, K * R2 * (R2 + s * s) / (q * q), -0.5 * K * R2 * std::log1p(-s * s / R2)};
   }
-  static LawValue eval(double r, double L, const LawArgs& a) {
+  [[gnu::always_inline]] static LawValue eval(double r, double L, const LawArgs& a) {
     const double K = a.strength, R0 = a.shape[0], s = r - L, c = kFeneLinearFrom * R0;
     if (std::abs(s) <= c) return inner(s, K, R0);
     const double sc = std::copysign(c, s), ds = s - sc;
@@ -68,6 +68,7 @@ struct FeneLaw {
     return m;
   }
   static double rest_stiffness(const LawArgs& a) { return a.strength; }
+  static constexpr bool breaks = false;
   static double failure_stretch(double, const LawArgs&) { return std::numeric_limits<double>::infinity(); }
   static std::string_view invalid(const LawShape&) { return {}; }
 };

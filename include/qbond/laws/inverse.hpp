@@ -18,10 +18,10 @@ struct InverseLaw {
   static constexpr bool calibrated_by_modulus = false;
 
   /// ε: the material's, or kDefaultInverseEpsFraction of the rest length the bond was made with.
-  static double eps(const LawArgs& a) {
+  [[gnu::always_inline]] static double eps(const LawArgs& a) {
     return a.shape[0] > 0 ? a.shape[0] : kDefaultInverseEpsFraction * (a.rest0 > 0 ? a.rest0 : 1.0);
   }
-  static LawValue eval(double r, double L, const LawArgs& a) {
+  [[gnu::always_inline]] static LawValue eval(double r, double L, const LawArgs& a) {
     const double F = a.strength, s = r - L, e2 = eps(a) * eps(a);
     const double q = s * s + e2;
     return {F * s / q, F * (e2 - s * s) / (q * q), 0.5 * F * std::log1p(s * s / e2)};
@@ -36,6 +36,7 @@ struct InverseLaw {
     return m;
   }
   static double rest_stiffness(const LawArgs& a) { return a.strength / (eps(a) * eps(a)); }
+  static constexpr bool breaks = false;
   static double failure_stretch(double, const LawArgs&) { return std::numeric_limits<double>::infinity(); }
   static std::string_view invalid(const LawShape&) { return {}; }
 };

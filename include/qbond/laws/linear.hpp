@@ -13,7 +13,7 @@ struct LinearLaw {
   /// Its strength is its stiffness at rest, so a Young's modulus can calibrate it.
   static constexpr bool calibrated_by_modulus = true;
 
-  static LawValue eval(double r, double L, const LawArgs& a) {
+  [[gnu::always_inline]] static LawValue eval(double r, double L, const LawArgs& a) {
     const double k = a.strength, s = r - L;
     return {k * s, k, 0.5 * k * s * s};
   }
@@ -23,6 +23,7 @@ struct LinearLaw {
   }
   static double rest_stiffness(const LawArgs& a) { return a.strength; }
   /// Never breaks by itself.
+  static constexpr bool breaks = false;
   static double failure_stretch(double, const LawArgs&) { return std::numeric_limits<double>::infinity(); }
   /// Cross-parameter rule beyond each parameter's (none): empty when valid.
   static std::string_view invalid(const LawShape&) { return {}; }

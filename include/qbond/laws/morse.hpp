@@ -14,7 +14,7 @@ struct MorseLaw {
   static constexpr std::array<LawParam, 1> shape{LawParam{"alpha", "1/m", "the well's inverse width"}};
   static constexpr bool calibrated_by_modulus = false;
 
-  static LawValue eval(double r, double L, const LawArgs& a) {
+  [[gnu::always_inline]] static LawValue eval(double r, double L, const LawArgs& a) {
     const double D = a.strength, alpha = a.shape[0], s = r - L;
     const double e = std::exp(-alpha * s), y = -std::expm1(-alpha * s);  // y = 1 − e, exact near rest
     return {2 * D * alpha * e * y, 2 * D * alpha * alpha * e * (2 * e - 1), D * y * y};
@@ -32,6 +32,7 @@ struct MorseLaw {
   }
   static double rest_stiffness(const LawArgs& a) { return 2 * a.strength * a.shape[0] * a.shape[0]; }
   /// Never breaks by itself (its tension fades instead).
+  static constexpr bool breaks = false;
   static double failure_stretch(double, const LawArgs&) { return std::numeric_limits<double>::infinity(); }
   static std::string_view invalid(const LawShape&) { return {}; }
 };

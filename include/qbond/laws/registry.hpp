@@ -43,38 +43,68 @@ inline constexpr int kNumLaws = 0
 #undef QBOND_LAW_COUNT
     ;
 
-/// Calls f(LawType{}) for the law `law` and returns what it returns.
-template <class F>
-decltype(auto) visit_law(Law law, F&& f) {
+// The dispatchers are switches forced inline, as one law's evaluation was before the registry:
+// in a bond loop the compiler then drops what the caller does not use (U's log1p when only T
+// is read) and keeps the hot loops' code its own (the vector clones of core/simd.hpp).
+/// Evaluates a law at length r for rest length L.
+[[gnu::always_inline]] inline LawValue evaluate_law(Law law, double r, double L, const LawArgs& a) {
   switch (law) {
 #define QBOND_LAW_CASE(id, Type) \
   case Law::id:                  \
-    return f(Type{});
+    return Type::eval(r, L, a);
     QBOND_LAWS(QBOND_LAW_CASE)
 #undef QBOND_LAW_CASE
   }
-  return f(LinearLaw{});  // unreachable for a valid id (checkpoints check theirs)
-}
-
-/// Evaluates a law at length r for rest length L.
-inline LawValue evaluate_law(Law law, double r, double L, const LawArgs& a) {
-  return visit_law(law, [&](auto l) { return decltype(l)::eval(r, L, a); });
+  return {};
 }
 
 /// The law's mean tension T̄ and ∂T̄/∂r1 over a step from length r0 to r1 (MeanTension).
-inline MeanTension mean_tension(Law law, double r0, double r1, double L, const LawArgs& a) {
-  return visit_law(law, [&](auto l) { return decltype(l)::mean(r0, r1, L, a); });
+[[gnu::always_inline]] inline MeanTension mean_tension(Law law, double r0, double r1, double L, const LawArgs& a) {
+  switch (law) {
+#define QBOND_LAW_CASE(id, Type) \
+  case Law::id:                  \
+    return Type::mean(r0, r1, L, a);
+    QBOND_LAWS(QBOND_LAW_CASE)
+#undef QBOND_LAW_CASE
+  }
+  return {};
 }
 
 /// Stretch r − L at which the law breaks its bond (the break heuristic applies it); +∞ for laws
 /// that never break by themselves.
 inline double failure_stretch(Law law, double L, const LawArgs& a) {
-  return visit_law(law, [&](auto l) { return decltype(l)::failure_stretch(L, a); });
+  switch (law) {
+#define QBOND_LAW_CASE(id, Type) \
+  case Law::id:                  \
+    return Type::failure_stretch(L, a);
+    QBOND_LAWS(QBOND_LAW_CASE)
+#undef QBOND_LAW_CASE
+  }
+  return std::numeric_limits<double>::infinity();
+}
+
+/// Whether the law has a failure stretch at all (failure_stretch is finite).
+inline bool law_breaks(Law law) {
+  switch (law) {
+#define QBOND_LAW_CASE(id, Type) \
+  case Law::id:                  \
+    return Type::breaks;
+    QBOND_LAWS(QBOND_LAW_CASE)
+#undef QBOND_LAW_CASE
+  }
+  return false;
 }
 
 /// T'(L): the law's stiffness at rest (what an explicit step's stability sees).
 inline double rest_stiffness(Law law, const LawArgs& a) {
-  return visit_law(law, [&](auto l) { return decltype(l)::rest_stiffness(a); });
+  switch (law) {
+#define QBOND_LAW_CASE(id, Type) \
+  case Law::id:                  \
+    return Type::rest_stiffness(a);
+    QBOND_LAWS(QBOND_LAW_CASE)
+#undef QBOND_LAW_CASE
+  }
+  return 0;
 }
 
 /// A law's declaration as scenes and docs see it.

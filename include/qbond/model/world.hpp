@@ -78,9 +78,9 @@ struct Model {
   std::size_t num_bonds() const { return bond_i.size(); }
   bool is_kinematic(Index i) const { return inv_mass[i] == 0.0; }
   /// What bond b's law reads besides the lengths.
-  LawArgs law_args(std::size_t b) const { return {stiffness[b], rest0[b], shapes[law_shape[b]]}; }
+  [[gnu::always_inline]] LawArgs law_args(std::size_t b) const { return {stiffness[b], rest0[b], shapes[law_shape[b]]}; }
   /// Bond b's law at length r for rest length L.
-  LawValue law_at(std::size_t b, double r, double L) const {
+  [[gnu::always_inline]] LawValue law_at(std::size_t b, double r, double L) const {
     if (law[b] == Law::linear) return LinearLaw::eval(r, L, {.strength = stiffness[b]});
     return evaluate_law(law[b], r, L, law_args(b));
   }
@@ -90,13 +90,13 @@ struct Model {
     return mean_tension(law[b], r0, r1, L, law_args(b));
   }
   /// Bond b's force on its first quanta (laws.hpp's bond_force_on_i): d = x_j − x_i, w = v_j − v_i.
-  Vec3 bond_force_on_i(std::size_t b, const Vec3& d, const Vec3& w, double L) const {
+  [[gnu::always_inline]] Vec3 bond_force_on_i(std::size_t b, const Vec3& d, const Vec3& w, double L) const {
     const LawArgs a = law[b] == Law::linear ? LawArgs{.strength = stiffness[b]} : law_args(b);
     return qbond::bond_force_on_i(law[b], damping_model[b], d, w, L, damping[b], a);
   }
   /// Stretch r − L at which bond b's law breaks it (+∞: never).
   double failure_stretch_at(std::size_t b, double L) const {
-    return law[b] == Law::linear ? std::numeric_limits<double>::infinity() : failure_stretch(law[b], L, law_args(b));
+    return law_breaks(law[b]) ? failure_stretch(law[b], L, law_args(b)) : std::numeric_limits<double>::infinity();
   }
   /// The row of `shapes` holding `shape`, added when there is none yet.
   std::uint32_t intern_shape(const LawShape& shape);
