@@ -5,9 +5,9 @@
 /// and the docs test all derive from this list.
 ///
 /// Adding a law touches only: its header (name, parameters, T, T', U, the mean tension, its
-/// failure stretch), its tests (tests/laws_test.cpp), and one line of QBOND_LAWS (appended
-/// last: the enum's values are saved in checkpoints). docs/materials.md must list it
-/// (tests/laws_test.cpp checks that it does).
+/// failure stretch), its tests (tests/laws_test.cpp: add it to law_cases()), and one line of
+/// QBOND_LAWS (appended last: the enum's values are saved in checkpoints). Its rows in
+/// docs/scene-format.md's "Force laws" table follow (tests/laws_test.cpp fails until they exist).
 #include <cstdint>
 #include <optional>
 #include <span>
