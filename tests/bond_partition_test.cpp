@@ -26,7 +26,8 @@ World random_lattice(bool grouped = false) {
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
     if (b % 3 == 0) {
       w.model.law[b] = Law::inverse;
-      w.model.stiffness[b] *= w.model.eps[b] * w.model.eps[b];
+      const double eps = InverseLaw::eps(w.model.law_args(b));
+      w.model.stiffness[b] *= eps * eps;
     }
     if (b % 4 == 0) w.model.damping_model[b] = DampingModel::isotropic;
     if (rng.uniform() < 0.1) w.state.alive[b] = 0;
@@ -153,8 +154,7 @@ std::vector<Vec3> plain_forces(const World& w, std::vector<double>& scale) {
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
     if (!s.alive[b]) continue;
     const Index i = m.bond_i[b], j = m.bond_j[b];
-    const Vec3 f = bond_force_on_i(m.law[b], m.damping_model[b], s.x[j] - s.x[i], s.v[j] - s.v[i], s.rest[b],
-                                   m.stiffness[b], m.damping[b], m.eps[b]);
+    const Vec3 f = m.bond_force_on_i(b, s.x[j] - s.x[i], s.v[j] - s.v[i], s.rest[b]);
     ref[i] += f;
     ref[j] -= f;
     scale[i] += f.norm();

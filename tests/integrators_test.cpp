@@ -113,7 +113,7 @@ TEST(HybridImplicit, OneFreeQuantaEqualsCoupled) {
   std::vector<Index> anchors;
   for (const Vec3& p : corners) anchors.push_back(w.add_quanta(p, Vec3::Zero(), 1.0));
   for (Index a : anchors) w.add_bond(c, a, {.law = Law::linear, .stiffness = 80, .damping = 0.7, .rest_length = 0.9});
-  w.add_bond(c, anchors[0], {.law = Law::inverse, .stiffness = 2, .damping = 0.1, .rest_length = 0.95, .eps = 0.1});
+  w.add_bond(c, anchors[0], {.law = Law::inverse, .stiffness = 2, .damping = 0.1, .rest_length = 0.95, .shape = {0.1}});
   w.prescribe(anchors, Motion{});
   w.model.gravity = Vec3(0, 0, -9.81);
   const double h = 0.05;
@@ -241,8 +241,7 @@ ReferenceStep plain_implicit_step(const World& w, double h, bool coupled = true)
     const LawValue lv = m.law_at(b, r, s.rest[b]);
     const Mat3 Kb = stiffness_block(lv.T, lv.dT, r, d / r, /*clamp_for_solver=*/true);
     const Mat3 Cb = damping_block(m.damping_model[b], m.damping[b], d / r);
-    const Vec3 fb = bond_force_on_i(m.law[b], m.damping_model[b], d, s.v[j] - s.v[i], s.rest[b], m.stiffness[b],
-                                    m.damping[b], m.eps[b]);
+    const Vec3 fb = m.bond_force_on_i(b, d, s.v[j] - s.v[i], s.rest[b]);
     f.segment<3>(3 * i) += fb;
     f.segment<3>(3 * j) -= fb;
     if (coupled)
@@ -364,7 +363,8 @@ TEST(ImplicitStep, FrozenRowsStartedAndSolvedInTheBondPassMatchThePlainStep) {
     if (w.model.body[w.model.bond_i[b]] != 2) continue;  // the lower lattices' runs affine and uniform
     if (b % 3 == 0) {
       w.model.law[b] = Law::inverse;
-      w.model.stiffness[b] *= w.model.eps[b] * w.model.eps[b];
+      const double eps = InverseLaw::eps(w.model.law_args(b));
+      w.model.stiffness[b] *= eps * eps;
     }
     if (b % 4 == 0) w.model.damping_model[b] = DampingModel::isotropic;
     if (b % 23 == 7) w.state.alive[b] = 0;

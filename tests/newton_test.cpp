@@ -457,22 +457,23 @@ INSTANTIATE_TEST_SUITE_P(Newton, NewtonOrder,
 TEST(MeanTension, IsTheExactEnergyQuotientForEveryLaw) {
   const double L = 1.0;
   for (Law law : {Law::linear, Law::inverse}) {
-    const double strength = law == Law::linear ? 100.0 : 5.0, eps = 0.05;
+    const double strength = law == Law::linear ? 100.0 : 5.0;
+    const LawArgs a{.strength = strength, .shape = {0.05, 0}};
     for (double r0 : {0.9, 0.98, 1.0, 1.03, 1.2}) {
       for (double dr : {0.3, -0.1, 1e-3, 1e-6, -1e-9, 1e-12}) {
         const double r1 = r0 + dr;
-        const MeanTension mt = mean_tension(law, r0, r1, L, strength, eps);
-        const double dU = evaluate_law(law, r1, L, strength, eps).U - evaluate_law(law, r0, L, strength, eps).U;
-        const double U = std::abs(evaluate_law(law, r0, L, strength, eps).U) + std::abs(mt.T * dr);
+        const MeanTension mt = mean_tension(law, r0, r1, L, a);
+        const double dU = evaluate_law(law, r1, L, a).U - evaluate_law(law, r0, L, a).U;
+        const double U = std::abs(evaluate_law(law, r0, L, a).U) + std::abs(mt.T * dr);
         EXPECT_NEAR(mt.T * (r1 - r0), dU, 1e-14 * std::max(U, 1e-300) + 1e-15 * strength * std::abs(dr))
             << to_string(law) << " r0 " << r0 << " dr " << dr;
         if (std::abs(dr) <= 1e-6) {
-          EXPECT_NEAR(mt.T, evaluate_law(law, 0.5 * (r0 + r1), L, strength, eps).T, 1e-6 * strength);
+          EXPECT_NEAR(mt.T, evaluate_law(law, 0.5 * (r0 + r1), L, a).T, 1e-6 * strength);
         }
         const double step = 1e-6;
-        const double fd = (mean_tension(law, r0, r1 + step, L, strength, eps).T -
-                           mean_tension(law, r0, r1 - step, L, strength, eps).T) / (2 * step);
-        EXPECT_NEAR(mt.dT1, fd, 1e-5 * std::abs(evaluate_law(law, r0, L, strength, eps).dT) + 1e-6 * strength)
+        const double fd = (mean_tension(law, r0, r1 + step, L, a).T -
+                           mean_tension(law, r0, r1 - step, L, a).T) / (2 * step);
+        EXPECT_NEAR(mt.dT1, fd, 1e-5 * std::abs(evaluate_law(law, r0, L, a).dT) + 1e-6 * strength)
             << to_string(law) << " r0 " << r0 << " dr " << dr;
       }
     }
@@ -503,8 +504,10 @@ class NewtonJacobian : public testing::TestWithParam<JacobianCase> {};
 TEST_P(NewtonJacobian, MatchesFiniteDifferences) {
   const JacobianCase c = GetParam();
   World w;
+  const double inverse_eps = 0.2;
   const BondSpec spec{.law = c.law, .stiffness = c.law == Law::linear ? 50.0 : 2.0, .damping = c.damping,
-                      .damping_model = c.damping_model, .rest_length = c.exact ? 1.3 : 0.9, .eps = 0.2};
+                      .damping_model = c.damping_model, .rest_length = c.exact ? 1.3 : 0.9,
+                      .shape = c.law == Law::inverse ? LawShape{inverse_eps, 0} : LawShape{}};
   if (c.collinear) {
     for (int i = 0; i < 4; ++i) w.add_quanta(Vec3(1.0 * i, 0, 0), Vec3(0.3 * std::sin(2.0 * i), 0, 0), 1.0 + 0.5 * i);
     for (Index i = 0; i + 1 < 4; ++i) w.add_bond(i, i + 1, spec);
@@ -551,7 +554,7 @@ TEST_P(NewtonJacobian, MatchesFiniteDifferences) {
       ASSERT_GT(r, 0.9);  // every bond stretched: no clamp
     }
     compressed += r < spec.rest_length;
-    softening += std::abs(r - spec.rest_length) > spec.eps;
+    softening += std::abs(r - spec.rest_length) > inverse_eps;
   }
   if (c.exact) {
     ASSERT_EQ(sys.exact.size(), w.num_bonds());

@@ -30,7 +30,7 @@ State distinctive_state() {
   s.rest = {1.5, 2.5, 3.5};
   s.alive = {1, 0, 1};
   s.bond_time = {0, 0.25, 0.0625};
-  s.formed = {{0, 1, Law::inverse, DampingModel::isotropic, 10, 0.5, 0.01, 2.25}};
+  s.formed = {{0, 1, Law::inverse, DampingModel::isotropic, 10, 0.5, 2.25, {0.01, 0}}};
   s.time = 0.125;
   s.step = 1234567890123ull;
   s.rng.state = 0xDEADBEEFCAFEF00Dull;

@@ -55,7 +55,8 @@ inline void mix_bonds(World& w) {
   for (std::size_t b = 0; b < nb; ++b) {
     if (b % 3 == 0 && 2 * b >= nb) {
       w.model.law[b] = Law::inverse;
-      w.model.stiffness[b] *= w.model.eps[b] * w.model.eps[b];
+      const double eps = InverseLaw::eps(w.model.law_args(b));
+      w.model.stiffness[b] *= eps * eps;
     }
     if (4 * b < nb || (2 * b >= nb && b % 4 == 0)) w.model.damping_model[b] = DampingModel::isotropic;
   }

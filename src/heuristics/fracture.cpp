@@ -69,8 +69,15 @@ class BreakHeuristic final : public Heuristic {
     }
     parallel_for(nb, bond_pass_threads(m.num_quanta(), ctx.threads), [&](std::size_t b) {
       why_[b] = kNone;
-      if (!w.state.alive[b] || !applies(rule_.quanta, m, b)) return;
+      if (!w.state.alive[b]) return;
+      const bool can_fail = law_breaks(m.law[b]);
+      if (!can_fail && !applies(rule_.quanta, m, b)) return;
       const Stretch st = stretch(m, w.state, p, b);
+      if (can_fail && st.r - w.state.rest[b] >= m.failure_stretch_at(b, w.state.rest[b])) {
+        why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::failure);
+        return;
+      }
+      if (!applies(rule_.quanta, m, b)) return;
       if (st.strain > rule_.max_strain)
         why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::strain);
       else if (-st.strain > rule_.max_compression)
@@ -88,7 +95,8 @@ class BreakHeuristic final : public Heuristic {
     });
     for (std::size_t b = 0; b < nb; ++b) {
       if (why_[b] == kNone) continue;
-      if (rule_.probability < 1 && !(w.state.rng.uniform() < rule_.probability)) continue;
+      const bool failed = why_[b] == static_cast<std::uint8_t>(BondEvent::Reason::failure);
+      if (!failed && rule_.probability < 1 && !(w.state.rng.uniform() < rule_.probability)) continue;
       break_now(w, ctx, b, stretch(m, w.state, p, b), static_cast<BondEvent::Reason>(why_[b]));
     }
   }

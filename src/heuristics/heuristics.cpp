@@ -21,6 +21,7 @@ std::string_view to_string(BondEvent::Reason r) {
     case BondEvent::Reason::stress: return "stress";
     case BondEvent::Reason::von_mises: return "von_mises";
     case BondEvent::Reason::capture: return "capture";
+    case BondEvent::Reason::failure: return "failure";
   }
   return "?";
 }

@@ -44,7 +44,7 @@ struct BondLinearisation {
   Vec3 u = Vec3::Zero(), f = Vec3::Zero();
   double T = 0, ka = 0, kb = 0, ca = 0, cb = 0;
 };
-inline BondLinearisation linearise_bond(const Model& model, const State& state, Index b) {
+[[gnu::always_inline]] inline BondLinearisation linearise_bond(const Model& model, const State& state, Index b) {
   BondLinearisation l;
   const Index i = model.bond_i[b], j = model.bond_j[b];
   const Vec3 d = state.x[j] - state.x[i];

@@ -18,8 +18,7 @@ void bond_forces(const Model& model, const State& state, const std::vector<Vec3>
       return;
     }
     const Index i = model.bond_i[b], j = model.bond_j[b];
-    force[b] = bond_force_on_i(model.law[b], model.damping_model[b], x[j] - x[i], v[j] - v[i], state.rest[b],
-                               model.stiffness[b], model.damping[b], model.eps[b]);
+    force[b] = model.bond_force_on_i(b, x[j] - x[i], v[j] - v[i], state.rest[b]);
   });
 }
 
@@ -96,9 +95,8 @@ void run_forces(const Model& model, const State& state, const BondRun& run, cons
   auto at = [](double* const (&a)[3], Index q) { return Vec3(a[0][q], a[1][q], a[2][q]); };
   for (Index k = 0; k < run.count; ++k) {
     const Index b = run.bond(k), i = model.bond_i[b], j = model.bond_j[b];
-    const Vec3 fb = bond_force_on_i(model.law[b], model.damping_model[b], at(rows.x, j) - at(rows.x, i),
-                                    at(rows.v, j) - at(rows.v, i), state.rest[b], model.stiffness[b],
-                                    model.damping[b], model.eps[b]);
+    const Vec3 fb = model.bond_force_on_i(b, at(rows.x, j) - at(rows.x, i), at(rows.v, j) - at(rows.v, i),
+                                          state.rest[b]);
     for (int c = 0; c < 3; ++c) {
       if (run.owns(i)) rows.f[c][i] += fb[c];
       if (run.owns(j)) rows.f[c][j] -= fb[c];

@@ -70,7 +70,7 @@ BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme sch
     const double r0 = d0.norm(), r1 = d1.norm(), rm = dm.norm(), rbar = 0.5 * (r0 + r1);
     if (!(rm > 0 && rbar > 0)) return s;  // a bond through zero length has no direction
     s.u = dm / rm;
-    const MeanTension mt = mean_tension(model.law[b], r0, r1, L, model.stiffness[b], model.eps[b]);
+    const MeanTension mt = model.mean_tension_at(b, r0, r1, L);
     const double phi = mt.T / rbar;
     const Damper dmp = damper(model, b, s.u, rm, w);
     s.f = phi * dm + dmp.f;

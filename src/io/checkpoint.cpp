@@ -42,7 +42,8 @@ std::string serialize_state(const State& s) {
     w.pod(f.j);
     w.pod(f.law);
     w.pod(f.damping_model);
-    for (double d : {f.stiffness, f.damping, f.eps, f.rest0}) w.pod(d);
+    for (double d : {f.stiffness, f.damping, f.rest0}) w.pod(d);
+    for (double d : f.shape) w.pod(d);
   }
   w.pod(s.time);
   w.pod(s.step);
@@ -77,10 +78,19 @@ State deserialize(std::string_view bytes, std::uint32_t version) {
     f.j = r.pod<Index>();
     f.law = r.pod<Law>();
     f.damping_model = r.pod<DampingModel>();
-    for (double* d : {&f.stiffness, &f.damping, &f.eps, &f.rest0}) *d = r.pod<double>();
-    if (f.i == f.j || f.i >= s.x.size() || f.j >= s.x.size() || static_cast<int>(f.law) > 1 ||
+    if (version == 4) {  // stiffness, damping, eps, rest0: eps is the inverse law's one shape parameter
+      double eps = 0;
+      for (double* d : {&f.stiffness, &f.damping, &eps, &f.rest0}) *d = r.pod<double>();
+      f.shape = f.law == Law::inverse ? LawShape{eps, 0} : LawShape{};
+    } else {
+      for (double* d : {&f.stiffness, &f.damping, &f.rest0}) *d = r.pod<double>();
+      for (double& d : f.shape) d = r.pod<double>();
+    }
+    if (f.i == f.j || f.i >= s.x.size() || f.j >= s.x.size() || !is_law_id(static_cast<std::uint8_t>(f.law)) ||
         static_cast<int>(f.damping_model) > 1)
       throw CheckpointError("state: a formed bond is invalid");
+    if (const std::string why = invalid_law_shape(f.law, f.shape); !why.empty())
+      throw CheckpointError("state: a formed bond's law is invalid: " + why);
   }
   s.time = r.pod<double>();
   s.step = r.pod<std::uint64_t>();

@@ -41,9 +41,7 @@ ProbeValue measure_probe(const Model& model, const State& state, const Probe& pr
     if (!state.alive[b]) continue;
     const Index i = model.bond_i[b], j = model.bond_j[b];
     if (in[i] == in[j]) continue;
-    const Vec3 fi = bond_force_on_i(model.law[b], model.damping_model[b], state.x[j] - state.x[i],
-                                    state.v[j] - state.v[i], state.rest[b], model.stiffness[b], model.damping[b],
-                                    model.eps[b]);
+    const Vec3 fi = model.bond_force_on_i(b, state.x[j] - state.x[i], state.v[j] - state.v[i], state.rest[b]);
     const Index q = in[i] ? i : j;  // the probe's end of the bond
     const Vec3 f = in[i] ? fi : Vec3(-fi);
     v.force -= f;

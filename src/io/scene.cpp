@@ -4,6 +4,7 @@
 #include <cmath>
 #include <initializer_list>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <unordered_map>
 #include <unordered_set>
@@ -212,6 +213,11 @@ class Builder {
     if (top.has("anchors")) anchors(array(top["anchors"], "anchors"), w);
     if (top.has("loads")) loads(array(top["loads"], "loads"), w);
     if (top.has("heuristics")) s.heuristics = heuristics(array(top["heuristics"], "heuristics"), w);
+    // A law that breaks its bonds at a failure stretch (cohesive) does so through the break
+    // heuristic: a scene with such bonds and no break rule gets BreakRule{}, which applies only that.
+    if (can_fail(w, s.heuristics) &&
+        std::none_of(s.heuristics.begin(), s.heuristics.end(), [](const HeuristicSpec& h) { return std::holds_alternative<BreakRule>(h); }))
+      s.heuristics.push_back(BreakRule{});
     w.state.obstacle_impulse.assign(obstacles_, ObstacleImpulse{});
     s.output = output(top.has("output") ? top["output"] : json::object(), s.steps, w);
     renumber_for_locality(s);
@@ -320,39 +326,83 @@ class Builder {
     return l;
   }
 
+  // Each material's law and its keys come from the law registry (laws/registry.hpp): the law's
+  // strength and shape parameters, with their defaults and checks.
   void materials(const json& j, json& res) {
     if (!j.is_object()) bad("materials", "expected an object (material name -> parameters), got " + type_name(j));
     for (const auto& [name, mj] : j.items()) {
-      Obj o(mj, "materials." + name,
-            {"law", "stiffness", "youngs_modulus", "density", "damping", "damping_model", "eps"});
+      const std::string path = "materials." + name;
+      if (!mj.is_object()) bad(path, "expected an object, got " + type_name(mj));
       Material m;
       BondSpec& b = m.bond;
-      b.law = o.has("law") ? choice<Law>(o["law"], o.at("law"), {{"linear", Law::linear}, {"inverse", Law::inverse}})
-                           : Law::linear;
-      if (o.has("stiffness") == o.has("youngs_modulus"))
-        bad("materials." + name, o.has("stiffness") ? "give either 'stiffness' or 'youngs_modulus', not both"
-                                                    : "one of 'stiffness' or 'youngs_modulus' is required");
-      if (o.has("stiffness")) b.stiffness = positive(o["stiffness"], o.at("stiffness"));
-      if (o.has("youngs_modulus")) {
-        if (b.law != Law::linear) bad(o.at("youngs_modulus"), "calibrates linear bonds only (law is " + std::string(to_string(b.law)) + ")");
-        m.youngs_modulus = positive(o["youngs_modulus"], o.at("youngs_modulus"));
+      if (mj.contains("law")) {
+        std::vector<std::string> names;
+        for (const LawInfo& l : all_laws()) names.emplace_back(l.name);
+        const std::string s = string(mj["law"], path + ".law");
+        const std::optional<Law> law = parse_law(s);
+        if (!law) bad(path + ".law", "unknown value '" + s + "' (accepted: " + join(names) + ")");
+        b.law = *law;
       }
+      const LawInfo& info = law_info(b.law);
+      const std::string law_name(info.name);
+      std::vector<std::string> keys = {"law", "density", "damping", "damping_model", std::string(info.strength.key)};
+      if (info.calibrated_by_modulus) keys.emplace_back("youngs_modulus");
+      for (const LawParam& p : info.shape) keys.emplace_back(p.key);
+      // A key of another law: say whose it is.
+      for (const auto& [key, v] : mj.items()) {
+        if (std::find(keys.begin(), keys.end(), key) != keys.end()) continue;
+        std::vector<std::string> owners;
+        for (const LawInfo& l : all_laws()) {
+          bool has = l.strength.key == key || (key == "youngs_modulus" && l.calibrated_by_modulus);
+          for (const LawParam& p : l.shape) has |= p.key == key;
+          if (has) owners.emplace_back(l.name);
+        }
+        if (!owners.empty())
+          bad(path + "." + key, "not a parameter of the " + law_name + " law (its keys: " + join(keys) +
+                                    "; '" + key + "' belongs to: " + join(owners) + ")");
+      }
+      std::vector<const char*> accepted;
+      for (const std::string& k : keys) accepted.push_back(k.c_str());
+      Obj o(mj, path, accepted);
+      const std::string strength(info.strength.key);
+      if (info.calibrated_by_modulus)
+        o.one_of(strength.c_str(), "youngs_modulus");
+      else
+        o.required(strength.c_str());
+      if (o.has(strength.c_str())) b.stiffness = positive(o[strength.c_str()], o.at(strength));
+      if (o.has("youngs_modulus")) m.youngs_modulus = positive(o["youngs_modulus"], o.at("youngs_modulus"));
+      for (std::size_t k = 0; k < info.shape.size(); ++k) {
+        const std::string key(info.shape[k].key);
+        if (o.has(key.c_str()))
+          b.shape[k] = positive(o[key.c_str()], o.at(key));
+        else if (info.shape[k].fallback.empty())
+          bad(o.at(key), "required key missing (the " + law_name + " law's " + std::string(info.shape[k].doc) + ")");
+      }
+      if (const std::string_view why = info.invalid(b.shape); !why.empty()) bad(path, std::string(why));
       if (o.has("density")) m.density = positive(o["density"], o.at("density"));
       b.damping = o.has("damping") ? non_negative(o["damping"], o.at("damping")) : 0.0;
       b.damping_model = o.has("damping_model")
                             ? choice<DampingModel>(o["damping_model"], o.at("damping_model"),
                                                    {{"axial", DampingModel::axial}, {"isotropic", DampingModel::isotropic}})
                             : DampingModel::axial;
-      if (o.has("eps")) {
-        if (b.law != Law::inverse) bad(o.at("eps"), "only the inverse law has a regularisation length");
-        b.eps = positive(o["eps"], o.at("eps"));
-      }
       materials_[name] = m;
       json& r = res[name];
-      r["law"] = to_string(b.law);
+      r["law"] = law_name;
+      for (std::size_t k = 0; k < info.shape.size(); ++k)
+        if (b.shape[k] != 0) r[std::string(info.shape[k].key)] = b.shape[k];
       r["damping"] = b.damping;
       r["damping_model"] = to_string(b.damping_model);
     }
+  }
+
+  // Whether a bond of the world, or one a formation rule makes, follows a law with a failure stretch.
+  static bool can_fail(const World& w, const std::vector<HeuristicSpec>& heuristics) {
+    for (std::size_t b = 0; b < w.num_bonds(); ++b)
+      if (std::isfinite(w.model.failure_stretch_at(b, w.state.rest[b]))) return true;
+    for (const HeuristicSpec& h : heuristics)
+      if (const auto* f = std::get_if<FormRule>(&h))
+        if (std::isfinite(failure_stretch(f->bond.law, 1.0, {f->bond.stiffness, 1.0, f->bond.shape}))) return true;
+    return false;
   }
 
   // A material for a single bond: it must say its stiffness (a modulus needs a lattice).
@@ -1259,7 +1309,7 @@ double explicit_step_hint(const World& w) {
   std::vector<double> k_sum(m.num_quanta(), 0.0);
   for (std::size_t b = 0; b < m.num_bonds(); ++b) {
     if (!w.state.alive[b]) continue;
-    const double k = m.law[b] == Law::linear ? m.stiffness[b] : m.stiffness[b] / (m.eps[b] * m.eps[b]);
+    const double k = rest_stiffness(m.law[b], m.law_args(b));
     k_sum[m.bond_i[b]] += k;
     k_sum[m.bond_j[b]] += k;
   }

@@ -36,7 +36,7 @@ StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const P
     const double r1 = d1.norm();
     Vec3 fi;
     if (hints.discrete_gradient) {
-      const MeanTension mt = mean_tension(m.law[b], r0, r1, s.rest[b], m.stiffness[b], m.eps[b]);
+      const MeanTension mt = m.mean_tension_at(b, r0, r1, s.rest[b]);
       fi = (mt.T / (0.5 * (r0 + r1))) * (0.5 * (d0 + d1));
     } else {
       const double T0 = m.law_at(b, r0, s.rest[b]).T;

@@ -238,7 +238,7 @@ void renumber(World& world, const Renumbering& r) {
   permute(m.damping_model, r.bonds);
   permute(m.stiffness, r.bonds);
   permute(m.damping, r.bonds);
-  permute(m.eps, r.bonds);
+  permute(m.law_shape, r.bonds);
   permute(m.rest0, r.bonds);
   permute(m.bond_id, r.bonds);
   permute(s.rest, r.bonds);

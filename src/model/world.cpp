@@ -6,7 +6,6 @@
 
 namespace qbond {
 
-std::string_view to_string(Law law) { return law == Law::linear ? "linear" : "inverse"; }
 std::string_view to_string(DampingModel m) {
   return m == DampingModel::axial ? "axial" : "isotropic";
 }
@@ -76,6 +75,8 @@ Index World::add_bond(Index i, Index j, const BondSpec& s) {
   const std::size_t n = num_quanta();
   if (i >= n || j >= n) throw std::invalid_argument("bond endpoint out of range");
   if (i == j) throw std::invalid_argument("a bond must join two different quanta");
+  if (!is_law_id(static_cast<std::uint8_t>(s.law))) throw std::invalid_argument("unknown bond law");
+  if (const std::string why = invalid_law_shape(s.law, s.shape); !why.empty()) throw std::invalid_argument(why);
   const double L = s.rest_length >= 0 ? s.rest_length : (state.x[j] - state.x[i]).norm();
   model.bond_i.push_back(i);
   model.bond_j.push_back(j);
@@ -84,8 +85,8 @@ Index World::add_bond(Index i, Index j, const BondSpec& s) {
   model.damping_model.push_back(s.damping_model);
   model.stiffness.push_back(s.stiffness);
   model.damping.push_back(s.damping);
-  model.eps.push_back(s.eps > 0 ? s.eps : kDefaultInverseEpsFraction * (L > 0 ? L : 1.0));
   model.rest0.push_back(L);
+  model.law_shape.push_back(model.intern_shape(s.shape));
   state.rest.push_back(L);
   state.alive.push_back(1);
   state.bond_time.push_back(0.0);
@@ -102,7 +103,8 @@ void put_formed(Model& m, std::size_t b, const FormedBond& f) {
     m.bond_id.push_back(static_cast<Index>(b));
     m.law.emplace_back();
     m.damping_model.emplace_back();
-    for (auto* v : {&m.stiffness, &m.damping, &m.eps, &m.rest0}) v->emplace_back();
+    for (auto* v : {&m.stiffness, &m.damping, &m.rest0}) v->emplace_back();
+    m.law_shape.emplace_back();
   }
   m.bond_i[b] = f.i;
   m.bond_j[b] = f.j;
@@ -110,8 +112,8 @@ void put_formed(Model& m, std::size_t b, const FormedBond& f) {
   m.damping_model[b] = f.damping_model;
   m.stiffness[b] = f.stiffness;
   m.damping[b] = f.damping;
-  m.eps[b] = f.eps;
   m.rest0[b] = f.rest0;
+  m.law_shape[b] = m.intern_shape(f.shape);
 }
 
 }  // namespace
@@ -120,8 +122,7 @@ Index World::form_bond(Index i, Index j, const BondSpec& s, double L, Index slot
   const std::size_t nb = num_bonds(), first = nb - state.formed.size();
   assert(i < num_quanta() && j < num_quanta() && i != j);
   assert(slot == nb || (slot >= first && slot < nb && !state.alive[slot]));
-  const FormedBond f{i, j, s.law, s.damping_model, s.stiffness, s.damping,
-                     s.eps > 0 ? s.eps : kDefaultInverseEpsFraction * (L > 0 ? L : 1.0), L};
+  const FormedBond f{i, j, s.law, s.damping_model, s.stiffness, s.damping, L, s.shape};
   put_formed(model, slot, f);
   if (slot == nb) {
     state.formed.push_back(f);
@@ -143,8 +144,17 @@ void World::sync_formed_bonds() {
   for (auto* v : {&model.bond_i, &model.bond_j, &model.bond_id}) v->resize(first);
   model.law.resize(first);
   model.damping_model.resize(first);
-  for (auto* v : {&model.stiffness, &model.damping, &model.eps, &model.rest0}) v->resize(first);
+  for (auto* v : {&model.stiffness, &model.damping, &model.rest0}) v->resize(first);
+  model.law_shape.resize(first);
   for (std::size_t k = 0; k < state.formed.size(); ++k) put_formed(model, first + k, state.formed[k]);
+}
+
+std::uint32_t Model::intern_shape(const LawShape& shape) {
+  // A scene has a handful of materials: a linear search is enough.
+  for (std::size_t k = 0; k < shapes.size(); ++k)
+    if (shapes[k] == shape) return static_cast<std::uint32_t>(k);
+  shapes.push_back(shape);
+  return static_cast<std::uint32_t>(shapes.size() - 1);
 }
 
 void World::prescribe(std::vector<Index> quanta, Motion motion) {

@@ -16,6 +16,9 @@ namespace qbond {
 /// its von Mises stress), with `probability` per step (the paper's
 /// random breaking under extreme stress; drawn from State::rng in bond order, so the cracks
 /// depend on the seed only). The bond's stored energy at that length is charged as dissipated.
+/// Whatever the thresholds, `probability` and selection, a bond whose law declares a failure
+/// stretch (the cohesive law's s_f) breaks once r − L reaches it (reason `failure`, no draw):
+/// BreakRule{} applies only that.
 struct BreakRule {
   double max_strain = std::numeric_limits<double>::infinity();
   double max_compression = std::numeric_limits<double>::infinity();

@@ -14,8 +14,9 @@ namespace qbond {
 /// A change of topology, recorded for events.csv.
 struct BondEvent {
   enum class Kind : std::uint8_t { broken, formed };
-  /// Why: which threshold a broken bond passed, or `capture` for a formed one.
-  enum class Reason : std::uint8_t { strain, compression, tension, ductility, stress, von_mises, capture };
+  /// Why: which threshold a broken bond passed (`failure`: its law's failure stretch), or
+  /// `capture` for a formed one.
+  enum class Reason : std::uint8_t { strain, compression, tension, ductility, stress, von_mises, capture, failure };
   Kind kind = Kind::broken;
   Reason reason = Reason::strain;
   std::uint64_t step = 0;  ///< index of the step during which it happened

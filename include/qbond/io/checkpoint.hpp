@@ -23,8 +23,9 @@ static_assert(std::endian::native == std::endian::little, "checkpoints are writt
 
 // 2: bond times and formed bonds; 3: obstacle impulses; 4: the state in the world's locality
 // order (ordering.hpp), which a version-3 file of the same scene does not follow; 5: the
-// integrator's carry-over as a kind tag and its own fields (save_carry). Version 4 files are
-// still read, their carry-over converted (carry_from_version4).
+// integrator's carry-over as a kind tag and its own fields (save_carry), and formed bonds save
+// their law's shape parameters (laws/law.hpp's LawShape) where they saved eps. Version 4 files
+// are still read, their carry-over and formed bonds converted.
 inline constexpr std::uint32_t kCheckpointVersion = 5;
 
 /// A checkpoint that cannot be read: not one, another version, truncated or corrupted.

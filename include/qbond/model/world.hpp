@@ -1,6 +1,7 @@
 #pragma once
 /// The world: quanta and bonds as structure of arrays, split into what a step only
 /// reads (`Model`) and what it changes (`State`, exactly what a checkpoint saves).
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -59,11 +60,16 @@ struct Model {
   /// (State::topology_version), so a change to an existing bond's must bump it.
   std::vector<Law> law;
   std::vector<DampingModel> damping_model;  ///< (nb) see `law`
-  std::vector<double> stiffness;  ///< k [N/m] for linear, F [N] for inverse (nb)
+  /// (nb) the strength of the bond's law, its per-bond parameter (LawInfo::strength): k [N/m]
+  /// for linear, F [N] for inverse, D0 [J] for morse, K [N/m] for fene, k [N/m] for cohesive.
+  std::vector<double> stiffness;
   std::vector<double> damping;    ///< D [N·s/m] (nb)
-  std::vector<double> eps;        ///< inverse-law regularisation length [m] (nb)
   std::vector<double> rest0;      ///< rest length the bond was made with [m] (nb); plastic strain
                                   ///< is measured from it (State::rest is the current one)
+  /// (nb) the bond's row of `shapes`: its law's shape parameters, shared by the bonds of one
+  /// material as LAMMPS's bond types share their coefficients.
+  std::vector<std::uint32_t> law_shape;
+  std::vector<LawShape> shapes;   ///< the table of shape parameters (intern_shape adds rows)
   // environment
   Vec3 gravity = Vec3::Zero();    ///< [m/s²]
   std::vector<Load> loads;
@@ -72,8 +78,29 @@ struct Model {
   std::size_t num_quanta() const { return mass.size(); }
   std::size_t num_bonds() const { return bond_i.size(); }
   bool is_kinematic(Index i) const { return inv_mass[i] == 0.0; }
+  /// What bond b's law reads besides the lengths.
+  [[gnu::always_inline]] LawArgs law_args(std::size_t b) const { return {stiffness[b], rest0[b], shapes[law_shape[b]]}; }
   /// Bond b's law at length r for rest length L.
-  LawValue law_at(std::size_t b, double r, double L) const { return evaluate_law(law[b], r, L, stiffness[b], eps[b]); }
+  [[gnu::always_inline]] LawValue law_at(std::size_t b, double r, double L) const {
+    if (law[b] == Law::linear) return LinearLaw::eval(r, L, {.strength = stiffness[b]});
+    return evaluate_law(law[b], r, L, law_args(b));
+  }
+  /// Bond b's mean tension over a step from length r0 to r1 (MeanTension).
+  MeanTension mean_tension_at(std::size_t b, double r0, double r1, double L) const {
+    if (law[b] == Law::linear) return LinearLaw::mean(r0, r1, L, {.strength = stiffness[b]});
+    return mean_tension(law[b], r0, r1, L, law_args(b));
+  }
+  /// Bond b's force on its first quanta (laws.hpp's bond_force_on_i): d = x_j − x_i, w = v_j − v_i.
+  [[gnu::always_inline]] Vec3 bond_force_on_i(std::size_t b, const Vec3& d, const Vec3& w, double L) const {
+    const LawArgs a = law[b] == Law::linear ? LawArgs{.strength = stiffness[b]} : law_args(b);
+    return qbond::bond_force_on_i(law[b], damping_model[b], d, w, L, damping[b], a);
+  }
+  /// Stretch r − L at which bond b's law breaks it (+∞: never).
+  double failure_stretch_at(std::size_t b, double L) const {
+    return law_breaks(law[b]) ? failure_stretch(law[b], L, law_args(b)) : std::numeric_limits<double>::infinity();
+  }
+  /// The row of `shapes` holding `shape`, added when there is none yet.
+  std::uint32_t intern_shape(const LawShape& shape);
 };
 
 /// Running energy accounts (docs/integrators.md); with the current energies they close the budget
@@ -108,7 +135,8 @@ struct FormedBond {
   Index i = 0, j = 0;
   Law law = Law::linear;
   DampingModel damping_model = DampingModel::axial;
-  double stiffness = 0, damping = 0, eps = 0, rest0 = 0;
+  double stiffness = 0, damping = 0, rest0 = 0;
+  LawShape shape{};  ///< its law's shape parameters (BondSpec::shape)
 };
 
 /// Everything a step changes; a checkpoint of this continues a run bit for bit.
@@ -150,11 +178,14 @@ void build_adjacency(const Model& model, const State& state, Adjacency& adj);
 /// Parameters of a new bond.
 struct BondSpec {
   Law law = Law::linear;
-  double stiffness = 0;  ///< k [N/m] (linear) or F [N] (inverse)
+  double stiffness = 0;  ///< the law's strength (Model::stiffness): k [N/m] (linear), F [N] (inverse), …
   double damping = 0;    ///< D [N·s/m]
   DampingModel damping_model = DampingModel::axial;
   double rest_length = -1;  ///< [m]; negative: the current distance
-  double eps = -1;          ///< [m]; negative: kDefaultInverseEpsFraction × rest length
+  /// The law's shape parameters in the order its header declares them (inverse: eps [m], 0 for
+  /// kDefaultInverseEpsFraction × rest length; morse: alpha; fene: R0; cohesive: peak and
+  /// failure strain). add_bond checks them (invalid_law_shape).
+  LawShape shape{};
 };
 
 /// A model and its state, with helpers that keep the arrays consistent.
