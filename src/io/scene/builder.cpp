@@ -1,0 +1,172 @@
+// Builder: the scene's top level and its scene-wide sections (integrator, adaptive, limits).
+#include "io/scene/builder.hpp"
+
+#include <cmath>
+
+#include "qbond/model/ordering.hpp"
+
+namespace qbond::scene_detail {
+
+std::uint64_t pair_key(Index a, Index b) {
+  return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+}
+
+Builder::Builder(const json& root, std::string default_name, SceneFiles files)
+    : root_(root), default_name_(std::move(default_name)), files_(std::move(files)) {}
+
+void Builder::renumber_for_locality(Scene& s) {
+  const Renumbering r = locality_order(s.world);
+  renumber(s.world, r);
+  for (ProbeSpec& p : s.output.probes) {
+    renumber_quanta(p.quanta, r);
+    std::sort(p.quanta.begin(), p.quanta.end());
+  }
+  for (HeuristicSpec& h : s.heuristics)
+    std::visit([&](auto& rule) {
+      if constexpr (requires { rule.quanta; })  // a per-quanta mask, empty when the rule has no select
+        if (!rule.quanta.empty()) permute(rule.quanta, r.quanta);
+    }, h);
+}
+
+Scene Builder::build() {
+  Scene s;
+  json res = root_;
+  Obj top(root_, "",
+          {"name", "description", "seed", "timestep", "steps", "duration", "gravity", "integrator", "adaptive", "limits",
+           "materials", "bodies", "bonds", "anchors", "loads", "heuristics", "output"});
+  s.name = top.has("name") ? string(top["name"], "name") : default_name_;
+  s.description = top.has("description") ? string(top["description"], "description") : "";
+  s.seed = top.has("seed") ? integer(top["seed"], "seed", 0) : 1;
+  s.timestep = positive(top.required("timestep"), "timestep");
+  if (top.one_of("steps", "duration")) {
+    s.steps = integer(top["steps"], "steps", 0);
+  } else {
+    const double d = positive(top["duration"], "duration");
+    s.steps = static_cast<std::uint64_t>(std::ceil(d / s.timestep - 1e-9));
+  }
+  World& w = s.world;
+  w.model.gravity = top.has("gravity") ? vec3(top["gravity"], "gravity") : Vec3::Zero();
+  w.state.rng = Rng{s.seed};
+  s.integrator = integrator(top.has("integrator") ? top["integrator"] : json::object());
+  s.limits = limits(top.has("limits") ? top["limits"] : json::object());
+  if (top.has("adaptive")) s.adaptive = adaptive(top["adaptive"], s.timestep, static_cast<double>(s.steps) * s.timestep);
+  if (top.has("materials")) materials(top["materials"], res["materials"]);
+  bodies(top.required("bodies"), res["bodies"], w);
+  if (top.has("bonds")) bonds(array(top["bonds"], "bonds"), w);
+  check_overlaps(w);
+  if (top.has("anchors")) anchors(array(top["anchors"], "anchors"), w);
+  if (top.has("loads")) loads(array(top["loads"], "loads"), w);
+  if (top.has("heuristics")) s.heuristics = heuristics(array(top["heuristics"], "heuristics"), w);
+  // A law that breaks its bonds at a failure stretch (cohesive) does so through the break
+  // heuristic: a scene with such bonds and no break rule gets BreakRule{}, which applies only that.
+  if (can_fail(w, s.heuristics) &&
+      std::none_of(s.heuristics.begin(), s.heuristics.end(), [](const HeuristicSpec& h) { return std::holds_alternative<BreakRule>(h); }))
+    s.heuristics.push_back(BreakRule{});
+  w.state.obstacle_impulse.assign(obstacles_, ObstacleImpulse{});
+  s.output = output(top.has("output") ? top["output"] : json::object(), s.steps, w);
+  renumber_for_locality(s);
+
+  res["name"] = s.name;
+  res["description"] = s.description;
+  res["seed"] = s.seed;
+  res["steps"] = s.steps;
+  res.erase("duration");
+  res["gravity"] = {w.model.gravity.x(), w.model.gravity.y(), w.model.gravity.z()};
+  const IntegratorConfig& c = s.integrator;
+  res["integrator"] = {{"type", to_string(c.type)},          {"neighbours", to_string(c.neighbours)},
+                       {"solver", to_string(c.solver)},      {"iterations", c.iterations},
+                       {"max_iterations", c.max_iterations}, {"tolerance", c.tolerance},
+                       {"chebyshev_rho", c.chebyshev_rho},   {"warm_start", to_string(c.warm_start)},
+                       {"restore_momentum", c.restore_momentum}, {"threads", c.threads},
+                       {"newton_iterations", c.newton_iterations}, {"newton_polish", c.newton_polish},
+                       {"restore_energy", c.restore_energy}};
+  res["limits"] = {{"max_speed", s.limits.max_speed}, {"energy_growth", s.limits.energy_growth}};
+  if (s.adaptive.enabled)
+    res["adaptive"] = {{"error", s.adaptive.error},       {"energy", s.adaptive.energy},
+                       {"min_step", s.adaptive.min_step}, {"max_step", s.adaptive.max_step},
+                       {"safety", s.adaptive.safety}};
+  json& out = res["output"];
+  if (!out.is_object()) out = json::object();
+  out["dir"] = s.output.dir;
+  out["every"] = s.output.every;
+  out["vtk"] = s.output.vtk;
+  out["checkpoint_every"] = s.output.checkpoint_every;
+  s.resolved = std::move(res);
+  return s;
+}
+
+IntegratorConfig Builder::integrator(const json& j) {
+  // The keys are the integrator table's options (integrators.hpp); an option the chosen
+  // integrator does not read is accepted and ignored, as resolved scenes list every option.
+  std::vector<std::string> keys = {"type"};
+  for (const IntegratorOptionInfo& opt : integrator_options()) keys.emplace_back(opt.key);
+  std::vector<const char*> key_names;
+  for (const std::string& k : keys) key_names.push_back(k.c_str());
+  Obj o(j, "integrator", key_names);
+  IntegratorConfig c = default_integrator();
+  auto parse = [&](const char* key, auto fn, auto& field) {
+    if (!o.has(key)) return;
+    try {
+      field = fn(string(o[key], o.at(key)));
+    } catch (const std::invalid_argument& e) {
+      bad(o.at(key), e.what());
+    }
+  };
+  parse("type", parse_integrator_type, c.type);
+  parse("neighbours", parse_neighbour_model, c.neighbours);
+  parse("solver", parse_coupled_solver, c.solver);
+  parse("warm_start", parse_warm_start, c.warm_start);
+  if (o.has("iterations")) c.iterations = static_cast<int>(integer(o["iterations"], o.at("iterations"), 1));
+  if (o.has("max_iterations"))
+    c.max_iterations = static_cast<int>(integer(o["max_iterations"], o.at("max_iterations"), 0));
+  if (o.has("tolerance")) c.tolerance = positive(o["tolerance"], o.at("tolerance"));
+  if (o.has("chebyshev_rho")) {
+    c.chebyshev_rho = non_negative(o["chebyshev_rho"], o.at("chebyshev_rho"));
+    if (c.chebyshev_rho >= 1) bad(o.at("chebyshev_rho"), "must be < 1, got " + num_str(c.chebyshev_rho));
+  }
+  if (o.has("newton_iterations"))
+    c.newton_iterations = static_cast<int>(integer(o["newton_iterations"], o.at("newton_iterations"), 1));
+  if (o.has("newton_polish")) c.newton_polish = boolean(o["newton_polish"], o.at("newton_polish"));
+  if (o.has("threads")) c.threads = static_cast<int>(integer(o["threads"], o.at("threads"), 0));
+  if (o.has("restore_momentum")) c.restore_momentum = boolean(o["restore_momentum"], o.at("restore_momentum"));
+  if (o.has("restore_energy")) c.restore_energy = boolean(o["restore_energy"], o.at("restore_energy"));
+  const IntegratorInfo& info = integrator_info(c.type);
+  auto takes = [&](const char* key, IntegratorOption option, auto list, auto value) {
+    if (!o.has(key) || !info.reads(option) || std::find(list.begin(), list.end(), value) != list.end()) return;
+    std::string names;
+    for (auto v : list) names += (names.empty() ? "" : ", ") + std::string(to_string(v));
+    bad(o.at(key), std::string(info.key) + " takes " + names + ", not '" + std::string(to_string(value)) + "'");
+  };
+  takes("solver", IntegratorOption::solver, info.solvers, c.solver);
+  takes("warm_start", IntegratorOption::warm_start, info.warm_starts, c.warm_start);
+  return c;
+}
+
+AdaptiveConfig Builder::adaptive(const json& j, double timestep, double horizon) {
+  Obj o(j, "adaptive", {"error", "energy", "min_step", "max_step", "safety"});
+  AdaptiveConfig a;
+  a.enabled = true;
+  a.horizon = horizon;
+  if (o.has("error")) a.error = positive(o["error"], o.at("error"));
+  if (o.has("energy")) a.energy = positive(o["energy"], o.at("energy"));
+  if (o.has("min_step")) a.min_step = positive(o["min_step"], o.at("min_step"));
+  if (o.has("max_step")) a.max_step = non_negative(o["max_step"], o.at("max_step"));
+  if (o.has("safety")) {
+    a.safety = positive(o["safety"], o.at("safety"));
+    if (a.safety >= 1) bad(o.at("safety"), "must be < 1, got " + num_str(a.safety));
+  }
+  if (a.min_step > timestep) bad(o.at("min_step"), "must be <= timestep (" + num_str(timestep) + "), got " + num_str(a.min_step));
+  if (a.max_step > 0 && a.max_step < timestep)
+    bad(o.at("max_step"), "must be >= timestep (" + num_str(timestep) + ") or 0, got " + num_str(a.max_step));
+  return a;
+}
+
+BlowupLimits Builder::limits(const json& j) {
+  Obj o(j, "limits", {"max_speed", "energy_growth"});
+  BlowupLimits l;
+  if (o.has("max_speed")) l.max_speed = positive(o["max_speed"], o.at("max_speed"));
+  if (o.has("energy_growth")) l.energy_growth = positive(o["energy_growth"], o.at("energy_growth"));
+  return l;
+}
+
+}  // namespace qbond::scene_detail

@@ -1,0 +1,124 @@
+#pragma once
+// The scene builder: reads a scene's JSON document section by section (each section's member
+// functions are defined in the file named above them) into a Scene, and records the resolved
+// scene, with every default filled in.
+#include <map>
+
+#include "qbond/io/scene.hpp"
+
+#include "qbond/builders/packing.hpp"
+
+#include "io/scene/json_reader.hpp"
+
+namespace qbond::scene_detail {
+
+inline constexpr double kMaxQuanta = 5e7;  // a scene larger than this is a typo, not a simulation
+
+std::uint64_t pair_key(Index a, Index b);
+
+struct Material {
+  BondSpec bond;              ///< stiffness 0 when the material is given by a modulus
+  double youngs_modulus = 0;  ///< [Pa]; > 0: bond stiffness from the body's lattice (materials.hpp)
+  double density = 0;         ///< [kg/m³]; > 0: quanta masses from the body's lattice
+};
+
+class Builder {
+ public:
+  // builder.cpp: the scene's top level and its scene-wide sections (integrator, adaptive, limits)
+  Builder(const json& root, std::string default_name, SceneFiles files = {});
+
+  // Renumbers the built world for locality (ordering.hpp), and with it every per-quanta list the
+  // scene holds; ids in the scene stay the user's (Model::quanta_id).
+  static void renumber_for_locality(Scene& s);
+
+  Scene build();
+
+ private:
+  IntegratorConfig integrator(const json& j);
+
+  AdaptiveConfig adaptive(const json& j, double timestep, double horizon);
+
+  BlowupLimits limits(const json& j);
+
+  // materials.cpp: the `materials` section: named bond materials
+  // Each material's law and its keys come from the law registry (laws/registry.hpp): the law's
+  // strength and shape parameters, with their defaults and checks.
+  void materials(const json& j, json& res);
+
+  // Whether a bond of the world, or one a formation rule makes, follows a law with a failure stretch.
+  static bool can_fail(const World& w, const std::vector<HeuristicSpec>& heuristics);
+
+  // A material for a single bond: it must say its stiffness (a modulus needs a lattice).
+  BondSpec bond_material(const json& j, const std::string& path);
+
+  const Material& material(const json& j, const std::string& path);
+
+  // bodies.cpp: the `bodies` section: lattices, sheets, chains, quanta, packings, meshes and gases
+  void bodies(const json& j, json& res, World& w);
+
+  void body(const json& j, const std::string& path, json& res, World& w);
+
+  /// What a packing or mesh body does with quanta left without a bond.
+  Isolated isolated(const json& j, const std::string& path, json& res);
+
+  /// Builders that learn their quanta count only once built (packings, meshes) make 1 kg quanta;
+  /// this gives them their mass, `mass_of(count, ρ V)` (whose key checks ran before building),
+  /// and the volume each quanta stands for.
+  template <class MassOf>
+  void set_masses(World& w, const std::vector<Index>& ids, const MassOf& mass_of, const Material& mat, double volume);
+
+  /// A `gas` body: unbonded quanta at random positions with thermal velocities (gas.hpp).
+  template <class MassOf>
+  std::vector<Index> gas_body(const json& j, const std::string& path, json& res, World& w, Index id,
+                              const MassOf& mass_of);
+
+  /// A `packing` body: Poisson-disk or random points bonded within a radius (packing.hpp).
+  template <class MassOf>
+  std::vector<Index> packing_body(const json& j, const std::string& path, json& res, World& w, Index id,
+                                  const MassOf& mass_of, const Material& mat);
+
+  /// The bytes of a file the scene names, and how the resolved scene names it: an absolute path,
+  /// or "builtin:REL" for a file compiled in from scenes/ (which a resumed run finds again).
+  std::pair<std::string, std::string> scene_file(const std::string& file, const std::string& path);
+
+  /// A `mesh` body: a closed OBJ/STL mesh voxelised into a simple-cubic lattice (packing.hpp).
+  template <class MassOf>
+  std::vector<Index> mesh_body(const json& j, const std::string& path, json& res, World& w, Index id,
+                               const MassOf& mass_of, const Material& mat);
+
+  // connections.cpp: selections, and the `bonds`, `anchors` and `loads` sections
+  std::vector<Index> selection(const json& j, const std::string& path, const World& w);
+
+  void bonds(const json& j, World& w);
+
+  void check_overlaps(const World& w);
+
+  void anchors(const json& j, World& w);
+
+  void loads(const json& j, World& w);
+
+  // heuristics.cpp: the `heuristics` section: fracture, plasticity, obstacles, contact, formation
+  // Per bond: 1 when both ends are in the entry's `select` (every bond without one).
+  // A rule's `select`: per quanta, 1 when selected (empty: all).
+  std::vector<std::uint8_t> quanta_mask(const Obj& o, const World& w);
+
+  ContactMaterial contact_material(const Obj& o);
+
+  std::vector<HeuristicSpec> heuristics(const json& j, const World& w);
+
+  // Quanta that share no bond but start closer than two contact radii would be pushed apart on
+  // the first step: a radius too large for the lattice.
+  void check_contact_radius(const QuantaContactRule& r, const Obj& o, const World& w);
+
+  // output.cpp: the `output` section
+  OutputSpec output(const json& j, std::uint64_t steps, const World& w);
+
+  const json& root_;
+  std::string default_name_;
+  std::map<std::string, Material> materials_;
+  std::map<std::string, Index> body_index_;
+  SceneFiles files_;
+  std::size_t obstacles_ = 0;  // obstacles numbered so far (their Obstacle::record)
+};
+
+}  // namespace qbond::scene_detail
