@@ -319,6 +319,9 @@ TEST(Laws, SofteningBondUnderImplicitSteps) {
     const double E0 = energies(w.model, w.state).total();
     IntegratorConfig config = test::config(run.type);
     config.tolerance = 1e-12;
+    // Newton with the clamped Jacobian converges only linearly on the softening branch and at the
+    // kink; enough iterations that every step is solved whole, whatever the build's rounding.
+    config.newton_iterations = 200;
     Simulation sim(std::move(w), config, run.h);
     double r_min = L + s0;
     for (int n = 0; n < 30; ++n) {
@@ -329,6 +332,7 @@ TEST(Laws, SofteningBondUnderImplicitSteps) {
       r_min = std::min(r_min, r);
       const double E = energies(ws.model, ws.state).total();
       if (run.type == IntegratorType::energy_momentum) {
+        ASSERT_EQ(sim.integrator().stats().substeps, 0) << "step " << n;
         EXPECT_NEAR(E, E0, 1e-9 * E0) << "step " << n;
       } else {
         EXPECT_LE(E, E0 * (1 + 1e-9)) << to_string(run.type) << " step " << n;
