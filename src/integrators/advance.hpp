@@ -76,7 +76,7 @@ class StepIntegrator : public Integrator {
   // gravity. (project() of such an integrator takes it too.)
   virtual bool forms_gravity() const { return false; }
   // Takes the step into `to` (against to.max_speed) instead of into out's dx and dv, which may be
-  // left empty; `out` still receives the carry-over (Projection::warm). This default projects and
+  // left empty; `out` still receives the carry-over (Projection::carry). This default projects and
   // applies (apply_checked); an integrator with a fused kernel overrides it.
   virtual void advance(const Model& model, const State& state, const Adjacency& adj,
                        const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out, Advanced& to);
