@@ -80,7 +80,10 @@ void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, i
                     Order order, bool as_run) {
   Scene scene = canonical_lattice(n);
   apply_order(scene.world, order);
-  if (dt > 0) scene.timestep = dt;
+  if (dt > 0)
+    scene.timestep = dt;
+  else if (integ.timestep > 0)
+    scene.timestep = integ.timestep;
   IntegratorConfig cfg = integ.config;
   cfg.threads = threads;
   const std::size_t quanta = scene.world.num_quanta(), bonds = scene.world.num_bonds();
@@ -98,7 +101,7 @@ void step_benchmark(benchmark::State& st, const NamedIntegrator& integ, int n, i
   st.counters["quanta"] = static_cast<double>(quanta);
   st.counters["bonds"] = static_cast<double>(bonds);
   st.counters["threads"] = threads;
-  st.counters["timestep"] = dt > 0 ? dt : scene.timestep;
+  st.counters["timestep"] = scene.timestep;
   st.counters["bytes_per_step"] = bytes_per_step(quanta, bonds);
 }
 
@@ -213,7 +216,9 @@ std::vector<int> split_ints(const std::string& s, const char* flag) {
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   std::vector<int> sizes{10, 20, 40}, threads{1};
-  std::vector<std::string> names{"hybrid_frozen", "hybrid_sweep", "velocity_verlet", "default"};
+  const auto all = known_integrators();
+  std::vector<std::string> names;
+  for (std::size_t k = 0; k < bench::kDefaultRows; ++k) names.push_back(all[k].name);
   std::vector<std::string> orders{"built"};
   double dt = 0;
   bool solve = false, as_run = false;
@@ -269,7 +274,6 @@ int main(int argc, char** argv) {
     benchmark::Shutdown();
     return 0;
   }
-  const auto all = known_integrators();
   for (int t : threads)
     benchmark::RegisterBenchmark(("triad/threads:" + std::to_string(t)).c_str(),
                                  [t](benchmark::State& st) { triad_benchmark(st, t); })
@@ -280,8 +284,9 @@ int main(int argc, char** argv) {
     for (const auto& i : all)
       if (i.name == name) integ = &i;
     if (!integ) {
-      std::fprintf(stderr, "qbond_bench: unknown integrator '%s' (hybrid_frozen, hybrid_sweep, velocity_verlet, default)\n",
-                   name.c_str());
+      std::string known;
+      for (const auto& i : all) known += (known.empty() ? "" : ", ") + i.name;
+      std::fprintf(stderr, "qbond_bench: unknown integrator '%s' (%s)\n", name.c_str(), known.c_str());
       return 2;
     }
     for (const std::string& o : orders)

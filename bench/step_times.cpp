@@ -61,6 +61,7 @@ int main(int argc, char** argv) {
   const auto found = std::find_if(all.begin(), all.end(), [&](const auto& i) { return i.name == name; });
   if (found == all.end()) usage(("unknown integrator: " + name).c_str());
   Scene scene = canonical_lattice(n);
+  if (found->timestep > 0) scene.timestep = found->timestep;
   IntegratorConfig cfg = found->config;
   cfg.threads = threads;
   Simulation sim(std::move(scene.world), cfg, scene.timestep);
