@@ -10,7 +10,7 @@ struct BenchArgs {
   bool quick = false;          ///< n = 10, one short repetition: what CI runs so the suite cannot rot
   std::string sizes;           ///< lattice sizes n, e.g. "10,20,40" (default: 10,20,40; quick: 10)
   std::string threads = "1";   ///< thread counts, e.g. "1,2"
-  std::string integrators;     ///< subset of hybrid_frozen,hybrid_sweep,velocity_verlet,default
+  std::string integrators;     ///< integrator rows (bench_integrators.hpp); empty: the default four
   double dt = 0;                ///< timestep [s] (0: the workload's 1e-4 s)
   bool solve = false;           ///< the solver comparison at h = 1/60 s instead (default n: 10,20,40)
   bool as_run = false;          ///< time steps as `qbond run` takes them: energy ledger and rollback copy on
