@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Compares two builds of qbond_bench on the same benchmark rows, in interleaved pairs.
 
-    bench/ab.py BASE NEW [--filter REGEX] [--rounds N] [--min-time S] [-- QBOND_BENCH_ARGS...]
+    bench/ab.py BASE NEW [--filter REGEX] [--rounds N] [--min-time S] [--json FILE]
+                [--base-label TEXT] [--new-label TEXT] [-- QBOND_BENCH_ARGS...]
 
 BASE and NEW are qbond_bench programs (say the previous commit's build and this one's). Each
 round times every row the filter selects with both, BASE first in even rounds and NEW first in
@@ -9,9 +10,13 @@ odd ones, so that a host whose load drifts moves both alike; arguments after `--
 (e.g. `--n=40 --threads=1,2 --integrators=hybrid_frozen`). For each row it prints both
 minima and medians, the ratio of the minima and the median of the rounds' ratios, NEW / BASE:
 below 1, NEW is faster. On a shared machine read the median pair ratio over several rounds, not
-one timing (docs/performance.md)."""
+one timing (docs/performance.md). --json also writes every round's times, with the date, the
+machine and the labels, as docs/bench/ab-DATE.json (scripts/bench_tables.py renders it)."""
 import argparse
+import datetime
 import json
+import os
+import platform
 import statistics
 import subprocess
 import sys
@@ -47,6 +52,9 @@ def main():
     p.add_argument("--filter", default="step/", help="benchmark rows (a regular expression; default: every step)")
     p.add_argument("--rounds", type=int, default=6, help="interleaved pairs (default 6)")
     p.add_argument("--min-time", type=float, default=0.5, help="seconds each row runs in each program (default 0.5)")
+    p.add_argument("--json", help="also write the rounds' times and their provenance to this file")
+    p.add_argument("--base-label", default="", help="what BASE is (say a commit), for --json")
+    p.add_argument("--new-label", default="", help="what NEW is, for --json")
     a = p.parse_args(ours)
     if a.rounds < 1 or not a.min_time > 0:
         sys.exit("ab.py: --rounds must be >= 1 and --min-time > 0")
@@ -66,6 +74,28 @@ def main():
         pairs = [y / x for x, y in zip(b, n)]
         print(f"{name:<48} {unit[name]:>4} {min(b):>10.4g} {statistics.median(b):>10.4g} {min(n):>10.4g} "
               f"{statistics.median(n):>10.4g} {min(n) / min(b):>9.3f} {statistics.median(pairs):>9.3f}")
+    if a.json:
+        rows = [{"name": k, "unit": unit[k], "base": base[k], "new": new[k]} for k in base if k in new]
+        out = {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+               "machine": cpu_model(), "command": "bench/ab.py " + " ".join({a.base: "BASE", a.new: "NEW"}.get(x, x) for x in sys.argv[1:]),
+               "base": a.base_label or a.base, "new": a.new_label or a.new, "rounds": a.rounds, "rows": rows}
+        tmp = a.json + ".tmp"
+        with open(tmp, "w") as f:
+            json.dump(out, f, indent=1)
+            f.write("\n")
+        os.replace(tmp, a.json)
+
+
+def cpu_model():
+    """The CPU's name as /proc/cpuinfo gives it (the platform's otherwise)."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
 
 
 if __name__ == "__main__":

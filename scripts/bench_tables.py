@@ -5,7 +5,7 @@ Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default
 
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
 docs/performance.md; the opening marker may carry `machine="..."`, which the provenance line
-quotes. KIND is one of step, asrun, solve, peers, peers_rounds, peers_seconds, memory, targets;
+quotes. KIND is one of step, asrun, solve, peers, peers_rounds, peers_seconds, memory, ab, targets;
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -22,7 +22,7 @@ from collections import defaultdict
 NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z]*)(?:-(?P<run>\d+))?\.json$")
 
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "peers": "peers", "peers_rounds": "peers",
-          "peers_seconds": "peers", "memory": "memory"}
+          "peers_seconds": "peers", "memory": "memory", "ab": "ab"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
 PARALLEL_MIN = 4096
@@ -154,6 +154,26 @@ def peers_table(name, data, machine):
     return lines
 
 
+def ab_table(name, data, machine):
+    """bench/ab.py's interleaved rounds: each step row's medians and the median of the rounds' ratios."""
+    lines = [provenance(name, data, machine, data["command"]) +
+             f" Base: {data['base']}; new: {data['new']}; {data['rounds']} interleaved rounds.", "",
+             "| integrator | n | threads | base ms (median) | new ms (median) | new / base (median of rounds) | within 3% |",
+             "|---|---|---|---|---|---|---|"]
+    worst = 0.0
+    for r in data["rows"]:
+        parts = r["name"].split("/")
+        if parts[0] != "step":
+            continue
+        ratio = median([y / x for x, y in zip(r["base"], r["new"])])
+        worst = max(worst, ratio)
+        lines.append(f"| {parts[1]} | {parts[2].removeprefix('n:')} | {parts[3].removeprefix('threads:')} | "
+                     f"{sig(median(r['base']))} | {sig(median(r['new']))} | {ratio:.3f} | "
+                     f"{'yes' if ratio <= 1.03 else 'no'} |")
+    lines += ["", f"Largest ratio: {worst:.3f}."]
+    return lines
+
+
 def median(xs):
     xs = sorted(xs)
     m = len(xs) // 2
@@ -264,7 +284,8 @@ def render(kind, machine, bench_dir):
             "peers": lambda: peers_table(name, data, machine),
             "peers_rounds": lambda: peers_rounds(name, data, machine),
             "peers_seconds": lambda: peers_seconds(name, data, machine),
-            "memory": lambda: memory_table(name, data, machine)}[kind]()
+            "memory": lambda: memory_table(name, data, machine),
+            "ab": lambda: ab_table(name, data, machine)}[kind]()
 
 
 BLOCK = re.compile(r"(<!-- bench:(?P<kind>\w+)(?P<attrs>[^>]*)-->\n)(?P<body>.*?)(<!-- /bench:(?P=kind) -->)", re.S)
