@@ -1,0 +1,180 @@
+#include "solvers/block_matrix.hpp"
+
+#include <algorithm>
+#include <cassert>
+
+#include "core/parallel.hpp"
+
+namespace qbond {
+
+namespace {
+
+int thread_id() {
+#ifdef _OPENMP
+  return omp_get_thread_num();
+#else
+  return 0;
+#endif
+}
+
+// Row i of y = A x (or of r = b − A x), blocks R × C known at compile time where they are common.
+template <int R, int C, bool kResidual>
+void row_times(const BlockMatrix& A, const double* x, const double* b, double* y, std::size_t i) {
+  double s[R] = {};
+  for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k) {
+    const double* a = A.block(k);
+    const double* xj = x + static_cast<std::size_t>(A.col[k]) * C;
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c) s[r] += a[r * C + c] * xj[c];
+  }
+  for (int r = 0; r < R; ++r) y[i * R + r] = kResidual ? b[i * R + r] - s[r] : s[r];
+}
+
+template <bool kResidual>
+void row_times_any(const BlockMatrix& A, const double* x, const double* b, double* y, std::size_t i) {
+  const int R = A.br, C = A.bc;
+  double s[6] = {};
+  for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k) {
+    const double* a = A.block(k);
+    const double* xj = x + static_cast<std::size_t>(A.col[k]) * static_cast<std::size_t>(C);
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c) s[r] += a[r * C + c] * xj[c];
+  }
+  for (int r = 0; r < R; ++r) y[i * static_cast<std::size_t>(R) + static_cast<std::size_t>(r)] = kResidual ? b[i * static_cast<std::size_t>(R) + static_cast<std::size_t>(r)] - s[r] : s[r];
+}
+
+template <bool kResidual>
+void times(const BlockMatrix& A, const double* x, const double* b, double* y, int threads) {
+  assert(A.br <= 6 && A.bc <= 6);
+  auto run = [&](auto row) { parallel_for(A.rows, threads, [&](std::size_t i) { row(A, x, b, y, i); }); };
+  if (A.br == 3 && A.bc == 3)
+    run(row_times<3, 3, kResidual>);
+  else if (A.br == 6 && A.bc == 6)
+    run(row_times<6, 6, kResidual>);
+  else if (A.br == 3 && A.bc == 6)
+    run(row_times<3, 6, kResidual>);
+  else if (A.br == 6 && A.bc == 3)
+    run(row_times<6, 3, kResidual>);
+  else
+    run(row_times_any<kResidual>);
+}
+
+// c += a b for an R × K block a and a K × C block b.
+template <int R, int K, int C>
+void gemm_add(const double* a, const double* b, double* c, int, int, int) {
+  for (int r = 0; r < R; ++r)
+    for (int k = 0; k < K; ++k) {
+      const double ark = a[r * K + k];
+      for (int j = 0; j < C; ++j) c[r * C + j] += ark * b[k * C + j];
+    }
+}
+void gemm_add_any(const double* a, const double* b, double* c, int R, int K, int C) {
+  for (int r = 0; r < R; ++r)
+    for (int k = 0; k < K; ++k) {
+      const double ark = a[r * K + k];
+      for (int j = 0; j < C; ++j) c[r * C + j] += ark * b[k * C + j];
+    }
+}
+using Gemm = void (*)(const double*, const double*, double*, int, int, int);
+Gemm pick_gemm(int R, int K, int C) {
+  const int key = (R == 3 ? 0 : R == 6 ? 1 : 9) * 100 + (K == 3 ? 0 : K == 6 ? 1 : 9) * 10 + (C == 3 ? 0 : C == 6 ? 1 : 9);
+  switch (key) {
+    case 0: return gemm_add<3, 3, 3>;
+    case 1: return gemm_add<3, 3, 6>;
+    case 10: return gemm_add<3, 6, 3>;
+    case 11: return gemm_add<3, 6, 6>;
+    case 100: return gemm_add<6, 3, 3>;
+    case 101: return gemm_add<6, 3, 6>;
+    case 110: return gemm_add<6, 6, 3>;
+    case 111: return gemm_add<6, 6, 6>;
+    default: return gemm_add_any;
+  }
+}
+
+}  // namespace
+
+std::size_t BlockMatrix::find(Index i, Index j) const {
+  const auto first = col.begin() + offset[i], last = col.begin() + offset[i + 1];
+  const auto it = std::lower_bound(first, last, j);
+  return it != last && *it == j ? static_cast<std::size_t>(it - col.begin()) : blocks();
+}
+
+void multiply(const BlockMatrix& A, const double* x, double* y, int threads) { times<false>(A, x, nullptr, y, threads); }
+
+void residual(const BlockMatrix& A, const double* b, const double* x, double* r, int threads) {
+  times<true>(A, x, b, r, threads);
+}
+
+void transpose(const BlockMatrix& A, BlockMatrix& At) {
+  At.br = A.bc;
+  At.bc = A.br;
+  At.rows = A.cols;
+  At.cols = A.rows;
+  At.offset.assign(static_cast<std::size_t>(A.cols) + 1, 0);
+  for (const Index j : A.col) ++At.offset[j + 1];
+  for (Index j = 0; j < A.cols; ++j) At.offset[j + 1] += At.offset[j];
+  At.col.resize(A.blocks());
+  At.val.resize(A.val.size());
+  std::vector<Index> next(At.offset.begin(), At.offset.end() - 1);
+  const int R = A.br, C = A.bc;
+  for (Index i = 0; i < A.rows; ++i)
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k) {
+      const Index p = next[A.col[k]]++;
+      At.col[p] = i;
+      const double* a = A.block(k);
+      double* t = At.block(p);
+      for (int r = 0; r < R; ++r)
+        for (int c = 0; c < C; ++c) t[c * R + r] = a[r * C + c];
+    }
+}
+
+void multiply(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, int threads) {
+  assert(A.bc == B.br && A.cols == B.rows);
+  C.br = A.br;
+  C.bc = B.bc;
+  C.rows = A.rows;
+  C.cols = B.cols;
+  const int nt = thread_count(threads);
+  // Per thread: the last row that saw each block column (symbolic pass), then where it sits in
+  // the row being summed (numeric pass).
+  std::vector<std::vector<Index>> mark(static_cast<std::size_t>(nt));
+  constexpr Index kNone = ~Index{0};
+  for (auto& m : mark) m.assign(B.cols, kNone);
+  std::vector<Index> count(A.rows);
+  parallel_for(A.rows, threads, [&](std::size_t i) {
+    std::vector<Index>& m = mark[static_cast<std::size_t>(thread_id())];
+    Index c = 0;
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
+      for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l)
+        if (m[B.col[l]] != i) {
+          m[B.col[l]] = static_cast<Index>(i);
+          ++c;
+        }
+    count[i] = c;
+  });
+  C.offset.assign(static_cast<std::size_t>(A.rows) + 1, 0);
+  for (Index i = 0; i < A.rows; ++i) C.offset[i + 1] = C.offset[i] + count[i];
+  C.col.resize(C.offset.back());
+  C.val.assign(C.blocks() * C.block_size(), 0.0);
+  for (auto& m : mark) std::fill(m.begin(), m.end(), kNone);
+  const Gemm gemm = pick_gemm(A.br, A.bc, B.bc);
+  parallel_for(A.rows, threads, [&](std::size_t i) {
+    std::vector<Index>& m = mark[static_cast<std::size_t>(thread_id())];
+    Index p = C.offset[i];
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
+      for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l)
+        if (m[B.col[l]] != i) {
+          m[B.col[l]] = static_cast<Index>(i);
+          C.col[p++] = B.col[l];
+        }
+    std::sort(C.col.begin() + C.offset[i], C.col.begin() + C.offset[i + 1]);
+    // m maps the row's columns to their positions while it is summed, then is cleared.
+    for (Index q = C.offset[i]; q < C.offset[i + 1]; ++q) m[C.col[q]] = q;
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
+      for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l)
+        gemm(A.block(k), B.block(l), C.block(m[B.col[l]]), A.br, A.bc, B.bc);
+    for (Index q = C.offset[i]; q < C.offset[i + 1]; ++q) m[C.col[q]] = kNone;
+  });
+}
+
+}  // namespace qbond
