@@ -138,7 +138,8 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     built_h = h;
   }
   const auto t1 = std::chrono::steady_clock::now();
-  mg.solve(A, b, tolerance, cap, threads, x, y_zero, stats);
+  pack(A, true, packed, threads);
+  mg.solve(packed, b, tolerance, cap, threads, x, y_zero, stats);
   setup_seconds = std::chrono::duration<double>(t1 - t0).count();
   solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   last_iterations = stats.iterations;

@@ -37,6 +37,7 @@ struct MultigridStep {
   std::vector<Index> edge_at;   // each adjacency entry's block in A (kNone: not coupled)
   std::vector<Index> diag_at;   // each block row's diagonal block
   BlockMatrix A;
+  PackedMatrix<double> packed;  // A as CG's product reads it
   std::uint64_t adj_version = ~0ull;
   std::size_t num_quanta = 0;
   // The hierarchy's: its free quanta, A's pattern when built, h when last built or updated.

@@ -91,7 +91,83 @@ Gemm pick_gemm(int R, int K, int C) {
   }
 }
 
+// Row i of y = A x (or r = b − A x) for a packed matrix: E stored entries a block.
+template <class T, int R, int C, bool kSym, bool kResidual>
+void packed_row(const PackedMatrix<T>& A, const double* x, const double* b, double* y, std::size_t i) {
+  constexpr int E = kSym ? 6 : R * C;
+  double s[R] = {};
+  const T* a = A.val.data() + static_cast<std::size_t>(A.offset[i]) * E;
+  for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k, a += E) {
+    const double* xj = x + static_cast<std::size_t>(A.col[k]) * C;
+    if constexpr (kSym) {
+      const double a0 = a[0], a1 = a[1], a2 = a[2], a3 = a[3], a4 = a[4], a5 = a[5];
+      s[0] += a0 * xj[0] + a3 * xj[1] + a4 * xj[2];
+      s[1] += a3 * xj[0] + a1 * xj[1] + a5 * xj[2];
+      s[2] += a4 * xj[0] + a5 * xj[1] + a2 * xj[2];
+    } else {
+      for (int r = 0; r < R; ++r)
+        for (int c = 0; c < C; ++c) s[r] += static_cast<double>(a[r * C + c]) * xj[c];
+    }
+  }
+  for (int r = 0; r < R; ++r) y[i * R + r] = kResidual ? b[i * R + r] - s[r] : s[r];
+}
+
+template <class T, bool kResidual>
+void packed_times(const PackedMatrix<T>& A, const double* x, const double* b, double* y, int threads) {
+  auto run = [&](auto row) { parallel_for(A.rows, threads, [&](std::size_t i) { row(A, x, b, y, i); }); };
+  if (A.symmetric)
+    run(packed_row<T, 3, 3, true, kResidual>);
+  else if (A.br == 3 && A.bc == 3)
+    run(packed_row<T, 3, 3, false, kResidual>);
+  else if (A.br == 6 && A.bc == 6)
+    run(packed_row<T, 6, 6, false, kResidual>);
+  else if (A.br == 3 && A.bc == 6)
+    run(packed_row<T, 3, 6, false, kResidual>);
+  else {
+    assert(A.br == 6 && A.bc == 3);
+    run(packed_row<T, 6, 3, false, kResidual>);
+  }
+}
+
 }  // namespace
+
+template <class T>
+void pack(const BlockMatrix& A, bool symmetric, PackedMatrix<T>& out, int threads) {
+  assert(!symmetric || (A.br == 3 && A.bc == 3));
+  out.br = A.br;
+  out.bc = A.bc;
+  out.rows = A.rows;
+  out.cols = A.cols;
+  out.symmetric = symmetric;
+  out.offset = A.offset;
+  out.col = A.col;
+  const std::size_t e = symmetric ? 6 : A.block_size();
+  out.val.resize(A.blocks() * e);
+  constexpr int kEntry[6] = {0, 4, 8, 1, 2, 5};  // xx, yy, zz, xy, xz, yz of a row-major 3×3
+  parallel_for(A.rows, threads, [&](std::size_t i) {
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k) {
+      const double* a = A.block(k);
+      T* o = out.val.data() + k * e;
+      for (std::size_t m = 0; m < e; ++m) o[m] = static_cast<T>(symmetric ? a[kEntry[m]] : a[m]);
+    }
+  });
+}
+
+template <class T>
+void multiply(const PackedMatrix<T>& A, const double* x, double* y, int threads) {
+  packed_times<T, false>(A, x, nullptr, y, threads);
+}
+template <class T>
+void residual(const PackedMatrix<T>& A, const double* b, const double* x, double* r, int threads) {
+  packed_times<T, true>(A, x, b, r, threads);
+}
+
+template void pack(const BlockMatrix&, bool, PackedMatrix<float>&, int);
+template void pack(const BlockMatrix&, bool, PackedMatrix<double>&, int);
+template void multiply(const PackedMatrix<float>&, const double*, double*, int);
+template void multiply(const PackedMatrix<double>&, const double*, double*, int);
+template void residual(const PackedMatrix<float>&, const double*, const double*, double*, int);
+template void residual(const PackedMatrix<double>&, const double*, const double*, double*, int);
 
 std::size_t BlockMatrix::find(Index i, Index j) const {
   const auto first = col.begin() + offset[i], last = col.begin() + offset[i + 1];

@@ -27,6 +27,30 @@ struct BlockMatrix {
   std::size_t find(Index i, Index j) const;
 };
 
+/// A BlockMatrix's values in precision T for the passes that only read them (the multigrid cycle
+/// reads its matrices in float, half the bytes; a preconditioner needs no more digits), and with
+/// `symmetric` its 3×3 blocks, each symmetric, as their six distinct entries (xx, yy, zz, xy, xz,
+/// yz): two thirds of the bytes again.
+template <class T>
+struct PackedMatrix {
+  int br = 3, bc = 3;
+  Index rows = 0, cols = 0;
+  bool symmetric = false;
+  std::vector<Index> offset{0};
+  std::vector<Index> col;
+  std::vector<T> val;
+};
+
+/// out = A in precision T (symmetric: A's blocks are 3×3 and each symmetric).
+template <class T>
+void pack(const BlockMatrix& A, bool symmetric, PackedMatrix<T>& out, int threads);
+
+/// y = A x and r = b − A x for a packed matrix.
+template <class T>
+void multiply(const PackedMatrix<T>& A, const double* x, double* y, int threads);
+template <class T>
+void residual(const PackedMatrix<T>& A, const double* b, const double* x, double* r, int threads);
+
 /// y = A x (x of A.cols·bc entries, y of A.rows·br).
 void multiply(const BlockMatrix& A, const double* x, double* y, int threads);
 

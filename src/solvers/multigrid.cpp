@@ -63,7 +63,7 @@ void Multigrid::smoother(Level& L, int threads) {
   std::vector<double>& v = L.d;
   for (std::size_t k = 0; k < n; ++k) v[k] = static_cast<double>((k * 2654435761u) % 1000u) / 1000.0 - 0.5;
   double lambda = 1;
-  for (int it = 0; it < 15; ++it) {
+  for (int it = 0; it < 12; ++it) {
     multiply(L.A, v.data(), L.t.data(), threads);
     block_scale(L.Dinv, bs, L.A.rows, L.t.data(), 1.0, L.r.data(), threads);
     const double vv = dot(n, v.data(), v.data(), threads), ww = dot(n, L.r.data(), L.r.data(), threads);
@@ -104,6 +104,17 @@ void Multigrid::factor_coarsest() {
   Eigen::SparseMatrix<double> M(n, n);
   M.setFromTriplets(t.begin(), t.end());
   coarse_.compute(M);
+}
+
+void Multigrid::pack_levels(int threads) {
+  for (std::size_t l = 0; l < levels_.size(); ++l) {
+    Level& L = levels_[l];
+    pack(L.A, l == 0, L.Af, threads);
+    if (l + 1 < levels_.size()) {
+      pack(L.P, false, L.Pf, threads);
+      pack(L.R, false, L.Rf, threads);
+    }
+  }
 }
 
 void Multigrid::build(const BlockMatrix& A, const std::vector<Vec3>& x, int threads) {
@@ -148,6 +159,7 @@ void Multigrid::build(const BlockMatrix& A, const std::vector<Vec3>& x, int thre
     galerkin(l, threads);
   }
   factor_coarsest();
+  pack_levels(threads);
 }
 
 void Multigrid::update(const BlockMatrix& A, int threads) {
@@ -157,25 +169,26 @@ void Multigrid::update(const BlockMatrix& A, int threads) {
     if (l + 1 < levels_.size()) galerkin(l, threads);
   }
   factor_coarsest();
+  pack_levels(threads);
 }
 
 void Multigrid::chebyshev(Level& L, bool zero_start, int threads) {
   const int bs = L.A.br;
   const std::size_t n = L.x.size();
-  const double hi = 1.1 * L.lambda, lo = hi / 10;
+  const double hi = 1.1 * L.lambda, lo = hi / 5;
   const double theta = (hi + lo) / 2, delta = (hi - lo) / 2, sigma = theta / delta;
   double rho = 1 / sigma;
   if (zero_start)
     L.r = L.b;
   else
-    residual(L.A, L.b.data(), L.x.data(), L.r.data(), threads);
+    residual(L.Af, L.b.data(), L.x.data(), L.r.data(), threads);
   block_scale(L.Dinv, bs, L.A.rows, L.r.data(), 1 / theta, L.d.data(), threads);
   if (zero_start)
     L.x = L.d;
   else
     parallel_for(n, threads, [&](std::size_t k) { L.x[k] += L.d[k]; });
   for (int it = 1; it < smoothing_degree; ++it) {
-    multiply(L.A, L.d.data(), L.t.data(), threads);
+    multiply(L.Af, L.d.data(), L.t.data(), threads);
     const double rho_next = 1 / (2 * sigma - rho);
     const double c1 = rho_next * rho, c2 = 2 * rho_next / delta;
     parallel_for(n, threads, [&](std::size_t k) { L.r[k] -= L.t[k]; });
@@ -197,10 +210,10 @@ void Multigrid::cycle(std::size_t l, int threads) {
   }
   Level& C = levels_[l + 1];
   chebyshev(L, true, threads);
-  residual(L.A, L.b.data(), L.x.data(), L.r.data(), threads);
-  multiply(L.R, L.r.data(), C.b.data(), threads);
+  residual(L.Af, L.b.data(), L.x.data(), L.r.data(), threads);
+  multiply(L.Rf, L.r.data(), C.b.data(), threads);
   cycle(l + 1, threads);
-  multiply(L.P, C.x.data(), L.t.data(), threads);
+  multiply(L.Pf, C.x.data(), L.t.data(), threads);
   parallel_for(L.x.size(), threads, [&](std::size_t k) { L.x[k] += L.t[k]; });
   chebyshev(L, false, threads);
 }
@@ -212,7 +225,7 @@ void Multigrid::apply(const double* r, double* z, int threads) {
   std::copy(L.x.begin(), L.x.end(), z);
 }
 
-void Multigrid::solve(const BlockMatrix& A, const std::vector<double>& b, double tolerance, int cap, int threads,
+void Multigrid::solve(const PackedMatrix<double>& A, const std::vector<double>& b, double tolerance, int cap, int threads,
                       std::vector<double>& y, bool y_zero, SolveStats& stats) {
   const std::size_t n = b.size();
   for (std::vector<double>* v : {&r_, &z_, &p_, &q_}) v->resize(n);

@@ -7,9 +7,10 @@
 // modes an aggregate), the prolongator from the next level P = (I − ω D⁻¹ A_l) P0 (P0 the rigid
 // modes orthonormalised on each aggregate: aggregation.hpp; ω = 4 / (3 λ_max(D⁻¹ A_l)); D A_l's
 // diagonal blocks), and the Galerkin operator A_{l+1} = Pᵀ A_l P. The smoother is a Chebyshev
-// polynomial in D⁻¹ A_l on [λ_max / 10, 1.1 λ_max] (λ_max by power iteration), the same before and
+// polynomial in D⁻¹ A_l on [1.1 λ_max / 5, 1.1 λ_max] (λ_max by power iteration), the same before and
 // after the coarse correction, so that the V-cycle is a symmetric operator, positive definite as
-// long as the smoother converges; the coarsest level is solved by sparse LDLᵀ. Every pass runs
+// long as the smoother converges; the coarsest level is solved by sparse LDLᵀ. The cycle reads its
+// matrices in single precision (PackedMatrix): still a fixed symmetric operator. Every pass runs
 // each block row on one thread in a fixed order, and the dot products sum fixed chunks in order:
 // the same bits for any thread count.
 #include <Eigen/SparseCholesky>
@@ -39,9 +40,9 @@ class Multigrid {
   void apply(const double* r, double* z, int threads);
 
   /// Conjugate gradient on A y = b (A with the built block rows, not necessarily the built
-  /// values), preconditioned by apply, from y (scaled by yᵀb / yᵀA y first, as the block-Jacobi CG
+  /// values; packed symmetric), preconditioned by apply, from y (scaled by yᵀb / yᵀA y first, as the block-Jacobi CG
   /// does; y_zero: y is 0) until ‖b − A y‖/‖b‖ ≤ tolerance (CG's recurrence) or `cap` iterations.
-  void solve(const BlockMatrix& A, const std::vector<double>& b, double tolerance, int cap, int threads,
+  void solve(const PackedMatrix<double>& A, const std::vector<double>& b, double tolerance, int cap, int threads,
              std::vector<double>& y, bool y_zero, SolveStats& stats);
 
   /// Chebyshev degree of the smoother before and after each coarse correction.
@@ -55,11 +56,13 @@ class Multigrid {
     std::vector<double> Dinv;  // A's diagonal blocks inverted, bs × bs each
     double lambda = 1;         // λ_max(D⁻¹A), estimated
     BlockMatrix P, R, AP;      // from the next level (none on the coarsest), R = Pᵀ, AP scratch
+    PackedMatrix<float> Af, Pf, Rf;  // A, P, R as the cycle reads them
     std::vector<double> x, b, r, d, t;
   };
   void smoother(Level& L, int threads);
   void galerkin(std::size_t l, int threads);
   void factor_coarsest();
+  void pack_levels(int threads);
   void chebyshev(Level& L, bool zero_start, int threads);
   void cycle(std::size_t l, int threads);
 
