@@ -332,7 +332,7 @@ int main(int argc, char** argv) {
     for (const auto& i : all)
       if (i.name == name) integ = &i;
     if (!integ) {
-      std::fprintf(stderr, "qbond_bench: unknown integrator '%s' (hybrid_frozen, hybrid_sweep, velocity_verlet, default)\n",
+      std::fprintf(stderr, "qbond_bench: unknown integrator '%s' (hybrid_frozen, hybrid_sweep, velocity_verlet, default, default_multigrid)\n",
                    name.c_str());
       return 2;
     }

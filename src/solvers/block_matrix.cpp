@@ -43,20 +43,29 @@ void row_times_any(const BlockMatrix& A, const double* x, const double* b, doubl
   for (int r = 0; r < R; ++r) y[i * static_cast<std::size_t>(R) + static_cast<std::size_t>(r)] = kResidual ? b[i * static_cast<std::size_t>(R) + static_cast<std::size_t>(r)] - s[r] : s[r];
 }
 
+template <int R, int C, bool kResidual>
+void rows_times(const BlockMatrix& A, const double* x, const double* b, double* y, int threads) {
+  parallel_for(A.rows, threads, [&](std::size_t i) {
+    if constexpr (R == 0)
+      row_times_any<kResidual>(A, x, b, y, i);
+    else
+      row_times<R, C, kResidual>(A, x, b, y, i);
+  });
+}
+
 template <bool kResidual>
 void times(const BlockMatrix& A, const double* x, const double* b, double* y, int threads) {
   assert(A.br <= 6 && A.bc <= 6);
-  auto run = [&](auto row) { parallel_for(A.rows, threads, [&](std::size_t i) { row(A, x, b, y, i); }); };
   if (A.br == 3 && A.bc == 3)
-    run(row_times<3, 3, kResidual>);
+    rows_times<3, 3, kResidual>(A, x, b, y, threads);
   else if (A.br == 6 && A.bc == 6)
-    run(row_times<6, 6, kResidual>);
+    rows_times<6, 6, kResidual>(A, x, b, y, threads);
   else if (A.br == 3 && A.bc == 6)
-    run(row_times<3, 6, kResidual>);
+    rows_times<3, 6, kResidual>(A, x, b, y, threads);
   else if (A.br == 6 && A.bc == 3)
-    run(row_times<6, 3, kResidual>);
+    rows_times<6, 3, kResidual>(A, x, b, y, threads);
   else
-    run(row_times_any<kResidual>);
+    rows_times<0, 0, kResidual>(A, x, b, y, threads);
 }
 
 // c += a b for an R × K block a and a K × C block b.
@@ -75,19 +84,50 @@ void gemm_add_any(const double* a, const double* b, double* c, int R, int K, int
       for (int j = 0; j < C; ++j) c[r * C + j] += ark * b[k * C + j];
     }
 }
-using Gemm = void (*)(const double*, const double*, double*, int, int, int);
-Gemm pick_gemm(int R, int K, int C) {
-  const int key = (R == 3 ? 0 : R == 6 ? 1 : 9) * 100 + (K == 3 ? 0 : K == 6 ? 1 : 9) * 10 + (C == 3 ? 0 : C == 6 ? 1 : 9);
+constexpr Index kNone = ~Index{0};
+
+// C's columns and values, its row offsets counted (multiply): row i's columns gathered, sorted,
+// then each product A_ik B_kj added in A's row order, then B's. R, K, C: the block sizes (0: any).
+template <int R, int K, int Cc>
+void numeric_rows(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, std::vector<std::vector<Index>>& mark,
+                  int threads) {
+  parallel_for(A.rows, threads, [&](std::size_t i) {
+    std::vector<Index>& m = mark[static_cast<std::size_t>(thread_id())];
+    Index p = C.offset[i];
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
+      for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l)
+        if (m[B.col[l]] != i) {
+          m[B.col[l]] = static_cast<Index>(i);
+          C.col[p++] = B.col[l];
+        }
+    std::sort(C.col.begin() + C.offset[i], C.col.begin() + C.offset[i + 1]);
+    // m maps the row's columns to their positions while it is summed, then is cleared.
+    for (Index q = C.offset[i]; q < C.offset[i + 1]; ++q) m[C.col[q]] = q;
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
+      for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l) {
+        if constexpr (R == 0)
+          gemm_add_any(A.block(k), B.block(l), C.block(m[B.col[l]]), A.br, A.bc, B.bc);
+        else
+          gemm_add<R, K, Cc>(A.block(k), B.block(l), C.block(m[B.col[l]]), R, K, Cc);
+      }
+    for (Index q = C.offset[i]; q < C.offset[i + 1]; ++q) m[C.col[q]] = kNone;
+  });
+}
+
+void numeric_product(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
+                     std::vector<std::vector<Index>>& mark, int threads) {
+  const int key = (A.br == 3 ? 0 : A.br == 6 ? 1 : 9) * 100 + (A.bc == 3 ? 0 : A.bc == 6 ? 1 : 9) * 10 +
+                  (B.bc == 3 ? 0 : B.bc == 6 ? 1 : 9);
   switch (key) {
-    case 0: return gemm_add<3, 3, 3>;
-    case 1: return gemm_add<3, 3, 6>;
-    case 10: return gemm_add<3, 6, 3>;
-    case 11: return gemm_add<3, 6, 6>;
-    case 100: return gemm_add<6, 3, 3>;
-    case 101: return gemm_add<6, 3, 6>;
-    case 110: return gemm_add<6, 6, 3>;
-    case 111: return gemm_add<6, 6, 6>;
-    default: return gemm_add_any;
+    case 0: return numeric_rows<3, 3, 3>(A, B, C, mark, threads);
+    case 1: return numeric_rows<3, 3, 6>(A, B, C, mark, threads);
+    case 10: return numeric_rows<3, 6, 3>(A, B, C, mark, threads);
+    case 11: return numeric_rows<3, 6, 6>(A, B, C, mark, threads);
+    case 100: return numeric_rows<6, 3, 3>(A, B, C, mark, threads);
+    case 101: return numeric_rows<6, 3, 6>(A, B, C, mark, threads);
+    case 110: return numeric_rows<6, 6, 3>(A, B, C, mark, threads);
+    case 111: return numeric_rows<6, 6, 6>(A, B, C, mark, threads);
+    default: return numeric_rows<0, 0, 0>(A, B, C, mark, threads);
   }
 }
 
@@ -112,20 +152,24 @@ void packed_row(const PackedMatrix<T>& A, const double* x, const double* b, doub
   for (int r = 0; r < R; ++r) y[i * R + r] = kResidual ? b[i * R + r] - s[r] : s[r];
 }
 
+template <class T, int R, int C, bool kSym, bool kResidual>
+void packed_rows(const PackedMatrix<T>& A, const double* x, const double* b, double* y, int threads) {
+  parallel_for(A.rows, threads, [&](std::size_t i) { packed_row<T, R, C, kSym, kResidual>(A, x, b, y, i); });
+}
+
 template <class T, bool kResidual>
 void packed_times(const PackedMatrix<T>& A, const double* x, const double* b, double* y, int threads) {
-  auto run = [&](auto row) { parallel_for(A.rows, threads, [&](std::size_t i) { row(A, x, b, y, i); }); };
   if (A.symmetric)
-    run(packed_row<T, 3, 3, true, kResidual>);
+    packed_rows<T, 3, 3, true, kResidual>(A, x, b, y, threads);
   else if (A.br == 3 && A.bc == 3)
-    run(packed_row<T, 3, 3, false, kResidual>);
+    packed_rows<T, 3, 3, false, kResidual>(A, x, b, y, threads);
   else if (A.br == 6 && A.bc == 6)
-    run(packed_row<T, 6, 6, false, kResidual>);
+    packed_rows<T, 6, 6, false, kResidual>(A, x, b, y, threads);
   else if (A.br == 3 && A.bc == 6)
-    run(packed_row<T, 3, 6, false, kResidual>);
+    packed_rows<T, 3, 6, false, kResidual>(A, x, b, y, threads);
   else {
     assert(A.br == 6 && A.bc == 3);
-    run(packed_row<T, 6, 3, false, kResidual>);
+    packed_rows<T, 6, 3, false, kResidual>(A, x, b, y, threads);
   }
 }
 
@@ -214,7 +258,6 @@ void multiply(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, int th
   // Per thread: the last row that saw each block column (symbolic pass), then where it sits in
   // the row being summed (numeric pass).
   std::vector<std::vector<Index>> mark(static_cast<std::size_t>(nt));
-  constexpr Index kNone = ~Index{0};
   for (auto& m : mark) m.assign(B.cols, kNone);
   std::vector<Index> count(A.rows);
   parallel_for(A.rows, threads, [&](std::size_t i) {
@@ -233,24 +276,7 @@ void multiply(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, int th
   C.col.resize(C.offset.back());
   C.val.assign(C.blocks() * C.block_size(), 0.0);
   for (auto& m : mark) std::fill(m.begin(), m.end(), kNone);
-  const Gemm gemm = pick_gemm(A.br, A.bc, B.bc);
-  parallel_for(A.rows, threads, [&](std::size_t i) {
-    std::vector<Index>& m = mark[static_cast<std::size_t>(thread_id())];
-    Index p = C.offset[i];
-    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
-      for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l)
-        if (m[B.col[l]] != i) {
-          m[B.col[l]] = static_cast<Index>(i);
-          C.col[p++] = B.col[l];
-        }
-    std::sort(C.col.begin() + C.offset[i], C.col.begin() + C.offset[i + 1]);
-    // m maps the row's columns to their positions while it is summed, then is cleared.
-    for (Index q = C.offset[i]; q < C.offset[i + 1]; ++q) m[C.col[q]] = q;
-    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
-      for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l)
-        gemm(A.block(k), B.block(l), C.block(m[B.col[l]]), A.br, A.bc, B.bc);
-    for (Index q = C.offset[i]; q < C.offset[i + 1]; ++q) m[C.col[q]] = kNone;
-  });
+  numeric_product(A, B, C, mark, threads);
 }
 
 }  // namespace qbond

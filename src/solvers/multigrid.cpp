@@ -45,7 +45,7 @@ std::vector<std::size_t> Multigrid::unknowns() const {
   return u;
 }
 
-void Multigrid::smoother(Level& L, int threads) {
+void Multigrid::smoother(Level& L, bool symmetric, int threads) {
   const int bs = L.A.br;
   const auto b = static_cast<std::size_t>(bs);
   const std::size_t n = static_cast<std::size_t>(L.A.rows) * b;
@@ -59,12 +59,14 @@ void Multigrid::smoother(Level& L, int threads) {
       invert_block<6>(L.A.block(k), out);
   });
   for (std::vector<double>* v : {&L.x, &L.b, &L.r, &L.d, &L.t}) v->assign(n, 0.0);
-  // λ_max(D⁻¹A) by power iteration from a fixed start with every frequency in it.
+  // λ_max(D⁻¹A) by power iteration from a fixed start with every frequency in it, on A as the
+  // cycle reads it.
+  pack(L.A, symmetric, L.Af, threads);
   std::vector<double>& v = L.d;
   for (std::size_t k = 0; k < n; ++k) v[k] = static_cast<double>((k * 2654435761u) % 1000u) / 1000.0 - 0.5;
   double lambda = 1;
-  for (int it = 0; it < 12; ++it) {
-    multiply(L.A, v.data(), L.t.data(), threads);
+  for (int it = 0; it < 10; ++it) {
+    multiply(L.Af, v.data(), L.t.data(), threads);
     block_scale(L.Dinv, bs, L.A.rows, L.t.data(), 1.0, L.r.data(), threads);
     const double vv = dot(n, v.data(), v.data(), threads), ww = dot(n, L.r.data(), L.r.data(), threads);
     if (!(vv > 0) || !(ww > 0)) break;
@@ -109,7 +111,6 @@ void Multigrid::factor_coarsest() {
 void Multigrid::pack_levels(int threads) {
   for (std::size_t l = 0; l < levels_.size(); ++l) {
     Level& L = levels_[l];
-    pack(L.A, l == 0, L.Af, threads);
     if (l + 1 < levels_.size()) {
       pack(L.P, false, L.Pf, threads);
       pack(L.R, false, L.Rf, threads);
@@ -125,7 +126,7 @@ void Multigrid::build(const BlockMatrix& A, const std::vector<Vec3>& x, int thre
   ns.rigid_modes(x);
   std::vector<Index> agg;
   for (std::size_t l = 0;; ++l) {
-    smoother(levels_[l], threads);
+    smoother(levels_[l], l == 0, threads);
     const std::size_t n = static_cast<std::size_t>(levels_[l].A.rows) * static_cast<std::size_t>(levels_[l].A.br);
     if (n <= coarsest || l + 1 >= kMaxLevels) break;
     const Index count = aggregate(levels_[l].A, agg);
@@ -165,7 +166,7 @@ void Multigrid::build(const BlockMatrix& A, const std::vector<Vec3>& x, int thre
 void Multigrid::update(const BlockMatrix& A, int threads) {
   levels_[0].A = A;
   for (std::size_t l = 0; l < levels_.size(); ++l) {
-    smoother(levels_[l], threads);
+    smoother(levels_[l], l == 0, threads);
     if (l + 1 < levels_.size()) galerkin(l, threads);
   }
   factor_coarsest();

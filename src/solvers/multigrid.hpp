@@ -59,10 +59,10 @@ class Multigrid {
     PackedMatrix<float> Af, Pf, Rf;  // A, P, R as the cycle reads them
     std::vector<double> x, b, r, d, t;
   };
-  void smoother(Level& L, int threads);
+  void smoother(Level& L, bool symmetric, int threads);  // symmetric: A's blocks each are
   void galerkin(std::size_t l, int threads);
   void factor_coarsest();
-  void pack_levels(int threads);
+  void pack_levels(int threads);  // P and R as the cycle reads them
   void chebyshev(Level& L, bool zero_start, int threads);
   void cycle(std::size_t l, int threads);
 
