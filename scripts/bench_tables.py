@@ -21,7 +21,7 @@ from collections import defaultdict
 # optional -N (a run's number).
 NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z]*)(?:-(?P<run>\d+))?\.json$")
 
-PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "solve", "peers": "peers", "peers_rounds": "peers",
+PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "multigrid", "peers": "peers", "peers_rounds": "peers",
           "peers_seconds": "peers", "memory": "memory"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).

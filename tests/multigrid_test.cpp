@@ -71,8 +71,9 @@ constexpr double kTol = 1e-10, kAgree = 1e-7;
 TEST(Multigrid, MatchesLdltOnAnchoredLattices) {
   for (const auto& size : {std::array{10, 6, 5}, std::array{14, 9, 7}}) {
     SolveStats stats;
-    EXPECT_LT(mismatch_with_ldlt(moving_lattice(size[0], size[1], size[2], true), multigrid_config(kTol), &stats),
-              kAgree);
+    EXPECT_LT(
+        mismatch_with_ldlt(moving_lattice(size[0], size[1], size[2], true), multigrid_config(kTol), &stats),
+        kAgree);
     EXPECT_LE(stats.residual, kTol);
     EXPECT_GT(stats.iterations, 0);
   }
@@ -80,7 +81,8 @@ TEST(Multigrid, MatchesLdltOnAnchoredLattices) {
 
 TEST(Multigrid, MatchesLdltOnABodyWithNoAnchor) {
   World w = moving_lattice(9, 7, 6, false);
-  for (std::size_t i = 0; i < w.num_quanta(); ++i) w.state.v[i] += Vec3(0, 0, 20).cross(w.state.x[i]);  // spinning
+  for (std::size_t i = 0; i < w.num_quanta(); ++i)
+    w.state.v[i] += Vec3(0, 0, 20).cross(w.state.x[i]);  // spinning
   EXPECT_LT(mismatch_with_ldlt(w, multigrid_config(kTol)), kAgree);
 }
 
@@ -190,7 +192,8 @@ TEST(Multigrid, HierarchyKeptThenRebuiltAsBondsBreakAndForm) {
   EXPECT_LT(solve(), kAgree);
   EXPECT_EQ(mg.builds, 1);
   // A bond forms between quanta that had none.
-  w.add_bond(1, static_cast<Index>(w.num_quanta() - 1), {.law = Law::linear, .stiffness = 500, .damping = 0.01});
+  w.add_bond(1, static_cast<Index>(w.num_quanta() - 1),
+             {.law = Law::linear, .stiffness = 500, .damping = 0.01});
   EXPECT_LT(solve(), kAgree);
   EXPECT_EQ(mg.builds, 1);
   // A fifth of the bonds break: the hierarchy is rebuilt.
@@ -249,8 +252,10 @@ TEST(Multigrid, SceneKey) {
                                        "quanta_mass": 1e-3, "material": "m"}]})");
   };
   EXPECT_EQ(scene(R"({"preconditioner": "multigrid"})").integrator.preconditioner, Preconditioner::multigrid);
-  EXPECT_EQ(scene(R"({"preconditioner": "block_jacobi"})").integrator.preconditioner, Preconditioner::block_jacobi);
-  EXPECT_EQ(scene(R"({"preconditioner": "multigrid"})").resolved["integrator"]["preconditioner"], "multigrid");
+  EXPECT_EQ(scene(R"({"preconditioner": "block_jacobi"})").integrator.preconditioner,
+            Preconditioner::block_jacobi);
+  EXPECT_EQ(scene(R"({"preconditioner": "multigrid"})").resolved["integrator"]["preconditioner"],
+            "multigrid");
   EXPECT_THROW(scene(R"({"preconditioner": "ilu"})"), SceneError);
   for (const auto& p : preconditioners()) EXPECT_EQ(parse_preconditioner(p.key), p.value);
 }

@@ -68,9 +68,9 @@ std::size_t MultigridStep::changed_blocks() const {
   return changed;
 }
 
-void MultigridStep::solve(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
-                          double h, double tolerance, int cap, int threads, std::vector<Vec3>& y, bool y_zero,
-                          SolveStats& stats) {
+void MultigridStep::solve(const Model& model, const State& state, const Adjacency& adj,
+                          const ImplicitSystem& sys, double h, double tolerance, int cap, int threads,
+                          std::vector<Vec3>& y, bool y_zero, SolveStats& stats) {
   const std::size_t n = model.num_quanta();
   bool same_free = n == num_quanta;
   for (std::size_t r = 0; same_free && r < quanta.size(); ++r) same_free = !model.is_kinematic(quanta[r]);
@@ -145,7 +145,8 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
   last_iterations = stats.iterations;
   if (base_iterations < 0) base_iterations = stats.iterations;
   y.assign(n, Vec3::Zero());
-  parallel_for(quanta.size(), threads, [&](std::size_t r) { y[quanta[r]] = Vec3(x[3 * r], x[3 * r + 1], x[3 * r + 2]); });
+  parallel_for(quanta.size(), threads,
+               [&](std::size_t r) { y[quanta[r]] = Vec3(x[3 * r], x[3 * r + 1], x[3 * r + 2]); });
 }
 
 }  // namespace qbond

@@ -20,8 +20,9 @@ namespace qbond {
 struct MultigridStep {
   /// Solves A y = sys.rhs over the free quanta (y's kinematic rows 0) from the guess in y (y_zero:
   /// zero), to a relative residual of `tolerance` or `cap` iterations; fills stats.
-  void solve(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys, double h,
-             double tolerance, int cap, int threads, std::vector<Vec3>& y, bool y_zero, SolveStats& stats);
+  void solve(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
+             double h, double tolerance, int cap, int threads, std::vector<Vec3>& y, bool y_zero,
+             SolveStats& stats);
 
   Multigrid mg;
   int builds = 0, updates = 0;  ///< hierarchy builds and numeric updates so far
@@ -32,10 +33,10 @@ struct MultigridStep {
   void assemble_pattern(const Model& model, const Adjacency& adj);
   std::size_t changed_blocks() const;
 
-  std::vector<Index> row_of;    // each quanta's block row, kNone for kinematic quanta
-  std::vector<Index> quanta;    // each block row's quanta
-  std::vector<Index> edge_at;   // each adjacency entry's block in A (kNone: not coupled)
-  std::vector<Index> diag_at;   // each block row's diagonal block
+  std::vector<Index> row_of;   // each quanta's block row, kNone for kinematic quanta
+  std::vector<Index> quanta;   // each block row's quanta
+  std::vector<Index> edge_at;  // each adjacency entry's block in A (kNone: not coupled)
+  std::vector<Index> diag_at;  // each block row's diagonal block
   BlockMatrix A;
   PackedMatrix<double> packed;  // A as CG's product reads it
   std::uint64_t adj_version = ~0ull;

@@ -76,8 +76,8 @@ void NearNullSpace::rigid_modes(const std::vector<Vec3>& x) {
   }
 }
 
-void tentative_prolongator(const NearNullSpace& fine, const std::vector<Index>& agg, Index count, BlockMatrix& P0,
-                           NearNullSpace& coarse) {
+void tentative_prolongator(const NearNullSpace& fine, const std::vector<Index>& agg, Index count,
+                           BlockMatrix& P0, NearNullSpace& coarse) {
   const int bs = fine.bs;
   const auto n = static_cast<Index>(fine.position.size());
   const std::size_t bsz = static_cast<std::size_t>(bs) * 6;
@@ -131,7 +131,8 @@ void tentative_prolongator(const NearNullSpace& fine, const std::vector<Index>& 
     // Back to rotations about the origin: B_c S, S = [I −[e]×; 0 I].
     Mat6 S = Mat6::Identity();
     S.topRightCorner<3, 3>() = -ex;
-    Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(coarse.B.data() + 36 * static_cast<std::size_t>(a)) = Bc * S;
+    Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(coarse.B.data() +
+                                                             36 * static_cast<std::size_t>(a)) = Bc * S;
     for (Index m = start[a]; m < start[a + 1]; ++m) {
       Eigen::Map<const Block> bc(centred.data() + (m - start[a]) * bsz, bs, 6);
       Eigen::Map<Block>(P0.val.data() + members[m] * bsz, bs, 6) = bc * T;

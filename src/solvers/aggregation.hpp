@@ -19,8 +19,8 @@ Index aggregate(const BlockMatrix& A, std::vector<Index>& agg);
 /// `scale`) on that point's unknowns, and the point's position.
 struct NearNullSpace {
   int bs = 3;
-  std::vector<double> B;        // rows · bs · 6
-  std::vector<Vec3> position;   // rows
+  std::vector<double> B;       // rows · bs · 6
+  std::vector<Vec3> position;  // rows
   Vec3 origin = Vec3::Zero();
   double scale = 1;
   /// For 3-unknown points at `x`: B_i = [I | −[(x_i − origin)/scale]×], origin and scale the

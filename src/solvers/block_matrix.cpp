@@ -40,7 +40,9 @@ void row_times_any(const BlockMatrix& A, const double* x, const double* b, doubl
     for (int r = 0; r < R; ++r)
       for (int c = 0; c < C; ++c) s[r] += a[r * C + c] * xj[c];
   }
-  for (int r = 0; r < R; ++r) y[i * static_cast<std::size_t>(R) + static_cast<std::size_t>(r)] = kResidual ? b[i * static_cast<std::size_t>(R) + static_cast<std::size_t>(r)] - s[r] : s[r];
+  for (int r = 0; r < R; ++r)
+    y[i * static_cast<std::size_t>(R) + static_cast<std::size_t>(r)] =
+        kResidual ? b[i * static_cast<std::size_t>(R) + static_cast<std::size_t>(r)] - s[r] : s[r];
 }
 
 template <int R, int C, bool kResidual>
@@ -89,8 +91,8 @@ constexpr Index kNone = ~Index{0};
 // C's columns and values, its row offsets counted (multiply): row i's columns gathered, sorted,
 // then each product A_ik B_kj added in A's row order, then B's. R, K, C: the block sizes (0: any).
 template <int R, int K, int Cc>
-void numeric_rows(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, std::vector<std::vector<Index>>& mark,
-                  int threads) {
+void numeric_rows(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
+                  std::vector<std::vector<Index>>& mark, int threads) {
   parallel_for(A.rows, threads, [&](std::size_t i) {
     std::vector<Index>& m = mark[static_cast<std::size_t>(thread_id())];
     Index p = C.offset[i];
@@ -116,8 +118,17 @@ void numeric_rows(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, st
 
 void numeric_product(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
                      std::vector<std::vector<Index>>& mark, int threads) {
-  const int key = (A.br == 3 ? 0 : A.br == 6 ? 1 : 9) * 100 + (A.bc == 3 ? 0 : A.bc == 6 ? 1 : 9) * 10 +
-                  (B.bc == 3 ? 0 : B.bc == 6 ? 1 : 9);
+  const int key = (A.br == 3   ? 0
+                   : A.br == 6 ? 1
+                               : 9) *
+                      100 +
+                  (A.bc == 3   ? 0
+                   : A.bc == 6 ? 1
+                               : 9) *
+                      10 +
+                  (B.bc == 3   ? 0
+                   : B.bc == 6 ? 1
+                               : 9);
   switch (key) {
     case 0: return numeric_rows<3, 3, 3>(A, B, C, mark, threads);
     case 1: return numeric_rows<3, 3, 6>(A, B, C, mark, threads);
@@ -219,7 +230,9 @@ std::size_t BlockMatrix::find(Index i, Index j) const {
   return it != last && *it == j ? static_cast<std::size_t>(it - col.begin()) : blocks();
 }
 
-void multiply(const BlockMatrix& A, const double* x, double* y, int threads) { times<false>(A, x, nullptr, y, threads); }
+void multiply(const BlockMatrix& A, const double* x, double* y, int threads) {
+  times<false>(A, x, nullptr, y, threads);
+}
 
 void residual(const BlockMatrix& A, const double* b, const double* x, double* r, int threads) {
   times<true>(A, x, b, r, threads);

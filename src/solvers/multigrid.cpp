@@ -41,7 +41,8 @@ void invert_block(const double* a, double* out) {
 
 std::vector<std::size_t> Multigrid::unknowns() const {
   std::vector<std::size_t> u;
-  for (const Level& L : levels_) u.push_back(static_cast<std::size_t>(L.A.rows) * static_cast<std::size_t>(L.A.br));
+  for (const Level& L : levels_)
+    u.push_back(static_cast<std::size_t>(L.A.rows) * static_cast<std::size_t>(L.A.br));
   return u;
 }
 
@@ -127,7 +128,8 @@ void Multigrid::build(const BlockMatrix& A, const std::vector<Vec3>& x, int thre
   std::vector<Index> agg;
   for (std::size_t l = 0;; ++l) {
     smoother(levels_[l], l == 0, threads);
-    const std::size_t n = static_cast<std::size_t>(levels_[l].A.rows) * static_cast<std::size_t>(levels_[l].A.br);
+    const std::size_t n =
+        static_cast<std::size_t>(levels_[l].A.rows) * static_cast<std::size_t>(levels_[l].A.br);
     if (n <= coarsest || l + 1 >= kMaxLevels) break;
     const Index count = aggregate(levels_[l].A, agg);
     if (static_cast<double>(count) * 6 > 0.8 * static_cast<double>(n)) break;  // not coarsening
@@ -226,8 +228,8 @@ void Multigrid::apply(const double* r, double* z, int threads) {
   std::copy(L.x.begin(), L.x.end(), z);
 }
 
-void Multigrid::solve(const PackedMatrix<double>& A, const std::vector<double>& b, double tolerance, int cap, int threads,
-                      std::vector<double>& y, bool y_zero, SolveStats& stats) {
+void Multigrid::solve(const PackedMatrix<double>& A, const std::vector<double>& b, double tolerance, int cap,
+                      int threads, std::vector<double>& y, bool y_zero, SolveStats& stats) {
   const std::size_t n = b.size();
   for (std::vector<double>* v : {&r_, &z_, &p_, &q_}) v->resize(n);
   y.resize(n);

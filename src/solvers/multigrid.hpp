@@ -16,9 +16,9 @@
 #include <Eigen/SparseCholesky>
 #include <vector>
 
+#include "qbond/integrators/integrators.hpp"
 #include "solvers/aggregation.hpp"
 #include "solvers/block_matrix.hpp"
-#include "qbond/integrators/integrators.hpp"
 
 namespace qbond {
 
@@ -40,10 +40,11 @@ class Multigrid {
   void apply(const double* r, double* z, int threads);
 
   /// Conjugate gradient on A y = b (A with the built block rows, not necessarily the built
-  /// values; packed symmetric), preconditioned by apply, from y (scaled by yᵀb / yᵀA y first, as the block-Jacobi CG
-  /// does; y_zero: y is 0) until ‖b − A y‖/‖b‖ ≤ tolerance (CG's recurrence) or `cap` iterations.
-  void solve(const PackedMatrix<double>& A, const std::vector<double>& b, double tolerance, int cap, int threads,
-             std::vector<double>& y, bool y_zero, SolveStats& stats);
+  /// values; packed symmetric), preconditioned by apply, from y (scaled by yᵀb / yᵀA y first, as the
+  /// block-Jacobi CG does; y_zero: y is 0) until ‖b − A y‖/‖b‖ ≤ tolerance (CG's recurrence) or `cap`
+  /// iterations.
+  void solve(const PackedMatrix<double>& A, const std::vector<double>& b, double tolerance, int cap,
+             int threads, std::vector<double>& y, bool y_zero, SolveStats& stats);
 
   /// Chebyshev degree of the smoother before and after each coarse correction.
   int smoothing_degree = 2;
@@ -53,9 +54,9 @@ class Multigrid {
  private:
   struct Level {
     BlockMatrix A;
-    std::vector<double> Dinv;  // A's diagonal blocks inverted, bs × bs each
-    double lambda = 1;         // λ_max(D⁻¹A), estimated
-    BlockMatrix P, R, AP;      // from the next level (none on the coarsest), R = Pᵀ, AP scratch
+    std::vector<double> Dinv;        // A's diagonal blocks inverted, bs × bs each
+    double lambda = 1;               // λ_max(D⁻¹A), estimated
+    BlockMatrix P, R, AP;            // from the next level (none on the coarsest), R = Pᵀ, AP scratch
     PackedMatrix<float> Af, Pf, Rf;  // A, P, R as the cycle reads them
     std::vector<double> x, b, r, d, t;
   };
