@@ -12,12 +12,14 @@
 // the bytes it must move on as many threads. Counters: quanta, bonds, threads, bytes_per_step (the traffic model below).
 //
 // With --solve: the time to reach the backward-Euler solution of one step at h = 1/60 s to a
-// relative residual of 1e-6, by qbond's default (matrix-free CG, 3×3 block-Jacobi) and by Eigen's
+// relative residual of 1e-6, by qbond's CG preconditioned by 3×3 block Jacobi (matrix-free) and by
+// multigrid (set-up included, and reported apart), and by Eigen's
 // CG (diagonal preconditioner) and sparse Cholesky (SimplicialLLT) on the same assembled system.
 #include <benchmark/benchmark.h>
 
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/SparseCholesky>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -29,6 +31,7 @@
 
 #include "bench_integrators.hpp"
 #include "integrators/backward_euler.hpp"  // internal: the linear system the implicit integrators solve
+#include "integrators/multigrid_step.hpp"   // internal: its multigrid-preconditioned solve
 #include "qbond/model/ordering.hpp"
 #include "qbond/builders/samples.hpp"
 #include "qbond/simulation/simulation.hpp"
@@ -131,10 +134,12 @@ void triad_benchmark(benchmark::State& st, int threads) {
 
 constexpr double kSolveStep = 1.0 / 60, kSolveTolerance = 1e-6;
 
-// qbond's default step at h = 1/60 s, CG to a relative residual of 1e-6 (linearisation included).
+// qbond's default step at h = 1/60 s, block-Jacobi CG to a relative residual of 1e-6 (linearisation
+// included).
 void solve_qbond(benchmark::State& st, int n) {
   Scene scene = canonical_lattice(n);
   IntegratorConfig cfg = default_integrator();
+  cfg.preconditioner = Preconditioner::block_jacobi;
   cfg.threads = 1;
   cfg.tolerance = kSolveTolerance;
   const std::size_t quanta = scene.world.num_quanta();
@@ -149,6 +154,50 @@ void solve_qbond(benchmark::State& st, int n) {
     st.counters["residual"] = sim.integrator().stats().residual;
   }
   st.counters["quanta"] = static_cast<double>(quanta);
+}
+
+// The default step's system (begin_implicit_step) solved by multigrid-preconditioned CG from zero,
+// the hierarchy built for it (MultigridStep, as coupled_implicit with preconditioner multigrid
+// takes its first step); counters: the set-up and CG times apart, and the true residual.
+void solve_multigrid(benchmark::State& st, int n) {
+  Scene scene = canonical_lattice(n);
+  const World& w = scene.world;
+  const Model& m = w.model;
+  Adjacency adj;
+  build_adjacency(m, w.state, adj);
+  std::vector<Vec3> f_ext(w.num_quanta());
+  for (std::size_t i = 0; i < f_ext.size(); ++i) f_ext[i] = m.mass[i] * m.gravity;
+  double setup = 0, solve = 0, residual = 0, levels = 0;
+  int iterations = 0;
+  for (auto _ : st) {
+    st.PauseTiming();
+    ImplicitSystem sys;
+    Projection kin;
+    MultigridStep mg;
+    std::vector<Vec3> y;
+    SolveStats stats;
+    st.ResumeTiming();
+    begin_implicit_step(m, w.state, adj, f_ext, {.h = kSolveStep}, /*edges=*/false, 1, kin, sys);
+    mg.solve(m, w.state, adj, sys, kSolveStep, kSolveTolerance, 100000, 1, y, /*y_zero=*/true, stats);
+    st.PauseTiming();
+    setup = mg.setup_seconds;
+    solve = mg.solve_seconds;
+    iterations = stats.iterations;
+    levels = static_cast<double>(mg.mg.levels());
+    std::vector<Vec3> Ay;
+    apply_system(m, sys, y, 1, Ay);
+    double r2 = 0;
+    for (std::size_t i = 0; i < y.size(); ++i)
+      if (!m.is_kinematic(static_cast<Index>(i))) r2 += (sys.rhs[i] - Ay[i]).squaredNorm();
+    residual = std::sqrt(r2) / sys.rhs_norm;
+    st.ResumeTiming();
+  }
+  st.counters["solver_iterations"] = iterations;
+  st.counters["residual"] = residual;
+  st.counters["setup_seconds"] = setup;
+  st.counters["solve_seconds"] = solve;
+  st.counters["levels"] = levels;
+  st.counters["quanta"] = static_cast<double>(w.num_quanta());
 }
 
 // The same system (begin_implicit_step, as the integrators build it) assembled into a sparse
@@ -260,6 +309,9 @@ int main(int argc, char** argv) {
     for (int n : sizes) {
       const std::string tail = "/n:" + std::to_string(n);
       benchmark::RegisterBenchmark(("solve/qbond_cg" + tail).c_str(), [n](benchmark::State& st) { solve_qbond(st, n); })
+          ->UseRealTime()->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark(("solve/qbond_mg" + tail).c_str(),
+                                   [n](benchmark::State& st) { solve_multigrid(st, n); })
           ->UseRealTime()->Unit(benchmark::kMillisecond);
       benchmark::RegisterBenchmark(("solve/eigen_cg" + tail).c_str(),
                                    [n](benchmark::State& st) { solve_eigen(st, n, false); })

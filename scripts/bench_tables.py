@@ -1,11 +1,12 @@
 #!/usr/bin/python3
-"""Renders docs/performance.md's measured tables from the results in docs/bench/.
+"""Renders the measured tables of docs/performance.md and docs/integrators.md from docs/bench/.
 
 Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default: this script's parent)
 
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
-docs/performance.md; the opening marker may carry `machine="..."`, which the provenance line
-quotes. KIND is one of step, asrun, solve, peers, peers_rounds, peers_seconds, memory, ab, targets;
+docs/performance.md or docs/integrators.md; the opening marker may carry `machine="..."`, which
+the provenance line quotes. KIND is one of step, asrun, solve, multigrid, peers, peers_rounds,
+peers_seconds, memory, ab, targets;
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -21,8 +22,8 @@ from collections import defaultdict
 # optional -N (a run's number).
 NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z]*)(?:-(?P<run>\d+))?\.json$")
 
-PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "peers": "peers", "peers_rounds": "peers",
-          "peers_seconds": "peers", "memory": "memory", "ab": "ab"}
+PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "multigrid", "peers": "peers",
+          "peers_rounds": "peers", "peers_seconds": "peers", "memory": "memory", "ab": "ab"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
 PARALLEL_MIN = 4096
@@ -132,10 +133,30 @@ def solve_table(name, data, machine):
     cmd = f"build/qbond bench --solve -n {','.join(map(str, sizes(data['rows'])))} --json docs/bench/{name}"
     lines = [provenance(name, data, machine, cmd), "",
              "| n | solver | iterations | ms | relative residual | time / qbond's CG |", "|---|---|---|---|---|---|"]
-    for r in sorted(data["rows"], key=lambda r: (n_of(r), ["qbond_cg", "eigen_cg", "eigen_cholesky"].index(r["solver"]))):
+    for r in sorted(data["rows"], key=lambda r: (n_of(r), ["qbond_cg", "qbond_mg", "eigen_cg", "eigen_cholesky"].index(r["solver"]))):
         it = f"{r['iterations']:.0f}" if r["iterations"] else "direct"
         lines.append(f"| {n_of(r)} | {r['solver']} | {it} | {sig(r['seconds'] * 1e3)} | {r['relative_residual']:.1e} | "
                      f"{sig(r['ratio_to_qbond_cg'])} |")
+    return lines
+
+
+def multigrid_table(name, data, machine):
+    """docs/integrators.md's: block-Jacobi and multigrid CG side by side, from the solve results."""
+    cmd = f"build/qbond bench --solve -n {','.join(map(str, sizes(data['rows'])))} --json docs/bench/{name}"
+    lines = [provenance(name, data, machine, cmd), "",
+             "| n | quanta | block Jacobi: iterations | ms | multigrid: iterations | levels | set-up ms | CG ms | "
+             "true residual | multigrid CG / block-Jacobi time |", "|---|---|---|---|---|---|---|---|---|---|"]
+    by = defaultdict(dict)
+    for r in data["rows"]:
+        by[n_of(r)][r["solver"]] = r
+    for n in sorted(by):
+        bj, mg = by[n].get("qbond_cg"), by[n].get("qbond_mg")
+        if not bj or not mg:
+            continue
+        lines.append(f"| {n} | {mg['quanta']} | {bj['iterations']:.0f} | {sig(bj['seconds'] * 1e3)} | "
+                     f"{mg['iterations']:.0f} | {mg['levels']} | {sig(mg['setup_seconds'] * 1e3)} | "
+                     f"{sig(mg['solve_seconds'] * 1e3)} | {mg['relative_residual']:.1e} | "
+                     f"{sig(mg['solve_seconds'] / bj['seconds'])} |")
     return lines
 
 
@@ -229,7 +250,7 @@ def targets(bench_dir, machines):
     cg = " / ".join(f"{by[n]['eigen_cg']:.2f}×" for n in sorted(by))
     ch = " / ".join(f"{by[n]['eigen_cholesky']:.0f}×" for n in sorted(by) if "eigen_cholesky" in by[n])
     chn = " / ".join(str(n) for n in sorted(by) if "eigen_cholesky" in by[n])
-    ok = all(v > 1 for d in by.values() for k, v in d.items() if k != "qbond_cg")
+    ok = all(v > 1 for d in by.values() for k, v in d.items() if k.startswith("eigen"))
     rows.append(("default solve at h = 1/60 s faster than Eigen's CG and sparse Cholesky (residual 1e-6)",
                  f"Eigen's CG takes {cg} qbond's time at n = {' / '.join(map(str, sorted(by)))}; "
                  f"Cholesky {ch} at n = {chn}", ok, vname))
@@ -281,6 +302,7 @@ def render(kind, machine, bench_dir):
     return {"step": lambda: step_table(name, data, machine),
             "asrun": lambda: step_table(name, data, machine, " --as-run"),
             "solve": lambda: solve_table(name, data, machine),
+            "multigrid": lambda: multigrid_table(name, data, machine),
             "peers": lambda: peers_table(name, data, machine),
             "peers_rounds": lambda: peers_rounds(name, data, machine),
             "peers_seconds": lambda: peers_seconds(name, data, machine),
@@ -295,31 +317,37 @@ def main(argv):
     check = "--check" in argv
     args = [a for a in argv if a != "--check"]
     root = args[0] if args else os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    doc = os.path.join(root, "docs", "performance.md")
     bench_dir = os.path.join(root, "docs", "bench")
-    with open(doc) as f:
-        text = f.read()
 
     def fill(m):
         attr = re.search(r'machine="([^"]*)"', m["attrs"])
         body = "\n".join(render(m["kind"], attr[1] if attr else "", bench_dir)) + "\n"
         return m.group(1) + body + m.group(5)
 
-    new, count = BLOCK.subn(fill, text)
-    if count == 0:
+    total, stale = 0, []
+    for doc in (os.path.join(root, "docs", "performance.md"), os.path.join(root, "docs", "integrators.md")):
+        with open(doc) as f:
+            text = f.read()
+        new, count = BLOCK.subn(fill, text)
+        total += count
+        if new == text:
+            continue
+        if check:
+            stale.append(os.path.relpath(doc, root))
+        else:
+            with open(doc, "w") as f:
+                f.write(new)
+    if total == 0:
         print("bench_tables: docs/performance.md has no <!-- bench:KIND --> blocks", file=sys.stderr)
         return 1
     if check:
-        if new != text:
-            print("bench_tables: docs/performance.md differs from docs/bench/*.json; "
+        if stale:
+            print(f"bench_tables: {', '.join(stale)} differ from docs/bench/*.json; "
                   "run /usr/bin/python3 scripts/bench_tables.py", file=sys.stderr)
             return 1
-        print(f"bench_tables: {count} tables match docs/bench/")
+        print(f"bench_tables: {total} tables match docs/bench/")
         return 0
-    if new != text:
-        with open(doc, "w") as f:
-            f.write(new)
-    print(f"bench_tables: {count} tables written")
+    print(f"bench_tables: {total} tables written")
     return 0
 
 

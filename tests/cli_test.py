@@ -404,11 +404,16 @@ def test_bench_quick():
     # The solver comparison: the same system solved by each, to the stated residual.
     qbond("bench", "--quick", "--solve", "--json", path, check_code=0)
     rows = {row["solver"]: row for row in json.load(open(path))["rows"]}
-    if sorted(rows) != ["eigen_cg", "eigen_cholesky", "qbond_cg"]:
+    if sorted(rows) != ["eigen_cg", "eigen_cholesky", "qbond_cg", "qbond_mg"]:
         fail(f"solve rows {sorted(rows)}")
     for name, row in rows.items():
         if not row["relative_residual"] <= (1e-10 if name == "eigen_cholesky" else 1e-6) or not row["seconds"] > 0:
             fail(f"{name}: {row}")
+    # The multigrid row's set-up and CG times apart, within its whole.
+    mg = rows["qbond_mg"]
+    if not (0 < mg["setup_seconds"] and 0 < mg["solve_seconds"] and mg["setup_seconds"] + mg["solve_seconds"] <= mg["seconds"]
+            and mg["levels"] >= 1 and mg["iterations"] >= 1):
+        fail(f"qbond_mg: {mg}")
     r = qbond("bench", "--quick", "--integrators", "nonsense")
     if r.returncode == 0 or "unknown integrator 'nonsense'" not in r.stderr:
         fail(f"an unknown integrator was accepted: {r.returncode} {r.stderr}")

@@ -140,13 +140,15 @@ json step_table(const json& report, const auto& wanted, double h, const std::map
   return rows;
 }
 
-// Rows "solve/SOLVER/n:N": one backward-Euler step at h = 1/60 s to a relative residual of 1e-6.
+// Rows "solve/SOLVER/n:N": one backward-Euler step at h = 1/60 s to a relative residual of 1e-6;
+// multigrid's also with its set-up and CG times apart and its levels.
 template <class Wanted>
 json solve_table(const json& report, const Wanted& wanted) {
   std::printf("qbond bench --solve: one backward-Euler step of the canonical workload at h = 1/60 s, solved to a\n"
-              "relative residual of 1e-6 (Cholesky: exact), the system's assembly included; ratio = time / qbond_cg's\n\n");
-  std::printf("%-8s %-16s %8s %11s %12s %12s %8s\n", "workload", "solver", "quanta", "iterations", "residual", "ms",
-              "ratio");
+              "relative residual of 1e-6 (Cholesky: exact), the system's assembly included; ratio = time / qbond_cg's;\n"
+              "qbond_mg: set-up (its hierarchy) and CG apart, residual ||b - A y|| / ||b||\n\n");
+  std::printf("%-8s %-16s %8s %11s %12s %12s %8s %10s %10s %7s\n", "workload", "solver", "quanta", "iterations",
+              "residual", "ms", "ratio", "setup ms", "solve ms", "levels");
   json rows = json::array();
   std::map<std::string, double> qbond_time;  // by n
   for (const json& b : report.at("benchmarks"))
@@ -155,16 +157,27 @@ json solve_table(const json& report, const Wanted& wanted) {
     if (!wanted(b)) continue;
     const auto [solver, n] = parse_run_name(b);
     const double t = seconds(b), t_q = qbond_time[n];
-    std::printf("%-8s %-16s %8.0f %11.0f %12.3g %12.3f %8.2f\n", ("n=" + n).c_str(), solver.c_str(),
+    const bool mg = b.contains("setup_seconds");
+    std::printf("%-8s %-16s %8.0f %11.0f %12.3g %12.3f %8.2f", ("n=" + n).c_str(), solver.c_str(),
                 b.at("quanta").get<double>(), b.value("solver_iterations", 0.0), b.at("residual").get<double>(), t * 1e3,
                 t_q > 0 ? t / t_q : NAN);
-    rows.push_back({{"workload", "lattice n=" + n},
-                    {"solver", solver},
-                    {"quanta", std::llround(b.at("quanta").get<double>())},
-                    {"iterations", b.value("solver_iterations", 0.0)},
-                    {"relative_residual", b.at("residual").get<double>()},
-                    {"seconds", t},
-                    {"ratio_to_qbond_cg", t_q > 0 ? t / t_q : NAN}});
+    if (mg)
+      std::printf(" %10.3f %10.3f %7.0f", b.at("setup_seconds").get<double>() * 1e3,
+                  b.at("solve_seconds").get<double>() * 1e3, b.at("levels").get<double>());
+    std::printf("\n");
+    json row = {{"workload", "lattice n=" + n},
+                {"solver", solver},
+                {"quanta", std::llround(b.at("quanta").get<double>())},
+                {"iterations", b.value("solver_iterations", 0.0)},
+                {"relative_residual", b.at("residual").get<double>()},
+                {"seconds", t},
+                {"ratio_to_qbond_cg", t_q > 0 ? t / t_q : NAN}};
+    if (mg) {
+      row["setup_seconds"] = b.at("setup_seconds").get<double>();
+      row["solve_seconds"] = b.at("solve_seconds").get<double>();
+      row["levels"] = std::llround(b.at("levels").get<double>());
+    }
+    rows.push_back(row);
   }
   return rows;
 }

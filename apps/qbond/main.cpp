@@ -73,7 +73,7 @@ struct Options {
   long long every = -1;
   long long checkpoint_every = -1;
   bool no_vtk = false;
-  std::string integrator, neighbours, solver;
+  std::string integrator, neighbours, solver, preconditioner;
   int iterations = -1;
   int threads = -1;
   double tolerance = -1;
@@ -89,8 +89,8 @@ std::string integrator_help() {
   return help;
 }
 
-/// An integrator option's help: its line, the integrators that read it and, for `neighbours` and
-/// `solver`, the values each takes.
+/// An integrator option's help: its line, the integrators that read it and, for `neighbours`,
+/// `solver` and `preconditioner`, the values each takes.
 std::string option_help(qbond::IntegratorOption option) {
   using namespace qbond;
   std::string help;
@@ -110,6 +110,9 @@ std::string option_help(qbond::IntegratorOption option) {
     if (option == IntegratorOption::neighbours)
       for (const NamedValue<NeighbourModel>& m : neighbour_models())
         values += (values.empty() ? "" : ", ") + std::string(m.key);
+    if (option == IntegratorOption::preconditioner)
+      for (const NamedValue<Preconditioner>& p : preconditioners())
+        values += (values.empty() ? "" : ", ") + std::string(p.key);
     auto g = std::find_if(groups.begin(), groups.end(), [&](const auto& p) { return p.first == values; });
     if (g == groups.end()) groups.emplace_back(values, std::string(i.key));
     else g->second += ", " + std::string(i.key);
@@ -147,12 +150,14 @@ void apply(const Options& o, qbond::Scene& scene, qbond::RunSettings& rs) {
   if (!o.integrator.empty()) c.type = parse_integrator_type(o.integrator);
   if (!o.neighbours.empty()) c.neighbours = parse_neighbour_model(o.neighbours);
   if (!o.solver.empty()) c.solver = parse_coupled_solver(o.solver);
+  if (!o.preconditioner.empty()) c.preconditioner = parse_preconditioner(o.preconditioner);
   if (o.iterations > 0) c.iterations = o.iterations;
   if (o.tolerance > 0) c.tolerance = o.tolerance;
   if (o.threads >= 0) c.threads = o.threads;
   j["integrator"]["type"] = to_string(c.type);
   j["integrator"]["neighbours"] = to_string(c.neighbours);
   j["integrator"]["solver"] = to_string(c.solver);
+  j["integrator"]["preconditioner"] = to_string(c.preconditioner);
   j["integrator"]["iterations"] = c.iterations;
   j["integrator"]["tolerance"] = c.tolerance;
   j["integrator"]["threads"] = c.threads;
@@ -370,6 +375,7 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--integrator", o.integrator, integrator_help());
   run_cmd->add_option("--neighbours", o.neighbours, option_help(qbond::IntegratorOption::neighbours));
   run_cmd->add_option("--solver", o.solver, option_help(qbond::IntegratorOption::solver));
+  run_cmd->add_option("--preconditioner", o.preconditioner, option_help(qbond::IntegratorOption::preconditioner));
   run_cmd->add_option("--iterations", o.iterations, option_help(qbond::IntegratorOption::iterations))
       ->check(kPositive);
   run_cmd->add_option("--tolerance", o.tolerance, option_help(qbond::IntegratorOption::tolerance))

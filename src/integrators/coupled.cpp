@@ -1,10 +1,12 @@
 // Coupled implicit integrator (Eq. 13 linearised, Baraff–Witkin 1998): one global linear solve
 // of (M + h C + h² K) Δv = b per step (backward_euler.hpp), by dense Gaussian elimination (the
-// paper's method, cubic cost), sparse LDLᵀ, or matrix-free block-Jacobi-preconditioned CG.
+// paper's method, cubic cost), sparse LDLᵀ, or CG preconditioned by block Jacobi (matrix-free)
+// or by multigrid (multigrid_step.hpp).
 #include <cassert>
 
 #include "integrators/backward_euler.hpp"
 #include "integrators/integrator_common.hpp"
+#include "integrators/multigrid_step.hpp"
 
 namespace qbond {
 namespace {
@@ -29,8 +31,12 @@ class CoupledIntegrator final : public StepIntegrator {
         topo_.update(model, adj);
         const bool guessed =
             initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, config_.threads, y_);
-        conjugate_gradient(model, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
-                           !guessed, stats_);
+        if (config_.preconditioner == Preconditioner::multigrid)
+          multigrid_.solve(model, state, adj, sys_, ctx.h, config_.tolerance, cg_cap(config_, topo_), config_.threads,
+                           y_, !guessed, stats_);
+        else
+          conjugate_gradient(model, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
+                             !guessed, stats_);
         if (config_.restore_momentum)
           restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
         keep_guess(config_.warm_start, y_, ctx.h, state.carry, config_.threads, out);
@@ -48,6 +54,7 @@ class CoupledIntegrator final : public StepIntegrator {
   TopologyCache topo_;
   std::vector<Vec3> y_;
   DirectSolver direct_;
+  MultigridStep multigrid_;
 };
 
 }  // namespace

@@ -40,6 +40,7 @@ constexpr IntegratorOptionInfo kOptions[] = {
     {O::newton_polish, "newton_polish", "exact-Newton corrections to round-off once the tolerance is met"},
     {O::threads, "threads", "OpenMP threads (0: all cores); the same bits for any count"},
     {O::restore_energy, "restore_energy", "give back the energy the integrator removed (or take back what it made)"},
+    {O::preconditioner, "preconditioner", "CG's preconditioner"},
 };
 
 constexpr NamedValue<NeighbourModel> kNeighbourModels[] = {
@@ -52,6 +53,10 @@ constexpr NamedValue<CoupledSolver> kSolvers[] = {
     {CoupledSolver::ldlt, "ldlt", "sparse LDLT"},
     {CoupledSolver::cg, "cg", "matrix-free conjugate gradient, block-Jacobi preconditioned"},
     {CoupledSolver::sweep, "sweep", "block Gauss-Seidel sweeps in colour order"},
+};
+constexpr NamedValue<Preconditioner> kPreconditioners[] = {
+    {Preconditioner::block_jacobi, "block_jacobi", "A's 3x3 diagonal blocks inverted (matrix-free)"},
+    {Preconditioner::multigrid, "multigrid", "smoothed aggregation multigrid V-cycle, kept across steps"},
 };
 constexpr NamedValue<WarmStart> kWarmStarts[] = {
     {WarmStart::zero, "zero", "dv = 0"},
@@ -92,7 +97,7 @@ const IntegratorInfo kIntegrators[] = {
      kLinearSolve | bits({O::neighbours, O::iterations, O::chebyshev_rho}), {}, kEveryStart, make_hybrid_integrator},
     {IntegratorType::coupled_implicit, "coupled_implicit",
      "Eq. 13 linearised (Baraff-Witkin): one global linear solve (sweeps: hybrid_implicit, neighbours sweep)",
-     kLinearSolve | bits({O::solver, O::max_iterations}), kCoupledSolvers, kEveryStart,
+     kLinearSolve | bits({O::solver, O::max_iterations, O::preconditioner}), kCoupledSolvers, kEveryStart,
      make_coupled_implicit_integrator},
     {IntegratorType::energy_momentum, "energy_momentum",
      "discrete gradient: keeps energy and both momenta at any step; Newton-solved", kNewton | bits({O::newton_polish}),
@@ -141,6 +146,7 @@ std::span<const IntegratorOptionInfo> integrator_options() { return kOptions; }
 std::span<const NamedValue<NeighbourModel>> neighbour_models() { return kNeighbourModels; }
 std::span<const NamedValue<CoupledSolver>> coupled_solvers() { return kSolvers; }
 std::span<const NamedValue<WarmStart>> warm_starts() { return kWarmStarts; }
+std::span<const NamedValue<Preconditioner>> preconditioners() { return kPreconditioners; }
 
 const IntegratorInfo& integrator_info(IntegratorType t) {
   for (const IntegratorInfo& i : kIntegrators)
@@ -187,6 +193,7 @@ std::string_view to_string(IntegratorType t) {
 std::string_view to_string(NeighbourModel m) { return key_of<NamedValue<NeighbourModel>>(kNeighbourModels, m); }
 std::string_view to_string(CoupledSolver s) { return key_of<NamedValue<CoupledSolver>>(kSolvers, s); }
 std::string_view to_string(WarmStart w) { return key_of<NamedValue<WarmStart>>(kWarmStarts, w); }
+std::string_view to_string(Preconditioner p) { return key_of<NamedValue<Preconditioner>>(kPreconditioners, p); }
 std::string_view to_string(IntegratorOption o) {
   for (const IntegratorOptionInfo& i : kOptions)
     if (i.option == o) return i.key;
@@ -209,6 +216,9 @@ CoupledSolver parse_coupled_solver(std::string_view s) {
 }
 WarmStart parse_warm_start(std::string_view s) {
   return parse_key<NamedValue<WarmStart>>(kWarmStarts, s, "warm start");
+}
+Preconditioner parse_preconditioner(std::string_view s) {
+  return parse_key<NamedValue<Preconditioner>>(kPreconditioners, s, "preconditioner");
 }
 
 void project_kinematic(const Model& model, const State& state, const StepContext& ctx,

@@ -107,6 +107,12 @@ enum class CoupledSolver : std::uint8_t {
           ///< sweeps per Newton iteration; the coupled integrator's is hybrid_implicit/sweep)
 };
 
+/// Preconditioner of the coupled implicit integrator's CG (docs/integrators.md, "Multigrid").
+enum class Preconditioner : std::uint8_t {
+  block_jacobi,  ///< A's 3×3 diagonal blocks inverted; matrix-free
+  multigrid,     ///< a V-cycle of smoothed aggregation with the rigid-body modes, kept across steps
+};
+
 /// Initial guess of the iterative solvers (sweep, jacobi, cg). CG scales a guess by the factor
 /// that minimises its error in A's norm, so that no guess starts it worse than zero.
 enum class WarmStart : std::uint8_t {
@@ -124,6 +130,7 @@ struct IntegratorConfig {
   IntegratorType type = IntegratorType::coupled_implicit;
   NeighbourModel neighbours = NeighbourModel::sweep;  ///< hybrid only
   CoupledSolver solver = CoupledSolver::cg;           ///< coupled and Newton integrators
+  Preconditioner preconditioner = Preconditioner::block_jacobi;  ///< coupled_implicit with cg
   int iterations = 1;        ///< sweep/jacobi: sweeps per step (≥ 1)
   int max_iterations = 0;    ///< cg: iteration cap (0: three times the free unknowns)
   double tolerance = 1e-6;   ///< relative residual ‖b - A dv‖/‖b‖ at which sweeps and cg stop;
@@ -205,6 +212,7 @@ enum class IntegratorOption : std::uint16_t {
   newton_polish = 1 << 9,
   threads = 1 << 10,         ///< every integrator
   restore_energy = 1 << 11,  ///< every integrator (Simulation applies it)
+  preconditioner = 1 << 12,
 };
 
 /// An option's scene-file key and what it sets, one line.
@@ -249,18 +257,21 @@ std::span<const IntegratorOptionInfo> integrator_options();
 std::span<const NamedValue<NeighbourModel>> neighbour_models();
 std::span<const NamedValue<CoupledSolver>> coupled_solvers();
 std::span<const NamedValue<WarmStart>> warm_starts();
+std::span<const NamedValue<Preconditioner>> preconditioners();
 
 /// Scene-file names.
 std::string_view to_string(IntegratorType t);
 std::string_view to_string(NeighbourModel m);
 std::string_view to_string(CoupledSolver s);
 std::string_view to_string(WarmStart w);
+std::string_view to_string(Preconditioner p);
 std::string_view to_string(IntegratorOption o);
 /// Parses scene-file names; throw std::invalid_argument listing the accepted names.
 IntegratorType parse_integrator_type(std::string_view s);
 NeighbourModel parse_neighbour_model(std::string_view s);
 CoupledSolver parse_coupled_solver(std::string_view s);
 WarmStart parse_warm_start(std::string_view s);
+Preconditioner parse_preconditioner(std::string_view s);
 
 /// Fills the kinematic quanta's rows of a projection with their prescribed motion over
 /// [ctx.t, ctx.t + h] (free rows untouched). Every integrator calls it first.

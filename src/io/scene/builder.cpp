@@ -79,7 +79,7 @@ Scene Builder::build() {
                        {"chebyshev_rho", c.chebyshev_rho},   {"warm_start", to_string(c.warm_start)},
                        {"restore_momentum", c.restore_momentum}, {"threads", c.threads},
                        {"newton_iterations", c.newton_iterations}, {"newton_polish", c.newton_polish},
-                       {"restore_energy", c.restore_energy}};
+                       {"restore_energy", c.restore_energy}, {"preconditioner", to_string(c.preconditioner)}};
   res["limits"] = {{"max_speed", s.limits.max_speed}, {"energy_growth", s.limits.energy_growth}};
   if (s.adaptive.enabled)
     res["adaptive"] = {{"error", s.adaptive.error},       {"energy", s.adaptive.energy},
@@ -116,6 +116,7 @@ IntegratorConfig Builder::integrator(const json& j) {
   parse("neighbours", parse_neighbour_model, c.neighbours);
   parse("solver", parse_coupled_solver, c.solver);
   parse("warm_start", parse_warm_start, c.warm_start);
+  parse("preconditioner", parse_preconditioner, c.preconditioner);
   if (o.has("iterations")) c.iterations = static_cast<int>(integer(o["iterations"], o.at("iterations"), 1));
   if (o.has("max_iterations"))
     c.max_iterations = static_cast<int>(integer(o["max_iterations"], o.at("max_iterations"), 0));

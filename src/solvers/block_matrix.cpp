@@ -1,0 +1,295 @@
+#include "solvers/block_matrix.hpp"
+
+#include <algorithm>
+#include <cassert>
+
+#include "core/parallel.hpp"
+
+namespace qbond {
+
+namespace {
+
+int thread_id() {
+#ifdef _OPENMP
+  return omp_get_thread_num();
+#else
+  return 0;
+#endif
+}
+
+// Row i of y = A x (or of r = b − A x), blocks R × C known at compile time where they are common.
+template <int R, int C, bool kResidual>
+void row_times(const BlockMatrix& A, const double* x, const double* b, double* y, std::size_t i) {
+  double s[R] = {};
+  for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k) {
+    const double* a = A.block(k);
+    const double* xj = x + static_cast<std::size_t>(A.col[k]) * C;
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c) s[r] += a[r * C + c] * xj[c];
+  }
+  for (int r = 0; r < R; ++r) y[i * R + r] = kResidual ? b[i * R + r] - s[r] : s[r];
+}
+
+template <bool kResidual>
+void row_times_any(const BlockMatrix& A, const double* x, const double* b, double* y, std::size_t i) {
+  const int R = A.br, C = A.bc;
+  double s[6] = {};
+  for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k) {
+    const double* a = A.block(k);
+    const double* xj = x + static_cast<std::size_t>(A.col[k]) * static_cast<std::size_t>(C);
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c) s[r] += a[r * C + c] * xj[c];
+  }
+  for (int r = 0; r < R; ++r)
+    y[i * static_cast<std::size_t>(R) + static_cast<std::size_t>(r)] =
+        kResidual ? b[i * static_cast<std::size_t>(R) + static_cast<std::size_t>(r)] - s[r] : s[r];
+}
+
+template <int R, int C, bool kResidual>
+void rows_times(const BlockMatrix& A, const double* x, const double* b, double* y, int threads) {
+  parallel_for(A.rows, threads, [&](std::size_t i) {
+    if constexpr (R == 0)
+      row_times_any<kResidual>(A, x, b, y, i);
+    else
+      row_times<R, C, kResidual>(A, x, b, y, i);
+  });
+}
+
+template <bool kResidual>
+void times(const BlockMatrix& A, const double* x, const double* b, double* y, int threads) {
+  assert(A.br <= 6 && A.bc <= 6);
+  if (A.br == 3 && A.bc == 3)
+    rows_times<3, 3, kResidual>(A, x, b, y, threads);
+  else if (A.br == 6 && A.bc == 6)
+    rows_times<6, 6, kResidual>(A, x, b, y, threads);
+  else if (A.br == 3 && A.bc == 6)
+    rows_times<3, 6, kResidual>(A, x, b, y, threads);
+  else if (A.br == 6 && A.bc == 3)
+    rows_times<6, 3, kResidual>(A, x, b, y, threads);
+  else
+    rows_times<0, 0, kResidual>(A, x, b, y, threads);
+}
+
+// c += a b for an R × K block a and a K × C block b.
+template <int R, int K, int C>
+void gemm_add(const double* a, const double* b, double* c, int, int, int) {
+  for (int r = 0; r < R; ++r)
+    for (int k = 0; k < K; ++k) {
+      const double ark = a[r * K + k];
+      for (int j = 0; j < C; ++j) c[r * C + j] += ark * b[k * C + j];
+    }
+}
+void gemm_add_any(const double* a, const double* b, double* c, int R, int K, int C) {
+  for (int r = 0; r < R; ++r)
+    for (int k = 0; k < K; ++k) {
+      const double ark = a[r * K + k];
+      for (int j = 0; j < C; ++j) c[r * C + j] += ark * b[k * C + j];
+    }
+}
+constexpr Index kNone = ~Index{0};
+
+// C's columns and values, its row offsets counted (multiply): row i's columns gathered, sorted,
+// then each product A_ik B_kj added in A's row order, then B's. R, K, C: the block sizes (0: any).
+template <int R, int K, int Cc>
+void numeric_rows(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
+                  std::vector<std::vector<Index>>& mark, int threads) {
+  parallel_for(A.rows, threads, [&](std::size_t i) {
+    std::vector<Index>& m = mark[static_cast<std::size_t>(thread_id())];
+    Index p = C.offset[i];
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
+      for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l)
+        if (m[B.col[l]] != i) {
+          m[B.col[l]] = static_cast<Index>(i);
+          C.col[p++] = B.col[l];
+        }
+    std::sort(C.col.begin() + C.offset[i], C.col.begin() + C.offset[i + 1]);
+    // m maps the row's columns to their positions while it is summed, then is cleared.
+    for (Index q = C.offset[i]; q < C.offset[i + 1]; ++q) m[C.col[q]] = q;
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
+      for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l) {
+        if constexpr (R == 0)
+          gemm_add_any(A.block(k), B.block(l), C.block(m[B.col[l]]), A.br, A.bc, B.bc);
+        else
+          gemm_add<R, K, Cc>(A.block(k), B.block(l), C.block(m[B.col[l]]), R, K, Cc);
+      }
+    for (Index q = C.offset[i]; q < C.offset[i + 1]; ++q) m[C.col[q]] = kNone;
+  });
+}
+
+void numeric_product(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
+                     std::vector<std::vector<Index>>& mark, int threads) {
+  const int key = (A.br == 3   ? 0
+                   : A.br == 6 ? 1
+                               : 9) *
+                      100 +
+                  (A.bc == 3   ? 0
+                   : A.bc == 6 ? 1
+                               : 9) *
+                      10 +
+                  (B.bc == 3   ? 0
+                   : B.bc == 6 ? 1
+                               : 9);
+  switch (key) {
+    case 0: return numeric_rows<3, 3, 3>(A, B, C, mark, threads);
+    case 1: return numeric_rows<3, 3, 6>(A, B, C, mark, threads);
+    case 10: return numeric_rows<3, 6, 3>(A, B, C, mark, threads);
+    case 11: return numeric_rows<3, 6, 6>(A, B, C, mark, threads);
+    case 100: return numeric_rows<6, 3, 3>(A, B, C, mark, threads);
+    case 101: return numeric_rows<6, 3, 6>(A, B, C, mark, threads);
+    case 110: return numeric_rows<6, 6, 3>(A, B, C, mark, threads);
+    case 111: return numeric_rows<6, 6, 6>(A, B, C, mark, threads);
+    default: return numeric_rows<0, 0, 0>(A, B, C, mark, threads);
+  }
+}
+
+// Row i of y = A x (or r = b − A x) for a packed matrix: E stored entries a block.
+template <class T, int R, int C, bool kSym, bool kResidual>
+void packed_row(const PackedMatrix<T>& A, const double* x, const double* b, double* y, std::size_t i) {
+  constexpr int E = kSym ? 6 : R * C;
+  double s[R] = {};
+  const T* a = A.val.data() + static_cast<std::size_t>(A.offset[i]) * E;
+  for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k, a += E) {
+    const double* xj = x + static_cast<std::size_t>(A.col[k]) * C;
+    if constexpr (kSym) {
+      const double a0 = a[0], a1 = a[1], a2 = a[2], a3 = a[3], a4 = a[4], a5 = a[5];
+      s[0] += a0 * xj[0] + a3 * xj[1] + a4 * xj[2];
+      s[1] += a3 * xj[0] + a1 * xj[1] + a5 * xj[2];
+      s[2] += a4 * xj[0] + a5 * xj[1] + a2 * xj[2];
+    } else {
+      for (int r = 0; r < R; ++r)
+        for (int c = 0; c < C; ++c) s[r] += static_cast<double>(a[r * C + c]) * xj[c];
+    }
+  }
+  for (int r = 0; r < R; ++r) y[i * R + r] = kResidual ? b[i * R + r] - s[r] : s[r];
+}
+
+template <class T, int R, int C, bool kSym, bool kResidual>
+void packed_rows(const PackedMatrix<T>& A, const double* x, const double* b, double* y, int threads) {
+  parallel_for(A.rows, threads, [&](std::size_t i) { packed_row<T, R, C, kSym, kResidual>(A, x, b, y, i); });
+}
+
+template <class T, bool kResidual>
+void packed_times(const PackedMatrix<T>& A, const double* x, const double* b, double* y, int threads) {
+  if (A.symmetric)
+    packed_rows<T, 3, 3, true, kResidual>(A, x, b, y, threads);
+  else if (A.br == 3 && A.bc == 3)
+    packed_rows<T, 3, 3, false, kResidual>(A, x, b, y, threads);
+  else if (A.br == 6 && A.bc == 6)
+    packed_rows<T, 6, 6, false, kResidual>(A, x, b, y, threads);
+  else if (A.br == 3 && A.bc == 6)
+    packed_rows<T, 3, 6, false, kResidual>(A, x, b, y, threads);
+  else {
+    assert(A.br == 6 && A.bc == 3);
+    packed_rows<T, 6, 3, false, kResidual>(A, x, b, y, threads);
+  }
+}
+
+}  // namespace
+
+template <class T>
+void pack(const BlockMatrix& A, bool symmetric, PackedMatrix<T>& out, int threads) {
+  assert(!symmetric || (A.br == 3 && A.bc == 3));
+  out.br = A.br;
+  out.bc = A.bc;
+  out.rows = A.rows;
+  out.cols = A.cols;
+  out.symmetric = symmetric;
+  out.offset = A.offset;
+  out.col = A.col;
+  const std::size_t e = symmetric ? 6 : A.block_size();
+  out.val.resize(A.blocks() * e);
+  constexpr int kEntry[6] = {0, 4, 8, 1, 2, 5};  // xx, yy, zz, xy, xz, yz of a row-major 3×3
+  parallel_for(A.rows, threads, [&](std::size_t i) {
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k) {
+      const double* a = A.block(k);
+      T* o = out.val.data() + k * e;
+      for (std::size_t m = 0; m < e; ++m) o[m] = static_cast<T>(symmetric ? a[kEntry[m]] : a[m]);
+    }
+  });
+}
+
+template <class T>
+void multiply(const PackedMatrix<T>& A, const double* x, double* y, int threads) {
+  packed_times<T, false>(A, x, nullptr, y, threads);
+}
+template <class T>
+void residual(const PackedMatrix<T>& A, const double* b, const double* x, double* r, int threads) {
+  packed_times<T, true>(A, x, b, r, threads);
+}
+
+template void pack(const BlockMatrix&, bool, PackedMatrix<float>&, int);
+template void pack(const BlockMatrix&, bool, PackedMatrix<double>&, int);
+template void multiply(const PackedMatrix<float>&, const double*, double*, int);
+template void multiply(const PackedMatrix<double>&, const double*, double*, int);
+template void residual(const PackedMatrix<float>&, const double*, const double*, double*, int);
+template void residual(const PackedMatrix<double>&, const double*, const double*, double*, int);
+
+std::size_t BlockMatrix::find(Index i, Index j) const {
+  const auto first = col.begin() + offset[i], last = col.begin() + offset[i + 1];
+  const auto it = std::lower_bound(first, last, j);
+  return it != last && *it == j ? static_cast<std::size_t>(it - col.begin()) : blocks();
+}
+
+void multiply(const BlockMatrix& A, const double* x, double* y, int threads) {
+  times<false>(A, x, nullptr, y, threads);
+}
+
+void residual(const BlockMatrix& A, const double* b, const double* x, double* r, int threads) {
+  times<true>(A, x, b, r, threads);
+}
+
+void transpose(const BlockMatrix& A, BlockMatrix& At) {
+  At.br = A.bc;
+  At.bc = A.br;
+  At.rows = A.cols;
+  At.cols = A.rows;
+  At.offset.assign(static_cast<std::size_t>(A.cols) + 1, 0);
+  for (const Index j : A.col) ++At.offset[j + 1];
+  for (Index j = 0; j < A.cols; ++j) At.offset[j + 1] += At.offset[j];
+  At.col.resize(A.blocks());
+  At.val.resize(A.val.size());
+  std::vector<Index> next(At.offset.begin(), At.offset.end() - 1);
+  const int R = A.br, C = A.bc;
+  for (Index i = 0; i < A.rows; ++i)
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k) {
+      const Index p = next[A.col[k]]++;
+      At.col[p] = i;
+      const double* a = A.block(k);
+      double* t = At.block(p);
+      for (int r = 0; r < R; ++r)
+        for (int c = 0; c < C; ++c) t[c * R + r] = a[r * C + c];
+    }
+}
+
+void multiply(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, int threads) {
+  assert(A.bc == B.br && A.cols == B.rows);
+  C.br = A.br;
+  C.bc = B.bc;
+  C.rows = A.rows;
+  C.cols = B.cols;
+  const int nt = thread_count(threads);
+  // Per thread: the last row that saw each block column (symbolic pass), then where it sits in
+  // the row being summed (numeric pass).
+  std::vector<std::vector<Index>> mark(static_cast<std::size_t>(nt));
+  for (auto& m : mark) m.assign(B.cols, kNone);
+  std::vector<Index> count(A.rows);
+  parallel_for(A.rows, threads, [&](std::size_t i) {
+    std::vector<Index>& m = mark[static_cast<std::size_t>(thread_id())];
+    Index c = 0;
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
+      for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l)
+        if (m[B.col[l]] != i) {
+          m[B.col[l]] = static_cast<Index>(i);
+          ++c;
+        }
+    count[i] = c;
+  });
+  C.offset.assign(static_cast<std::size_t>(A.rows) + 1, 0);
+  for (Index i = 0; i < A.rows; ++i) C.offset[i + 1] = C.offset[i] + count[i];
+  C.col.resize(C.offset.back());
+  C.val.assign(C.blocks() * C.block_size(), 0.0);
+  for (auto& m : mark) std::fill(m.begin(), m.end(), kNone);
+  numeric_product(A, B, C, mark, threads);
+}
+
+}  // namespace qbond
