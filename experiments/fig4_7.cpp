@@ -172,7 +172,7 @@ World four_quanta() {
 
 }  // namespace
 
-void fig6_7(const Options& opt, Report& rep) {
+void fig6_7(const Options&, Report& rep) {
   World w0 = four_quanta();
   const double E0 = energies(w0.model, w0.state).total();
   const Vec3 P = linear_momentum(w0.model, w0.state);
@@ -186,7 +186,9 @@ void fig6_7(const Options& opt, Report& rep) {
   rep.note("Four quanta of 1 kg, every pair bonded (k = " + num(kStiff) +
            " N/m, no damping), given initial velocities with a net momentum: E(0) = " + num(E0) +
            " J, of which the centre of mass carries " + num(E_cm) + " J (a Galilean-invariant method keeps it).\n");
-  const double duration = opt.fast ? 5 : 20;
+  // 20 s in both modes (the run is cheap): the two implicit methods drift apart over time, so
+  // whether they look "nearly identical" depends on the length of the run (1.35x apart after 5 s).
+  const double duration = 20;
   struct Case {
     const char* name;
     double h;
