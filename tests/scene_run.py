@@ -3,10 +3,11 @@
 
 Usage: scene_run.py QBOND_EXE SCENE OUT_DIR
 
-Checks: exit 0 and nothing on stderr; run.json says completed at step 50 with the scene's name
-and quanta; diagnostics.csv has a row at steps 0, 10, ..., 50, every field a finite number, time
-increasing; the kinetic energy is never negative; when the scene writes VTK, series.pvd lists
-the 6 frames and each is on disk.
+Checks: exit 0 and nothing on stderr; run.json says completed at step 50 (an adaptive scene: at
+50 base timesteps of simulated time) with the scene's name and quanta; diagnostics.csv has a row
+at steps 0, 10, 20, ... and at the last, every field a finite number, time increasing; the
+kinetic energy is never negative; when the scene writes VTK, series.pvd lists a frame for each
+row and each is on disk.
 """
 import csv
 import json
@@ -33,8 +34,15 @@ if r.returncode != 0 or r.stderr.strip():
 
 run = json.load(open(os.path.join(OUT, "run.json")))
 name = json.load(open(SCENE)).get("name")
-if run["status"] != "completed" or run["last_step"] != STEPS:
-    fail(f"run.json: status {run['status']} at step {run['last_step']}, expected completed at {STEPS}")
+# An adaptive scene takes --steps as a duration of that many base timesteps, in steps of its own.
+adaptive = run["scene"].get("adaptive") is not None
+if run["status"] != "completed":
+    fail(f"run.json: status {run['status']!r} ({run['message']!r})")
+if adaptive:
+    if abs(run["simulated_time"] - STEPS * run["scene"]["timestep"]) > 1e-9 * STEPS * run["scene"]["timestep"]:
+        fail(f"run.json: simulated {run['simulated_time']} s, expected {STEPS} x {run['scene']['timestep']} s")
+elif run["last_step"] != STEPS:
+    fail(f"run.json: completed at step {run['last_step']}, expected {STEPS}")
 if name and run["scene"]["name"] != name:
     fail(f"run.json names the scene {run['scene']['name']!r}, the file {name!r}")
 if run["quanta"] <= 0:
@@ -44,8 +52,10 @@ rows = list(csv.reader(open(os.path.join(OUT, "diagnostics.csv"))))
 header, body = rows[0], rows[1:]
 if header[:3] != ["step", "time", "kinetic"]:
     fail(f"diagnostics.csv columns {header}")
-if [int(row[0]) for row in body] != list(range(0, STEPS + 1, EVERY)):
-    fail(f"diagnostics.csv rows at steps {[row[0] for row in body]}")
+last = run["last_step"]
+expected = sorted(set(range(0, last + 1, EVERY)) | {last})
+if [int(row[0]) for row in body] != expected:
+    fail(f"diagnostics.csv rows at steps {[row[0] for row in body]}, expected {expected}")
 for row in body:
     values = [float(v) for v in row]
     bad = [header[k] for k, v in enumerate(values) if not math.isfinite(v)]
@@ -60,8 +70,8 @@ if any(b <= a for a, b in zip(times, times[1:])):
 pvd = os.path.join(OUT, "series.pvd")
 if os.path.exists(pvd):
     files = [d.get("file") for d in ET.parse(pvd).getroot().findall("./Collection/DataSet")]
-    if len(files) != STEPS // EVERY + 1:
-        fail(f"series.pvd lists {len(files)} frames, expected {STEPS // EVERY + 1}")
+    if len(files) != len(expected):
+        fail(f"series.pvd lists {len(files)} frames, expected {len(expected)}")
     missing = [f for f in files if not os.path.exists(os.path.join(OUT, f))]
     if missing:
         fail(f"series.pvd lists frames not on disk: {missing}")
