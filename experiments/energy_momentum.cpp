@@ -117,6 +117,7 @@ void energy_momentum(const Options& opt, Report& rep) {
     const World w0 = c.make();
     const double h = c.homega / max_angular_frequency(w0.model, w0.state);
     const std::string label = std::string(c.name) + "_h" + num(c.homega);
+    rep.progress(std::string(c.name) + " at hω = " + num(c.homega));
     out.emplace_back();
     for (const Method& m : ms) {
       Simulation sim(c.make(), m.config, h);

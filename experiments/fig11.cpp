@@ -88,6 +88,7 @@ void fig11(const Options& opt, Report& rep) {
   std::vector<double> stiff;
   Twist finest;
   for (int n : res) {
+    rep.progress("lattice, " + std::to_string(n) + " quanta across");
     Twist t = twist_lattice(n, theta);
     stiff.push_back(t.torque / theta);
     rep.row({static_cast<double>(n), t.torque / theta});
@@ -103,6 +104,7 @@ void fig11(const Options& opt, Report& rep) {
     return;
   }
   const int fem_across = opt.fast ? 3 : 6;
+  rep.progress("GetFEM, up to " + std::to_string(fem_across) + " elements across");
   const std::string cmd = opt.python + " '" + (opt.scripts / "fig11_getfem.py").string() + "' '" + opt.out.string() +
                           "' " + num(kL, 17) + " " + num(kB, 17) + " " + num(kE, 17) + " " + num(nu, 17) + " " +
                           num(theta, 17) + " " + std::to_string(fem_across);

@@ -25,6 +25,7 @@ void fig9(const Options& opt, Report& rep) {
   const std::vector<Index>& ids = bar.ids;
   w.add_load(bar.end, Vec3(0, 0, -P));
   const std::vector<Vec3> x0 = w.state.x;
+  rep.progress("static equilibrium of " + std::to_string(bar.ids.size()) + " quanta");
   const StaticResult st = solve_static(w, 1e-10);
   std::vector<Mat3> sigma;
   virial_stress(w.model, w.state, sigma);

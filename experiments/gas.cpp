@@ -139,6 +139,7 @@ void gas(const Options& opt, Report& rep) {
   rep.note("| σ [m] | η | p [Pa] | p V / (N kT) | Carnahan–Starling |");
   rep.note("|---|---|---|---|---|");
   for (double sigma : sigmas) {
+    rep.progress("pressure at σ = " + num(sigma, 3) + " m");
     BoxedGas g = boxed_gas(N, sigma, L, kT, Gas::Speeds::maxwell, 17, h);
     const World& w = g.sim.world();
     const double E0 = kinetic(w);

@@ -58,6 +58,7 @@ void integrator_table(const Options& o, Report& rep) {
   };
   std::vector<Row> rows;
   for (const Method& m : methods) {
+    rep.progress(m.name);
     IntegratorConfig c = m.config;
     c.threads = 1;
     Simulation sim(scene.world, c, scene.timestep);

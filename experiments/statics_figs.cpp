@@ -166,6 +166,7 @@ void cantilever(const Options& opt, Report& rep) {
   std::vector<double> err;
   Beam coarse;
   for (int n : res) {
+    rep.progress(std::to_string(n) + " quanta across");
     const Beam r = cantilever_beam(n, L, b, E, P, n == res.front());
     if (n == res.front()) coarse = r;
     err.push_back(std::abs(r.tip_lattice / timo - 1));
