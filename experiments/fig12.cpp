@@ -155,7 +155,7 @@ void fig12(const Options& opt, Report& rep) {
     double phi;
   };
   const Layout layouts[] = {{"square", false, 0}, {"square", false, 22.5}, {"square", false, 45}, {"packing", true, 0}};
-  rep.note("| layout | lattice turned by | torn | crack angle: mean | spread (std) | mean |angle - lattice row| | pieces |");
+  rep.note("| layout | lattice turned by | torn | crack angle: mean | spread (std) | mean \\|angle − lattice row\\| | pieces |");
   rep.note("|---|---|---|---|---|---|---|");
   std::vector<double> mean_off(4), mean_abs(4), spread(4), mean(4), count(4);
   std::vector<double> off_22, abs_22;  // the 22.5° lattice's per-seed row distances and |angles|
