@@ -11,7 +11,7 @@ The page is experiments/experiments.md.in with its markers replaced:
   paper's claim quoted with the system it was made for, the set-up, the tables, every claim with
   pass/FAIL or informative);
 - `{{NAME.KEY}}` or `{{NAME.KEY:FORMAT}}`: the value KEY of NAME's results.json, formatted by
-  Python's FORMAT (default `.4g`).
+  Python's FORMAT (default `.4g`); `{{A.X / B.Y:FORMAT}}`: the ratio of two values.
 
 So every number on the page comes from the results the program wrote. With --check it writes
 nothing and exits 1 when the page differs from what the results give, or when a committed
@@ -83,14 +83,20 @@ def render(root):
             if name not in results:
                 raise SystemExit(f"experiments_doc: no experiments/results/{name}/results.json")
             return section(results_dir, name, results[name])
-        name, _, rest = key.partition(".")
-        field, _, fmt = rest.partition(":")
+        expr, _, fmt = key.partition(":")
+        parts = [value(p.strip()) for p in expr.split(" / ")]
+        if any(p is None for p in parts):
+            return "∞"
+        v = parts[0]
+        for p in parts[1:]:
+            v /= p
+        return format(v, fmt or ".4g")
+
+    def value(ref):
+        name, _, field = ref.partition(".")
         if name not in results or field not in results[name]["values"]:
             raise SystemExit(f"experiments_doc: no value '{field}' in experiments/results/{name}/results.json")
-        v = results[name]["values"][field]
-        if v is None:
-            return "∞"
-        return format(v, fmt or ".4g")
+        return results[name]["values"][field]
 
     page = MARKER.sub(replace, template)
     problems = [f"{n}: a fast-mode run" for n, r in results.items() if r["fast"]]
