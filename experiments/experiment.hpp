@@ -18,7 +18,7 @@ struct Options {
   bool fast = false;              ///< smaller sizes and fewer steps (CI)
   std::filesystem::path out;      ///< where the CSVs and summary.md go
   std::string python;             ///< Debian's Python, for the experiments that drive a Python tool
-  std::filesystem::path scripts;  ///< the experiments/ source directory (its Python scripts)
+  std::filesystem::path scripts;  ///< the folder of the Python scripts (plot.py, fig11_getfem.py)
 };
 
 /// What an experiment found: CSV tables, notes, named values and checked claims, written to `out`.
