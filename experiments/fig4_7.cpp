@@ -57,6 +57,11 @@ double amplification(const std::string& m, double z) {
 void fig4_5(const Options&, Report& rep) {
   const double omega = std::sqrt(2 * kStiff / kMass), period = 2 * M_PI / omega;
   const double amp = kStretch * omega;
+  rep.paper("two quanta connected by a single bond, relative velocity against the exact solution (Figures 4-5)",
+            "While there is a phase shift present in both methods, the amplitude and period of the solutions match the "
+            "exact solution precisely. Sufficiently small timesteps cause the solutions from both the coupled and hybrid "
+            "methods to be nearly identical. However, a large timestep causes the hybrid method to produce less accurate "
+            "results, while the coupled method continues to be accurate.");
   rep.note("Two quanta of " + num(kMass) + " kg on one linear bond (k = " + num(kStiff) + " N/m, L = " + num(kRest) +
            " m), released stretched by " + num(kStretch) + " m: the relative velocity is w(t) = -s0 ω sin ωt, ω = " +
            num(omega) + " rad/s (period " + num(period) + " s).\n");
@@ -134,6 +139,20 @@ void fig4_5(const Options&, Report& rep) {
   rep.check("large step: the hybrid is less accurate than the coupled method (RMS " + num(rms[1][fr], 3) + " vs " +
                 num(rms[1][cd], 3) + "), as the paper reports",
             rms[1][fr] > rms[1][cd]);
+  for (int c = 0; c < 2; ++c)
+    for (std::size_t k = 0; k < ms.size(); ++k)
+      rep.value(std::string(c == 0 ? "small_rms_" : "large_rms_") + ms[k].name, rms[c][k]);
+  rep.value("worst_theory", worst_theory);
+  rep.value("h_omega_large", cases[1].h * omega);
+  // Backward Euler's amplitude factor per step and over the run: 1/√(1 + h²ω²) and its power.
+  rep.value("be_factor_large", 1 / std::sqrt(1 + std::pow(cases[1].h * omega, 2)));
+  rep.value("be_loss_small_4_periods", std::pow(1 + std::pow(cases[0].h * omega, 2), -0.5 * 4 * period / cases[0].h));
+  rep.headline("RMS error " + num(100 * rms[0][fr], 2) + "% (hybrid) and " + num(100 * rms[0][cd], 2) +
+                   "% (coupled) over two periods at h = 1 ms; " + num(100 * rms[1][fr], 2) + "% vs " +
+                   num(100 * rms[1][cd], 2) + "% at h = 0.25 s",
+               "yes; but \"the amplitude and period ... match the exact solution precisely\" does not hold: backward "
+               "Euler loses 1 − (1 + h²ω²)^(−n/2) of the amplitude, exactly; and at the large step the coupled method is "
+               "stable, not accurate");
 }
 
 namespace {
@@ -153,15 +172,23 @@ World four_quanta() {
 
 }  // namespace
 
-void fig6_7(const Options& opt, Report& rep) {
+void fig6_7(const Options&, Report& rep) {
   World w0 = four_quanta();
   const double E0 = energies(w0.model, w0.state).total();
   const Vec3 P = linear_momentum(w0.model, w0.state);
   const double E_cm = 0.5 * P.squaredNorm() / 4.0;
+  rep.paper("four quanta, each bonded to the others, given initial velocities (Figures 6-7)",
+            "Again, with a small enough timestep, the solutions were nearly identical and perfectly stable. When a large "
+            "timestep was used, the coupled and hybrid implicit methods stabilized at nearly the same level just as "
+            "rapidly. This is interesting, since when a simple system is simulated, the hybrid method stabilizes at "
+            "near zero levels of energy extremely rapidly, while the coupled implicit method stabilizes at non-zero "
+            "levels of energy after a long period of time.");
   rep.note("Four quanta of 1 kg, every pair bonded (k = " + num(kStiff) +
            " N/m, no damping), given initial velocities with a net momentum: E(0) = " + num(E0) +
            " J, of which the centre of mass carries " + num(E_cm) + " J (a Galilean-invariant method keeps it).\n");
-  const double duration = opt.fast ? 5 : 20;
+  // 20 s in both modes (the run is cheap): the two implicit methods drift apart over time, so
+  // whether they look "nearly identical" depends on the length of the run (1.35x apart after 5 s).
+  const double duration = 20;
   struct Case {
     const char* name;
     double h;
@@ -214,12 +241,35 @@ void fig6_7(const Options& opt, Report& rep) {
   rep.check("large step: the implicit methods are stable (E never above E(0): " + num(peak[1][fr], 6) + ", " +
                 num(peak[1][cd], 6) + ")",
             peak[1][fr] <= 1 + 1e-12 && peak[1][cd] <= 1 + 1e-12);
-  rep.check("large step: the paper's hybrid settles near zero energy (E(end)/E(0) = " + num(end[1][fr], 3) +
-                " < 0.05): it even stops the centre of mass, whose share is " + num(cm, 3) + " (its drag)",
-            end[1][fr] < 0.05);
-  rep.check("large step: the coupled method settles at a non-zero level, at least the centre of mass motion it keeps "
-            "(E(end)/E(0) = " + num(end[1][cd], 3) + " >= 0.95 x " + num(cm, 3) + ")",
-            end[1][cd] >= 0.95 * cm && end[1][cd] < 1);
+  // The paper's claims for these four quanta ("nearly identical" at the small step, "at nearly the
+  // same level" at the large one) are tested as stated: two levels are "nearly the same" when
+  // they agree within a factor 2 (the criterion Figures 4-5 use for "nearly identical"); qbond
+  // finds them apart, and says so with a check that fails if the run ever shows them alike.
+  const double small_ratio = end[0][cd] / end[0][fr];
+  rep.check("small step: the paper's \"nearly identical\" does not hold for these four quanta: after " +
+                num(duration) + " s the hybrid keeps " + num(end[0][fr], 3) + " of E(0), the coupled method " +
+                num(end[0][cd], 3) + " (" + num(small_ratio, 3) + "x apart, more than 2x)",
+            small_ratio > 2);
+  rep.check("large step: the paper's \"at nearly the same level\" does not hold for these four quanta: the hybrid "
+            "settles near zero (E(end)/E(0) = " + num(end[1][fr], 3) + " < 0.05; its drag even stops the centre of mass, "
+            "whose share is " + num(cm, 3) + "), the coupled method at a non-zero level, at least the centre of mass "
+            "motion it keeps (" + num(end[1][cd], 3) + " >= 0.95 x " + num(cm, 3) + ")",
+            end[1][fr] < 0.05 && end[1][cd] >= 0.95 * cm && end[1][cd] < 1);
+  rep.value("duration", duration);
+  rep.value("E0", E0);
+  rep.value("cm_share", cm);
+  for (int c = 0; c < 2; ++c)
+    for (std::size_t k = 0; k < ms.size(); ++k) {
+      rep.value(std::string(c == 0 ? "small_end_" : "large_end_") + ms[k].name, end[c][k]);
+      rep.value(std::string(c == 0 ? "small_max_" : "large_max_") + ms[k].name, peak[c][k]);
+    }
+  rep.value("verlet_drift", peak[0][vv] - 1);
+  rep.headline("never above E(0) at either step; E(end)/E(0) after " + num(duration) + " s: hybrid " +
+                   num(end[0][fr], 3) + " vs coupled " + num(end[0][cd], 3) + " at h = 1 ms, " + num(end[1][fr], 3) +
+                   " vs " + num(end[1][cd], 3) + " at h = 0.1 s",
+               "stable, as the paper says; not \"nearly identical\" nor \"at nearly the same level\": on four quanta "
+               "qbond sees what the paper reports for a simpler system (the hybrid near zero, the coupled method at "
+               "the centre of mass's share and above)");
 }
 
 }  // namespace qbond::experiments

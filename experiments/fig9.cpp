@@ -13,6 +13,11 @@ namespace qbond::experiments {
 void fig9(const Options& opt, Report& rep) {
   const int n = opt.fast ? 6 : 10;  // quanta across
   const double b = 0.02, L = 0.2, E = 200e9, P = 2000;
+  rep.paper("a block with all nearest neighbours bonded, one end anchored, a force on the other, bonds coloured by "
+            "von Mises stress and compared with a textbook picture (Figure 9)",
+            "Comparing the two distributions, it's easy to see the very strong similarity. It is easy to conclude that "
+            "the calculation of bond lengths – which results in stress throughout the object – is valid, and can be "
+            "mapped directly to real world situations.");
   SteelBar bar = steel_bar(n, L, b, E);
   World& w = bar.world;
   const double a = bar.spacing;
@@ -20,6 +25,7 @@ void fig9(const Options& opt, Report& rep) {
   const std::vector<Index>& ids = bar.ids;
   w.add_load(bar.end, Vec3(0, 0, -P));
   const std::vector<Vec3> x0 = w.state.x;
+  rep.progress("static equilibrium of " + std::to_string(bar.ids.size()) + " quanta");
   const StaticResult st = solve_static(w, 1e-10);
   std::vector<Mat3> sigma;
   virial_stress(w.model, w.state, sigma);
@@ -78,6 +84,16 @@ void fig9(const Options& opt, Report& rep) {
     for (Index i : ids) (x0[i].x() < 1.5 * a ? at_clamp : elsewhere) = std::max(x0[i].x() < 1.5 * a ? at_clamp : elsewhere, von_mises(sigma[i]));
     return at_clamp > elsewhere;
   }());
+  rep.value("quanta_across", n);
+  rep.value("quanta", static_cast<double>(ids.size()));
+  rep.value("c", c);
+  rep.value("worst_moment_percent", worst_moment * 100);
+  rep.value("vm_max_mpa", vm_max / 1e6);
+  rep.value("beam_surface_mpa", P * L * 0.5 * b / I / 1e6);
+  rep.headline("sections carry P (L − x) to " + num(worst_moment * 100, 2) + "%; σ_xx follows M z / I (R² = " +
+                   num(r2, 4) + ") at " + num(c, 3) + "× its size with " + std::to_string(n) + " quanta across",
+               "yes in shape; " + num(std::abs(c - 1) * 100, 2) + "% " + (c > 1 ? "high" : "low") +
+                   " in size (surface quanta miss bonds)");
 }
 
 }  // namespace qbond::experiments

@@ -502,6 +502,60 @@ def test_integrator_keys():
         fail(f"--integrator magic: exit {r.returncode}, stderr {r.stderr!r}")
 
 
+def test_experiment_output_and_progress():
+    """`qbond experiment` writes into ./experiment_results by default, prints each experiment and
+    claim as it goes, and draws its plots with the plot.py found beside the program."""
+    cwd = fresh("experiment_cwd")
+    os.makedirs(cwd)
+    r = qbond("experiment", "eq14_15", "--fast", cwd=cwd, check_code=0)
+    out = os.path.join(cwd, "experiment_results", "eq14_15")
+    for f in ("summary.md", "results.json", "statics.csv", "eq14_15.png"):
+        if not os.path.exists(os.path.join(out, f)):
+            fail(f"qbond experiment eq14_15 did not write experiment_results/eq14_15/{f}:\n{r.stdout}")
+    lines = r.stdout.splitlines()
+    if not lines or not lines[0].startswith("eq14_15: ") or not any(l.startswith("  pass ") for l in lines) \
+            or "-> " not in lines[-1]:
+        fail(f"progress lines: {r.stdout!r}")
+    result = json.load(open(os.path.join(out, "results.json")))
+    if not result["passed"] or not result["fast"] or not result["paper"]["quote"]:
+        fail(f"results.json: {result}")
+
+
+def test_experiment_keeps_committed_results():
+    """The source tree's experiments/results is refused without --update-results, untouched."""
+    committed = os.path.join(SOURCE, "experiments", "results")
+    summary = os.path.join(committed, "eq14_15", "summary.md")
+    before = open(summary).read()
+    for target in (committed, committed + "/", os.path.join(committed, "..", "results")):
+        r = qbond("experiment", "eq14_15", "--fast", "--no-plots", "-o", target)
+        if r.returncode != 2 or "--update-results" not in r.stderr:
+            fail(f"-o {target}: exit {r.returncode}, stderr {r.stderr!r}")
+    if open(summary).read() != before:
+        fail("the committed summary changed")
+
+
+def test_experiment_relocated_program():
+    """A copy of the program elsewhere draws plots with share/qbond/plot.py beside it, and without
+    one says so and still writes its results."""
+    prefix = fresh("experiment_install")
+    os.makedirs(os.path.join(prefix, "bin"))
+    exe = os.path.join(prefix, "bin", "qbond")
+    shutil.copy2(QBOND, exe)
+    r = subprocess.run([exe, "experiment", "eq14_15", "--fast", "-o", os.path.join(prefix, "bare")],
+                       capture_output=True, text=True)
+    if r.returncode != 0 or "plot.py was not found" not in r.stdout \
+            or not os.path.exists(os.path.join(prefix, "bare", "eq14_15", "summary.md")):
+        fail(f"without plot.py: exit {r.returncode}, stdout {r.stdout!r}, stderr {r.stderr!r}")
+    share = os.path.join(prefix, "share", "qbond")
+    os.makedirs(share)
+    for script in ("plot.py", "fig11_getfem.py"):
+        shutil.copy2(os.path.join(SOURCE, "experiments", script), share)
+    r = subprocess.run([exe, "experiment", "eq14_15", "--fast", "-o", os.path.join(prefix, "drawn")],
+                       capture_output=True, text=True)
+    if r.returncode != 0 or not os.path.exists(os.path.join(prefix, "drawn", "eq14_15", "eq14_15.png")):
+        fail(f"with share/qbond/plot.py: exit {r.returncode}, stdout {r.stdout!r}, stderr {r.stderr!r}")
+
+
 if __name__ == "__main__":
     os.makedirs(WORK, exist_ok=True)
     globals()["test_" + sys.argv[4]]()

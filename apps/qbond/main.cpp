@@ -304,48 +304,24 @@ int validate(const std::vector<std::string>& scenes) {
   return bad ? kExitBadInput : 0;
 }
 
-// `qbond experiment`: runs the paper's experiments (experiments/), writes their CSVs and
-// summaries, draws their plots with experiments/plot.py; exit 1 when a claim fails its check.
+// `qbond experiment`: runs the paper's experiments (experiments/), writes their CSVs,
+// summaries and results.json, draws their plots with plot.py; exit 1 when a claim fails.
 struct ExperimentArgs {
   std::vector<std::string> names;
-  bool fast = false, list = false, plots = true;
-  std::string out = "experiments/results";
+  bool fast = false, list = false, plots = true, update_results = false;
+  std::string out = "experiment_results";
 };
 
 int experiment(const ExperimentArgs& a) {
   namespace ex = qbond::experiments;
   if (a.list) {
-    for (const ex::Experiment& e : ex::all()) std::printf("%-10s %s\n", e.name, e.title);
+    for (const ex::Experiment& e : ex::all()) std::printf("%-15s %s\n", e.name, e.title);
     return 0;
   }
-  std::vector<const ex::Experiment*> chosen;
-  for (const std::string& n : a.names) {
-    if (n == "all") {
-      for (const ex::Experiment& e : ex::all()) chosen.push_back(&e);
-      continue;
-    }
-    const auto it = std::find_if(ex::all().begin(), ex::all().end(), [&](const ex::Experiment& e) { return n == e.name; });
-    if (it == ex::all().end()) throw std::invalid_argument("unknown experiment '" + n + "' (see --list)");
-    chosen.push_back(&*it);
-  }
-  int failed = 0;
-  for (const ex::Experiment* e : chosen) {
-    std::printf("%s: %s%s\n", e->name, e->title, a.fast ? " (fast)" : "");
-    const std::filesystem::path dir = std::filesystem::path(a.out) / e->name;
-    ex::Report rep(dir);
-    e->run({a.fast, dir, QBOND_PYTHON, std::filesystem::path(QBOND_SOURCE_DIR) / "experiments"}, rep);
-    rep.write(e->title);
-    if (!rep.passed()) ++failed;
-    if (a.plots) {
-      const std::string cmd = std::string(QBOND_PYTHON) + " " + QBOND_SOURCE_DIR + "/experiments/plot.py " + e->name +
-                              " '" + dir.string() + "'";
-      if (std::system(cmd.c_str()) != 0) {
-        std::fprintf(stderr, "qbond: %s: drawing the plots failed (%s)\n", e->name, cmd.c_str());
-        ++failed;
-      }
-    }
-    std::printf("  -> %s\n", dir.string().c_str());
-  }
+  // plot.py and fig11_getfem.py are found beside the program (its share/qbond), so that it runs
+  // wherever it is built or installed.
+  const std::filesystem::path scripts = ex::find_scripts(std::filesystem::read_symlink("/proc/self/exe"));
+  const int failed = ex::run_experiments(ex::all(), a.names, {a.fast, a.plots, a.update_results, a.out, QBOND_PYTHON, scripts});
   return failed ? kExitFailure : 0;
 }
 
@@ -395,7 +371,9 @@ int main(int argc, char** argv) {
   experiment_cmd->add_option("names", ea.names, "experiments to run, or 'all'");
   experiment_cmd->add_flag("--list", ea.list, "list the experiments");
   experiment_cmd->add_flag("--fast", ea.fast, "smaller sizes and fewer steps (what CI runs)");
-  experiment_cmd->add_option("-o,--out", ea.out, "results directory (default: experiments/results)");
+  experiment_cmd->add_option("-o,--out", ea.out, "results directory (default: ./experiment_results)");
+  experiment_cmd->add_flag("--update-results", ea.update_results,
+                           "allow -o to be the source tree's committed experiments/results");
   experiment_cmd->add_flag("!--no-plots", ea.plots, "write the CSVs and summaries only");
   qbond::cli::BenchArgs ba;
   CLI::App* bench_cmd = app.add_subcommand("bench", "measure the canonical workload against the memory-bandwidth bound "

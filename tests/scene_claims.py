@@ -1,0 +1,108 @@
+#!/usr/bin/python3
+"""Runs a scene whose description makes a claim, and checks the claim on its frames.
+
+Usage: scene_claims.py QBOND_EXE SOURCE_DIR WORK_DIR CLAIM
+CLAIM is one of the functions named claim_*. The frames are read back with VTK (Debian's
+python3-vtk9, scripts/qbond_frames.py); run with /usr/bin/python3.
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+
+QBOND, SOURCE, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
+sys.path.insert(0, os.path.join(SOURCE, "scripts"))
+from qbond_frames import frames, read  # noqa: E402
+
+
+def fail(msg):
+    sys.exit("FAIL: " + msg)
+
+
+def run(scene, name, every, edit=None):
+    """Runs `scene` (edited by `edit`, a function of its JSON) and returns its frames."""
+    out = os.path.join(WORK, name)
+    shutil.rmtree(out, ignore_errors=True)
+    os.makedirs(out)
+    path = os.path.join(SOURCE, "scenes", scene)
+    if edit:
+        s = json.load(open(path))
+        edit(s)
+        path = os.path.join(out, "scene.json")
+        json.dump(s, open(path, "w"))
+    r = subprocess.run([QBOND, "run", path, "--every", str(every), "-q", "--out", out], capture_output=True, text=True)
+    if r.returncode != 0:
+        fail(f"qbond run {scene}: exit {r.returncode}\n{r.stderr}")
+    return [(t, *read(f)) for t, f in frames(out)]
+
+
+def pieces(n, lines):
+    """Connected pieces of n quanta joined by the bonds `lines` (union-find)."""
+    parent = list(range(n))
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    for a, b in lines:
+        parent[find(a)] = find(b)
+    return len({find(i) for i in range(n)})
+
+
+def closest_unbonded(x, lines):
+    """The smallest distance between two quanta that share no bond."""
+    d = np.sqrt(((x[:, None, :] - x[None, :, :]) ** 2).sum(-1))
+    np.fill_diagonal(d, np.inf)
+    d[lines[:, 0], lines[:, 1]] = np.inf
+    d[lines[:, 1], lines[:, 0]] = np.inf
+    return d.min()
+
+
+def claim_liquid_blob_merges():
+    """scenes/liquid_blob.json: the impact splashes the blob into drops (at least 4 pieces), and
+    they merge again into one puddle by t = 1 s, staying one to the end (2 s)."""
+    series = run("liquid_blob.json", "liquid_blob", 20)
+    counts = [(t, pieces(len(x), lines)) for t, x, lines, _ in series]
+    most = max(c for _, c in counts)
+    late = [(t, c) for t, c in counts if t >= 1.0 - 1e-9]
+    if most < 4:
+        fail(f"the blob splashed into at most {most} pieces: {counts}")
+    if not late or any(c != 1 for _, c in late):
+        fail(f"the drops are not one puddle from t = 1 s on: {[(round(t, 3), c) for t, c in late if c != 1][:10]}")
+    print(f"splash: {most} pieces; one puddle from t = {min(t for t, c in counts if t > 0.3 and all(c2 == 1 for t2, c2 in counts if t2 >= t)):.2f} s")
+
+
+def claim_sheet_fold_contact():
+    """scenes/sheet_fold.json: contact keeps the sheet's folds apart. With the contact rule no two
+    unbonded quanta come closer than 2 radii (less 5% for the overlap a step may leave before
+    the projection); and the folds do reach contact (the closest pair is within 10% of 2 radii),
+    which without the rule they pass (closer than 1.9 radii)."""
+    scene = json.load(open(os.path.join(SOURCE, "scenes", "sheet_fold.json")))
+    radius = next(h["radius"] for h in scene["heuristics"] if h["type"] == "contact")
+    with_contact = min(closest_unbonded(x, lines) for _, x, lines, _ in run("sheet_fold.json", "sheet_fold", 20))
+
+    def no_contact(s):
+        s["heuristics"] = [h for h in s["heuristics"] if h["type"] != "contact"]
+
+    without = min(closest_unbonded(x, lines)
+                  for _, x, lines, _ in run("sheet_fold.json", "sheet_fold_no_contact", 20, no_contact))
+    print(f"closest unbonded pair: {with_contact * 1e3:.3g} mm with contact, {without * 1e3:.3g} mm without; "
+          f"2 radii = {2 * radius * 1e3:.3g} mm")
+    if with_contact < 0.95 * 2 * radius:
+        fail(f"with contact two unbonded quanta came {with_contact * 1e3:.3g} mm apart, below 2 radii")
+    if with_contact > 1.1 * 2 * radius:
+        fail(f"the folds never reach contact: closest unbonded pair {with_contact * 1e3:.3g} mm > 1.1 x 2 radii")
+    if without > 1.9 * radius:
+        fail(f"without contact the folds do not come closer than 1.9 radii ({without * 1e3:.3g} mm): "
+             "the rule keeps nothing apart")
+
+
+if __name__ == "__main__":
+    os.makedirs(WORK, exist_ok=True)
+    globals()["claim_" + sys.argv[4]]()
+    print("ok")
