@@ -29,7 +29,7 @@ class CoupledIntegrator final : public StepIntegrator {
         topo_.update(model, adj);
         const bool guessed =
             initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, config_.threads, y_);
-        conjugate_gradient(model, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
+        conjugate_gradient(model, state.bonds, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
                            !guessed, stats_);
         if (config_.restore_momentum)
           restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
