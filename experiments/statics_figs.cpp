@@ -132,7 +132,8 @@ Beam cantilever_beam(int n, double L, double b, double E, double P, bool relax) 
   r.tip_lattice = z0 - tip_z(s);
   if (relax) {
     // Damped to rest with qbond's default integrator: the dynamics ends where statics says.
-    for (std::size_t b2 = 0; b2 < w.num_bonds(); ++b2) w.state.bonds.damping[b2] = 0.05 * w.state.bonds.strength[b2] * 1e-4;
+    for (std::size_t b2 = 0; b2 < w.num_bonds(); ++b2)
+      w.state.bonds.damping[b2] = 0.05 * w.state.bonds.strength[b2] * 1e-4;
     Simulation sim(std::move(w), default_integrator(), 1e-4);
     for (int k = 0; k < 3000; ++k) sim.step();
     r.tip_dynamic = z0 - tip_z(sim.world());

@@ -81,7 +81,8 @@ TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
         if (!s.bonds.alive[b]) continue;
         const Index i = s.bonds.i[b], j = s.bonds.j[b];
         energy += s.bonds.law_at(m.shapes, b, (s.x[j] - s.x[i]).norm(), s.bonds.rest[b]).U;
-        energy_after += s.bonds.law_at(m.shapes, b, ((s.x[j] + p.dx[j]) - (s.x[i] + p.dx[i])).norm(), s.bonds.rest[b]).U;
+        energy_after +=
+            s.bonds.law_at(m.shapes, b, ((s.x[j] + p.dx[j]) - (s.x[i] + p.dx[i])).norm(), s.bonds.rest[b]).U;
       }
       ASSERT_GT(energy, 0) << where;
       ASSERT_NE(energy_after, energy) << where;
@@ -135,10 +136,12 @@ double plain_anchor_work(const Model& m, const State& s, const Projection& p) {
     if (!s.bonds.alive[b] || (!ki && !kj)) continue;
     const Vec3 d0 = s.x[j] - s.x[i], d1 = d0 + p.dx[j] - p.dx[i];
     const Vec3 w = (s.v[j] + p.dv[j]) - (s.v[i] + p.dv[i]);  // θ = 1, φ = 0
-    const double T0 = s.bonds.law_at(m.shapes, b, d0.norm(), s.bonds.rest[b]).T, T1 = s.bonds.law_at(m.shapes, b, d1.norm(), s.bonds.rest[b]).T;
+    const double T0 = s.bonds.law_at(m.shapes, b, d0.norm(), s.bonds.rest[b]).T,
+                 T1 = s.bonds.law_at(m.shapes, b, d1.norm(), s.bonds.rest[b]).T;
     const Vec3 u0 = d0.normalized();
     Vec3 fi = 0.5 * (T0 * u0 + T1 * d1.normalized());
-    fi += s.bonds.damping_model[b] == DampingModel::axial ? Vec3(s.bonds.damping[b] * w.dot(u0) * u0) : Vec3(s.bonds.damping[b] * w);
+    fi += s.bonds.damping_model[b] == DampingModel::axial ? Vec3(s.bonds.damping[b] * w.dot(u0) * u0)
+                                                          : Vec3(s.bonds.damping[b] * w);
     if (ki) work -= fi.dot(p.dx[i]);
     if (kj) work += fi.dot(p.dx[j]);
   }

@@ -87,7 +87,8 @@ TEST(Ordering, ALatticesBondsFormAffineRunsAPackingsDoNot) {
   renumber(p, locality_order(p));
   EXPECT_LT(affine_bonds(p), p.num_bonds() / 10);
   for (std::size_t b = 1; b < p.num_bonds(); ++b)
-    EXPECT_LT(std::pair(p.state.bonds.i[b - 1], p.state.bonds.j[b - 1]), std::pair(p.state.bonds.i[b], p.state.bonds.j[b]));
+    EXPECT_LT(std::pair(p.state.bonds.i[b - 1], p.state.bonds.j[b - 1]),
+              std::pair(p.state.bonds.i[b], p.state.bonds.j[b]));
 }
 
 // The lengths of the affine segments (bond_partition.hpp) of bonds joining quanta one apart.

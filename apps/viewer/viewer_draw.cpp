@@ -25,7 +25,8 @@ double draw_radius(const Scene& scene, double size) {
   const World& w = scene.world;
   if (w.num_bonds() > 0) {
     std::vector<double> r(w.num_bonds());
-    for (std::size_t b = 0; b < r.size(); ++b) r[b] = (w.state.x[w.state.bonds.j[b]] - w.state.x[w.state.bonds.i[b]]).norm();
+    for (std::size_t b = 0; b < r.size(); ++b)
+      r[b] = (w.state.x[w.state.bonds.j[b]] - w.state.x[w.state.bonds.i[b]]).norm();
     const auto k = static_cast<std::ptrdiff_t>(r.size() / 10);
     std::nth_element(r.begin(), r.begin() + k, r.end());
     if (r[static_cast<std::size_t>(k)] > 0) return 0.15 * r[static_cast<std::size_t>(k)];

@@ -176,8 +176,8 @@ inline Vec3 neighbours_times(const Adjacency& adj, const ImplicitSystem& sys, In
 // i and −B_b y_i into row j (y's kinematic rows taken as 0, so a bond to a kinematic quanta adds
 // nothing to its free end's row; conjugate_gradient.cpp). Allocates its scratch: for checks, CG
 // keeps its own.
-void apply_system(const Model& model, const Bonds& bonds, const ImplicitSystem& sys, const std::vector<Vec3>& y, int threads,
-                  std::vector<Vec3>& out);
+void apply_system(const Model& model, const Bonds& bonds, const ImplicitSystem& sys,
+                  const std::vector<Vec3>& y, int threads, std::vector<Vec3>& out);
 
 // A and b over the free unknowns as a sparse matrix and a vector, for the direct solvers (and the
 // benchmarks' Eigen solvers): dof[i] = 3 × free quanta i's number, -1 for kinematic quanta.
@@ -225,8 +225,8 @@ struct DirectSolver {
 // The product runs over sys.part, which begin_implicit_step or assemble_blocks has brought up to
 // date. Its vectors (y, r, z, p, Ap and A's diagonal blocks as structure of arrays) take
 // sys.arrays, the build's scratch, which the built system no longer needs.
-void conjugate_gradient(const Model& model, const Bonds& bonds, ImplicitSystem& sys, double tolerance, int cap, int threads,
-                        std::vector<Vec3>& y, bool y_zero, SolveStats& stats);
+void conjugate_gradient(const Model& model, const Bonds& bonds, ImplicitSystem& sys, double tolerance,
+                        int cap, int threads, std::vector<Vec3>& y, bool y_zero, SolveStats& stats);
 
 // Block Gauss–Seidel sweeps in graph-colour order (quanta of one colour share no bond, so their
 // 3×3 updates run in parallel), from the initial guess in y, at most `sweeps` or until the

@@ -95,8 +95,8 @@ void run_forces(const Model& model, const State& state, const BondRun& run, cons
   auto at = [](double* const (&a)[3], Index q) { return Vec3(a[0][q], a[1][q], a[2][q]); };
   for (Index k = 0; k < run.count; ++k) {
     const Index b = run.bond(k), i = state.bonds.i[b], j = state.bonds.j[b];
-    const Vec3 fb = state.bonds.force_on_i(model.shapes, b, at(rows.x, j) - at(rows.x, i), at(rows.v, j) - at(rows.v, i),
-                                          state.bonds.rest[b]);
+    const Vec3 fb = state.bonds.force_on_i(model.shapes, b, at(rows.x, j) - at(rows.x, i),
+                                           at(rows.v, j) - at(rows.v, i), state.bonds.rest[b]);
     for (int c = 0; c < 3; ++c) {
       if (run.owns(i)) rows.f[c][i] += fb[c];
       if (run.owns(j)) rows.f[c][j] -= fb[c];

@@ -55,8 +55,8 @@ void clamp_into(double axial, double transverse, bool clamp, BondStep& s) {
 }
 }  // namespace
 
-BondStep bond_step(const Model& model, const Bonds& bonds, std::size_t b, double L, NewtonScheme scheme, const Vec3& d0, const Vec3& dd,
-                   const Vec3& w, bool clamp, BondJacobian* exact) {
+BondStep bond_step(const Model& model, const Bonds& bonds, std::size_t b, double L, NewtonScheme scheme,
+                   const Vec3& d0, const Vec3& dd, const Vec3& w, bool clamp, BondJacobian* exact) {
   BondStep s;
   if (exact) *exact = {};
   const bool axial_damper = bonds.damping_model[b] == DampingModel::axial;
@@ -152,7 +152,8 @@ void newton_bonds(const Model& model, const State& state, const NewtonStep& st, 
       const Vec3 d0 = state.x[j] - state.x[i];
       const Vec3 dd = st.dx(model, y, j) - st.dx(model, y, i);
       const Vec3 w = (state.v[j] + st.theta * y[j]) - (state.v[i] + st.theta * y[i]);
-      bs = bond_step(model, state.bonds, b, state.bonds.rest[b], st.scheme, d0, dd, w, st.clamp, exact ? &jac : nullptr);
+      bs = bond_step(model, state.bonds, b, state.bonds.rest[b], st.scheme, d0, dd, w, st.clamp,
+                     exact ? &jac : nullptr);
     }
     if (exact) sys->exact[b] = sh * (st.c * jac.K + st.theta * jac.C);
     force[b] = bs.f;
@@ -508,7 +509,8 @@ class NewtonIntegrator final : public StepIntegrator {
         break;
       case CoupledSolver::cg:
         delta_.assign(n, Vec3::Zero());
-        conjugate_gradient(model, state.bonds, sys_, eta, cg_cap(config_, topo_), threads, delta_, /*y_zero=*/true, inner);
+        conjugate_gradient(model, state.bonds, sys_, eta, cg_cap(config_, topo_), threads, delta_,
+                           /*y_zero=*/true, inner);
         break;
       case CoupledSolver::sweep:
         delta_.assign(n, Vec3::Zero());

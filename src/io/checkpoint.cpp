@@ -242,8 +242,8 @@ void adopt_scene_bonds(Checkpoint& c, World& scene) {
   const Bonds& given = scene.state.bonds;
   const std::size_t scene_bonds = given.first_formed;
   if (s.x.size() != scene.num_quanta())
-    throw CheckpointError("state does not match its scene (" + std::to_string(s.x.size()) + " quanta saved, the scene has " +
-                          std::to_string(scene.num_quanta()) + ")");
+    throw CheckpointError("state does not match its scene (" + std::to_string(s.x.size()) +
+                          " quanta saved, the scene has " + std::to_string(scene.num_quanta()) + ")");
   if (c.formed_before_v6) {
     const std::vector<SavedFormedBond>& formed = *c.formed_before_v6;
     if (s.bonds.rest.size() - formed.size() != scene_bonds)

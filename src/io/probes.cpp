@@ -41,7 +41,8 @@ ProbeValue measure_probe(const Model& model, const State& state, const Probe& pr
     if (!state.bonds.alive[b]) continue;
     const Index i = state.bonds.i[b], j = state.bonds.j[b];
     if (in[i] == in[j]) continue;
-    const Vec3 fi = state.bonds.force_on_i(model.shapes, b, state.x[j] - state.x[i], state.v[j] - state.v[i], state.bonds.rest[b]);
+    const Vec3 fi = state.bonds.force_on_i(model.shapes, b, state.x[j] - state.x[i], state.v[j] - state.v[i],
+                                           state.bonds.rest[b]);
     const Index q = in[i] ? i : j;  // the probe's end of the bond
     const Vec3 f = in[i] ? fi : Vec3(-fi);
     v.force -= f;

@@ -127,7 +127,8 @@ QBOND_VECTOR_INLINE void grid_product(std::span<const BondRun> grid, const BondB
 
 // Any other run, bond by bond: −B_b y_j onto row i and −B_b y_i onto row j where the part owns
 // them, for bonds between free quanta.
-void run_product(const Model& model, const Bonds& bonds, const BondRun& run, const BondBlocks& blocks, const Soa& y, const Soa& out) {
+void run_product(const Model& model, const Bonds& bonds, const BondRun& run, const BondBlocks& blocks,
+                 const Soa& y, const Soa& out) {
   const double* inv_mass = model.inv_mass.data();
   for (Index k = 0; k < run.count; ++k) {
     const Index b = run.bond(k), i = bonds.i[b], j = bonds.j[b];
@@ -172,8 +173,8 @@ void bond_product(const Model& model, const Bonds& bonds, const ImplicitSystem& 
 }
 
 // out = A y (bond_product's conditions).
-void product(const Model& model, const Bonds& bonds, const ImplicitSystem& sys, const Diagonals& d, const Soa& y, const Soa& out,
-             int threads) {
+void product(const Model& model, const Bonds& bonds, const ImplicitSystem& sys, const Diagonals& d,
+             const Soa& y, const Soa& out, int threads) {
   parallel_ranges(model.num_quanta(), threads,
                   [&](std::size_t lo, std::size_t hi) { diagonal_times(d, y, out, lo, hi); });
   bond_product(model, bonds, sys, y, out);
@@ -360,8 +361,8 @@ struct CgArrays {
 
 }  // namespace
 
-void apply_system(const Model& model, const Bonds& bonds, const ImplicitSystem& sys, const std::vector<Vec3>& y, int threads,
-                  std::vector<Vec3>& out) {
+void apply_system(const Model& model, const Bonds& bonds, const ImplicitSystem& sys,
+                  const std::vector<Vec3>& y, int threads, std::vector<Vec3>& out) {
   const std::size_t n = model.num_quanta();
   LineVector<double> buffer;
   CgArrays a(buffer, n);
@@ -371,8 +372,8 @@ void apply_system(const Model& model, const Bonds& bonds, const ImplicitSystem& 
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { store(a.inv_mass, a.Ap, out, lo, hi); });
 }
 
-void conjugate_gradient(const Model& model, const Bonds& bonds, ImplicitSystem& sys, double tolerance, int cap, int threads,
-                        std::vector<Vec3>& y, bool y_zero, SolveStats& stats) {
+void conjugate_gradient(const Model& model, const Bonds& bonds, ImplicitSystem& sys, double tolerance,
+                        int cap, int threads, std::vector<Vec3>& y, bool y_zero, SolveStats& stats) {
   const std::size_t n = model.num_quanta();
   CgArrays a(sys.arrays, n);
   auto ranges = [&](auto&& body) { parallel_ranges(n, threads, body); };

@@ -36,7 +36,8 @@ struct Bonds {
   std::vector<std::uint32_t> shape;   ///< its row of Model::shapes: the law's shape parameters
   std::vector<double> rest;           ///< current rest length L [m]; plasticity edits it
   std::vector<std::uint8_t> alive;    ///< 1 while the bond holds
-  std::vector<double> time;           ///< [s] when the bond was last made or broken (0 for the scene's until they break)
+  /// [s] when the bond was last made or broken (0 for the scene's until they break)
+  std::vector<double> time;
   /// Bonds [first_formed, size()) were made during the run (formation); their slots are reused
   /// once broken. The scene's bonds come first.
   std::size_t first_formed = 0;
