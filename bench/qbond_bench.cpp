@@ -185,7 +185,7 @@ void solve_multigrid(benchmark::State& st, int n) {
     iterations = stats.iterations;
     levels = static_cast<double>(mg.mg.levels());
     std::vector<Vec3> Ay;
-    apply_system(m, sys, y, 1, Ay);
+    apply_system(m, w.state.bonds, sys, y, 1, Ay);
     double r2 = 0;
     for (std::size_t i = 0; i < y.size(); ++i)
       if (!m.is_kinematic(static_cast<Index>(i))) r2 += (sys.rhs[i] - Ay[i]).squaredNorm();

@@ -43,8 +43,8 @@ Vec3 mean_velocity(const World& w) { return linear_momentum(w.model, w.state) / 
 double stiffness_along(const World& w, const Vec3& e) {
   double s = 0;
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    const double c = (w.state.x[w.model.bond_j[b]] - w.state.x[w.model.bond_i[b]]).normalized().dot(e);
-    s += 2 * w.model.stiffness[b] * c * c;
+    const double c = (w.state.x[w.state.bonds.j[b]] - w.state.x[w.state.bonds.i[b]]).normalized().dot(e);
+    s += 2 * w.state.bonds.strength[b] * c * c;
   }
   return s;
 }

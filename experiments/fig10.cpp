@@ -60,12 +60,12 @@ void fig10(const Options& opt, Report& rep) {
   for (Index i : cube) M_cube += rest.model.mass[i];
   const double T_swing0 = 2 * M_PI * std::sqrt(I / (Ml * g));
   std::vector<double> k, L, m = {0};
-  for (Index b : bonds_by_id(rest.model)) {  // the rope's bonds in creation order, down the chain
-    const bool rope_bond = rest.model.body[rest.model.bond_i[b]] != rest.model.body[rest.model.bond_j[b]] ||
-                           rest.model.body_names[rest.model.body[rest.model.bond_i[b]]] == "rope";
+  for (Index b : bonds_by_id(rest.state.bonds)) {  // the rope's bonds in creation order, down the chain
+    const bool rope_bond = rest.model.body[rest.state.bonds.i[b]] != rest.model.body[rest.state.bonds.j[b]] ||
+                           rest.model.body_names[rest.model.body[rest.state.bonds.i[b]]] == "rope";
     if (!rope_bond) continue;
-    k.push_back(rest.model.stiffness[b]);
-    L.push_back(rest.state.rest[b]);
+    k.push_back(rest.state.bonds.strength[b]);
+    L.push_back(rest.state.bonds.rest[b]);
   }
   for (std::size_t q = 1; q < rope.size(); ++q) m.push_back(rest.model.mass[rope[q]]);
   m.push_back(M_cube);

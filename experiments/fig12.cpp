@@ -96,7 +96,7 @@ Tear tear(bool packing, double phi, std::uint64_t seed, int max_steps) {
   auto components = [&](const World& ww) {
     std::iota(parent.begin(), parent.end(), Index{0});
     for (std::size_t b = 0; b < ww.num_bonds(); ++b)
-      if (ww.state.alive[b]) parent[find(parent, ww.model.bond_i[b])] = find(parent, ww.model.bond_j[b]);
+      if (ww.state.bonds.alive[b]) parent[find(parent, ww.state.bonds.i[b])] = find(parent, ww.state.bonds.j[b]);
   };
   for (int s = 0; s < max_steps && !t.torn; ++s) {
     sim.step();
@@ -119,8 +119,8 @@ Tear tear(bool packing, double phi, std::uint64_t seed, int max_steps) {
   const int root = find(parent, top.front());
   std::vector<Vec3> mids;
   for (std::size_t b = 0; b < ww.num_bonds(); ++b) {
-    const Index i = ww.model.bond_i[b], j = ww.model.bond_j[b];
-    if (!ww.state.alive[b] && ((find(parent, i) == root) != (find(parent, j) == root)))
+    const Index i = ww.state.bonds.i[b], j = ww.state.bonds.j[b];
+    if (!ww.state.bonds.alive[b] && ((find(parent, i) == root) != (find(parent, j) == root)))
       mids.push_back(0.5 * (ww.state.x[i] + ww.state.x[j]));
   }
   Vec3 mean = Vec3::Zero();
@@ -202,8 +202,8 @@ void fig12(const Options& opt, Report& rep) {
   rep.table("torn_bonds.csv", "layout,x0,y0,x1,y1");
   for (const auto& [name, w] : ends)
     for (std::size_t b = 0; b < w.num_bonds(); ++b)
-      if (w.state.alive[b]) {
-        const Vec3 &p = w.state.x[w.model.bond_i[b]], &q = w.state.x[w.model.bond_j[b]];
+      if (w.state.bonds.alive[b]) {
+        const Vec3 &p = w.state.x[w.state.bonds.i[b]], &q = w.state.x[w.state.bonds.j[b]];
         rep.row(name, {p.x(), p.y(), q.x(), q.y()});
       }
   // The claims are tests on the seeds' means with Student's t 95% confidence bounds, against

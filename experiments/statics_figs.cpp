@@ -68,13 +68,13 @@ void eq14_15(const Options& opt, Report& rep) {
   World full = chain(k, m, F);
   std::vector<double> rest(k.size()), masses = {0};
   for (std::size_t b = 0; b < k.size(); ++b) {
-    rest[b] = full.state.rest[b];
+    rest[b] = full.state.bonds.rest[b];
     masses.push_back(m[b]);
   }
   const ReducedChain red = reduce_chain(k, rest, masses);
   World one = chain({red.stiffness}, {red.end_mass}, F);
   one.state.x[1].x() = full.state.x.back().x();
-  one.state.rest[0] = red.rest_length;
+  one.state.bonds.rest[0] = red.rest_length;
   solve_static(full, 1e-13);
   solve_static(one, 1e-13);
   full.model.loads.clear();
@@ -139,7 +139,8 @@ Beam cantilever_beam(int n, double L, double b, double E, double P, bool relax) 
   r.tip_lattice = z0 - tip_z(s);
   if (relax) {
     // Damped to rest with qbond's default integrator: the dynamics ends where statics says.
-    for (std::size_t b2 = 0; b2 < w.num_bonds(); ++b2) w.model.damping[b2] = 0.05 * w.model.stiffness[b2] * 1e-4;
+    for (std::size_t b2 = 0; b2 < w.num_bonds(); ++b2)
+      w.state.bonds.damping[b2] = 0.05 * w.state.bonds.strength[b2] * 1e-4;
     Simulation sim(std::move(w), default_integrator(), 1e-4);
     for (int k = 0; k < 3000; ++k) sim.step();
     r.tip_dynamic = z0 - tip_z(sim.world());

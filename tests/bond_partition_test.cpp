@@ -23,16 +23,16 @@ World random_lattice(bool grouped = false) {
   World w = test::lattice(17, 16, 16, 1000, 1e-3, 0.02, true);
   if (grouped) renumber(w, locality_order(w));
   Rng rng{5};
+  Bonds& bonds = w.state.edit_bonds();
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
     if (b % 3 == 0) {
-      w.model.law[b] = Law::inverse;
-      const double eps = InverseLaw::eps(w.model.law_args(b));
-      w.model.stiffness[b] *= eps * eps;
+      bonds.law[b] = Law::inverse;
+      const double eps = InverseLaw::eps(bonds.law_args(w.model.shapes, b));
+      bonds.strength[b] *= eps * eps;
     }
-    if (b % 4 == 0) w.model.damping_model[b] = DampingModel::isotropic;
-    if (rng.uniform() < 0.1) w.state.alive[b] = 0;
+    if (b % 4 == 0) bonds.damping_model[b] = DampingModel::isotropic;
+    if (rng.uniform() < 0.1) w.state.break_bond(static_cast<Index>(b));
   }
-  ++w.state.topology_version;
   test::perturb(w, 2e-3, 0.2);
   return w;
 }
@@ -50,23 +50,24 @@ TEST(BondPartition, ForEachBondOwnsEachEndOfEachAliveBondOnce) {
     const bool grouped = w == &grouped_intact || w == &grouped_broken;
     const bool all_alive = w == &intact || w == &grouped_intact;
     const Model& m = w->model;
+    const State& s = w->state;
     Adjacency adj;
-    build_adjacency(m, w->state, adj);
+    build_adjacency(m, s, adj);
     std::set<std::tuple<Index, Index, Index, Index, bool>> one_part_runs;
     for (int threads : {1, 2, 3}) {
       const std::string what = std::to_string(threads) + " threads" + (grouped ? ", grouped" : "") +
                                (all_alive ? "" : ", broken bonds");
       BondPartition part;
-      part.update(m, adj, threads);
+      part.update(m, s.bonds, adj, threads);
       EXPECT_EQ(part.all_in_one, threads == 1 && all_alive) << what;
       std::vector<int> owned_i(w->num_bonds(), 0), owned_j(w->num_bonds(), 0);
-      for_each_bond(part, m, [&](Index b, bool own_i, bool own_j) {
+      for_each_bond(part, s.bonds, [&](Index b, bool own_i, bool own_j) {
         if (own_i) ++owned_i[b];  // only the call owning an end writes its counter
         if (own_j) ++owned_j[b];
       });
       for (std::size_t b = 0; b < w->num_bonds(); ++b) {
-        ASSERT_EQ(owned_i[b], w->state.alive[b]) << "bond " << b << ", " << what;
-        ASSERT_EQ(owned_j[b], w->state.alive[b]) << "bond " << b << ", " << what;
+        ASSERT_EQ(owned_i[b], w->state.bonds.alive[b]) << "bond " << b << ", " << what;
+        ASSERT_EQ(owned_j[b], w->state.bonds.alive[b]) << "bond " << b << ", " << what;
       }
       // The same in runs (for_each_bond_run): each part's runs in increasing bond order, its last
       // run marked once; an affine run's bonds alive with ends i0 + k and j0 + k.
@@ -85,12 +86,12 @@ TEST(BondPartition, ForEachBondOwnsEachEndOfEachAliveBondOnce) {
           EXPECT_GE(b, seen.next);
           seen.next = b + 1;
           if (run.affine) {
-            EXPECT_TRUE(w->state.alive[b]);
-            EXPECT_EQ(m.bond_i[b], run.i0 + k);
-            EXPECT_EQ(m.bond_j[b], run.j0 + k);
+            EXPECT_TRUE(w->state.bonds.alive[b]);
+            EXPECT_EQ(s.bonds.i[b], run.i0 + k);
+            EXPECT_EQ(s.bonds.j[b], run.j0 + k);
           }
-          if (run.owns(m.bond_i[b])) ++run_i[b];
-          if (run.owns(m.bond_j[b])) ++run_j[b];
+          if (run.owns(s.bonds.i[b])) ++run_i[b];
+          if (run.owns(s.bonds.j[b])) ++run_j[b];
         }
         if (run.last) {
           EXPECT_EQ(++seen.lasts, 1);
@@ -122,7 +123,7 @@ TEST(BondPartition, EveryEndOfEveryAliveBondIsOwnedOnce) {
   build_adjacency(w.model, w.state, adj);
   for (int threads : {1, 2, 3}) {
     BondPartition part;
-    part.update(w.model, adj, threads);
+    part.update(w.model, w.state.bonds, adj, threads);
     EXPECT_EQ(part.parts(), threads);
     std::vector<int> owned_i(w.num_bonds(), 0), owned_j(w.num_bonds(), 0);
     bool increasing = true;
@@ -131,13 +132,13 @@ TEST(BondPartition, EveryEndOfEveryAliveBondIsOwnedOnce) {
       for (Index k = part.offset[p]; k < part.offset[p + 1]; ++k) {
         const Index b = part.bonds[k];
         if (k > part.offset[p] && b <= part.bonds[k - 1]) increasing = false;
-        owned_i[b] += w.model.bond_i[b] >= lo && w.model.bond_i[b] < hi;
-        owned_j[b] += w.model.bond_j[b] >= lo && w.model.bond_j[b] < hi;
+        owned_i[b] += w.state.bonds.i[b] >= lo && w.state.bonds.i[b] < hi;
+        owned_j[b] += w.state.bonds.j[b] >= lo && w.state.bonds.j[b] < hi;
       }
     }
     EXPECT_TRUE(increasing) << threads;
     for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-      const int expected = w.state.alive[b] ? 1 : 0;
+      const int expected = w.state.bonds.alive[b] ? 1 : 0;
       ASSERT_EQ(owned_i[b], expected) << "bond " << b << ", " << threads << " threads";
       ASSERT_EQ(owned_j[b], expected) << "bond " << b << ", " << threads << " threads";
     }
@@ -152,9 +153,9 @@ std::vector<Vec3> plain_forces(const World& w, std::vector<double>& scale) {
   std::vector<Vec3> ref(w.num_quanta(), Vec3::Zero());
   scale.assign(w.num_quanta(), 0.0);
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    if (!s.alive[b]) continue;
-    const Index i = m.bond_i[b], j = m.bond_j[b];
-    const Vec3 f = m.bond_force_on_i(b, s.x[j] - s.x[i], s.v[j] - s.v[i], s.rest[b]);
+    if (!s.bonds.alive[b]) continue;
+    const Index i = s.bonds.i[b], j = s.bonds.j[b];
+    const Vec3 f = s.bonds.force_on_i(m.shapes, b, s.x[j] - s.x[i], s.v[j] - s.v[i], s.bonds.rest[b]);
     ref[i] += f;
     ref[j] -= f;
     scale[i] += f.norm();
@@ -182,8 +183,7 @@ World grouped_lattice(bool broken, bool small = false) {
   renumber(w, locality_order(w));
   test::mix_bonds(w);
   test::perturb(w, 2e-3, 0.2);
-  for (std::size_t b = 5; broken && b < w.num_bonds(); b += 97) w.state.alive[b] = 0;
-  ++w.state.topology_version;
+  for (std::size_t b = 5; broken && b < w.num_bonds(); b += 97) w.state.break_bond(static_cast<Index>(b));
   return w;
 }
 
@@ -204,10 +204,10 @@ TEST(BondPartition, ForcePassMatchesASerialPassAndGivesTheSameBitsAtAnyThreadCou
     std::vector<Vec3> first;
     for (int threads : {1, 2, 3}) {
       BondPartition part;
-      part.update(w.model, adj, threads);
+      part.update(w.model, w.state.bonds, adj, threads);
       std::size_t vector_bonds = 0;
       for (const BondRun& r : part.runs)
-        if (r.affine && uniform_linear(w.model, r) >= 0) vector_bonds += r.count;
+        if (r.affine && uniform_linear(w.state.bonds, r) >= 0) vector_bonds += r.count;
       const std::vector<Vec3> f = force_pass(w, part, threads);
       if (threads == 1) {
         EXPECT_EQ(vector_bonds > w.num_bonds() / 3, is_grouped);
@@ -243,7 +243,7 @@ TEST(BondPartition, CgProductMatchesTheAssembledMatrixAndGivesTheSameBitsAtAnyTh
       Projection kin;
       begin_implicit_step(w->model, w->state, adj, f_ext, {.h = 1e-3}, false, threads, kin, sys);
       std::vector<Vec3> out;
-      apply_system(w->model, sys, y, threads, out);
+      apply_system(w->model, w->state.bonds, sys, y, threads, out);
       if (threads == 1) {
         std::vector<Eigen::Index> dof;
         std::vector<Eigen::Triplet<double>> triplets;
@@ -289,7 +289,7 @@ TEST(BondPartition, AQuantaAloneIsJoinedByNoOtherPartsRuns) {
     build_adjacency(w->model, w->state, adj);
     for (int threads : {1, 2, 3}) {
       BondPartition part;
-      part.update(w->model, adj, threads);
+      part.update(w->model, w->state.bonds, adj, threads);
       std::vector<int> joined_by(w->num_quanta() + kBondRun, -1);  // a part whose runs join it, -2: two parts
       for (int p = 0; p < part.parts(); ++p)
         for (Index r = part.run_offset[p]; r < part.run_offset[p + 1]; ++r) {
@@ -297,8 +297,8 @@ TEST(BondPartition, AQuantaAloneIsJoinedByNoOtherPartsRuns) {
           auto join = [&](Index q) { joined_by[q] = joined_by[q] == -1 || joined_by[q] == p ? p : -2; };
           for (Index k = 0; k < (run.affine ? affine_lanes(run.count) : run.count); ++k) {
             const Index b = run.bond(k);
-            join(run.affine ? run.i0 + k : w->model.bond_i[b]);
-            join(run.affine ? run.j0 + k : w->model.bond_j[b]);
+            join(run.affine ? run.i0 + k : w->state.bonds.i[b]);
+            join(run.affine ? run.j0 + k : w->state.bonds.j[b]);
           }
         }
       for (int p = 0; p < part.parts(); ++p) {
@@ -331,7 +331,7 @@ TEST(BondPartition, GridsAreAffineRunsOfOneShapeEachAfterTheOther) {
     build_adjacency(w->model, w->state, adj);
     for (int threads : {1, 2}) {
       BondPartition part;
-      part.update(w->model, adj, threads);
+      part.update(w->model, w->state.bonds, adj, threads);
       Index in_grids = 0;
       for (int p = 0; p < part.parts(); ++p) {
         const Index end = part.run_offset[p + 1];
@@ -370,14 +370,13 @@ TEST(BondPartition, RebuildsWhenTheTopologyChanges) {
   Adjacency adj;
   build_adjacency(w.model, w.state, adj);
   BondPartition part;
-  part.update(w.model, adj, 2);
+  part.update(w.model, w.state.bonds, adj, 2);
   const std::size_t before = part.bonds.size();
   std::size_t b = 0;
-  while (!w.state.alive[b]) ++b;
-  w.state.alive[b] = 0;
-  ++w.state.topology_version;
+  while (!w.state.bonds.alive[b]) ++b;
+  w.state.break_bond(static_cast<Index>(b));
   build_adjacency(w.model, w.state, adj);
-  part.update(w.model, adj, 2);
+  part.update(w.model, w.state.bonds, adj, 2);
   EXPECT_LT(part.bonds.size(), before);
   for (Index k : part.bonds) EXPECT_NE(k, static_cast<Index>(b));
 }
@@ -389,21 +388,20 @@ TEST(BondPartition, RunKindsAreEachRunsLawsAndFollowALawChange) {
   Adjacency adj;
   build_adjacency(w.model, w.state, adj);
   BondPartition part;
-  part.update(w.model, adj, 2);
+  part.update(w.model, w.state.bonds, adj, 2);
   const BondRun* linear = nullptr;
   std::set<int> kinds;
   for (const BondRun& run : part.runs) {
-    EXPECT_EQ(run.kind, run.affine ? uniform_linear(w.model, run) : -1);
+    EXPECT_EQ(run.kind, run.affine ? uniform_linear(w.state.bonds, run) : -1);
     kinds.insert(run.kind);
     if (!linear && run.kind == 0) linear = &run;
   }
   EXPECT_EQ(kinds, (std::set<int>{-1, 0, 1}));
   ASSERT_NE(linear, nullptr);
   const Index first = linear->first, b = first + linear->count / 2;
-  w.model.law[b] = Law::inverse;
-  ++w.state.topology_version;
+  w.state.edit_bonds().law[b] = Law::inverse;
   build_adjacency(w.model, w.state, adj);
-  part.update(w.model, adj, 2);
+  part.update(w.model, w.state.bonds, adj, 2);
   for (const BondRun& run : part.runs)
     if (run.affine && run.first <= b && b < run.first + run.count) {
       EXPECT_EQ(run.kind, -1) << "run from bond " << run.first;

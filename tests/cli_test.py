@@ -219,6 +219,23 @@ def test_version4_checkpoints_resume_bit_for_bit():
             fail(f"{kind}: the run resumed from the version-4 checkpoint differs from the uninterrupted one")
 
 
+def test_version5_checkpoint_with_formed_bonds_resumes_bit_for_bit():
+    """A version-5 checkpoint saved only the bonds formed during the run (the scene's came from
+    the scene): resumed from step 20 of a splash whose bonds broke, formed in new and reused slots
+    and flowed, it ends in the bytes of 40 steps in one go."""
+    scenes = os.path.join(SOURCE, "tests", "checkpoints_v5")
+    whole, resumed = fresh("v5_whole"), fresh("v5_resumed")
+    qbond("run", os.path.join(scenes, "splash.json"), "--steps", "40", "--every", "10", "--no-vtk", "-q",
+          "--out", whole, check_code=0)
+    qbond("run", "--resume", os.path.join(scenes, "splash.qbc"), "--steps", "40", "--no-vtk", "-q",
+          "--out", resumed, check_code=0)
+    if state_bytes(os.path.join(whole, "checkpoint.qbc")) != state_bytes(os.path.join(resumed, "checkpoint.qbc")):
+        fail("the run resumed from the version-5 checkpoint differs from the uninterrupted one")
+    events = open(os.path.join(resumed, "events.csv")).read()
+    if events.count(",formed,") < 10:
+        fail("the resumed splash forms too few bonds to test anything")
+
+
 def test_events_resume_with_the_run():
     """Fracture events: a resumed run's events.csv equals the uninterrupted run's."""
     whole, halves = whole_and_halves("events", "fracture_bar", 400, 50)

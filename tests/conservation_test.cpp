@@ -110,8 +110,8 @@ TEST(FrozenHybrid, FreeFallReachesPredictedTerminalVelocity) {
   World w = test::lattice(5, 5, 5, 1000, 1e-3, 0.01, false, Vec3(0, 0, -g));
   double mass = 0, kzz = 0;
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    const Vec3 u = (w.state.x[w.model.bond_j[b]] - w.state.x[w.model.bond_i[b]]).normalized();
-    kzz += 2 * w.model.stiffness[b] * u.z() * u.z();  // both ends
+    const Vec3 u = (w.state.x[w.state.bonds.j[b]] - w.state.x[w.state.bonds.i[b]]).normalized();
+    kzz += 2 * w.state.bonds.strength[b] * u.z() * u.z();  // both ends
   }
   for (double m : w.model.mass) mass += m;
   const double predicted = mass * g / (h * kzz);

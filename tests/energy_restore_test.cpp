@@ -18,7 +18,7 @@ TEST(EnergyRestore, CorrectionChangesKineticEnergyAndKeepsMomenta) {
   World chain = test::lattice(4, 1, 1, 1e3, 0.02, 0, false);
   for (std::size_t i = 0; i < chain.num_quanta(); ++i) w.add_quanta(chain.state.x[i] + Vec3(0, 0.2, 0), Vec3::Zero(), 0.02, 1);
   for (std::size_t b = 0; b < chain.num_bonds(); ++b)
-    w.add_bond(chain.model.bond_i[b] + 18, chain.model.bond_j[b] + 18, {.law = Law::linear, .stiffness = 1e3});
+    w.add_bond(chain.state.bonds.i[b] + 18, chain.state.bonds.j[b] + 18, {.law = Law::linear, .stiffness = 1e3});
   test::perturb(w, 1e-3, 0.3);
   for (std::size_t i = 0; i < w.num_quanta(); ++i) w.state.v[i] += Vec3(0.1, -0.2, 0.05) + Vec3(0, 0, 2).cross(w.state.x[i]);
   Adjacency adj;

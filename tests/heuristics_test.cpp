@@ -31,8 +31,8 @@ World pulled_chain(int n, double a, double k, double u, std::size_t weak) {
 }
 
 double strain_of(const World& w, std::size_t b) {
-  const double r = (w.state.x[w.model.bond_j[b]] - w.state.x[w.model.bond_i[b]]).norm();
-  return (r - w.state.rest[b]) / w.state.rest[b];
+  const double r = (w.state.x[w.state.bonds.j[b]] - w.state.x[w.state.bonds.i[b]]).norm();
+  return (r - w.state.bonds.rest[b]) / w.state.bonds.rest[b];
 }
 
 TEST(Break, ABarBreaksWhereTheStrainFirstPassesTheThreshold) {
@@ -50,7 +50,7 @@ TEST(Break, ABarBreaksWhereTheStrainFirstPassesTheThreshold) {
   EXPECT_EQ(events[0].bond, 7u);  // the soft bond carries the same tension at twice the strain
   EXPECT_EQ(events[0].reason, BondEvent::Reason::strain);
   EXPECT_GT(events[0].strain, eps_max);
-  EXPECT_FALSE(sim.world().state.alive[7]);
+  EXPECT_FALSE(sim.world().state.bonds.alive[7]);
   EXPECT_EQ(sim.world().num_alive_bonds(), 10u);
   // The energy the break released is on the books: U = k/2 (ε L)² with k/2 the soft stiffness.
   const double U = 0.5 * 50 * std::pow(events[0].strain * 0.01, 2);
@@ -138,11 +138,11 @@ TEST(Plastic, ALoadedUnloadedBondKeepsThePermanentSetTheoryPredicts) {
   for (int n = 0; n < 5000; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
   const double c = alpha / (1 - alpha);
   const double p = (F / (k * L0) - ey) / c;
-  EXPECT_NEAR(sim.world().state.rest[0], L0 * (1 + p), 1e-9 * L0);
+  EXPECT_NEAR(sim.world().state.bonds.rest[0], L0 * (1 + p), 1e-9 * L0);
   sim.world().model.loads.clear();
   for (int n = 0; n < 5000; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
   const World& done = sim.world();
-  EXPECT_NEAR(done.state.rest[0], L0 * (1 + p), 1e-9 * L0);  // no reverse yielding
+  EXPECT_NEAR(done.state.bonds.rest[0], L0 * (1 + p), 1e-9 * L0);  // no reverse yielding
   EXPECT_NEAR(done.state.x[1].x(), L0 * (1 + p), 1e-9 * L0);  // at rest at its new length
   // The plastic work is what the books say: ∫ T dL = k L₀² (ε_y p + c p²/2) along the flow.
   const double work = k * L0 * L0 * (ey * p + 0.5 * c * p * p);
@@ -267,8 +267,8 @@ double closest_unbonded(const World& w) {
   double best = INFINITY;
   std::vector<std::vector<Index>> nb(w.num_quanta());
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    nb[w.model.bond_i[b]].push_back(w.model.bond_j[b]);
-    nb[w.model.bond_j[b]].push_back(w.model.bond_i[b]);
+    nb[w.state.bonds.i[b]].push_back(w.state.bonds.j[b]);
+    nb[w.state.bonds.j[b]].push_back(w.state.bonds.i[b]);
   }
   for (std::size_t i = 0; i < w.num_quanta(); ++i)
     for (std::size_t j = i + 1; j < w.num_quanta(); ++j) {
@@ -372,8 +372,8 @@ TEST(Form, QuantaWithinTheCaptureRadiusBondAtTheirDistance) {
   const double r = (w.state.x[2] - w.state.x[1]).norm();
   EXPECT_LT(r, capture);
   EXPECT_GE(distance_before, capture - h * speed);  // it formed in the first step that came within
-  EXPECT_DOUBLE_EQ(w.state.rest[e.bond], r);        // rest length: the distance at formation
-  EXPECT_EQ(w.state.formed.size(), 1u);
+  EXPECT_DOUBLE_EQ(w.state.bonds.rest[e.bond], r);        // rest length: the distance at formation
+  EXPECT_EQ(w.state.bonds.first_formed, 0u);  // a bond formed during the run
   EXPECT_EQ(w.num_bonds(), 1u);
 }
 
@@ -427,30 +427,25 @@ TEST(Form, BrokenPairsWaitMinAgeAndSlotsAreReused) {
   // Broken at t = 1 ms; the step starting at t bonds once t > 1 ms + 4.5 ms: the one from 6 ms.
   EXPECT_EQ(rebond_step, 6);
   EXPECT_EQ(sim.world().num_bonds(), 1u);  // the broken slot, reused
-  EXPECT_TRUE(sim.world().state.alive[0]);
+  EXPECT_TRUE(sim.world().state.bonds.alive[0]);
 }
 
-// What a rollback and a resume do: the model's formed bonds follow the state that carries them.
-TEST(Form, TheModelFollowsTheStateThatCarriesFormedBonds) {
+// A formed bond lives in the state alone: a world built without it takes it back with a saved
+// state, and the model the rule's shape was interned in is all it needs.
+TEST(Form, AFormedBondTravelsWithTheState) {
   Simulation sim(approaching(0.03, 0.001, 0.0), default_integrator(), 1e-3);
   sim.add_heuristic(make_form_heuristic({.capture_radius = 0.002, .bond = {.stiffness = 10}}));
+  const Model model = sim.world().model;
   sim.step();
   ASSERT_EQ(sim.world().num_bonds(), 1u);
-  // A state from before the bond was formed: syncing drops the model's bond with it.
-  World copy = sim.world();
-  copy.state.formed.clear();
-  copy.state.rest.clear();
-  copy.state.alive.clear();
-  copy.state.bond_time.clear();
-  copy.sync_formed_bonds();
-  EXPECT_EQ(copy.num_bonds(), 0u);
-  // And a saved state brings it back into a world built without it.
+  EXPECT_TRUE(sim.world().model == model);
   World fresh = approaching(0.03, 0.001, 0.0);
+  EXPECT_EQ(fresh.num_bonds(), 0u);
   fresh.state = deserialize_state(serialize_state(sim.world().state));
-  fresh.sync_formed_bonds();
   ASSERT_EQ(fresh.num_bonds(), 1u);
-  EXPECT_EQ(fresh.model.bond_i[0], sim.world().model.bond_i[0]);
-  EXPECT_EQ(fresh.model.stiffness[0], 10.0);
+  EXPECT_EQ(fresh.state.bonds.i[0], sim.world().state.bonds.i[0]);
+  EXPECT_EQ(fresh.state.bonds.strength[0], 10.0);
+  EXPECT_EQ(fresh.state.bonds.first_formed, 0u);
 }
 
 // Welding: a block moving into an anchored one welds to it on contact and then hangs from it;

@@ -158,8 +158,7 @@ TEST(DirectSolver, KeepsItsAnalysisOnlyWhileThePatternStays) {
   for (int round = 0; round < 3; ++round) {
     if (round == 1) test::perturb(w, 1e-3, 0.1, 11);  // other values, the same pattern
     if (round == 2) {                                  // one bond fewer: another pattern
-      w.state.alive[w.num_bonds() / 2] = 0;
-      ++w.state.topology_version;
+      w.state.break_bond(static_cast<Index>(w.num_bonds() / 2));
     }
     Adjacency adj;
     build_adjacency(w.model, w.state, adj);
@@ -234,14 +233,14 @@ ReferenceStep plain_implicit_step(const World& w, double h, bool coupled = true)
   }
   std::vector<Mat3> Ksum(n, Mat3::Zero()), Bsum(n, Mat3::Zero());
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    if (!s.alive[b]) continue;
-    const Index i = m.bond_i[b], j = m.bond_j[b];
+    if (!s.bonds.alive[b]) continue;
+    const Index i = s.bonds.i[b], j = s.bonds.j[b];
     const Vec3 d = s.x[j] - s.x[i];
     const double r = d.norm();
-    const LawValue lv = m.law_at(b, r, s.rest[b]);
+    const LawValue lv = s.bonds.law_at(m.shapes, b, r, s.bonds.rest[b]);
     const Mat3 Kb = stiffness_block(lv.T, lv.dT, r, d / r, /*clamp_for_solver=*/true);
-    const Mat3 Cb = damping_block(m.damping_model[b], m.damping[b], d / r);
-    const Vec3 fb = m.bond_force_on_i(b, d, s.v[j] - s.v[i], s.rest[b]);
+    const Mat3 Cb = damping_block(s.bonds.damping_model[b], s.bonds.damping[b], d / r);
+    const Vec3 fb = s.bonds.force_on_i(m.shapes, b, d, s.v[j] - s.v[i], s.bonds.rest[b]);
     f.segment<3>(3 * i) += fb;
     f.segment<3>(3 * j) -= fb;
     if (coupled)
@@ -311,13 +310,13 @@ TEST(ImplicitStep, MatchesThePlainAssemblyOnARandomLattice) {
       face.rate = 30;
       Rng rng{11};
       for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-        w.state.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
-        if (broken && b % 17 == 5) w.state.alive[b] = 0;
+        w.state.bonds.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
+        if (broken && b % 17 == 5) w.state.bonds.alive[b] = 0;
       }
       Adjacency adj;
       build_adjacency(w.model, w.state, adj);
       BondPartition part;
-      part.update(w.model, adj, 1);
+      part.update(w.model, w.state.bonds, adj, 1);
       const auto affine = std::count_if(part.runs.begin(), part.runs.end(), [](const BondRun& r) { return r.affine; });
       if (grouped)
         EXPECT_GE(affine, 4) << what;
@@ -359,15 +358,15 @@ TEST(ImplicitStep, FrozenRowsStartedAndSolvedInTheBondPassMatchThePlainStep) {
   renumber(w, locality_order(w));
   Rng rng{5};
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    w.state.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
-    if (w.model.body[w.model.bond_i[b]] != 2) continue;  // the lower lattices' runs affine and uniform
+    w.state.bonds.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
+    if (w.model.body[w.state.bonds.i[b]] != 2) continue;  // the lower lattices' runs affine and uniform
     if (b % 3 == 0) {
-      w.model.law[b] = Law::inverse;
-      const double eps = InverseLaw::eps(w.model.law_args(b));
-      w.model.stiffness[b] *= eps * eps;
+      w.state.bonds.law[b] = Law::inverse;
+      const double eps = InverseLaw::eps(w.state.bonds.law_args(w.model.shapes, b));
+      w.state.bonds.strength[b] *= eps * eps;
     }
-    if (b % 4 == 0) w.model.damping_model[b] = DampingModel::isotropic;
-    if (b % 23 == 7) w.state.alive[b] = 0;
+    if (b % 4 == 0) w.state.bonds.damping_model[b] = DampingModel::isotropic;
+    if (b % 23 == 7) w.state.bonds.alive[b] = 0;
   }
   test::perturb(w, 2e-3, 0.2);
   const double h = 3e-3;
@@ -636,8 +635,8 @@ std::vector<Vec3> plain_bond_sums(const World& w, const std::vector<Vec3>& x, co
   std::vector<Vec3> fb, f(w.num_quanta(), Vec3::Zero());
   bond_forces(w.model, w.state, x, v, 1, fb);
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    f[w.model.bond_i[b]] += fb[b];
-    f[w.model.bond_j[b]] -= fb[b];
+    f[w.state.bonds.i[b]] += fb[b];
+    f[w.state.bonds.j[b]] -= fb[b];
   }
   return f;
 }
@@ -733,9 +732,9 @@ TEST(VelocityVerlet, PlasticFlowDropsTheCarriedForces) {
   sim.add_heuristic(make_plastic_heuristic({.yield_strain = 0.01}));  // the 2% stretch flows at once
   sim.step();
   EXPECT_TRUE(std::holds_alternative<std::monostate>(sim.world().state.carry));
-  const double rest = sim.world().state.rest[0];
+  const double rest = sim.world().state.bonds.rest[0];
   sim.step();  // shortening: back within the yield surface
-  ASSERT_EQ(sim.world().state.rest[0], rest);
+  ASSERT_EQ(sim.world().state.bonds.rest[0], rest);
   EXPECT_TRUE(std::holds_alternative<VerletForces>(sim.world().state.carry));
 }
 

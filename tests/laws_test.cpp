@@ -161,15 +161,16 @@ TEST(Laws, StiffnessAndDampingBlocksMatchFiniteDifferences) {
       const double D = 0.3;
       const World w = two_quanta(c, dm, D);
       const Model& m = w.model;
+      const Bonds& bonds = w.state.bonds;
       auto force_i = [&](const Vec3& xi, const Vec3& xj, const Vec3& vi, const Vec3& vj) {
-        return m.bond_force_on_i(0, xj - xi, vj - vi, c.L);
+        return bonds.force_on_i(m.shapes, 0, xj - xi, vj - vi, c.L);
       };
       for (double s : c.s) {
         const double r = c.L + s * c.scale;
         const Vec3 xi = rnd(), vi = rnd(), vj = rnd();
         const Vec3 u = rnd().normalized();
         const Vec3 xj = xi + r * u;
-        const LawValue lv = m.law_at(0, r, c.L);
+        const LawValue lv = bonds.law_at(m.shapes, 0, r, c.L);
         EXPECT_EQ(lv.T, at(c, r).T);  // the model's law is the case's
         const Mat3 K = stiffness_block(lv.T, lv.dT, r, u, /*clamp_for_solver=*/false);
         const Mat3 C = damping_block(dm, D, u);
@@ -288,11 +289,11 @@ TEST(Laws, CohesiveBondBreaksAtItsFailureStretch) {
   EXPECT_GE(e.strain, ef);
   EXPECT_EQ(e.tension, 0.0);
   const World& w = sim.world();
-  EXPECT_EQ(w.state.alive[e.bond], 0);
-  EXPECT_EQ(w.state.alive[1 - e.bond], 1);
+  EXPECT_EQ(w.state.bonds.alive[e.bond], 0);
+  EXPECT_EQ(w.state.bonds.alive[1 - e.bond], 1);
   EXPECT_DOUBLE_EQ(w.state.energy.dissipated_heuristics, G);
   for (int n = 0; n < 200; ++n) sim.step();  // the pull goes on: the broken bond stays broken
-  EXPECT_EQ(sim.world().state.alive[e.bond], 0);
+  EXPECT_EQ(sim.world().state.bonds.alive[e.bond], 0);
 }
 
 TEST(Laws, SofteningBondUnderImplicitSteps) {
@@ -314,7 +315,7 @@ TEST(Laws, SofteningBondUnderImplicitSteps) {
     w.add_quanta(Vec3(L + s0, 0, 0), Vec3::Zero(), 1.0);
     w.add_bond(0, 1, {.law = Law::cohesive, .stiffness = k, .rest_length = L, .shape = {ep, ef}});
     if (run.type != IntegratorType::coupled_implicit) {
-      ASSERT_LT(w.model.law_at(0, L + s0, L).dT, -1.0 / (run.h * run.h));
+      ASSERT_LT(w.state.bonds.law_at(w.model.shapes, 0, L + s0, L).dT, -1.0 / (run.h * run.h));
     }
     const double E0 = energies(w.model, w.state).total();
     IntegratorConfig config = test::config(run.type);
@@ -379,7 +380,7 @@ TEST(Laws, NewtonsThirdLawHoldsExactly) {
     Adjacency adj;
     build_adjacency(w.model, w.state, adj);
     BondPartition part;
-    part.update(w.model, adj, 1);
+    part.update(w.model, w.state.bonds, adj, 1);
     ForceArrays work;
     bond_force_sums(w.model, w.state, part, w.state.x, w.state.v, none, 1, work, f);
     Vec3 sum = Vec3::Zero();

@@ -25,8 +25,8 @@ World mixed_lattice(int nx, int ny, int nz, bool grouped, bool broken) {
   test::mix_bonds(w);
   Rng rng{5};
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    w.state.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
-    if (broken && b % 17 == 5) w.state.alive[b] = 0;
+    w.state.bonds.rest[b] *= 1 + 0.05 * (2 * rng.uniform() - 1);
+    if (broken && b % 17 == 5) w.state.bonds.alive[b] = 0;
   }
   test::perturb(w, 2e-3, 0.2);
   return w;
@@ -78,10 +78,11 @@ TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
       const double h = 1e-3;
       double energy = 0, energy_after = 0;
       for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-        if (!s.alive[b]) continue;
-        const Index i = m.bond_i[b], j = m.bond_j[b];
-        energy += m.law_at(b, (s.x[j] - s.x[i]).norm(), s.rest[b]).U;
-        energy_after += m.law_at(b, ((s.x[j] + p.dx[j]) - (s.x[i] + p.dx[i])).norm(), s.rest[b]).U;
+        if (!s.bonds.alive[b]) continue;
+        const Index i = s.bonds.i[b], j = s.bonds.j[b];
+        energy += s.bonds.law_at(m.shapes, b, (s.x[j] - s.x[i]).norm(), s.bonds.rest[b]).U;
+        energy_after +=
+            s.bonds.law_at(m.shapes, b, ((s.x[j] + p.dx[j]) - (s.x[i] + p.dx[i])).norm(), s.bonds.rest[b]).U;
       }
       ASSERT_GT(energy, 0) << where;
       ASSERT_NE(energy_after, energy) << where;
@@ -91,13 +92,13 @@ TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
         const std::string what = where + ", theta " + std::to_string(theta) + ", phi " + std::to_string(phi);
         double damping = 0;
         for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-          if (!s.alive[b]) continue;
-          const Index i = m.bond_i[b], j = m.bond_j[b];
+          if (!s.bonds.alive[b]) continue;
+          const Index i = s.bonds.i[b], j = s.bonds.j[b];
           const Vec3 d = s.x[j] - s.x[i] + phi * (p.dx[j] - p.dx[i]);
           const Vec3 v = (s.v[j] + theta * p.dv[j]) - (s.v[i] + theta * p.dv[i]);
           const double vu = v.dot(d.normalized());
           damping +=
-              h * m.damping[b] * (m.damping_model[b] == DampingModel::axial ? vu * vu : v.squaredNorm());
+              h * s.bonds.damping[b] * (s.bonds.damping_model[b] == DampingModel::axial ? vu * vu : v.squaredNorm());
         }
         ASSERT_GT(damping, 0) << what;
         const BondStepSums step = bond_step_sums(m, s, a.state(), h, theta, phi, 1);
@@ -129,16 +130,18 @@ TEST(EnergyLedger, BondSumsGiveTheSameBitsAtAnyThreadCount) {
 // The anchors' work, by the trapezoid rule, summed over every bond with a prescribed end.
 double plain_anchor_work(const Model& m, const State& s, const Projection& p) {
   double work = 0;
-  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
-    const Index i = m.bond_i[b], j = m.bond_j[b];
+  for (std::size_t b = 0; b < s.bonds.size(); ++b) {
+    const Index i = s.bonds.i[b], j = s.bonds.j[b];
     const bool ki = m.is_kinematic(i), kj = m.is_kinematic(j);
-    if (!s.alive[b] || (!ki && !kj)) continue;
+    if (!s.bonds.alive[b] || (!ki && !kj)) continue;
     const Vec3 d0 = s.x[j] - s.x[i], d1 = d0 + p.dx[j] - p.dx[i];
     const Vec3 w = (s.v[j] + p.dv[j]) - (s.v[i] + p.dv[i]);  // θ = 1, φ = 0
-    const double T0 = m.law_at(b, d0.norm(), s.rest[b]).T, T1 = m.law_at(b, d1.norm(), s.rest[b]).T;
+    const double T0 = s.bonds.law_at(m.shapes, b, d0.norm(), s.bonds.rest[b]).T,
+                 T1 = s.bonds.law_at(m.shapes, b, d1.norm(), s.bonds.rest[b]).T;
     const Vec3 u0 = d0.normalized();
     Vec3 fi = 0.5 * (T0 * u0 + T1 * d1.normalized());
-    fi += m.damping_model[b] == DampingModel::axial ? Vec3(m.damping[b] * w.dot(u0) * u0) : Vec3(m.damping[b] * w);
+    fi += s.bonds.damping_model[b] == DampingModel::axial ? Vec3(s.bonds.damping[b] * w.dot(u0) * u0)
+                                                          : Vec3(s.bonds.damping[b] * w);
     if (ki) work -= fi.dot(p.dx[i]);
     if (kj) work += fi.dot(p.dx[j]);
   }

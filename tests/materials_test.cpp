@@ -270,7 +270,7 @@ TEST(Reduction, SeriesChainMatchesTheLowFrequencyDynamics) {
   World chain = series_chain(kChain, m, M, F);
   std::vector<double> rest, mass = {0};
   for (std::size_t b = 0; b < kChain.size(); ++b) {
-    rest.push_back(chain.state.rest[b]);
+    rest.push_back(chain.state.bonds.rest[b]);
     mass.push_back(chain.model.mass[b + 1]);
   }
   const ReducedChain red = reduce_chain(kChain, rest, mass);

@@ -198,7 +198,7 @@ TEST(Multigrid, HierarchyKeptThenRebuiltAsBondsBreakAndForm) {
   EXPECT_EQ(mg.builds, 1);
   // A fifth of the bonds break: the hierarchy is rebuilt.
   for (Index b = 0; b < w.num_bonds(); b += 5)
-    if (w.state.alive[b]) w.break_bond(b);
+    if (w.state.bonds.alive[b]) w.break_bond(b);
   EXPECT_LT(solve(), kAgree);
   EXPECT_EQ(mg.builds, 2);
   // Another step length: the operators are updated on the same aggregates.

@@ -282,7 +282,7 @@ TEST(NewtonSplit, AnyThreadCountGivesTheSameBits) {
     for (std::size_t i = 0; i < one.num_quanta(); ++i)
       many.add_quanta(one.state.x[i] + offset, one.state.v[i], 1.0);
     for (std::size_t b = 0; b < one.num_bonds(); ++b)
-      many.add_bond(first + one.model.bond_i[b], first + one.model.bond_j[b], {.stiffness = 100.0});
+      many.add_bond(first + one.state.bonds.i[b], first + one.state.bonds.j[b], {.stiffness = 100.0});
   }
   ASSERT_GE(many.num_quanta(), kParallelMin);
   // ω_max of disjoint copies is one copy's (and the dense eigenproblem of 12288 unknowns is slow).
@@ -325,8 +325,8 @@ TEST(EnergyMomentum, BackwardEulerLosesTheEnergyItKeeps) {
 TEST(EnergyMomentum, LedgerClosesWithDampingLoadsAndAnchors) {
   for (DampingModel dm : {DampingModel::axial, DampingModel::isotropic}) {
     World w = test::lattice(4, 2, 2, 1000, 1e-3, 0.05, false, Vec3(0, 0, -9.81));
-    for (double& D : w.model.damping) D = 0.05;
-    for (auto& model : w.model.damping_model) model = dm;
+    for (double& D : w.state.bonds.damping) D = 0.05;
+    for (auto& model : w.state.bonds.damping_model) model = dm;
     std::vector<Index> start, end;
     for (std::size_t i = 0; i < w.num_quanta(); ++i) {
       if (w.state.x[i].x() == 0.0) start.push_back(static_cast<Index>(i));
@@ -364,7 +364,7 @@ TEST(EnergyMomentum, LedgerClosesWithDampingLoadsAndAnchors) {
 TEST(EnergyMomentum, LedgerClosesOverSubsteps) {
   for (DampingModel dm : {DampingModel::axial, DampingModel::isotropic}) {
     World w = four_quanta(0.2);
-    for (auto& model : w.model.damping_model) model = dm;
+    for (auto& model : w.state.bonds.damping_model) model = dm;
     Motion pull;
     pull.type = MotionType::translate;
     pull.velocity = Vec3(0.3, -0.2, 0.1);
@@ -546,10 +546,10 @@ TEST_P(NewtonJacobian, MatchesFiniteDifferences) {
   std::vector<double> scale;
   ImplicitSystem sys;
   newton_bonds(w.model, w.state, st, y, 1, force, &sys);
-  assemble_blocks(w.model, adj, 1, false, sys);
+  assemble_blocks(w.model, w.state.bonds, adj, 1, false, sys);
   int compressed = 0, softening = 0;  // with `exact`, bonds the clamp would change
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    const double r = (w.state.x[w.model.bond_j[b]] - w.state.x[w.model.bond_i[b]]).norm();
+    const double r = (w.state.x[w.state.bonds.j[b]] - w.state.x[w.state.bonds.i[b]]).norm();
     if (!c.exact) {
       ASSERT_GT(r, 0.9);  // every bond stretched: no clamp
     }
@@ -575,7 +575,7 @@ TEST_P(NewtonJacobian, MatchesFiniteDifferences) {
   Eigen::MatrixXd fd = Eigen::MatrixXd::Zero(J.rows(), J.cols());
   auto residual = [&](const std::vector<Vec3>& yy) {
     newton_bonds(w.model, w.state, st, yy, 1, force, nullptr);
-    newton_residual(w.model, adj, st, f_ext, force, yy, 1, R, scale);
+    newton_residual(w.model, w.state.bonds, adj, st, f_ext, force, yy, 1, R, scale);
     return R;
   };
   const double eps = 1e-6;

@@ -41,7 +41,7 @@ TEST(Ordering, ABuildersLatticeKeepsItsQuantaOrderAndSortingTwiceChangesNothing)
   EXPECT_TRUE(is_identity(r.quanta));
   renumber(w, r);
   for (std::size_t b = 1; b < w.num_bonds(); ++b) {
-    const auto key = [&](std::size_t c) { return std::pair(w.model.bond_i[c], w.model.bond_j[c]); };
+    const auto key = [&](std::size_t c) { return std::pair(w.state.bonds.i[c], w.state.bonds.j[c]); };
     EXPECT_LT(key(b - 1), key(b));
   }
   const Renumbering again = locality_order(w);
@@ -52,8 +52,8 @@ TEST(Ordering, ABuildersLatticeKeepsItsQuantaOrderAndSortingTwiceChangesNothing)
 // How many alive bonds lie in affine segments (bond_partition.hpp).
 std::size_t affine_bonds(const World& w) {
   std::size_t count = 0;
-  for_each_affine_segment(w.model.bond_i.data(), w.model.bond_j.data(), static_cast<Index>(w.num_bonds()), kMinAffine,
-                          [&](Index b) { return w.state.alive[b] != 0; }, [&](Index, Index n) { count += n; });
+  for_each_affine_segment(w.state.bonds.i.data(), w.state.bonds.j.data(), static_cast<Index>(w.num_bonds()), kMinAffine,
+                          [&](Index b) { return w.state.bonds.alive[b] != 0; }, [&](Index, Index n) { count += n; });
   return count;
 }
 
@@ -65,13 +65,13 @@ TEST(Ordering, ALatticesBondsFormAffineRunsAPackingsDoNot) {
   EXPECT_EQ(affine_bonds(w), 0u);  // the builder makes each quanta's bonds in turn
   renumber(w, shuffled(w, 5));
   renumber(w, locality_order(w));
-  const Model& m = w.model;
+  const State& s = w.state;
   // Rows of 12 quanta: a row's run along x has 11 bonds, the diagonals' 10 or 11, and the runs
   // along y and z go on over whole planes, cut at the blocks of first ends: 10 whole rows, 120
   // quanta.
   EXPECT_GT(affine_bonds(w), 9 * w.num_bonds() / 10);
   auto key = [&](std::size_t b) {
-    const Index i = m.bond_i[b], j = m.bond_j[b];
+    const Index i = s.bonds.i[b], j = s.bonds.j[b];
     return std::tuple(i / 120, std::int64_t{j} - i, i);
   };
   for (std::size_t b = 1; b < w.num_bonds(); ++b) EXPECT_LT(key(b - 1), key(b)) << b;
@@ -87,17 +87,18 @@ TEST(Ordering, ALatticesBondsFormAffineRunsAPackingsDoNot) {
   renumber(p, locality_order(p));
   EXPECT_LT(affine_bonds(p), p.num_bonds() / 10);
   for (std::size_t b = 1; b < p.num_bonds(); ++b)
-    EXPECT_LT(std::pair(p.model.bond_i[b - 1], p.model.bond_j[b - 1]), std::pair(p.model.bond_i[b], p.model.bond_j[b]));
+    EXPECT_LT(std::pair(p.state.bonds.i[b - 1], p.state.bonds.j[b - 1]),
+              std::pair(p.state.bonds.i[b], p.state.bonds.j[b]));
 }
 
 // The lengths of the affine segments (bond_partition.hpp) of bonds joining quanta one apart.
 std::vector<Index> segments_along_x(const World& w) {
   std::vector<Index> lengths;
   for_each_affine_segment(
-      w.model.bond_i.data(), w.model.bond_j.data(), static_cast<Index>(w.num_bonds()), kMinAffine,
+      w.state.bonds.i.data(), w.state.bonds.j.data(), static_cast<Index>(w.num_bonds()), kMinAffine,
       [](Index) { return true; },
       [&](Index b, Index n) {
-        if (w.model.bond_j[b] - w.model.bond_i[b] == 1) lengths.push_back(n);
+        if (w.state.bonds.j[b] - w.state.bonds.i[b] == 1) lengths.push_back(n);
       });
   return lengths;
 }
@@ -169,6 +170,7 @@ TEST(Ordering, ARenumberedWorldIsTheSameSystem) {
   const Renumbering r = shuffled(w, 3);
   renumber(w, r);
   const Model &m = w.model, &m0 = original.model;
+  const Bonds &bonds = w.state.bonds, &bonds0 = original.state.bonds;
   for (std::size_t i = 0; i < w.num_quanta(); ++i) {
     const Index k = r.quanta[i];
     EXPECT_EQ(w.state.x[k], original.state.x[i]);
@@ -179,18 +181,18 @@ TEST(Ordering, ARenumberedWorldIsTheSameSystem) {
   }
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
     const Index k = r.bonds[b];
-    EXPECT_EQ(m.bond_i[k], r.quanta[m0.bond_i[b]]);
-    EXPECT_EQ(m.bond_j[k], r.quanta[m0.bond_j[b]]);
-    EXPECT_EQ(m.stiffness[k], m0.stiffness[b]);
-    EXPECT_EQ(w.state.rest[k], original.state.rest[b]);
-    EXPECT_EQ(w.state.alive[k], original.state.alive[b]);
-    EXPECT_EQ(m.bond_id[k], b);
+    EXPECT_EQ(bonds.i[k], r.quanta[bonds0.i[b]]);
+    EXPECT_EQ(bonds.j[k], r.quanta[bonds0.j[b]]);
+    EXPECT_EQ(bonds.strength[k], bonds0.strength[b]);
+    EXPECT_EQ(bonds.rest[k], bonds0.rest[b]);
+    EXPECT_EQ(bonds.alive[k], bonds0.alive[b]);
+    EXPECT_EQ(bonds.id[k], b);
   }
   for (std::size_t a = 0; a < m.motions.size(); ++a)
     for (std::size_t q = 0; q < m.motions[a].quanta.size(); ++q)
       EXPECT_EQ(m.motions[a].quanta[q], r.quanta[m0.motions[a].quanta[q]]);
   EXPECT_EQ(m.loads[0].quanta, (std::vector<Index>{r.quanta[3], r.quanta[17]}));
-  EXPECT_GT(w.state.topology_version, original.state.topology_version);
+  EXPECT_GT(w.state.topology_version(), original.state.topology_version());
 }
 
 // Each quanta's motion after some steps, whatever the numbering: for the integrators whose step

@@ -27,15 +27,18 @@ State distinctive_state() {
   State s;
   s.x = {Vec3(1, 2, 3), Vec3(-4, 5e-300, 6)};
   s.v = {Vec3(0.1, 0.2, 0.3), Vec3(7, 8, 9)};
-  s.rest = {1.5, 2.5, 3.5};
-  s.alive = {1, 0, 1};
-  s.bond_time = {0, 0.25, 0.0625};
-  s.formed = {{0, 1, Law::inverse, DampingModel::isotropic, 10, 0.5, 2.25, {0.01, 0}}};
+  // Two bonds of the scene, one formed during the run, one broken, one rest length flowed.
+  s.add_bond(0, 1, {Law::linear, DampingModel::axial, 100, 0.5, 0}, 1.5);
+  s.add_bond(1, 0, {Law::morse, DampingModel::isotropic, 2.5, 0.25, 1}, 2.5);
+  s.time = 0.0625;
+  s.form_bond(0, 1, {Law::inverse, DampingModel::isotropic, 10, 0.5, 2}, 3.5, 2);
+  s.time = 0.25;
+  s.break_bond(1);
+  s.bonds.rest[0] = 1.25;
   s.time = 0.125;
   s.step = 1234567890123ull;
   s.rng.state = 0xDEADBEEFCAFEF00Dull;
   s.energy = {1, 2, 3, 4, 5, 6, 7, true};
-  s.topology_version = 42;
   s.carry = SolverGuess{{Vec3(1e-3, 2e-3, 3e-3), Vec3(-1, -2, -3)}};
   return s;
 }

@@ -224,10 +224,10 @@ TEST(PointPacking, BondsEveryPairWithinTheRadiusAtItsDistance) {
   ASSERT_EQ(ids.size(), x.size());  // at this radius no Poisson point is isolated
   ASSERT_EQ(w.num_bonds(), pairs.size());
   for (std::size_t b = 0; b < pairs.size(); ++b) {
-    EXPECT_EQ(w.model.bond_i[b], pairs[b].first);
-    EXPECT_EQ(w.model.bond_j[b], pairs[b].second);
-    EXPECT_DOUBLE_EQ(w.state.rest[b], (x[pairs[b].first] - x[pairs[b].second]).norm());
-    EXPECT_EQ(w.model.stiffness[b], 100.0);
+    EXPECT_EQ(w.state.bonds.i[b], pairs[b].first);
+    EXPECT_EQ(w.state.bonds.j[b], pairs[b].second);
+    EXPECT_DOUBLE_EQ(w.state.bonds.rest[b], (x[pairs[b].first] - x[pairs[b].second]).norm());
+    EXPECT_EQ(w.state.bonds.strength[b], 100.0);
   }
 }
 
@@ -253,7 +253,7 @@ TEST(PointPacking, IsolatedPointsAreDroppedKeptOrRefused) {
   EXPECT_EQ(ids.size(), 200u - lonely);
   EXPECT_EQ(drop.num_bonds(), keep.num_bonds());
   std::vector<int> d(drop.num_quanta(), 0);
-  for (std::size_t b = 0; b < drop.num_bonds(); ++b) ++d[drop.model.bond_i[b]], ++d[drop.model.bond_j[b]];
+  for (std::size_t b = 0; b < drop.num_bonds(); ++b) ++d[drop.state.bonds.i[b]], ++d[drop.state.bonds.j[b]];
   EXPECT_EQ(std::count(d.begin(), d.end(), 0), 0);
   World refuse;
   p.isolated = Isolated::error;
@@ -437,8 +437,8 @@ TEST(MeshLattice, UnitCubeAtSpacingATenthHasExactlyAThousandSites) {
   for (std::size_t i = 0; i < w.num_quanta(); ++i) EXPECT_LT((w.state.x[i] - ref.state.x[i]).norm(), 1e-12);
   ASSERT_EQ(w.num_bonds(), ref.num_bonds());
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    EXPECT_EQ(w.model.bond_i[b], ref.model.bond_i[b]);
-    EXPECT_EQ(w.model.bond_j[b], ref.model.bond_j[b]);
+    EXPECT_EQ(w.state.bonds.i[b], ref.state.bonds.i[b]);
+    EXPECT_EQ(w.state.bonds.j[b], ref.state.bonds.j[b]);
   }
   // A box that is not a whole number of cells: the grid is centred, cells cover the box.
   m.mesh = unit_cube();
@@ -593,7 +593,7 @@ TEST(PackingScene, BuildsThePackingAndItsResolvedSceneRebuildsIt) {
   ASSERT_EQ(again.world.num_quanta(), w.num_quanta());
   ASSERT_EQ(again.world.num_bonds(), w.num_bonds());
   for (std::size_t i = 0; i < w.num_quanta(); ++i) EXPECT_EQ(again.world.state.x[i], w.state.x[i]);
-  for (std::size_t b = 0; b < w.num_bonds(); ++b) EXPECT_EQ(again.world.state.rest[b], w.state.rest[b]);
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) EXPECT_EQ(again.world.state.bonds.rest[b], w.state.bonds.rest[b]);
 }
 
 TEST(MeshScene, FileIsRelativeToTheSceneAndResolvedToAnAbsolutePath) {

@@ -50,9 +50,9 @@ TEST(Builders, FccHasTwelveNeighboursInside) {
   EXPECT_EQ(w.num_bonds(), pairs_closer(w, a / std::sqrt(2.0) * 1.01));
   std::vector<int> degree(w.num_quanta(), 0);
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    ++degree[w.model.bond_i[b]];
-    ++degree[w.model.bond_j[b]];
-    EXPECT_NEAR(w.state.rest[b], a / std::sqrt(2.0), 1e-15);
+    ++degree[w.state.bonds.i[b]];
+    ++degree[w.state.bonds.j[b]];
+    EXPECT_NEAR(w.state.bonds.rest[b], a / std::sqrt(2.0), 1e-15);
   }
   // The interior face centre (1.5a, 1.5a, a) has all 12 neighbours.
   for (std::size_t i = 0; i < w.num_quanta(); ++i)
@@ -71,7 +71,7 @@ TEST(Builders, PlacementIsRigidAndGivesTheRigidVelocityField) {
   l.quanta_mass = 0.5;
   l.bond.stiffness = 1;
   const auto ids = add_cubic_lattice(w, l);
-  const std::vector<double> rest = w.state.rest;
+  const std::vector<double> rest = w.state.bonds.rest;
   Placement p;
   p.origin = Vec3(1, 2, 3);
   p.axis = Vec3(1, 1, 0).normalized();
@@ -80,7 +80,7 @@ TEST(Builders, PlacementIsRigidAndGivesTheRigidVelocityField) {
   p.angular_velocity = Vec3(0, 0, 2);
   place_body(w, ids, p);
   for (std::size_t b = 0; b < w.num_bonds(); ++b)
-    EXPECT_NEAR((w.state.x[w.model.bond_j[b]] - w.state.x[w.model.bond_i[b]]).norm(), rest[b], 1e-14);
+    EXPECT_NEAR((w.state.x[w.state.bonds.j[b]] - w.state.x[w.state.bonds.i[b]]).norm(), rest[b], 1e-14);
   const double M = 0.5 * 12;
   EXPECT_LT((linear_momentum(w.model, w.state) - M * p.velocity).norm(), 1e-13);
   // Angular momentum about the centre of mass = I ω, with I summed explicitly.
@@ -169,10 +169,10 @@ TEST(Scenes, ResolvedSceneRebuildsTheSameWorld) {
   ASSERT_EQ(a.world.num_bonds(), b.world.num_bonds());
   EXPECT_EQ(a.world.state.x, b.world.state.x);
   EXPECT_EQ(a.world.state.v, b.world.state.v);
-  EXPECT_EQ(a.world.state.rest, b.world.state.rest);
+  EXPECT_EQ(a.world.state.bonds.rest, b.world.state.bonds.rest);
   EXPECT_EQ(a.world.model.mass, b.world.model.mass);
-  EXPECT_EQ(a.world.model.bond_i, b.world.model.bond_i);
-  EXPECT_EQ(a.world.model.stiffness, b.world.model.stiffness);
+  EXPECT_EQ(a.world.state.bonds.i, b.world.state.bonds.i);
+  EXPECT_EQ(a.world.state.bonds.strength, b.world.state.bonds.strength);
   EXPECT_EQ(a.world.model.motions.size(), 1u);
   EXPECT_EQ(a.world.state.rng.state, 7u);
   EXPECT_EQ(a.output.probes.at(0).quanta, std::vector<Index>{a.world.model.motions[0].quanta[0]});
@@ -213,7 +213,7 @@ TEST(Scenes, RenumberingKeepsSelectionsRulesProbesAndIds) {
   for (std::size_t k = 0; k < n; ++k) EXPECT_EQ(w.state.x[at[k]], points[k]);
   // Bonds still join the quanta they joined, at their rest lengths.
   for (std::size_t b = 0; b < w.num_bonds(); ++b)
-    EXPECT_DOUBLE_EQ((w.state.x[m.bond_i[b]] - w.state.x[m.bond_j[b]]).norm(), w.state.rest[b]);
+    EXPECT_DOUBLE_EQ((w.state.x[w.state.bonds.i[b]] - w.state.x[w.state.bonds.j[b]]).norm(), w.state.bonds.rest[b]);
   const auto& rule = std::get<BreakRule>(s.heuristics.at(0));
   std::vector<Index> far;
   for (std::size_t i = 0; i < n; ++i) {

@@ -52,13 +52,14 @@ inline World lattice(int nx, int ny, int nz, double k, double m, double D, bool 
 // second half mixed ones.
 inline void mix_bonds(World& w) {
   const std::size_t nb = w.num_bonds();
+  Bonds& bonds = w.state.edit_bonds();
   for (std::size_t b = 0; b < nb; ++b) {
     if (b % 3 == 0 && 2 * b >= nb) {
-      w.model.law[b] = Law::inverse;
-      const double eps = InverseLaw::eps(w.model.law_args(b));
-      w.model.stiffness[b] *= eps * eps;
+      bonds.law[b] = Law::inverse;
+      const double eps = InverseLaw::eps(bonds.law_args(w.model.shapes, b));
+      bonds.strength[b] *= eps * eps;
     }
-    if (4 * b < nb || (2 * b >= nb && b % 4 == 0)) w.model.damping_model[b] = DampingModel::isotropic;
+    if (4 * b < nb || (2 * b >= nb && b % 4 == 0)) bonds.damping_model[b] = DampingModel::isotropic;
   }
 }
 

@@ -117,8 +117,8 @@ void Viewer::frame_camera() {
 void Viewer::reset() {
   World w = initial_;
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
-    w.model.stiffness[b] *= stiffness_scale_;
-    w.model.damping[b] *= damping_scale_;
+    w.state.bonds.strength[b] *= stiffness_scale_;
+    w.state.bonds.damping[b] *= damping_scale_;
   }
   w.model.gravity = gravity_;
   sim_ = std::make_unique<Simulation>(std::move(w), config_, h_);
@@ -134,10 +134,10 @@ void Viewer::reset() {
 }
 
 void Viewer::rescale() {
-  Model& m = sim_->world().model;
-  for (std::size_t b = 0; b < std::min(m.num_bonds(), initial_.num_bonds()); ++b) {
-    m.stiffness[b] = initial_.model.stiffness[b] * stiffness_scale_;
-    m.damping[b] = initial_.model.damping[b] * damping_scale_;
+  State& s = sim_->world().state;  // strengths and dampings: read every step, no topology change
+  for (std::size_t b = 0; b < std::min(s.bonds.size(), initial_.num_bonds()); ++b) {
+    s.bonds.strength[b] = initial_.state.bonds.strength[b] * stiffness_scale_;
+    s.bonds.damping[b] = initial_.state.bonds.damping[b] * damping_scale_;
   }
   drop_after_bond_edit(sim_->world().state.carry);  // velocity_verlet's forces were for the old ones
 }

@@ -25,7 +25,8 @@ double draw_radius(const Scene& scene, double size) {
   const World& w = scene.world;
   if (w.num_bonds() > 0) {
     std::vector<double> r(w.num_bonds());
-    for (std::size_t b = 0; b < r.size(); ++b) r[b] = (w.state.x[w.model.bond_j[b]] - w.state.x[w.model.bond_i[b]]).norm();
+    for (std::size_t b = 0; b < r.size(); ++b)
+      r[b] = (w.state.x[w.state.bonds.j[b]] - w.state.x[w.state.bonds.i[b]]).norm();
     const auto k = static_cast<std::ptrdiff_t>(r.size() / 10);
     std::nth_element(r.begin(), r.begin() + k, r.end());
     if (r[static_cast<std::size_t>(k)] > 0) return 0.15 * r[static_cast<std::size_t>(k)];
@@ -59,15 +60,15 @@ void Viewer::draw() {
   const std::vector<double>& value = bond_color_ == BondColor::tension ? tension_ : strain_;
   magnitudes_.clear();
   if (bond_color_ != BondColor::none)
-    for (std::size_t b = 0; b < m.num_bonds(); ++b)
-      if (s.alive[b]) magnitudes_.push_back(std::abs(value[b]));
+    for (std::size_t b = 0; b < s.bonds.size(); ++b)
+      if (s.bonds.alive[b]) magnitudes_.push_back(std::abs(value[b]));
   bond_range_.see(magnitudes_);
-  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
-    if (!s.alive[b]) continue;
+  for (std::size_t b = 0; b < s.bonds.size(); ++b) {
+    if (!s.bonds.alive[b]) continue;
     const Vec3f c = bond_color_ == BondColor::none || bond_range_.hi <= 0 ? Vec3f(0.75f, 0.75f, 0.75f)
                                                                            : diverging(value[b] / bond_range_.hi);
-    lines_.push_back({s.x[m.bond_i[b]].cast<float>(), c});
-    lines_.push_back({s.x[m.bond_j[b]].cast<float>(), c});
+    lines_.push_back({s.x[s.bonds.i[b]].cast<float>(), c});
+    lines_.push_back({s.x[s.bonds.j[b]].cast<float>(), c});
   }
   renderer_.lines(lines_, 2);
 

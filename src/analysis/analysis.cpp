@@ -66,14 +66,14 @@ std::pair<double, Index> max_speed(const Model& model, const State& state) {
 
 void bond_tension_strain(const Model& model, const State& state, std::vector<double>& tension,
                          std::vector<double>& strain) {
-  const std::size_t nb = model.num_bonds();
+  const std::size_t nb = state.bonds.size();
   tension.assign(nb, 0.0);
   strain.assign(nb, 0.0);
   for (std::size_t b = 0; b < nb; ++b) {
-    if (!state.alive[b]) continue;
-    const double r = (state.x[model.bond_j[b]] - state.x[model.bond_i[b]]).norm();
-    const double L = state.rest[b];
-    tension[b] = model.law_at(b, r, L).T;
+    if (!state.bonds.alive[b]) continue;
+    const double r = (state.x[state.bonds.j[b]] - state.x[state.bonds.i[b]]).norm();
+    const double L = state.bonds.rest[b];
+    tension[b] = state.bonds.law_at(model.shapes, b, r, L).T;
     strain[b] = L > 0 ? (r - L) / L : 0.0;
   }
 }
@@ -95,12 +95,12 @@ EnergyBudget energy_budget(const Model& model, const State& state) {
 double max_angular_frequency(const Model& m, const State& state) {
   const auto n = static_cast<Eigen::Index>(m.num_quanta());
   Eigen::MatrixXd K = Eigen::MatrixXd::Zero(3 * n, 3 * n);
-  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
-    if (!state.alive[b]) continue;
-    const Index i = m.bond_i[b], j = m.bond_j[b];
+  for (std::size_t b = 0; b < state.bonds.size(); ++b) {
+    if (!state.bonds.alive[b]) continue;
+    const Index i = state.bonds.i[b], j = state.bonds.j[b];
     const Vec3 d = state.x[j] - state.x[i];
     const double r = d.norm();
-    const LawValue lv = m.law_at(b, r, state.rest[b]);
+    const LawValue lv = state.bonds.law_at(m.shapes, b, r, state.bonds.rest[b]);
     const Mat3 Kb = stiffness_block(lv.T, lv.dT, r, d / r, false);
     K.block<3, 3>(3 * i, 3 * i) += Kb;
     K.block<3, 3>(3 * j, 3 * j) += Kb;

@@ -11,9 +11,9 @@ void virial_stress(const Model& model, const State& state, const std::vector<Vec
   std::vector<Vec3> force;
   bond_forces(model, state, x, v, 1, force);
   sigma.assign(model.num_quanta(), Mat3::Zero());
-  for (std::size_t b = 0; b < model.num_bonds(); ++b) {
-    if (!state.alive[b]) continue;
-    const Index i = model.bond_i[b], j = model.bond_j[b];
+  for (std::size_t b = 0; b < state.bonds.size(); ++b) {
+    if (!state.bonds.alive[b]) continue;
+    const Index i = state.bonds.i[b], j = state.bonds.j[b];
     const Mat3 w = (x[j] - x[i]) * force[b].transpose();
     const Mat3 half_virial = 0.25 * (w + w.transpose());
     if (model.volume[i] > 0) sigma[i] += half_virial / model.volume[i];

@@ -31,9 +31,7 @@ class EditLedger {
     old_dv_.push_back(p.dv[i]);
   }
   // Energy the edits removed [J]; clears the marks.
-  double released(const World& w, const Projection& p, const Adjacency& adj) {
-    const Model& m = w.model;
-    const State& s = w.state;
+  double released(const Model& m, const State& s, const Projection& p, const Adjacency& adj) {
     double e = 0;
     for (std::size_t k = 0; k < list_.size(); ++k) {
       const Index i = list_[k];
@@ -47,11 +45,11 @@ class EditLedger {
       const Index i = list_[k];
       for (Index a = adj.offset[i]; a < adj.offset[i + 1]; ++a) {
         const Index b = adj.bond[a], j = adj.other[a];
-        if (!s.alive[b] || (touched_[j] && j < i)) continue;  // each bond once
+        if (!s.bonds.alive[b] || (touched_[j] && j < i)) continue;  // each bond once
         const double r_old = (old_pos(j) - (s.x[i] + old_dx_[k])).norm();
         const double r_new = (projected(s, p, j) - projected(s, p, i)).norm();
-        e += m.law_at(b, r_old, s.rest[b]).U -
-             m.law_at(b, r_new, s.rest[b]).U;
+        e += s.bonds.law_at(m.shapes, b, r_old, s.bonds.rest[b]).U -
+             s.bonds.law_at(m.shapes, b, r_new, s.bonds.rest[b]).U;
       }
     }
     for (Index i : list_) touched_[i] = 0;
@@ -166,9 +164,8 @@ class ObstacleHeuristic final : public Heuristic {
   explicit ObstacleHeuristic(std::vector<Obstacle> o) : obstacles_(std::move(o)) {}
   std::string_view name() const override { return "obstacles"; }
 
-  void apply(World& w, Projection& p, const HeuristicContext& ctx) override {
-    const Model& m = w.model;
-    const State& s = w.state;
+  void apply(const Model& m, State& state, Projection& p, const HeuristicContext& ctx) override {
+    const State& s = state;
     ledger_.begin(m.num_quanta());
     for (std::size_t q = 0; q < m.num_quanta(); ++q) {
       const auto i = static_cast<Index>(q);
@@ -202,7 +199,7 @@ class ObstacleHeuristic final : public Heuristic {
         if (o.record >= 0) {
           // The obstacle's impulse on the quanta is its momentum change; its normal part
           // (toward the free side) is what pushes on the wall: pressure × area × time.
-          auto& rec = w.state.obstacle_impulse;
+          auto& rec = state.obstacle_impulse;
           const auto slot = static_cast<std::size_t>(o.record);
           if (rec.size() <= slot) rec.resize(slot + 1);
           const Vec3 J = m.mass[i] * dv;
@@ -211,7 +208,7 @@ class ObstacleHeuristic final : public Heuristic {
         }
       }
     }
-    if (!ledger_.touched().empty()) w.state.energy.dissipated_heuristics += ledger_.released(w, p, ctx.adj);
+    if (!ledger_.touched().empty()) state.energy.dissipated_heuristics += ledger_.released(m, s, p, ctx.adj);
   }
 
  private:
@@ -224,9 +221,8 @@ class QuantaContactHeuristic final : public Heuristic {
   explicit QuantaContactHeuristic(QuantaContactRule r) : rule_(r) {}
   std::string_view name() const override { return "contact"; }
 
-  void apply(World& w, Projection& p, const HeuristicContext& ctx) override {
-    const Model& m = w.model;
-    const State& s = w.state;
+  void apply(const Model& m, State& state, Projection& p, const HeuristicContext& ctx) override {
+    const State& s = state;
     const std::size_t n = m.num_quanta();
     pos_.resize(n);
     vel_.resize(n);
@@ -270,7 +266,7 @@ class QuantaContactHeuristic final : public Heuristic {
       p.dx[i] = pos_[i] - s.x[i];
       p.dv[i] = vel_[i] - s.v[i];
     }
-    w.state.energy.dissipated_heuristics += ledger_.released(w, p, ctx.adj);
+    state.energy.dissipated_heuristics += ledger_.released(m, s, p, ctx.adj);
   }
 
  private:

@@ -17,13 +17,14 @@ class FormHeuristic final : public Heuristic {
   explicit FormHeuristic(FormRule r) : rule_(std::move(r)) {}
   std::string_view name() const override { return "form"; }
 
-  void apply(World& w, Projection& p, const HeuristicContext& ctx) override {
-    const Model& m = w.model;
-    State& s = w.state;
+  void bind(Model& model) override { law_ = bond_law(model, rule_.bond); }
+
+  void apply(const Model& m, State& s, Projection& p, const HeuristicContext& ctx) override {
     const std::size_t n = m.num_quanta();
+    const Bonds& bonds = s.bonds;
     // Earlier rules of this step may have changed the bonds: count from the current ones.
     const Adjacency* adj = &ctx.adj;
-    if (ctx.adj.version != s.topology_version) {
+    if (ctx.adj.version != s.topology_version()) {
       build_adjacency(m, s, own_adj_);
       adj = &own_adj_;
     }
@@ -32,17 +33,16 @@ class FormHeuristic final : public Heuristic {
     degree_.assign(n, 0);
     recent_.clear();
     free_.clear();
-    const std::size_t first_formed = m.num_bonds() - s.formed.size();
-    for (std::size_t b = 0; b < m.num_bonds(); ++b) {
-      if (s.alive[b]) {
-        if (b >= first_formed) {
-          ++degree_[m.bond_i[b]];
-          ++degree_[m.bond_j[b]];
+    for (std::size_t b = 0; b < bonds.size(); ++b) {
+      if (bonds.alive[b]) {
+        if (b >= bonds.first_formed) {
+          ++degree_[bonds.i[b]];
+          ++degree_[bonds.j[b]];
         }
         continue;
       }
-      if (rule_.min_age > 0 && s.bond_time[b] > s.time - rule_.min_age) recent_.insert(pair_key(m.bond_i[b], m.bond_j[b]));
-      if (b >= first_formed) free_.push_back(static_cast<Index>(b));
+      if (rule_.min_age > 0 && bonds.time[b] > s.time - rule_.min_age) recent_.insert(pair_key(bonds.i[b], bonds.j[b]));
+      if (b >= bonds.first_formed) free_.push_back(static_cast<Index>(b));
     }
     pos_.resize(n);
     for (std::size_t i = 0; i < n; ++i) pos_[i] = projected(s, p, static_cast<Index>(i));
@@ -65,11 +65,11 @@ class FormHeuristic final : public Heuristic {
         continue;
       const double r = (pos_[j] - pos_[i]).norm();
       const double L = rule_.rest_length >= 0 ? rule_.rest_length : r;
-      const Index slot = next_free < free_.size() ? free_[next_free++] : static_cast<Index>(m.num_bonds());
-      const Index b = w.form_bond(i, j, rule_.bond, L, slot);
+      const Index slot = next_free < free_.size() ? free_[next_free++] : static_cast<Index>(bonds.size());
+      const Index b = s.form_bond(i, j, law_, L, slot);
       ++degree_[i];
       ++degree_[j];
-      const LawValue lv = m.law_at(b, r, L);
+      const LawValue lv = bonds.law_at(m.shapes, b, r, L);
       s.energy.dissipated_heuristics -= lv.U;  // energy the new bond holds was added by the rule
       BondEvent e;
       e.kind = BondEvent::Kind::formed;
@@ -87,6 +87,7 @@ class FormHeuristic final : public Heuristic {
 
  private:
   FormRule rule_;
+  BondLaw law_;  // rule_.bond with its shape's row in the model (bind)
   Adjacency own_adj_;
   SpatialHash grid_;
   std::vector<Vec3> pos_;

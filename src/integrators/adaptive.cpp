@@ -50,7 +50,6 @@ AdaptiveReport adaptive_step(Simulation& sim, const AdaptiveConfig& cfg, double 
     }
     if (undo && !at_min) {
       w.state = saved;
-      w.sync_formed_bonds();
       ++rep.rejected;
       h = std::max(cfg.min_step, 0.25 * step);
       continue;

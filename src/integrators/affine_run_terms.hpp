@@ -103,18 +103,20 @@ class SoaArrays {
 // An affine run's bond parameters from its first bond on: strength, rest length, damping.
 struct RunParameters {
   const double *k, *L, *D;
-  RunParameters(const Model& model, const State& state, const BondRun& run)
-      : k(model.stiffness.data() + run.first), L(state.rest.data() + run.first), D(model.damping.data() + run.first) {}
+  RunParameters(const State& state, const BondRun& run)
+      : k(state.bonds.strength.data() + run.first),
+        L(state.bonds.rest.data() + run.first),
+        D(state.bonds.damping.data() + run.first) {}
 };
 
 // Whether every bond of an affine run's whole vectors has the linear law, and one damping model:
 // 0 all axial, 1 all isotropic, −1 otherwise (the run then takes the per-bond path). Read 4
 // one-byte enums at a time.
-QBOND_VECTOR_INLINE int uniform_linear(const Model& model, const BondRun& run) {
+QBOND_VECTOR_INLINE int uniform_linear(const Bonds& bonds, const BondRun& run) {
   static_assert(sizeof(Law) == 1 && sizeof(DampingModel) == 1 && static_cast<int>(Law::linear) == 0 &&
                 static_cast<int>(DampingModel::axial) == 0 && static_cast<int>(DampingModel::isotropic) == 1);
-  const auto* law = reinterpret_cast<const unsigned char*>(model.law.data() + run.first);
-  const auto* dm = reinterpret_cast<const unsigned char*>(model.damping_model.data() + run.first);
+  const auto* law = reinterpret_cast<const unsigned char*>(bonds.law.data() + run.first);
+  const auto* dm = reinterpret_cast<const unsigned char*>(bonds.damping_model.data() + run.first);
   std::uint32_t laws = 0, any_isotropic = 0, all_isotropic = ~std::uint32_t{0};
   for (std::size_t q = 0; q < affine_lanes(run); q += 4) {
     std::uint32_t l, d;
@@ -132,14 +134,14 @@ QBOND_VECTOR_INLINE int uniform_linear(const Model& model, const BondRun& run) {
 // Asks for the parameters of the bonds a few runs after an affine run's: the bond pass reads each
 // parameter array in bursts of a run, interleaved with a dozen other streams, which the hardware
 // prefetcher does not follow far enough ahead.
-QBOND_VECTOR_INLINE void prefetch_parameters(const Model& model, const State& state, const BondRun& run) {
+QBOND_VECTOR_INLINE void prefetch_parameters(const State& state, const BondRun& run) {
   constexpr std::size_t kAhead = 4 * kBondRun;
   const std::size_t b = run.first + kAhead;
-  if (b + run.count > model.num_bonds()) return;
+  if (b + run.count > state.bonds.size()) return;
   for (std::size_t k = 0; k < run.count; k += 8) {  // a cache line of doubles
-    __builtin_prefetch(model.stiffness.data() + b + k);
-    __builtin_prefetch(state.rest.data() + b + k);
-    __builtin_prefetch(model.damping.data() + b + k);
+    __builtin_prefetch(state.bonds.strength.data() + b + k);
+    __builtin_prefetch(state.bonds.rest.data() + b + k);
+    __builtin_prefetch(state.bonds.damping.data() + b + k);
   }
 }
 

@@ -38,15 +38,15 @@ Eigen::Index assemble_system(const Model& model, const State& state, const Impli
       for (int c = 0; c < 3; ++c) triplets.emplace_back(p + r, q + c, m(r, c));
   };
   const bool exact = !sys.exact.empty();
-  assert(!exact || sys.exact.size() == model.num_bonds());
+  assert(!exact || sys.exact.size() == state.bonds.size());
   for (std::size_t i = 0; i < n; ++i)
     if (dof[i] >= 0) {
       b.segment<3>(dof[i]) = sys.rhs[i];
       add_block(dof[i], dof[i], exact ? Mat3(model.mass[i] * Mat3::Identity()) : sys.diag[i]);
     }
-  for (std::size_t k = 0; k < model.num_bonds(); ++k) {
-    const Eigen::Index p = dof[model.bond_i[k]], q = dof[model.bond_j[k]];
-    if (!state.alive[k] || (p < 0 && q < 0)) continue;
+  for (std::size_t k = 0; k < state.bonds.size(); ++k) {
+    const Eigen::Index p = dof[state.bonds.i[k]], q = dof[state.bonds.j[k]];
+    if (!state.bonds.alive[k] || (p < 0 && q < 0)) continue;
     const Mat3 B = exact ? sys.exact[k] : block_matrix(sys.bonds.u(k), sys.bonds.Ba[k], sys.bonds.Bb[k]);
     if (exact) {  // sys.diag holds the a u uᵀ + b I blocks' sums: the diagonal is summed here
       if (p >= 0) add_block(p, p, B);

@@ -46,17 +46,17 @@ struct BondLinearisation {
 };
 [[gnu::always_inline]] inline BondLinearisation linearise_bond(const Model& model, const State& state, Index b) {
   BondLinearisation l;
-  const Index i = model.bond_i[b], j = model.bond_j[b];
+  const Index i = state.bonds.i[b], j = state.bonds.j[b];
   const Vec3 d = state.x[j] - state.x[i];
   const double r = d.norm();
   if (!(r > 0)) return l;
   const double inv_r = 1.0 / r;  // one division per bond
   l.u = inv_r * d;
-  const LawValue lv = model.law_at(b, r, state.rest[b]);
+  const LawValue lv = state.bonds.law_at(model.shapes, b, r, state.bonds.rest[b]);
   l.T = lv.T;
   const Vec3 w = state.v[j] - state.v[i];
-  const double D = model.damping[b];
-  const bool axial = model.damping_model[b] == DampingModel::axial;
+  const double D = state.bonds.damping[b];
+  const bool axial = state.bonds.damping_model[b] == DampingModel::axial;
   l.f = axial ? Vec3((lv.T + D * w.dot(l.u)) * l.u) : Vec3(lv.T * l.u + D * w);
   const StiffnessCoefficients k = clamped_stiffness(lv.dT, lv.T * inv_r);
   l.ka = k.ka();
@@ -134,7 +134,8 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
 // and its inverse for every free quanta (identity for kinematic ones), summed bond-centric in bond
 // order (backward_euler_build.cpp: affine runs in vector loops; the same bits for any thread count), and
 // with `edges` the edge blocks the sweeps read; updates sys.part. Leaves rhs alone.
-void assemble_blocks(const Model& model, const Adjacency& adj, int threads, bool edges, ImplicitSystem& sys);
+void assemble_blocks(const Model& model, const Bonds& bonds, const Adjacency& adj, int threads, bool edges,
+                     ImplicitSystem& sys);
 
 // sys.edges from sys.bonds, each free quanta's in its adjacency order: its bond's block, 0
 // towards a kinematic neighbour (whose unknown is eliminated).
@@ -175,8 +176,8 @@ inline Vec3 neighbours_times(const Adjacency& adj, const ImplicitSystem& sys, In
 // i and −B_b y_i into row j (y's kinematic rows taken as 0, so a bond to a kinematic quanta adds
 // nothing to its free end's row; conjugate_gradient.cpp). Allocates its scratch: for checks, CG
 // keeps its own.
-void apply_system(const Model& model, const ImplicitSystem& sys, const std::vector<Vec3>& y, int threads,
-                  std::vector<Vec3>& out);
+void apply_system(const Model& model, const Bonds& bonds, const ImplicitSystem& sys,
+                  const std::vector<Vec3>& y, int threads, std::vector<Vec3>& out);
 
 // A and b over the free unknowns as a sparse matrix and a vector, for the direct solvers (and the
 // benchmarks' Eigen solvers): dof[i] = 3 × free quanta i's number, -1 for kinematic quanta.
@@ -224,8 +225,8 @@ struct DirectSolver {
 // The product runs over sys.part, which begin_implicit_step or assemble_blocks has brought up to
 // date. Its vectors (y, r, z, p, Ap and A's diagonal blocks as structure of arrays) take
 // sys.arrays, the build's scratch, which the built system no longer needs.
-void conjugate_gradient(const Model& model, ImplicitSystem& sys, double tolerance, int cap, int threads,
-                        std::vector<Vec3>& y, bool y_zero, SolveStats& stats);
+void conjugate_gradient(const Model& model, const Bonds& bonds, ImplicitSystem& sys, double tolerance,
+                        int cap, int threads, std::vector<Vec3>& y, bool y_zero, SolveStats& stats);
 
 // Block Gauss–Seidel sweeps in graph-colour order (quanta of one colour share no bond, so their
 // 3×3 updates run in parallel), from the initial guess in y, at most `sweeps` or until the

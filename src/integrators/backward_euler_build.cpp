@@ -84,9 +84,9 @@ struct BuildTerms {
 // no kinematic end, Δx₀_i − Δx₀_j = −h w and no Δv_k, would gain nothing on an anchored lattice,
 // whose x = 0 face is in every run.)
 template <bool kAxial>
-QBOND_VECTOR_INLINE void linear_affine_build(const Model& model, const State& state, const BuildArrays& a,
-                                             const BondRun& run, double h, BuildTerms& t) {
-  const auto [k, L, D] = RunParameters(model, state, run);
+QBOND_VECTOR_INLINE void linear_affine_build(const State& state, const BuildArrays& a, const BondRun& run, double h,
+                                             BuildTerms& t) {
+  const auto [k, L, D] = RunParameters(state, run);
   const double *xi[3], *xj[3], *vi[3], *vj[3], *ei[3], *ej[3], *ci[3], *cj[3];  // local: held in registers
   for (int c = 0; c < 3; ++c) {
     xi[c] = a.x[c] + run.i0, xj[c] = a.x[c] + run.j0;
@@ -134,13 +134,13 @@ QBOND_VECTOR_INLINE void linear_affine_build(const Model& model, const State& st
 // An affine run that uniform_linear accepts (axial: its damping model is axial): its terms added
 // to the rows its part owns, in bond order, and the blocks of the bonds whose bond_i it owns
 // written (each bond's by one part).
-QBOND_VECTOR_INLINE void affine_build(const Model& model, const State& state, const BuildArrays& a,
+QBOND_VECTOR_INLINE void affine_build(const State& state, const BuildArrays& a,
                                       const BondRun& run, double h, bool axial, BuildTerms& t, BondBlocks& blocks) {
-  prefetch_parameters(model, state, run);
+  prefetch_parameters(state, run);
   if (axial)
-    linear_affine_build<true>(model, state, a, run, h, t);
+    linear_affine_build<true>(state, a, run, h, t);
   else
-    linear_affine_build<false>(model, state, a, run, h, t);
+    linear_affine_build<false>(state, a, run, h, t);
   double* const ti[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gi[0], t.gi[1], t.gi[2]};
   double* const tj[9] = {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.gj[0], t.gj[1], t.gj[2]};
   add_affine_run(run, a.row, ti, tj);
@@ -161,7 +161,7 @@ void run_build(const Model& model, const State& state, const BuildArrays& a, con
   const double h2 = h * h;
   auto motion = [&](double* const (&arr)[3], Index i) { return Vec3(arr[0][i], arr[1][i], arr[2][i]); };
   for (Index k = 0; k < run.count; ++k) {
-    const Index b = run.bond(k), i = model.bond_i[b], j = model.bond_j[b];
+    const Index b = run.bond(k), i = state.bonds.i[b], j = state.bonds.j[b];
     const bool own_i = run.owns(i), own_j = run.owns(j);
     const BondLinearisation l = linearise_bond(model, state, b);
     const double Ba = h * l.ca + h2 * l.ka, Bb = h * l.cb + h2 * l.kb;
@@ -233,25 +233,25 @@ QBOND_VECTOR_INLINE void affine_blocks(const BondRun& run, const BondBlocks& blo
 }
 
 // Any other run's blocks, bond by bond, added to the rows its part owns.
-void run_blocks(const Model& model, const BondRun& run, const BondBlocks& blocks, const BuildArrays& a) {
+void run_blocks(const Bonds& bonds, const BondRun& run, const BondBlocks& blocks, const BuildArrays& a) {
   for (Index k = 0; k < run.count; ++k) {
     const Index b = run.bond(k);
     double B[6];
     block_entries(blocks.u(b), blocks.Ba[b], blocks.Bb[b], B);
-    for (const Index q : {model.bond_i[b], model.bond_j[b]})
+    for (const Index q : {bonds.i[b], bonds.j[b]})
       if (run.owns(q))
         for (int e = 0; e < 6; ++e) a.row[e][q] += B[e];
   }
 }
 
 // A part's runs' blocks (for_each_part_runs).
-QBOND_VECTOR_CLONES void part_blocks(const Model& model, std::span<const BondRun> runs,
+QBOND_VECTOR_CLONES void part_blocks(const Bonds& bonds, std::span<const BondRun> runs,
                                      const BondBlocks& blocks, const BuildArrays& a, BuildTerms& t) {
   for (const BondRun& run : runs)
     if (run.affine)
       affine_blocks(run, blocks, a, t);
     else
-      run_blocks(model, run, blocks, a);
+      run_blocks(bonds, run, blocks, a);
 }
 
 // A part's runs' terms and blocks (for_each_part_runs). The same runs for every partition
@@ -261,7 +261,7 @@ QBOND_VECTOR_CLONES void part_build(const Model& model, const State& state, cons
                                     BondBlocks& blocks) {
   for (const BondRun& run : runs) {
     if (run.kind >= 0)
-      affine_build(model, state, a, run, h, run.kind == 0, t, blocks);
+      affine_build(state, a, run, h, run.kind == 0, t, blocks);
     else
       run_build(model, state, a, run, h, blocks);
   }
@@ -269,13 +269,14 @@ QBOND_VECTOR_CLONES void part_build(const Model& model, const State& state, cons
 
 }  // namespace
 
-void assemble_blocks(const Model& model, const Adjacency& adj, int threads, bool edges, ImplicitSystem& sys) {
+void assemble_blocks(const Model& model, const Bonds& bonds, const Adjacency& adj, int threads, bool edges,
+                     ImplicitSystem& sys) {
   const std::size_t n = model.num_quanta();
-  sys.part.update(model, adj, threads);
+  sys.part.update(model, bonds, adj, threads);
   const BuildArrays a(sys.arrays, n);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { start_blocks(model, a, lo, hi); });
   for_each_part_runs<BuildTerms>(sys.part, [&](std::span<const BondRun> runs, BuildTerms& t) {
-    part_blocks(model, runs, sys.bonds, a, t);
+    part_blocks(bonds, runs, sys.bonds, a, t);
   });
   finish_rows(model, a, threads, false, sys);
   if (edges) gather_edges(model, adj, threads, sys);
@@ -287,8 +288,8 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
   const std::size_t n = model.num_quanta();
   kin.resize(n, false);  // the free rows are the solve's to write (write_free_rows)
   const double h = ctx.h;
-  sys.part.update(model, adj, threads);
-  sys.bonds.resize(model.num_bonds());
+  sys.part.update(model, state.bonds, adj, threads);
+  sys.bonds.resize(state.bonds.size());
   const BuildArrays a(sys.arrays, n);
   // The kinematic rows (project_kinematic's), each range's by the thread that reads them first
   // (PrescribedAt says why).

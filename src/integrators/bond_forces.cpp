@@ -11,14 +11,14 @@ namespace qbond {
 
 void bond_forces(const Model& model, const State& state, const std::vector<Vec3>& x, const std::vector<Vec3>& v,
                  int threads, std::vector<Vec3>& force) {
-  force.resize(model.num_bonds());
-  parallel_for(model.num_bonds(), bond_pass_threads(model.num_quanta(), threads), [&](std::size_t b) {
-    if (!state.alive[b]) {
+  force.resize(state.bonds.size());
+  parallel_for(state.bonds.size(), bond_pass_threads(model.num_quanta(), threads), [&](std::size_t b) {
+    if (!state.bonds.alive[b]) {
       force[b].setZero();
       return;
     }
-    const Index i = model.bond_i[b], j = model.bond_j[b];
-    force[b] = model.bond_force_on_i(b, x[j] - x[i], v[j] - v[i], state.rest[b]);
+    const Index i = state.bonds.i[b], j = state.bonds.j[b];
+    force[b] = state.bonds.force_on_i(model.shapes, b, x[j] - x[i], v[j] - v[i], state.bonds.rest[b]);
   });
 }
 
@@ -55,9 +55,9 @@ QBOND_VECTOR_CLONES void start_forces(const Vec3* x, const Vec3* v, const Vec3* 
 // arithmetic in one vector loop over the run's whole vectors, both ends' sums updated in bond order
 // (affine_run_terms.hpp): from that loop when the run is fusable, else from the run's term arrays.
 template <bool kAxial>
-QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& state, const ForceRows& rows,
-                                              const BondRun& run, ForceTerms& t) {
-  const auto [k, L, D] = RunParameters(model, state, run);
+QBOND_VECTOR_INLINE void linear_affine_forces(const State& state, const ForceRows& rows, const BondRun& run,
+                                              ForceTerms& t) {
+  const auto [k, L, D] = RunParameters(state, run);
   const std::size_t i0 = run.i0, j0 = run.j0;
   const Local<3> x(rows.x), v(rows.v);
   auto forces = [=](std::size_t q, double(&fi)[3], double(&fj)[3]) QBOND_LAMBDA_INLINE {
@@ -81,22 +81,22 @@ QBOND_VECTOR_INLINE void linear_affine_forces(const Model& model, const State& s
   add_affine_terms(run, rows.f, forces, {t.fi[0], t.fi[1], t.fi[2]}, {t.fj[0], t.fj[1], t.fj[2]});
 }
 
-QBOND_VECTOR_INLINE void affine_forces(const Model& model, const State& state, const ForceRows& rows,
+QBOND_VECTOR_INLINE void affine_forces(const State& state, const ForceRows& rows,
                                        const BondRun& run, bool axial, ForceTerms& t) {
-  prefetch_parameters(model, state, run);
+  prefetch_parameters(state, run);
   if (axial)
-    linear_affine_forces<true>(model, state, rows, run, t);
+    linear_affine_forces<true>(state, rows, run, t);
   else
-    linear_affine_forces<false>(model, state, rows, run, t);
+    linear_affine_forces<false>(state, rows, run, t);
 }
 
 // Any other run, bond by bond: each bond's force added to the ends the part owns.
 void run_forces(const Model& model, const State& state, const BondRun& run, const ForceRows& rows) {
   auto at = [](double* const (&a)[3], Index q) { return Vec3(a[0][q], a[1][q], a[2][q]); };
   for (Index k = 0; k < run.count; ++k) {
-    const Index b = run.bond(k), i = model.bond_i[b], j = model.bond_j[b];
-    const Vec3 fb = model.bond_force_on_i(b, at(rows.x, j) - at(rows.x, i), at(rows.v, j) - at(rows.v, i),
-                                          state.rest[b]);
+    const Index b = run.bond(k), i = state.bonds.i[b], j = state.bonds.j[b];
+    const Vec3 fb = state.bonds.force_on_i(model.shapes, b, at(rows.x, j) - at(rows.x, i),
+                                           at(rows.v, j) - at(rows.v, i), state.bonds.rest[b]);
     for (int c = 0; c < 3; ++c) {
       if (run.owns(i)) rows.f[c][i] += fb[c];
       if (run.owns(j)) rows.f[c][j] -= fb[c];
@@ -110,7 +110,7 @@ QBOND_VECTOR_CLONES void part_forces(const Model& model, const State& state, std
                                      const ForceRows& rows, ForceTerms& t) {
   for (const BondRun& run : runs) {
     if (run.kind >= 0)
-      affine_forces(model, state, rows, run, run.kind == 0, t);
+      affine_forces(state, rows, run, run.kind == 0, t);
     else
       run_forces(model, state, run, rows);
   }

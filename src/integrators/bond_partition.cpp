@@ -29,7 +29,7 @@ void build_lists(BondPartition& part, const Adjacency& adj, int parts, std::size
 // Every alive bond's part runs (BondPartition::runs): affine segments cut into runs of at most
 // kBondRun, the other bonds in runs of at most kBondRun consecutive listed bonds that do not
 // cross a segment.
-void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
+void build_runs(BondPartition& part, const Bonds& bonds, const Adjacency& adj) {
   struct Segment {
     Index first, end;
   };
@@ -38,7 +38,7 @@ void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
   std::vector<std::uint8_t>& alive = part.mark;  // the adjacency holds exactly the alive bonds
   alive.assign(nb, 0);
   for (Index b : adj.bond) alive[b] = 1;
-  for_each_affine_segment(model.bond_i.data(), model.bond_j.data(), nb, kMinAffineRun,
+  for_each_affine_segment(bonds.i.data(), bonds.j.data(), nb, kMinAffineRun,
                           [&](Index b) { return alive[b] != 0; },
                           [&](Index b, Index n) { segments.push_back({b, b + n}); });
   alive.clear();
@@ -60,8 +60,8 @@ void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
       for (Index b = s + (first - s) / kBondRun * kBondRun; b <= last; b += kBondRun) {
         const Index count = std::min(kBondRun, end - b);
         const bool padded = b + affine_lanes(count) <= nb;
-        part.runs.push_back({nullptr, b, count, lo, hi, false, padded, model.bond_i[s] + (b - s),
-                             model.bond_j[s] + (b - s)});
+        part.runs.push_back({nullptr, b, count, lo, hi, false, padded, bonds.i[s] + (b - s),
+                             bonds.j[s] + (b - s)});
       }
     };
     std::size_t seg = 0;
@@ -98,7 +98,7 @@ void build_runs(BondPartition& part, const Model& model, const Adjacency& adj) {
 
 // Each run's reach and settled mark (BondRun), from the last run of each part back, and the
 // quanta each part has alone (BondPartition::alone_lo, alone_hi).
-void mark_reach(BondPartition& part, const Model& model) {
+void mark_reach(BondPartition& part, const Bonds& bonds) {
   const int parts = part.parts();
   // The quanta part p's runs join lie in [joins_lo[p], joins_hi[p]) (empty for a part without runs).
   std::vector<Index> joins_lo(part.first.begin() + 1, part.first.end());
@@ -113,7 +113,7 @@ void mark_reach(BondPartition& part, const Model& model) {
       Index hi_end = run.affine ? std::max(run.i0, run.j0) + affine_lanes(run.count) : 0;
       if (!run.affine)
         for (Index k = 0; k < run.count; ++k) {
-          const Index b = run.bond(k), i = model.bond_i[b], j = model.bond_j[b];
+          const Index b = run.bond(k), i = bonds.i[b], j = bonds.j[b];
           lo_end = std::min({lo_end, i, j});
           hi_end = std::max({hi_end, i + 1, j + 1});
         }
@@ -162,8 +162,8 @@ void mark_grids(BondPartition& part) {
 
 }  // namespace
 
-void BondPartition::update(const Model& model, const Adjacency& adj, int threads_wanted) {
-  const std::size_t n = model.num_quanta(), nb = model.num_bonds();
+void BondPartition::update(const Model& model, const Bonds& all, const Adjacency& adj, int threads_wanted) {
+  const std::size_t n = model.num_quanta(), nb = all.size();
   assert(adj.offset.size() == n + 1);
   if (version == adj.version && threads == threads_wanted && num_quanta == n && num_bonds == nb) return;
   const int parts = n < kParallelMin ? 1 : std::max(1, thread_count(threads_wanted));
@@ -185,10 +185,10 @@ void BondPartition::update(const Model& model, const Adjacency& adj, int threads
   if (!all_in_one) build_lists(*this, adj, parts, nb);
   num_quanta = n;
   num_bonds = nb;
-  build_runs(*this, model, adj);
-  mark_reach(*this, model);
+  build_runs(*this, all, adj);
+  mark_reach(*this, all);
   mark_grids(*this);
-  for (BondRun& run : runs) run.kind = static_cast<std::int8_t>(run.affine ? uniform_linear(model, run) : -1);
+  for (BondRun& run : runs) run.kind = static_cast<std::int8_t>(run.affine ? uniform_linear(all, run) : -1);
   version = adj.version;
   threads = threads_wanted;
 }

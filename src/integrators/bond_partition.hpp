@@ -108,7 +108,7 @@ struct BondPartition {
 
   // Rebuilds for the adjacency's topology (its alive bonds) and the thread count if either
   // changed: ranges balanced by bond ends, one part below kParallelMin quanta. O(bonds × parts).
-  void update(const Model& model, const Adjacency& adj, int threads);
+  void update(const Model& model, const Bonds& all, const Adjacency& adj, int threads);
   int parts() const { return static_cast<int>(first.size()) - 1; }
 };
 
@@ -130,14 +130,14 @@ void for_each_part(int parts, Run&& run) {
 // may update bond_i[b] / bond_j[b]; each end of each bond is owned in exactly one call, and the
 // calls owning a given quanta come in increasing b.
 template <class Body>
-void for_each_bond(const BondPartition& part, const Model& model, Body&& body) {
+void for_each_bond(const BondPartition& part, const Bonds& bonds, Body&& body) {
   if (part.all_in_one) {  // the single-thread pass over intact bonds: every end is owned
     for (Index b = 0; b < static_cast<Index>(part.num_bonds); ++b) body(b, true, true);
     return;
   }
   const int parts = part.parts();
-  const Index* bi = model.bond_i.data();
-  const Index* bj = model.bond_j.data();
+  const Index* bi = bonds.i.data();
+  const Index* bj = bonds.j.data();
   auto run = [&](int p) {
     const Index lo = part.first[p], hi = part.first[p + 1];
     for (Index k = part.offset[p]; k < part.offset[p + 1]; ++k) {

@@ -35,7 +35,7 @@ class CoupledIntegrator final : public StepIntegrator {
           multigrid_.solve(model, state, adj, sys_, ctx.h, config_.tolerance, cg_cap(config_, topo_), config_.threads,
                            y_, !guessed, stats_);
         else
-          conjugate_gradient(model, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
+          conjugate_gradient(model, state.bonds, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
                              !guessed, stats_);
         if (config_.restore_momentum)
           restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);

@@ -147,7 +147,7 @@ class ExplicitIntegrator final : public StepIntegrator {
                const StepContext& ctx, Projection& out, Advanced& to) override {
     if (config_.type != IntegratorType::velocity_verlet)
       return StepIntegrator::advance(model, state, adj, f_ext, ctx, out, to);
-    part_.update(model, adj, config_.threads);
+    part_.update(model, state.bonds, adj, config_.threads);
     verlet(model, state, f_ext, ctx, out, &to);
   }
 
@@ -155,7 +155,7 @@ class ExplicitIntegrator final : public StepIntegrator {
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
     const std::size_t n = model.num_quanta();
     const double h = ctx.h;
-    part_.update(model, adj, config_.threads);
+    part_.update(model, state.bonds, adj, config_.threads);
     const bool verlet_step = config_.type == IntegratorType::velocity_verlet;
     if (verlet_step) return verlet(model, state, f_ext, ctx, out, nullptr);
     out.resize(n);
@@ -220,7 +220,7 @@ class ExplicitIntegrator final : public StepIntegrator {
     }
     VerletForces& kept = out.keep<VerletForces>();
     kept.resize(n);
-    kept.topology_version = state.topology_version;
+    kept.topology_version = state.topology_version();
     const VerletRows<double> next(kept);
     // The bond pass's rows: f₁ and x₁ in the new carry-over, ṽ in forces_.
     ForceRows rows = force_rows(forces_, n);
@@ -243,7 +243,7 @@ class ExplicitIntegrator final : public StepIntegrator {
     auto take = [](Columns& to, const auto& from) {
       for (std::size_t c = 0; c < 3; ++c) to.c[c] = from[c];
     };
-    if (const auto* c = std::get_if<VerletForces>(&state.carry); c && c->holds_for(n, state.topology_version)) {
+    if (const auto* c = std::get_if<VerletForces>(&state.carry); c && c->holds_for(n, state.topology_version())) {
       const VerletRows<const double> last(*c);
       take(f0, last.f);
       take(cx, last.x);

@@ -40,19 +40,19 @@ struct RunBonds {
 // The run's bonds, their ends and their parameters (kList: a list, else consecutive bonds, all
 // loads contiguous); returns whether every bond's law is linear.
 template <bool kList>
-QBOND_VECTOR_INLINE bool load_bonds(const Model& model, const State& state, const BondRun& run, RunBonds& t) {
+QBOND_VECTOR_INLINE bool load_bonds(const State& state, const BondRun& run, RunBonds& t) {
   const Index n = run.count;
   // Consecutive bonds index arrays advanced to the run's first bond: first + q, a 32-bit sum that
   // the compiler must assume may wrap, would make every load a gather.
   const std::size_t base = kList ? 0 : run.first;
   auto bond = [&](Index q) { return kList ? run.list[q] : q; };
-  const Index* bond_i = model.bond_i.data() + base;
-  const Index* bond_j = model.bond_j.data() + base;
-  const double* stiffness = model.stiffness.data() + base;
-  const double* rest = state.rest.data() + base;
-  const double* damping = model.damping.data() + base;
-  const Law* law = model.law.data() + base;
-  const DampingModel* damping_model = model.damping_model.data() + base;
+  const Index* bond_i = state.bonds.i.data() + base;
+  const Index* bond_j = state.bonds.j.data() + base;
+  const double* stiffness = state.bonds.strength.data() + base;
+  const double* rest = state.bonds.rest.data() + base;
+  const double* damping = state.bonds.damping.data() + base;
+  const Law* law = state.bonds.law.data() + base;
+  const DampingModel* damping_model = state.bonds.damping_model.data() + base;
   static_assert(static_cast<int>(Law::linear) == 0);
   unsigned nonlinear = 0;
   QBOND_SIMD for (Index q = 0; q < n; ++q) {
@@ -127,7 +127,7 @@ QBOND_VECTOR_INLINE void set_geometry(RunBonds& t, std::size_t q, const Geometry
 // laws.hpp).
 QBOND_VECTOR_INLINE void measure_run(const Model& model, const State& state, const BondRun& run, RunBonds& t) {
   const Index n = run.count;
-  const bool all_linear = run.list ? load_bonds<true>(model, state, run, t) : load_bonds<false>(model, state, run, t);
+  const bool all_linear = run.list ? load_bonds<true>(state, run, t) : load_bonds<false>(state, run, t);
   const double* x = state.x.data()->data();  // Vec3 arrays as doubles
   const double* v = state.v.data()->data();
   QBOND_SIMD for (std::size_t q = 0; q < n; ++q) {
@@ -143,7 +143,7 @@ QBOND_VECTOR_INLINE void measure_run(const Model& model, const State& state, con
     }
   } else {
     for (std::size_t q = 0; q < n; ++q) {
-      const LawValue lv = model.law_at(run.bond(static_cast<Index>(q)), t.r[q], t.L[q]);
+      const LawValue lv = state.bonds.law_at(model.shapes, run.bond(static_cast<Index>(q)), t.r[q], t.L[q]);
       t.T[q] = lv.T;
       t.dT[q] = lv.dT;
     }
@@ -238,9 +238,9 @@ struct LinearAffineBonds {
   std::size_t i0, j0;
   double h;
 
-  LinearAffineBonds(const Model& model, const State& state, const StepArrays& a, const BondRun& run, double h,
+  LinearAffineBonds(const State& state, const StepArrays& a, const BondRun& run, double h,
                     const FrozenTerms& t)
-      : p(model, state, run),
+      : p(state, run),
         x{a.x[0], a.x[1], a.x[2]},
         v{a.v[0], a.v[1], a.v[2]},
         r(t.r),
@@ -271,9 +271,9 @@ struct LinearAffineBonds {
 // An affine run of linear bonds with one damping model (kAxial: axial), measured, formed and added
 // to the rows its part owns (add_affine_terms; bond_i's and bond_j's terms share the blocks).
 template <bool kAxial>
-QBOND_VECTOR_INLINE void linear_affine_run(const Model& model, const State& state, const StepArrays& a,
-                                           const BondRun& run, double h, FrozenTerms& t) {
-  const LinearAffineBonds<kAxial> bonds(model, state, a, run, h, t);
+QBOND_VECTOR_INLINE void linear_affine_run(const State& state, const StepArrays& a, const BondRun& run, double h,
+                                           FrozenTerms& t) {
+  const LinearAffineBonds<kAxial> bonds(state, a, run, h, t);
   add_affine_terms(run, a.row, bonds,
                    {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.ri[0], t.ri[1], t.ri[2]},
                    {t.B[0], t.B[1], t.B[2], t.B[3], t.B[4], t.B[5], t.rj[0], t.rj[1], t.rj[2]},
@@ -282,14 +282,14 @@ QBOND_VECTOR_INLINE void linear_affine_run(const Model& model, const State& stat
 
 // An affine run that uniform_linear accepts (axial: its damping model is axial), after the part's
 // stretch (its bonds have distinct bond_i).
-QBOND_VECTOR_CLONES void affine_run(const Model& model, const State& state, const StepArrays& a, const BondRun& run,
-                                    double h, bool axial, FrozenTerms& t, BondStretch& stretch) {
-  prefetch_parameters(model, state, run);
+QBOND_VECTOR_CLONES void affine_run(const State& state, const StepArrays& a, const BondRun& run, double h, bool axial,
+                                    FrozenTerms& t, BondStretch& stretch) {
+  prefetch_parameters(state, run);
   stretch.end([&](Index q, const double(&sum)[9]) { a.add(q, sum); });
   if (axial)
-    linear_affine_run<true>(model, state, a, run, h, t);
+    linear_affine_run<true>(state, a, run, h, t);
   else
-    linear_affine_run<false>(model, state, a, run, h, t);
+    linear_affine_run<false>(state, a, run, h, t);
 }
 
 // The terms of any other run (the per-bond path): measured (measure_run), then formed.
@@ -467,7 +467,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     to->x.resize(n);
     to->v.resize(n);
   }
-  part.update(model, adj, threads);
+  part.update(model, state.bonds, adj, threads);
   StepArrays a;
   SoaArrays soa(arrays, n, 15);
   soa.take(a.row);
@@ -517,7 +517,7 @@ void FrozenStep::project(const Model& model, const State& state, const Adjacency
     // The same runs for every partition (bond_partition.hpp), so the same path for each bond (an
     // affine run adds its terms from its loop or after it, the same sums either way).
     if (run.kind >= 0) {
-      affine_run(model, state, a, run, h, run.kind == 0, s.terms, s.stretch);
+      affine_run(state, a, run, h, run.kind == 0, s.terms, s.stretch);
     } else {
       frozen_terms(model, state, run, h, s.bonds, s.terms);
       frozen_scatter(run, s.bonds, s.terms, state.v.data(), a, s.stretch);

@@ -23,9 +23,9 @@ struct Damper {
   Vec3 f;
   double transverse;  // D (w·u)/r: coefficient of (I − u uᵀ) in ∂f/∂d
 };
-Damper damper(const Model& m, std::size_t b, const Vec3& u, double r, const Vec3& w) {
-  const double D = m.damping[b];
-  if (m.damping_model[b] == DampingModel::axial) {
+Damper damper(const Bonds& bonds, std::size_t b, const Vec3& u, double r, const Vec3& w) {
+  const double D = bonds.damping[b];
+  if (bonds.damping_model[b] == DampingModel::axial) {
     const double wu = w.dot(u);
     return {D * wu * u, D * wu / r};
   }
@@ -33,9 +33,10 @@ Damper damper(const Model& m, std::size_t b, const Vec3& u, double r, const Vec3
 }
 
 // The damper's full derivatives: ∂f/∂d (both turning terms above) and ∂f/∂w.
-void damper_jacobian(const Model& m, std::size_t b, const Vec3& u, double r, const Vec3& w, Mat3& Kd, Mat3& C) {
-  const double D = m.damping[b];
-  if (m.damping_model[b] == DampingModel::axial) {
+void damper_jacobian(const Bonds& bonds, std::size_t b, const Vec3& u, double r, const Vec3& w, Mat3& Kd,
+                     Mat3& C) {
+  const double D = bonds.damping[b];
+  if (bonds.damping_model[b] == DampingModel::axial) {
     const Mat3 P = Mat3::Identity() - u * u.transpose();
     Kd = (D / r) * (w.dot(u) * P + u * (P * w).transpose());
     C = D * u * u.transpose();
@@ -54,12 +55,12 @@ void clamp_into(double axial, double transverse, bool clamp, BondStep& s) {
 }
 }  // namespace
 
-BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme scheme, const Vec3& d0, const Vec3& dd,
-                   const Vec3& w, bool clamp, BondJacobian* exact) {
+BondStep bond_step(const Model& model, const Bonds& bonds, std::size_t b, double L, NewtonScheme scheme,
+                   const Vec3& d0, const Vec3& dd, const Vec3& w, bool clamp, BondJacobian* exact) {
   BondStep s;
   if (exact) *exact = {};
-  const bool axial_damper = model.damping_model[b] == DampingModel::axial;
-  (axial_damper ? s.ca : s.cb) = model.damping[b];
+  const bool axial_damper = bonds.damping_model[b] == DampingModel::axial;
+  (axial_damper ? s.ca : s.cb) = bonds.damping[b];
   if (scheme == NewtonScheme::energy_momentum) {
     // Discrete gradient (Gonzalez 1996; Simo & Tarnow 1992): f = T̄ d_mid / r̄ with
     // T̄ = (U(r₁) − U(r₀))/(r₁ − r₀), r̄ = (r₀ + r₁)/2. Since Δd · d_mid = (r₁² − r₀²)/2 = (r₁ − r₀) r̄,
@@ -70,16 +71,16 @@ BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme sch
     const double r0 = d0.norm(), r1 = d1.norm(), rm = dm.norm(), rbar = 0.5 * (r0 + r1);
     if (!(rm > 0 && rbar > 0)) return s;  // a bond through zero length has no direction
     s.u = dm / rm;
-    const MeanTension mt = model.mean_tension_at(b, r0, r1, L);
+    const MeanTension mt = bonds.mean_tension_at(model.shapes, b, r0, r1, L);
     const double phi = mt.T / rbar;
-    const Damper dmp = damper(model, b, s.u, rm, w);
+    const Damper dmp = damper(bonds, b, s.u, rm, w);
     s.f = phi * dm + dmp.f;
     // ∂f/∂Δd = φ/2 I + d_mid φ_r1 u₁ᵀ (+ the damper's turning, ∂d_mid/∂Δd = ½), with
     // φ_r1 = ∂(T̄/r̄)/∂r₁ = T̄_r1/r̄ − T̄/(2 r̄²); u₁ is taken as u (see newton.hpp).
     const double phi_r1 = mt.dT1 / rbar - mt.T / (2 * rbar * rbar);
     clamp_into(0.5 * phi + rm * phi_r1, 0.5 * (phi + dmp.transverse), clamp, s);
     if (exact) {
-      damper_jacobian(model, b, s.u, rm, w, exact->K, exact->C);
+      damper_jacobian(bonds, b, s.u, rm, w, exact->K, exact->C);
       exact->K *= 0.5;
       exact->K.diagonal().array() += 0.5 * phi;
       if (r1 > 0) exact->K += (phi_r1 / r1) * dm * d1.transpose();  // d_mid φ_r1 u₁ᵀ
@@ -92,13 +93,13 @@ BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme sch
   const double r = d.norm();
   if (!(r > 0)) return s;
   s.u = d / r;
-  const LawValue lv = model.law_at(b, r, L);
-  const Damper dmp = damper(model, b, s.u, r, w);
+  const LawValue lv = bonds.law_at(model.shapes, b, r, L);
+  const Damper dmp = damper(bonds, b, s.u, r, w);
   s.f = lv.T * s.u + dmp.f;
   // ∂f/∂d = T' u uᵀ + (T/r)(I − u uᵀ) + the damper's turning (K_b: laws.hpp, stiffness_block).
   clamp_into(g * lv.dT, g * (lv.T / r + dmp.transverse), clamp, s);
   if (exact) {
-    damper_jacobian(model, b, s.u, r, w, exact->K, exact->C);
+    damper_jacobian(bonds, b, s.u, r, w, exact->K, exact->C);
     const StiffnessCoefficients k = stiffness_coefficients(lv.dT, lv.T / r, /*clamp_for_solver=*/false);
     exact->K += block_matrix(s.u, k.ka(), k.kb());
     exact->K *= g;
@@ -137,21 +138,22 @@ void setup_newton_step(NewtonScheme scheme, const Model& model, const State& sta
 
 void newton_bonds(const Model& model, const State& state, const NewtonStep& st, const std::vector<Vec3>& y,
                   int threads, std::vector<Vec3>& force, ImplicitSystem* sys) {
-  const std::size_t nb = model.num_bonds();
+  const std::size_t nb = state.bonds.size();
   force.resize(nb);
   if (sys) sys->bonds.resize(nb);
   const bool exact = sys && st.exact;
   if (sys) sys->exact.resize(exact ? nb : 0);
   const double sh = st.s * st.h;
   parallel_for(nb, bond_pass_threads(model.num_quanta(), threads), [&](std::size_t b) {
-    const Index i = model.bond_i[b], j = model.bond_j[b];
+    const Index i = state.bonds.i[b], j = state.bonds.j[b];
     BondStep bs;
     BondJacobian jac;
-    if (state.alive[b]) {
+    if (state.bonds.alive[b]) {
       const Vec3 d0 = state.x[j] - state.x[i];
       const Vec3 dd = st.dx(model, y, j) - st.dx(model, y, i);
       const Vec3 w = (state.v[j] + st.theta * y[j]) - (state.v[i] + st.theta * y[i]);
-      bs = bond_step(model, b, state.rest[b], st.scheme, d0, dd, w, st.clamp, exact ? &jac : nullptr);
+      bs = bond_step(model, state.bonds, b, state.bonds.rest[b], st.scheme, d0, dd, w, st.clamp,
+                     exact ? &jac : nullptr);
     }
     if (exact) sys->exact[b] = sh * (st.c * jac.K + st.theta * jac.C);
     force[b] = bs.f;
@@ -162,7 +164,7 @@ void newton_bonds(const Model& model, const State& state, const NewtonStep& st, 
   });
 }
 
-ResidualNorms newton_residual(const Model& model, const Adjacency& adj, const NewtonStep& st,
+ResidualNorms newton_residual(const Model& model, const Bonds& bonds, const Adjacency& adj, const NewtonStep& st,
                               const std::vector<Vec3>& f_ext, const std::vector<Vec3>& force,
                               const std::vector<Vec3>& y, int threads, std::vector<Vec3>& R,
                               std::vector<double>& scale) {
@@ -181,7 +183,7 @@ ResidualNorms newton_residual(const Model& model, const Adjacency& adj, const Ne
     double mag = f_ext[i].norm();
     for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
       const Index b = adj.bond[e];
-      f += model.bond_i[b] == i ? force[b] : Vec3(-force[b]);
+      f += bonds.i[b] == i ? force[b] : Vec3(-force[b]);
       mag += force[b].norm();
     }
     const Vec3 inertia = model.mass[i] * (y[i] - st.e[i]);
@@ -362,7 +364,7 @@ class NewtonIntegrator final : public StepIntegrator {
     double r = 0, ref = 0;
     auto evaluate = [&] {
       newton_bonds(model, state, step_, y_, threads, force_, &sys_);
-      const ResidualNorms nr = newton_residual(model, adj, step_, f_ext, force_, y_, threads, R_, scale_);
+      const ResidualNorms nr = newton_residual(model, state.bonds, adj, step_, f_ext, force_, y_, threads, R_, scale_);
       r = std::sqrt(nr.r2);
       ref = std::sqrt(nr.ref2);
       residual = ref > 0 ? r / ref : 0.0;
@@ -489,7 +491,7 @@ class NewtonIntegrator final : public StepIntegrator {
   void solve_linear(const Model& model, const State& state, const Adjacency& adj, double eta, bool exact) {
     const std::size_t n = model.num_quanta();
     const int threads = config_.threads;
-    assemble_blocks(model, adj, threads, config_.solver == CoupledSolver::sweep, sys_);
+    assemble_blocks(model, state.bonds, adj, threads, config_.solver == CoupledSolver::sweep, sys_);
     sys_.rhs.resize(n);
     parallel_for(n, threads, [&](std::size_t i) { sys_.rhs[i] = -R_[i]; });  // kinematic rows of R are 0
     sys_.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return R_[i].squaredNorm(); }));
@@ -507,7 +509,8 @@ class NewtonIntegrator final : public StepIntegrator {
         break;
       case CoupledSolver::cg:
         delta_.assign(n, Vec3::Zero());
-        conjugate_gradient(model, sys_, eta, cg_cap(config_, topo_), threads, delta_, /*y_zero=*/true, inner);
+        conjugate_gradient(model, state.bonds, sys_, eta, cg_cap(config_, topo_), threads, delta_,
+                           /*y_zero=*/true, inner);
         break;
       case CoupledSolver::sweep:
         delta_.assign(n, Vec3::Zero());

@@ -68,8 +68,8 @@ struct BondJacobian {
 // Bond b (rest length L) whose separation d = x_j − x_i starts at d0 and changes by dd over the
 // step, its dampers seeing the relative velocity w (at the scheme's θ); `clamp` as NewtonStep's.
 // With `exact`, also the full derivatives (zero for a bond through zero length, like f).
-BondStep bond_step(const Model& model, std::size_t b, double L, NewtonScheme scheme, const Vec3& d0, const Vec3& dd,
-                   const Vec3& w, bool clamp, BondJacobian* exact = nullptr);
+BondStep bond_step(const Model& model, const Bonds& bonds, std::size_t b, double L, NewtonScheme scheme,
+                   const Vec3& d0, const Vec3& dd, const Vec3& w, bool clamp, BondJacobian* exact = nullptr);
 
 // The map from y to the step (see the header comment).
 struct NewtonStep {
@@ -100,8 +100,8 @@ void newton_bonds(const Model& model, const State& state, const NewtonStep& st, 
 struct ResidualNorms {
   double r2 = 0, ref2 = 0;
 };
-ResidualNorms newton_residual(const Model& model, const Adjacency& adj, const NewtonStep& st,
-                              const std::vector<Vec3>& f_ext, const std::vector<Vec3>& force,
+ResidualNorms newton_residual(const Model& model, const Bonds& bonds, const Adjacency& adj,
+                              const NewtonStep& st, const std::vector<Vec3>& f_ext, const std::vector<Vec3>& force,
                               const std::vector<Vec3>& y, int threads, std::vector<Vec3>& R,
                               std::vector<double>& scale);
 

@@ -57,7 +57,7 @@ std::string Diagnostics::row(const Model& model, const State& state, const Solve
   const EnergyBudget b = energy_budget(model, state);
   const double potential = b.now.bonds + b.now.gravity;
   std::size_t alive = 0;
-  for (std::uint8_t a : state.alive) alive += a;
+  for (std::uint8_t a : state.bonds.alive) alive += a;
   std::string r = std::to_string(state.step);
   put(r, state.time);
   put(r, b.now.kinetic);
@@ -68,7 +68,7 @@ std::string Diagnostics::row(const Model& model, const State& state, const Solve
   put(r, angular_momentum(model, state));
   put(r, max_speed(model, state).first);
   put_count(r, alive);
-  put_count(r, model.num_bonds() - alive);
+  put_count(r, state.bonds.size() - alive);
   std::vector<Mat3> sigma;
   if (std::find(stress_.begin(), stress_.end(), true) != stress_.end()) virial_stress(model, state, sigma);
   for (std::size_t k = 0; k < probes_.size(); ++k) {

@@ -37,11 +37,12 @@ ProbeValue measure_probe(const Model& model, const State& state, const Probe& pr
   for (Index i : probe.quanta) in[i] = 1;
   const Vec3 c = probe.about.value_or(v.mean);
   // Bonds inside the selection pull both ends equally and oppositely: they cancel in the sums.
-  for (std::size_t b = 0; b < model.num_bonds(); ++b) {
-    if (!state.alive[b]) continue;
-    const Index i = model.bond_i[b], j = model.bond_j[b];
+  for (std::size_t b = 0; b < state.bonds.size(); ++b) {
+    if (!state.bonds.alive[b]) continue;
+    const Index i = state.bonds.i[b], j = state.bonds.j[b];
     if (in[i] == in[j]) continue;
-    const Vec3 fi = model.bond_force_on_i(b, state.x[j] - state.x[i], state.v[j] - state.v[i], state.rest[b]);
+    const Vec3 fi = state.bonds.force_on_i(model.shapes, b, state.x[j] - state.x[i], state.v[j] - state.v[i],
+                                           state.bonds.rest[b]);
     const Index q = in[i] ? i : j;  // the probe's end of the bond
     const Vec3 f = in[i] ? fi : Vec3(-fi);
     v.force -= f;

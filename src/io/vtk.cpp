@@ -52,7 +52,7 @@ void write_vtp(const std::filesystem::path& path, const Model& model, const Stat
   const std::size_t n = model.num_quanta();
   // Point k is the quanta of user id k and lines come in bond-id order, so that files read the
   // same whatever the world's numbering (ordering.hpp).
-  const std::vector<Index> quanta_at = quanta_by_id(model), bond_at = bonds_by_id(model);
+  const std::vector<Index> quanta_at = quanta_by_id(model), bond_at = bonds_by_id(state.bonds);
   // values (n × components, world order) in file order.
   auto gather = [&](const auto* values, int components) {
     using T = std::remove_cvref_t<decltype(*values)>;
@@ -75,13 +75,13 @@ void write_vtp(const std::filesystem::path& path, const Model& model, const Stat
     vert_off[i] = static_cast<std::int64_t>(i + 1);
   }
   for (Index b : bond_at) {
-    if (!state.alive[b]) continue;
-    line_conn.push_back(model.quanta_id[model.bond_i[b]]);
-    line_conn.push_back(model.quanta_id[model.bond_j[b]]);
+    if (!state.bonds.alive[b]) continue;
+    line_conn.push_back(model.quanta_id[state.bonds.i[b]]);
+    line_conn.push_back(model.quanta_id[state.bonds.j[b]]);
     line_off.push_back(static_cast<std::int64_t>(line_conn.size()));
     cell_strain.push_back(strain[b]);
     cell_tension.push_back(tension[b]);
-    cell_bond.push_back(model.bond_id[b]);
+    cell_bond.push_back(state.bonds.id[b]);
   }
   std::vector<std::int64_t> id(n);
   std::vector<std::int32_t> body(n);

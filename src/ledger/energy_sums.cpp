@@ -18,22 +18,22 @@ constexpr std::size_t kLanes = 8;
 // How many of bonds b, b + 1, ..., b + 7 in a row are alive and continue bond b's ends (bond b + k
 // joins bond_i[b] + k and bond_j[b] + k): their ends' data are then contiguous, and their terms
 // one vector loop.
-QBOND_VECTOR_INLINE int affine_prefix(const Model& m, const State& s, std::size_t b) {
-  const Index* bi = m.bond_i.data() + b;
-  const Index* bj = m.bond_j.data() + b;
-  const std::uint8_t* alive = s.alive.data() + b;
+QBOND_VECTOR_INLINE int affine_prefix(const State& s, std::size_t b) {
+  const Index* bi = s.bonds.i.data() + b;
+  const Index* bj = s.bonds.j.data() + b;
+  const std::uint8_t* alive = s.bonds.alive.data() + b;
   unsigned good = 0;  // bit k: bond b + k continues (compares, no branch per bond)
   for (Index k = 0; k < kLanes; ++k)
     good |= static_cast<unsigned>((alive[k] != 0) & (bi[k] == bi[0] + k) & (bj[k] == bj[0] + k)) << k;
   return std::countr_one(good);
 }
 
-// Whether affine_prefix(m, s, b) is all eight, as one vector loop (the test before every whole
+// Whether affine_prefix(s, b) is all eight, as one vector loop (the test before every whole
 // block: the per-lane bits above cost as much as a fifth of the block's terms).
-QBOND_VECTOR_INLINE bool affine_block(const Model& m, const State& s, std::size_t b) {
-  const Index* bi = m.bond_i.data() + b;
-  const Index* bj = m.bond_j.data() + b;
-  const std::uint8_t* alive = s.alive.data() + b;
+QBOND_VECTOR_INLINE bool affine_block(const State& s, std::size_t b) {
+  const Index* bi = s.bonds.i.data() + b;
+  const Index* bj = s.bonds.j.data() + b;
+  const std::uint8_t* alive = s.bonds.alive.data() + b;
   const Index i0 = bi[0], j0 = bj[0];
   Index off = 0;  // 0 iff bi[k] == bi[0] + k and bj[k] == bj[0] + k (Index arithmetic, as above)
   QBOND_SIMD_OR(off) for (Index k = 0; k < kLanes; ++k) off |= (bi[k] - i0 - k) | (bj[k] - j0 - k);
@@ -67,7 +67,7 @@ QBOND_VECTOR_INLINE bool uniform_prefix(const T* a, std::size_t b, std::size_t c
 template <std::size_t N>
 using Sums = std::array<double, N>;
 template <std::size_t N, class BlockTerms, class BondTerm, class Uniform>
-QBOND_VECTOR_INLINE Sums<N> chunk_sums(const Model& m, const State& s, std::size_t b0, std::size_t b1,
+QBOND_VECTOR_INLINE Sums<N> chunk_sums(const State& s, std::size_t b0, std::size_t b1,
                                        BlockTerms&& block_terms, BondTerm&& bond_term, Uniform&& uniform) {
   const std::size_t n = s.x.size();
   double lanes[N][kLanes] = {};
@@ -91,18 +91,18 @@ QBOND_VECTOR_INLINE Sums<N> chunk_sums(const Model& m, const State& s, std::size
   while (b < b1) {
     // The whole blocks from b first, then their loop: no branch between one block and the next.
     std::size_t e = b;
-    while (e + kLanes <= b1 && affine_block(m, s, e) && uniform(e, kLanes)) e += kLanes;
-    for (std::size_t q = b; q < e; q += kLanes) block(m.bond_i[q], m.bond_j[q], q, kLanes);
+    while (e + kLanes <= b1 && affine_block(s, e) && uniform(e, kLanes)) e += kLanes;
+    for (std::size_t q = b; q < e; q += kLanes) block(s.bonds.i[q], s.bonds.j[q], q, kLanes);
     if (e >= b1) break;
     // A shorter block at e (its vector loop reads all eight lanes' ends and parameters, which
     // must exist), else bond e alone.
-    const Index i = m.bond_i[e], j = m.bond_j[e];
-    const int count = e + kLanes <= b1 && i + kLanes <= n && j + kLanes <= n ? affine_prefix(m, s, e) : 0;
+    const Index i = s.bonds.i[e], j = s.bonds.j[e];
+    const int count = e + kLanes <= b1 && i + kLanes <= n && j + kLanes <= n ? affine_prefix(s, e) : 0;
     if (count >= 2 && uniform(e, count)) {
       block(i, j, e, count);
       b = e + count;
     } else {
-      if (s.alive[e]) {
+      if (s.bonds.alive[e]) {
         const Sums<N> t = bond_term(i, j, e);
         for (std::size_t k = 0; k < N; ++k) others[k] += t[k];
       }
@@ -137,21 +137,21 @@ QBOND_VECTOR_INLINE double linear_energy(double k, double r, double rest) {
 
 QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::size_t b0, std::size_t b1) {
   const double* x = s.x.data()->data();
-  const double* rest = s.rest.data();
-  const double* k = m.stiffness.data();
-  const Law* law = m.law.data();
+  const double* rest = s.bonds.rest.data();
+  const double* k = s.bonds.strength.data();
+  const Law* law = s.bonds.law.data();
   auto block = [=]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, double(&t)[1][kLanes])
                    QBOND_LAMBDA_INLINE {
     QBOND_SIMD for (std::size_t l = 0; l < L; ++l)
       t[0][l] = linear_energy(k[b + l], length(x, i + l, j + l), rest[b + l]);
   };
   auto any_law = [&](std::size_t i, std::size_t j, std::size_t b) {
-    return Sums<1>{m.law_at(b, length(x, i, j), rest[b]).U};
+    return Sums<1>{s.bonds.law_at(m.shapes, b, length(x, i, j), rest[b]).U};
   };
   auto all_linear = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
     return law[b] == Law::linear && uniform_prefix(law, b, count);
   };
-  return chunk_sums<1>(m, s, b0, b1, block, any_law, all_linear)[0];
+  return chunk_sums<1>(s, b0, b1, block, any_law, all_linear)[0];
 }
 
 // How the step's dampers were evaluated: at the start's bond direction (φ = 0) or along d + φ Δd,
@@ -168,11 +168,11 @@ QBOND_VECTOR_INLINE Sums<2> step_chunk_at(const Model& m, const State& s, const 
   constexpr bool kStartBond = kPoint != DamperPoint::any_any;
   const double* x = s.x.data()->data();
   const double* v = s.v.data()->data();
-  const double* D = m.damping.data();
-  const double* rest = s.rest.data();
-  const double* k = m.stiffness.data();
-  const Law* law = m.law.data();
-  const DampingModel* model = m.damping_model.data();
+  const double* D = s.bonds.damping.data();
+  const double* rest = s.bonds.rest.data();
+  const double* k = s.bonds.strength.data();
+  const Law* law = s.bonds.law.data();
+  const DampingModel* model = s.bonds.damping_model.data();
   // The damper's loss and the end length |x1_j − x1_i| from the bond d at which the damper is
   // charged, the relative velocity w and the end bond d₁.
   struct Term {
@@ -231,12 +231,12 @@ QBOND_VECTOR_INLINE Sums<2> step_chunk_at(const Model& m, const State& s, const 
     double d[3], w[3], d1[3];
     for (std::size_t c = 0; c < 3; ++c) differences(3 * i + c, 3 * j + c, d[c], w[c], d1[c]);
     const Term t = term(d, w, d1, D[b], model[b] == DampingModel::axial);
-    return Sums<2>{t.loss, m.law_at(b, t.r1, rest[b]).U};
+    return Sums<2>{t.loss, s.bonds.law_at(m.shapes, b, t.r1, rest[b]).U};
   };
   auto uniform = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
     return law[b] == Law::linear && uniform_prefix(law, b, count) && uniform_prefix(model, b, count);
   };
-  return chunk_sums<2>(m, s, b0, b1, block, bond, uniform);
+  return chunk_sums<2>(s, b0, b1, block, bond, uniform);
 }
 
 QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const double* x1, const double* v1,
@@ -252,7 +252,7 @@ QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const dou
 
 double bond_energy_sum(const Model& m, const State& s, int threads) {
   return reduce_chunks(
-      m.num_bonds(), bond_pass_threads(m.num_quanta(), threads), 0.0,
+      s.bonds.size(), bond_pass_threads(m.num_quanta(), threads), 0.0,
       [&](std::size_t b0, std::size_t b1) { return energy_chunk(m, s, b0, b1); }, std::plus<>{});
 }
 
@@ -262,7 +262,7 @@ BondStepSums bond_step_sums(const Model& m, const State& s, const AppliedState& 
   auto chunk = [&](std::size_t b0, std::size_t b1) {  // a chunk has bonds, so quanta: the arrays have data
     return step_chunk(m, s, a.x.data()->data(), a.v.data()->data(), h, theta, phi, b0, b1);
   };
-  const Sums<2> sums = reduce_chunks(m.num_bonds(), bond_pass_threads(m.num_quanta(), threads), Sums<2>{},
+  const Sums<2> sums = reduce_chunks(s.bonds.size(), bond_pass_threads(m.num_quanta(), threads), Sums<2>{},
                                      chunk, [](const Sums<2>& p, const Sums<2>& q) {
                                        return Sums<2>{p[0] + q[0], p[1] + q[1]};
                                      });

@@ -23,31 +23,31 @@ StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const P
   // adjacency, each bond once (from its first such end), summed in quanta order. A prescribed
   // quanta that stays put this step (an anchor) does none.
   auto anchor_work = [&](std::size_t b) {
-    const Index i = m.bond_i[b], j = m.bond_j[b];
+    const Index i = s.bonds.i[b], j = s.bonds.j[b];
     const bool ki = m.is_kinematic(i), kj = m.is_kinematic(j);
     const Vec3 d0 = s.x[j] - s.x[i];
     const double r0 = d0.norm();
     if (!(r0 > 0)) return 0.0;
     const Vec3 w = relative_velocity(i, j);
-    const double D = m.damping[b];
+    const double D = s.bonds.damping[b];
     // Force of the bond on i, averaged over the step; the bond pushes j with the opposite force:
     // the trapezoid rule, or the discrete gradient T̄ d_mid / r̄ the integrator itself applied.
     const Vec3 d1 = d0 + p.dx[j] - p.dx[i];
     const double r1 = d1.norm();
     Vec3 fi;
     if (hints.discrete_gradient) {
-      const MeanTension mt = m.mean_tension_at(b, r0, r1, s.rest[b]);
+      const MeanTension mt = s.bonds.mean_tension_at(m.shapes, b, r0, r1, s.bonds.rest[b]);
       fi = (mt.T / (0.5 * (r0 + r1))) * (0.5 * (d0 + d1));
     } else {
-      const double T0 = m.law_at(b, r0, s.rest[b]).T;
-      const double T1 = m.law_at(b, r1, s.rest[b]).T;
+      const double T0 = s.bonds.law_at(m.shapes, b, r0, s.bonds.rest[b]).T;
+      const double T1 = s.bonds.law_at(m.shapes, b, r1, s.bonds.rest[b]).T;
       const Vec3 u0 = d0 / r0;
       fi = 0.5 * (T0 * u0 + (r1 > 0 ? Vec3(T1 * d1 / r1) : Vec3::Zero()));
     }
     const Vec3 dp = damper_bond(i, j);
     const double rp = dp.norm();
     const Vec3 up = rp > 0 ? Vec3(dp / rp) : Vec3::Zero();
-    fi += m.damping_model[b] == DampingModel::axial ? Vec3(D * w.dot(up) * up) : Vec3(D * w);
+    fi += s.bonds.damping_model[b] == DampingModel::axial ? Vec3(D * w.dot(up) * up) : Vec3(D * w);
     // A prescribed quanta does on the structure the work the bond's force on it resists.
     double work = 0;
     if (ki) work -= fi.dot(p.dx[i]);
@@ -60,7 +60,7 @@ StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const P
     double work = 0;
     for (Index e = adj.offset[q]; e < adj.offset[q + 1]; ++e) {
       const Index b = adj.bond[e];
-      if (m.bond_i[b] == q || !moving(m.bond_i[b])) work += anchor_work(b);
+      if (s.bonds.i[b] == q || !moving(s.bonds.i[b])) work += anchor_work(b);
     }
     return work;
   });

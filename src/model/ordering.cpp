@@ -105,9 +105,10 @@ std::vector<Index> inverse(const std::vector<Index>& p) {
 double spacing(const Model& m, const State& s, double extent) {
   const std::size_t n = m.num_quanta();
   std::vector<double> shortest(n, std::numeric_limits<double>::infinity());
-  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
-    if (!s.alive[b]) continue;
-    const Index i = m.bond_i[b], j = m.bond_j[b];
+  const Bonds& bonds = s.bonds;
+  for (std::size_t b = 0; b < bonds.size(); ++b) {
+    if (!bonds.alive[b]) continue;
+    const Index i = bonds.i[b], j = bonds.j[b];
     const double r = (s.x[i] - s.x[j]).norm();
     shortest[i] = std::min(shortest[i], r);
     shortest[j] = std::min(shortest[j], r);
@@ -127,11 +128,11 @@ struct BondOrder {
   std::size_t affine;
 };
 
-BondOrder bond_order(const Model& m, const std::vector<Index>& rank, std::size_t scene_bonds) {
+BondOrder bond_order(const Bonds& bonds, const std::vector<Index>& rank, std::size_t scene_bonds) {
   std::vector<Index> bi(scene_bonds), bj(scene_bonds);
   for (std::size_t b = 0; b < scene_bonds; ++b) {
-    bi[b] = rank[m.bond_i[b]];
-    bj[b] = rank[m.bond_j[b]];
+    bi[b] = rank[bonds.i[b]];
+    bj[b] = rank[bonds.j[b]];
   }
   const std::vector<Index> grouped = offset_grouped(bi, bj, rank.size());
   const std::size_t affine = affine_bonds(grouped, bi, bj);
@@ -146,7 +147,7 @@ BondOrder bond_order(const Model& m, const std::vector<Index>& rank, std::size_t
 Renumbering locality_order(const World& world) {
   const Model& m = world.model;
   const State& s = world.state;
-  const std::size_t n = m.num_quanta(), nb = m.num_bonds(), scene_bonds = nb - s.formed.size();
+  const std::size_t n = m.num_quanta(), nb = s.bonds.size(), scene_bonds = s.bonds.first_formed;
   Renumbering r;
   if (n == 0) return r;
 
@@ -173,14 +174,14 @@ Renumbering locality_order(const World& world) {
     key[i] = std::uint64_t(q.z()) << 42 | std::uint64_t(q.y()) << 21 | std::uint64_t(q.x());
   }
   r.quanta = rank_by(key);
-  BondOrder bonds = bond_order(m, r.quanta, scene_bonds);
+  BondOrder bonds = bond_order(s.bonds, r.quanta, scene_bonds);
   // A body built as a lattice and then rotated is numbered row by row in its own axes, which bins
   // in the world's axes scramble: its bonds then form no affine runs and every bond kernel takes
   // its per-bond path. Keep the given numbering when its bonds form more affine runs.
   std::vector<Index> same(n);
   std::iota(same.begin(), same.end(), Index{0});
   if (bonds.affine < scene_bonds && r.quanta != same) {
-    if (BondOrder kept = bond_order(m, same, scene_bonds); kept.affine > bonds.affine) {
+    if (BondOrder kept = bond_order(s.bonds, same, scene_bonds); kept.affine > bonds.affine) {
       r.quanta = std::move(same);
       bonds = std::move(kept);
     }
@@ -191,7 +192,7 @@ Renumbering locality_order(const World& world) {
 }
 
 std::vector<Index> quanta_by_id(const Model& model) { return inverse(model.quanta_id); }
-std::vector<Index> bonds_by_id(const Model& model) { return inverse(model.bond_id); }
+std::vector<Index> bonds_by_id(const Bonds& bonds) { return inverse(bonds.id); }
 
 void renumber_quanta(std::vector<Index>& quanta, const Renumbering& r) {
   for (Index& i : quanta) i = r.quanta[i];
@@ -201,9 +202,9 @@ void renumber(World& world, const Renumbering& r) {
   Model& m = world.model;
   State& s = world.state;
   [[maybe_unused]] const std::size_t n = m.num_quanta();
-  const std::size_t nb = m.num_bonds();
+  const std::size_t nb = s.bonds.size();
   assert(r.quanta.size() == n && r.bonds.size() == nb);
-  for (std::size_t b = nb - s.formed.size(); b < nb; ++b) assert(r.bonds[b] == b);  // formed keep slots
+  for (std::size_t b = s.bonds.first_formed; b < nb; ++b) assert(r.bonds[b] == b);  // formed keep slots
 
   permute(m.mass, r.quanta);
   permute(m.inv_mass, r.quanta);
@@ -226,25 +227,21 @@ void renumber(World& world, const Renumbering& r) {
   for (Motion& motion : m.motions) renumber_quanta(motion.quanta, r);
   for (Load& load : m.loads) renumber_quanta(load.quanta, r);
 
-  renumber_quanta(m.bond_i, r);
-  renumber_quanta(m.bond_j, r);
-  for (FormedBond& f : s.formed) {
-    f.i = r.quanta[f.i];
-    f.j = r.quanta[f.j];
-  }
-  permute(m.bond_i, r.bonds);
-  permute(m.bond_j, r.bonds);
-  permute(m.law, r.bonds);
-  permute(m.damping_model, r.bonds);
-  permute(m.stiffness, r.bonds);
-  permute(m.damping, r.bonds);
-  permute(m.law_shape, r.bonds);
-  permute(m.rest0, r.bonds);
-  permute(m.bond_id, r.bonds);
-  permute(s.rest, r.bonds);
-  permute(s.alive, r.bonds);
-  permute(s.bond_time, r.bonds);
-  ++s.topology_version;
+  Bonds& bonds = s.edit_bonds();
+  renumber_quanta(bonds.i, r);
+  renumber_quanta(bonds.j, r);
+  permute(bonds.i, r.bonds);
+  permute(bonds.j, r.bonds);
+  permute(bonds.id, r.bonds);
+  permute(bonds.law, r.bonds);
+  permute(bonds.damping_model, r.bonds);
+  permute(bonds.strength, r.bonds);
+  permute(bonds.damping, r.bonds);
+  permute(bonds.rest0, r.bonds);
+  permute(bonds.shape, r.bonds);
+  permute(bonds.rest, r.bonds);
+  permute(bonds.alive, r.bonds);
+  permute(bonds.time, r.bonds);
 }
 
 }  // namespace qbond

@@ -31,26 +31,27 @@ void Motion::at(std::size_t k, double t, Vec3& x, Vec3& v) const {
 }
 
 void build_adjacency(const Model& model, const State& state, Adjacency& adj) {
-  const std::size_t n = model.num_quanta(), nb = model.num_bonds();
+  const std::size_t n = model.num_quanta(), nb = state.bonds.size();
   adj.offset.assign(n + 1, 0);
+  const Bonds& bonds = state.bonds;
   for (std::size_t b = 0; b < nb; ++b) {
-    if (!state.alive[b]) continue;
-    ++adj.offset[model.bond_i[b] + 1];
-    ++adj.offset[model.bond_j[b] + 1];
+    if (!bonds.alive[b]) continue;
+    ++adj.offset[bonds.i[b] + 1];
+    ++adj.offset[bonds.j[b] + 1];
   }
   for (std::size_t i = 0; i < n; ++i) adj.offset[i + 1] += adj.offset[i];
   adj.bond.resize(adj.offset[n]);
   adj.other.resize(adj.offset[n]);
   std::vector<Index> fill(adj.offset.begin(), adj.offset.end() - 1);
   for (std::size_t b = 0; b < nb; ++b) {
-    if (!state.alive[b]) continue;
-    const Index i = model.bond_i[b], j = model.bond_j[b];
+    if (!bonds.alive[b]) continue;
+    const Index i = bonds.i[b], j = bonds.j[b];
     adj.bond[fill[i]] = static_cast<Index>(b);
     adj.other[fill[i]++] = j;
     adj.bond[fill[j]] = static_cast<Index>(b);
     adj.other[fill[j]++] = i;
   }
-  adj.version = state.topology_version;
+  adj.version = state.topology_version();
 }
 
 Index World::add_body(std::string name) {
@@ -71,82 +72,82 @@ Index World::add_quanta(const Vec3& x, const Vec3& v, double mass, Index body, d
   return static_cast<Index>(model.mass.size() - 1);
 }
 
+BondLaw bond_law(Model& model, const BondSpec& s) {
+  if (!is_law_id(static_cast<std::uint8_t>(s.law))) throw std::invalid_argument("unknown bond law");
+  if (const std::string why = invalid_law_shape(s.law, s.shape); !why.empty()) throw std::invalid_argument(why);
+  return {s.law, s.damping_model, s.stiffness, s.damping, model.intern_shape(s.shape)};
+}
+
 Index World::add_bond(Index i, Index j, const BondSpec& s) {
   const std::size_t n = num_quanta();
   if (i >= n || j >= n) throw std::invalid_argument("bond endpoint out of range");
   if (i == j) throw std::invalid_argument("a bond must join two different quanta");
-  if (!is_law_id(static_cast<std::uint8_t>(s.law))) throw std::invalid_argument("unknown bond law");
-  if (const std::string why = invalid_law_shape(s.law, s.shape); !why.empty()) throw std::invalid_argument(why);
-  const double L = s.rest_length >= 0 ? s.rest_length : (state.x[j] - state.x[i]).norm();
-  model.bond_i.push_back(i);
-  model.bond_j.push_back(j);
-  model.bond_id.push_back(static_cast<Index>(model.bond_id.size()));
-  model.law.push_back(s.law);
-  model.damping_model.push_back(s.damping_model);
-  model.stiffness.push_back(s.stiffness);
-  model.damping.push_back(s.damping);
-  model.rest0.push_back(L);
-  model.law_shape.push_back(model.intern_shape(s.shape));
-  state.rest.push_back(L);
-  state.alive.push_back(1);
-  state.bond_time.push_back(0.0);
-  ++state.topology_version;
-  return static_cast<Index>(model.bond_i.size() - 1);
+  const BondLaw law = bond_law(model, s);
+  return state.add_bond(i, j, law, s.rest_length >= 0 ? s.rest_length : (state.x[j] - state.x[i]).norm());
 }
 
 namespace {
 
-// Writes a formed bond's entries into the model at slot b (appending when b is the end).
-void put_formed(Model& m, std::size_t b, const FormedBond& f) {
-  if (b == m.num_bonds()) {
-    for (auto* v : {&m.bond_i, &m.bond_j}) v->emplace_back();
-    m.bond_id.push_back(static_cast<Index>(b));
-    m.law.emplace_back();
-    m.damping_model.emplace_back();
-    for (auto* v : {&m.stiffness, &m.damping, &m.rest0}) v->emplace_back();
-    m.law_shape.emplace_back();
-  }
-  m.bond_i[b] = f.i;
-  m.bond_j[b] = f.j;
-  m.law[b] = f.law;
-  m.damping_model[b] = f.damping_model;
-  m.stiffness[b] = f.stiffness;
-  m.damping[b] = f.damping;
-  m.rest0[b] = f.rest0;
-  m.law_shape[b] = m.intern_shape(f.shape);
+// Appends an entry to every per-bond array (its values set by the caller).
+void append_slot(Bonds& b) {
+  for (auto* v : {&b.i, &b.j, &b.id}) v->emplace_back();
+  b.law.emplace_back();
+  b.damping_model.emplace_back();
+  for (auto* v : {&b.strength, &b.damping, &b.rest0, &b.rest, &b.time}) v->emplace_back();
+  b.shape.emplace_back();
+  b.alive.emplace_back();
+}
+
+// Writes bond k's ends, law, rest lengths and time; it is alive.
+void put_bond(Bonds& b, std::size_t k, Index i, Index j, const BondLaw& law, double L, double time) {
+  b.i[k] = i;
+  b.j[k] = j;
+  b.law[k] = law.law;
+  b.damping_model[k] = law.damping_model;
+  b.strength[k] = law.strength;
+  b.damping[k] = law.damping;
+  b.shape[k] = law.shape;
+  b.rest0[k] = L;
+  b.rest[k] = L;
+  b.alive[k] = 1;
+  b.time[k] = time;
 }
 
 }  // namespace
 
-Index World::form_bond(Index i, Index j, const BondSpec& s, double L, Index slot) {
-  const std::size_t nb = num_bonds(), first = nb - state.formed.size();
-  assert(i < num_quanta() && j < num_quanta() && i != j);
-  assert(slot == nb || (slot >= first && slot < nb && !state.alive[slot]));
-  const FormedBond f{i, j, s.law, s.damping_model, s.stiffness, s.damping, L, s.shape};
-  put_formed(model, slot, f);
+Index State::add_bond(Index i, Index j, const BondLaw& law, double L) {
+  // Scene bonds come before those formed during the run (whose slots formation reuses).
+  if (bonds.first_formed != bonds.size())
+    throw std::invalid_argument("add_bond: the scene's bonds cannot follow bonds formed during the run");
+  const std::size_t k = bonds.size();
+  append_slot(bonds);
+  bonds.id[k] = static_cast<Index>(k);
+  put_bond(bonds, k, i, j, law, L, 0.0);
+  bonds.first_formed = bonds.size();
+  ++topology_version_;
+  return static_cast<Index>(k);
+}
+
+Index State::form_bond(Index i, Index j, const BondLaw& law, double L, Index slot) {
+  const std::size_t nb = bonds.size();
+  assert(i < x.size() && j < x.size() && i != j);
+  assert(slot == nb || (slot >= bonds.first_formed && slot < nb && !bonds.alive[slot]));
   if (slot == nb) {
-    state.formed.push_back(f);
-    state.rest.push_back(L);
-    state.alive.push_back(1);
-    state.bond_time.push_back(state.time);
-  } else {
-    state.formed[slot - first] = f;
-    state.rest[slot] = L;
-    state.alive[slot] = 1;
-    state.bond_time[slot] = state.time;
+    append_slot(bonds);
+    bonds.id[slot] = slot;
   }
-  ++state.topology_version;
+  put_bond(bonds, slot, i, j, law, L, time);
+  ++topology_version_;
   return slot;
 }
 
-void World::sync_formed_bonds() {
-  const std::size_t first = state.rest.size() - state.formed.size();
-  for (auto* v : {&model.bond_i, &model.bond_j, &model.bond_id}) v->resize(first);
-  model.law.resize(first);
-  model.damping_model.resize(first);
-  for (auto* v : {&model.stiffness, &model.damping, &model.rest0}) v->resize(first);
-  model.law_shape.resize(first);
-  for (std::size_t k = 0; k < state.formed.size(); ++k) put_formed(model, first + k, state.formed[k]);
+void State::break_bond(Index b) {
+  assert(b < bonds.size());
+  if (bonds.alive[b]) {
+    bonds.alive[b] = 0;
+    bonds.time[b] = time;
+    ++topology_version_;
+  }
 }
 
 std::uint32_t Model::intern_shape(const LawShape& shape) {
@@ -184,18 +185,9 @@ void World::add_load(std::vector<Index> quanta, const Vec3& total_force) {
   model.loads.push_back({std::move(quanta), total_force});
 }
 
-void World::break_bond(Index b) {
-  assert(b < num_bonds());
-  if (state.alive[b]) {
-    state.alive[b] = 0;
-    state.bond_time[b] = state.time;
-    ++state.topology_version;
-  }
-}
-
 std::size_t World::num_alive_bonds() const {
   std::size_t c = 0;
-  for (auto a : state.alive) c += a;
+  for (auto a : state.bonds.alive) c += a;
   return c;
 }
 

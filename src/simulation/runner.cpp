@@ -37,12 +37,13 @@ constexpr const char* kRunJson = "run.json";
 constexpr const char* kEvents = "events.csv";
 constexpr const char* kEventsHeader = "step,time,event,reason,bond,i,j,strain,tension";
 
-// One row of events.csv; bond and quanta named by their user ids (Model::bond_id, quanta_id).
-std::string event_row(const BondEvent& e, const Model& m) {
+// One row of events.csv; bond and quanta named by their user ids (Bonds::id, Model::quanta_id).
+std::string event_row(const BondEvent& e, const World& w) {
+  const Model& m = w.model;
   char buf[256];
   std::snprintf(buf, sizeof buf, "%llu,%.17g,%s,%s,%llu,%llu,%llu,%.17g,%.17g", static_cast<unsigned long long>(e.step),
                 e.time, std::string(to_string(e.kind)).c_str(), std::string(to_string(e.reason)).c_str(),
-                static_cast<unsigned long long>(m.bond_id[e.bond]),
+                static_cast<unsigned long long>(w.state.bonds.id[e.bond]),
                 static_cast<unsigned long long>(m.quanta_id[e.i]),
                 static_cast<unsigned long long>(m.quanta_id[e.j]), e.strain, e.tension);
   return buf;
@@ -274,13 +275,12 @@ Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene
   Scene scene = parse_scene(meta.at("scene").dump(), checkpoint.string());
   RunSettings settings = settings_from_json(meta.at("run"));
   if (adjust) adjust(scene, settings);
-  if (ck.state.x.size() != scene.world.num_quanta() ||
-      ck.state.rest.size() - ck.state.formed.size() != scene.world.num_bonds())
-    throw std::runtime_error(checkpoint.string() + ": state does not match its scene (" +
-                             std::to_string(ck.state.x.size()) + " quanta, " +
-                             std::to_string(ck.state.rest.size() - ck.state.formed.size()) + " scene bonds saved)");
+  try {
+    adopt_scene_bonds(ck, scene.world);
+  } catch (const CheckpointError& e) {
+    throw std::runtime_error(checkpoint.string() + ": " + e.what());
+  }
   scene.world.state = std::move(ck.state);
-  scene.world.sync_formed_bonds();
   auto impl = std::make_unique<Impl>(std::move(scene), std::move(settings));
   Impl& r = *impl;
   r.resumed_from = fs::absolute(checkpoint).string();
@@ -346,7 +346,7 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
       result.message = rep.message;
       break;
     }
-    for (const BondEvent& e : r.sim.events()) r.events->write_line(event_row(e, r.sim.world().model));
+    for (const BondEvent& e : r.sim.events()) r.events->write_line(event_row(e, r.sim.world()));
     const State& s = r.sim.world().state;
     if (s.step % r.settings.every == 0) r.output();
     if (r.settings.checkpoint_every && s.step % r.settings.checkpoint_every == 0) r.checkpoint();

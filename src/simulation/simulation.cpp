@@ -109,7 +109,7 @@ void Simulation::run_heuristics() {
   if (heuristics_.empty()) return;
   dv_forces_ = projection_.dv;
   const HeuristicContext hc{ctx_, adjacency(), integrator_->config().threads, events_, dv_forces_};
-  for (auto& h : heuristics_) h->apply(world_, projection_, hc);
+  for (auto& h : heuristics_) h->apply(world_.model, world_.state, projection_, hc);
   if (projection_.bonds_edited) drop_after_bond_edit(projection_.carry);
 }
 
@@ -205,7 +205,6 @@ void Simulation::observe() {
 StepReport Simulation::roll_back(StepReport r, bool applied) {
   if (!keep_last_good_) return r;
   copy_last_good(false, applied);  // heuristics may have edited bonds already
-  world_.sync_formed_bonds();
   events_.clear();
   if (applied) r.message += "; the world keeps the state before this step";
   return r;
@@ -238,7 +237,7 @@ void Simulation::set_integrator(const IntegratorConfig& config) {
 }
 
 const Adjacency& Simulation::adjacency() {
-  if (adj_.version != world_.state.topology_version) build_adjacency(world_.model, world_.state, adj_);
+  if (adj_.version != world_.state.topology_version()) build_adjacency(world_.model, world_.state, adj_);
   return adj_;
 }
 
@@ -256,32 +255,21 @@ void Simulation::clear_forces() {
 namespace {
 
 // Arrays moved out of a state and back, so that a copy of the state leaves them out: positions,
-// velocities and the integrator's carry-over (always: see copy_last_good) and, with `bonds`, the
-// per-bond arrays.
+// velocities and the integrator's carry-over (always: see copy_last_good) and, with `with_bonds`,
+// the bonds.
 struct KeptArrays {
   std::vector<Vec3> x, v;
   Carry carry;
-  std::vector<double> rest;
-  std::vector<std::uint8_t> alive;
-  std::vector<double> bond_time;
-  std::vector<FormedBond> formed;
-  KeptArrays(State& s, bool bonds) : x(std::move(s.x)), v(std::move(s.v)) {
+  Bonds bonds;
+  KeptArrays(State& s, bool with_bonds) : x(std::move(s.x)), v(std::move(s.v)) {
     carry.swap(s.carry);
-    if (!bonds) return;
-    rest = std::move(s.rest);
-    alive = std::move(s.alive);
-    bond_time = std::move(s.bond_time);
-    formed = std::move(s.formed);
+    if (with_bonds) bonds = std::move(s.bonds);
   }
-  void put_back(State& s, bool bonds) {
+  void put_back(State& s, bool with_bonds) {
     s.x = std::move(x);
     s.v = std::move(v);
     s.carry.swap(carry);
-    if (!bonds) return;
-    s.rest = std::move(rest);
-    s.alive = std::move(alive);
-    s.bond_time = std::move(bond_time);
-    s.formed = std::move(formed);
+    if (with_bonds) s.bonds = std::move(bonds);
   }
 };
 

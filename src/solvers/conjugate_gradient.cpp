@@ -127,10 +127,11 @@ QBOND_VECTOR_INLINE void grid_product(std::span<const BondRun> grid, const BondB
 
 // Any other run, bond by bond: −B_b y_j onto row i and −B_b y_i onto row j where the part owns
 // them, for bonds between free quanta.
-void run_product(const Model& model, const BondRun& run, const BondBlocks& blocks, const Soa& y, const Soa& out) {
+void run_product(const Model& model, const Bonds& bonds, const BondRun& run, const BondBlocks& blocks,
+                 const Soa& y, const Soa& out) {
   const double* inv_mass = model.inv_mass.data();
   for (Index k = 0; k < run.count; ++k) {
-    const Index b = run.bond(k), i = model.bond_i[b], j = model.bond_j[b];
+    const Index b = run.bond(k), i = bonds.i[b], j = bonds.j[b];
     if (inv_mass[i] == 0 || inv_mass[j] == 0) continue;  // eliminated unknowns
     const Vec3 u = blocks.u(b);
     const Vec3 yi(y[0][i], y[1][i], y[2][i]), yj(y[0][j], y[1][j], y[2][j]);
@@ -143,7 +144,7 @@ void run_product(const Model& model, const BondRun& run, const BondBlocks& block
 }
 
 // A part's runs' products (for_each_part_runs).
-QBOND_VECTOR_CLONES void part_product(const Model& model, std::span<const BondRun> runs,
+QBOND_VECTOR_CLONES void part_product(const Model& model, const Bonds& bonds, std::span<const BondRun> runs,
                                       const BondBlocks& blocks, const Soa& y, const Soa& out,
                                       ProductTerms& t) {
   for (std::size_t r = 0; r < runs.size();) {
@@ -156,7 +157,7 @@ QBOND_VECTOR_CLONES void part_product(const Model& model, std::span<const BondRu
     if (run.affine)
       affine_product(run, blocks, y, out, t);
     else
-      run_product(model, run, blocks, y, out);
+      run_product(model, bonds, run, blocks, y, out);
     ++r;
   }
 }
@@ -165,18 +166,18 @@ QBOND_VECTOR_CLONES void part_product(const Model& model, std::span<const BondRu
 // must be 0; out's are left as the bonds make them: its readers ignore them (first_residual and
 // cg_update keep r's kinematic rows 0, store writes 0, and the dot products multiply them by p's
 // or y's 0).
-void bond_product(const Model& model, const ImplicitSystem& sys, const Soa& y, const Soa& out) {
+void bond_product(const Model& model, const Bonds& bonds, const ImplicitSystem& sys, const Soa& y, const Soa& out) {
   for_each_part_runs<ProductTerms>(sys.part, [&](std::span<const BondRun> runs, ProductTerms& t) {
-    part_product(model, runs, sys.bonds, y, out, t);
+    part_product(model, bonds, runs, sys.bonds, y, out, t);
   });
 }
 
 // out = A y (bond_product's conditions).
-void product(const Model& model, const ImplicitSystem& sys, const Diagonals& d, const Soa& y, const Soa& out,
-             int threads) {
+void product(const Model& model, const Bonds& bonds, const ImplicitSystem& sys, const Diagonals& d,
+             const Soa& y, const Soa& out, int threads) {
   parallel_ranges(model.num_quanta(), threads,
                   [&](std::size_t lo, std::size_t hi) { diagonal_times(d, y, out, lo, hi); });
-  bond_product(model, sys, y, out);
+  bond_product(model, bonds, sys, y, out);
 }
 
 // N sums Σ_q t_k(q) over [lo, hi), term(q, t) writing t_0(q) .. t_{N-1}(q) (and whatever else q's
@@ -360,19 +361,19 @@ struct CgArrays {
 
 }  // namespace
 
-void apply_system(const Model& model, const ImplicitSystem& sys, const std::vector<Vec3>& y, int threads,
-                  std::vector<Vec3>& out) {
+void apply_system(const Model& model, const Bonds& bonds, const ImplicitSystem& sys,
+                  const std::vector<Vec3>& y, int threads, std::vector<Vec3>& out) {
   const std::size_t n = model.num_quanta();
   LineVector<double> buffer;
   CgArrays a(buffer, n);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { load(model, sys, y, a.y, a.d, a.inv_mass, lo, hi); });
-  product(model, sys, a.d, a.y, a.Ap, threads);
+  product(model, bonds, sys, a.d, a.y, a.Ap, threads);
   out.resize(n);
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { store(a.inv_mass, a.Ap, out, lo, hi); });
 }
 
-void conjugate_gradient(const Model& model, ImplicitSystem& sys, double tolerance, int cap, int threads,
-                        std::vector<Vec3>& y, bool y_zero, SolveStats& stats) {
+void conjugate_gradient(const Model& model, const Bonds& bonds, ImplicitSystem& sys, double tolerance,
+                        int cap, int threads, std::vector<Vec3>& y, bool y_zero, SolveStats& stats) {
   const std::size_t n = model.num_quanta();
   CgArrays a(sys.arrays, n);
   auto ranges = [&](auto&& body) { parallel_ranges(n, threads, body); };
@@ -381,7 +382,7 @@ void conjugate_gradient(const Model& model, ImplicitSystem& sys, double toleranc
   // start is then never worse than zero in that norm (a previous step's Δv at another step length,
   // or after an impulse, can be), and often better than the guess as it is.
   if (!y_zero) {
-    product(model, sys, a.d, a.y, a.Ap, threads);
+    product(model, bonds, sys, a.d, a.y, a.Ap, threads);
     const double yAy = dot(n, threads, a.y, a.Ap);
     const double yb = deterministic_sum(n, threads, [&](std::size_t i) {
       return model.inv_mass[i] != 0 ? y[i].dot(sys.rhs[i]) : 0.0;
@@ -407,7 +408,7 @@ void conjugate_gradient(const Model& model, ImplicitSystem& sys, double toleranc
   while (it < cap && stats.residual > tolerance) {
     if (it > 0)
       ranges([&](std::size_t lo, std::size_t hi) { new_direction(beta, a.d, a.z, a.p, a.Ap, lo, hi); });
-    bond_product(model, sys, a.p, a.Ap);
+    bond_product(model, bonds, sys, a.p, a.Ap);
     const double pAp = dot(n, threads, a.p, a.Ap);
     if (!(pAp > 0)) break;  // exact solution reached (p = 0) or loss of positivity
     const double alpha = rz / pAp;

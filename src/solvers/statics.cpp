@@ -11,13 +11,13 @@ namespace {
 // Net force on every quanta: bonds (no damping: statics has no velocity), gravity, loads.
 void net_forces(const Model& model, const State& state, const std::vector<Vec3>& f_ext, std::vector<Vec3>& f) {
   f = f_ext;
-  for (std::size_t b = 0; b < model.num_bonds(); ++b) {
-    if (!state.alive[b]) continue;
-    const Index i = model.bond_i[b], j = model.bond_j[b];
+  for (std::size_t b = 0; b < state.bonds.size(); ++b) {
+    if (!state.bonds.alive[b]) continue;
+    const Index i = state.bonds.i[b], j = state.bonds.j[b];
     const Vec3 d = state.x[j] - state.x[i];
     const double r = d.norm();
     if (!(r > 0)) continue;
-    const Vec3 fb = model.law_at(b, r, state.rest[b]).T / r * d;
+    const Vec3 fb = state.bonds.law_at(model.shapes, b, r, state.bonds.rest[b]).T / r * d;
     f[i] += fb;
     f[j] -= fb;
   }
@@ -49,13 +49,13 @@ Eigen::SparseMatrix<double> stiffness_matrix(const Model& model, const State& st
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) t.emplace_back(p + r, q + c, m(r, c));
   };
-  for (std::size_t b = 0; b < model.num_bonds(); ++b) {
-    if (!state.alive[b]) continue;
-    const Index i = model.bond_i[b], j = model.bond_j[b];
+  for (std::size_t b = 0; b < state.bonds.size(); ++b) {
+    if (!state.bonds.alive[b]) continue;
+    const Index i = state.bonds.i[b], j = state.bonds.j[b];
     const Vec3 d = state.x[j] - state.x[i];
     const double r = d.norm();
     if (!(r > 0)) continue;
-    const LawValue lv = model.law_at(b, r, state.rest[b]);
+    const LawValue lv = state.bonds.law_at(model.shapes, b, r, state.bonds.rest[b]);
     const Mat3 Kb = stiffness_block(lv.T, lv.dT, r, d / r, /*clamp_for_solver=*/false);
     add(dof[i], dof[i], Kb);
     add(dof[j], dof[j], Kb);

@@ -31,7 +31,7 @@ struct BreakRule {
 };
 
 /// Bilinear elastoplastic bonds with linear kinematic hardening. In strain units from the
-/// original rest length L₀ (Model::rest0): elastic strain e = (r - L)/L₀, plastic strain
+/// original rest length L₀ (Bonds::rest0): elastic strain e = (r - L)/L₀, plastic strain
 /// p = (L - L₀)/L₀, back strain c p with c = α/(1-α). Where |e - c p| > ε_y the rest length flows
 /// to L = (r + c L₀ ∓ ε_y L₀)/(1 + c), so that past yield a linear bond's tangent stiffness is α k
 /// (α = 0: perfectly plastic). Unloaded after stretching to strain ε > ε_y, it keeps the permanent

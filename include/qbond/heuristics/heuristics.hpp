@@ -50,9 +50,12 @@ class Heuristic {
   virtual ~Heuristic() = default;
   /// Name used in scene files and logs.
   virtual std::string_view name() const = 0;
-  /// Edits the projection and/or the state's bonds. Topology changes must go through
-  /// World::break_bond or World::form_bond (which bump state.topology_version).
-  virtual void apply(World& world, Projection& projection, const HeuristicContext& ctx) = 0;
+  /// Called once when the rule joins a simulation, before any step: a rule that makes bonds
+  /// interns their law's shape in the model here (Model::intern_shape), so a step never writes it.
+  virtual void bind(Model& /*model*/) {}
+  /// Edits the projection and/or the state's bonds. Bonds appear and break through the state's
+  /// mutators (State::break_bond, State::form_bond), which change its topology version.
+  virtual void apply(const Model& model, State& state, Projection& projection, const HeuristicContext& ctx) = 0;
 };
 
 /// Projected end-of-step position x + dx of quanta i.

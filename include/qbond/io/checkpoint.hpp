@@ -11,6 +11,7 @@
 ///   u64 checksum           FNV-1a 64 of every byte before it
 #include <bit>
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -24,9 +25,11 @@ static_assert(std::endian::native == std::endian::little, "checkpoints are writt
 // 2: bond times and formed bonds; 3: obstacle impulses; 4: the state in the world's locality
 // order (ordering.hpp), which a version-3 file of the same scene does not follow; 5: the
 // integrator's carry-over as a kind tag and its own fields (save_carry), and formed bonds save
-// their law's shape parameters (laws/law.hpp's LawShape) where they saved eps. Version 4 files
-// are still read, their carry-over and formed bonds converted.
-inline constexpr std::uint32_t kCheckpointVersion = 5;
+// their law's shape parameters (laws/law.hpp's LawShape) where they saved eps; 6: every bond
+// whole (State::bonds: ends, law, parameters, shape row, rest lengths, alive, time), where 5 saved
+// the formed bonds' entries only. Version 4 and 5 files are still read, their carry-over and
+// formed bonds converted (adopt_scene_bonds).
+inline constexpr std::uint32_t kCheckpointVersion = 6;
 
 /// A checkpoint that cannot be read: not one, another version, truncated or corrupted.
 class CheckpointError : public std::runtime_error {
@@ -34,16 +37,34 @@ class CheckpointError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A bond formed during the run as files before version 6 saved it (its shape by value).
+struct SavedFormedBond {
+  Index i = 0, j = 0;
+  Law law = Law::linear;
+  DampingModel damping_model = DampingModel::axial;
+  double strength = 0, damping = 0, rest0 = 0;
+  LawShape shape{};
+};
+
 /// What a checkpoint holds.
 struct Checkpoint {
   std::string metadata;  ///< the caller's JSON text
   State state;
+  /// Files before version 6 saved every bond's rest length, alive flag and time but the ends and
+  /// laws of the bonds formed during the run only (these): state.bonds then holds just those
+  /// three arrays, and adopt_scene_bonds completes it from the scene. Empty for newer files.
+  std::optional<std::vector<SavedFormedBond>> formed_before_v6;
 };
 
 /// Writes a checkpoint atomically.
 void save_checkpoint(const std::filesystem::path& path, std::string_view metadata, const State& state);
 /// Reads a checkpoint; throws CheckpointError naming the file and what is wrong.
 Checkpoint load_checkpoint(const std::filesystem::path& path);
+/// Makes a checkpoint's state fit the world its scene builds (`scene`, not yet run): a file
+/// before version 6 gets its bonds' ends and laws, the scene's bonds then its formed ones (their
+/// shapes interned in the scene's model, as the scene's formation rules did); any file has its
+/// counts and shape rows checked against the scene. Throws CheckpointError when they disagree.
+void adopt_scene_bonds(Checkpoint& checkpoint, World& scene);
 
 /// The exact bytes of a state (every field, vectors with their lengths).
 std::string serialize_state(const State& s);

@@ -31,8 +31,8 @@ inline constexpr std::size_t kMaxLawShape = 2;
 /// them; 0 stands for a parameter's default where it has one.
 using LawShape = std::array<double, kMaxLawShape>;
 
-/// What a law reads of one bond: its strength (Model::stiffness), the rest length it was made
-/// with (Model::rest0, for defaults relative to it) and its row of shape parameters.
+/// What a law reads of one bond: its strength (Bonds::strength), the rest length it was made
+/// with (Bonds::rest0, for defaults relative to it) and its row of shape parameters.
 struct LawArgs {
   double strength = 0;
   double rest0 = 0;

@@ -57,7 +57,7 @@ inline Mat3 damping_block(DampingModel model, double D, const Vec3& u) {
 
 /// Total force of a bond on its first quanta i (the force on j is exactly its negative).
 /// d = x_j - x_i, w = v_j - v_i. A zero-length bond has no direction and exerts no force.
-/// Model::bond_force_on_i gives a bond's.
+/// Bonds::force_on_i gives a bond's.
 inline Vec3 bond_force_on_i(Law law, DampingModel model, const Vec3& d, const Vec3& w, double L, double D,
                             const LawArgs& a) {
   const double r = d.norm();

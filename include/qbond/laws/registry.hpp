@@ -112,7 +112,7 @@ struct LawInfo {
   Law law;
   std::string_view name;               ///< as written in scene files
   std::string_view doc;                ///< its formula, one line
-  LawParam strength;                   ///< the per-bond parameter (Model::stiffness)
+  LawParam strength;                   ///< the per-bond parameter (Bonds::strength)
   std::span<const LawParam> shape;     ///< the material's shape parameters (Model::shapes)
   bool calibrated_by_modulus;          ///< its strength is its stiffness at rest [N/m]
   std::string_view (*invalid)(const LawShape&);  ///< cross-parameter rule: empty when valid

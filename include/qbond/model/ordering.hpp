@@ -9,7 +9,7 @@
 /// the hardware prefetcher streams (a Morton order keeps neighbours closer but scatters them
 /// over more offsets, and steps run slower); bonds so that a lattice's
 /// form affine runs (locality_order). As LAMMPS does with its atom tags, the user's ids stay
-/// with the quanta and bonds (Model::quanta_id, Model::bond_id): outputs and selections speak
+/// with the quanta and bonds (Model::quanta_id, Bonds::id): outputs and selections speak
 /// them.
 #include <cassert>
 #include <vector>
@@ -30,17 +30,17 @@ struct Renumbering {
 /// ends, then the index offset between their ends, then first end, when that puts at least half
 /// of them in affine runs (consecutive bonds whose ends both advance by one, which the paper's
 /// hybrid step loads and updates as contiguous vectors: a lattice), else by their (first end,
-/// second end) (a mesh or packing); ties by index. Bonds formed during the run (State::formed)
-/// keep their slots at the end. The quanta keep their given order instead when it puts more
-/// bonds in affine runs (a lattice built row by row and then rotated, whose rows the world's
-/// bins cut across). A builder's lattice, made x fastest, keeps its quanta order, rotated or
-/// not; a sorted world maps to the identity.
+/// second end) (a mesh or packing); ties by index. Bonds formed during the run (from
+/// Bonds::first_formed on) keep their slots at the end. The quanta keep their given order
+/// instead when it puts more bonds in affine runs (a lattice built row by row and then rotated,
+/// whose rows the world's bins cut across). A builder's lattice, made x fastest, keeps its
+/// quanta order, rotated or not; a sorted world maps to the identity.
 Renumbering locality_order(const World& world);
 
 /// Renumbers every per-quanta and per-bond array of the world, the quanta of its motions and
-/// loads, the formed bonds' ends and the integrator's carried state, and bumps the topology
-/// version. `r` must leave formed bonds in their slots (locality_order does). Results of a step
-/// change only by summation order (round-off).
+/// loads and the integrator's carried state, and changes the topology version. `r` must leave
+/// formed bonds in their slots (locality_order does). Results of a step change only by
+/// summation order (round-off).
 void renumber(World& world, const Renumbering& r);
 
 /// Moves values[offset + k] to values[offset + p[k]] for k < p.size(): a per-quanta array
@@ -55,8 +55,8 @@ void permute(std::vector<T, A>& values, const std::vector<Index>& p, std::size_t
 
 /// The index of the quanta of each user id: at[Model::quanta_id[i]] = i.
 std::vector<Index> quanta_by_id(const Model& model);
-/// The index of the bond of each user id: at[Model::bond_id[b]] = b.
-std::vector<Index> bonds_by_id(const Model& model);
+/// The index of the bond of each user id: at[Bonds::id[b]] = b.
+std::vector<Index> bonds_by_id(const Bonds& bonds);
 
 /// Maps a list of old quanta indices to new ones, in place.
 void renumber_quanta(std::vector<Index>& quanta, const Renumbering& r);

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "qbond/integrators/carry.hpp"
+#include "qbond/model/bonds.hpp"
 #include "qbond/laws/laws.hpp"
 #include "qbond/core/line_vector.hpp"
 #include "qbond/core/math.hpp"
@@ -31,6 +32,8 @@ struct Motion {
   std::vector<Index> quanta;     ///< quanta that follow this motion
   std::vector<Vec3> x0;          ///< their reference positions [m] (same length as `quanta`)
 
+  bool operator==(const Motion&) const = default;
+
   /// Position and velocity at time t of the k-th quanta of this motion.
   void at(std::size_t k, double t, Vec3& x, Vec3& v) const;
 };
@@ -39,9 +42,12 @@ struct Motion {
 struct Load {
   std::vector<Index> quanta;
   Vec3 force = Vec3::Zero();  ///< total force [N]
+
+  bool operator==(const Load&) const = default;
 };
 
-/// Everything a step only reads: masses, bond parameters, gravity, loads, prescribed motions.
+/// Everything a step only reads: masses, the bonds' table of law shapes, gravity, loads,
+/// prescribed motions. Built with the world, then const for the whole run.
 struct Model {
   // quanta (n)
   std::vector<double> mass;      ///< [kg] (n)
@@ -52,55 +58,22 @@ struct Model {
   std::vector<Index> quanta_id;  ///< the user's id of each quanta (n): creation order, kept when
                                  ///< the world is renumbered for locality (ordering.hpp)
   std::vector<std::string> body_names;  ///< (bodies)
-  // bonds (nb)
-  std::vector<Index> bond_i, bond_j;         ///< endpoints (nb)
-  std::vector<Index> bond_id;                ///< the user's id of each bond (nb): creation order
-                                             ///< or formed slot, kept by renumbering
-  /// (nb) law and damping model: the bond passes read them when the topology changes
-  /// (State::topology_version), so a change to an existing bond's must bump it.
-  std::vector<Law> law;
-  std::vector<DampingModel> damping_model;  ///< (nb) see `law`
-  /// (nb) the strength of the bond's law, its per-bond parameter (LawInfo::strength): k [N/m]
-  /// for linear, F [N] for inverse, D0 [J] for morse, K [N/m] for fene, k [N/m] for cohesive.
-  std::vector<double> stiffness;
-  std::vector<double> damping;    ///< D [N·s/m] (nb)
-  std::vector<double> rest0;      ///< rest length the bond was made with [m] (nb); plastic strain
-                                  ///< is measured from it (State::rest is the current one)
-  /// (nb) the bond's row of `shapes`: its law's shape parameters, shared by the bonds of one
-  /// material as LAMMPS's bond types share their coefficients.
-  std::vector<std::uint32_t> law_shape;
-  std::vector<LawShape> shapes;   ///< the table of shape parameters (intern_shape adds rows)
+  /// The table of the bonds' law shape parameters (Bonds::shape indexes it), shared by the bonds
+  /// of one material as LAMMPS's bond types share their coefficients. Every row a run can use is
+  /// added while the world is built (add_bond, a formation rule's Heuristic::bind), so a step
+  /// never writes the Model.
+  std::vector<LawShape> shapes;
   // environment
   Vec3 gravity = Vec3::Zero();    ///< [m/s²]
   std::vector<Load> loads;
   std::vector<Motion> motions;
 
   std::size_t num_quanta() const { return mass.size(); }
-  std::size_t num_bonds() const { return bond_i.size(); }
   bool is_kinematic(Index i) const { return inv_mass[i] == 0.0; }
-  /// What bond b's law reads besides the lengths.
-  [[gnu::always_inline]] LawArgs law_args(std::size_t b) const { return {stiffness[b], rest0[b], shapes[law_shape[b]]}; }
-  /// Bond b's law at length r for rest length L.
-  [[gnu::always_inline]] LawValue law_at(std::size_t b, double r, double L) const {
-    if (law[b] == Law::linear) return LinearLaw::eval(r, L, {.strength = stiffness[b]});
-    return evaluate_law(law[b], r, L, law_args(b));
-  }
-  /// Bond b's mean tension over a step from length r0 to r1 (MeanTension).
-  MeanTension mean_tension_at(std::size_t b, double r0, double r1, double L) const {
-    if (law[b] == Law::linear) return LinearLaw::mean(r0, r1, L, {.strength = stiffness[b]});
-    return mean_tension(law[b], r0, r1, L, law_args(b));
-  }
-  /// Bond b's force on its first quanta (laws.hpp's bond_force_on_i): d = x_j − x_i, w = v_j − v_i.
-  [[gnu::always_inline]] Vec3 bond_force_on_i(std::size_t b, const Vec3& d, const Vec3& w, double L) const {
-    const LawArgs a = law[b] == Law::linear ? LawArgs{.strength = stiffness[b]} : law_args(b);
-    return qbond::bond_force_on_i(law[b], damping_model[b], d, w, L, damping[b], a);
-  }
-  /// Stretch r − L at which bond b's law breaks it (+∞: never).
-  double failure_stretch_at(std::size_t b, double L) const {
-    return law_breaks(law[b]) ? failure_stretch(law[b], L, law_args(b)) : std::numeric_limits<double>::infinity();
-  }
   /// The row of `shapes` holding `shape`, added when there is none yet.
   std::uint32_t intern_shape(const LawShape& shape);
+
+  bool operator==(const Model&) const = default;  ///< field by field (tests)
 };
 
 /// Running energy accounts (docs/integrators.md); with the current energies they close the budget
@@ -129,32 +102,17 @@ struct ObstacleImpulse {
   bool operator==(const ObstacleImpulse&) const = default;
 };
 
-/// A bond made during the run (bond formation): its Model entries, kept in the State so that a
-/// checkpoint carries them.
-struct FormedBond {
-  Index i = 0, j = 0;
-  Law law = Law::linear;
-  DampingModel damping_model = DampingModel::axial;
-  double stiffness = 0, damping = 0, rest0 = 0;
-  LawShape shape{};  ///< its law's shape parameters (BondSpec::shape)
-};
-
 /// Everything a step changes; a checkpoint of this continues a run bit for bit.
 struct State {
   std::vector<Vec3> x;           ///< position [m] (n)
   std::vector<Vec3> v;           ///< velocity [m/s] (n)
-  std::vector<double> rest;      ///< rest length L [m] (nb); plasticity edits it
-  std::vector<std::uint8_t> alive;  ///< 1 while the bond holds (nb)
-  std::vector<double> bond_time; ///< [s] when the bond was last made or broken (nb; 0 for the
-                                 ///< scene's bonds until they break)
-  /// The bonds made during the run: the model's last formed.size() bonds (the first
-  /// rest.size() - formed.size() come from the scene). Their slots are reused once broken.
-  std::vector<FormedBond> formed;
+  /// The bonds: ends, laws, rest lengths, alive. Code that only reads them, and plasticity's
+  /// rest lengths, use the arrays; bonds appear, break or change law through the mutators below.
+  Bonds bonds;
   double time = 0;               ///< [s]
   std::uint64_t step = 0;
   Rng rng;
   EnergyLedger energy;
-  std::uint64_t topology_version = 0;  ///< bumped whenever bonds appear or break
   /// What the integrator carries from one step to the next (carry.hpp): the last solver
   /// solutions, BDF2's previous state or velocity Verlet's last bond forces. Kept here so that
   /// checkpoints and rollbacks carry it; after editing bond parameters by hand, call
@@ -162,6 +120,29 @@ struct State {
   Carry carry;
   /// Per recorded obstacle (Obstacle::record), the impulse it has given (n_obstacles).
   std::vector<ObstacleImpulse> obstacle_impulse;
+
+  /// Changes whenever bonds appear, break or change ends, law or damping model: what was derived
+  /// from the bonds (adjacency, bond partitions) is rebuilt when it differs. Only the mutators
+  /// below change it.
+  std::uint64_t topology_version() const { return topology_version_; }
+  /// Appends a bond of the scene between quanta i and j with rest length (and rest0) L.
+  Index add_bond(Index i, Index j, const BondLaw& law, double L);
+  /// Marks bond b broken at the current time (nothing when it is already).
+  void break_bond(Index b);
+  /// Makes a bond during the run (formation): rest length and rest0 L, made at the current time,
+  /// in formed slot `slot` (a broken one to reuse) or appended when slot == bonds.size().
+  Index form_bond(Index i, Index j, const BondLaw& law, double L, Index slot);
+  /// The bonds for an edit of their ends, laws or damping models by hand (or a renumbering):
+  /// changes the topology version. Edits of strengths or rest lengths need no call (they are read
+  /// every step), but a carry-over may not hold after them (drop_after_bond_edit).
+  Bonds& edit_bonds() {
+    ++topology_version_;
+    return bonds;
+  }
+
+ private:
+  std::uint64_t topology_version_ = 0;
+  friend struct StateFile;  // the checkpoint reader restores it
 };
 
 /// CSR adjacency of alive bonds, derived from the bond list (never edited by hand).
@@ -169,7 +150,7 @@ struct Adjacency {
   std::vector<Index> offset;    ///< (n + 1): quanta i's entries are [offset[i], offset[i+1])
   std::vector<Index> bond;      ///< bond id of each entry
   std::vector<Index> other;     ///< the other endpoint of each entry
-  std::uint64_t version = ~0ull;  ///< the State::topology_version it was built from
+  std::uint64_t version = ~0ull;  ///< the State::topology_version() it was built from
 };
 
 /// Builds the CSR adjacency of the alive bonds (entries ordered by bond id).
@@ -178,7 +159,7 @@ void build_adjacency(const Model& model, const State& state, Adjacency& adj);
 /// Parameters of a new bond.
 struct BondSpec {
   Law law = Law::linear;
-  double stiffness = 0;  ///< the law's strength (Model::stiffness): k [N/m] (linear), F [N] (inverse), …
+  double stiffness = 0;  ///< the law's strength (Bonds::strength): k [N/m] (linear), F [N] (inverse), …
   double damping = 0;    ///< D [N·s/m]
   DampingModel damping_model = DampingModel::axial;
   double rest_length = -1;  ///< [m]; negative: the current distance
@@ -187,6 +168,10 @@ struct BondSpec {
   /// failure strain). add_bond checks them (invalid_law_shape).
   LawShape shape{};
 };
+
+/// The bond law `spec` describes, its shape interned in the model's table (Model::shapes).
+/// Throws std::invalid_argument for an unknown law or invalid shape parameters.
+BondLaw bond_law(Model& model, const BondSpec& spec);
 
 /// A model and its state, with helpers that keep the arrays consistent.
 struct World {
@@ -206,16 +191,9 @@ struct World {
   /// Adds a constant load (total force spread evenly over `quanta`).
   void add_load(std::vector<Index> quanta, const Vec3& total_force);
   /// Marks a bond broken at the current time; it leaves the solver from the next adjacency build.
-  void break_bond(Index b);
-  /// Makes a bond during the run (bond formation): rest length and rest0 = `rest_length`, in
-  /// formed slot `slot` (a broken one to reuse), or appended when slot == num_bonds().
-  Index form_bond(Index i, Index j, const BondSpec& spec, double rest_length, Index slot);
-  /// Makes the model's formed bonds those of state.formed again (after the state was replaced:
-  /// a rollback or a resumed checkpoint).
-  void sync_formed_bonds();
-
+  void break_bond(Index b) { state.break_bond(b); }
   std::size_t num_quanta() const { return model.num_quanta(); }
-  std::size_t num_bonds() const { return model.num_bonds(); }
+  std::size_t num_bonds() const { return state.bonds.size(); }
   std::size_t num_alive_bonds() const;
 };
 

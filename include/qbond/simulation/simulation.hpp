@@ -59,8 +59,12 @@ class Simulation {
   void add_force(Index i, const Vec3& f);
   /// Drops the forces add_force queued for the next step (a step retried re-queues them).
   void clear_forces();
-  /// Appends a heuristic to the ordered list.
-  void add_heuristic(std::unique_ptr<Heuristic> h) { heuristics_.push_back(std::move(h)); }
+  /// Appends a heuristic to the ordered list (before the run: it may add law shapes to the model,
+  /// Heuristic::bind).
+  void add_heuristic(std::unique_ptr<Heuristic> h) {
+    h->bind(world_.model);
+    heuristics_.push_back(std::move(h));
+  }
   /// Removes every heuristic (a viewer turning them off).
   void clear_heuristics() { heuristics_.clear(); }
   void add_observer(Observer* o) { observers_.push_back(o); }

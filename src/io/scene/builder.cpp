@@ -57,6 +57,9 @@ Scene Builder::build() {
   if (top.has("anchors")) anchors(array(top["anchors"], "anchors"), w);
   if (top.has("loads")) loads(array(top["loads"], "loads"), w);
   if (top.has("heuristics")) s.heuristics = heuristics(array(top["heuristics"], "heuristics"), w);
+  // The shapes of the bonds formation may make join the model's table now: a step never writes it.
+  for (const HeuristicSpec& h : s.heuristics)
+    if (const auto* f = std::get_if<FormRule>(&h)) bond_law(w.model, f->bond);
   // A law that breaks its bonds at a failure stretch (cohesive) does so through the break
   // heuristic: a scene with such bonds and no break rule gets BreakRule{}, which applies only that.
   if (can_fail(w, s.heuristics) &&

@@ -63,7 +63,7 @@ std::vector<Index> Builder::selection(const json& j, const std::string& path, co
 
 void Builder::bonds(const json& j, World& w) {
   std::unordered_set<std::uint64_t> existing;
-  for (std::size_t b = 0; b < w.num_bonds(); ++b) existing.insert(pair_key(w.model.bond_i[b], w.model.bond_j[b]));
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) existing.insert(pair_key(w.state.bonds.i[b], w.state.bonds.j[b]));
   for (std::size_t k = 0; k < j.size(); ++k) {
     const std::string path = item("bonds", k);
     if (!j[k].is_object()) bad(path, "expected an object, got " + type_name(j[k]));
@@ -105,7 +105,7 @@ void Builder::bonds(const json& j, World& w) {
 void Builder::check_overlaps(const World& w) {
   double shortest = INFINITY;
   for (std::size_t b = 0; b < w.num_bonds(); ++b)
-    if (w.state.rest[b] > 0) shortest = std::min(shortest, w.state.rest[b]);
+    if (w.state.bonds.rest[b] > 0) shortest = std::min(shortest, w.state.bonds.rest[b]);
   const double limit = std::isfinite(shortest) ? 0.01 * shortest : 1e-9;
   for (const auto& [a, b] : pairs_within_radius(w.state.x, limit)) {
     const auto& names = w.model.body_names;

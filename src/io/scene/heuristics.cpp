@@ -162,7 +162,7 @@ std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
 
 void Builder::check_contact_radius(const QuantaContactRule& r, const Obj& o, const World& w) {
   std::unordered_set<std::uint64_t> bonded;
-  for (std::size_t b = 0; b < w.num_bonds(); ++b) bonded.insert(pair_key(w.model.bond_i[b], w.model.bond_j[b]));
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) bonded.insert(pair_key(w.state.bonds.i[b], w.state.bonds.j[b]));
   for (const auto& [a, b] : pairs_within_radius(w.state.x, 2 * r.radius)) {
     if (bonded.count(pair_key(a, b))) continue;
     if (!r.same_body && w.model.body[a] == w.model.body[b]) continue;

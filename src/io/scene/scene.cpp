@@ -91,11 +91,12 @@ Scene load_scene(const std::filesystem::path& file) {
 double explicit_step_hint(const World& w) {
   const Model& m = w.model;
   std::vector<double> k_sum(m.num_quanta(), 0.0);
-  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
-    if (!w.state.alive[b]) continue;
-    const double k = rest_stiffness(m.law[b], m.law_args(b));
-    k_sum[m.bond_i[b]] += k;
-    k_sum[m.bond_j[b]] += k;
+  const Bonds& bonds = w.state.bonds;
+  for (std::size_t b = 0; b < bonds.size(); ++b) {
+    if (!bonds.alive[b]) continue;
+    const double k = rest_stiffness(bonds.law[b], bonds.law_args(m.shapes, b));
+    k_sum[bonds.i[b]] += k;
+    k_sum[bonds.j[b]] += k;
   }
   double w2 = 0;
   for (std::size_t i = 0; i < m.num_quanta(); ++i) w2 = std::max(w2, 2 * k_sum[i] * m.inv_mass[i]);
@@ -120,7 +121,7 @@ std::string scene_summary(const Scene& s) {
   o << "  scene      " << s.name << (s.description.empty() ? "" : ": " + s.description) << "\n"
     << "  quanta     " << m.num_quanta() << " (" << m.num_quanta() - kinematic << " free, " << kinematic
     << " anchored or prescribed)\n"
-    << "  bonds      " << m.num_bonds() << "\n"
+    << "  bonds      " << w.num_bonds() << "\n"
     << "  bodies     " << m.body_names.size() << "\n"
     << "  mass       " << mass << " kg\n"
     << "  box        [" << lo.x() << ", " << lo.y() << ", " << lo.z() << "] .. [" << hi.x() << ", " << hi.y() << ", "
