@@ -24,6 +24,8 @@ struct PySimulation {
   std::vector<Vec3> external;  ///< [N] (n) added to every step (external_forces)
   std::vector<Vec3> user;      ///< [N] (n) the callback's buffer
   py::object force_callback = py::none();  ///< None, or f(x, v, f) filling f
+  bool track_energy = true;    ///< mirrors Simulation::set_track_energy (which has no getter)
+  bool keep_last_good = true;  ///< mirrors Simulation::set_keep_last_good
 
   PySimulation(World world, const IntegratorConfig& config, double h)
       : sim(std::make_unique<Simulation>(std::move(world), config, h)),
@@ -200,6 +202,20 @@ void bind_simulation(py::module_& m) {
           [](py::object self, py::object fn) { of(self).force_callback = std::move(fn); }, py::arg("fn"),
           "Calls fn(x, v, f) before every step with read-only views of positions and velocities and a zeroed (n, 3) "
           "array f to fill with forces [N] for that step; None removes it.")
+      .def_property(
+          "track_energy", [](py::object self) { return of(self).track_energy; },
+          [](py::object self, bool on) {
+            of(self).track_energy = on;
+            of(self).sim->set_track_energy(on);
+          },
+          "Whether each step updates the energy ledger and checks it for a runaway (one pass over the bonds).")
+      .def_property(
+          "keep_last_good", [](py::object self) { return of(self).keep_last_good; },
+          [](py::object self, bool on) {
+            of(self).keep_last_good = on;
+            of(self).sim->set_keep_last_good(on);
+          },
+          "Whether each step keeps a copy of the state to roll an energy runaway back to (a copy per step).")
       .def("clear_heuristics", [](py::object self) { of(self).sim->clear_heuristics(); }, "Removes every heuristic.")
       // Energies.
       .def(

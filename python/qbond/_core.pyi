@@ -165,6 +165,10 @@ class Simulation:
         self, fn: Optional[Callable[[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]], None]]
     ) -> None:
         """fn(x, v, f) before every step fills f [N] for that step; None removes it."""
+    track_energy: bool
+    """Whether each step updates the energy ledger and checks it for a runaway."""
+    keep_last_good: bool
+    """Whether each step keeps a copy of the state to roll an energy runaway back to."""
     def clear_heuristics(self) -> None: ...
     def energies(self) -> dict[str, float]: ...
     def ledger(self) -> dict[str, float]: ...
