@@ -1,7 +1,7 @@
 """Builds the Python module with CMake: the compiled qbond._core and the package python/qbond.
 
-The version is the one CMakeLists.txt's project() declares. The CMake build goes to build-pip/
-(CMAKE_BUILD_PARALLEL_LEVEL jobs, 2 by default)."""
+The version is the one CMakeLists.txt's project() declares. The CMake build goes to build-pip/,
+or to $QBOND_PIP_BUILD_DIR (CMAKE_BUILD_PARALLEL_LEVEL jobs, 2 by default)."""
 import os
 import re
 import shutil
@@ -13,6 +13,7 @@ from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
 ROOT = Path(__file__).resolve().parent
+BUILD = Path(os.environ.get("QBOND_PIP_BUILD_DIR", ROOT / "build-pip"))
 
 
 def project_version() -> str:
@@ -27,7 +28,7 @@ class CMakeBuild(build_ext):
     """Configures and builds the qbond_python target, then copies the extension where setuptools wants it."""
 
     def build_extension(self, ext: Extension) -> None:
-        build_dir = ROOT / "build-pip" / "cmake"
+        build_dir = BUILD / "cmake"
         subprocess.run(
             ["cmake", "-S", str(ROOT), "-B", str(build_dir), "-DCMAKE_BUILD_TYPE=Release",
              "-DQBOND_BUILD_TESTS=OFF", "-DQBOND_BUILD_APPS=OFF", "-DQBOND_BUILD_PYTHON=ON",
@@ -50,6 +51,6 @@ setup(
     package_data={"qbond": ["_core.pyi", "py.typed"]},
     ext_modules=[Extension("qbond._core", sources=[])],
     cmdclass={"build_ext": CMakeBuild},
-    options={"build": {"build_base": str(ROOT / "build-pip")}},
+    options={"build": {"build_base": str(BUILD)}},
     zip_safe=False,
 )
