@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """What the Python module adds to a step: the canonical workload (docs/performance.md) stepped from
-Python against the same bare step in C++ (qbond_step_times), and the cost of a Python force
-callback per quanta. Each step is timed on its own and the medians compared, as qbond_step_times
+Python against the same bare step in C++ (qbond_step_times), and the cost per quanta of a Python
+force callback and of a Python heuristic. Each step is timed on its own and the medians compared, as qbond_step_times
 does (a shared host's slow steps then do not decide the result).
 
     PYTHONPATH=build/python /usr/bin/python3 bench/python_overhead.py build/qbond_step_times [--n 20] [--steps 200]
@@ -27,12 +27,14 @@ def canonical(n):
         "anchors": [{"select": {"box": [[-1e-9, -1, -1], [1e-9, 1e3, 1e3]]}}]})
 
 
-def python_step_ms(n, steps, callback=None):
+def python_step_ms(n, steps, callback=None, heuristic=None):
     sim = qbond.Simulation(canonical(n))
     sim.set_integrator(threads=1)
     sim.track_energy = False  # the bare step, as qbond_step_times times it
     sim.keep_last_good = False
     sim.set_force_callback(callback)
+    if heuristic:
+        sim.add_heuristic(heuristic)
     sim.step(5)  # buffers grown, caches warm
     ms = []
     for _ in range(steps):
@@ -59,7 +61,8 @@ def main():
     def drag(x, v, f):
         np.multiply(v, -1e-3, out=f)
 
-    rows = {"C++": [], "Python": [], "Python + empty callback": [], "Python + drag callback": []}
+    rows = {"C++": [], "Python": [], "Python + empty callback": [], "Python + drag callback": [],
+            "Python + empty heuristic": []}
     n_quanta = 0
     for _ in range(args.rounds):  # interleaved, so that the host's load falls on every row alike
         rows["C++"].append(cpp_step_ms(args.step_times, args.n, args.steps))
@@ -67,6 +70,7 @@ def main():
         rows["Python + empty callback"].append(python_step_ms(args.n, args.steps, lambda x, v, f: None)[0])
         t, n_quanta = python_step_ms(args.n, args.steps, drag)
         rows["Python + drag callback"].append(t)
+        rows["Python + empty heuristic"].append(python_step_ms(args.n, args.steps, heuristic=lambda x, dx, dv: None)[0])
     base = statistics.median(rows["C++"])
     print(f"canonical lattice n = {args.n} ({n_quanta} quanta), default integrator, 1 thread, "
           f"median of {args.steps} steps, median of {args.rounds} rounds")

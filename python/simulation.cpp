@@ -17,6 +17,8 @@ namespace qbond::python {
 
 namespace {
 
+class PyHeuristic;
+
 /// A Simulation and what the module adds to it: forces that stay applied until changed, and a
 /// Python force callback.
 struct PySimulation {
@@ -26,6 +28,7 @@ struct PySimulation {
   py::object force_callback = py::none();  ///< None, or f(x, v, f) filling f
   bool track_energy = true;    ///< mirrors Simulation::set_track_energy (which has no getter)
   bool keep_last_good = true;  ///< mirrors Simulation::set_keep_last_good
+  std::vector<PyHeuristic*> py_heuristics;  ///< the Python heuristics among the simulation's
 
   PySimulation(World world, const IntegratorConfig& config, double h)
       : sim(std::make_unique<Simulation>(std::move(world), config, h)),
@@ -76,6 +79,44 @@ py::dict config_dict(const IntegratorConfig& c) {
   return d;
 }
 
+/// A heuristic written in Python: fn(x, dx, dv) between projection and application, with a
+/// read-only view of the positions and writable views of the step's projected changes. The step
+/// runs without the GIL, so apply takes it; an exception is kept and raised once the step returns
+/// (that step applies without the heuristic's edits past the point it raised).
+class PyHeuristic final : public Heuristic {
+ public:
+  /// `owner` is the Python Simulation that owns this heuristic, borrowed (a reference would
+  /// make a cycle no collector sees): it outlives the heuristic, and the views keep it alive.
+  PyHeuristic(py::object fn, py::handle owner) : fn_(std::move(fn)), owner_(owner) {}
+  ~PyHeuristic() override {
+    py::gil_scoped_acquire acquire;  // the Python objects are released with the GIL held
+    fn_ = py::object();
+    error_.reset();
+  }
+  std::string_view name() const override { return "python"; }
+  void apply(World& world, Projection& p, const HeuristicContext&) override {
+    py::gil_scoped_acquire acquire;
+    if (error_) return;
+    try {
+      fn_(vec3_view(world.state.x, owner_, false), vec3_view(p.dx, owner_, true), vec3_view(p.dv, owner_, true));
+    } catch (py::error_already_set& e) {
+      error_ = std::make_unique<py::error_already_set>(std::move(e));
+    }
+  }
+  /// Raises the exception the callback raised during the last step, if any.
+  void rethrow() {
+    if (!error_) return;
+    std::unique_ptr<py::error_already_set> e = std::move(error_);
+    e->restore();
+    throw py::error_already_set();
+  }
+
+ private:
+  py::object fn_;
+  py::handle owner_;
+  std::unique_ptr<py::error_already_set> error_;
+};
+
 bool any_nonzero(const std::vector<Vec3>& f) {
   for (const Vec3& v : f)
     if (v.x() != 0 || v.y() != 0 || v.z() != 0) return true;
@@ -103,6 +144,10 @@ void step_n(py::object self_obj, std::uint64_t n) {
     }
     if (any_nonzero(self.external)) queue(sim, self.external);
     const StepReport r = sim.step();
+    if (!self.py_heuristics.empty()) {
+      py::gil_scoped_acquire acquire;
+      for (PyHeuristic* h : self.py_heuristics) h->rethrow();
+    }
     if (r.status == StepReport::Status::blowup) {
       py::gil_scoped_acquire acquire;
       raise_blowup(r.message);
@@ -216,7 +261,25 @@ void bind_simulation(py::module_& m) {
             of(self).sim->set_keep_last_good(on);
           },
           "Whether each step keeps a copy of the state to roll an energy runaway back to (a copy per step).")
-      .def("clear_heuristics", [](py::object self) { of(self).sim->clear_heuristics(); }, "Removes every heuristic.")
+      .def(
+          "add_heuristic",
+          [](py::object self, py::object fn) {
+            auto h = std::make_unique<PyHeuristic>(std::move(fn), self.ptr());
+            of(self).py_heuristics.push_back(h.get());
+            of(self).sim->add_heuristic(std::move(h));
+          },
+          py::arg("fn"),
+          "Adds a heuristic after the others: fn(x, dx, dv) is called every step between the projection and its "
+          "application, with a read-only view of the positions and writable (n, 3) views of the step's projected "
+          "position and velocity changes to edit. Energy it removes shows in the ledger's dissipated_numerical. "
+          "An exception it raises is raised by step() after that step.")
+      .def(
+          "clear_heuristics",
+          [](py::object self) {
+            of(self).py_heuristics.clear();
+            of(self).sim->clear_heuristics();
+          },
+          "Removes every heuristic (the scene's and the Python ones).")
       // Energies.
       .def(
           "energies",

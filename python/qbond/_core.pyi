@@ -169,7 +169,12 @@ class Simulation:
     """Whether each step updates the energy ledger and checks it for a runaway."""
     keep_last_good: bool
     """Whether each step keeps a copy of the state to roll an energy runaway back to."""
-    def clear_heuristics(self) -> None: ...
+    def add_heuristic(
+        self, fn: Callable[[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]], None]
+    ) -> None:
+        """fn(x, dx, dv) between each step's projection and its application edits the writable dx, dv."""
+    def clear_heuristics(self) -> None:
+        """Removes every heuristic (the scene's and the Python ones)."""
     def energies(self) -> dict[str, float]: ...
     def ledger(self) -> dict[str, float]: ...
     def save_checkpoint(self, path: str) -> None: ...

@@ -12,7 +12,7 @@ cd "$work"  # not the source tree: the installed package, not python/qbond, is i
 "$work/venv/bin/python" - "$source" <<'PY'
 import re, sys
 import qbond
-project = re.search(r"project\(qbond VERSION (\S+)\)", open(sys.argv[1] + "/CMakeLists.txt").read()).group(1)
+project = re.search(r"project\(qbond VERSION (\d+\.\d+\.\d+)", open(sys.argv[1] + "/CMakeLists.txt").read()).group(1)
 assert qbond.__version__ == project, (qbond.__version__, project)
 assert "/venv/" in qbond.__file__, qbond.__file__
 sim = qbond.Simulation(qbond.World(), 1e-3)
