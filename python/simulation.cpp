@@ -157,6 +157,18 @@ void step_n(py::object self_obj, std::uint64_t n) {
 
 PySimulation& of(py::object& o) { return o.cast<PySimulation&>(); }
 
+/// Puts a saved state in the world after checking it is one of this world (its quanta and scene
+/// bonds); `where` prefixes the error. A copy assignment: the arrays keep their storage, and so
+/// the views of them stay valid.
+void put_state(World& w, const State& s, const std::string& where) {
+  const std::size_t bonds = w.state.rest.size() - w.state.formed.size(), saved = s.rest.size() - s.formed.size();
+  if (s.x.size() != w.num_quanta() || saved != bonds)
+    throw CheckpointError(where + "the state holds " + std::to_string(s.x.size()) + " quanta and " + std::to_string(saved) +
+                          " bonds, the simulation has " + std::to_string(w.num_quanta()) + " and " + std::to_string(bonds));
+  w.state = s;
+  w.sync_formed_bonds();
+}
+
 }  // namespace
 
 void bind_simulation(py::module_& m) {
@@ -322,13 +334,7 @@ void bind_simulation(py::module_& m) {
       .def(
           "restore_checkpoint",
           [](py::object self, const std::string& path) {
-            Checkpoint c = load_checkpoint(path);
-            World& w = of(self).sim->world();
-            if (c.state.x.size() != w.num_quanta())
-              throw CheckpointError(path + ": holds " + std::to_string(c.state.x.size()) + " quanta, the simulation has " +
-                                    std::to_string(w.num_quanta()));
-            w.state = c.state;  // a copy assignment: the arrays keep their storage (and any view of it)
-            w.sync_formed_bonds();
+            put_state(of(self).sim->world(), load_checkpoint(path).state, path + ": ");
           },
           py::arg("path"), "Puts the simulation back in a checkpoint's state. Raises CheckpointError.")
       .def(
@@ -337,13 +343,7 @@ void bind_simulation(py::module_& m) {
       .def(
           "set_state_bytes",
           [](py::object self, const py::bytes& b) {
-            State s = deserialize_state(std::string(b));
-            World& w = of(self).sim->world();
-            if (s.x.size() != w.num_quanta())
-              throw CheckpointError("state holds " + std::to_string(s.x.size()) + " quanta, the simulation has " +
-                                    std::to_string(w.num_quanta()));
-            w.state = s;
-            w.sync_formed_bonds();
+            put_state(of(self).sim->world(), deserialize_state(std::string(b)), "");
           },
           py::arg("state"), "Puts back a state state_bytes returned. Raises CheckpointError.")
       .def("__repr__", [](py::object self) {

@@ -76,6 +76,13 @@ def test_unreadable_checkpoint_raises_checkpoint_error(tmp_path):
     sim = qbond.Simulation(qbond.World(), 1e-3)
     with pytest.raises(qbond.CheckpointError):
         sim.restore_checkpoint(str(path))
+    # A checkpoint of another world.
+    other = qbond.World()
+    other.add_quanta((0, 0, 0))
+    saved = str(tmp_path / "other.qbc")
+    qbond.Simulation(other, 1e-3).save_checkpoint(saved)
+    with pytest.raises(qbond.CheckpointError, match="holds 1 quanta and 0 bonds, the simulation has 0 and 0"):
+        sim.restore_checkpoint(saved)
 
 
 def test_blowup_raises_and_keeps_the_last_good_state():
