@@ -21,6 +21,7 @@
 #include "qbond/io/checkpoint.hpp"
 #include "qbond/simulation/runner.hpp"
 #include "qbond/builders/samples.hpp"
+#include "qbond/version.hpp"
 #include "viewer.hpp"
 
 namespace {

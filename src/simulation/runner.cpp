@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "qbond/version.hpp"
 #include "qbond/io/checkpoint.hpp"
 #include "qbond/io/diagnostics.hpp"
 #include "qbond/io/files.hpp"

@@ -1,0 +1,355 @@
+// Simulation: steps a world, with the integrator, heuristics and limits of a scene or of the
+// caller's choice; arrays of its state without copies.
+#include <cmath>
+#include <memory>
+
+#include "bindings.hpp"
+#include "bonds.hpp"
+#include "errors.hpp"
+
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/io/checkpoint.hpp"
+#include "qbond/io/scene.hpp"
+#include "qbond/simulation/simulation.hpp"
+#include "qbond/version.hpp"
+
+namespace qbond::python {
+
+namespace {
+
+class PyHeuristic;
+
+/// A Simulation and what the module adds to it: forces that stay applied until changed, and a
+/// Python force callback.
+struct PySimulation {
+  std::unique_ptr<Simulation> sim;
+  std::vector<Vec3> external;  ///< [N] (n) added to every step (external_forces)
+  std::vector<Vec3> user;      ///< [N] (n) the callback's buffer
+  py::object force_callback = py::none();  ///< None, or f(x, v, f) filling f
+  bool track_energy = true;    ///< mirrors Simulation::set_track_energy (which has no getter)
+  bool keep_last_good = true;  ///< mirrors Simulation::set_keep_last_good
+  std::vector<PyHeuristic*> py_heuristics;  ///< the Python heuristics among the simulation's
+
+  PySimulation(World world, const IntegratorConfig& config, double h)
+      : sim(std::make_unique<Simulation>(std::move(world), config, h)),
+        external(sim->world().num_quanta(), Vec3::Zero()),
+        user(sim->world().num_quanta(), Vec3::Zero()) {}
+};
+
+IntegratorConfig configure(IntegratorConfig c, const py::kwargs& options) {
+  for (const auto& [key_handle, value] : options) {
+    const std::string key = key_handle.cast<std::string>();
+    if (key == "neighbours") c.neighbours = parse_neighbour_model(value.cast<std::string>());
+    else if (key == "solver") c.solver = parse_coupled_solver(value.cast<std::string>());
+    else if (key == "warm_start") c.warm_start = parse_warm_start(value.cast<std::string>());
+    else if (key == "iterations") c.iterations = value.cast<int>();
+    else if (key == "max_iterations") c.max_iterations = value.cast<int>();
+    else if (key == "newton_iterations") c.newton_iterations = value.cast<int>();
+    else if (key == "threads") c.threads = value.cast<int>();
+    else if (key == "tolerance") c.tolerance = value.cast<double>();
+    else if (key == "chebyshev_rho") c.chebyshev_rho = value.cast<double>();
+    else if (key == "newton_polish") c.newton_polish = value.cast<bool>();
+    else if (key == "restore_momentum") c.restore_momentum = value.cast<bool>();
+    else if (key == "restore_energy") c.restore_energy = value.cast<bool>();
+    else {
+      std::string names;
+      for (const IntegratorOptionInfo& o : integrator_options()) names += (names.empty() ? "" : ", ") + std::string(o.key);
+      throw py::value_error("unknown integrator option '" + key + "' (options: " + names + ")");
+    }
+  }
+  make_integrator(c);  // checks the options (std::invalid_argument → ValueError)
+  return c;
+}
+
+py::dict config_dict(const IntegratorConfig& c) {
+  py::dict d;
+  d["type"] = std::string(to_string(c.type));
+  d["neighbours"] = std::string(to_string(c.neighbours));
+  d["solver"] = std::string(to_string(c.solver));
+  d["warm_start"] = std::string(to_string(c.warm_start));
+  d["iterations"] = c.iterations;
+  d["max_iterations"] = c.max_iterations;
+  d["newton_iterations"] = c.newton_iterations;
+  d["threads"] = c.threads;
+  d["tolerance"] = c.tolerance;
+  d["chebyshev_rho"] = c.chebyshev_rho;
+  d["newton_polish"] = c.newton_polish;
+  d["restore_momentum"] = c.restore_momentum;
+  d["restore_energy"] = c.restore_energy;
+  return d;
+}
+
+/// A heuristic written in Python: fn(x, dx, dv) between projection and application, with a
+/// read-only view of the positions and writable views of the step's projected changes. The step
+/// runs without the GIL, so apply takes it; an exception is kept and raised once the step returns
+/// (that step applies without the heuristic's edits past the point it raised).
+class PyHeuristic final : public Heuristic {
+ public:
+  /// `owner` is the Python Simulation that owns this heuristic, borrowed (a reference would
+  /// make a cycle no collector sees): it outlives the heuristic, and the views keep it alive.
+  PyHeuristic(py::object fn, py::handle owner) : fn_(std::move(fn)), owner_(owner) {}
+  ~PyHeuristic() override {
+    py::gil_scoped_acquire acquire;  // the Python objects are released with the GIL held
+    fn_ = py::object();
+    error_.reset();
+  }
+  std::string_view name() const override { return "python"; }
+  void apply(World& world, Projection& p, const HeuristicContext&) override {
+    py::gil_scoped_acquire acquire;
+    if (error_) return;
+    try {
+      fn_(vec3_view(world.state.x, owner_, false), vec3_view(p.dx, owner_, true), vec3_view(p.dv, owner_, true));
+    } catch (py::error_already_set& e) {
+      error_ = std::make_unique<py::error_already_set>(std::move(e));
+    }
+  }
+  /// Raises the exception the callback raised during the last step, if any.
+  void rethrow() {
+    if (!error_) return;
+    std::unique_ptr<py::error_already_set> e = std::move(error_);
+    e->restore();
+    throw py::error_already_set();
+  }
+
+ private:
+  py::object fn_;
+  py::handle owner_;
+  std::unique_ptr<py::error_already_set> error_;
+};
+
+bool any_nonzero(const std::vector<Vec3>& f) {
+  for (const Vec3& v : f)
+    if (v.x() != 0 || v.y() != 0 || v.z() != 0) return true;
+  return false;
+}
+
+void queue(Simulation& sim, const std::vector<Vec3>& f) {
+  for (std::size_t i = 0; i < f.size(); ++i)
+    if (f[i].x() != 0 || f[i].y() != 0 || f[i].z() != 0) sim.add_force(static_cast<Index>(i), f[i]);
+}
+
+/// Steps n times with the GIL released (taken back only to call a Python force callback).
+void step_n(py::object self_obj, std::uint64_t n) {
+  PySimulation& self = self_obj.cast<PySimulation&>();
+  Simulation& sim = *self.sim;
+  const bool callback = !self.force_callback.is_none();
+  py::gil_scoped_release release;
+  for (std::uint64_t k = 0; k < n; ++k) {
+    if (callback) {
+      py::gil_scoped_acquire acquire;
+      std::fill(self.user.begin(), self.user.end(), Vec3::Zero());
+      State& s = sim.world().state;
+      self.force_callback(vec3_view(s.x, self_obj, false), vec3_view(s.v, self_obj, false), vec3_view(self.user, self_obj, true));
+      queue(sim, self.user);
+    }
+    if (any_nonzero(self.external)) queue(sim, self.external);
+    const StepReport r = sim.step();
+    if (!self.py_heuristics.empty()) {
+      py::gil_scoped_acquire acquire;
+      for (PyHeuristic* h : self.py_heuristics) h->rethrow();
+    }
+    if (r.status == StepReport::Status::blowup) {
+      py::gil_scoped_acquire acquire;
+      raise_blowup(r.message);
+    }
+  }
+}
+
+PySimulation& of(py::object& o) { return o.cast<PySimulation&>(); }
+
+/// Puts a saved state in the world after checking it is one of this world (its quanta and scene
+/// bonds); `where` prefixes the error. A copy assignment: the arrays keep their storage, and so
+/// the views of them stay valid.
+void put_state(World& w, const State& s, const std::string& where) {
+  const std::size_t bonds = w.state.rest.size() - w.state.formed.size(), saved = s.rest.size() - s.formed.size();
+  if (s.x.size() != w.num_quanta() || saved != bonds)
+    throw CheckpointError(where + "the state holds " + std::to_string(s.x.size()) + " quanta and " + std::to_string(saved) +
+                          " bonds, the simulation has " + std::to_string(w.num_quanta()) + " and " + std::to_string(bonds));
+  w.state = s;
+  w.sync_formed_bonds();
+}
+
+}  // namespace
+
+void bind_simulation(py::module_& m) {
+  py::class_<PySimulation>(m, "Simulation",
+      "A world stepped by an integrator, with heuristics and blow-up limits. Array properties are views of the "
+      "current state, valid until the next step (a step writes into a second buffer and swaps): read them again "
+      "after stepping, or copy them.")
+      .def(py::init([](const Scene& scene) {
+             auto s = std::make_unique<PySimulation>(scene.world, scene.integrator, scene.timestep);
+             s->sim->limits() = scene.limits;
+             s->sim->set_keep_last_good(true);
+             for (const HeuristicSpec& h : scene.heuristics) s->sim->add_heuristic(make_heuristic(h));
+             return s;
+           }),
+           py::arg("scene"), "Steps a scene as `qbond run` does: its world, step, integrator, heuristics and limits.")
+      .def(py::init([](const World& world, double timestep, const std::optional<std::string>& integrator, const py::kwargs& options) {
+             if (!(timestep > 0) || !std::isfinite(timestep)) throw py::value_error("timestep: must be > 0, got " + std::to_string(timestep));
+             IntegratorConfig c = default_integrator();
+             if (integrator) c.type = parse_integrator_type(*integrator);
+             c = configure(c, options);
+             auto s = std::make_unique<PySimulation>(world, c, timestep);
+             s->sim->set_keep_last_good(true);
+             return s;
+           }),
+           py::arg("world"), py::arg("timestep"), py::arg("integrator") = py::none(),
+           "Steps a copy of `world` with steps of `timestep` [s] and the named integrator (None: qbond's default), "
+           "options as keywords (neighbours, solver, iterations, tolerance, threads, ...).")
+      .def("step", &step_n, py::arg("n") = 1,
+           "Takes n steps, without the GIL. Raises BlowupError (the world keeps its last good state).")
+      .def(
+          "run",
+          [](py::object self, double duration) {
+            const double h = of(self).sim->timestep();
+            if (!(duration >= 0)) throw py::value_error("duration: must be >= 0");
+            step_n(self, static_cast<std::uint64_t>(std::ceil(duration / h - 1e-9)));
+          },
+          py::arg("duration"), "Steps for `duration` seconds: ceil(duration / timestep) steps, as a scene's `duration`.")
+      .def_property_readonly("time", [](py::object self) { return of(self).sim->world().state.time; }, "Simulated time [s].")
+      .def_property_readonly("step_count", [](py::object self) { return of(self).sim->world().state.step; }, "Steps taken.")
+      .def_property(
+          "timestep", [](py::object self) { return of(self).sim->timestep(); },
+          [](py::object self, double h) {
+            if (!(h > 0) || !std::isfinite(h)) throw py::value_error("timestep: must be > 0, got " + std::to_string(h));
+            of(self).sim->set_timestep(h);
+          },
+          "Step length [s].")
+      .def_property_readonly("num_quanta", [](py::object self) { return of(self).sim->world().num_quanta(); })
+      .def_property_readonly("num_bonds", [](py::object self) { return of(self).sim->world().num_bonds(); })
+      .def_property_readonly("world", [](py::object self) { return of(self).sim->world(); }, "A copy of the world.")
+      .def(
+          "set_integrator",
+          [](py::object self, const std::optional<std::string>& type, const py::kwargs& options) {
+            IntegratorConfig c = of(self).sim->integrator().config();
+            if (type) c.type = parse_integrator_type(*type);
+            of(self).sim->set_integrator(configure(c, options));
+          },
+          py::arg("type") = py::none(), "Changes the integrator and/or its options (keywords); unnamed options are kept.")
+      .def_property_readonly("integrator", [](py::object self) { return config_dict(of(self).sim->integrator().config()); },
+                             "The integrator and its options, as a dict.")
+      // Arrays: views of the state (valid until the next step) and of the model.
+      .def_property_readonly("positions", [](py::object self) { return vec3_view(of(self).sim->world().state.x, self, false); },
+                             "(n, 3) positions [m], a read-only view.")
+      .def_property_readonly("velocities", [](py::object self) { return vec3_view(of(self).sim->world().state.v, self, true); },
+                             "(n, 3) velocities [m/s], a writable view: writes take effect at the next step.")
+      .def_property_readonly(
+          "masses", [](py::object self) { return view(of(self).sim->world().model.mass, self, false); }, "(n,) masses [kg], read-only.")
+      .def_property_readonly(
+          "inverse_masses", [](py::object self) { return view(of(self).sim->world().model.inv_mass, self, false); },
+          "(n,) inverse masses [1/kg], read-only; 0 for kinematic quanta.")
+      .def_property_readonly(
+          "quanta_id", [](py::object self) { return view(of(self).sim->world().model.quanta_id, self, false); },
+          "(n,) the user's id of each quanta (its creation order), read-only.")
+      .def_property_readonly(
+          "external_forces", [](py::object self) { return vec3_view(of(self).external, self, true); },
+          "(n, 3) forces [N] added at every step until changed, a writable view.")
+      .def_property_readonly("bond_forces", [](py::object self) { return bond_forces(of(self).sim->world()); },
+                             "(n, 3) net bond force on each quanta [N] at the current state (a copy).")
+      .def_property_readonly("bond_ends", [](py::object self) { return bond_ends(of(self).sim->world()); },
+                             "(nb, 2) end quanta of every bond (a copy).")
+      .def_property_readonly("bond_alive", [](py::object self) { return bond_alive(of(self).sim->world()); },
+                             "(nb,) whether each bond holds (a copy).")
+      .def_property_readonly("bond_rest_lengths", [](py::object self) { return bond_rest_length(of(self).sim->world()); },
+                             "(nb,) current rest lengths [m] (a copy).")
+      .def("bond_tension_strain", [](py::object self) { return bond_tension_strain(of(self).sim->world()); },
+           "(tension [N], strain (r − L)/L) of every bond as two (nb,) arrays; 0 for broken bonds.")
+      .def(
+          "set_force_callback",
+          [](py::object self, py::object fn) { of(self).force_callback = std::move(fn); }, py::arg("fn"),
+          "Calls fn(x, v, f) before every step with read-only views of positions and velocities and a zeroed (n, 3) "
+          "array f to fill with forces [N] for that step; None removes it.")
+      .def_property(
+          "track_energy", [](py::object self) { return of(self).track_energy; },
+          [](py::object self, bool on) {
+            of(self).track_energy = on;
+            of(self).sim->set_track_energy(on);
+          },
+          "Whether each step updates the energy ledger and checks it for a runaway (one pass over the bonds).")
+      .def_property(
+          "keep_last_good", [](py::object self) { return of(self).keep_last_good; },
+          [](py::object self, bool on) {
+            of(self).keep_last_good = on;
+            of(self).sim->set_keep_last_good(on);
+          },
+          "Whether each step keeps a copy of the state to roll an energy runaway back to (a copy per step).")
+      .def(
+          "add_heuristic",
+          [](py::object self, py::object fn) {
+            auto h = std::make_unique<PyHeuristic>(std::move(fn), self.ptr());
+            of(self).py_heuristics.push_back(h.get());
+            of(self).sim->add_heuristic(std::move(h));
+          },
+          py::arg("fn"),
+          "Adds a heuristic after the others: fn(x, dx, dv) is called every step between the projection and its "
+          "application, with a read-only view of the positions and writable (n, 3) views of the step's projected "
+          "position and velocity changes to edit. Energy it removes shows in the ledger's dissipated_numerical. "
+          "An exception it raises is raised by step() after that step.")
+      .def(
+          "clear_heuristics",
+          [](py::object self) {
+            of(self).py_heuristics.clear();
+            of(self).sim->clear_heuristics();
+          },
+          "Removes every heuristic (the scene's and the Python ones).")
+      // Energies.
+      .def(
+          "energies",
+          [](py::object self) {
+            const World& w = of(self).sim->world();
+            const Energies e = energies(w.model, w.state);
+            py::dict d;
+            d["kinetic"] = e.kinetic;
+            d["bonds"] = e.bonds;
+            d["gravity"] = e.gravity;
+            d["total"] = e.total();
+            return d;
+          },
+          "Kinetic, bond and gravity energy [J] and their total.")
+      .def(
+          "ledger",
+          [](py::object self) {
+            const World& w = of(self).sim->world();
+            const EnergyBudget b = energy_budget(w.model, w.state);
+            py::dict d;
+            d["total"] = b.now.total();
+            d["initial_total"] = b.initial_total;
+            d["work_loads"] = b.work_loads;
+            d["work_anchors"] = b.work_anchors;
+            d["dissipated_damping"] = b.dissipated_damping;
+            d["dissipated_heuristics"] = b.dissipated_heuristics;
+            d["dissipated_numerical"] = b.dissipated_numerical;
+            return d;
+          },
+          "The energy budget [J]: E − E(0) = work_loads + work_anchors − dissipated_damping − dissipated_heuristics − "
+          "dissipated_numerical.")
+      // Checkpoints.
+      .def(
+          "save_checkpoint",
+          [](py::object self, const std::string& path) {
+            save_checkpoint(path, std::string("{\"format\": \"qbond-python\", \"qbond_version\": \"") + QBOND_VERSION + "\"}",
+                            of(self).sim->world().state);
+          },
+          py::arg("path"), "Writes the exact state to a checkpoint file; restore_checkpoint continues bit for bit.")
+      .def(
+          "restore_checkpoint",
+          [](py::object self, const std::string& path) {
+            put_state(of(self).sim->world(), load_checkpoint(path).state, path + ": ");
+          },
+          py::arg("path"), "Puts the simulation back in a checkpoint's state. Raises CheckpointError.")
+      .def(
+          "state_bytes", [](py::object self) { return py::bytes(serialize_state(of(self).sim->world().state)); },
+          "The exact state as bytes (what a checkpoint holds).")
+      .def(
+          "set_state_bytes",
+          [](py::object self, const py::bytes& b) {
+            put_state(of(self).sim->world(), deserialize_state(std::string(b)), "");
+          },
+          py::arg("state"), "Puts back a state state_bytes returned. Raises CheckpointError.")
+      .def("__repr__", [](py::object self) {
+        const World& w = of(self).sim->world();
+        return "<qbond.Simulation " + std::to_string(w.num_quanta()) + " quanta, step " + std::to_string(w.state.step) + ">";
+      });
+}
+
+}  // namespace qbond::python
