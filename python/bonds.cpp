@@ -36,25 +36,32 @@ BondSpec bond_spec(const std::string& law, double stiffness, double damping, con
 }
 
 py::array_t<std::int64_t> bond_ends(const World& w) {
-  const Model& m = w.model;
-  py::array_t<std::int64_t> a({static_cast<py::ssize_t>(m.num_bonds()), py::ssize_t{2}});
+  const Bonds& bonds = w.state.bonds;
+  py::array_t<std::int64_t> a({static_cast<py::ssize_t>(bonds.size()), py::ssize_t{2}});
   auto r = a.mutable_unchecked<2>();
-  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
-    r(static_cast<py::ssize_t>(b), 0) = m.bond_i[b];
-    r(static_cast<py::ssize_t>(b), 1) = m.bond_j[b];
+  for (std::size_t b = 0; b < bonds.size(); ++b) {
+    r(static_cast<py::ssize_t>(b), 0) = bonds.i[b];
+    r(static_cast<py::ssize_t>(b), 1) = bonds.j[b];
   }
   return a;
 }
 
 py::array_t<bool> bond_alive(const World& w) {
-  py::array_t<bool> a(static_cast<py::ssize_t>(w.state.alive.size()));
-  for (std::size_t b = 0; b < w.state.alive.size(); ++b) a.mutable_at(static_cast<py::ssize_t>(b)) = w.state.alive[b] != 0;
+  const auto& alive = w.state.bonds.alive;
+  py::array_t<bool> a(static_cast<py::ssize_t>(alive.size()));
+  for (std::size_t b = 0; b < alive.size(); ++b) a.mutable_at(static_cast<py::ssize_t>(b)) = alive[b] != 0;
   return a;
 }
 
-py::array_t<double> bond_stiffness(const World& w) { return py::array_t<double>(static_cast<py::ssize_t>(w.model.stiffness.size()), w.model.stiffness.data()); }
+py::array_t<double> bond_stiffness(const World& w) {
+  const auto& k = w.state.bonds.strength;
+  return py::array_t<double>(static_cast<py::ssize_t>(k.size()), k.data());
+}
 
-py::array_t<double> bond_rest_length(const World& w) { return py::array_t<double>(static_cast<py::ssize_t>(w.state.rest.size()), w.state.rest.data()); }
+py::array_t<double> bond_rest_length(const World& w) {
+  const auto& L = w.state.bonds.rest;
+  return py::array_t<double>(static_cast<py::ssize_t>(L.size()), L.data());
+}
 
 py::tuple bond_tension_strain(const World& w) {
   std::vector<double> tension, strain;
@@ -64,13 +71,13 @@ py::tuple bond_tension_strain(const World& w) {
 }
 
 py::array_t<double> bond_forces(const World& w) {
-  const Model& m = w.model;
   const State& s = w.state;
-  std::vector<Vec3> f(m.num_quanta(), Vec3::Zero());
-  for (std::size_t b = 0; b < m.num_bonds(); ++b) {
-    if (!s.alive[b]) continue;
-    const Index i = m.bond_i[b], j = m.bond_j[b];
-    const Vec3 fi = m.bond_force_on_i(b, s.x[j] - s.x[i], s.v[j] - s.v[i], s.rest[b]);
+  const Bonds& bonds = s.bonds;
+  std::vector<Vec3> f(w.model.num_quanta(), Vec3::Zero());
+  for (std::size_t b = 0; b < bonds.size(); ++b) {
+    if (!bonds.alive[b]) continue;
+    const Index i = bonds.i[b], j = bonds.j[b];
+    const Vec3 fi = bonds.force_on_i(w.model.shapes, b, s.x[j] - s.x[i], s.v[j] - s.v[i], bonds.rest[b]);
     f[i] += fi;
     f[j] -= fi;
   }

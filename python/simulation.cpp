@@ -94,11 +94,11 @@ class PyHeuristic final : public Heuristic {
     error_.reset();
   }
   std::string_view name() const override { return "python"; }
-  void apply(World& world, Projection& p, const HeuristicContext&) override {
+  void apply(const Model&, State& state, Projection& p, const HeuristicContext&) override {
     py::gil_scoped_acquire acquire;
     if (error_) return;
     try {
-      fn_(vec3_view(world.state.x, owner_, false), vec3_view(p.dx, owner_, true), vec3_view(p.dv, owner_, true));
+      fn_(vec3_view(state.x, owner_, false), vec3_view(p.dx, owner_, true), vec3_view(p.dv, owner_, true));
     } catch (py::error_already_set& e) {
       error_ = std::make_unique<py::error_already_set>(std::move(e));
     }
@@ -161,12 +161,14 @@ PySimulation& of(py::object& o) { return o.cast<PySimulation&>(); }
 /// bonds); `where` prefixes the error. A copy assignment: the arrays keep their storage, and so
 /// the views of them stay valid.
 void put_state(World& w, const State& s, const std::string& where) {
-  const std::size_t bonds = w.state.rest.size() - w.state.formed.size(), saved = s.rest.size() - s.formed.size();
+  const std::size_t bonds = w.state.bonds.first_formed, saved = s.bonds.first_formed;
   if (s.x.size() != w.num_quanta() || saved != bonds)
     throw CheckpointError(where + "the state holds " + std::to_string(s.x.size()) + " quanta and " + std::to_string(saved) +
                           " bonds, the simulation has " + std::to_string(w.num_quanta()) + " and " + std::to_string(bonds));
+  for (const std::uint32_t row : s.bonds.shape)
+    if (row >= w.model.shapes.size())
+      throw CheckpointError(where + "a bond's law parameters are not among the simulation's materials");
   w.state = s;
-  w.sync_formed_bonds();
 }
 
 }  // namespace
