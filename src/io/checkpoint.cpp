@@ -1,8 +1,11 @@
 #include "qbond/io/checkpoint.hpp"
 
+#include <algorithm>
 #include <cstring>
+#include <optional>
 
 #include "qbond/io/binary.hpp"
+#include "qbond/io/checksum.hpp"
 #include "qbond/io/files.hpp"
 
 namespace qbond {
@@ -20,10 +23,15 @@ static_assert(sizeof(ObstacleImpulse) == 4 * sizeof(double), "ObstacleImpulse ha
 
 constexpr char kMagic[8] = {'Q', 'B', 'O', 'N', 'D', 'C', 'K', 'P'};
 
-std::uint64_t fnv1a(std::string_view bytes) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;
-  return h;
+// The checksum a file of `version` carries: XXH64 from version 6, FNV-1a (checksum.hpp) before.
+std::uint64_t checksum(std::string_view bytes, std::uint32_t version) {
+  return version >= 6 ? xxh64(bytes) : fnv1a_version5(bytes);
+}
+
+std::uint64_t u64_at(std::string_view bytes, std::size_t at) {
+  std::uint64_t v = 0;
+  std::memcpy(&v, bytes.data() + at, 8);
+  return v;
 }
 
 }  // namespace
@@ -124,53 +132,61 @@ void save_checkpoint(const std::filesystem::path& path, std::string_view metadat
   const std::string s = serialize_state(state);
   w.pod<std::uint64_t>(s.size());
   w.out.append(s);
-  w.pod(fnv1a(w.out));
+  w.pod(checksum(w.out, kCheckpointVersion));
   write_file_atomic(path, w.out);
 }
 
-Checkpoint load_checkpoint(const std::filesystem::path& path) {
-  std::string bytes;
-  try {
-    bytes = read_file(path);
-  } catch (const std::exception& e) {
-    throw CheckpointError(e.what());
-  }
+Checkpoint load_checkpoint(const std::filesystem::path& path, std::uint64_t max_bytes) {
   const std::string name = path.string() + ": ";
-  if (bytes.size() < 8 || std::memcmp(bytes.data(), kMagic, 8) != 0)
-    throw CheckpointError(name + "not a qbond checkpoint (no QBONDCKP header)");
   try {
-    Reader r(std::string_view(bytes).substr(8));
-    const auto version = r.pod<std::uint32_t>();
-    if (version != kCheckpointVersion && version != 4)
-      throw CheckpointError("unsupported checkpoint version " + std::to_string(version) + " (this build reads 4 and " +
-                            std::to_string(kCheckpointVersion) + ")");
-    r.pod<std::uint32_t>();
-    const auto m = r.pod<std::uint64_t>();
-    const std::size_t meta_at = bytes.size() - r.bytes.size();
-    // Sizes come from the file; check them against its length before trusting them.
-    auto expect = [&](std::uint64_t length, std::uint64_t at_least) {
-      if (length > bytes.size() || at_least > bytes.size())
-        throw CheckpointError("truncated: expected at least " + std::to_string(at_least) + " bytes, got " +
-                              std::to_string(bytes.size()));
+    // The layout is checked against the file's size from its header alone: a file that is not a
+    // checkpoint, or claims sizes it does not have, is refused before the rest is read.
+    std::optional<InputFile> file;
+    try {
+      file.emplace(path);
+    } catch (const std::exception& e) {
+      throw CheckpointError(e.what());
+    }
+    const std::uint64_t size = file->size();
+    constexpr std::size_t kHeader = 24;  // magic, version, reserved, metadata length
+    const std::string head = file->read(0, std::min<std::uint64_t>(size, kHeader));
+    if (head.size() < 8 || std::memcmp(head.data(), kMagic, 8) != 0)
+      throw CheckpointError(name + "not a qbond checkpoint (no QBONDCKP header)");
+    auto truncated = [&](std::uint64_t at_least) {
+      return CheckpointError(name + "truncated: expected at least " + std::to_string(at_least) + " bytes, got " +
+                             std::to_string(size));
     };
-    expect(m, meta_at + m + 8);
-    std::uint64_t s = 0;
-    std::memcpy(&s, bytes.data() + meta_at + m, 8);
-    const std::size_t state_at = meta_at + m + 8;
-    expect(s, state_at + s + 8);
-    if (bytes.size() != state_at + s + 8)
-      throw CheckpointError("corrupted: " + std::to_string(bytes.size() - (state_at + s + 8)) +
+    if (head.size() < kHeader) throw truncated(kHeader);
+    std::uint32_t version = 0;
+    std::memcpy(&version, head.data() + 8, 4);
+    if (version != kCheckpointVersion && version != 5 && version != 4)
+      throw CheckpointError(name + "unsupported checkpoint version " + std::to_string(version) +
+                            " (this build reads 4, 5 and " + std::to_string(kCheckpointVersion) + ")");
+    const std::uint64_t m = u64_at(head, 16);
+    if (m > size || kHeader + m + 8 > size) throw truncated(m > size ? m : kHeader + m + 8);
+    const std::uint64_t s = u64_at(file->read(kHeader + m, 8), 0);
+    const std::uint64_t state_at = kHeader + m + 8;
+    if (s > size || state_at + s + 8 > size) throw truncated(s > size ? s : state_at + s + 8);
+    if (size != state_at + s + 8)
+      throw CheckpointError(name + "corrupted: " + std::to_string(size - (state_at + s + 8)) +
                             " bytes after the checksum");
-    std::uint64_t sum = 0;
-    std::memcpy(&sum, bytes.data() + state_at + s, 8);
-    if (sum != fnv1a(std::string_view(bytes).substr(0, state_at + s)))
-      throw CheckpointError("corrupted: checksum mismatch");
+    if (size > max_bytes)
+      throw CheckpointError(name + std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) +
+                            " this run may take");
+    const std::string bytes = file->read(0, size);
+    if (u64_at(bytes, state_at + s) != checksum(std::string_view(bytes).substr(0, state_at + s), version))
+      throw CheckpointError(name + "corrupted: checksum mismatch");
     Checkpoint c;
-    c.metadata = bytes.substr(meta_at, m);
+    c.version = version;
+    c.metadata = bytes.substr(kHeader, m);
     c.state = deserialize(std::string_view(bytes).substr(state_at, s), version);
     return c;
   } catch (const CheckpointError& e) {
-    throw CheckpointError(name + e.what());
+    const std::string what = e.what();
+    if (what.starts_with(name)) throw;
+    throw CheckpointError(name + what);
+  } catch (const std::exception& e) {  // a read failing after the file was opened
+    throw CheckpointError(e.what());
   }
 }
 

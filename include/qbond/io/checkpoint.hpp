@@ -8,7 +8,8 @@
 ///   u32 reserved           0
 ///   u64 m, m bytes         metadata (JSON text: resolved scene and run settings)
 ///   u64 s, s bytes         the state, as serialize_state writes it
-///   u64 checksum           FNV-1a 64 of every byte before it
+///   u64 checksum           XXH64 (seed 0) of every byte before it (checksum.hpp); versions 4
+///                          and 5 carry FNV-1a with their own basis (fnv1a_version5)
 #include <bit>
 #include <filesystem>
 #include <stdexcept>
@@ -25,8 +26,10 @@ static_assert(std::endian::native == std::endian::little, "checkpoints are writt
 // order (ordering.hpp), which a version-3 file of the same scene does not follow; 5: the
 // integrator's carry-over as a kind tag and its own fields (save_carry), and formed bonds save
 // their law's shape parameters (laws/law.hpp's LawShape) where they saved eps. Version 4 files
-// are still read, their carry-over and formed bonds converted.
-inline constexpr std::uint32_t kCheckpointVersion = 5;
+// are still read, their carry-over and formed bonds converted. 6: the checksum is XXH64 (5's
+// FNV-1a started from a non-standard basis); the metadata holds the adaptive controller's next
+// step. Versions 4 and 5 are still read.
+inline constexpr std::uint32_t kCheckpointVersion = 6;
 
 /// A checkpoint that cannot be read: not one, another version, truncated or corrupted.
 class CheckpointError : public std::runtime_error {
@@ -36,14 +39,17 @@ class CheckpointError : public std::runtime_error {
 
 /// What a checkpoint holds.
 struct Checkpoint {
-  std::string metadata;  ///< the caller's JSON text
+  std::uint32_t version = kCheckpointVersion;  ///< the format the file was written in
+  std::string metadata;                         ///< the caller's JSON text
   State state;
 };
 
 /// Writes a checkpoint atomically.
 void save_checkpoint(const std::filesystem::path& path, std::string_view metadata, const State& state);
-/// Reads a checkpoint; throws CheckpointError naming the file and what is wrong.
-Checkpoint load_checkpoint(const std::filesystem::path& path);
+/// Reads a checkpoint of at most `max_bytes`; throws CheckpointError naming the file and what is
+/// wrong. Its layout is checked against the file's size before more than its header is read, and
+/// anything but a regular file (a directory, a FIFO, a device) is refused unread.
+Checkpoint load_checkpoint(const std::filesystem::path& path, std::uint64_t max_bytes = ~std::uint64_t{0});
 
 /// The exact bytes of a state (every field, vectors with their lengths).
 std::string serialize_state(const State& s);
