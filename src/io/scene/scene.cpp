@@ -39,7 +39,7 @@ std::uint64_t steps_for_duration(double duration, double timestep) {
     throw std::invalid_argument(g(duration) + " s at " + g(timestep) +
                                 " s a step is more than 2^53 steps, the most a run can count");
   if (!(n >= 1))
-    throw std::invalid_argument(g(duration) + " s is shorter than one step of " + g(timestep) + " s");
+    throw std::invalid_argument(g(duration) + " s rounds to no step of " + g(timestep) + " s");
   return static_cast<std::uint64_t>(n);
 }
 
