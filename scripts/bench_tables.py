@@ -1,11 +1,11 @@
 #!/usr/bin/python3
-"""Renders docs/performance.md's measured tables from the results in docs/bench/.
+"""Renders the measured tables of docs/performance.md and docs/running.md from docs/bench/.
 
 Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default: this script's parent)
 
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
-docs/performance.md; the opening marker may carry `machine="..."`, which the provenance line
-quotes. KIND is one of step, asrun, solve, peers, peers_rounds, peers_seconds, memory, targets;
+docs/performance.md or docs/running.md; the opening marker may carry `machine="..."`, which the provenance line
+quotes. KIND is one of step, asrun, solve, peers, peers_rounds, peers_seconds, memory, runmemory, targets;
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -22,7 +22,7 @@ from collections import defaultdict
 NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z]*)(?:-(?P<run>\d+))?\.json$")
 
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "peers": "peers", "peers_rounds": "peers",
-          "peers_seconds": "peers", "memory": "memory"}
+          "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
 PARALLEL_MIN = 4096
@@ -192,6 +192,16 @@ def memory_table(name, data, machine):
     return lines
 
 
+def runmemory_table(name, data, machine):
+    lines = [provenance(name, data, machine, data["command"]), "",
+             "| n | neighbours | integrator | quanta | bonds | peak resident [GB] | estimate |",
+             "|---|---|---|---|---|---|---|"]
+    for r in data["rows"]:
+        lines.append(f"| {r['n']} | {r['neighbors']} | {r['integrator']} | {r['quanta']} | {r['bonds']} | "
+                     f"{r['max_rss_kib'] * 1024 / 1e9:.3g} | {r['estimate']} |")
+    return lines
+
+
 def targets(bench_dir, machines):
     sname, step = latest(bench_dir, "qbond")
     vname, solve = latest(bench_dir, "solve")
@@ -264,7 +274,8 @@ def render(kind, machine, bench_dir):
             "peers": lambda: peers_table(name, data, machine),
             "peers_rounds": lambda: peers_rounds(name, data, machine),
             "peers_seconds": lambda: peers_seconds(name, data, machine),
-            "memory": lambda: memory_table(name, data, machine)}[kind]()
+            "memory": lambda: memory_table(name, data, machine),
+            "runmemory": lambda: runmemory_table(name, data, machine)}[kind]()
 
 
 BLOCK = re.compile(r"(<!-- bench:(?P<kind>\w+)(?P<attrs>[^>]*)-->\n)(?P<body>.*?)(<!-- /bench:(?P=kind) -->)", re.S)
@@ -274,31 +285,38 @@ def main(argv):
     check = "--check" in argv
     args = [a for a in argv if a != "--check"]
     root = args[0] if args else os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    doc = os.path.join(root, "docs", "performance.md")
     bench_dir = os.path.join(root, "docs", "bench")
-    with open(doc) as f:
-        text = f.read()
+    total, stale = 0, []
+    for page in ("performance.md", "running.md"):
+        doc = os.path.join(root, "docs", page)
+        with open(doc) as f:
+            text = f.read()
 
-    def fill(m):
-        attr = re.search(r'machine="([^"]*)"', m["attrs"])
-        body = "\n".join(render(m["kind"], attr[1] if attr else "", bench_dir)) + "\n"
-        return m.group(1) + body + m.group(5)
+        def fill(m):
+            attr = re.search(r'machine="([^"]*)"', m["attrs"])
+            body = "\n".join(render(m["kind"], attr[1] if attr else "", bench_dir)) + "\n"
+            return m.group(1) + body + m.group(5)
 
-    new, count = BLOCK.subn(fill, text)
-    if count == 0:
+        new, count = BLOCK.subn(fill, text)
+        total += count
+        if new == text:
+            continue
+        if check:
+            stale.append(page)
+        else:
+            with open(doc, "w") as f:
+                f.write(new)
+    if total == 0:
         print("bench_tables: docs/performance.md has no <!-- bench:KIND --> blocks", file=sys.stderr)
         return 1
     if check:
-        if new != text:
-            print("bench_tables: docs/performance.md differs from docs/bench/*.json; "
+        if stale:
+            print(f"bench_tables: {', '.join('docs/' + p for p in stale)} differ from docs/bench/*.json; "
                   "run /usr/bin/python3 scripts/bench_tables.py", file=sys.stderr)
             return 1
-        print(f"bench_tables: {count} tables match docs/bench/")
+        print(f"bench_tables: {total} tables match docs/bench/")
         return 0
-    if new != text:
-        with open(doc, "w") as f:
-            f.write(new)
-    print(f"bench_tables: {count} tables written")
+    print(f"bench_tables: {total} tables written")
     return 0
 
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <functional>
 #include <optional>
 
 #include "qbond/io/binary.hpp"
@@ -136,6 +137,63 @@ void save_checkpoint(const std::filesystem::path& path, std::string_view metadat
   write_file_atomic(path, w.out);
 }
 
+namespace {
+
+// Where a checkpoint's parts are, from its size and header alone (read(offset, length) gives the
+// bytes); throws CheckpointError, without the file's name, when they do not fit the size.
+struct Layout {
+  std::uint32_t version = 0;
+  std::uint64_t meta_at = 0, m = 0, state_at = 0, s = 0;
+};
+
+Layout check_layout(std::uint64_t size, const std::function<std::string(std::uint64_t, std::uint64_t)>& read) {
+  constexpr std::uint64_t kHeader = 24;  // magic, version, reserved, metadata length
+  const std::string head = read(0, std::min(size, kHeader));
+  if (head.size() < 8 || std::memcmp(head.data(), kMagic, 8) != 0)
+    throw CheckpointError("not a qbond checkpoint (no QBONDCKP header)");
+  auto truncated = [&](std::uint64_t at_least) {
+    return CheckpointError("truncated: expected at least " + std::to_string(at_least) + " bytes, got " +
+                           std::to_string(size));
+  };
+  if (head.size() < kHeader) throw truncated(kHeader);
+  Layout l;
+  std::memcpy(&l.version, head.data() + 8, 4);
+  if (l.version != kCheckpointVersion && l.version != 5 && l.version != 4)
+    throw CheckpointError("unsupported checkpoint version " + std::to_string(l.version) +
+                          " (this build reads 4, 5 and " + std::to_string(kCheckpointVersion) + ")");
+  l.meta_at = kHeader;
+  l.m = u64_at(head, 16);
+  if (l.m > size || kHeader + l.m + 8 > size) throw truncated(l.m > size ? l.m : kHeader + l.m + 8);
+  l.s = u64_at(read(kHeader + l.m, 8), 0);
+  l.state_at = kHeader + l.m + 8;
+  if (l.s > size || l.state_at + l.s + 8 > size) throw truncated(l.s > size ? l.s : l.state_at + l.s + 8);
+  if (size != l.state_at + l.s + 8)
+    throw CheckpointError("corrupted: " + std::to_string(size - (l.state_at + l.s + 8)) + " bytes after the checksum");
+  return l;
+}
+
+Checkpoint parse(std::string_view bytes, const Layout& l) {
+  if (u64_at(bytes, l.state_at + l.s) != checksum(bytes.substr(0, l.state_at + l.s), l.version))
+    throw CheckpointError("corrupted: checksum mismatch");
+  Checkpoint c;
+  c.version = l.version;
+  c.metadata = std::string(bytes.substr(l.meta_at, l.m));
+  c.state = deserialize(bytes.substr(l.state_at, l.s), l.version);
+  return c;
+}
+
+}  // namespace
+
+Checkpoint parse_checkpoint(std::string_view bytes, const std::string& name) {
+  try {
+    return parse(bytes, check_layout(bytes.size(), [&](std::uint64_t at, std::uint64_t n) {
+                   return std::string(bytes.substr(at, n));
+                 }));
+  } catch (const CheckpointError& e) {
+    throw CheckpointError(name + ": " + e.what());
+  }
+}
+
 Checkpoint load_checkpoint(const std::filesystem::path& path, std::uint64_t max_bytes) {
   const std::string name = path.string() + ": ";
   try {
@@ -148,43 +206,23 @@ Checkpoint load_checkpoint(const std::filesystem::path& path, std::uint64_t max_
       throw CheckpointError(e.what());
     }
     const std::uint64_t size = file->size();
-    constexpr std::size_t kHeader = 24;  // magic, version, reserved, metadata length
-    const std::string head = file->read(0, std::min<std::uint64_t>(size, kHeader));
-    if (head.size() < 8 || std::memcmp(head.data(), kMagic, 8) != 0)
-      throw CheckpointError(name + "not a qbond checkpoint (no QBONDCKP header)");
-    auto truncated = [&](std::uint64_t at_least) {
-      return CheckpointError(name + "truncated: expected at least " + std::to_string(at_least) + " bytes, got " +
-                             std::to_string(size));
-    };
-    if (head.size() < kHeader) throw truncated(kHeader);
-    std::uint32_t version = 0;
-    std::memcpy(&version, head.data() + 8, 4);
-    if (version != kCheckpointVersion && version != 5 && version != 4)
-      throw CheckpointError(name + "unsupported checkpoint version " + std::to_string(version) +
-                            " (this build reads 4, 5 and " + std::to_string(kCheckpointVersion) + ")");
-    const std::uint64_t m = u64_at(head, 16);
-    if (m > size || kHeader + m + 8 > size) throw truncated(m > size ? m : kHeader + m + 8);
-    const std::uint64_t s = u64_at(file->read(kHeader + m, 8), 0);
-    const std::uint64_t state_at = kHeader + m + 8;
-    if (s > size || state_at + s + 8 > size) throw truncated(s > size ? s : state_at + s + 8);
-    if (size != state_at + s + 8)
-      throw CheckpointError(name + "corrupted: " + std::to_string(size - (state_at + s + 8)) +
-                            " bytes after the checksum");
-    if (size > max_bytes)
-      throw CheckpointError(name + std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) +
-                            " this run may take");
+    Layout l;
+    try {
+      l = check_layout(size, [&](std::uint64_t at, std::uint64_t n) { return file->read(at, n); });
+      if (size > max_bytes)
+        throw CheckpointError(std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) +
+                              " this run may take");
+    } catch (const CheckpointError& e) {
+      throw CheckpointError(name + e.what());
+    }
     const std::string bytes = file->read(0, size);
-    if (u64_at(bytes, state_at + s) != checksum(std::string_view(bytes).substr(0, state_at + s), version))
-      throw CheckpointError(name + "corrupted: checksum mismatch");
-    Checkpoint c;
-    c.version = version;
-    c.metadata = bytes.substr(kHeader, m);
-    c.state = deserialize(std::string_view(bytes).substr(state_at, s), version);
-    return c;
-  } catch (const CheckpointError& e) {
-    const std::string what = e.what();
-    if (what.starts_with(name)) throw;
-    throw CheckpointError(name + what);
+    try {
+      return parse(bytes, l);
+    } catch (const CheckpointError& e) {
+      throw CheckpointError(name + e.what());
+    }
+  } catch (const CheckpointError&) {
+    throw;
   } catch (const std::exception& e) {  // a read failing after the file was opened
     throw CheckpointError(e.what());
   }

@@ -51,6 +51,9 @@ void save_checkpoint(const std::filesystem::path& path, std::string_view metadat
 /// anything but a regular file (a directory, a FIFO, a device) is refused unread.
 Checkpoint load_checkpoint(const std::filesystem::path& path, std::uint64_t max_bytes = ~std::uint64_t{0});
 
+/// Reads a checkpoint from its bytes (as load_checkpoint, `name` naming it in errors).
+Checkpoint parse_checkpoint(std::string_view bytes, const std::string& name);
+
 /// The exact bytes of a state (every field, vectors with their lengths).
 std::string serialize_state(const State& s);
 /// The inverse of serialize_state; throws CheckpointError on inconsistent bytes.

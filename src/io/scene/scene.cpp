@@ -6,6 +6,7 @@
 
 #include "qbond/io/files.hpp"
 #include "qbond/io/json_text.hpp"
+#include "qbond/io/memory.hpp"
 
 #include "io/scene/builder.hpp"
 
@@ -93,7 +94,10 @@ std::string scene_summary(const Scene& s) {
     << "  timestep   " << s.timestep << " s x " << s.steps << " steps = " << s.timestep * static_cast<double>(s.steps)
     << " s, integrator " << to_string(s.integrator.type) << "\n"
     << "  explicit   stable below h = " << hint << " s (symplectic Euler, undamped); this step is "
-    << s.timestep / hint << " x that";
+    << s.timestep / hint << " x that\n"
+    << "  memory     about " << format_bytes(static_cast<double>(estimated_run_memory(
+                                    static_cast<double>(m.num_quanta()), static_cast<double>(m.num_bonds()))))
+    << " for a run (estimated peak resident memory)";
   return o.str();
 }
 
