@@ -23,6 +23,8 @@ template <class... T>
 struct Overloaded : T... {
   using T::operator()...;
 };
+template <class... T>
+Overloaded(T...) -> Overloaded<T...>;  // for compilers without C++20's aggregate deduction (clang 14)
 
 // Every kind has its own tag, and monostate's is 0.
 constexpr bool distinct_kinds() {
