@@ -16,6 +16,7 @@
 #include "qbond/model/ordering.hpp"
 #include "qbond/io/probes.hpp"
 #include "qbond/io/vtk.hpp"
+#include "integrators/affine_run_terms.hpp"  // soa_stride
 #include "test_util.hpp"
 
 namespace qbond {
@@ -210,6 +211,21 @@ TEST(Checksum, Xxh64MatchesTheSpecification) {
   EXPECT_EQ(xxh64(""), 0xEF46DB3751D8E999ull);
   EXPECT_EQ(xxh64("abc"), 0x44BC2CF5AD770999ull);
   EXPECT_EQ(xxh64("Nobody inspects the spammish repetition"), 0xFBCEA83C8A378BF1ull);
+}
+
+// A version-4 carry-over whose counts (BDF2's step, Verlet's topology version) are not whole
+// numbers in [0, 2^64) is refused, not cast (undefined behaviour); found by the checkpoint fuzzer
+// (fuzz/regressions/checkpoint/version4_carry_count_out_of_range).
+TEST(Checkpoint, Version4CountsOutOfRangeAreRefused) {
+  const std::size_t n = 2;
+  for (double bad : {2.2e78, -2.0, 0.5, std::nan("")}) {  // (-1 marks a CG pair, not BDF2)
+    LineVector<Vec3> bdf2(2 * n + 1, Vec3(1, 2, 3));
+    bdf2.back() = Vec3(0.5, 1e-3, bad);
+    EXPECT_THROW(carry_from_version4(bdf2, n), CheckpointError) << bad;
+    LineVector<Vec3> verlet(2 * soa_stride(n) + n + 1, Vec3(1, 2, 3));
+    verlet.back() = Vec3(bad, 0, 0);
+    EXPECT_THROW(carry_from_version4(verlet, n), CheckpointError) << bad;
+  }
 }
 
 // A version-5 file (same layout, FNV-1a checksum) is still read, to the same state.

@@ -371,7 +371,7 @@ std::vector<Index> Builder::packing_body(const json& j, const std::string& path,
   const double per = p.size.x() * p.size.y() / static_cast<double>(ids.size());
   set_masses(w, ids, mass_of, mat, p.size.z() > 0 ? per * p.size.z() : per * std::sqrt(per));
   res["points"] = poisson ? "poisson" : "random";
-  res["size"] = {p.size.x(), p.size.y(), p.size.z()};
+  res["size"] = json::array({p.size.x(), p.size.y(), p.size.z()});
   res["min_distance"] = p.min_distance;
   res["count"] = p.count;
   res["seed"] = p.seed;
