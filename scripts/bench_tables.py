@@ -5,7 +5,8 @@ Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default
 
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
 docs/performance.md or docs/running.md; the opening marker may carry `machine="..."`, which the provenance line
-quotes. KIND is one of step, asrun, solve, peers, peers_rounds, peers_seconds, memory, runmemory, targets;
+quotes. KIND is one of step, asrun, solve, peers, peers_rounds, peers_seconds, memory, runmemory, fuzz,
+targets;
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -22,7 +23,8 @@ from collections import defaultdict
 NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z]*)(?:-(?P<run>\d+))?\.json$")
 
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "peers": "peers", "peers_rounds": "peers",
-          "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory"}
+          "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory",
+          "fuzz": "fuzz"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
 PARALLEL_MIN = 4096
@@ -202,6 +204,14 @@ def runmemory_table(name, data, machine):
     return lines
 
 
+def fuzz_table(name, data, machine):
+    lines = [provenance(name, data, machine, data["command"]), "",
+             "| target | inputs run | seconds | peak resident [MB] | result |", "|---|---|---|---|---|"]
+    for r in data["rows"]:
+        lines.append(f"| {r['target']} | {r['runs']} | {r['seconds']} | {r['peak_rss_mb']} | {r['result']} |")
+    return lines
+
+
 def targets(bench_dir, machines):
     sname, step = latest(bench_dir, "qbond")
     vname, solve = latest(bench_dir, "solve")
@@ -275,7 +285,8 @@ def render(kind, machine, bench_dir):
             "peers_rounds": lambda: peers_rounds(name, data, machine),
             "peers_seconds": lambda: peers_seconds(name, data, machine),
             "memory": lambda: memory_table(name, data, machine),
-            "runmemory": lambda: runmemory_table(name, data, machine)}[kind]()
+            "runmemory": lambda: runmemory_table(name, data, machine),
+            "fuzz": lambda: fuzz_table(name, data, machine)}[kind]()
 
 
 BLOCK = re.compile(r"(<!-- bench:(?P<kind>\w+)(?P<attrs>[^>]*)-->\n)(?P<body>.*?)(<!-- /bench:(?P=kind) -->)", re.S)

@@ -343,8 +343,10 @@ std::vector<Index> Builder::packing_body(const json& j, const std::string& path,
   if (poisson && max_points(p) > kMaxQuanta)
     bad(at("min_distance"), "would make up to " + num_str(std::round(max_points(p))) + " quanta (limit " +
                                 num_str(kMaxQuanta) + ")");
-  // A Poisson-disk packing's count is known only once packed (the final check covers it).
-  if (j.contains("count")) plan_memory(at("count"), static_cast<double>(p.count), 0);
+  // A Poisson-disk packing without a count is planned at its most points (packing.hpp's bound),
+  // so that an unreasonably large one is refused before it is sampled.
+  plan_memory(at(j.contains("count") ? "count" : "min_distance"),
+              j.contains("count") ? static_cast<double>(p.count) : max_points(p), 0);
   p.bond_radius = positive(req("bond_radius"), at("bond_radius"));
   if (poisson && !(p.bond_radius > p.min_distance))
     bad(at("bond_radius"), "must be > min_distance (" + num_str(p.min_distance) +
