@@ -208,7 +208,7 @@ def fuzz_table(name, data, machine):
     lines = [provenance(name, data, machine, data["command"]), "",
              "| target | inputs run | seconds | peak resident [MB] | result |", "|---|---|---|---|---|"]
     for r in data["rows"]:
-        lines.append(f"| {r['target']} | {r['runs']} | {r['seconds']} | {r['peak_rss_mb']} | {r['result']} |")
+        lines.append(f"| {r['target']} | {r['runs']} | {r['seconds'] if r['seconds'] is not None else '–'} | {r['peak_rss_mb']} | {r['result']} |")
     return lines
 
 

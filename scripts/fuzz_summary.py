@@ -20,7 +20,9 @@ for arg in sys.argv[2:]:
     rc = int(re.search(r"^rc (\d+)", text, re.M).group(1))
     rows.append({"target": target, "runs": stat("number_of_executed_units"), "seconds": int(done.group(2)) if done else None,
                  "peak_rss_mb": stat("peak_rss_mb"),
-                 "result": "no crash, no leak" if rc == 0 and "ERROR:" not in text else f"failed (exit {rc})"})
+                 "result": "no crash, no leak" if rc == 0 and "ERROR:" not in text
+                 else "an input over the 10 s timeout" if "ERROR: libFuzzer: timeout" in text
+                 else f"failed (exit {rc})"})
 json.dump({"date": datetime.datetime.utcnow().strftime("%Y-%m-%dT%H:%M:%SZ"), "machine": f"{os.cpu_count()} cores",
            "command": "build-fuzz/TARGET_fuzzer -runs=1000000 build-fuzz/corpus/TARGET (after scripts/fuzz)",
            "rows": rows}, open(sys.argv[1], "w"), indent=1)
