@@ -1,12 +1,12 @@
 #!/usr/bin/python3
-"""Renders the measured tables of docs/performance.md and docs/integrators.md from docs/bench/.
+"""Renders the measured tables of docs/performance.md, docs/integrators.md and docs/running.md from docs/bench/.
 
 Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default: this script's parent)
 
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
-docs/performance.md or docs/integrators.md; the opening marker may carry `machine="..."`, which
-the provenance line quotes. KIND is one of step, asrun, solve, multigrid, peers, peers_rounds,
-peers_seconds, memory, ab, targets;
+docs/performance.md, docs/integrators.md or docs/running.md; the opening marker may carry
+`machine="..."`, which the provenance line quotes. KIND is one of step, asrun, solve, multigrid,
+peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, ab, targets;
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -23,7 +23,8 @@ from collections import defaultdict
 NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z]*)(?:-(?P<run>\d+))?\.json$")
 
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "multigrid", "peers": "peers",
-          "peers_rounds": "peers", "peers_seconds": "peers", "memory": "memory", "ab": "ab"}
+          "peers_rounds": "peers", "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory",
+          "fuzz": "fuzz", "ab": "ab"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
 PARALLEL_MIN = 4096
@@ -233,6 +234,24 @@ def memory_table(name, data, machine):
     return lines
 
 
+def runmemory_table(name, data, machine):
+    lines = [provenance(name, data, machine, data["command"]), "",
+             "| n | neighbours | integrator | quanta | bonds | peak resident [GB] | estimate |",
+             "|---|---|---|---|---|---|---|"]
+    for r in data["rows"]:
+        lines.append(f"| {r['n']} | {r['neighbors']} | {r['integrator']} | {r['quanta']} | {r['bonds']} | "
+                     f"{r['max_rss_kib'] * 1024 / 1e9:.3g} | {r['estimate']} |")
+    return lines
+
+
+def fuzz_table(name, data, machine):
+    lines = [provenance(name, data, machine, data["command"]), "",
+             "| target | inputs run | seconds | peak resident [MB] | result |", "|---|---|---|---|---|"]
+    for r in data["rows"]:
+        lines.append(f"| {r['target']} | {r['runs']} | {r['seconds'] if r['seconds'] is not None else '–'} | {r['peak_rss_mb']} | {r['result']} |")
+    return lines
+
+
 def targets(bench_dir, machines):
     sname, step = latest(bench_dir, "qbond")
     vname, solve = latest(bench_dir, "solve")
@@ -307,6 +326,8 @@ def render(kind, machine, bench_dir):
             "peers_rounds": lambda: peers_rounds(name, data, machine),
             "peers_seconds": lambda: peers_seconds(name, data, machine),
             "memory": lambda: memory_table(name, data, machine),
+            "runmemory": lambda: runmemory_table(name, data, machine),
+            "fuzz": lambda: fuzz_table(name, data, machine),
             "ab": lambda: ab_table(name, data, machine)}[kind]()
 
 
@@ -325,7 +346,8 @@ def main(argv):
         return m.group(1) + body + m.group(5)
 
     total, stale = 0, []
-    for doc in (os.path.join(root, "docs", "performance.md"), os.path.join(root, "docs", "integrators.md")):
+    for page in ("performance.md", "integrators.md", "running.md"):
+        doc = os.path.join(root, "docs", page)
         with open(doc) as f:
             text = f.read()
         new, count = BLOCK.subn(fill, text)
@@ -333,16 +355,16 @@ def main(argv):
         if new == text:
             continue
         if check:
-            stale.append(os.path.relpath(doc, root))
+            stale.append(page)
         else:
             with open(doc, "w") as f:
                 f.write(new)
     if total == 0:
-        print("bench_tables: docs/performance.md has no <!-- bench:KIND --> blocks", file=sys.stderr)
+        print("bench_tables: the docs have no <!-- bench:KIND --> blocks", file=sys.stderr)
         return 1
     if check:
         if stale:
-            print(f"bench_tables: {', '.join(stale)} differ from docs/bench/*.json; "
+            print(f"bench_tables: {', '.join('docs/' + p for p in stale)} differ from docs/bench/*.json; "
                   "run /usr/bin/python3 scripts/bench_tables.py", file=sys.stderr)
             return 1
         print(f"bench_tables: {total} tables match docs/bench/")

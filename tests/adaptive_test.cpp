@@ -3,9 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "qbond/integrators/adaptive.hpp"
 #include "qbond/analysis/analysis.hpp"
+#include "qbond/builders/samples.hpp"
+#include "qbond/io/checkpoint.hpp"
+#include "qbond/io/files.hpp"
+#include "qbond/simulation/runner.hpp"
 #include "test_util.hpp"
 
 namespace qbond {
@@ -93,6 +98,36 @@ TEST(Adaptive, UndoneStepsRestoreTheCarryOver) {
     }
     EXPECT_GT(undone, 0) << name;
   }
+}
+
+// An adaptive run stopped and resumed from its checkpoint goes on as if it had never stopped:
+// the controller's next step and last step travel in the checkpoint, so the rows after the stop
+// (their timestep column included) and the end state are those of the uninterrupted run.
+TEST(Adaptive, ResumedRunsContinueBitForBit) {
+  namespace fs = std::filesystem;
+  const fs::path root = fs::temp_directory_path() / "qbond_adaptive_resume";
+  fs::remove_all(root);
+  auto run = [&](const std::string& name, const std::function<bool()>& stop) {
+    Scene scene = builtin_scene("adaptive_pendulum");
+    RunSettings rs = settings_of(scene);
+    rs.out_dir = root / name;
+    rs.every = 7;
+    rs.vtk = false;
+    Runner r(std::move(scene), rs);
+    return r.run(stop);
+  };
+  ASSERT_EQ(run("whole", {}).status, RunStatus::completed);
+  int calls = 0;
+  ASSERT_EQ(run("halves", [&] { return ++calls == 333; }).status, RunStatus::stopped);
+  Runner resumed = Runner::resume(root / "halves" / "checkpoint.qbc");
+  EXPECT_EQ(resumed.settings().out_dir, root / "halves");
+  ASSERT_EQ(resumed.run().status, RunStatus::completed);
+  const Checkpoint a = load_checkpoint(root / "whole" / "checkpoint.qbc");
+  const Checkpoint b = load_checkpoint(root / "halves" / "checkpoint.qbc");
+  EXPECT_EQ(serialize_state(a.state), serialize_state(b.state));
+  EXPECT_EQ(nlohmann::json::parse(a.metadata)["adaptive"], nlohmann::json::parse(b.metadata)["adaptive"]);
+  EXPECT_EQ(read_file(root / "whole" / "diagnostics.csv"), read_file(root / "halves" / "diagnostics.csv"));
+  EXPECT_GT(a.state.step, 333u);
 }
 
 }  // namespace

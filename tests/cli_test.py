@@ -573,6 +573,260 @@ def test_experiment_relocated_program():
         fail(f"with share/qbond/plot.py: exit {r.returncode}, stdout {r.stdout!r}, stderr {r.stderr!r}")
 
 
+# Hardened input and outputs (docs/running.md, "What is checked"): each test reproduces a failure
+# once seen and checks the refusal, its exit code and its message.
+
+def xxh64(data, seed=0):
+    """XXH64 as the xxHash specification defines it (the checkpoint checksum, version 6)."""
+    m = (1 << 64) - 1
+    p1, p2, p3, p4, p5 = (0x9E3779B185EBCA87, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9, 0x85EBCA77C2B2AE63,
+                          0x27D4EB2F165667C5)
+    rotl = lambda x, r: ((x << r) | (x >> (64 - r))) & m
+    rnd = lambda acc, v: (rotl((acc + v * p2) & m, 31) * p1) & m
+    n, p = len(data), 0
+    if n >= 32:
+        v = [(seed + p1 + p2) & m, (seed + p2) & m, seed, (seed - p1) & m]
+        while n - p >= 32:
+            for k in range(4):
+                v[k] = rnd(v[k], struct.unpack_from("<Q", data, p + 8 * k)[0])
+            p += 32
+        h = (rotl(v[0], 1) + rotl(v[1], 7) + rotl(v[2], 12) + rotl(v[3], 18)) & m
+        for x in v:
+            h = ((h ^ rnd(0, x)) * p1 + p4) & m
+    else:
+        h = (seed + p5) & m
+    h = (h + n) & m
+    while n - p >= 8:
+        h = (rotl(h ^ rnd(0, struct.unpack_from("<Q", data, p)[0]), 27) * p1 + p4) & m
+        p += 8
+    if n - p >= 4:
+        h = (rotl(h ^ ((struct.unpack_from("<I", data, p)[0] * p1) & m), 23) * p2 + p3) & m
+        p += 4
+    while p < n:
+        h = (rotl(h ^ ((data[p] * p5) & m), 11) * p1) & m
+        p += 1
+    h ^= h >> 33
+    h = (h * p2) & m
+    h ^= h >> 29
+    h = (h * p3) & m
+    return h ^ (h >> 32)
+
+
+def rewrite_metadata(checkpoint, out, edit):
+    """Writes `out`: `checkpoint` with its metadata JSON changed by edit(meta) and a valid checksum,
+    as a forger would."""
+    data = open(checkpoint, "rb").read()
+    (meta_len,) = struct.unpack_from("<Q", data, 16)
+    meta = json.loads(data[24:24 + meta_len])
+    edit(meta)
+    text = json.dumps(meta).encode()
+    rest = data[24 + meta_len:-8]
+    body = data[:16] + struct.pack("<Q", len(text)) + text + rest
+    open(out, "wb").write(body + struct.pack("<Q", xxh64(body)))
+
+
+def test_thread_counts_are_bounded():
+    """-j and OMP_NUM_THREADS above the bound are refused before anything runs (the scene's key:
+    tests/bad_scenes/threads_too_many.json)."""
+    out = fresh("threads")
+    for args, env, says in ((["-j", "20000"], {}, "--threads: must be <= "),
+                            (["-j", "0"], {"OMP_NUM_THREADS": "100000"}, "OMP_NUM_THREADS=100000"),
+                            ([], {"OMP_NUM_THREADS": "100000"}, "OMP_NUM_THREADS=100000")):
+        r = qbond("run", "cantilever", "--steps", "2", "--out", out, *args, env={**os.environ, **env}, timeout=60)
+        if r.returncode != 2 or says not in r.stderr or "hardware threads" not in r.stderr:
+            fail(f"{args} {env}: exit {r.returncode}, stderr {r.stderr!r}")
+        if os.path.exists(out):
+            fail(f"{args} {env}: {out} was written although the thread count is refused")
+    qbond("run", "cantilever", "--steps", "2", "--out", out, "-q", "-j", "2", env={**os.environ, "OMP_NUM_THREADS": "3"},
+          check_code=0)
+
+
+def test_counts_that_overflow_are_refused():
+    """Step counts from the command line that overflow or round to nothing (the scene's keys:
+    tests/bad_scenes/duration_overflows_steps.json, timestep_denormal.json)."""
+    for args, says in ((["--dt", "5e-324"], "--dt: "), (["--duration", "1e308"], "--duration: "),
+                       (["--steps", str(2**60)], "--steps: must be <= 2^53")):
+        r = qbond("run", "cantilever", "--out", fresh("overflow"), *args)
+        if r.returncode != 2 or says not in r.stderr:
+            fail(f"{args}: exit {r.returncode}, stderr {r.stderr!r}")
+
+
+def test_deep_json_is_refused():
+    """200 000 nested arrays (400 KB) are refused with the depth, by `validate` and `run`, where
+    they once overflowed the stack."""
+    d = fresh("deep")
+    os.makedirs(d)
+    scene = os.path.join(d, "deep.json")
+    open(scene, "w").write('{"timestep": 0.001, "a": ' + "[" * 200000 + "]" * 200000 + "}")
+    for args in (["validate", scene], ["run", scene, "--out", os.path.join(d, "out")]):
+        r = qbond(*args, timeout=60)
+        if r.returncode != 2 or "nested deeper than 64 arrays and objects" not in r.stderr or scene not in r.stderr:
+            fail(f"{args[0]}: exit {r.returncode}, stderr {r.stderr[:300]!r}")
+
+
+def test_special_files_are_refused():
+    """A FIFO, /dev/zero, a directory or an 8 GiB sparse file given as a checkpoint or a scene is
+    refused at once (exit 2, the file named): nothing reads them whole first."""
+    d = fresh("special")
+    os.makedirs(d)
+    fifo, sparse = os.path.join(d, "fifo"), os.path.join(d, "sparse.qbc")
+    os.mkfifo(fifo)
+    with open(sparse, "wb") as f:
+        f.truncate(8 << 30)
+    cases = [(["run", "--resume", fifo], "a FIFO"), (["run", "--resume", "/dev/zero"], "a character device"),
+             (["run", "--resume", d], "a directory"), (["run", "--resume", sparse], "no QBONDCKP header"),
+             (["validate", fifo], "a FIFO"), (["validate", "/dev/zero"], "a character device"),
+             (["run", fifo], "a FIFO")]
+    for args, says in cases:
+        t0 = time.time()
+        r = qbond(*args, "-q" if args[0] == "run" else "--max-memory=1G", timeout=30)
+        path = args[-1]
+        if r.returncode != 2 or says not in r.stderr or path not in r.stderr or time.time() - t0 > 5:
+            fail(f"{args}: exit {r.returncode} after {time.time() - t0:.1f} s, stderr {r.stderr!r}")
+
+
+def test_checkpoint_metadata_is_checked():
+    """A checkpoint whose checksum matches but whose metadata is wrong is refused like a bad scene
+    (exit 2, the file and the JSON path); the directory a resume writes is never the file's."""
+    out = fresh("forged")
+    qbond("run", "two_quanta", "--steps", "10", "--out", out, "-q", check_code=0)
+    ck = os.path.join(out, "checkpoint.qbc")
+    elsewhere = fresh("forged_elsewhere")
+    for name, edit, says in (
+            ("steps", lambda m: m["run"].update(steps=-5), "run.steps: must be >= 0, got -5"),
+            ("every", lambda m: m["run"].update(every=-1), "run.every: must be >= 1, got -1"),
+            ("checkpoint_every", lambda m: m["run"].update(checkpoint_every=-3),
+             "run.checkpoint_every: must be >= 0, got -3"),
+            ("threads", lambda m: m["scene"]["integrator"].update(threads=-2), "integrator.threads: must be >= 0"),
+            ("no_scene", lambda m: m.pop("scene"), "metadata: scene: required key missing"),
+            ("unknown", lambda m: m.update(extra=1), "metadata: extra: unknown key"),
+            ("huge", lambda m: m["run"].update(steps=1e999), "invalid JSON")):
+        bad = os.path.join(out, f"forged_{name}.qbc")
+        rewrite_metadata(ck, bad, edit)
+        if name == "huge":  # json.dumps writes Infinity; put the overflowing literal in its place
+            data = open(bad, "rb").read().replace(b"Infinity", b"1e999   ")
+            body = data[:-8]
+            open(bad, "wb").write(body + struct.pack("<Q", xxh64(body)))
+        r = qbond("run", "--resume", bad, "-q")
+        if r.returncode != 2 or says not in r.stderr or bad not in r.stderr:
+            fail(f"{name}: exit {r.returncode}, stderr {r.stderr!r}")
+    # out_dir in the file is ignored: the resume writes beside its checkpoint.
+    moved = os.path.join(out, "forged_out_dir.qbc")
+    rewrite_metadata(ck, moved, lambda m: m["run"].update(out_dir=elsewhere, steps=20))
+    qbond("run", "--resume", moved, "-q", check_code=0)
+    if os.path.exists(elsewhere):
+        fail(f"the resume wrote into {elsewhere}, the directory the checkpoint named")
+    if json.load(open(os.path.join(out, "run.json")))["last_step"] != 20:
+        fail("the resume did not write beside its checkpoint")
+
+
+def test_version5_checkpoints_still_read():
+    """A version-5 checkpoint (FNV-1a checksum) resumes to the same bytes as a version-6 one."""
+    out = fresh("v5")
+    qbond("run", "cantilever", "--steps", "20", "--no-vtk", "--out", out, "-q", check_code=0)
+    data = bytearray(open(os.path.join(out, "checkpoint.qbc"), "rb").read())
+    if struct.unpack_from("<I", data, 8)[0] != 6 or struct.unpack_from("<Q", data, len(data) - 8)[0] != xxh64(
+            bytes(data[:-8])):
+        fail("a new checkpoint is not version 6 with an XXH64 checksum")
+    struct.pack_into("<I", data, 8, 5)
+    h = 1469598103934665603
+    for c in data[:-8]:
+        h = ((h ^ c) * 1099511628211) & ((1 << 64) - 1)
+    struct.pack_into("<Q", data, len(data) - 8, h)
+    old = os.path.join(out, "v5.qbc")
+    open(old, "wb").write(data)
+    a, b = fresh("v5_a"), fresh("v5_b")
+    qbond("run", "--resume", os.path.join(out, "checkpoint.qbc"), "--steps", "40", "--out", a, "-q", check_code=0)
+    qbond("run", "--resume", old, "--steps", "40", "--out", b, "-q", check_code=0)
+    if state_bytes(os.path.join(a, "checkpoint.qbc")) != state_bytes(os.path.join(b, "checkpoint.qbc")):
+        fail("the version-5 checkpoint resumed differently")
+
+
+def test_output_directory_is_locked():
+    """Six runs started at once into one directory: those refused say so (exit 1) and the CSV holds
+    one run's rows; a run that holds the directory refuses others, naming its process; the lock
+    file a killed run leaves is taken over."""
+    out = fresh("locked")
+    procs = [subprocess.Popen([QBOND, "run", "cantilever", "--steps", "200", "--every", "10", "--no-vtk", "-q",
+                               "--out", out], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for _ in range(6)]
+    results = [(p.wait(timeout=300), p.stderr.read()) for p in procs]
+    for code, err in results:
+        if code not in (0, 1) or (code == 1 and "is in use by another run" not in err):
+            fail(f"a concurrent run: exit {code}, stderr {err!r}")
+    _, rows = read_csv(os.path.join(out, "diagnostics.csv"))
+    if [r[0] for r in rows[1:]] != [str(k) for k in range(0, 201, 10)]:
+        fail(f"diagnostics.csv of six concurrent runs: steps {[r[0] for r in rows[1:]]}")
+    # Held: a long run, and a second one refused while it runs.
+    p = subprocess.Popen([QBOND, "run", "cantilever", "--steps", "10000000", "--no-vtk", "--out", out],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline and json.load(open(os.path.join(out, "run.json")))["status"] != "running":
+        time.sleep(0.05)
+    r = qbond("run", "cantilever", "--steps", "10", "--out", out)
+    p.send_signal(signal.SIGINT)
+    p.communicate(timeout=120)
+    if r.returncode != 1 or f"(process {p.pid})" not in r.stderr or "run.lock" not in r.stderr:
+        fail(f"a run into a held directory: exit {r.returncode}, stderr {r.stderr!r}")
+    # The lock file now names a dead process: taken over.
+    if open(os.path.join(out, "run.lock")).read().strip() != str(p.pid):
+        fail("run.lock does not hold the process id of its last owner")
+    qbond("run", "cantilever", "--steps", "10", "--out", out, "-q", check_code=0)
+
+
+def test_failed_runs_end_run_json():
+    """A write that fails mid-run (here: a file size limit, as a full disk would) exits 1 naming
+    the file, and run.json ends with status "failed" and the reason."""
+    import resource
+
+    def limit():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100000, 100000))
+    out = fresh("failed")
+    r = subprocess.run([QBOND, "run", "cantilever", "--steps", "100000", "--no-vtk", "--out", out, "-q"],
+                       capture_output=True, text=True, preexec_fn=limit, timeout=300)
+    if r.returncode != 1 or "diagnostics.csv" not in r.stderr:
+        fail(f"exit {r.returncode}, stderr {r.stderr!r}")
+    run = json.load(open(os.path.join(out, "run.json")))
+    if run["status"] != "failed" or "diagnostics.csv" not in run["message"]:
+        fail(f"run.json: status {run['status']!r}, message {run.get('message')!r}")
+
+
+def test_stale_temporaries_are_removed():
+    """Temporaries that killed runs left (.checkpoint.qbc.tmp.PID, frames/.frame_*.vtp.tmp.PID)
+    are removed when a run starts in the directory; a live process's are kept."""
+    out = fresh("stale")
+    os.makedirs(os.path.join(out, "frames"))
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    stale = [os.path.join(out, f".checkpoint.qbc.tmp.{dead.pid}"),
+             os.path.join(out, "frames", f".frame_0000000010.vtp.tmp.{dead.pid}")]
+    live = os.path.join(out, f".run.json.tmp.{os.getpid()}")
+    for f in stale + [live]:
+        open(f, "w").write("partial")
+    qbond("run", "two_quanta", "--steps", "5", "--out", out, "-q", check_code=0)
+    if any(os.path.exists(f) for f in stale) or not os.path.exists(live):
+        fail(f"left: {[f for f in stale + [live] if os.path.exists(f)]}")
+
+
+def test_memory_limit():
+    """A scene whose run is estimated above --max-memory is refused before it is built, with the
+    estimate and the limit (the default's: tests/bad_scenes/memory_too_large.json)."""
+    out = fresh("memory")
+    for cmd in (["run", "cantilever", "--out", out], ["validate", "cantilever"]):
+        r = qbond(*cmd, "--max-memory", "10M")
+        if r.returncode != 2 or "would need about" not in r.stderr or "more than the limit of 10 MB (--max-memory)" \
+                not in r.stderr:
+            fail(f"{cmd[0]} --max-memory 10M: exit {r.returncode}, stderr {r.stderr!r}")
+    r = qbond("run", "cantilever", "--max-memory", "lots", "--out", out)
+    if r.returncode != 2 or "--max-memory" not in r.stderr:
+        fail(f"--max-memory lots: exit {r.returncode}, stderr {r.stderr!r}")
+    qbond("run", "cantilever", "--steps", "5", "--max-memory", "1GiB", "--out", out, "-q", check_code=0)
+    r = qbond("run", "--resume", os.path.join(out, "checkpoint.qbc"), "--max-memory", "10M", "-q")
+    if r.returncode != 2 or "more than the limit" not in r.stderr:
+        fail(f"resume --max-memory 10M: exit {r.returncode}, stderr {r.stderr!r}")
+
+
 if __name__ == "__main__":
     os.makedirs(WORK, exist_ok=True)
     globals()["test_" + sys.argv[4]]()

@@ -1,15 +1,22 @@
 // Checkpoints, probes, diagnostics rows and VTK frames.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
+#include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 
 #include "qbond/io/checkpoint.hpp"
+#include "qbond/io/checksum.hpp"
 #include "qbond/io/diagnostics.hpp"
 #include "qbond/io/files.hpp"
 #include "qbond/model/ordering.hpp"
 #include "qbond/io/probes.hpp"
 #include "qbond/io/vtk.hpp"
+#include "integrators/affine_run_terms.hpp"  // soa_stride
 #include "test_util.hpp"
 
 namespace qbond {
@@ -198,6 +205,93 @@ TEST(Checkpoint, EveryTruncationAndEveryFlippedByteIsRefused) {
     EXPECT_NE(std::string(e.what()).find("unsupported checkpoint version 9"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find(bad.string()), std::string::npos) << e.what();
   }
+}
+
+// XXH64 gives the xxHash specification's values (the same as the reference library's
+// XXH64(data, len, 0)): the empty input, a short one (tail bytes only) and one of 39 bytes (a
+// 32-byte stripe and a tail of 8, 4 and 1-byte steps).
+TEST(Checksum, Xxh64MatchesTheSpecification) {
+  EXPECT_EQ(xxh64(""), 0xEF46DB3751D8E999ull);
+  EXPECT_EQ(xxh64("abc"), 0x44BC2CF5AD770999ull);
+  EXPECT_EQ(xxh64("Nobody inspects the spammish repetition"), 0xFBCEA83C8A378BF1ull);
+}
+
+// A version-4 carry-over whose counts (BDF2's step, Verlet's topology version) are not whole
+// numbers in [0, 2^64) is refused, not cast (undefined behaviour); found by the checkpoint fuzzer
+// (fuzz/regressions/checkpoint/version4_carry_count_out_of_range).
+TEST(Checkpoint, Version4CountsOutOfRangeAreRefused) {
+  const std::size_t n = 2;
+  for (double bad : {2.2e78, -2.0, 0.5, std::nan("")}) {  // (-1 marks a CG pair, not BDF2)
+    LineVector<Vec3> bdf2(2 * n + 1, Vec3(1, 2, 3));
+    bdf2.back() = Vec3(0.5, 1e-3, bad);
+    EXPECT_THROW(carry_from_version4(bdf2, n), CheckpointError) << bad;
+    LineVector<Vec3> verlet(2 * soa_stride(n) + n + 1, Vec3(1, 2, 3));
+    verlet.back() = Vec3(bad, 0, 0);
+    EXPECT_THROW(carry_from_version4(verlet, n), CheckpointError) << bad;
+  }
+}
+
+// A version-5 file (same layout, FNV-1a checksum) is still read, to the same state.
+TEST(Checkpoint, Version5FilesAreStillRead) {
+  const fs::path dir = temp_dir("v5");
+  save_checkpoint(dir / "c.qbc", "{}", distinctive_state());
+  std::string bytes = read_file(dir / "c.qbc");
+  bytes[8] = 5;
+  const std::uint64_t sum = fnv1a_version5(std::string_view(bytes).substr(0, bytes.size() - 8));
+  std::memcpy(bytes.data() + bytes.size() - 8, &sum, 8);
+  write_file_atomic(dir / "v5.qbc", bytes);
+  const Checkpoint c = load_checkpoint(dir / "v5.qbc");
+  EXPECT_EQ(c.version, 5u);
+  EXPECT_EQ(serialize_state(c.state), serialize_state(distinctive_state()));
+  bytes[8] = 6;  // the same bytes claiming version 6 fail its checksum
+  write_file_atomic(dir / "v6.qbc", bytes);
+  EXPECT_THROW(load_checkpoint(dir / "v6.qbc"), CheckpointError);
+}
+
+// What is not a regular file is refused before it is read: a FIFO with no writer (which would
+// block), /dev/zero (which never ends), a directory; an 8 GiB sparse file is refused from its
+// header alone. Each within a second, naming the file.
+TEST(Checkpoint, SpecialAndHugeFilesAreRefusedUnread) {
+  const fs::path dir = temp_dir("special");
+  const fs::path fifo = dir / "fifo.qbc", sparse = dir / "sparse.qbc";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  fs::create_directory(dir / "dir.qbc");
+  { std::ofstream(sparse).close(); }
+  fs::resize_file(sparse, std::uintmax_t{8} << 30);
+  for (const auto& [path, says] : std::vector<std::pair<fs::path, std::string>>{
+           {fifo, "a FIFO"}, {"/dev/zero", "a character device"}, {dir / "dir.qbc", "a directory"},
+           {sparse, "no QBONDCKP header"}}) {
+    const auto t0 = std::chrono::steady_clock::now();
+    try {
+      load_checkpoint(path);
+      ADD_FAILURE() << path << " was read";
+    } catch (const CheckpointError& e) {
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
+    }
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0) << path;
+    EXPECT_THROW(read_file(path), std::runtime_error) << path;
+  }
+  // A file larger than the caller allows is refused by its size.
+  write_file_atomic(dir / "text", std::string(100, 'x'));
+  EXPECT_THROW(read_file(dir / "text", 99), std::runtime_error);
+  EXPECT_EQ(read_file(dir / "text", 100).size(), 100u);
+}
+
+// Temporaries of dead writers are removed; those of live ones (this process) and other files stay.
+TEST(Files, StaleTemporariesOfDeadProcessesAreRemoved) {
+  const fs::path d = temp_dir("stale");
+  const std::string live = std::to_string(::getpid());
+  // A process id above the kernel's pid_max (at most 2^22) never belongs to a live process.
+  for (const char* name : {".checkpoint.qbc.tmp.4999999", ".frame_0000000010.vtp.tmp.4999998"})
+    write_file_atomic(d / name, "partial");
+  for (const std::string& name : {".run.json.tmp." + live, std::string("notes.tmp.4999999"), std::string("a.txt")})
+    write_file_atomic(d / name, "kept");
+  EXPECT_EQ(remove_stale_temporaries(d), 2u);
+  EXPECT_FALSE(fs::exists(d / ".checkpoint.qbc.tmp.4999999"));
+  EXPECT_TRUE(fs::exists(d / (".run.json.tmp." + live)));
+  EXPECT_TRUE(fs::exists(d / "notes.tmp.4999999"));
+  EXPECT_TRUE(fs::exists(d / "a.txt"));
 }
 
 // Both durabilities write the whole file under its name and leave no temporary beside it; the

@@ -14,11 +14,13 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <thread>
 
 #include "bench.hpp"
 #include "experiment.hpp"
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/io/checkpoint.hpp"
+#include "qbond/io/memory.hpp"
 #include "qbond/simulation/runner.hpp"
 #include "qbond/builders/samples.hpp"
 #include "qbond/version.hpp"
@@ -80,7 +82,22 @@ struct Options {
   double tolerance = -1;
   bool list = false;
   bool quiet = false;
+  std::uint64_t max_memory = 0;  ///< 0: default_memory_limit()
 };
+
+/// `--max-memory`'s value: a size such as 8G or 512MiB (memory.hpp's parse_bytes).
+CLI::Validator memory_size() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        try {
+          qbond::parse_bytes(text);
+          return {};
+        } catch (const std::invalid_argument& e) {
+          return e.what();
+        }
+      },
+      "SIZE");
+}
 
 /// `--integrator`'s help: every integrator of the table (integrators.hpp) with its line.
 std::string integrator_help() {
@@ -124,10 +141,20 @@ std::string option_help(qbond::IntegratorOption option) {
 }
 
 /// A scene from a file path, or a built-in scene by name (the default one when none is given).
-qbond::Scene load_any(const std::string& arg) {
-  if (arg.empty()) return qbond::builtin_scene(qbond::kDefaultScene);
-  if (fs::exists(arg) || fs::path(arg).extension() == ".json") return qbond::load_scene(arg);
-  return qbond::builtin_scene(arg);
+qbond::Scene load_any(const std::string& arg, std::uint64_t max_memory = 0) {
+  if (arg.empty()) return qbond::builtin_scene(qbond::kDefaultScene, max_memory);
+  std::error_code ec;
+  if (fs::exists(arg, ec) || fs::path(arg).extension() == ".json") return qbond::load_scene(arg, max_memory);
+  return qbond::builtin_scene(arg, max_memory);
+}
+
+/// The steps of `length` at `timestep`, or std::invalid_argument naming `option`.
+std::uint64_t steps_of(const char* option, double length, double timestep) {
+  try {
+    return qbond::steps_for_duration(length, timestep);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string(option) + ": " + e.what());
+  }
 }
 
 /// Applies the command line's overrides to a scene and its run settings, keeping the scene's
@@ -139,11 +166,15 @@ void apply(const Options& o, qbond::Scene& scene, qbond::RunSettings& rs) {
     // A new step keeps the run's simulated length unless a length is given too.
     const double length = static_cast<double>(rs.steps) * scene.timestep;
     scene.timestep = o.timestep;
-    rs.steps = static_cast<std::uint64_t>(std::ceil(length / o.timestep - 1e-9));
+    if (o.steps < 0 && o.duration <= 0) rs.steps = length > 0 ? steps_of("--dt", length, o.timestep) : 0;
     j["timestep"] = o.timestep;
   }
-  if (o.steps >= 0) rs.steps = static_cast<std::uint64_t>(o.steps);
-  if (o.duration > 0) rs.steps = static_cast<std::uint64_t>(std::ceil(o.duration / scene.timestep - 1e-9));
+  if (o.steps >= 0) {
+    if (static_cast<std::uint64_t>(o.steps) > kMaxSteps)
+      throw std::invalid_argument("--steps: must be <= 2^53, got " + std::to_string(o.steps));
+    rs.steps = static_cast<std::uint64_t>(o.steps);
+  }
+  if (o.duration > 0) rs.steps = steps_of("--duration", o.duration, scene.timestep);
   scene.steps = rs.steps;
   j["steps"] = rs.steps;
   j.erase("duration");
@@ -154,6 +185,10 @@ void apply(const Options& o, qbond::Scene& scene, qbond::RunSettings& rs) {
   if (!o.preconditioner.empty()) c.preconditioner = parse_preconditioner(o.preconditioner);
   if (o.iterations > 0) c.iterations = o.iterations;
   if (o.tolerance > 0) c.tolerance = o.tolerance;
+  if (o.threads > max_threads())
+    throw std::invalid_argument("--threads: must be <= " + std::to_string(max_threads()) + " (4 x this machine's " +
+                                std::to_string(std::thread::hardware_concurrency()) +
+                                " hardware threads, at least 64), got " + std::to_string(o.threads));
   if (o.threads >= 0) c.threads = o.threads;
   j["integrator"]["type"] = to_string(c.type);
   j["integrator"]["neighbours"] = to_string(c.neighbours);
@@ -243,9 +278,9 @@ int run(const Options& o) {
   std::optional<Runner> runner;
   if (!o.resume.empty()) {
     if (!o.scene.empty()) throw std::invalid_argument("--resume continues a checkpoint's own scene; give no SCENE");
-    runner.emplace(Runner::resume(o.resume, [&](Scene& s, RunSettings& rs) { apply(o, s, rs); }));
+    runner.emplace(Runner::resume(o.resume, [&](Scene& s, RunSettings& rs) { apply(o, s, rs); }, o.max_memory));
   } else {
-    Scene scene = load_any(o.scene);
+    Scene scene = load_any(o.scene, o.max_memory);
     RunSettings rs = settings_of(scene);
     apply(o, scene, rs);
     runner.emplace(std::move(scene), std::move(rs));
@@ -291,11 +326,11 @@ int run(const Options& o) {
   return kExitFailure;
 }
 
-int validate(const std::vector<std::string>& scenes) {
+int validate(const std::vector<std::string>& scenes, std::uint64_t max_memory) {
   int bad = 0;
   for (const std::string& arg : scenes) {
     try {
-      const qbond::Scene s = load_any(arg);
+      const qbond::Scene s = load_any(arg, max_memory);
       std::printf("%s: ok\n%s\n", arg.c_str(), qbond::scene_summary(s).c_str());
     } catch (const std::exception& e) {
       std::fprintf(stderr, "qbond: %s\n", e.what());
@@ -363,10 +398,16 @@ int main(int argc, char** argv) {
                    "same bits for any count")
       ->check(kNonNegative);
   run_cmd->add_flag("-q,--quiet", o.quiet, "print nothing but errors");
+  std::string max_memory;
+  const std::string memory_help = "refuse a scene whose run is estimated to need more memory than this, e.g. 8G or "
+                                  "512MiB (default: 3/4 of this machine's memory, " +
+                                  qbond::format_bytes(static_cast<double>(qbond::default_memory_limit())) + ")";
+  run_cmd->add_option("--max-memory", max_memory, memory_help)->check(memory_size());
 
   std::vector<std::string> to_validate;
   CLI::App* validate_cmd = app.add_subcommand("validate", "check scene files and print their summaries");
   validate_cmd->add_option("scenes", to_validate, "scene files or built-in scene names")->required();
+  validate_cmd->add_option("--max-memory", max_memory, memory_help)->check(memory_size());
   ExperimentArgs ea;
   CLI::App* experiment_cmd = app.add_subcommand("experiment", "reproduce the paper's experiments (docs/experiments.md)");
   experiment_cmd->add_option("names", ea.names, "experiments to run, or 'all'");
@@ -431,8 +472,9 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : kExitBadInput;
   }
   try {
+    if (!max_memory.empty()) o.max_memory = qbond::parse_bytes(max_memory);
     if (run_cmd->parsed()) return run(o);
-    if (validate_cmd->parsed()) return validate(to_validate);
+    if (validate_cmd->parsed()) return validate(to_validate, o.max_memory);
     if (bench_cmd->parsed()) {
       require_directory_of("--json", ba.json);
       return qbond::cli::bench(ba);

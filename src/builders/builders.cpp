@@ -26,7 +26,7 @@ LatticeCell square_cell(bool diagonals, bool bending) {
 }
 
 std::vector<Index> add_cubic_lattice(World& world, const CubicLattice& s, Index body) {
-  const auto [nx, ny, nz] = s.size;
+  const int nx = s.size[0], ny = s.size[1], nz = s.size[2];  // named: clang 14 cannot capture bindings
   if (nx < 1 || ny < 1 || nz < 1) throw std::invalid_argument("lattice size must be >= 1 in every axis");
   if (!(s.spacing > 0)) throw std::invalid_argument("lattice spacing must be > 0");
   const LatticeCell cell = cubic_cell(s.shells);

@@ -5,10 +5,11 @@
 
 namespace qbond {
 
-Scene builtin_scene(std::string_view name) {
+Scene builtin_scene(std::string_view name, std::uint64_t max_memory) {
   std::string names;
   for (const BuiltinScene& s : builtin_scenes()) {
-    if (s.name == name) return parse_scene(s.json, std::string(s.name) + ".json (built-in)", {.builtin = true});
+    if (s.name == name)
+      return parse_scene(s.json, std::string(s.name) + ".json (built-in)", {.builtin = true, .max_memory = max_memory});
     names += (names.empty() ? "" : ", ") + std::string(s.name);
   }
   throw std::invalid_argument("unknown built-in scene '" + std::string(name) + "' (built-in scenes: " + names +

@@ -86,7 +86,8 @@ struct BuildTerms {
 template <bool kAxial>
 QBOND_VECTOR_INLINE void linear_affine_build(const State& state, const BuildArrays& a, const BondRun& run, double h,
                                              BuildTerms& t) {
-  const auto [k, L, D] = RunParameters(state, run);
+  const RunParameters p(state, run);
+  const double *k = p.k, *L = p.L, *D = p.D;  // named, not bound: lambdas capture them (clang 14)
   const double *xi[3], *xj[3], *vi[3], *vj[3], *ei[3], *ej[3], *ci[3], *cj[3];  // local: held in registers
   for (int c = 0; c < 3; ++c) {
     xi[c] = a.x[c] + run.i0, xj[c] = a.x[c] + run.j0;

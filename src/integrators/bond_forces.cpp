@@ -57,7 +57,8 @@ QBOND_VECTOR_CLONES void start_forces(const Vec3* x, const Vec3* v, const Vec3* 
 template <bool kAxial>
 QBOND_VECTOR_INLINE void linear_affine_forces(const State& state, const ForceRows& rows, const BondRun& run,
                                               ForceTerms& t) {
-  const auto [k, L, D] = RunParameters(state, run);
+  const RunParameters p(state, run);
+  const double *k = p.k, *L = p.L, *D = p.D;  // named, not bound: lambdas capture them (clang 14)
   const std::size_t i0 = run.i0, j0 = run.j0;
   const Local<3> x(rows.x), v(rows.v);
   auto forces = [=](std::size_t q, double(&fi)[3], double(&fj)[3]) QBOND_LAMBDA_INLINE {

@@ -2,6 +2,7 @@
 #include "qbond/integrators/carry.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "integrators/affine_run_terms.hpp"  // soa_stride
@@ -23,6 +24,8 @@ template <class... T>
 struct Overloaded : T... {
   using T::operator()...;
 };
+template <class... T>
+Overloaded(T...) -> Overloaded<T...>;  // for compilers without C++20's aggregate deduction (clang 14)
 
 // Every kind has its own tag, and monostate's is 0.
 constexpr bool distinct_kinds() {
@@ -135,6 +138,13 @@ Carry carry_from_version4(const LineVector<Vec3>& old, std::size_t n) {
   // Verlet's f and x rows, v and (topology version, 0, 0) (2 soa_stride(n) + n + 1); or Verlet's
   // older layout (3n + 1), which a step dropped.
   const auto at = [&](std::size_t i) { return old.begin() + static_cast<std::ptrdiff_t>(i); };
+  // A count kept as a double: a whole number in [0, 2^64), or the file is damaged (casting
+  // anything else is undefined).
+  const auto count = [](double v, const char* what) {
+    if (!(v >= 0 && v < 18446744073709551616.0 && v == std::floor(v)))
+      throw CheckpointError(std::string("state: a version-4 carry-over's ") + what + " is not a count");
+    return static_cast<std::uint64_t>(v);
+  };
   if (old.empty() || old.size() == 3 * n + 1) return {};
   if (old.size() == n) return SolverGuess{LineVector<Vec3>(old.begin(), old.end())};
   if (old.size() == 2 * n + 1) {
@@ -143,7 +153,7 @@ Carry carry_from_version4(const LineVector<Vec3>& old, std::size_t n) {
       return SolverGuessPair{LineVector<Vec3>(old.begin(), at(n)), LineVector<Vec3>(at(n), at(2 * n)), tag.x(),
                              tag.y()};
     return Bdf2History{std::vector<Vec3>(old.begin(), at(n)), std::vector<Vec3>(at(n), at(2 * n)), tag.x(), tag.y(),
-                       static_cast<std::uint64_t>(tag.z())};
+                       count(tag.z(), "step")};
   }
   const std::size_t stride = soa_stride(n);
   if (old.size() == 2 * stride + n + 1) {
@@ -152,7 +162,7 @@ Carry carry_from_version4(const LineVector<Vec3>& old, std::size_t n) {
     c.f.assign(d, d + 3 * stride);
     c.x.assign(d + 3 * stride, d + 6 * stride);
     c.v.assign(at(2 * stride), at(2 * stride + n));
-    c.topology_version = static_cast<std::uint64_t>(old.back().x());
+    c.topology_version = count(old.back().x(), "topology version");
     return c;
   }
   throw CheckpointError("state: a version-4 carry-over of " + std::to_string(old.size()) + " triples is for no " +

@@ -1,11 +1,13 @@
 #include <algorithm>
 #include <array>
+#include <cstdlib>
 #include <cassert>
 #include <functional>
 #include <initializer_list>
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include "integrators/integrator_common.hpp"
 #include "integrators/prescribed.hpp"
@@ -16,6 +18,29 @@ namespace qbond {
 IntegratorConfig default_integrator() {
   IntegratorConfig c;  // the struct's defaults are the shipped defaults; see docs/integrators.md
   return c;
+}
+
+int max_threads() {
+  const unsigned hardware = std::thread::hardware_concurrency();
+  return static_cast<int>(std::max(64u, 4 * std::min(hardware, 1u << 20)));
+}
+
+int checked_thread_count(int threads) {
+  const int limit = max_threads();
+  const std::string bound = std::to_string(limit) + " (4 x this machine's " +
+                            std::to_string(std::thread::hardware_concurrency()) + " hardware threads, at least 64)";
+  if (threads < 0) throw std::invalid_argument("threads: must be >= 0, got " + std::to_string(threads));
+  if (threads > limit)
+    throw std::invalid_argument("threads: must be <= " + bound + ", got " + std::to_string(threads));
+  if (threads > 0) return threads;
+  const int t = thread_count(0);
+  if (t > limit) {
+    const char* env = std::getenv("OMP_NUM_THREADS");
+    throw std::invalid_argument("threads: OpenMP's default is " + std::to_string(t) + " threads" +
+                                (env ? std::string(" (OMP_NUM_THREADS=") + env + ")" : std::string()) +
+                                ", more than " + bound + "; set OMP_NUM_THREADS lower or give the threads");
+  }
+  return t;
 }
 
 namespace {

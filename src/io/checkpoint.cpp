@@ -1,8 +1,12 @@
 #include "qbond/io/checkpoint.hpp"
 
+#include <algorithm>
 #include <cstring>
+#include <functional>
+#include <optional>
 
 #include "qbond/io/binary.hpp"
+#include "qbond/io/checksum.hpp"
 #include "qbond/io/files.hpp"
 
 namespace qbond {
@@ -24,10 +28,15 @@ static_assert(sizeof(ObstacleImpulse) == 4 * sizeof(double), "ObstacleImpulse ha
 
 constexpr char kMagic[8] = {'Q', 'B', 'O', 'N', 'D', 'C', 'K', 'P'};
 
-std::uint64_t fnv1a(std::string_view bytes) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;
-  return h;
+// The checksum a file of `version` carries: XXH64 from version 6, FNV-1a (checksum.hpp) before.
+std::uint64_t checksum(std::string_view bytes, std::uint32_t version) {
+  return version >= 6 ? xxh64(bytes) : fnv1a_version5(bytes);
+}
+
+std::uint64_t u64_at(std::string_view bytes, std::size_t at) {
+  std::uint64_t v = 0;
+  std::memcpy(&v, bytes.data() + at, 8);
+  return v;
 }
 
 }  // namespace
@@ -187,53 +196,98 @@ void save_checkpoint(const std::filesystem::path& path, std::string_view metadat
   const std::string s = serialize_state(state);
   w.pod<std::uint64_t>(s.size());
   w.out.append(s);
-  w.pod(fnv1a(w.out));
+  w.pod(checksum(w.out, kCheckpointVersion));
   write_file_atomic(path, w.out);
 }
 
-Checkpoint load_checkpoint(const std::filesystem::path& path) {
-  std::string bytes;
+namespace {
+
+// Where a checkpoint's parts are, from its size and header alone (read(offset, length) gives the
+// bytes); throws CheckpointError, without the file's name, when they do not fit the size.
+struct Layout {
+  std::uint32_t version = 0;
+  std::uint64_t meta_at = 0, m = 0, state_at = 0, s = 0;
+};
+
+Layout check_layout(std::uint64_t size, const std::function<std::string(std::uint64_t, std::uint64_t)>& read) {
+  constexpr std::uint64_t kHeader = 24;  // magic, version, reserved, metadata length
+  const std::string head = read(0, std::min(size, kHeader));
+  if (head.size() < 8 || std::memcmp(head.data(), kMagic, 8) != 0)
+    throw CheckpointError("not a qbond checkpoint (no QBONDCKP header)");
+  auto truncated = [&](std::uint64_t at_least) {
+    return CheckpointError("truncated: expected at least " + std::to_string(at_least) + " bytes, got " +
+                           std::to_string(size));
+  };
+  if (head.size() < kHeader) throw truncated(kHeader);
+  Layout l;
+  std::memcpy(&l.version, head.data() + 8, 4);
+  if (l.version != kCheckpointVersion && l.version != 5 && l.version != 4)
+    throw CheckpointError("unsupported checkpoint version " + std::to_string(l.version) +
+                          " (this build reads 4, 5 and " + std::to_string(kCheckpointVersion) + ")");
+  l.meta_at = kHeader;
+  l.m = u64_at(head, 16);
+  if (l.m > size || kHeader + l.m + 8 > size) throw truncated(l.m > size ? l.m : kHeader + l.m + 8);
+  l.s = u64_at(read(kHeader + l.m, 8), 0);
+  l.state_at = kHeader + l.m + 8;
+  if (l.s > size || l.state_at + l.s + 8 > size) throw truncated(l.s > size ? l.s : l.state_at + l.s + 8);
+  if (size != l.state_at + l.s + 8)
+    throw CheckpointError("corrupted: " + std::to_string(size - (l.state_at + l.s + 8)) + " bytes after the checksum");
+  return l;
+}
+
+Checkpoint parse(std::string_view bytes, const Layout& l) {
+  if (u64_at(bytes, l.state_at + l.s) != checksum(bytes.substr(0, l.state_at + l.s), l.version))
+    throw CheckpointError("corrupted: checksum mismatch");
+  Checkpoint c;
+  c.version = l.version;
+  c.metadata = std::string(bytes.substr(l.meta_at, l.m));
+  c.state = deserialize(bytes.substr(l.state_at, l.s), l.version, c.formed_before_v6);
+  return c;
+}
+
+}  // namespace
+
+Checkpoint parse_checkpoint(std::string_view bytes, const std::string& name) {
   try {
-    bytes = read_file(path);
-  } catch (const std::exception& e) {
-    throw CheckpointError(e.what());
-  }
-  const std::string name = path.string() + ": ";
-  if (bytes.size() < 8 || std::memcmp(bytes.data(), kMagic, 8) != 0)
-    throw CheckpointError(name + "not a qbond checkpoint (no QBONDCKP header)");
-  try {
-    Reader r(std::string_view(bytes).substr(8));
-    const auto version = r.pod<std::uint32_t>();
-    if (version < 4 || version > kCheckpointVersion)
-      throw CheckpointError("unsupported checkpoint version " + std::to_string(version) + " (this build reads 4 to " +
-                            std::to_string(kCheckpointVersion) + ")");
-    r.pod<std::uint32_t>();
-    const auto m = r.pod<std::uint64_t>();
-    const std::size_t meta_at = bytes.size() - r.bytes.size();
-    // Sizes come from the file; check them against its length before trusting them.
-    auto expect = [&](std::uint64_t length, std::uint64_t at_least) {
-      if (length > bytes.size() || at_least > bytes.size())
-        throw CheckpointError("truncated: expected at least " + std::to_string(at_least) + " bytes, got " +
-                              std::to_string(bytes.size()));
-    };
-    expect(m, meta_at + m + 8);
-    std::uint64_t s = 0;
-    std::memcpy(&s, bytes.data() + meta_at + m, 8);
-    const std::size_t state_at = meta_at + m + 8;
-    expect(s, state_at + s + 8);
-    if (bytes.size() != state_at + s + 8)
-      throw CheckpointError("corrupted: " + std::to_string(bytes.size() - (state_at + s + 8)) +
-                            " bytes after the checksum");
-    std::uint64_t sum = 0;
-    std::memcpy(&sum, bytes.data() + state_at + s, 8);
-    if (sum != fnv1a(std::string_view(bytes).substr(0, state_at + s)))
-      throw CheckpointError("corrupted: checksum mismatch");
-    Checkpoint c;
-    c.metadata = bytes.substr(meta_at, m);
-    c.state = deserialize(std::string_view(bytes).substr(state_at, s), version, c.formed_before_v6);
-    return c;
+    return parse(bytes, check_layout(bytes.size(), [&](std::uint64_t at, std::uint64_t n) {
+                   return std::string(bytes.substr(at, n));
+                 }));
   } catch (const CheckpointError& e) {
-    throw CheckpointError(name + e.what());
+    throw CheckpointError(name + ": " + e.what());
+  }
+}
+
+Checkpoint load_checkpoint(const std::filesystem::path& path, std::uint64_t max_bytes) {
+  const std::string name = path.string() + ": ";
+  try {
+    // The layout is checked against the file's size from its header alone: a file that is not a
+    // checkpoint, or claims sizes it does not have, is refused before the rest is read.
+    std::optional<InputFile> file;
+    try {
+      file.emplace(path);
+    } catch (const std::exception& e) {
+      throw CheckpointError(e.what());
+    }
+    const std::uint64_t size = file->size();
+    Layout l;
+    try {
+      l = check_layout(size, [&](std::uint64_t at, std::uint64_t n) { return file->read(at, n); });
+      if (size > max_bytes)
+        throw CheckpointError(std::to_string(size) + " bytes, more than the " + std::to_string(max_bytes) +
+                              " this run may take");
+    } catch (const CheckpointError& e) {
+      throw CheckpointError(name + e.what());
+    }
+    const std::string bytes = file->read(0, size);
+    try {
+      return parse(bytes, l);
+    } catch (const CheckpointError& e) {
+      throw CheckpointError(name + e.what());
+    }
+  } catch (const CheckpointError&) {
+    throw;
+  } catch (const std::exception& e) {  // a read failing after the file was opened
+    throw CheckpointError(e.what());
   }
 }
 

@@ -11,10 +11,15 @@
 
 #include "qbond/version.hpp"
 #include "qbond/io/checkpoint.hpp"
+#include "qbond/io/directory_lock.hpp"
+#include "qbond/io/json_text.hpp"
+#include "qbond/io/memory.hpp"
 #include "qbond/io/diagnostics.hpp"
 #include "qbond/io/files.hpp"
 #include "qbond/io/probes.hpp"
 #include "qbond/io/vtk.hpp"
+
+#include "io/scene/json_reader.hpp"
 
 namespace qbond {
 namespace fs = std::filesystem;
@@ -89,13 +94,19 @@ json to_json(const RunSettings& s) {
           {"vtk", s.vtk}};
 }
 
+// A checkpoint's run settings, checked like a scene's (scene_detail's readers, which throw Bad
+// with the JSON path). The directory the run wrote is not taken from the file: a resume writes
+// beside its checkpoint, or where the command line says.
 RunSettings settings_from_json(const json& j) {
+  using namespace scene_detail;
+  Obj o(j, "run", {"out_dir", "steps", "every", "checkpoint_every", "vtk"});
   RunSettings s;
-  s.out_dir = j.at("out_dir").get<std::string>();
-  s.steps = j.at("steps").get<std::uint64_t>();
-  s.every = j.at("every").get<std::uint64_t>();
-  s.checkpoint_every = j.at("checkpoint_every").get<std::uint64_t>();
-  s.vtk = j.at("vtk").get<bool>();
+  string(o.required("out_dir"), o.at("out_dir"));
+  s.steps = integer(o.required("steps"), o.at("steps"), 0);
+  if (s.steps > kMaxSteps) bad(o.at("steps"), "must be <= 2^53, got " + std::to_string(s.steps));
+  s.every = integer(o.required("every"), o.at("every"), 1);
+  s.checkpoint_every = integer(o.required("checkpoint_every"), o.at("checkpoint_every"), 0);
+  s.vtk = boolean(o.required("vtk"), o.at("vtk"));
   return s;
 }
 
@@ -110,6 +121,13 @@ std::vector<Obstacle> obstacles_of(const Scene& scene) {
   for (const HeuristicSpec& h : scene.heuristics)
     if (const auto* o = std::get_if<Obstacle>(&h)) obstacles.push_back(*o);
   return obstacles;
+}
+
+// Writes run.json when write_file_atomic cannot (a full disk has no room for a second copy):
+// in place, over the old one's blocks.
+void write_in_place(const fs::path& path, const std::string& text) {
+  LineFile f(path, /*truncate=*/true);
+  f.write_line(text);
 }
 
 const char* to_string(RunStatus s) {
@@ -147,6 +165,7 @@ struct Runner::Impl {
   std::string resumed_from;
   std::uint64_t first_step = 0;
   double last_h = 0;  ///< the step that led to the current state [s]
+  std::optional<DirectoryLock> lock;  ///< held from before the first write to the directory
 
   Impl(Scene s, RunSettings rs)
       : scene(std::move(s)),
@@ -179,9 +198,35 @@ struct Runner::Impl {
   fs::path out(const std::string& name) const { return settings.out_dir / name; }
 
   std::string metadata() const {
-    return json{{"format", "qbond-run"}, {"qbond_version", QBOND_VERSION}, {"scene", scene.resolved},
-                {"run", to_json(settings)}}
-        .dump();
+    json j = {{"format", "qbond-run"}, {"qbond_version", QBOND_VERSION}, {"scene", scene.resolved},
+              {"run", to_json(settings)}};
+    // The adaptive controller's state: the step it proposes next, and the one it took last (the
+    // diagnostics' timestep column). Doubles print and parse back to the same bits.
+    if (scene.adaptive.enabled) j["adaptive"] = {{"next_step", sim.timestep()}, {"last_step", last_h}};
+    return j.dump();
+  }
+
+  // Makes the output directory, takes its lock, and clears what killed runs left there.
+  void claim_output_dir() {
+    make_output_dirs(settings.out_dir);
+    lock.emplace(settings.out_dir);
+    remove_stale_temporaries(settings.out_dir);
+    remove_stale_temporaries(settings.out_dir / "frames");
+  }
+
+  // run.json once an error ends the run: status "failed" and the reason. Best effort: the error
+  // being reported may be the disk's, so it falls back to writing in place, then gives up.
+  void write_failed(const std::string& why) const noexcept {
+    RunResult r;
+    r.message = why;
+    try {
+      write_run_json("failed", &r);
+    } catch (const std::exception&) {
+      try {
+        write_run_json("failed", &r, /*in_place=*/true);
+      } catch (const std::exception&) {
+      }
+    }
   }
 
   // One diagnostics row and, with VTK on, one frame of the current state.
@@ -212,7 +257,7 @@ struct Runner::Impl {
     save_checkpoint(out(kCheckpoint), metadata(), sim.world().state);
   }
 
-  void write_run_json(const std::string& status, const RunResult* r) const {
+  void write_run_json(const std::string& status, const RunResult* r, bool in_place = false) const {
     const State& s = sim.world().state;
     json j = {{"qbond_version", QBOND_VERSION},
               {"status", status},
@@ -240,7 +285,8 @@ struct Runner::Impl {
       j["bonds"] = w.num_bonds();
       j["bonds_alive"] = w.num_alive_bonds();
     }
-    write_file_atomic(out(kRunJson), j.dump(2) + "\n");
+    if (in_place) write_in_place(out(kRunJson), j.dump(2));
+    else write_file_atomic(out(kRunJson), j.dump(2) + "\n");
   }
 };
 
@@ -251,45 +297,73 @@ Runner::~Runner() = default;
 Runner::Runner(Scene scene, RunSettings settings)
     : impl_(std::make_unique<Impl>(std::move(scene), std::move(settings))) {
   Impl& r = *impl_;
-  make_output_dirs(r.settings.out_dir);
+  r.claim_output_dir();
   // Stale frames of an earlier run would show up in a file browser beside the new series.
   for (const auto& e : fs::directory_iterator(r.settings.out_dir / "frames"))
     if (e.path().extension() == ".vtp" && e.path().filename().string().starts_with("frame_")) fs::remove(e.path());
   fs::remove(r.out(kPvd));
   r.write_run_json("running", nullptr);
-  r.csv = std::make_unique<LineFile>(r.out(kCsv), /*truncate=*/true);
-  r.csv->write_line(r.diagnostics.header());
-  r.events = std::make_unique<LineFile>(r.out(kEvents), /*truncate=*/true);
-  r.events->write_line(kEventsHeader);
-  r.output();
+  try {
+    r.csv = std::make_unique<LineFile>(r.out(kCsv), /*truncate=*/true);
+    r.csv->write_line(r.diagnostics.header());
+    r.events = std::make_unique<LineFile>(r.out(kEvents), /*truncate=*/true);
+    r.events->write_line(kEventsHeader);
+    r.output();
+  } catch (const std::exception& e) {
+    r.write_failed(e.what());
+    throw;
+  }
 }
 
-Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust) {
-  Checkpoint ck = load_checkpoint(checkpoint);
+Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
+                      std::uint64_t max_memory) {
+  const std::uint64_t limit = max_memory > 0 ? max_memory : default_memory_limit();
+  Checkpoint ck = load_checkpoint(checkpoint, limit);
+  const std::string name = checkpoint.string();
+  // The metadata is checked like a scene: the checksum only says the bytes are the ones written,
+  // not that whoever wrote them wrote sense.
   json meta;
+  RunSettings settings;
+  std::optional<std::pair<double, double>> adaptive_state;  // next step, last step
   try {
-    meta = json::parse(ck.metadata);
-    if (meta.at("format") != "qbond-run") throw std::runtime_error("not a run checkpoint");
-  } catch (const std::exception& e) {
-    throw std::runtime_error(checkpoint.string() + ": unreadable run metadata: " + e.what());
+    using namespace scene_detail;
+    meta = parse_json_strict(ck.metadata);
+    Obj top(meta, "", {"format", "qbond_version", "scene", "run", "adaptive"});
+    if (string(top.required("format"), "format") != "qbond-run") bad("format", "expected 'qbond-run'");
+    if (!top.required("scene").is_object()) bad("scene", "expected an object, got " + type_name(top["scene"]));
+    settings = settings_from_json(top.required("run"));
+    if (top.has("adaptive")) {
+      Obj a(top["adaptive"], "adaptive", {"next_step", "last_step"});
+      adaptive_state.emplace(positive(a.required("next_step"), a.at("next_step")),
+                             positive(a.required("last_step"), a.at("last_step")));
+    }
+  } catch (const JsonTextError& e) {
+    throw CheckpointError(name + ": metadata: " + e.what());
+  } catch (const scene_detail::Bad& b) {
+    throw CheckpointError(name + ": metadata: " + (b.path.empty() ? "" : b.path + ": ") + b.rule);
   }
-  Scene scene = parse_scene(meta.at("scene").dump(), checkpoint.string());
-  RunSettings settings = settings_from_json(meta.at("run"));
+  Scene scene = parse_scene(meta["scene"].dump(), name + ", its scene", {.max_memory = max_memory});
+  settings.out_dir = fs::absolute(checkpoint).parent_path();
   if (adjust) adjust(scene, settings);
   try {
     adopt_scene_bonds(ck, scene.world);
   } catch (const CheckpointError& e) {
-    throw std::runtime_error(checkpoint.string() + ": " + e.what());
+    throw CheckpointError(name + ": " + e.what());
   }
   scene.world.state = std::move(ck.state);
   auto impl = std::make_unique<Impl>(std::move(scene), std::move(settings));
   Impl& r = *impl;
   r.resumed_from = fs::absolute(checkpoint).string();
-  make_output_dirs(r.settings.out_dir);
+  if (adaptive_state && r.scene.adaptive.enabled) {
+    r.sim.set_timestep(adaptive_state->first);
+    r.last_h = adaptive_state->second;
+  }
+  r.claim_output_dir();
 
   // Keep the rows (and their frames) a run that never stopped would have written up to here:
   // those on the output schedule up to the checkpoint's step; drop the rest.
   const std::uint64_t at = r.sim.world().state.step;
+  try {
   auto text_of = [&](const char* name) {
     try {
       return read_file(r.out(name));
@@ -326,6 +400,10 @@ Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene
   r.events = std::make_unique<LineFile>(r.out(kEvents), /*truncate=*/false);
   r.csv = std::make_unique<LineFile>(r.out(kCsv), /*truncate=*/false);
   r.write_run_json("running", nullptr);
+  } catch (const std::exception& e) {
+    r.write_failed(e.what());
+    throw;
+  }
   return Runner(std::move(impl));
 }
 
@@ -340,6 +418,7 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
   p.first_step = start;
   p.last_step = r.settings.steps;
   p.adaptive = r.scene.adaptive.enabled;
+  try {
   while (!r.finished()) {
     const StepReport rep = r.step();
     if (rep.status != StepReport::Status::ok) {
@@ -372,6 +451,10 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
   r.write_series();
   r.checkpoint();
   r.write_run_json(to_string(result.status), &result);
+  } catch (const std::exception& e) {
+    r.write_failed(e.what());
+    throw;
+  }
   return result;
 }
 

@@ -214,6 +214,7 @@ StepReport Simulation::roll_back(StepReport r, bool applied) {
 
 Simulation::Simulation(World world, const IntegratorConfig& config, double h)
     : world_(std::move(world)), integrator_(make_step_integrator(config)), h_(h), scratch_(std::make_unique<Scratch>()) {
+  checked_thread_count(config.threads);  // before any parallel region: OpenMP crashes on absurd counts
   const std::size_t n = world_.num_quanta();
   f_ext_.assign(n, Vec3::Zero());
   f_user_.assign(n, Vec3::Zero());
@@ -232,6 +233,7 @@ Simulation& Simulation::operator=(Simulation&&) noexcept = default;
 Simulation::~Simulation() = default;
 
 void Simulation::set_integrator(const IntegratorConfig& config) {
+  checked_thread_count(config.threads);
   integrator_ = make_step_integrator(config);
   world_.state.carry = std::monostate{};  // the carry-over was the old integrator's
 }

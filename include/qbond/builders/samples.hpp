@@ -32,8 +32,8 @@ std::span<const BuiltinFile> builtin_files();
 inline constexpr std::string_view kDefaultScene = "pendulum";
 
 /// Parses a built-in scene (its relative file paths name builtin_files()). Throws
-/// std::invalid_argument listing the names when unknown.
-Scene builtin_scene(std::string_view name);
+/// std::invalid_argument listing the names when unknown. `max_memory` as in SceneFiles.
+Scene builtin_scene(std::string_view name, std::uint64_t max_memory = 0);
 
 /// The canonical performance workload (docs/performance.md): n×n×n simple-cubic lattice, spacing 0.01 m,
 /// 1 g quanta, linear bonds to nearest and face-diagonal neighbours (k = 1000 N/m, axial damping

@@ -145,7 +145,7 @@ struct IntegratorConfig {
   WarmStart warm_start = WarmStart::automatic;  ///< sweeps from `previous` blow up, from
                                                ///< `external` they pump energy into anchored bodies
   int threads = 0;  ///< OpenMP threads (0: OpenMP's default, OMP_NUM_THREADS or every core);
-                    ///< results are the same bits for any count
+                    ///< results are the same bits for any count; at most max_threads()
   bool restore_momentum = true;  ///< iterative solvers: give each free component its exact
                                  ///< momentum change h Σ f_ext (see docs/integrators.md)
   /// After each step, give back the energy the integrator itself removed (or take back what it
@@ -154,6 +154,14 @@ struct IntegratorConfig {
   /// (docs/integrators.md, "Energy restoration"). Costs two energy passes per step.
   bool restore_energy = false;
 };
+
+/// The most threads a run may ask for: 4 × the machine's hardware threads, and at least 64 so
+/// that a scene written on a workstation runs anywhere. More threads than cores only wait on
+/// each other, and OpenMP fails (or crashes) when asked for tens of thousands.
+int max_threads();
+/// The threads `threads` stands for (0: OpenMP's default, from OMP_NUM_THREADS or the cores).
+/// Throws std::invalid_argument, saying where the count came from, above max_threads().
+int checked_thread_count(int threads);
 
 /// The defaults qbond ships (chosen from the measurements in docs/integrators.md).
 IntegratorConfig default_integrator();

@@ -1,5 +1,6 @@
 #pragma once
 /// Output files that never show a reader half a write.
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -19,13 +20,41 @@ enum class Durability { atomic, durable };
 void write_file_atomic(const std::filesystem::path& path, std::string_view bytes,
                        Durability durability = Durability::durable);
 
+/// Removes from `dir` the temporary files write_file_atomic leaves when its process is killed
+/// mid-write (".NAME.tmp.PID"), those of processes no longer alive only. Returns how many.
+std::size_t remove_stale_temporaries(const std::filesystem::path& dir);
+
 /// Flushes to the disk everything written so far to the file system that holds `dir` (syncfs):
 /// one call where a file-by-file flush would take two each. Throws std::runtime_error naming the
 /// directory when it cannot.
 void flush_file_system(const std::filesystem::path& dir);
 
-/// The whole content of a file. Throws std::runtime_error naming the path when unreadable.
-std::string read_file(const std::filesystem::path& path);
+/// The largest text input read_file takes by default (a scene, a mesh, a viewer script): 1 GiB.
+inline constexpr std::uint64_t kMaxInputBytes = std::uint64_t{1} << 30;
+
+/// A regular file open for reading. Anything else (a directory, a FIFO, a device such as
+/// /dev/zero, a socket) is refused when opened, before a byte is read: such a "file" has no
+/// size to check and may never end. Throws std::runtime_error naming the path and why.
+class InputFile {
+ public:
+  explicit InputFile(const std::filesystem::path& path);
+  ~InputFile();
+  InputFile(const InputFile&) = delete;
+  InputFile& operator=(const InputFile&) = delete;
+  /// The file's size in bytes when it was opened.
+  std::uint64_t size() const { return size_; }
+  /// Exactly `length` bytes from `offset`; throws std::runtime_error when the file is shorter.
+  std::string read(std::uint64_t offset, std::uint64_t length) const;
+
+ private:
+  std::filesystem::path path_;
+  int fd_ = -1;
+  std::uint64_t size_ = 0;
+};
+
+/// The whole content of a regular file of at most `max_bytes`. Throws std::runtime_error naming
+/// the path when it is missing, unreadable, not a regular file (InputFile) or larger.
+std::string read_file(const std::filesystem::path& path, std::uint64_t max_bytes = kMaxInputBytes);
 
 /// An append-only text file (CSV) written one whole line per system call, so that a crash or a
 /// signal never leaves a partial line.

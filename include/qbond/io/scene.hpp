@@ -68,17 +68,32 @@ struct Scene {
   nlohmann::json resolved;
 };
 
-/// Where the files a scene names (a mesh body's `file`) are read from.
+/// How a scene is loaded: where the files it names (a mesh body's `file`) are read from, and the
+/// memory its run may take.
 struct SceneFiles {
   std::filesystem::path dir{};  ///< relative paths are relative to it (empty: to the current directory)
   bool builtin = false;       ///< relative paths name the files of scenes/ compiled in (built-in scenes)
+  /// Bytes the run may take (estimated_run_memory, memory.hpp), checked body by body before each
+  /// is built and for the whole world once built; 0: default_memory_limit().
+  std::uint64_t max_memory = 0;
 };
+
+/// The most steps a run may count: 2^53, the last count whose time t = step · h a double still
+/// tells apart from the next.
+inline constexpr std::uint64_t kMaxSteps = std::uint64_t{1} << 53;
+
+/// The steps a run of `duration` at `timestep` takes: ceil(duration / timestep), a length within
+/// 1e-9 of a step over a whole count of steps counted as that count. Throws std::invalid_argument
+/// when that is not a count from 1 to kMaxSteps (a duration shorter than one step, or a count
+/// that overflows: 1e308 s at 1 ms, 1 s at 5e-324 s).
+std::uint64_t steps_for_duration(double duration, double timestep);
 
 /// Parses a scene from JSON text; `source` names it in errors. Throws SceneError.
 Scene parse_scene(std::string_view json_text, const std::string& source = "<string>", const SceneFiles& files = {});
 /// Loads a scene file; its name defaults to the file's stem, and the files it names are relative
-/// to its directory. Throws SceneError.
-Scene load_scene(const std::filesystem::path& file);
+/// to its directory. Throws SceneError (naming the file: also when it is missing, not a regular
+/// file, or larger than kMaxInputBytes).
+Scene load_scene(const std::filesystem::path& file, std::uint64_t max_memory = 0);
 
 /// Largest stable step of symplectic Euler for the scene's bonds: 2/ω_max, with ω_max² bounded
 /// by Gershgorin's theorem, max over free quanta of 2 Σ k_b / m_i (k_b the bond's stiffness at

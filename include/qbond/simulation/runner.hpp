@@ -54,16 +54,22 @@ struct RunResult {
 ///   series.pvd        the frames as a ParaView time series
 ///   checkpoint.qbc    the latest checkpoint (checkpoint.hpp)
 ///   run.json          the resolved scene, settings, version, status and timings
+///   run.lock          held while the run writes (directory_lock.hpp): one run per directory
+/// An exception that ends a run (an output that cannot be written) leaves run.json with status
+/// "failed" and its message before it reaches the caller.
 class Runner {
  public:
-  /// Starts a fresh run: creates the output directory, writes run.json, the CSV header and the
-  /// step-0 row and frame. Frames of an earlier run in the same directory are removed.
+  /// Starts a fresh run: creates the output directory and locks it (DirectoryBusy when another
+  /// run holds it), writes run.json, the CSV header and the step-0 row and frame. Frames of an
+  /// earlier run in the same directory are removed, and temporaries left by killed runs.
   Runner(Scene scene, RunSettings settings);
-  /// Continues from a checkpoint. `adjust` may change the scene and settings before the run is
-  /// rebuilt (later end, other output directory); outputs already written past the checkpoint's
-  /// step are dropped so that the directory reads as if the run had never stopped.
+  /// Continues from a checkpoint, in the checkpoint's directory. `adjust` may change the scene
+  /// and settings before the run is rebuilt (later end, other output directory); outputs already
+  /// written past the checkpoint's step are dropped so that the directory reads as if the run had
+  /// never stopped. The checkpoint's metadata is checked like a scene (CheckpointError naming the
+  /// file and the JSON path), and its scene must fit `max_memory` (0: default_memory_limit()).
   static Runner resume(const std::filesystem::path& checkpoint,
-                       const std::function<void(Scene&, RunSettings&)>& adjust = {});
+                       const std::function<void(Scene&, RunSettings&)>& adjust = {}, std::uint64_t max_memory = 0);
   ~Runner();
   Runner(Runner&&) noexcept;
   Runner& operator=(Runner&&) = delete;

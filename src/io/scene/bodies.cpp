@@ -110,6 +110,10 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
     if (count > kMaxQuanta)
       bad(at("size"), "would make " + num_str(count) + " quanta (limit " + num_str(kMaxQuanta) + ")");
   };
+  // A lattice's bonds: one per offset of its cell for each site (fewer at the faces).
+  auto plan_lattice = [&](double count, const LatticeCell& c) {
+    plan_memory(at("size"), count, count * static_cast<double>(c.offsets.size()));
+  };
   // A square cell is a sheet of some thickness (default: the spacing), which turns its
   // stiffness per length into a modulus and its area per quanta into a volume.
   auto thickness = [&](double a, bool square) {
@@ -135,6 +139,7 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
         l.diagonals = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"diagonal", true}});
       if (j.contains("bending")) l.bending = boolean(j["bending"], at("bending"));
       const LatticeCell c = square_cell(l.diagonals, l.bending);
+      plan_lattice(count, c);
       l.bond = lattice_bond(c, a, t);
       l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
       res["neighbors"] = l.diagonals ? "diagonal" : "nearest";
@@ -153,6 +158,7 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
                                    {"face_diagonal", Shells::face_diagonal},
                                    {"body_diagonal", Shells::body_diagonal}});
       const LatticeCell c = cubic_cell(l.shells);
+      plan_lattice(count, c);
       l.bond = lattice_bond(c, a, t);
       l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
       res["neighbors"] = l.shells == Shells::nearest         ? "nearest"
@@ -169,6 +175,7 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
       if (j.contains("neighbors"))
         l.second_shell = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"second", true}});
       const LatticeCell c = fcc_cell(l.second_shell);
+      plan_lattice(count, c);
       l.bond = lattice_bond(c, a, t);
       l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
       res["neighbors"] = l.second_shell ? "second" : "nearest";
@@ -187,6 +194,7 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
     if (!((c.end - c.start).norm() > 0)) bad(at("end"), "must differ from start");
     const auto count = integer(req("count"), at("count"), 2);
     too_many(static_cast<double>(count));
+    plan_memory(at("count"), static_cast<double>(count), static_cast<double>(count - 1));
     c.count = static_cast<int>(count);
     const double segment = (c.end - c.start).norm() / static_cast<double>(count - 1);
     c.bond = mat->bond;
@@ -212,6 +220,7 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
     const json& pos = array(req("positions"), at("positions"));
     if (pos.empty()) bad(at("positions"), "must hold at least one position");
     too_many(static_cast<double>(pos.size()));
+    plan_memory(at("positions"), static_cast<double>(pos.size()), 0);
     const bool per = j.contains("masses");
     if (per == j.contains("mass"))
       bad(path, per ? "give either 'masses' or 'mass', not both" : "one of 'masses' or 'mass' is required");
@@ -286,6 +295,7 @@ std::vector<Index> Builder::gas_body(const json& j, const std::string& path, jso
   if (static_cast<double>(n) > kMaxQuanta)
     bad(at("count"), "would make " + std::to_string(n) + " quanta (limit " + num_str(kMaxQuanta) + ")");
   g.count = static_cast<std::size_t>(n);
+  plan_memory(at("count"), static_cast<double>(n), 0);
   if (j.contains("min_distance")) g.min_distance = non_negative(j["min_distance"], at("min_distance"));
   g.quanta_mass = mass_of(static_cast<double>(n), 0.0);
   g.kT = positive(req("kT"), at("kT"));
@@ -333,6 +343,10 @@ std::vector<Index> Builder::packing_body(const json& j, const std::string& path,
   if (poisson && max_points(p) > kMaxQuanta)
     bad(at("min_distance"), "would make up to " + num_str(std::round(max_points(p))) + " quanta (limit " +
                                 num_str(kMaxQuanta) + ")");
+  // A Poisson-disk packing without a count is planned at its most points (packing.hpp's bound),
+  // so that an unreasonably large one is refused before it is sampled.
+  plan_memory(at(j.contains("count") ? "count" : "min_distance"),
+              j.contains("count") ? static_cast<double>(p.count) : max_points(p), 0);
   p.bond_radius = positive(req("bond_radius"), at("bond_radius"));
   if (poisson && !(p.bond_radius > p.min_distance))
     bad(at("bond_radius"), "must be > min_distance (" + num_str(p.min_distance) +
@@ -359,7 +373,7 @@ std::vector<Index> Builder::packing_body(const json& j, const std::string& path,
   const double per = p.size.x() * p.size.y() / static_cast<double>(ids.size());
   set_masses(w, ids, mass_of, mat, p.size.z() > 0 ? per * p.size.z() : per * std::sqrt(per));
   res["points"] = poisson ? "poisson" : "random";
-  res["size"] = {p.size.x(), p.size.y(), p.size.z()};
+  res["size"] = json::array({p.size.x(), p.size.y(), p.size.z()});
   res["min_distance"] = p.min_distance;
   res["count"] = p.count;
   res["seed"] = p.seed;
@@ -432,6 +446,7 @@ std::vector<Index> Builder::mesh_body(const json& j, const std::string& path, js
   if (sites > kMaxQuanta)
     bad(at("spacing"), "the mesh's bounding box would hold " + num_str(sites) + " lattice sites (limit " +
                            num_str(kMaxQuanta) + ")");
+  plan_memory(at("spacing"), sites, 0);
   m.quanta_mass = 1;
   std::vector<Index> ids;
   try {

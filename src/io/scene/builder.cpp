@@ -2,6 +2,10 @@
 #include "io/scene/builder.hpp"
 
 #include <cmath>
+#include <stdexcept>
+#include <thread>
+
+#include "qbond/io/memory.hpp"
 
 #include "qbond/model/ordering.hpp"
 
@@ -40,9 +44,14 @@ Scene Builder::build() {
   s.timestep = positive(top.required("timestep"), "timestep");
   if (top.one_of("steps", "duration")) {
     s.steps = integer(top["steps"], "steps", 0);
+    if (s.steps > kMaxSteps) bad("steps", "must be <= 2^53 (" + std::to_string(kMaxSteps) + "), got " + std::to_string(s.steps));
   } else {
     const double d = positive(top["duration"], "duration");
-    s.steps = static_cast<std::uint64_t>(std::ceil(d / s.timestep - 1e-9));
+    try {
+      s.steps = steps_for_duration(d, s.timestep);
+    } catch (const std::invalid_argument& e) {
+      bad("duration", e.what());
+    }
   }
   World& w = s.world;
   w.model.gravity = top.has("gravity") ? vec3(top["gravity"], "gravity") : Vec3::Zero();
@@ -66,6 +75,7 @@ Scene Builder::build() {
       std::none_of(s.heuristics.begin(), s.heuristics.end(), [](const HeuristicSpec& h) { return std::holds_alternative<BreakRule>(h); }))
     s.heuristics.push_back(BreakRule{});
   w.state.obstacle_impulse.assign(obstacles_, ObstacleImpulse{});
+  check_memory("", static_cast<double>(w.num_quanta()), static_cast<double>(w.num_bonds()));
   s.output = output(top.has("output") ? top["output"] : json::object(), s.steps, w);
   renumber_for_locality(s);
 
@@ -96,6 +106,23 @@ Scene Builder::build() {
   out["checkpoint_every"] = s.output.checkpoint_every;
   s.resolved = std::move(res);
   return s;
+}
+
+void Builder::plan_memory(const std::string& path, double quanta, double bonds) {
+  planned_quanta_ += quanta;
+  planned_bonds_ += bonds;
+  check_memory(path, planned_quanta_, planned_bonds_);
+}
+
+void Builder::check_memory(const std::string& path, double quanta, double bonds) const {
+  const bool given = files_.max_memory > 0;
+  const std::uint64_t limit = given ? files_.max_memory : default_memory_limit();
+  const std::uint64_t need = estimated_run_memory(quanta, bonds);
+  if (need <= limit) return;
+  bad(path, "would need about " + format_bytes(static_cast<double>(need)) + " of memory (" + num_str(quanta) +
+                " quanta, " + num_str(bonds) + " bonds), more than the limit of " +
+                format_bytes(static_cast<double>(limit)) +
+                (given ? " (--max-memory)" : " (3/4 of this machine's memory; --max-memory sets another)"));
 }
 
 IntegratorConfig Builder::integrator(const json& j) {
@@ -131,7 +158,14 @@ IntegratorConfig Builder::integrator(const json& j) {
   if (o.has("newton_iterations"))
     c.newton_iterations = static_cast<int>(integer(o["newton_iterations"], o.at("newton_iterations"), 1));
   if (o.has("newton_polish")) c.newton_polish = boolean(o["newton_polish"], o.at("newton_polish"));
-  if (o.has("threads")) c.threads = static_cast<int>(integer(o["threads"], o.at("threads"), 0));
+  if (o.has("threads")) {
+    const std::uint64_t t = integer(o["threads"], o.at("threads"), 0);
+    if (t > static_cast<std::uint64_t>(max_threads()))
+      bad(o.at("threads"), "must be <= " + std::to_string(max_threads()) + " (4 x this machine's " +
+                               std::to_string(std::thread::hardware_concurrency()) +
+                               " hardware threads, at least 64), got " + std::to_string(t));
+    c.threads = static_cast<int>(t);
+  }
   if (o.has("restore_momentum")) c.restore_momentum = boolean(o["restore_momentum"], o.at("restore_momentum"));
   if (o.has("restore_energy")) c.restore_energy = boolean(o["restore_energy"], o.at("restore_energy"));
   const IntegratorInfo& info = integrator_info(c.type);

@@ -36,6 +36,11 @@ class Builder {
  private:
   IntegratorConfig integrator(const json& j);
 
+  // Adds a body's quanta and (an estimate of) its bonds to the world planned so far, and refuses
+  // it at `path` when the run would then need more memory than allowed (before it is built).
+  void plan_memory(const std::string& path, double quanta, double bonds);
+  void check_memory(const std::string& path, double quanta, double bonds) const;
+
   AdaptiveConfig adaptive(const json& j, double timestep, double horizon);
 
   BlowupLimits limits(const json& j);
@@ -119,6 +124,7 @@ class Builder {
   std::map<std::string, Index> body_index_;
   SceneFiles files_;
   std::size_t obstacles_ = 0;  // obstacles numbered so far (their Obstacle::record)
+  double planned_quanta_ = 0, planned_bonds_ = 0;  // of the bodies so far (plan_memory)
 };
 
 }  // namespace qbond::scene_detail

@@ -57,11 +57,13 @@ class Obj {
       : Obj(j, std::move(path), std::vector<const char*>(keys)) {}
   Obj(const json& j, std::string path, const std::vector<const char*>& keys) : j_(j), path_(std::move(path)) {
     if (!j.is_object()) bad(path_, "expected an object, got " + type_name(j));
-    for (const auto& [k, v] : j.items())
+    for (const auto& item : j.items()) {
+      const std::string& k = item.key();
       if (std::find_if(keys.begin(), keys.end(), [&](const char* a) { return k == a; }) == keys.end()) {
         std::vector<std::string> all(keys.begin(), keys.end());
         bad(at(k), "unknown key (accepted: " + join(all) + ")");
       }
+    }
   }
   bool has(const char* k) const { return j_.contains(k); }
   const json& operator[](const char* k) const { return j_.at(k); }

@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
-#include <unordered_set>
 
 #include "qbond/io/files.hpp"
+#include "qbond/io/json_text.hpp"
+#include "qbond/io/memory.hpp"
 
 #include "io/scene/builder.hpp"
 
@@ -16,60 +17,14 @@ using namespace scene_detail;  // Builder and the JSON reading helpers
 SceneError::SceneError(const std::string& source, std::string p, std::string r)
     : std::runtime_error(source + ": " + (p.empty() ? "" : p + ": ") + r), path(std::move(p)), rule(std::move(r)) {}
 
-namespace {
-
-/// Parses JSON, refusing duplicate keys (the JSON library would keep the last one silently).
-json parse_strict(std::string_view text) {
-  struct Level {
-    explicit Level(bool a) : array(a) {}
-    bool array;
-    std::size_t index = 0;
-    std::string key;
-    std::unordered_set<std::string> keys;
-  };
-  std::vector<Level> stack;
-  auto path = [&] {
-    std::string p;
-    for (std::size_t d = 0; d + 1 < stack.size(); ++d)
-      p = stack[d].array ? item(p, stack[d].index) : p + (p.empty() ? "" : ".") + stack[d].key;
-    return p;
-  };
-  auto element_done = [&] {
-    if (!stack.empty() && stack.back().array) ++stack.back().index;
-  };
-  using E = json::parse_event_t;
-  return json::parse(text, [&](int, E e, json& parsed) {
-    switch (e) {
-      case E::object_start: stack.emplace_back(false); break;
-      case E::array_start: stack.emplace_back(true); break;
-      case E::key: {
-        Level& l = stack.back();
-        l.key = parsed.get<std::string>();
-        if (!l.keys.insert(l.key).second) {
-          stack.emplace_back(false);  // so that path() includes this key
-          bad(path(), "duplicate key (JSON would silently keep only the last one)");
-        }
-        break;
-      }
-      case E::object_end:
-      case E::array_end:
-        stack.pop_back();
-        element_done();
-        break;
-      case E::value: element_done(); break;
-    }
-    return true;
-  });
-}
-}  // namespace
 
 Scene parse_scene(std::string_view text, const std::string& source, const SceneFiles& files) {
   try {
     json root;
     try {
-      root = parse_strict(text);
-    } catch (const json::parse_error& e) {
-      throw SceneError(source, "", std::string("invalid JSON: ") + e.what());
+      root = parse_json_strict(text);
+    } catch (const JsonTextError& e) {
+      throw SceneError(source, e.path, e.rule);
     }
     if (!root.is_object()) throw SceneError(source, "", "a scene is a JSON object, got " + type_name(root));
     return Builder(root, std::filesystem::path(source).stem().string(), files).build();
@@ -78,14 +33,25 @@ Scene parse_scene(std::string_view text, const std::string& source, const SceneF
   }
 }
 
-Scene load_scene(const std::filesystem::path& file) {
+std::uint64_t steps_for_duration(double duration, double timestep) {
+  const double n = std::ceil(duration / timestep - 1e-9);
+  const auto g = [](double v) { return num_str(v); };
+  if (!(n <= static_cast<double>(kMaxSteps)))
+    throw std::invalid_argument(g(duration) + " s at " + g(timestep) +
+                                " s a step is more than 2^53 steps, the most a run can count");
+  if (!(n >= 1))
+    throw std::invalid_argument(g(duration) + " s rounds to no step of " + g(timestep) + " s");
+  return static_cast<std::uint64_t>(n);
+}
+
+Scene load_scene(const std::filesystem::path& file, std::uint64_t max_memory) {
   std::string text;
   try {
     text = read_file(file);
   } catch (const std::exception& e) {
     throw SceneError(file.string(), "", e.what());
   }
-  return parse_scene(text, file.string(), {.dir = file.parent_path()});
+  return parse_scene(text, file.string(), {.dir = file.parent_path(), .max_memory = max_memory});
 }
 
 double explicit_step_hint(const World& w) {
@@ -129,7 +95,10 @@ std::string scene_summary(const Scene& s) {
     << "  timestep   " << s.timestep << " s x " << s.steps << " steps = " << s.timestep * static_cast<double>(s.steps)
     << " s, integrator " << to_string(s.integrator.type) << "\n"
     << "  explicit   stable below h = " << hint << " s (symplectic Euler, undamped); this step is "
-    << s.timestep / hint << " x that";
+    << s.timestep / hint << " x that\n"
+    << "  memory     about " << format_bytes(static_cast<double>(estimated_run_memory(
+                                    static_cast<double>(m.num_quanta()), static_cast<double>(m.num_bonds()))))
+    << " for a run (estimated peak resident memory)";
   return o.str();
 }
 
