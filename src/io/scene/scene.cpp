@@ -97,7 +97,7 @@ std::string scene_summary(const Scene& s) {
     << "  explicit   stable below h = " << hint << " s (symplectic Euler, undamped); this step is "
     << s.timestep / hint << " x that\n"
     << "  memory     about " << format_bytes(static_cast<double>(estimated_run_memory(
-                                    static_cast<double>(m.num_quanta()), static_cast<double>(m.num_bonds()))))
+                                    static_cast<double>(m.num_quanta()), static_cast<double>(w.num_bonds()))))
     << " for a run (estimated peak resident memory)";
   return o.str();
 }
