@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "core/parallel.hpp"
 
@@ -113,7 +114,7 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
   if (!build && (A.offset != built_offset || A.col != built_col))
     build = 10 * changed_blocks() > built_col.size();  // bonds broke or formed
   if (!build) {
-    if (h != built_h) {
+    if (std::abs(h - built_h) > 0.25 * built_h) {  // a kept hierarchy still serves a nearby h
       update = true;
     } else if (base_iterations >= 0 && last_iterations > 1.5 * base_iterations + 2) {
       build = updated_since_check;  // an update did not help: the aggregates no longer fit

@@ -5,10 +5,11 @@
 // A is assembled into 3×3 blocks over the free quanta each step (its pattern redone only when the
 // bonds change). The hierarchy is built on the first step and whenever the free quanta change;
 // otherwise it is kept, a fixed symmetric positive definite preconditioner, and updated (same
-// aggregates and prolongators, operators from the current A) when h changes or when a solve takes
-// more than 1.5 × (plus 2) the iterations the solve right after the last build took. After bonds
-// break or form it is rebuilt only once more than a tenth of A's blocks differ from the built
-// pattern, or when an update did not bring the iterations back down.
+// aggregates and prolongators, operators from the current A) when h changes by more than a
+// quarter (an adaptive step's small changes keep it) or when a solve takes more than 1.5 × (plus
+// 2) the iterations the solve right after the last build took. After bonds break or form it is
+// rebuilt only once more than a tenth of A's blocks differ from the built pattern, or when an
+// update did not bring the iterations back down.
 #include <cstdint>
 #include <vector>
 

@@ -163,6 +163,16 @@ void Multigrid::build(const BlockMatrix& A, const std::vector<Vec3>& x, int thre
   }
   factor_coarsest();
   pack_levels(threads);
+  release_fine();
+}
+
+void Multigrid::release_fine() {
+  // The cycle reads the fine operator packed (Af); its double copy, the hierarchy's largest
+  // matrix, is only needed again by the next build or update, which bring their own.
+  BlockMatrix& A = levels_[0].A;
+  A.offset = {0};
+  A.col = {};
+  A.val = {};
 }
 
 void Multigrid::update(const BlockMatrix& A, int threads) {
@@ -173,6 +183,7 @@ void Multigrid::update(const BlockMatrix& A, int threads) {
   }
   factor_coarsest();
   pack_levels(threads);
+  release_fine();
 }
 
 void Multigrid::chebyshev(Level& L, bool zero_start, int threads) {

@@ -64,6 +64,7 @@ class Multigrid {
   void galerkin(std::size_t l, int threads);
   void factor_coarsest();
   void pack_levels(int threads);  // P and R as the cycle reads them
+  void release_fine();            // frees the fine level's double copy once packed
   void chebyshev(Level& L, bool zero_start, int threads);
   void cycle(std::size_t l, int threads);
 
