@@ -87,18 +87,6 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     stats.residual = 0;
     return;
   }
-  // A's values: the diagonal blocks, then −B_b for each bond to a free quanta, in adjacency order.
-  parallel_for(A.rows, threads, [&](std::size_t r) {
-    const Index i = quanta[r];
-    std::fill(A.val.begin() + A.offset[r] * 9, A.val.begin() + A.offset[r + 1] * 9, 0.0);
-    Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(A.block(diag_at[r])) = sys.diag[i];
-    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
-      if (edge_at[e] == kNone) continue;
-      const Index bond = adj.bond[e];
-      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(A.block(edge_at[e])) -=
-          block_matrix(sys.bonds.u(bond), sys.bonds.Ba[bond], sys.bonds.Bb[bond]);
-    }
-  });
   const std::size_t m = 3 * quanta.size();
   b.resize(m);
   x.resize(m);
@@ -108,6 +96,11 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
       x[3 * r + c] = y_zero ? 0.0 : y[quanta[r]][c];
     }
   });
+
+  // The cycle's and CG's fine operator: CG's matrix-free product on this step's system.
+  product.prepare(model, sys, quanta, threads);
+  fine = [this, threads](const double* in, double* out) { product.apply(in, out, threads); };
+  mg.set_fine_operator(fine);
 
   bool build = !mg.built() || built_quanta != quanta;
   bool update = false;
@@ -123,6 +116,20 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
   }
   updated_since_check = update;
   const auto t0 = std::chrono::steady_clock::now();
+  if (build || update) {
+    // A's values: the diagonal blocks, then −B_b for each bond to a free quanta, in adjacency order.
+    parallel_for(A.rows, threads, [&](std::size_t r) {
+      const Index i = quanta[r];
+      std::fill(A.val.begin() + A.offset[r] * 9, A.val.begin() + A.offset[r + 1] * 9, 0.0);
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(A.block(diag_at[r])) = sys.diag[i];
+      for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+        if (edge_at[e] == kNone) continue;
+        const Index bond = adj.bond[e];
+        Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(A.block(edge_at[e])) -=
+            block_matrix(sys.bonds.u(bond), sys.bonds.Ba[bond], sys.bonds.Bb[bond]);
+      }
+    });
+  }
   if (build) {
     std::vector<Vec3> points(quanta.size());
     for (std::size_t r = 0; r < quanta.size(); ++r) points[r] = state.x[quanta[r]];
@@ -139,8 +146,7 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     built_h = h;
   }
   const auto t1 = std::chrono::steady_clock::now();
-  pack(A, true, packed, threads);
-  mg.solve(packed, b, tolerance, cap, threads, x, y_zero, stats);
+  mg.solve(fine, b, tolerance, cap, threads, x, y_zero, stats);
   setup_seconds = std::chrono::duration<double>(t1 - t0).count();
   solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   last_iterations = stats.iterations;

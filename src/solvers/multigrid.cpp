@@ -62,12 +62,16 @@ void Multigrid::smoother(Level& L, bool symmetric, int threads) {
   for (std::vector<double>* v : {&L.x, &L.b, &L.r, &L.d, &L.t}) v->assign(n, 0.0);
   // λ_max(D⁻¹A) by power iteration from a fixed start with every frequency in it, on A as the
   // cycle reads it.
-  pack(L.A, symmetric, L.Af, threads);
+  const std::size_t l = static_cast<std::size_t>(&L - levels_.data());
+  if (l == 0 && fine_op_)
+    L.Af = PackedMatrix<float>{};
+  else
+    pack(L.A, symmetric, L.Af, threads);
   std::vector<double>& v = L.d;
   for (std::size_t k = 0; k < n; ++k) v[k] = static_cast<double>((k * 2654435761u) % 1000u) / 1000.0 - 0.5;
   double lambda = 1;
   for (int it = 0; it < 10; ++it) {
-    multiply(L.Af, v.data(), L.t.data(), threads);
+    level_multiply(l, v.data(), L.t.data(), threads);
     block_scale(L.Dinv, bs, L.A.rows, L.t.data(), 1.0, L.r.data(), threads);
     const double vv = dot(n, v.data(), v.data(), threads), ww = dot(n, L.r.data(), L.r.data(), threads);
     if (!(vv > 0) || !(ww > 0)) break;
@@ -186,7 +190,24 @@ void Multigrid::update(const BlockMatrix& A, int threads) {
   release_fine();
 }
 
+void Multigrid::level_multiply(std::size_t l, const double* x, double* y, int threads) {
+  if (l == 0 && fine_op_)
+    fine_op_(x, y);
+  else
+    multiply(levels_[l].Af, x, y, threads);
+}
+
+void Multigrid::level_residual(std::size_t l, const double* b, const double* x, double* r, int threads) {
+  if (l == 0 && fine_op_) {
+    fine_op_(x, r);
+    parallel_for(levels_[0].x.size(), threads, [&](std::size_t k) { r[k] = b[k] - r[k]; });
+  } else {
+    residual(levels_[l].Af, b, x, r, threads);
+  }
+}
+
 void Multigrid::chebyshev(Level& L, bool zero_start, int threads) {
+  const std::size_t l = static_cast<std::size_t>(&L - levels_.data());
   const int bs = L.A.br;
   const std::size_t n = L.x.size();
   const double hi = 1.1 * L.lambda, lo = hi / 5;
@@ -195,14 +216,14 @@ void Multigrid::chebyshev(Level& L, bool zero_start, int threads) {
   if (zero_start)
     L.r = L.b;
   else
-    residual(L.Af, L.b.data(), L.x.data(), L.r.data(), threads);
+    level_residual(l, L.b.data(), L.x.data(), L.r.data(), threads);
   block_scale(L.Dinv, bs, L.A.rows, L.r.data(), 1 / theta, L.d.data(), threads);
   if (zero_start)
     L.x = L.d;
   else
     parallel_for(n, threads, [&](std::size_t k) { L.x[k] += L.d[k]; });
   for (int it = 1; it < smoothing_degree; ++it) {
-    multiply(L.Af, L.d.data(), L.t.data(), threads);
+    level_multiply(l, L.d.data(), L.t.data(), threads);
     const double rho_next = 1 / (2 * sigma - rho);
     const double c1 = rho_next * rho, c2 = 2 * rho_next / delta;
     parallel_for(n, threads, [&](std::size_t k) { L.r[k] -= L.t[k]; });
@@ -224,7 +245,7 @@ void Multigrid::cycle(std::size_t l, int threads) {
   }
   Level& C = levels_[l + 1];
   chebyshev(L, true, threads);
-  residual(L.Af, L.b.data(), L.x.data(), L.r.data(), threads);
+  level_residual(l, L.b.data(), L.x.data(), L.r.data(), threads);
   multiply(L.Rf, L.r.data(), C.b.data(), threads);
   cycle(l + 1, threads);
   multiply(L.Pf, C.x.data(), L.t.data(), threads);
@@ -239,8 +260,8 @@ void Multigrid::apply(const double* r, double* z, int threads) {
   std::copy(L.x.begin(), L.x.end(), z);
 }
 
-void Multigrid::solve(const PackedMatrix<double>& A, const std::vector<double>& b, double tolerance, int cap,
-                      int threads, std::vector<double>& y, bool y_zero, SolveStats& stats) {
+void Multigrid::solve(const Operator& A, const std::vector<double>& b, double tolerance, int cap, int threads,
+                      std::vector<double>& y, bool y_zero, SolveStats& stats) {
   const std::size_t n = b.size();
   for (std::vector<double>* v : {&r_, &z_, &p_, &q_}) v->resize(n);
   y.resize(n);
@@ -251,7 +272,7 @@ void Multigrid::solve(const PackedMatrix<double>& A, const std::vector<double>& 
     r_ = b;
   } else {
     // The guess scaled by yᵀb / yᵀA y, the factor that minimises its error's A-norm.
-    multiply(A, y.data(), q_.data(), threads);
+    A(y.data(), q_.data());
     const double yAy = dot(n, y.data(), q_.data(), threads), yb = dot(n, y.data(), b.data(), threads);
     const double s = yAy > 0 ? yb / yAy : 0.0;
     parallel_for(n, threads, [&](std::size_t k) {
@@ -268,7 +289,7 @@ void Multigrid::solve(const PackedMatrix<double>& A, const std::vector<double>& 
     const double beta = it == 0 ? 0.0 : rz_next / rz;
     rz = rz_next;
     parallel_for(n, threads, [&](std::size_t k) { p_[k] = z_[k] + beta * p_[k]; });
-    multiply(A, p_.data(), q_.data(), threads);
+    A(p_.data(), q_.data());
     const double pq = dot(n, p_.data(), q_.data(), threads);
     if (!(pq > 0)) break;  // exact solution reached (p = 0) or loss of positivity
     const double alpha = rz / pq;
