@@ -1,6 +1,8 @@
 #include "solvers/multigrid.hpp"
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include "core/parallel.hpp"
 
@@ -85,8 +87,11 @@ void Multigrid::smoother(Level& L, bool symmetric, int threads) {
 void Multigrid::galerkin(std::size_t l, int threads) {
   Level& L = levels_[l];
   multiply(L.A, L.P, L.AP, threads);
-  multiply(L.R, L.AP, levels_[l + 1].A, threads);
+  // Pᵀ A P is symmetric: its upper blocks are formed, the lower ones copied from them.
+  BlockMatrix upper;
+  multiply(L.R, L.AP, upper, threads, /*upper=*/true);
   L.AP = BlockMatrix{};  // as large as P and more: not kept
+  symmetric_from_upper(upper, levels_[l + 1].A);
   // A coarse unknown that P does not reach (a rigid mode its aggregate cannot carry) has a zero row
   // and column: a unit diagonal makes the operator definite without coupling it to anything.
   BlockMatrix& C = levels_[l + 1].A;
@@ -167,6 +172,8 @@ void Multigrid::build(const BlockMatrix& A, const std::vector<Vec3>& x, int thre
   }
   factor_coarsest();
   pack_levels(threads);
+  if (std::getenv("MGDEBUG"))
+    for (auto& L : levels_) std::fprintf(stderr, "level rows %u blocks %zu bs %d P blocks %zu lambda %g\n", L.A.rows, L.A.blocks(), L.A.br, L.P.blocks(), L.lambda);
   release_fine();
 }
 
