@@ -154,7 +154,7 @@ void numeric_product(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
 }
 
 // Rows [lo, hi) of y = A x (or of r = b − A x) for a packed matrix: E stored entries a block,
-// column-major unless symmetric, so that a block's product is a vector loop over its rows; each
+// column-major when it has six rows, so that its product is a vector loop over them; each
 // entry's sum runs over the row's blocks, then their columns, in order (the same bits in every
 // clone).
 template <class T, int R, int C, bool kSym, bool kResidual>
@@ -171,11 +171,14 @@ QBOND_VECTOR_INLINE void packed_range(const PackedMatrix<T>& A, const double* x,
         s[0] += a0 * xj[0] + a3 * xj[1] + a4 * xj[2];
         s[1] += a3 * xj[0] + a1 * xj[1] + a5 * xj[2];
         s[2] += a4 * xj[0] + a5 * xj[1] + a2 * xj[2];
-      } else {
+      } else if constexpr (R == 6) {  // column-major
         for (int c = 0; c < C; ++c) {
           const double xc = xj[c];
           QBOND_SIMD for (int r = 0; r < R; ++r) s[r] += static_cast<double>(a[c * R + r]) * xc;
         }
+      } else {
+        for (int r = 0; r < R; ++r)
+          for (int c = 0; c < C; ++c) s[r] += static_cast<double>(a[r * C + c]) * xj[c];
       }
     }
     for (int r = 0; r < R; ++r) y[i * R + r] = kResidual ? b[i * R + r] - s[r] : s[r];
@@ -240,6 +243,8 @@ void pack(const BlockMatrix& A, bool symmetric, PackedMatrix<T>& out, int thread
       T* o = out.val.data() + k * e;
       if (symmetric)
         for (std::size_t m = 0; m < e; ++m) o[m] = static_cast<T>(a[kEntry[m]]);
+      else if (A.br != 6)
+        for (std::size_t m = 0; m < e; ++m) o[m] = static_cast<T>(a[m]);
       else  // column-major (packed_range)
         for (int r = 0; r < A.br; ++r)
           for (int c = 0; c < A.bc; ++c) o[c * A.br + r] = static_cast<T>(a[r * A.bc + c]);

@@ -29,7 +29,7 @@ struct BlockMatrix {
 
 /// A BlockMatrix's values in precision T for the passes that only read them (the multigrid cycle
 /// reads its matrices in float, half the bytes; a preconditioner needs no more digits), each block
-/// column-major (its product a vector loop over its rows), or with `symmetric` its 3×3 blocks,
+/// row-major, or column-major when it has six rows (its product a vector loop over them), or with `symmetric` its 3×3 blocks,
 /// each symmetric, as their six distinct entries (xx, yy, zz, xy, xz, yz): two thirds of the
 /// bytes again.
 template <class T>
