@@ -1,10 +1,12 @@
 #include "solvers/multigrid.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 
 #include "core/parallel.hpp"
+#include "core/simd.hpp"
 
 namespace qbond {
 
@@ -17,19 +19,37 @@ double dot(std::size_t n, const double* a, const double* b, int threads) {
   return deterministic_sum(n, threads, [&](std::size_t k) { return a[k] * b[k]; });
 }
 
+// out_i = s · Dinv_i v_i for block rows [lo, hi) (B × B blocks, symmetric: read by columns, a
+// vector loop over the block's rows).
+template <int B>
+QBOND_VECTOR_CLONES void block_scale_range(const double* Dinv, const double* v, double s, double* out,
+                                           std::size_t lo, std::size_t hi) {
+  for (std::size_t i = lo; i < hi; ++i) {
+    const double* D = Dinv + i * B * B;
+    const double* vi = v + i * B;
+    double t[B] = {};
+    for (int c = 0; c < B; ++c) {
+      const double vc = vi[c];
+      QBOND_SIMD for (int r = 0; r < B; ++r) t[r] += D[c * B + r] * vc;
+    }
+    QBOND_SIMD for (int r = 0; r < B; ++r) out[i * B + r] = s * t[r];
+  }
+}
+
 // out_i = s · Dinv_i v_i for every block row i (bs × bs blocks).
 void block_scale(const std::vector<double>& Dinv, int bs, Index rows, const double* v, double s, double* out,
                  int threads) {
-  const auto b = static_cast<std::size_t>(bs);
-  parallel_for(rows, threads, [&](std::size_t i) {
-    const double* D = Dinv.data() + i * b * b;
-    const double* vi = v + i * b;
-    for (std::size_t r = 0; r < b; ++r) {
-      double s_r = 0;
-      for (std::size_t c = 0; c < b; ++c) s_r += D[r * b + c] * vi[c];
-      out[i * b + r] = s * s_r;
-    }
-  });
+  constexpr std::size_t kRange = 256;
+  parallel_for(
+      (rows + kRange - 1) / kRange, threads,
+      [&](std::size_t g) {
+        const std::size_t lo = g * kRange, hi = std::min<std::size_t>(rows, lo + kRange);
+        if (bs == 3)
+          block_scale_range<3>(Dinv.data(), v, s, out, lo, hi);
+        else
+          block_scale_range<6>(Dinv.data(), v, s, out, lo, hi);
+      },
+      1);
 }
 
 template <int N>
