@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 
 #include "core/parallel.hpp"
 #include "core/simd.hpp"
@@ -192,8 +190,6 @@ void Multigrid::build(const BlockMatrix& A, const std::vector<Vec3>& x, int thre
   }
   factor_coarsest();
   pack_levels(threads);
-  if (std::getenv("MGDEBUG"))
-    for (auto& L : levels_) std::fprintf(stderr, "level rows %u blocks %zu bs %d P blocks %zu lambda %g\n", L.A.rows, L.A.blocks(), L.A.br, L.P.blocks(), L.lambda);
   release_fine();
 }
 
