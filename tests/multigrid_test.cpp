@@ -244,6 +244,33 @@ TEST(Multigrid, IterationsDoNotGrowWithTheBody) {
   EXPECT_LE(iterations[1], 1.5 * iterations[0]);
 }
 
+// `automatic`: block Jacobi on a step it converges on in few iterations; once a solve needs more
+// than kMultigridAfter, multigrid from the next step on, to the same tolerance.
+TEST(Multigrid, AutomaticTurnsToMultigridWhenBlockJacobiIsSlow) {
+  Scene scene = canonical_lattice(20);
+  IntegratorConfig c = multigrid_config(1e-6);
+  c.preconditioner = Preconditioner::automatic;
+  c.max_iterations = 0;
+  c.warm_start = WarmStart::zero;  // each step's iterations from the same start
+  {
+    Simulation small(scene.world, c, 1e-5);  // h·sqrt(k/m) small: block Jacobi stays
+    for (int s = 0; s < 3; ++s) {
+      small.step();
+      EXPECT_LE(small.integrator().stats().iterations, kMultigridAfter);
+    }
+  }
+  Simulation sim(scene.world, c, 0.1);  // large steps: block Jacobi slow once the body moves
+  bool slow = false;
+  for (int s = 0; s < 6 && !slow; ++s) {
+    sim.step();
+    slow = sim.integrator().stats().iterations > kMultigridAfter;
+  }
+  ASSERT_TRUE(slow);
+  sim.step();
+  EXPECT_LE(sim.integrator().stats().iterations, 25);  // multigrid's
+  EXPECT_LE(sim.integrator().stats().residual, 1e-6);
+}
+
 TEST(Multigrid, SceneKey) {
   auto scene = [](const std::string& integrator) {
     return parse_scene(R"({"timestep": 1e-3, "steps": 1, "integrator": )" + integrator +
@@ -254,6 +281,7 @@ TEST(Multigrid, SceneKey) {
   EXPECT_EQ(scene(R"({"preconditioner": "multigrid"})").integrator.preconditioner, Preconditioner::multigrid);
   EXPECT_EQ(scene(R"({"preconditioner": "block_jacobi"})").integrator.preconditioner,
             Preconditioner::block_jacobi);
+  EXPECT_EQ(scene(R"({"preconditioner": "automatic"})").integrator.preconditioner, Preconditioner::automatic);
   EXPECT_EQ(scene(R"({"preconditioner": "multigrid"})").resolved["integrator"]["preconditioner"],
             "multigrid");
   EXPECT_THROW(scene(R"({"preconditioner": "ilu"})"), SceneError);
