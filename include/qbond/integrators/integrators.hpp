@@ -137,7 +137,7 @@ struct IntegratorConfig {
   IntegratorType type = IntegratorType::coupled_implicit;
   NeighbourModel neighbours = NeighbourModel::sweep;  ///< hybrid only
   CoupledSolver solver = CoupledSolver::cg;           ///< coupled and Newton integrators
-  Preconditioner preconditioner = Preconditioner::automatic;  ///< coupled_implicit with cg
+  Preconditioner preconditioner = Preconditioner::block_jacobi;  ///< coupled_implicit with cg
   int iterations = 1;        ///< sweep/jacobi: sweeps per step (≥ 1)
   int max_iterations = 0;    ///< cg: iteration cap (0: three times the free unknowns)
   double tolerance = 1e-6;   ///< relative residual ‖b - A dv‖/‖b‖ at which sweeps and cg stop;
