@@ -210,6 +210,10 @@ TEST(Menus, ComeFromTheIntegratorTable) {
   const view::Menu<NeighbourModel> models = view::neighbour_menu();
   ASSERT_EQ(models.values.size(), neighbour_models().size());
   for (std::size_t k = 0; k < models.values.size(); ++k) EXPECT_EQ(models.names[k], to_string(models.values[k]));
+  const view::Menu<Preconditioner> preconditioners = view::preconditioner_menu();
+  ASSERT_EQ(preconditioners.values.size(), qbond::preconditioners().size());
+  for (std::size_t k = 0; k < preconditioners.values.size(); ++k)
+    EXPECT_EQ(preconditioners.names[k], to_string(preconditioners.values[k]));
 }
 
 }  // namespace

@@ -29,4 +29,13 @@ Menu<CoupledSolver> solver_menu(IntegratorType t) {
   return m;
 }
 
+Menu<Preconditioner> preconditioner_menu() {
+  Menu<Preconditioner> m;
+  for (const NamedValue<Preconditioner>& p : preconditioners()) {
+    m.names.emplace_back(p.key);
+    m.values.push_back(p.value);
+  }
+  return m;
+}
+
 }  // namespace qbond::view

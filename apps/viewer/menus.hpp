@@ -33,5 +33,7 @@ Menu<IntegratorType> integrator_menu();
 Menu<NeighbourModel> neighbour_menu();
 /// The solvers integrator `t` takes (empty when it reads none).
 Menu<CoupledSolver> solver_menu(IntegratorType t);
+/// Every preconditioner of CG.
+Menu<Preconditioner> preconditioner_menu();
 
 }  // namespace qbond::view

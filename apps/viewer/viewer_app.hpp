@@ -181,6 +181,7 @@ class Viewer {
 
   const Menu<IntegratorType> integrator_menu_ = integrator_menu();
   const Menu<NeighbourModel> neighbour_menu_ = neighbour_menu();
+  const Menu<Preconditioner> preconditioner_menu_ = preconditioner_menu();
 };
 
 }  // namespace qbond::view

@@ -63,6 +63,12 @@ void Viewer::panel() {
     changed |= ImGui::Combo("solver", &sv, labels.data(), static_cast<int>(labels.size()));
     config_.solver = solvers.values[static_cast<std::size_t>(sv)];
   }
+  if (info.reads(IntegratorOption::preconditioner) && config_.solver == CoupledSolver::cg) {
+    int pc = preconditioner_menu_.index(config_.preconditioner);
+    const std::vector<const char*> labels = preconditioner_menu_.labels();
+    changed |= ImGui::Combo("preconditioner", &pc, labels.data(), static_cast<int>(labels.size()));
+    config_.preconditioner = preconditioner_menu_.values[static_cast<std::size_t>(pc)];
+  }
   if (info.reads(IntegratorOption::iterations)) changed |= ImGui::SliderInt("sweeps", &config_.iterations, 1, 50);
   if (info.reads(IntegratorOption::max_iterations))
     changed |= ImGui::SliderInt("max CG iter.", &config_.max_iterations, 0, 500);

@@ -228,6 +228,27 @@ struct DirectSolver {
 void conjugate_gradient(const Model& model, const Bonds& bonds, ImplicitSystem& sys, double tolerance,
                         int cap, int threads, std::vector<Vec3>& y, bool y_zero, SolveStats& stats);
 
+// A y over the free quanta by CG's matrix-free product (its vector bond pass over sys.part, which
+// must be current), for solvers that keep their vectors as 3 entries a row over a list of free
+// quanta (`quanta`: row r is quanta quanta[r]): y is spread onto the quanta (kinematic rows 0),
+// multiplied, and gathered back. The same bits for any thread count.
+class SystemProduct {
+ public:
+  /// Takes A's diagonal blocks from sys; model, bonds, sys and quanta must outlive the applications.
+  void prepare(const Model& model, const Bonds& bonds, const ImplicitSystem& sys, const std::vector<Index>& quanta,
+               int threads);
+  /// out = A y (3 · quanta.size() entries each).
+  void apply(const double* y, double* out, int threads);
+
+ private:
+  const Model* model_ = nullptr;
+  const Bonds* bonds_ = nullptr;
+  const ImplicitSystem* sys_ = nullptr;
+  const std::vector<Index>* quanta_ = nullptr;
+  LineVector<double> buffer_;
+  double *y_[3] = {}, *out_[3] = {}, *D_[6] = {};
+};
+
 // Block Gauss–Seidel sweeps in graph-colour order (quanta of one colour share no bond, so their
 // 3×3 updates run in parallel), from the initial guess in y, at most `sweeps` or until the
 // in-sweep residual estimate ‖b − A y‖/‖b‖ ≤ tolerance (tolerance > 0); optional Chebyshev

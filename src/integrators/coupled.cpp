@@ -31,12 +31,19 @@ class CoupledIntegrator final : public StepIntegrator {
         topo_.update(model, adj);
         const bool guessed =
             initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, config_.threads, y_);
-        if (config_.preconditioner == Preconditioner::multigrid)
+        if (use_multigrid(model)) {
           multigrid_.solve(model, state, adj, sys_, ctx.h, config_.tolerance, cg_cap(config_, topo_), config_.threads,
                            y_, !guessed, stats_);
+          // Steps so small that block Jacobi would converge as fast: back to it (the hierarchy is kept).
+          if (stats_.iterations <= 2) slow_jacobi_ = false;
+        }
         else
+        {
           conjugate_gradient(model, state.bonds, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
                              !guessed, stats_);
+          slow_jacobi_ = stats_.iterations > kMultigridAfter;
+          jacobi_quanta_ = model.num_quanta();
+        }
         if (config_.restore_momentum)
           restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
         keep_guess(config_.warm_start, y_, ctx.h, state.carry, config_.threads, out);
@@ -50,7 +57,17 @@ class CoupledIntegrator final : public StepIntegrator {
   }
 
  private:
+  // multigrid as asked, or (automatic) once block Jacobi was slow on this body: a hierarchy is
+  // then kept and pays for its set-up over the following steps.
+  bool use_multigrid(const Model& model) {
+    if (config_.preconditioner != Preconditioner::automatic) return config_.preconditioner == Preconditioner::multigrid;
+    if (model.num_quanta() != jacobi_quanta_) slow_jacobi_ = false;  // another body: block Jacobi first
+    return slow_jacobi_;
+  }
+
   ImplicitSystem sys_;
+  bool slow_jacobi_ = false;        // the last block-Jacobi solve took more than kMultigridAfter iterations
+  std::size_t jacobi_quanta_ = 0;   // the quanta then
   TopologyCache topo_;
   std::vector<Vec3> y_;
   DirectSolver direct_;

@@ -82,6 +82,7 @@ constexpr NamedValue<CoupledSolver> kSolvers[] = {
 constexpr NamedValue<Preconditioner> kPreconditioners[] = {
     {Preconditioner::block_jacobi, "block_jacobi", "A's 3x3 diagonal blocks inverted (matrix-free)"},
     {Preconditioner::multigrid, "multigrid", "smoothed aggregation multigrid V-cycle, kept across steps"},
+    {Preconditioner::automatic, "automatic", "block_jacobi, then multigrid once block Jacobi needs many iterations"},
 };
 constexpr NamedValue<WarmStart> kWarmStarts[] = {
     {WarmStart::zero, "zero", "dv = 0"},

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "core/parallel.hpp"
 
@@ -86,18 +87,6 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     stats.residual = 0;
     return;
   }
-  // A's values: the diagonal blocks, then −B_b for each bond to a free quanta, in adjacency order.
-  parallel_for(A.rows, threads, [&](std::size_t r) {
-    const Index i = quanta[r];
-    std::fill(A.val.begin() + A.offset[r] * 9, A.val.begin() + A.offset[r + 1] * 9, 0.0);
-    Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(A.block(diag_at[r])) = sys.diag[i];
-    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
-      if (edge_at[e] == kNone) continue;
-      const Index bond = adj.bond[e];
-      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(A.block(edge_at[e])) -=
-          block_matrix(sys.bonds.u(bond), sys.bonds.Ba[bond], sys.bonds.Bb[bond]);
-    }
-  });
   const std::size_t m = 3 * quanta.size();
   b.resize(m);
   x.resize(m);
@@ -108,12 +97,17 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     }
   });
 
+  // The cycle's and CG's fine operator: CG's matrix-free product on this step's system.
+  product.prepare(model, state.bonds, sys, quanta, threads);
+  fine = [this, threads](const double* in, double* out) { product.apply(in, out, threads); };
+  mg.set_fine_operator(fine);
+
   bool build = !mg.built() || built_quanta != quanta;
   bool update = false;
   if (!build && (A.offset != built_offset || A.col != built_col))
     build = 10 * changed_blocks() > built_col.size();  // bonds broke or formed
   if (!build) {
-    if (h != built_h) {
+    if (std::abs(h - built_h) > 0.25 * built_h) {  // a kept hierarchy still serves a nearby h
       update = true;
     } else if (base_iterations >= 0 && last_iterations > 1.5 * base_iterations + 2) {
       build = updated_since_check;  // an update did not help: the aggregates no longer fit
@@ -122,6 +116,20 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
   }
   updated_since_check = update;
   const auto t0 = std::chrono::steady_clock::now();
+  if (build || update) {
+    // A's values: the diagonal blocks, then −B_b for each bond to a free quanta, in adjacency order.
+    parallel_for(A.rows, threads, [&](std::size_t r) {
+      const Index i = quanta[r];
+      std::fill(A.val.begin() + A.offset[r] * 9, A.val.begin() + A.offset[r + 1] * 9, 0.0);
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(A.block(diag_at[r])) = sys.diag[i];
+      for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+        if (edge_at[e] == kNone) continue;
+        const Index bond = adj.bond[e];
+        Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(A.block(edge_at[e])) -=
+            block_matrix(sys.bonds.u(bond), sys.bonds.Ba[bond], sys.bonds.Bb[bond]);
+      }
+    });
+  }
   if (build) {
     std::vector<Vec3> points(quanta.size());
     for (std::size_t r = 0; r < quanta.size(); ++r) points[r] = state.x[quanta[r]];
@@ -138,8 +146,7 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     built_h = h;
   }
   const auto t1 = std::chrono::steady_clock::now();
-  pack(A, true, packed, threads);
-  mg.solve(packed, b, tolerance, cap, threads, x, y_zero, stats);
+  mg.solve(fine, b, tolerance, cap, threads, x, y_zero, stats);
   setup_seconds = std::chrono::duration<double>(t1 - t0).count();
   solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   last_iterations = stats.iterations;

@@ -2,13 +2,14 @@
 // The implicit step's system (M + h C + h² K) Δv = b solved by multigrid-preconditioned CG
 // (solvers/multigrid.hpp), with the hierarchy kept from step to step.
 //
-// A is assembled into 3×3 blocks over the free quanta each step (its pattern redone only when the
-// bonds change). The hierarchy is built on the first step and whenever the free quanta change;
+// CG and the cycle apply A matrix-free (SystemProduct); A is assembled into 3×3 blocks over the free
+// quanta only to build or update the hierarchy (its pattern redone only when the bonds change). The hierarchy is built on the first step and whenever the free quanta change;
 // otherwise it is kept, a fixed symmetric positive definite preconditioner, and updated (same
-// aggregates and prolongators, operators from the current A) when h changes or when a solve takes
-// more than 1.5 × (plus 2) the iterations the solve right after the last build took. After bonds
-// break or form it is rebuilt only once more than a tenth of A's blocks differ from the built
-// pattern, or when an update did not bring the iterations back down.
+// aggregates and prolongators, operators from the current A) when h changes by more than a
+// quarter (an adaptive step's small changes keep it) or when a solve takes more than 1.5 × (plus
+// 2) the iterations the solve right after the last build took. After bonds break or form it is
+// rebuilt only once more than a tenth of A's blocks differ from the built pattern, or when an
+// update did not bring the iterations back down.
 #include <cstdint>
 #include <vector>
 
@@ -37,8 +38,9 @@ struct MultigridStep {
   std::vector<Index> quanta;   // each block row's quanta
   std::vector<Index> edge_at;  // each adjacency entry's block in A (kNone: not coupled)
   std::vector<Index> diag_at;  // each block row's diagonal block
-  BlockMatrix A;
-  PackedMatrix<double> packed;  // A as CG's product reads it
+  BlockMatrix A;                // assembled only when the hierarchy is built or updated
+  SystemProduct product;        // A as CG and the cycle's fine level apply it
+  Multigrid::Operator fine;
   std::uint64_t adj_version = ~0ull;
   std::size_t num_quanta = 0;
   // The hierarchy's: its free quanta, A's pattern when built, h when last built or updated.

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cassert>
+#include <type_traits>
 
 #include "core/parallel.hpp"
+#include "core/simd.hpp"
 
 namespace qbond {
 
@@ -70,13 +72,14 @@ void times(const BlockMatrix& A, const double* x, const double* b, double* y, in
     rows_times<0, 0, kResidual>(A, x, b, y, threads);
 }
 
-// c += a b for an R × K block a and a K × C block b.
+// c += a b for an R × K block a and a K × C block b (each entry's sum in k's order: the vector
+// clones give the same bits).
 template <int R, int K, int C>
-void gemm_add(const double* a, const double* b, double* c, int, int, int) {
+QBOND_VECTOR_INLINE void gemm_add(const double* __restrict a, const double* __restrict b, double* __restrict c) {
   for (int r = 0; r < R; ++r)
     for (int k = 0; k < K; ++k) {
       const double ark = a[r * K + k];
-      for (int j = 0; j < C; ++j) c[r * C + j] += ark * b[k * C + j];
+      QBOND_SIMD for (int j = 0; j < C; ++j) c[r * C + j] += ark * b[k * C + j];
     }
 }
 void gemm_add_any(const double* a, const double* b, double* c, int R, int K, int C) {
@@ -87,85 +90,120 @@ void gemm_add_any(const double* a, const double* b, double* c, int R, int K, int
     }
 }
 constexpr Index kNone = ~Index{0};
+// Block rows a thread takes at a time in the packed products: a vector-clone call each.
+constexpr std::size_t kRowRange = 64;
 
-// C's columns and values, its row offsets counted (multiply): row i's columns gathered, sorted,
-// then each product A_ik B_kj added in A's row order, then B's. R, K, C: the block sizes (0: any).
+// Row i of C += the products A_ik B_kj in A's row order, then B's, each into C's block at pos[j]
+// (skipped where pos[j] is kNone: a column the row does not keep).
 template <int R, int K, int Cc>
-void numeric_rows(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
-                  std::vector<std::vector<Index>>& mark, int threads) {
+QBOND_VECTOR_INLINE void row_products(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, const Index* pos,
+                                      std::size_t i) {
+  for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k) {
+    const double* a = A.block(k);
+    for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l) {
+      const Index p = pos[B.col[l]];
+      if (p == kNone) continue;
+      if constexpr (R == 0)
+        gemm_add_any(a, B.block(l), C.block(p), A.br, A.bc, B.bc);
+      else
+        gemm_add<R, K, Cc>(a, B.block(l), C.block(p));
+    }
+  }
+}
+
+// The block sizes the hierarchy multiplies, compiled for the wide vector units (simd.hpp).
+QBOND_VECTOR_CLONES void row_products_336(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
+                                          const Index* pos, std::size_t i) {
+  row_products<3, 3, 6>(A, B, C, pos, i);
+}
+QBOND_VECTOR_CLONES void row_products_636(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
+                                          const Index* pos, std::size_t i) {
+  row_products<6, 3, 6>(A, B, C, pos, i);
+}
+QBOND_VECTOR_CLONES void row_products_666(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
+                                          const Index* pos, std::size_t i) {
+  row_products<6, 6, 6>(A, B, C, pos, i);
+}
+
+// C's columns and values, its row offsets counted (multiply): row i's columns gathered (with
+// `upper` only those ≥ i), sorted, then each product A_ik B_kj added in A's row order, then B's.
+void numeric_product(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, bool upper,
+                     std::vector<std::vector<Index>>& mark, int threads) {
+  auto kernel = [&]() -> void (*)(const BlockMatrix&, const BlockMatrix&, BlockMatrix&, const Index*, std::size_t) {
+    if (A.br == 3 && A.bc == 3 && B.bc == 6) return row_products_336;
+    if (A.br == 6 && A.bc == 3 && B.bc == 6) return row_products_636;
+    if (A.br == 6 && A.bc == 6 && B.bc == 6) return row_products_666;
+    if (A.br == 3 && A.bc == 3 && B.bc == 3) return row_products<3, 3, 3>;
+    return row_products<0, 0, 0>;
+  }();
   parallel_for(A.rows, threads, [&](std::size_t i) {
     std::vector<Index>& m = mark[static_cast<std::size_t>(thread_id())];
     Index p = C.offset[i];
     for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
       for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l)
-        if (m[B.col[l]] != i) {
-          m[B.col[l]] = static_cast<Index>(i);
-          C.col[p++] = B.col[l];
+        if (const Index j = B.col[l]; m[j] != i && (!upper || j >= i)) {
+          m[j] = static_cast<Index>(i);
+          C.col[p++] = j;
         }
     std::sort(C.col.begin() + C.offset[i], C.col.begin() + C.offset[i + 1]);
     // m maps the row's columns to their positions while it is summed, then is cleared.
     for (Index q = C.offset[i]; q < C.offset[i + 1]; ++q) m[C.col[q]] = q;
-    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
-      for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l) {
-        if constexpr (R == 0)
-          gemm_add_any(A.block(k), B.block(l), C.block(m[B.col[l]]), A.br, A.bc, B.bc);
-        else
-          gemm_add<R, K, Cc>(A.block(k), B.block(l), C.block(m[B.col[l]]), R, K, Cc);
-      }
+    kernel(A, B, C, m.data(), i);
     for (Index q = C.offset[i]; q < C.offset[i + 1]; ++q) m[C.col[q]] = kNone;
   });
 }
 
-void numeric_product(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
-                     std::vector<std::vector<Index>>& mark, int threads) {
-  const int key = (A.br == 3   ? 0
-                   : A.br == 6 ? 1
-                               : 9) *
-                      100 +
-                  (A.bc == 3   ? 0
-                   : A.bc == 6 ? 1
-                               : 9) *
-                      10 +
-                  (B.bc == 3   ? 0
-                   : B.bc == 6 ? 1
-                               : 9);
-  switch (key) {
-    case 0: return numeric_rows<3, 3, 3>(A, B, C, mark, threads);
-    case 1: return numeric_rows<3, 3, 6>(A, B, C, mark, threads);
-    case 10: return numeric_rows<3, 6, 3>(A, B, C, mark, threads);
-    case 11: return numeric_rows<3, 6, 6>(A, B, C, mark, threads);
-    case 100: return numeric_rows<6, 3, 3>(A, B, C, mark, threads);
-    case 101: return numeric_rows<6, 3, 6>(A, B, C, mark, threads);
-    case 110: return numeric_rows<6, 6, 3>(A, B, C, mark, threads);
-    case 111: return numeric_rows<6, 6, 6>(A, B, C, mark, threads);
-    default: return numeric_rows<0, 0, 0>(A, B, C, mark, threads);
+// Rows [lo, hi) of y = A x (or of r = b − A x) for a packed matrix: E stored entries a block,
+// column-major when it has six rows, so that its product is a vector loop over them; each
+// entry's sum runs over the row's blocks, then their columns, in order (the same bits in every
+// clone).
+template <class T, int R, int C, bool kSym, bool kResidual>
+QBOND_VECTOR_INLINE void packed_range(const PackedMatrix<T>& A, const double* x, const double* b, double* y,
+                                      std::size_t lo, std::size_t hi) {
+  constexpr int E = kSym ? 6 : R * C;
+  for (std::size_t i = lo; i < hi; ++i) {
+    double s[R] = {};
+    const T* a = A.val.data() + static_cast<std::size_t>(A.offset[i]) * E;
+    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k, a += E) {
+      const double* xj = x + static_cast<std::size_t>(A.col[k]) * C;
+      if constexpr (kSym) {
+        const double a0 = a[0], a1 = a[1], a2 = a[2], a3 = a[3], a4 = a[4], a5 = a[5];
+        s[0] += a0 * xj[0] + a3 * xj[1] + a4 * xj[2];
+        s[1] += a3 * xj[0] + a1 * xj[1] + a5 * xj[2];
+        s[2] += a4 * xj[0] + a5 * xj[1] + a2 * xj[2];
+      } else if constexpr (R == 6) {  // column-major
+        for (int c = 0; c < C; ++c) {
+          const double xc = xj[c];
+          QBOND_SIMD for (int r = 0; r < R; ++r) s[r] += static_cast<double>(a[c * R + r]) * xc;
+        }
+      } else {
+        for (int r = 0; r < R; ++r)
+          for (int c = 0; c < C; ++c) s[r] += static_cast<double>(a[r * C + c]) * xj[c];
+      }
+    }
+    for (int r = 0; r < R; ++r) y[i * R + r] = kResidual ? b[i * R + r] - s[r] : s[r];
   }
 }
 
-// Row i of y = A x (or r = b − A x) for a packed matrix: E stored entries a block.
-template <class T, int R, int C, bool kSym, bool kResidual>
-void packed_row(const PackedMatrix<T>& A, const double* x, const double* b, double* y, std::size_t i) {
-  constexpr int E = kSym ? 6 : R * C;
-  double s[R] = {};
-  const T* a = A.val.data() + static_cast<std::size_t>(A.offset[i]) * E;
-  for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k, a += E) {
-    const double* xj = x + static_cast<std::size_t>(A.col[k]) * C;
-    if constexpr (kSym) {
-      const double a0 = a[0], a1 = a[1], a2 = a[2], a3 = a[3], a4 = a[4], a5 = a[5];
-      s[0] += a0 * xj[0] + a3 * xj[1] + a4 * xj[2];
-      s[1] += a3 * xj[0] + a1 * xj[1] + a5 * xj[2];
-      s[2] += a4 * xj[0] + a5 * xj[1] + a2 * xj[2];
-    } else {
-      for (int r = 0; r < R; ++r)
-        for (int c = 0; c < C; ++c) s[r] += static_cast<double>(a[r * C + c]) * xj[c];
-    }
-  }
-  for (int r = 0; r < R; ++r) y[i * R + r] = kResidual ? b[i * R + r] - s[r] : s[r];
+// The hierarchy's float products, compiled for the wide vector units (simd.hpp).
+template <int R, int C, bool kResidual>
+QBOND_VECTOR_CLONES void float_range(const PackedMatrix<float>& A, const double* x, const double* b, double* y,
+                                     std::size_t lo, std::size_t hi) {
+  packed_range<float, R, C, false, kResidual>(A, x, b, y, lo, hi);
 }
 
 template <class T, int R, int C, bool kSym, bool kResidual>
 void packed_rows(const PackedMatrix<T>& A, const double* x, const double* b, double* y, int threads) {
-  parallel_for(A.rows, threads, [&](std::size_t i) { packed_row<T, R, C, kSym, kResidual>(A, x, b, y, i); });
+  parallel_for(
+      (A.rows + kRowRange - 1) / kRowRange, threads,
+      [&](std::size_t g) {
+        const std::size_t lo = g * kRowRange, hi = std::min<std::size_t>(A.rows, lo + kRowRange);
+        if constexpr (std::is_same_v<T, float> && !kSym)
+          float_range<R, C, kResidual>(A, x, b, y, lo, hi);
+        else
+          packed_range<T, R, C, kSym, kResidual>(A, x, b, y, lo, hi);
+      },
+      1);
 }
 
 template <class T, bool kResidual>
@@ -203,7 +241,13 @@ void pack(const BlockMatrix& A, bool symmetric, PackedMatrix<T>& out, int thread
     for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k) {
       const double* a = A.block(k);
       T* o = out.val.data() + k * e;
-      for (std::size_t m = 0; m < e; ++m) o[m] = static_cast<T>(symmetric ? a[kEntry[m]] : a[m]);
+      if (symmetric)
+        for (std::size_t m = 0; m < e; ++m) o[m] = static_cast<T>(a[kEntry[m]]);
+      else if (A.br != 6)
+        for (std::size_t m = 0; m < e; ++m) o[m] = static_cast<T>(a[m]);
+      else  // column-major (packed_range)
+        for (int r = 0; r < A.br; ++r)
+          for (int c = 0; c < A.bc; ++c) o[c * A.br + r] = static_cast<T>(a[r * A.bc + c]);
     }
   });
 }
@@ -261,7 +305,7 @@ void transpose(const BlockMatrix& A, BlockMatrix& At) {
     }
 }
 
-void multiply(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, int threads) {
+void multiply(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, int threads, bool upper) {
   assert(A.bc == B.br && A.cols == B.rows);
   C.br = A.br;
   C.bc = B.bc;
@@ -278,8 +322,8 @@ void multiply(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, int th
     Index c = 0;
     for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k)
       for (Index l = B.offset[A.col[k]]; l < B.offset[A.col[k] + 1]; ++l)
-        if (m[B.col[l]] != i) {
-          m[B.col[l]] = static_cast<Index>(i);
+        if (const Index j = B.col[l]; m[j] != i && (!upper || j >= i)) {
+          m[j] = static_cast<Index>(i);
           ++c;
         }
     count[i] = c;
@@ -289,7 +333,32 @@ void multiply(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, int th
   C.col.resize(C.offset.back());
   C.val.assign(C.blocks() * C.block_size(), 0.0);
   for (auto& m : mark) std::fill(m.begin(), m.end(), kNone);
-  numeric_product(A, B, C, mark, threads);
+  numeric_product(A, B, C, upper, mark, threads);
+}
+
+void symmetric_from_upper(const BlockMatrix& U, BlockMatrix& S) {
+  assert(U.rows == U.cols && U.br == U.bc);
+  BlockMatrix L;
+  transpose(U, L);  // row i: the blocks (k, i) of U, k ≤ i, transposed
+  const std::size_t bs = U.block_size();
+  S.br = S.bc = U.br;
+  S.rows = S.cols = U.rows;
+  S.offset.assign(static_cast<std::size_t>(U.rows) + 1, 0);
+  S.col.clear();
+  S.val.clear();
+  S.col.reserve(2 * U.blocks());
+  S.val.reserve(2 * U.val.size());
+  for (Index i = 0; i < U.rows; ++i) {
+    for (Index k = L.offset[i]; k < L.offset[i + 1] && L.col[k] < i; ++k) {
+      S.col.push_back(L.col[k]);
+      S.val.insert(S.val.end(), L.block(k), L.block(k) + bs);
+    }
+    for (Index k = U.offset[i]; k < U.offset[i + 1]; ++k) {
+      S.col.push_back(U.col[k]);
+      S.val.insert(S.val.end(), U.block(k), U.block(k) + bs);
+    }
+    S.offset[i + 1] = static_cast<Index>(S.col.size());
+  }
 }
 
 }  // namespace qbond

@@ -28,9 +28,10 @@ struct BlockMatrix {
 };
 
 /// A BlockMatrix's values in precision T for the passes that only read them (the multigrid cycle
-/// reads its matrices in float, half the bytes; a preconditioner needs no more digits), and with
-/// `symmetric` its 3×3 blocks, each symmetric, as their six distinct entries (xx, yy, zz, xy, xz,
-/// yz): two thirds of the bytes again.
+/// reads its matrices in float, half the bytes; a preconditioner needs no more digits), each block
+/// row-major, or column-major when it has six rows (its product a vector loop over them), or with `symmetric` its 3×3 blocks,
+/// each symmetric, as their six distinct entries (xx, yy, zz, xy, xz, yz): two thirds of the
+/// bytes again.
 template <class T>
 struct PackedMatrix {
   int br = 3, bc = 3;
@@ -61,7 +62,12 @@ void residual(const BlockMatrix& A, const double* b, const double* x, double* r,
 void transpose(const BlockMatrix& A, BlockMatrix& At);
 
 /// C = A B (A.bc = B.br, A.cols = B.rows): each row of C in increasing block column, each block the
-/// sum over A's row in its order of A_ik B_kj.
-void multiply(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, int threads);
+/// sum over A's row in its order of A_ik B_kj. With `upper`, only C's blocks on and above the block
+/// diagonal (j ≥ i): half the work of a product known to be symmetric.
+void multiply(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C, int threads, bool upper = false);
+
+/// S = U + Uᵀ − diag(U) for U holding the blocks on and above the block diagonal of a symmetric S:
+/// its blocks below the diagonal are U's above it, transposed.
+void symmetric_from_upper(const BlockMatrix& U, BlockMatrix& S);
 
 }  // namespace qbond

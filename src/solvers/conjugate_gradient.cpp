@@ -372,6 +372,38 @@ void apply_system(const Model& model, const Bonds& bonds, const ImplicitSystem& 
   parallel_ranges(n, threads, [&](std::size_t lo, std::size_t hi) { store(a.inv_mass, a.Ap, out, lo, hi); });
 }
 
+void SystemProduct::prepare(const Model& model, const Bonds& bonds, const ImplicitSystem& sys,
+                            const std::vector<Index>& quanta, int threads) {
+  model_ = &model;
+  bonds_ = &bonds;
+  sys_ = &sys;
+  quanta_ = &quanta;
+  const std::size_t n = model.num_quanta();
+  SoaArrays soa(buffer_, n, 12);
+  soa.take(y_);
+  soa.take(out_);
+  soa.take(D_);
+  constexpr int kEntry[6] = {0, 4, 8, 3, 6, 7};  // xx, yy, zz, xy, xz, yz in a column-major 3×3
+  parallel_for(n, threads, [&](std::size_t q) {
+    const double* D = sys.diag[q].data();
+    for (int e = 0; e < 6; ++e) D_[e][q] = D[kEntry[e]];
+    for (int c = 0; c < 3; ++c) y_[c][q] = 0.0;  // kinematic quanta's stay 0: the product reads them
+  });
+}
+
+void SystemProduct::apply(const double* y, double* out, int threads) {
+  const std::vector<Index>& quanta = *quanta_;
+  parallel_for(quanta.size(), threads, [&](std::size_t r) {
+    for (int c = 0; c < 3; ++c) y_[c][quanta[r]] = y[3 * r + static_cast<std::size_t>(c)];
+  });
+  Diagonals d{};
+  for (int e = 0; e < 6; ++e) d.D[e] = D_[e];
+  product(*model_, *bonds_, *sys_, d, y_, out_, threads);
+  parallel_for(quanta.size(), threads, [&](std::size_t r) {
+    for (int c = 0; c < 3; ++c) out[3 * r + static_cast<std::size_t>(c)] = out_[c][quanta[r]];
+  });
+}
+
 void conjugate_gradient(const Model& model, const Bonds& bonds, ImplicitSystem& sys, double tolerance,
                         int cap, int threads, std::vector<Vec3>& y, bool y_zero, SolveStats& stats) {
   const std::size_t n = model.num_quanta();

@@ -1,8 +1,10 @@
 #include "solvers/multigrid.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/parallel.hpp"
+#include "core/simd.hpp"
 
 namespace qbond {
 
@@ -15,19 +17,37 @@ double dot(std::size_t n, const double* a, const double* b, int threads) {
   return deterministic_sum(n, threads, [&](std::size_t k) { return a[k] * b[k]; });
 }
 
+// out_i = s · Dinv_i v_i for block rows [lo, hi) (B × B blocks, symmetric: read by columns, a
+// vector loop over the block's rows).
+template <int B>
+QBOND_VECTOR_CLONES void block_scale_range(const double* Dinv, const double* v, double s, double* out,
+                                           std::size_t lo, std::size_t hi) {
+  for (std::size_t i = lo; i < hi; ++i) {
+    const double* D = Dinv + i * B * B;
+    const double* vi = v + i * B;
+    double t[B] = {};
+    for (int c = 0; c < B; ++c) {
+      const double vc = vi[c];
+      QBOND_SIMD for (int r = 0; r < B; ++r) t[r] += D[c * B + r] * vc;
+    }
+    QBOND_SIMD for (int r = 0; r < B; ++r) out[i * B + r] = s * t[r];
+  }
+}
+
 // out_i = s · Dinv_i v_i for every block row i (bs × bs blocks).
 void block_scale(const std::vector<double>& Dinv, int bs, Index rows, const double* v, double s, double* out,
                  int threads) {
-  const auto b = static_cast<std::size_t>(bs);
-  parallel_for(rows, threads, [&](std::size_t i) {
-    const double* D = Dinv.data() + i * b * b;
-    const double* vi = v + i * b;
-    for (std::size_t r = 0; r < b; ++r) {
-      double s_r = 0;
-      for (std::size_t c = 0; c < b; ++c) s_r += D[r * b + c] * vi[c];
-      out[i * b + r] = s * s_r;
-    }
-  });
+  constexpr std::size_t kRange = 256;
+  parallel_for(
+      (rows + kRange - 1) / kRange, threads,
+      [&](std::size_t g) {
+        const std::size_t lo = g * kRange, hi = std::min<std::size_t>(rows, lo + kRange);
+        if (bs == 3)
+          block_scale_range<3>(Dinv.data(), v, s, out, lo, hi);
+        else
+          block_scale_range<6>(Dinv.data(), v, s, out, lo, hi);
+      },
+      1);
 }
 
 template <int N>
@@ -62,12 +82,16 @@ void Multigrid::smoother(Level& L, bool symmetric, int threads) {
   for (std::vector<double>* v : {&L.x, &L.b, &L.r, &L.d, &L.t}) v->assign(n, 0.0);
   // λ_max(D⁻¹A) by power iteration from a fixed start with every frequency in it, on A as the
   // cycle reads it.
-  pack(L.A, symmetric, L.Af, threads);
+  const std::size_t l = static_cast<std::size_t>(&L - levels_.data());
+  if (l == 0 && fine_op_)
+    L.Af = PackedMatrix<float>{};
+  else
+    pack(L.A, symmetric, L.Af, threads);
   std::vector<double>& v = L.d;
   for (std::size_t k = 0; k < n; ++k) v[k] = static_cast<double>((k * 2654435761u) % 1000u) / 1000.0 - 0.5;
   double lambda = 1;
   for (int it = 0; it < 10; ++it) {
-    multiply(L.Af, v.data(), L.t.data(), threads);
+    level_multiply(l, v.data(), L.t.data(), threads);
     block_scale(L.Dinv, bs, L.A.rows, L.t.data(), 1.0, L.r.data(), threads);
     const double vv = dot(n, v.data(), v.data(), threads), ww = dot(n, L.r.data(), L.r.data(), threads);
     if (!(vv > 0) || !(ww > 0)) break;
@@ -81,8 +105,11 @@ void Multigrid::smoother(Level& L, bool symmetric, int threads) {
 void Multigrid::galerkin(std::size_t l, int threads) {
   Level& L = levels_[l];
   multiply(L.A, L.P, L.AP, threads);
-  multiply(L.R, L.AP, levels_[l + 1].A, threads);
+  // Pᵀ A P is symmetric: its upper blocks are formed, the lower ones copied from them.
+  BlockMatrix upper;
+  multiply(L.R, L.AP, upper, threads, /*upper=*/true);
   L.AP = BlockMatrix{};  // as large as P and more: not kept
+  symmetric_from_upper(upper, levels_[l + 1].A);
   // A coarse unknown that P does not reach (a rigid mode its aggregate cannot carry) has a zero row
   // and column: a unit diagonal makes the operator definite without coupling it to anything.
   BlockMatrix& C = levels_[l + 1].A;
@@ -163,6 +190,16 @@ void Multigrid::build(const BlockMatrix& A, const std::vector<Vec3>& x, int thre
   }
   factor_coarsest();
   pack_levels(threads);
+  release_fine();
+}
+
+void Multigrid::release_fine() {
+  // The cycle reads the fine operator packed (Af); its double copy, the hierarchy's largest
+  // matrix, is only needed again by the next build or update, which bring their own.
+  BlockMatrix& A = levels_[0].A;
+  A.offset = {0};
+  A.col = {};
+  A.val = {};
 }
 
 void Multigrid::update(const BlockMatrix& A, int threads) {
@@ -173,9 +210,27 @@ void Multigrid::update(const BlockMatrix& A, int threads) {
   }
   factor_coarsest();
   pack_levels(threads);
+  release_fine();
+}
+
+void Multigrid::level_multiply(std::size_t l, const double* x, double* y, int threads) {
+  if (l == 0 && fine_op_)
+    fine_op_(x, y);
+  else
+    multiply(levels_[l].Af, x, y, threads);
+}
+
+void Multigrid::level_residual(std::size_t l, const double* b, const double* x, double* r, int threads) {
+  if (l == 0 && fine_op_) {
+    fine_op_(x, r);
+    parallel_for(levels_[0].x.size(), threads, [&](std::size_t k) { r[k] = b[k] - r[k]; });
+  } else {
+    residual(levels_[l].Af, b, x, r, threads);
+  }
 }
 
 void Multigrid::chebyshev(Level& L, bool zero_start, int threads) {
+  const std::size_t l = static_cast<std::size_t>(&L - levels_.data());
   const int bs = L.A.br;
   const std::size_t n = L.x.size();
   const double hi = 1.1 * L.lambda, lo = hi / 5;
@@ -184,14 +239,14 @@ void Multigrid::chebyshev(Level& L, bool zero_start, int threads) {
   if (zero_start)
     L.r = L.b;
   else
-    residual(L.Af, L.b.data(), L.x.data(), L.r.data(), threads);
+    level_residual(l, L.b.data(), L.x.data(), L.r.data(), threads);
   block_scale(L.Dinv, bs, L.A.rows, L.r.data(), 1 / theta, L.d.data(), threads);
   if (zero_start)
     L.x = L.d;
   else
     parallel_for(n, threads, [&](std::size_t k) { L.x[k] += L.d[k]; });
   for (int it = 1; it < smoothing_degree; ++it) {
-    multiply(L.Af, L.d.data(), L.t.data(), threads);
+    level_multiply(l, L.d.data(), L.t.data(), threads);
     const double rho_next = 1 / (2 * sigma - rho);
     const double c1 = rho_next * rho, c2 = 2 * rho_next / delta;
     parallel_for(n, threads, [&](std::size_t k) { L.r[k] -= L.t[k]; });
@@ -213,7 +268,7 @@ void Multigrid::cycle(std::size_t l, int threads) {
   }
   Level& C = levels_[l + 1];
   chebyshev(L, true, threads);
-  residual(L.Af, L.b.data(), L.x.data(), L.r.data(), threads);
+  level_residual(l, L.b.data(), L.x.data(), L.r.data(), threads);
   multiply(L.Rf, L.r.data(), C.b.data(), threads);
   cycle(l + 1, threads);
   multiply(L.Pf, C.x.data(), L.t.data(), threads);
@@ -228,8 +283,8 @@ void Multigrid::apply(const double* r, double* z, int threads) {
   std::copy(L.x.begin(), L.x.end(), z);
 }
 
-void Multigrid::solve(const PackedMatrix<double>& A, const std::vector<double>& b, double tolerance, int cap,
-                      int threads, std::vector<double>& y, bool y_zero, SolveStats& stats) {
+void Multigrid::solve(const Operator& A, const std::vector<double>& b, double tolerance, int cap, int threads,
+                      std::vector<double>& y, bool y_zero, SolveStats& stats) {
   const std::size_t n = b.size();
   for (std::vector<double>* v : {&r_, &z_, &p_, &q_}) v->resize(n);
   y.resize(n);
@@ -240,7 +295,7 @@ void Multigrid::solve(const PackedMatrix<double>& A, const std::vector<double>& 
     r_ = b;
   } else {
     // The guess scaled by yᵀb / yᵀA y, the factor that minimises its error's A-norm.
-    multiply(A, y.data(), q_.data(), threads);
+    A(y.data(), q_.data());
     const double yAy = dot(n, y.data(), q_.data(), threads), yb = dot(n, y.data(), b.data(), threads);
     const double s = yAy > 0 ? yb / yAy : 0.0;
     parallel_for(n, threads, [&](std::size_t k) {
@@ -257,7 +312,7 @@ void Multigrid::solve(const PackedMatrix<double>& A, const std::vector<double>& 
     const double beta = it == 0 ? 0.0 : rz_next / rz;
     rz = rz_next;
     parallel_for(n, threads, [&](std::size_t k) { p_[k] = z_[k] + beta * p_[k]; });
-    multiply(A, p_.data(), q_.data(), threads);
+    A(p_.data(), q_.data());
     const double pq = dot(n, p_.data(), q_.data(), threads);
     if (!(pq > 0)) break;  // exact solution reached (p = 0) or loss of positivity
     const double alpha = rz / pq;

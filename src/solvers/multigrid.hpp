@@ -14,6 +14,7 @@
 // each block row on one thread in a fixed order, and the dot products sum fixed chunks in order:
 // the same bits for any thread count.
 #include <Eigen/SparseCholesky>
+#include <functional>
 #include <vector>
 
 #include "qbond/integrators/integrators.hpp"
@@ -24,6 +25,14 @@ namespace qbond {
 
 class Multigrid {
  public:
+  /// y = A x for the fine level's unknowns.
+  using Operator = std::function<void(const double* x, double* y)>;
+
+  /// The fine operator the cycle, CG and the set-up's estimate of λ_max apply (a matrix-free
+  /// product: the fine level's assembled matrix is then only read by build and update, to form
+  /// the prolongator and the coarse operator); without one they read the fine matrix packed.
+  void set_fine_operator(Operator op) { fine_op_ = std::move(op); }
+
   /// Builds the hierarchy for A (3×3 blocks, SPD) whose block row i holds the unknowns of the
   /// point at x[i]: aggregates, prolongators and coarse operators. A is copied: the hierarchy stays
   /// a fixed preconditioner until the next build or update.
@@ -40,11 +49,11 @@ class Multigrid {
   void apply(const double* r, double* z, int threads);
 
   /// Conjugate gradient on A y = b (A with the built block rows, not necessarily the built
-  /// values; packed symmetric), preconditioned by apply, from y (scaled by yᵀb / yᵀA y first, as the
+  /// values), preconditioned by apply, from y (scaled by yᵀb / yᵀA y first, as the
   /// block-Jacobi CG does; y_zero: y is 0) until ‖b − A y‖/‖b‖ ≤ tolerance (CG's recurrence) or `cap`
   /// iterations.
-  void solve(const PackedMatrix<double>& A, const std::vector<double>& b, double tolerance, int cap,
-             int threads, std::vector<double>& y, bool y_zero, SolveStats& stats);
+  void solve(const Operator& A, const std::vector<double>& b, double tolerance, int cap, int threads,
+             std::vector<double>& y, bool y_zero, SolveStats& stats);
 
   /// Chebyshev degree of the smoother before and after each coarse correction.
   int smoothing_degree = 2;
@@ -57,19 +66,23 @@ class Multigrid {
     std::vector<double> Dinv;        // A's diagonal blocks inverted, bs × bs each
     double lambda = 1;               // λ_max(D⁻¹A), estimated
     BlockMatrix P, R, AP;            // from the next level (none on the coarsest), R = Pᵀ, AP scratch
-    PackedMatrix<float> Af, Pf, Rf;  // A, P, R as the cycle reads them
+    PackedMatrix<float> Af, Pf, Rf;  // A (not the fine level's, with a fine operator), P, R as the cycle reads them
     std::vector<double> x, b, r, d, t;
   };
   void smoother(Level& L, bool symmetric, int threads);  // symmetric: A's blocks each are
   void galerkin(std::size_t l, int threads);
   void factor_coarsest();
   void pack_levels(int threads);  // P and R as the cycle reads them
+  void release_fine();            // frees the fine level's double copy once packed
   void chebyshev(Level& L, bool zero_start, int threads);
   void cycle(std::size_t l, int threads);
+  void level_multiply(std::size_t l, const double* x, double* y, int threads);
+  void level_residual(std::size_t l, const double* b, const double* x, double* r, int threads);
 
   std::vector<Level> levels_;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> coarse_;
   std::vector<double> r_, z_, p_, q_;  // CG's vectors
+  Operator fine_op_;
 };
 
 }  // namespace qbond

@@ -111,7 +111,14 @@ enum class CoupledSolver : std::uint8_t {
 enum class Preconditioner : std::uint8_t {
   block_jacobi,  ///< A's 3×3 diagonal blocks inverted; matrix-free
   multigrid,     ///< a V-cycle of smoothed aggregation with the rigid-body modes, kept across steps
+  /// block_jacobi until one of its solves needs more than kMultigridAfter iterations, multigrid
+  /// from the next step on (until the free quanta change)
+  automatic,
 };
+
+/// The block-Jacobi iterations above which `automatic` turns to multigrid: where a multigrid
+/// solve's dozen iterations cost less (docs/integrators.md, "Multigrid").
+inline constexpr int kMultigridAfter = 150;
 
 /// Initial guess of the iterative solvers (sweep, jacobi, cg). CG scales a guess by the factor
 /// that minimises its error in A's norm, so that no guess starts it worse than zero.
