@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt
 from mpl_toolkits.mplot3d.art3d import Line3DCollection
 import numpy as np
 
-from qbond_frames import frames, read
+from qbond_frames import frames, pieces, read
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BUILD = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "build")
@@ -37,20 +37,6 @@ FIGURES = [
     ("liquid_blob", [0.112, 0.125, 0.15, 0.3, 1.0], (50, -60), "liquid: a blob falls into a tank, splashes, and its drops merge again"),
 ]
 
-
-def pieces(n, lines):
-    """Number of connected pieces of n quanta joined by `lines` (union-find)."""
-    parent = list(range(n))
-
-    def find(a):
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-
-    for a, b in lines:
-        parent[find(a)] = find(b)
-    return len({find(i) for i in range(n)})
 
 
 def main():

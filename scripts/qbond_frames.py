@@ -24,3 +24,18 @@ def read(path):
     # Cell data covers the quanta's vertex cells first, then the bonds' lines.
     strain = vtk_to_numpy(poly.GetCellData().GetArray("strain"))[poly.GetNumberOfVerts():]
     return x, lines, strain
+
+
+def pieces(n, lines):
+    """Number of connected pieces of n quanta joined by the bonds `lines` (union-find)."""
+    parent = list(range(n))
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    for a, b in lines:
+        parent[find(a)] = find(b)
+    return len({find(i) for i in range(n)})

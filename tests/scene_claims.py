@@ -15,7 +15,7 @@ import numpy as np
 
 QBOND, SOURCE, WORK = sys.argv[1], sys.argv[2], sys.argv[3]
 sys.path.insert(0, os.path.join(SOURCE, "scripts"))
-from qbond_frames import frames, read  # noqa: E402
+from qbond_frames import frames, pieces, read  # noqa: E402
 
 
 def fail(msg):
@@ -38,20 +38,6 @@ def run(scene, name, every, edit=None):
         fail(f"qbond run {scene}: exit {r.returncode}\n{r.stderr}")
     return [(t, *read(f)) for t, f in frames(out)]
 
-
-def pieces(n, lines):
-    """Connected pieces of n quanta joined by the bonds `lines` (union-find)."""
-    parent = list(range(n))
-
-    def find(a):
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-
-    for a, b in lines:
-        parent[find(a)] = find(b)
-    return len({find(i) for i in range(n)})
 
 
 def closest_unbonded(x, lines):
