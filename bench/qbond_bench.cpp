@@ -156,17 +156,29 @@ void solve_qbond(benchmark::State& st, int n) {
   st.counters["quanta"] = static_cast<double>(quanta);
 }
 
+// The canonical lattice at rest with its adjacency and gravity as the external forces: the system
+// the solver rows solve.
+struct SolveCase {
+  Scene scene;
+  Adjacency adj;
+  std::vector<Vec3> f_ext;
+  explicit SolveCase(int n) : scene(canonical_lattice(n)) {
+    const Model& m = scene.world.model;
+    build_adjacency(m, scene.world.state, adj);
+    f_ext.resize(m.num_quanta());
+    for (std::size_t i = 0; i < f_ext.size(); ++i) f_ext[i] = m.mass[i] * m.gravity;
+  }
+};
+
 // The default step's system (begin_implicit_step) solved by multigrid-preconditioned CG from zero,
 // the hierarchy built for it (MultigridStep, as coupled_implicit with preconditioner multigrid
 // takes its first step); counters: the set-up and CG times apart, and the true residual.
 void solve_multigrid(benchmark::State& st, int n) {
-  Scene scene = canonical_lattice(n);
-  const World& w = scene.world;
+  const SolveCase c(n);
+  const World& w = c.scene.world;
   const Model& m = w.model;
-  Adjacency adj;
-  build_adjacency(m, w.state, adj);
-  std::vector<Vec3> f_ext(w.num_quanta());
-  for (std::size_t i = 0; i < f_ext.size(); ++i) f_ext[i] = m.mass[i] * m.gravity;
+  const Adjacency& adj = c.adj;
+  const std::vector<Vec3>& f_ext = c.f_ext;
   double setup = 0, solve = 0, residual = 0, levels = 0;
   int iterations = 0;
   for (auto _ : st) {
@@ -203,13 +215,11 @@ void solve_multigrid(benchmark::State& st, int n) {
 // The same system (begin_implicit_step, as the integrators build it) assembled into a sparse
 // matrix of the free unknowns and solved by Eigen: CG or SimplicialLLT.
 void solve_eigen(benchmark::State& st, int n, bool cholesky) {
-  Scene scene = canonical_lattice(n);
-  const World& w = scene.world;
+  const SolveCase c(n);
+  const World& w = c.scene.world;
   const Model& m = w.model;
-  Adjacency adj;
-  build_adjacency(m, w.state, adj);
-  std::vector<Vec3> f_ext(w.num_quanta());
-  for (std::size_t i = 0; i < f_ext.size(); ++i) f_ext[i] = m.mass[i] * m.gravity;
+  const Adjacency& adj = c.adj;
+  const std::vector<Vec3>& f_ext = c.f_ext;
   ImplicitSystem sys;
   Projection kin;
   std::vector<Eigen::Index> dof;
