@@ -20,6 +20,12 @@
 #define QBOND_VECTOR_INLINE inline
 #define QBOND_LAMBDA_INLINE
 #endif
+// Function templates: clang (14) cannot multiversion them, so there they take the baseline code.
+#if defined(__clang__)
+#define QBOND_TEMPLATE_CLONES
+#else
+#define QBOND_TEMPLATE_CLONES QBOND_VECTOR_CLONES
+#endif
 
 // QBOND_SIMD before a loop whose iterations are independent: lets the compiler vectorise it
 // without proving that its gathers and stores do not alias (OpenMP's simd; nothing without

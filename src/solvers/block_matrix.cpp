@@ -187,7 +187,7 @@ QBOND_VECTOR_INLINE void packed_range(const PackedMatrix<T>& A, const double* x,
 
 // The hierarchy's float products, compiled for the wide vector units (simd.hpp).
 template <int R, int C, bool kResidual>
-QBOND_VECTOR_CLONES void float_range(const PackedMatrix<float>& A, const double* x, const double* b, double* y,
+QBOND_TEMPLATE_CLONES void float_range(const PackedMatrix<float>& A, const double* x, const double* b, double* y,
                                      std::size_t lo, std::size_t hi) {
   packed_range<float, R, C, false, kResidual>(A, x, b, y, lo, hi);
 }

@@ -20,7 +20,7 @@ double dot(std::size_t n, const double* a, const double* b, int threads) {
 // out_i = s · Dinv_i v_i for block rows [lo, hi) (B × B blocks, symmetric: read by columns, a
 // vector loop over the block's rows).
 template <int B>
-QBOND_VECTOR_CLONES void block_scale_range(const double* Dinv, const double* v, double s, double* out,
+QBOND_TEMPLATE_CLONES void block_scale_range(const double* Dinv, const double* v, double s, double* out,
                                            std::size_t lo, std::size_t hi) {
   for (std::size_t i = lo; i < hi; ++i) {
     const double* D = Dinv + i * B * B;
