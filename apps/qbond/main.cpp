@@ -23,6 +23,7 @@
 #include "qbond/io/memory.hpp"
 #include "qbond/simulation/runner.hpp"
 #include "qbond/builders/samples.hpp"
+#include "qbond/distributed/distributed.hpp"
 #include "qbond/version.hpp"
 #include "viewer.hpp"
 
@@ -276,19 +277,25 @@ int run(const Options& o) {
   }
   // Everything that can be wrong with the input is found before anything is written.
   std::optional<Runner> runner;
+  std::optional<RanksRun> ranks;  // under mpirun with more than one rank (docs/distributed.md)
+  const bool speak = mpi_rank() == 0, quiet = o.quiet || !speak;
   if (!o.resume.empty()) {
     if (!o.scene.empty()) throw std::invalid_argument("--resume continues a checkpoint's own scene; give no SCENE");
+    if (mpi_ranks() > 1) throw std::invalid_argument("--resume runs on one rank: run it without mpirun");
     runner.emplace(Runner::resume(o.resume, [&](Scene& s, RunSettings& rs) { apply(o, s, rs); }, o.max_memory));
   } else {
     Scene scene = load_any(o.scene, o.max_memory);
     RunSettings rs = settings_of(scene);
     apply(o, scene, rs);
-    runner.emplace(std::move(scene), std::move(rs));
+    if (mpi_ranks() > 1)
+      ranks.emplace(std::move(scene), std::move(rs));
+    else
+      runner.emplace(std::move(scene), std::move(rs));
   }
-  const Scene& scene = runner->scene();
-  const RunSettings& rs = runner->settings();
-  const World& w = runner->simulation().world();
-  if (!o.quiet) {
+  const Scene& scene = ranks ? ranks->scene() : runner->scene();
+  const RunSettings& rs = ranks ? ranks->settings() : runner->settings();
+  const World& w = ranks ? ranks->world() : runner->simulation().world();
+  if (!quiet) {
     std::printf("%s %s: %zu quanta, %zu bonds, h = %g s, steps %llu -> %llu, integrator %s\n",
                 o.resume.empty() ? "running" : "resuming", scene.name.c_str(), w.num_quanta(), w.num_bonds(),
                 scene.timestep, static_cast<unsigned long long>(w.state.step),
@@ -301,10 +308,11 @@ int run(const Options& o) {
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
-  Progress progress(o.quiet);
-  const RunResult r = runner->run([] { return g_signal != 0; }, std::ref(progress));
+  Progress progress(quiet);
+  const auto stop = [] { return g_signal != 0; };
+  const RunResult r = ranks ? ranks->run(stop, std::ref(progress)) : runner->run(stop, std::ref(progress));
   progress.finish();
-  if (!o.quiet) {
+  if (!quiet) {
     const EnergyBudget b = energy_budget(w.model, w.state);
     std::printf("%llu steps in %.3g s (%.4g steps/s); t = %.6g s; energy %.6g J (damping %.3g J, numerical %.3g J)\n",
                 static_cast<unsigned long long>(r.steps_taken), r.wall_seconds,
@@ -314,13 +322,15 @@ int run(const Options& o) {
   switch (r.status) {
     case RunStatus::completed: return 0;
     case RunStatus::stopped:
-      std::fprintf(stderr, "qbond: stopped by signal %d at step %llu; resume with: qbond run --resume %s\n",
-                   static_cast<int>(g_signal), static_cast<unsigned long long>(w.state.step),
-                   (rs.out_dir / "checkpoint.qbc").c_str());
+      if (speak)
+        std::fprintf(stderr, "qbond: stopped by signal %d at step %llu; resume with: qbond run --resume %s\n",
+                     static_cast<int>(g_signal), static_cast<unsigned long long>(w.state.step),
+                     (rs.out_dir / "checkpoint.qbc").c_str());
       return 128 + static_cast<int>(g_signal);
     case RunStatus::blowup:
-      std::fprintf(stderr, "qbond: %s\nqbond: the last good state is in %s\n", r.message.c_str(),
-                   (rs.out_dir / "checkpoint.qbc").c_str());
+      if (speak)
+        std::fprintf(stderr, "qbond: %s\nqbond: the last good state is in %s\n", r.message.c_str(),
+                     (rs.out_dir / "checkpoint.qbc").c_str());
       return kExitBlowup;
   }
   return kExitFailure;
@@ -364,6 +374,7 @@ int experiment(const ExperimentArgs& a) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  const qbond::MpiSession mpi(argc, argv);  // when mpirun or srun started this program as a rank
   CLI::App app{"qbond: the quanta-bond method. Deformable, breakable solids, stepped implicitly."};
   app.set_version_flag("--version", std::string("qbond ") + QBOND_VERSION);
   app.require_subcommand(1);

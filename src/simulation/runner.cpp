@@ -188,7 +188,10 @@ struct Runner::Impl {
   }
   double end_time() const { return static_cast<double>(settings.steps) * scene.timestep; }
 
+  std::function<StepReport()> stepper;  ///< set_stepper's, else the simulation's own step
+
   StepReport step() {
+    if (stepper) return stepper();
     if (!scene.adaptive.enabled) return sim.step();
     const AdaptiveReport a = adaptive_step(sim, scene.adaptive, end_time());
     last_h = a.h;
@@ -461,5 +464,6 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
 const Scene& Runner::scene() const { return impl_->scene; }
 const RunSettings& Runner::settings() const { return impl_->settings; }
 Simulation& Runner::simulation() { return impl_->sim; }
+void Runner::set_stepper(std::function<StepReport()> step) { impl_->stepper = std::move(step); }
 
 }  // namespace qbond

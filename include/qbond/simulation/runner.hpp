@@ -83,6 +83,9 @@ class Runner {
   const Scene& scene() const;
   const RunSettings& settings() const;
   Simulation& simulation();
+  /// Replaces how each step is taken: `step` advances simulation().world() by one step and
+  /// reports it (a run over MPI ranks steps its pieces and gathers the state here, RanksRun).
+  void set_stepper(std::function<StepReport()> step);
 
  private:
   struct Impl;

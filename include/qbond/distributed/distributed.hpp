@@ -1,0 +1,60 @@
+#pragma once
+/// Runs split over MPI ranks (docs/distributed.md): `mpirun -np N qbond run scene.json` cuts the
+/// world in space into N boxes (recursive coordinate bisection), each rank steps the quanta of its
+/// box with ghost copies of their bonded neighbours, exchanged every step, and quanta that leave
+/// their box move to the rank whose box they entered. Rank 0 gathers the state for the outputs.
+/// Without MPI (the build option QBOND_MPI off, or a program not started by a launcher) there is
+/// one rank and a run is the ordinary one.
+#include <functional>
+#include <memory>
+
+#include "qbond/io/scene.hpp"
+#include "qbond/simulation/runner.hpp"
+
+namespace qbond {
+
+/// MPI for the program's lifetime (MPI_Init to MPI_Finalize) when a launcher (mpirun, mpiexec,
+/// Slurm's srun) started it as one of a job's ranks; nothing otherwise, so that a program started
+/// alone needs no MPI.
+class MpiSession {
+ public:
+  MpiSession(int& argc, char**& argv);
+  ~MpiSession();
+  MpiSession(const MpiSession&) = delete;
+  MpiSession& operator=(const MpiSession&) = delete;
+};
+
+/// Whether the library was built with MPI (QBOND_MPI).
+bool built_with_mpi();
+/// This process's rank in the job (0 without MPI).
+int mpi_rank();
+/// The job's number of ranks (1 without MPI).
+int mpi_ranks();
+
+/// A run of a scene over the job's ranks: every rank constructs it with the same scene and
+/// settings, and rank 0 writes the run's outputs (Runner: the same files and columns as a run on
+/// one rank, from the state gathered at each output step). What is not distributed yet is refused
+/// with std::invalid_argument: heuristics, loads, adaptive steps, integrators other than
+/// velocity_verlet, explicit_euler and symplectic_euler.
+class RanksRun {
+ public:
+  RanksRun(Scene scene, RunSettings settings);
+  ~RanksRun();
+  RanksRun(const RanksRun&) = delete;
+  RanksRun& operator=(const RanksRun&) = delete;
+
+  /// Steps to settings.steps on every rank (all ranks stop at the same step: after a blow-up on
+  /// any, or when `stop` returns true on any). `progress` is called on rank 0.
+  RunResult run(const std::function<bool()>& stop = {}, const std::function<void(const RunProgress&)>& progress = {});
+
+  /// Rank 0: the whole world as last gathered (the outputs' state); other ranks: the scene's.
+  const World& world() const;
+  const Scene& scene() const;
+  const RunSettings& settings() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace qbond

@@ -1,0 +1,135 @@
+// RanksRun over MPI: rank 0 runs the ordinary Runner, whose steps are the distributed step and
+// whose outputs read the state gathered at each output step; the other ranks take the same steps.
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+#include "distributed/collectives.hpp"
+#include "distributed/distributed_step.hpp"
+#include "qbond/distributed/distributed.hpp"
+
+namespace qbond {
+
+namespace {
+
+// Refuses, with the reason, what a run over ranks does not distribute yet.
+void check_distributable(const Scene& scene, int ranks) {
+  const std::string over = "a run over " + std::to_string(ranks) + " ranks ";
+  const std::string one = "; run it on one rank (without mpirun)";
+  const IntegratorType t = scene.integrator.type;
+  if (t != IntegratorType::velocity_verlet && t != IntegratorType::explicit_euler &&
+      t != IntegratorType::symplectic_euler)
+    throw std::invalid_argument(over + "takes velocity_verlet, explicit_euler or symplectic_euler, not " +
+                                std::string(to_string(t)) + one);
+  if (!scene.heuristics.empty()) throw std::invalid_argument(over + "does not distribute heuristics yet" + one);
+  if (!scene.world.model.loads.empty()) throw std::invalid_argument(over + "does not distribute loads yet" + one);
+  if (scene.adaptive.enabled) throw std::invalid_argument(over + "does not adapt its step yet" + one);
+  if (scene.integrator.restore_energy)
+    throw std::invalid_argument(over + "does not restore energy yet (restore_energy)" + one);
+}
+
+}  // namespace
+
+struct RanksRun::Impl {
+  Scene scene;  // the other ranks' (rank 0's Runner holds its own)
+  RunSettings settings;
+  std::unique_ptr<distributed::DistributedStep> dist;
+  std::optional<Runner> runner;  // rank 0
+  std::function<bool()> stop;
+
+  // Whether the step just taken is one whose state rank 0 writes (a row, a frame, a checkpoint,
+  // the run's end): every rank decides alike, and then takes part in the gather.
+  bool due(const StepReport& r) const {
+    const std::uint64_t s = dist->step_count();
+    return r.status != StepReport::Status::ok || dist->stop_agreed() || s % settings.every == 0 ||
+           (settings.checkpoint_every && s % settings.checkpoint_every == 0) || s >= settings.steps;
+  }
+
+  // One step, and the gather when it is due, into `world` (rank 0's outputs read it).
+  StepReport step(World& world) {
+    StepReport r = dist->step(stop && stop());
+    if (due(r)) {
+      dist->gather(world);
+    } else {
+      world.state.step = dist->step_count();
+      world.state.time = dist->time();
+    }
+    return r;
+  }
+};
+
+RanksRun::RanksRun(Scene scene, RunSettings settings) : impl_(std::make_unique<Impl>()) {
+  Impl& r = *impl_;
+  const int ranks = mpi_ranks();
+  if (ranks > 1) {
+    check_distributable(scene, ranks);
+    if (settings.every == 0) throw std::invalid_argument("output interval must be >= 1 step");
+    // Ranks on one machine share its cores: each takes its share unless told (OMP_NUM_THREADS).
+    const int on_node = distributed::ranks_on_this_node();
+    if (scene.integrator.threads == 0 && !std::getenv("OMP_NUM_THREADS"))
+      scene.integrator.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / on_node);
+    r.dist = std::make_unique<distributed::DistributedStep>(scene.world, scene.integrator, scene.timestep,
+                                                            scene.limits);
+  }
+  r.settings = settings;
+  // Rank 0 claims the output directory; should that fail, every rank stops with it.
+  int failed[1] = {0};
+  if (mpi_rank() == 0) {
+    try {
+      r.runner.emplace(std::move(scene), std::move(settings));
+    } catch (const std::exception&) {
+      failed[0] = 1;
+      if (ranks > 1) distributed::max_over_ranks(failed);
+      throw;
+    }
+  } else {
+    r.scene = std::move(scene);
+  }
+  if (ranks > 1) {
+    distributed::max_over_ranks(failed);
+    if (failed[0]) throw std::runtime_error("rank 0 could not start the run's outputs");
+  }
+  if (r.runner && r.dist) r.runner->set_stepper([&r] { return r.step(r.runner->simulation().world()); });
+}
+
+RanksRun::~RanksRun() = default;
+
+RunResult RanksRun::run(const std::function<bool()>& stop, const std::function<void(const RunProgress&)>& progress) {
+  Impl& r = *impl_;
+  if (!r.dist) return r.runner->run(stop, progress);  // one rank: the ordinary run
+  r.stop = stop;
+  try {
+    if (r.runner) return r.runner->run([&r] { return r.dist->stop_agreed(); }, progress);
+    const auto t0 = std::chrono::steady_clock::now();
+    RunResult result;
+    const std::uint64_t start = r.dist->step_count();
+    while (r.dist->step_count() < r.settings.steps) {
+      const StepReport rep = r.step(r.scene.world);
+      if (rep.status != StepReport::Status::ok) {
+        result.status = RunStatus::blowup;
+        result.message = rep.message;
+        break;
+      }
+      if (r.dist->stop_agreed() && r.dist->step_count() < r.settings.steps) {
+        result.status = RunStatus::stopped;
+        break;
+      }
+    }
+    result.steps_taken = r.dist->step_count() - start;
+    result.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return result;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "qbond: rank %d of %d: %s\n", mpi_rank(), mpi_ranks(), e.what());
+    distributed::abort_job(1);
+  }
+}
+
+const World& RanksRun::world() const { return impl_->runner ? impl_->runner->simulation().world() : impl_->scene.world; }
+const Scene& RanksRun::scene() const { return impl_->runner ? impl_->runner->scene() : impl_->scene; }
+const RunSettings& RanksRun::settings() const { return impl_->runner ? impl_->runner->settings() : impl_->settings; }
+
+}  // namespace qbond

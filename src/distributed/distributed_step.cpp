@@ -1,0 +1,305 @@
+#include "distributed/distributed_step.hpp"
+
+#include <algorithm>
+#include <climits>
+#include <stdexcept>
+#include <string>
+
+#include "distributed/collectives.hpp"
+#include "integrators/bond_forces.hpp"
+#include "integrators/bond_partition.hpp"
+#include "ledger/step_work.hpp"
+#include "qbond/distributed/distributed.hpp"
+
+namespace qbond::distributed {
+
+namespace {
+
+// Velocity Verlet's carried forces for the quanta of a world, f (3 per quanta) with the state's
+// own positions and velocities: what its step left, so that the next step takes them.
+VerletForces carried(const State& s, const std::vector<double>& f) {
+  VerletForces c;
+  const std::size_t n = s.x.size();
+  c.resize(n);
+  c.topology_version = s.topology_version();
+  const std::size_t stride = c.stride();
+  for (std::size_t q = 0; q < n; ++q) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      c.f[k * stride + q] = f[3 * q + k];
+      c.x[k * stride + q] = s.x[q][static_cast<Eigen::Index>(k)];
+    }
+    c.v[q] = s.v[q];
+  }
+  return c;
+}
+
+// Load per rank beyond which a migration cuts the boxes anew: the most loaded rank holds this
+// much more than the mean.
+constexpr double kImbalance = 1.1;
+
+}  // namespace
+
+DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& config, double h,
+                                 const BlowupLimits& limits)
+    : whole_(whole),
+      config_(config),
+      h_(h),
+      limits_(limits),
+      verlet_(config.type == IntegratorType::velocity_verlet),
+      rank_(mpi_rank()),
+      ranks_(mpi_ranks()),
+      start_books_(whole.state.energy) {
+  cuts_ = bisect(whole_.state.x, ranks_);
+  owner_ = parts_of(cuts_, whole_.state.x);
+  std::vector<double> f;
+  const auto* c = std::get_if<VerletForces>(&whole_.state.carry);
+  if (verlet_ && c && c->holds_for(whole_.num_quanta(), whole_.state.topology_version())) {
+    const std::size_t n = whole_.num_quanta(), stride = c->stride();
+    f.resize(3 * n);
+    for (std::size_t q = 0; q < n; ++q)
+      for (std::size_t k = 0; k < 3; ++k) f[3 * q + k] = c->f[k * stride + q];
+  }
+  whole_.state.carry = std::monostate{};
+  build(f.empty() ? nullptr : &f);
+}
+
+DistributedStep::~DistributedStep() = default;
+
+void DistributedStep::build(const std::vector<double>* forces) {
+  Piece piece = make_piece(whole_, owner_, rank_);
+  plan_ = halo_plan(whole_, owner_, rank_, piece);
+  global_ = std::move(piece.global);
+  owned_ = std::move(piece.owned_quanta);
+  World& w = piece.world;
+  const std::size_t n = global_.size();
+  // The ledger's state: the piece's owned bonds alone.
+  ledger_ = State{};
+  Bonds& lb = ledger_.edit_bonds();
+  const Bonds& pb = w.state.bonds;
+  for (Index b : piece.owned_bonds) {
+    lb.i.push_back(pb.i[b]);
+    lb.j.push_back(pb.j[b]);
+    lb.id.push_back(pb.id[b]);
+    lb.law.push_back(pb.law[b]);
+    lb.damping_model.push_back(pb.damping_model[b]);
+    lb.strength.push_back(pb.strength[b]);
+    lb.damping.push_back(pb.damping[b]);
+    lb.rest0.push_back(pb.rest0[b]);
+    lb.shape.push_back(pb.shape[b]);
+    lb.rest.push_back(pb.rest[b]);
+    lb.alive.push_back(pb.alive[b]);
+    lb.time.push_back(pb.time[b]);
+  }
+  lb.first_formed = lb.size();
+  build_adjacency(w.model, ledger_, ledger_adj_);
+  gravity_.resize(n);
+  for (std::size_t q = 0; q < n; ++q) gravity_[q] = w.model.mass[q] * w.model.gravity;
+  moved_.resize(n);
+  // Every owned bond once over the ranks: the pieces hold the whole world's bonds.
+  {
+    const std::vector<double> mine{static_cast<double>(piece.owned_bonds.size())};
+    double total = 0;
+    for (double c : all_gather(mine)) total += c;
+    if (total != static_cast<double>(piece.whole_alive_bonds))
+      throw std::logic_error("the ranks' pieces hold " + std::to_string(total) + " bonds of " +
+                             std::to_string(piece.whole_alive_bonds));
+  }
+  if (verlet_) {
+    // The carried forces: the whole world's, or this piece's own for its owned quanta (whose
+    // bonds it holds all of) and the owners' for its ghosts.
+    std::vector<double> f(3 * n);
+    if (forces) {
+      for (std::size_t q = 0; q < n; ++q)
+        for (std::size_t k = 0; k < 3; ++k) f[3 * q + k] = (*forces)[3 * global_[q] + k];
+    } else if (n > 0) {
+      Adjacency adj;
+      build_adjacency(w.model, w.state, adj);
+      BondPartition part;
+      part.update(w.model, w.state.bonds, adj, config_.threads);
+      ForceArrays work;
+      const ForceRows rows = bond_force_rows(w.model, w.state, part, w.state.x.data(), w.state.v.data(),
+                                             config_.threads, work);
+      for (std::size_t q = 0; q < n; ++q)
+        for (std::size_t k = 0; k < 3; ++k) f[3 * q + k] = rows.f[k][q];
+    }
+    if (!forces)
+      halo_.exchange(
+          plan_, 3, [&](Index q, double* out) { std::copy_n(&f[3 * q], 3, out); },
+          [&](Index q, const double* in) { std::copy_n(in, 3, &f[3 * q]); });
+    w.state.carry = carried(w.state, f);
+  }
+  carry_held_ = verlet_;
+  sim_.reset();
+  if (n == 0) return;
+  sim_ = std::make_unique<Simulation>(std::move(w), config_, h_);
+  sim_->limits() = limits_;
+  sim_->set_track_energy(false);  // the ledger is charged here, over the owned bonds
+}
+
+StepReport DistributedStep::step(bool stop) {
+  int flags[3] = {0, 0, stop ? 1 : 0};  // blow-up, migration, stop
+  StepReport report;
+  const double t0 = whole_.state.time;
+  if (sim_) {
+    State& s = sim_->world().state;
+    ledger_.x = s.x;
+    ledger_.v = s.v;
+    report = sim_->step();
+    if (report.status != StepReport::Status::ok) {
+      flags[0] = 1;
+    } else {
+      for (Index q : owned_)
+        if (cuts_.part_of(s.x[q]) != rank_) {
+          flags[1] = 1;
+          break;
+        }
+    }
+  }
+  max_over_ranks(flags);
+  if (flags[0]) {
+    // Every piece back to the state before the step (the carried forces are then evaluated
+    // afresh, should the run go on).
+    if (sim_ && report.status == StepReport::Status::ok) {
+      State& s = sim_->world().state;
+      s.x = ledger_.x;
+      s.v = ledger_.v;
+      s.time = t0;
+      s.step = whole_.state.step;
+    }
+    if (sim_) sim_->world().state.carry = std::monostate{};
+    carry_held_ = false;
+    const bool mine = report.status != StepReport::Status::ok;
+    const int first = min_over_ranks(mine ? rank_ : INT_MAX);
+    std::string message = report.message;
+    broadcast(message, first);
+    const int worst = min_over_ranks(rank_ == first ? static_cast<int>(global_[report.worst]) : INT_MAX);
+    StepReport r;
+    r.status = StepReport::Status::blowup;
+    r.message = message;
+    r.worst = static_cast<Index>(worst);
+    return r;
+  }
+  stop_agreed_ = flags[2] != 0;
+  whole_.state.time = t0 + h_;  // as every piece's step sets it
+  whole_.state.step += 1;
+  exchange_ghosts();
+  charge_ledger();
+  if (flags[1]) migrate();
+  return {};
+}
+
+void DistributedStep::exchange_ghosts() {
+  if (!sim_) return;
+  State& s = sim_->world().state;
+  VerletForces* c = verlet_ ? std::get_if<VerletForces>(&s.carry) : nullptr;
+  const std::size_t stride = c ? c->stride() : 0;
+  halo_.exchange(
+      plan_, c ? 9 : 6,
+      [&](Index q, double* out) {
+        for (int k = 0; k < 3; ++k) {
+          out[k] = s.x[q][k];
+          out[3 + k] = s.v[q][k];
+          if (c) out[6 + k] = c->f[k * stride + q];
+        }
+      },
+      [&](Index q, const double* in) {
+        for (int k = 0; k < 3; ++k) {
+          s.x[q][k] = in[k];
+          s.v[q][k] = in[3 + k];
+          if (!c) continue;
+          c->f[k * stride + q] = in[6 + k];
+          c->x[k * stride + q] = in[k];
+        }
+        if (c) c->v[q] = s.v[q];
+      });
+}
+
+void DistributedStep::charge_ledger() {
+  if (!sim_) return;
+  const World& w = sim_->world();
+  const std::size_t n = global_.size();
+  for (std::size_t q = 0; q < n; ++q) {
+    moved_.dx[q] = w.state.x[q] - ledger_.x[q];
+    moved_.dv[q] = w.state.v[q] - ledger_.v[q];
+  }
+  const StepWork work = step_work(w.model, ledger_, ledger_adj_, moved_, {w.state.x, w.state.v}, gravity_, h_,
+                                  sim_->integrator().ledger_hints(), config_.threads);
+  anchors_ += work.anchors;
+  damping_ += work.damping;
+}
+
+std::vector<double> DistributedStep::owned_rows() const {
+  std::vector<double> rows;
+  if (!sim_) return rows;
+  const State& s = sim_->world().state;
+  const auto* c = std::get_if<VerletForces>(&s.carry);
+  const std::size_t stride = c ? c->stride() : 0;
+  rows.reserve(10 * owned_.size());
+  for (Index q : owned_) {
+    rows.push_back(static_cast<double>(global_[q]));
+    for (int k = 0; k < 3; ++k) rows.push_back(s.x[q][k]);
+    for (int k = 0; k < 3; ++k) rows.push_back(s.v[q][k]);
+    for (std::size_t k = 0; k < 3; ++k) rows.push_back(c ? c->f[k * stride + q] : 0.0);
+  }
+  return rows;
+}
+
+namespace {
+// Writes the rows of owned_rows() of every rank into x, v and f (3 per quanta) by whole index;
+// throws unless every quanta of n appears exactly once.
+void unpack_rows(const std::vector<double>& rows, std::size_t n, std::vector<Vec3>& x, std::vector<Vec3>& v,
+                 std::vector<double>& f) {
+  std::vector<std::uint8_t> seen(n, 0);
+  std::size_t count = 0;
+  f.assign(3 * n, 0.0);
+  for (std::size_t r = 0; r + 10 <= rows.size(); r += 10) {
+    const auto q = static_cast<std::size_t>(rows[r]);
+    if (q >= n || seen[q]) throw std::logic_error("quanta " + std::to_string(q) + " is held by two ranks");
+    seen[q] = 1;
+    ++count;
+    x[q] = Vec3(rows[r + 1], rows[r + 2], rows[r + 3]);
+    v[q] = Vec3(rows[r + 4], rows[r + 5], rows[r + 6]);
+    for (std::size_t k = 0; k < 3; ++k) f[3 * q + k] = rows[r + 7 + k];
+  }
+  if (count != n)
+    throw std::logic_error("the ranks hold " + std::to_string(count) + " quanta of " + std::to_string(n));
+}
+}  // namespace
+
+void DistributedStep::migrate() {
+  ++migrations_;
+  std::vector<double> f;
+  unpack_rows(all_gather(owned_rows()), whole_.num_quanta(), whole_.state.x, whole_.state.v, f);
+  owner_ = parts_of(cuts_, whole_.state.x);
+  std::vector<std::size_t> load(static_cast<std::size_t>(ranks_), 0);
+  for (int o : owner_) ++load[static_cast<std::size_t>(o)];
+  const double mean = static_cast<double>(whole_.num_quanta()) / ranks_;
+  if (static_cast<double>(*std::max_element(load.begin(), load.end())) > kImbalance * mean) {
+    cuts_ = bisect(whole_.state.x, ranks_);
+    owner_ = parts_of(cuts_, whole_.state.x);
+  }
+  build(verlet_ ? &f : nullptr);
+}
+
+void DistributedStep::gather(World& into) {
+  const std::vector<double> rows = gather_to_root(owned_rows());
+  const double mine[2] = {anchors_, damping_};
+  const std::vector<double> books = gather_to_root(mine);
+  if (rank_ != 0) return;
+  State& s = into.state;
+  std::vector<double> f;
+  unpack_rows(rows, into.num_quanta(), s.x, s.v, f);
+  s.time = whole_.state.time;
+  s.step = whole_.state.step;
+  // The carried forces, when every piece holds its own (not after a blow-up).
+  s.carry = carry_held_ ? Carry(carried(s, f)) : Carry(std::monostate{});
+  double anchors = 0, damping = 0;
+  for (std::size_t r = 0; r + 2 <= books.size(); r += 2) {
+    anchors += books[r];
+    damping += books[r + 1];
+  }
+  s.energy.work_anchors = start_books_.work_anchors + anchors;
+  s.energy.dissipated_damping = start_books_.dissipated_damping + damping;
+}
+
+}  // namespace qbond::distributed

@@ -1,0 +1,87 @@
+#pragma once
+// The step of a run over ranks: every rank advances its piece of the world (local_world.hpp) with
+// the ordinary step, then the ranks exchange their ghosts' new state (halo.hpp), charge the energy
+// ledger for the bonds each owns, and move quanta that left their rank's box to their new owner.
+// Every rank calls every member at the same point of the run (they are collective).
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "distributed/halo.hpp"
+#include "distributed/local_world.hpp"
+#include "distributed/partition.hpp"
+#include "qbond/simulation/simulation.hpp"
+
+namespace qbond::distributed {
+
+class DistributedStep {
+ public:
+  // Splits `whole` (the same on every rank) over the job's ranks; config.type must be an explicit
+  // integrator that takes one force evaluation per step (velocity_verlet, explicit_euler,
+  // symplectic_euler: the caller checks). Velocity Verlet's carried forces come from
+  // whole.state.carry when it holds them, else are evaluated once here.
+  DistributedStep(const World& whole, const IntegratorConfig& config, double h, const BlowupLimits& limits);
+  ~DistributedStep();
+
+  // One step on every rank. `stop`: this rank asks that the run stop after it (stop_agreed()). On
+  // a blow-up on any rank every rank keeps the state before the step and returns the report of
+  // the first rank that found one (its quanta as a whole-world index).
+  StepReport step(bool stop);
+  // Whether some rank asked, during the last step, that the run stop.
+  bool stop_agreed() const { return stop_agreed_; }
+  // The whole state on rank 0, into `into` (a world of the same quanta and bonds): positions,
+  // velocities, time, step, velocity Verlet's carried forces, and the ledger's work of anchors
+  // and dampers. Throws when a quanta is missing or held twice.
+  void gather(World& into);
+
+  // The step count and time every rank agrees on.
+  std::uint64_t step_count() const { return whole_.state.step; }
+  double time() const { return whole_.state.time; }
+  // Quanta this rank owns, the ghosts it holds, and how often quanta moved between ranks.
+  std::size_t owned_quanta() const { return owned_.size(); }
+  std::size_t ghost_quanta() const { return global_.size() - owned_.size(); }
+  std::uint64_t migrations() const { return migrations_; }
+  // Doubles this rank has sent in ghost exchanges.
+  std::size_t doubles_sent() const { return halo_.doubles_sent(); }
+
+ private:
+  // Builds this rank's piece from whole_ and owner_, with the whole world's carried forces
+  // (3 per quanta, by whole index) or, when null, with forces evaluated here and exchanged.
+  void build(const std::vector<double>* forces);
+  // The ghosts' positions and velocities (and carried forces) from their owners.
+  void exchange_ghosts();
+  // The anchors' and dampers' work over the owned bonds, from the state before the step.
+  void charge_ledger();
+  // Quanta to the ranks whose boxes hold them (every rank learns every owned quanta's state), the
+  // boxes cut anew when the ranks' loads drifted apart.
+  void migrate();
+  // The owned quanta's [index, x, v, f] rows, 10 doubles each.
+  std::vector<double> owned_rows() const;
+
+  World whole_;  // the model and topology (all ranks), the state as of the last migration
+  IntegratorConfig config_;
+  double h_;
+  BlowupLimits limits_;
+  bool verlet_;
+  int rank_, ranks_;
+  Bisection cuts_;
+  std::vector<int> owner_;
+  std::vector<Index> global_;            // local quanta → whole index
+  std::vector<Index> owned_;             // local indices of the owned quanta
+  std::unique_ptr<Simulation> sim_;      // null when this rank holds no quanta
+  HaloPlan plan_;
+  Halo halo_;
+  // The ledger: a state of the piece's quanta with the owned bonds alone, holding the positions
+  // and velocities before the step.
+  State ledger_;
+  Adjacency ledger_adj_;
+  Projection moved_;
+  std::vector<Vec3> gravity_;   // m g per local quanta
+  double anchors_ = 0, damping_ = 0;  // this rank's share since the run started [J]
+  EnergyLedger start_books_;          // the whole ledger when the run started
+  bool carry_held_ = false;  // every piece holds velocity Verlet's carried forces (none after a blow-up)
+  bool stop_agreed_ = false;
+  std::uint64_t migrations_ = 0;
+};
+
+}  // namespace qbond::distributed

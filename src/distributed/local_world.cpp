@@ -1,0 +1,137 @@
+#include "distributed/local_world.hpp"
+
+#include <algorithm>
+#include <map>
+
+namespace qbond::distributed {
+
+namespace {
+
+// Appends whole bond b to `to`, its ends renumbered.
+void append_bond(const Bonds& from, std::size_t b, Index i, Index j, Bonds& to) {
+  to.i.push_back(i);
+  to.j.push_back(j);
+  to.id.push_back(from.id[b]);
+  to.law.push_back(from.law[b]);
+  to.damping_model.push_back(from.damping_model[b]);
+  to.strength.push_back(from.strength[b]);
+  to.damping.push_back(from.damping[b]);
+  to.rest0.push_back(from.rest0[b]);
+  to.shape.push_back(from.shape[b]);
+  to.rest.push_back(from.rest[b]);
+  to.alive.push_back(from.alive[b]);
+  to.time.push_back(from.time[b]);
+}
+
+}  // namespace
+
+Piece make_piece(const World& whole, std::span<const int> owner, int rank) {
+  const Model& wm = whole.model;
+  const State& ws = whole.state;
+  const Bonds& wb = ws.bonds;
+  const std::size_t n = wm.num_quanta();
+  // The local quanta: the owned ones and the other ends of their alive bonds.
+  std::vector<std::uint8_t> wanted(n, 0);
+  for (std::size_t q = 0; q < n; ++q)
+    if (owner[q] == rank) wanted[q] = 1;
+  for (std::size_t b = 0; b < wb.size(); ++b) {
+    if (!wb.alive[b]) continue;
+    const Index i = wb.i[b], j = wb.j[b];
+    if (owner[i] == rank && owner[j] != rank) wanted[j] = 1;
+    if (owner[j] == rank && owner[i] != rank) wanted[i] = 1;
+  }
+  Piece p;
+  constexpr Index kNone = ~Index{0};
+  std::vector<Index> local(n, kNone);
+  for (std::size_t q = 0; q < n; ++q)
+    if (wanted[q]) {
+      local[q] = static_cast<Index>(p.global.size());
+      p.global.push_back(static_cast<Index>(q));
+    }
+  const std::size_t m = p.global.size();
+  Model& lm = p.world.model;
+  State& ls = p.world.state;
+  lm.body_names = wm.body_names;
+  lm.shapes = wm.shapes;
+  lm.gravity = wm.gravity;
+  lm.mass.resize(m);
+  lm.inv_mass.resize(m);
+  lm.body.resize(m);
+  lm.volume.resize(m);
+  lm.quanta_id.resize(m);
+  ls.x.resize(m);
+  ls.v.resize(m);
+  p.owned.resize(m);
+  for (std::size_t k = 0; k < m; ++k) {
+    const Index q = p.global[k];
+    lm.mass[k] = wm.mass[q];
+    lm.inv_mass[k] = wm.inv_mass[q];
+    lm.body[k] = wm.body[q];
+    lm.volume[k] = wm.volume[q];
+    lm.quanta_id[k] = wm.quanta_id[q];
+    ls.x[k] = ws.x[q];
+    ls.v[k] = ws.v[q];
+    p.owned[k] = owner[q] == rank;
+    if (p.owned[k]) p.owned_quanta.push_back(static_cast<Index>(k));
+  }
+  // Prescribed motions: the entries of the local quanta, in the motion's order.
+  for (const Motion& motion : wm.motions) {
+    Motion mine = motion;
+    mine.quanta.clear();
+    mine.x0.clear();
+    for (std::size_t k = 0; k < motion.quanta.size(); ++k) {
+      if (local[motion.quanta[k]] == kNone) continue;
+      mine.quanta.push_back(local[motion.quanta[k]]);
+      mine.x0.push_back(motion.x0[k]);
+    }
+    if (!mine.quanta.empty()) lm.motions.push_back(std::move(mine));
+  }
+  // The bonds with an owned end, in the whole world's order.
+  Bonds& lb = ls.edit_bonds();
+  for (std::size_t b = 0; b < wb.size(); ++b) {
+    if (!wb.alive[b]) continue;
+    ++p.whole_alive_bonds;
+    const Index i = wb.i[b], j = wb.j[b];
+    if (owner[i] != rank && owner[j] != rank) continue;
+    if (owner[i] == rank) p.owned_bonds.push_back(static_cast<Index>(lb.size()));
+    append_bond(wb, b, local[i], local[j], lb);
+  }
+  lb.first_formed = lb.size();
+  ls.time = ws.time;
+  ls.step = ws.step;
+  ls.rng = ws.rng;
+  return p;
+}
+
+HaloPlan halo_plan(const World& whole, std::span<const int> owner, int rank, const Piece& piece) {
+  const Bonds& wb = whole.state.bonds;
+  std::map<int, std::pair<std::vector<Index>, std::vector<Index>>> lists;  // peer: send, recv (whole indices)
+  for (std::size_t b = 0; b < wb.size(); ++b) {
+    if (!wb.alive[b]) continue;
+    const Index i = wb.i[b], j = wb.j[b];
+    const int oi = owner[i], oj = owner[j];
+    if (oi == oj) continue;
+    if (oi == rank) {
+      lists[oj].first.push_back(i);
+      lists[oj].second.push_back(j);
+    } else if (oj == rank) {
+      lists[oi].first.push_back(j);
+      lists[oi].second.push_back(i);
+    }
+  }
+  auto to_local = [&](std::vector<Index>& v) {
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+    for (Index& q : v) q = static_cast<Index>(std::lower_bound(piece.global.begin(), piece.global.end(), q) - piece.global.begin());
+    return v;
+  };
+  HaloPlan plan;
+  for (auto& [peer, sr] : lists) {
+    plan.peers.push_back(peer);
+    plan.send.push_back(to_local(sr.first));
+    plan.recv.push_back(to_local(sr.second));
+  }
+  return plan;
+}
+
+}  // namespace qbond::distributed

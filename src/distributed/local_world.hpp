@@ -1,0 +1,39 @@
+#pragma once
+// One rank's piece of a world: the quanta it owns, the ghosts it needs (the other ends of its
+// quanta's bonds, owned by other ranks) and the bonds with an owned end, as a World of its own
+// that the ordinary step advances. Local quanta and bonds keep the whole world's order, so that a
+// quanta's force sums its bonds' terms in the same order as on one rank. Every rank holds the
+// whole world's model and topology and builds its piece, and its halo lists, from them.
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "qbond/model/world.hpp"
+
+namespace qbond::distributed {
+
+struct Piece {
+  World world;                        // the owned and ghost quanta, the bonds with an owned end
+  std::vector<Index> global;          // each local quanta's index in the whole world (ascending)
+  std::vector<std::uint8_t> owned;    // 1 for the quanta this rank owns, 0 for ghosts (local)
+  std::vector<Index> owned_quanta;    // the local indices of the owned quanta (ascending)
+  std::vector<Index> owned_bonds;     // local bonds this rank accounts for: those whose first end it owns
+  std::size_t whole_alive_bonds = 0;  // alive bonds of the whole world (each rank owns a share)
+};
+
+// Rank `rank`'s piece of `whole` given every quanta's owner; its state is whole.state's for those
+// quanta and bonds, at the same time and step, with no carry-over (the caller gives it one).
+// Only alive bonds are taken. Loads are not distributed (the caller refuses them).
+Piece make_piece(const World& whole, std::span<const int> owner, int rank);
+
+// What a rank exchanges with each other rank: the local indices of the owned quanta another rank
+// needs as ghosts (send) and of the ghosts it receives from their owner (recv), both in the
+// whole world's order, so that one rank's send list is the other's recv list, entry by entry.
+struct HaloPlan {
+  std::vector<int> peers;                 // ranks it exchanges with (ascending)
+  std::vector<std::vector<Index>> send;   // per peer
+  std::vector<std::vector<Index>> recv;   // per peer
+};
+HaloPlan halo_plan(const World& whole, std::span<const int> owner, int rank, const Piece& piece);
+
+}  // namespace qbond::distributed

@@ -1,0 +1,87 @@
+#include "distributed/partition.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+
+namespace qbond::distributed {
+
+int Bisection::part_of(const Vec3& x) const {
+  int k = 0;
+  while (nodes[k].part < 0) k = x[nodes[k].axis] < nodes[k].cut ? nodes[k].left : nodes[k].right;
+  return nodes[k].part;
+}
+
+namespace {
+
+// Builds the subtree of parts [first, first + parts) over the points `idx`; returns its node.
+int build(std::span<const Vec3> x, std::vector<Index>& idx, int first, int parts, Bisection& b) {
+  const int self = static_cast<int>(b.nodes.size());
+  b.nodes.emplace_back();
+  if (parts == 1) {
+    b.nodes[self].part = first;
+    return self;
+  }
+  const int left_parts = parts / 2;
+  Vec3 lo = Vec3::Constant(HUGE_VAL), hi = Vec3::Constant(-HUGE_VAL);
+  for (Index i : idx) {
+    lo = lo.cwiseMin(x[i]);
+    hi = hi.cwiseMax(x[i]);
+  }
+  // The longest side first (the lowest axis of equal ones); an axis whose points all share one
+  // coordinate cannot be cut, and then the next longest is tried.
+  std::array<int, 3> axes{0, 1, 2};
+  const Vec3 extent = idx.empty() ? Vec3::Zero() : Vec3(hi - lo);
+  std::stable_sort(axes.begin(), axes.end(), [&](int a, int c) { return extent[a] > extent[c]; });
+  int axis = axes[0];
+  double cut = HUGE_VAL;  // no cut: every point goes right (the left parts are empty)
+  const std::size_t target = idx.size() * static_cast<std::size_t>(left_parts) / static_cast<std::size_t>(parts);
+  for (int a : axes) {
+    if (!(extent[a] > 0)) break;
+    // Sorted by coordinate, then by index: a total order, so the cut is the same on every rank.
+    std::sort(idx.begin(), idx.end(), [&](Index p, Index q) { return x[p][a] < x[q][a] || (x[p][a] == x[q][a] && p < q); });
+    // The distinct pair of neighbouring coordinates nearest the target count, cut halfway between
+    // them: points then sit at least half a gap from the cut and cross it only by moving.
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < idx.size(); ++k) {
+      if (x[idx[k - 1]][a] == x[idx[k]][a]) continue;
+      const auto dist = [&](std::size_t m) { return m > target ? m - target : target - m; };
+      if (best == 0 || dist(k) < dist(best)) best = k;
+    }
+    if (best == 0) continue;
+    axis = a;
+    cut = 0.5 * (x[idx[best - 1]][a] + x[idx[best]][a]);
+    break;
+  }
+  std::vector<Index> left, right;
+  for (Index i : idx) (x[i][axis] < cut ? left : right).push_back(i);
+  std::sort(left.begin(), left.end());
+  std::sort(right.begin(), right.end());
+  b.nodes[self].axis = axis;
+  b.nodes[self].cut = cut;
+  const int l = build(x, left, first, left_parts, b);
+  const int r = build(x, right, first + left_parts, parts - left_parts, b);
+  b.nodes[self].left = l;
+  b.nodes[self].right = r;
+  return self;
+}
+
+}  // namespace
+
+Bisection bisect(std::span<const Vec3> x, int parts) {
+  Bisection b;
+  b.parts = std::max(1, parts);
+  std::vector<Index> idx(x.size());
+  std::iota(idx.begin(), idx.end(), Index{0});
+  build(x, idx, 0, b.parts, b);
+  return b;
+}
+
+std::vector<int> parts_of(const Bisection& b, std::span<const Vec3> x) {
+  std::vector<int> p(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i) p[i] = b.part_of(x[i]);
+  return p;
+}
+
+}  // namespace qbond::distributed

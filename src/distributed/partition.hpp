@@ -1,0 +1,35 @@
+#pragma once
+// Recursive coordinate bisection: the world split in space into one box per rank. Each node of
+// the tree cuts its points along the longest side of their bounding box, between two distinct
+// coordinates, so that its two halves hold points in proportion to their ranks; a point's part is
+// then found by walking the tree (part_of), which is how quanta that moved find their new owner.
+#include <span>
+#include <vector>
+
+#include "qbond/core/math.hpp"
+
+namespace qbond::distributed {
+
+struct Bisection {
+  // A node: a leaf is one part; an inner node sends x[axis] < cut to `left`, the rest to `right`.
+  struct Node {
+    int part = -1;  // the leaf's part, else -1
+    int axis = 0;
+    double cut = 0;
+    int left = -1, right = -1;  // children (indices into nodes)
+  };
+  std::vector<Node> nodes;  // nodes[0] is the root
+  int parts = 1;
+
+  // The part whose box holds x.
+  int part_of(const Vec3& x) const;
+};
+
+// The bisection of the points x into `parts` parts (>= 1): the same for the same points, whatever
+// their count per part. Parts may be empty when the points cannot be split (all at one place).
+Bisection bisect(std::span<const Vec3> x, int parts);
+
+// The part of every point (Bisection::part_of).
+std::vector<int> parts_of(const Bisection& b, std::span<const Vec3> x);
+
+}  // namespace qbond::distributed
