@@ -40,6 +40,21 @@ struct RanksRun::Impl {
   std::unique_ptr<distributed::DistributedStep> dist;
   std::optional<Runner> runner;  // rank 0
   std::function<bool()> stop;
+  RanksStats stats;
+
+  // The ranks' counts into `stats` on rank 0 (collective).
+  void gather_stats() {
+    const double mine[3] = {static_cast<double>(dist->owned_quanta()), static_cast<double>(dist->ghost_quanta()),
+                            8.0 * static_cast<double>(dist->doubles_sent())};
+    const std::vector<double> all = distributed::gather_to_root(mine);
+    stats.ranks = mpi_ranks();
+    stats.migrations = dist->migrations();
+    for (std::size_t k = 0; k + 3 <= all.size(); k += 3) {
+      stats.owned.push_back(static_cast<std::size_t>(all[k]));
+      stats.ghosts.push_back(static_cast<std::size_t>(all[k + 1]));
+      stats.bytes_sent.push_back(all[k + 2]);
+    }
+  }
 
   // Whether the step just taken is one whose state rank 0 writes (a row, a frame, a checkpoint,
   // the run's end): every rank decides alike, and then takes part in the gather.
@@ -103,7 +118,11 @@ RunResult RanksRun::run(const std::function<bool()>& stop, const std::function<v
   if (!r.dist) return r.runner->run(stop, progress);  // one rank: the ordinary run
   r.stop = stop;
   try {
-    if (r.runner) return r.runner->run([&r] { return r.dist->stop_agreed(); }, progress);
+    if (r.runner) {
+      const RunResult result = r.runner->run([&r] { return r.dist->stop_agreed(); }, progress);
+      r.gather_stats();
+      return result;
+    }
     const auto t0 = std::chrono::steady_clock::now();
     RunResult result;
     const std::uint64_t start = r.dist->step_count();
@@ -121,6 +140,7 @@ RunResult RanksRun::run(const std::function<bool()>& stop, const std::function<v
     }
     result.steps_taken = r.dist->step_count() - start;
     result.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.gather_stats();
     return result;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "qbond: rank %d of %d: %s\n", mpi_rank(), mpi_ranks(), e.what());
@@ -128,6 +148,7 @@ RunResult RanksRun::run(const std::function<bool()>& stop, const std::function<v
   }
 }
 
+const RanksStats& RanksRun::stats() const { return impl_->stats; }
 const World& RanksRun::world() const { return impl_->runner ? impl_->runner->simulation().world() : impl_->scene.world; }
 const Scene& RanksRun::scene() const { return impl_->runner ? impl_->runner->scene() : impl_->scene; }
 const RunSettings& RanksRun::settings() const { return impl_->runner ? impl_->runner->settings() : impl_->settings; }

@@ -14,6 +14,7 @@ int mpi_ranks() { return 1; }
 
 struct RanksRun::Impl {
   std::optional<Runner> runner;
+  RanksStats stats;
 };
 
 RanksRun::RanksRun(Scene scene, RunSettings settings) : impl_(std::make_unique<Impl>()) {
@@ -25,6 +26,7 @@ RunResult RanksRun::run(const std::function<bool()>& stop, const std::function<v
   return impl_->runner->run(stop, progress);
 }
 
+const RanksStats& RanksRun::stats() const { return impl_->stats; }
 const World& RanksRun::world() const { return impl_->runner->simulation().world(); }
 const Scene& RanksRun::scene() const { return impl_->runner->scene(); }
 const RunSettings& RanksRun::settings() const { return impl_->runner->settings(); }

@@ -6,7 +6,9 @@
 /// Without MPI (the build option QBOND_MPI off, or a program not started by a launcher) there is
 /// one rank and a run is the ordinary one.
 #include <functional>
+#include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "qbond/io/scene.hpp"
 #include "qbond/simulation/runner.hpp"
@@ -31,6 +33,15 @@ int mpi_rank();
 /// The job's number of ranks (1 without MPI).
 int mpi_ranks();
 
+/// What a run over ranks did, per rank (rank order), gathered on rank 0 when the run ends.
+struct RanksStats {
+  int ranks = 1;
+  std::uint64_t migrations = 0;       ///< steps after which quanta moved to another rank
+  std::vector<std::size_t> owned;     ///< quanta each rank owns at the end
+  std::vector<std::size_t> ghosts;    ///< ghost quanta each rank holds at the end
+  std::vector<double> bytes_sent;     ///< bytes each rank sent in ghost exchanges over the run
+};
+
 /// A run of a scene over the job's ranks: every rank constructs it with the same scene and
 /// settings, and rank 0 writes the run's outputs (Runner: the same files and columns as a run on
 /// one rank, from the state gathered at each output step). What is not distributed yet is refused
@@ -47,6 +58,8 @@ class RanksRun {
   /// any, or when `stop` returns true on any). `progress` is called on rank 0.
   RunResult run(const std::function<bool()>& stop = {}, const std::function<void(const RunProgress&)>& progress = {});
 
+  /// What the run did over the ranks (rank 0, once run() returned; one rank: ranks = 1).
+  const RanksStats& stats() const;
   /// Rank 0: the whole world as last gathered (the outputs' state); other ranks: the scene's.
   const World& world() const;
   const Scene& scene() const;

@@ -1,0 +1,153 @@
+// The pieces a run over ranks is made of, without MPI: the bisection of space into boxes, each
+// rank's piece of the world and its halo lists (src/distributed/). The runs themselves over 2 and 3
+// ranks are the tests labelled mpi (tests/mpi/).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <set>
+
+#include "distributed/local_world.hpp"
+#include "distributed/partition.hpp"
+#include "integrators/bond_forces.hpp"
+#include "qbond/builders/samples.hpp"
+#include "qbond/distributed/distributed.hpp"
+#include "test_util.hpp"
+
+namespace qbond {
+namespace {
+
+using distributed::bisect;
+using distributed::parts_of;
+
+std::vector<std::size_t> counts(const std::vector<int>& parts, int n) {
+  std::vector<std::size_t> c(static_cast<std::size_t>(n), 0);
+  for (int p : parts) ++c[static_cast<std::size_t>(p)];
+  return c;
+}
+
+// The 10³ lattice in 3: a third along x is 333, and the cut between lattice planes nearest it
+// leaves 300; the other 700 are cut along their longest side, y, into two halves of 5 planes.
+TEST(Bisection, CutsALatticeBetweenItsPlanesInProportionToTheParts) {
+  const World w = canonical_lattice(10).world;
+  const distributed::Bisection b = bisect(w.state.x, 3);
+  EXPECT_EQ(counts(parts_of(b, w.state.x), 3), (std::vector<std::size_t>{300, 350, 350}));
+  EXPECT_EQ(counts(parts_of(bisect(w.state.x, 2), w.state.x), 2), (std::vector<std::size_t>{500, 500}));
+  // Every cut lies halfway between two planes (spacing 0.01 m): no quanta within 5 mm of one.
+  for (const auto& node : b.nodes) {
+    if (node.part >= 0) continue;
+    for (const Vec3& x : w.state.x) EXPECT_GE(std::abs(x[node.axis] - node.cut), 0.005 - 1e-12);
+  }
+}
+
+TEST(Bisection, IsTheSameForTheSamePointsAndKeepsPointsThatCannotBeSplit) {
+  const World w = canonical_lattice(6).world;
+  std::vector<Vec3> x = w.state.x;
+  const std::vector<int> once = parts_of(bisect(x, 5), x);
+  EXPECT_EQ(once, parts_of(bisect(x, 5), x));
+  const std::vector<std::size_t> c = counts(once, 5);
+  EXPECT_EQ(std::count(c.begin(), c.end(), 0u), 0);
+  // All at one place: nothing can be cut, every point goes to one part, the others are empty.
+  const std::vector<Vec3> same(7, Vec3(1, 2, 3));
+  const std::vector<std::size_t> one = counts(parts_of(bisect(same, 3), same), 3);
+  EXPECT_EQ(*std::max_element(one.begin(), one.end()), 7u);
+}
+
+// A world with anchors, a prescribed motion, two bodies and a broken bond, cut into `ranks`.
+World test_world() {
+  Scene s = parse_scene(R"({
+    "name": "pieces", "timestep": 1e-4, "steps": 1, "gravity": [0, 0, -9.81],
+    "materials": {"m": {"law": "linear", "stiffness": 2000, "damping": 0.05}},
+    "bodies": [
+      {"name": "a", "type": "lattice", "cell": "cubic", "neighbors": "face_diagonal", "size": [7, 4, 3],
+       "spacing": 0.01, "quanta_mass": 0.001, "material": "m", "velocity": [1, 0, 0]},
+      {"name": "b", "type": "lattice", "cell": "cubic", "size": [3, 3, 3], "spacing": 0.01,
+       "quanta_mass": 0.002, "material": "m", "origin": [0.02, 0.06, 0]}],
+    "anchors": [{"select": {"box": [[-0.001, -1, -1], [0.001, 1, 1]]}},
+                {"select": {"body": "b"}, "motion": {"translate": {"velocity": [0, 1, 0]}}}]
+  })");
+  World w = std::move(s.world);
+  w.break_bond(3);
+  test::perturb(w, 1e-3, 0.1);
+  return w;
+}
+
+class Pieces : public ::testing::TestWithParam<int> {};
+
+// Every quanta owned once, every alive bond accounted for once, the halo lists each other's
+// mirror, and each owned quanta's bond force exactly the whole world's (its bonds all in its
+// piece, summed in the same order).
+TEST_P(Pieces, HoldEveryQuantaAndBondOnceWithTheWholeWorldsForces) {
+  const int ranks = GetParam();
+  const World whole = test_world();
+  const std::vector<int> owner = parts_of(bisect(whole.state.x, ranks), whole.state.x);
+  Adjacency adj;
+  build_adjacency(whole.model, whole.state, adj);
+  BondPartition part;
+  part.update(whole.model, whole.state.bonds, adj, 1);
+  ForceArrays work;
+  const ForceRows f = bond_force_rows(whole.model, whole.state, part, whole.state.x.data(), whole.state.v.data(), 1, work);
+  std::vector<int> owned_by(whole.num_quanta(), -1);
+  std::size_t bonds = 0;
+  std::map<std::pair<int, int>, std::vector<Index>> sends, recvs;  // (from, to): whole indices
+  for (int r = 0; r < ranks; ++r) {
+    const distributed::Piece p = distributed::make_piece(whole, owner, r);
+    const World& w = p.world;
+    EXPECT_EQ(p.whole_alive_bonds, whole.num_alive_bonds());
+    EXPECT_TRUE(std::is_sorted(p.global.begin(), p.global.end()));
+    bonds += p.owned_bonds.size();
+    for (Index q : p.owned_quanta) {
+      EXPECT_EQ(owned_by[p.global[q]], -1) << "quanta " << p.global[q] << " owned twice";
+      owned_by[p.global[q]] = r;
+    }
+    for (std::size_t q = 0; q < p.global.size(); ++q) {
+      EXPECT_EQ(w.state.x[q], whole.state.x[p.global[q]]);
+      EXPECT_EQ(w.model.inv_mass[q], whole.model.inv_mass[p.global[q]]);
+    }
+    std::size_t prescribed = 0;
+    for (const Motion& m : w.model.motions) {
+      for (std::size_t k = 0; k < m.quanta.size(); ++k) EXPECT_EQ(m.x0[k], w.state.x[m.quanta[k]]);
+      prescribed += m.quanta.size();
+    }
+    EXPECT_EQ(prescribed, static_cast<std::size_t>(std::count(w.model.inv_mass.begin(), w.model.inv_mass.end(), 0.0)));
+    Adjacency padj;
+    build_adjacency(w.model, w.state, padj);
+    BondPartition ppart;
+    ppart.update(w.model, w.state.bonds, padj, 1);
+    ForceArrays pwork;
+    const ForceRows pf = bond_force_rows(w.model, w.state, ppart, w.state.x.data(), w.state.v.data(), 1, pwork);
+    for (Index q : p.owned_quanta)
+      for (int c = 0; c < 3; ++c) EXPECT_EQ(pf.f[c][q], f.f[c][p.global[q]]) << "quanta " << p.global[q];
+    const distributed::HaloPlan plan = distributed::halo_plan(whole, owner, r, p);
+    std::set<Index> ghosts;
+    for (std::size_t k = 0; k < plan.peers.size(); ++k) {
+      for (Index q : plan.send[k]) {
+        EXPECT_TRUE(p.owned[q]);
+        sends[{r, plan.peers[k]}].push_back(p.global[q]);
+      }
+      for (Index q : plan.recv[k]) {
+        EXPECT_FALSE(p.owned[q]);
+        EXPECT_EQ(owner[p.global[q]], plan.peers[k]);
+        ghosts.insert(q);
+        recvs[{plan.peers[k], r}].push_back(p.global[q]);
+      }
+    }
+    EXPECT_EQ(ghosts.size(), p.global.size() - p.owned_quanta.size()) << "every ghost is received";
+  }
+  EXPECT_EQ(std::count(owned_by.begin(), owned_by.end(), -1), 0);
+  EXPECT_EQ(bonds, whole.num_alive_bonds());
+  EXPECT_EQ(sends, recvs);
+  if (ranks > 1) {
+    EXPECT_FALSE(sends.empty());
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Ranks, Pieces, ::testing::Values(1, 2, 3, 4));
+
+TEST(Ranks, AProgramStartedAloneIsOneRank) {
+  EXPECT_EQ(mpi_ranks(), 1);
+  EXPECT_EQ(mpi_rank(), 0);
+}
+
+}  // namespace
+}  // namespace qbond

@@ -1,0 +1,139 @@
+#!/usr/bin/python3
+"""A scene run over MPI ranks against the same scene run alone (docs/distributed.md).
+
+Usage: mpi_run_test.py QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC [--mpiexec-flag F ...]
+                       [--run-arg A ...] [--expect-migration]
+
+Runs the scene alone, then twice over N ranks, and checks:
+  - the two runs over N ranks wrote the same bytes (diagnostics.csv and every frame);
+  - every frame holds every quanta and every bond of the run alone, at its positions and
+    velocities to 1e-12 of their scale; every diagnostics column matches to 1e-12 of its scale
+    (the energy columns, the ledger's work and dissipation among them, of the energy's);
+  - with N = 1, the run writes the same bytes as the run alone;
+  - with --expect-migration, quanta moved between ranks during the run.
+Exits non-zero with a message naming the file, the column or quanta and the difference.
+"""
+import argparse
+import csv
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+
+p = argparse.ArgumentParser()
+p.add_argument("qbond")
+p.add_argument("scene")
+p.add_argument("work")
+p.add_argument("--ranks", type=int, required=True)
+p.add_argument("--mpiexec", required=True)
+p.add_argument("--mpiexec-flag", action="append", default=[])
+p.add_argument("--run-arg", action="append", default=[])
+p.add_argument("--expect-migration", action="store_true")
+a = p.parse_args()
+
+REL = 1e-12
+ENERGY = {"kinetic", "potential", "dissipated", "total", "work", "numerical"}
+
+
+def run(out, ranks):
+    if os.path.exists(out):
+        shutil.rmtree(out)
+    cmd = [a.qbond, "run", a.scene, "-o", out] + a.run_arg
+    if ranks:
+        cmd = [a.mpiexec] + a.mpiexec_flag + ["-n", str(ranks)] + cmd
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"{' '.join(cmd)}: exit {r.returncode}\n{r.stdout}\n{r.stderr}")
+    return r.stdout
+
+
+def read(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+def frames(out):
+    return sorted(os.listdir(os.path.join(out, "frames")))
+
+
+def rows(out):
+    with open(os.path.join(out, "diagnostics.csv")) as f:
+        return list(csv.reader(f))
+
+
+def poly(path):
+    r = vtk.vtkXMLPolyDataReader()
+    r.SetFileName(path)
+    r.Update()
+    return r.GetOutput()
+
+
+os.makedirs(a.work, exist_ok=True)
+alone = os.path.join(a.work, "alone")
+first, second = os.path.join(a.work, "ranks_a"), os.path.join(a.work, "ranks_b")
+run(alone, 0)
+log = run(first, a.ranks)
+run(second, a.ranks)
+
+# The same rank count, the same bits.
+if frames(first) != frames(second):
+    sys.exit("two runs over the same ranks wrote different frames")
+for name in ["diagnostics.csv"] + [os.path.join("frames", f) for f in frames(first)]:
+    if read(os.path.join(first, name)) != read(os.path.join(second, name)):
+        sys.exit(f"{name}: two runs over {a.ranks} ranks wrote different bytes")
+
+if a.ranks == 1:
+    for name in ["diagnostics.csv"] + [os.path.join("frames", f) for f in frames(alone)]:
+        if read(os.path.join(alone, name)) != read(os.path.join(first, name)):
+            sys.exit(f"{name}: the run on one rank differs from the run alone")
+
+# Diagnostics: every column to 1e-12 of its scale.
+one, many = rows(alone), rows(first)
+if one[0] != many[0]:
+    sys.exit(f"diagnostics columns differ: {one[0]} vs {many[0]}")
+if len(one) != len(many):
+    sys.exit(f"diagnostics: {len(one) - 1} rows alone, {len(many) - 1} over {a.ranks} ranks")
+header = one[0]
+values = [[float(x) for x in r] for r in one[1:]]
+scale = {h: max(abs(r[k]) for r in values) for k, h in enumerate(header)}
+energy_scale = max(scale[h] for h in ENERGY if h in scale)
+worst = 0.0
+for r1, rn in zip(one[1:], many[1:]):
+    for k, h in enumerate(header):
+        x, y = float(r1[k]), float(rn[k])
+        s = energy_scale if h in ENERGY else scale[h]
+        if abs(x - y) > REL * s:
+            sys.exit(f"diagnostics step {r1[0]}, {h}: {x!r} alone, {y!r} over {a.ranks} ranks (scale {s:g})")
+        if s > 0:
+            worst = max(worst, abs(x - y) / s)
+
+# Frames: every quanta and bond, positions and velocities.
+if frames(alone) != frames(first):
+    sys.exit("the runs wrote different frames")
+for name in frames(alone):
+    p1, pn = poly(os.path.join(alone, "frames", name)), poly(os.path.join(first, "frames", name))
+    if (p1.GetNumberOfPoints(), p1.GetNumberOfLines()) != (pn.GetNumberOfPoints(), pn.GetNumberOfLines()):
+        sys.exit(f"{name}: {p1.GetNumberOfPoints()} quanta and {p1.GetNumberOfLines()} bonds alone, "
+                 f"{pn.GetNumberOfPoints()} and {pn.GetNumberOfLines()} over {a.ranks} ranks")
+    for what, get in [("position", lambda d: vtk_to_numpy(d.GetPoints().GetData())),
+                      ("velocity", lambda d: vtk_to_numpy(d.GetPointData().GetArray("velocity")))]:
+        x1, xn = get(p1), get(pn)
+        s = max(abs(x1).max(), 1e-300)
+        d = abs(x1 - xn).max()
+        if d > REL * s:
+            sys.exit(f"{name}: {what}s differ by {d:g} (scale {s:g}) over {a.ranks} ranks")
+        worst = max(worst, d / s)
+    lines1 = vtk_to_numpy(p1.GetLines().GetData())
+    linesn = vtk_to_numpy(pn.GetLines().GetData())
+    if (lines1 != linesn).any():
+        sys.exit(f"{name}: the bonds' ends differ over {a.ranks} ranks")
+
+moved = re.search(r"quanta moved between ranks after (\d+) steps", log)
+if a.expect_migration and (not moved or int(moved.group(1)) == 0):
+    sys.exit(f"no quanta moved between ranks:\n{log}")
+print(f"{a.ranks} ranks: largest difference {worst:.3g} of scale; "
+      f"{moved.group(1) if moved else 0} steps with migrations")
