@@ -28,9 +28,10 @@ class MpiSession {
 
 /// Whether the library was built with MPI (QBOND_MPI).
 bool built_with_mpi();
-/// This process's rank in the job (0 without MPI).
+/// This process's rank in the job (0 when started alone).
 int mpi_rank();
-/// The job's number of ranks (1 without MPI).
+/// The job's number of ranks (1 when started alone). A build without MPI reads it from the
+/// launcher's environment, so that RanksRun can refuse to run over several ranks.
 int mpi_ranks();
 
 /// What a run over ranks did, per rank (rank order), gathered on rank 0 when the run ends.

@@ -1,0 +1,148 @@
+#!/usr/bin/python3
+"""Step time of a run over MPI ranks against the run alone, on the canonical lattice.
+
+Usage: bench/mpi/ranks.py [--qbond PATH] [--n 40] [--steps 200] [--repeats 3] [--mpiexec PATH]
+                          [--mpiexec-flag F ...] [--out docs/bench/ranks-DATE.json]
+       bench/mpi/ranks.py --check [ROOT]     (the table of docs/distributed.md against the results)
+       bench/mpi/ranks.py --write [ROOT]     (rewrites that table from the newest results)
+
+Measures `qbond run` of the canonical n³ lattice (samples.hpp's canonical_lattice(n)) stepped by
+velocity Verlet, without frames: alone on 1 and 2 threads, and over 2 ranks of 1 thread each. The
+runs alternate, `repeats` times each, and each configuration's median step time (run.json's
+wall_seconds over its steps) is kept with every repeat, the bytes each rank sent per step, and the
+machine. The table sits between `<!-- ranks:step -->` and `<!-- /ranks:step -->` in
+docs/distributed.md; --check exits 1 when it is not what the newest docs/bench/ranks-*.json gives.
+"""
+import argparse
+import datetime
+import json
+import os
+import platform
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+BEGIN, END = "<!-- ranks:step -->", "<!-- /ranks:step -->"
+NAME = re.compile(r"^ranks-(\d{4}-\d\d-\d\d)([a-z]*)\.json$")
+
+
+def scene(n, steps):
+    """canonical_lattice(n) (src/builders/samples.cpp), stepped by velocity Verlet."""
+    return {
+        "name": f"canonical_lattice_{n}", "timestep": 1e-4, "steps": steps, "gravity": [0, 0, -9.81],
+        "integrator": {"type": "velocity_verlet"},
+        "materials": {"bond": {"law": "linear", "stiffness": 1000, "damping": 0.01, "damping_model": "axial"}},
+        "bodies": [{"name": "lattice", "type": "lattice", "cell": "cubic", "neighbors": "face_diagonal",
+                    "size": [n, n, n], "spacing": 0.01, "quanta_mass": 1e-3, "material": "bond"}],
+        "anchors": [{"select": {"box": [[-1e-9, -1, -1], [1e-9, 1e3, 1e3]]}}],
+        "output": {"every": steps, "vtk": False},
+    }
+
+
+def measure(a):
+    work = tempfile.mkdtemp(prefix="qbond-ranks-")
+    path = os.path.join(work, "lattice.json")
+    with open(path, "w") as f:
+        json.dump(scene(a.n, a.steps), f)
+    configs = [("alone", 1, 1), ("alone", 1, 2), ("ranks", 2, 1)]
+    runs = {f"{kind}:{ranks}x{threads}": [] for kind, ranks, threads in configs}
+    sent = {}
+    for _ in range(a.repeats):
+        for kind, ranks, threads in configs:
+            out = os.path.join(work, "out")
+            shutil.rmtree(out, ignore_errors=True)
+            cmd = [a.qbond, "run", path, "-o", out, "--threads", str(threads), "--no-vtk"]
+            if kind == "ranks":
+                cmd = [a.mpiexec] + a.mpiexec_flag + ["-n", str(ranks)] + cmd
+            r = subprocess.run(cmd, capture_output=True, text=True)
+            if r.returncode != 0:
+                sys.exit(f"{' '.join(cmd)}: exit {r.returncode}\n{r.stderr}")
+            with open(os.path.join(out, "run.json")) as f:
+                j = json.load(f)
+            key = f"{kind}:{ranks}x{threads}"
+            runs[key].append(1e3 * j["wall_seconds"] / j["steps_taken"])
+            per_rank = [float(x) for x in re.findall(r"rank \d+: \d+ quanta, \d+ ghosts, ([0-9.e+]+) bytes", r.stdout)]
+            if per_rank:
+                sent[key] = per_rank
+    shutil.rmtree(work, ignore_errors=True)
+    rows = []
+    for kind, ranks, threads in configs:
+        key = f"{kind}:{ranks}x{threads}"
+        rows.append({"run": kind, "ranks": ranks, "threads": threads, "ms_per_step": statistics.median(runs[key]),
+                     "repeats_ms": runs[key], "bytes_sent_per_step": sent.get(key, [])})
+    return {"workload": f"canonical lattice n={a.n}, velocity_verlet, {a.steps} steps, no frames",
+            "date": datetime.date.today().isoformat(),
+            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} hardware threads, "
+                       "shared with other jobs",
+            "rows": rows}
+
+
+def latest(root):
+    bench = os.path.join(root, "docs", "bench")
+    found = sorted((m[1], len(m[2]), m[2], name) for name in os.listdir(bench) if (m := NAME.match(name)))
+    if not found:
+        sys.exit("ranks.py: no docs/bench/ranks-DATE.json")
+    name = found[-1][3]
+    with open(os.path.join(bench, name)) as f:
+        return name, json.load(f)
+
+
+def table(name, res):
+    base = res["rows"][0]["ms_per_step"]
+    lines = [f"Measured by `bench/mpi/ranks.py` ({res['workload']}; {res['machine']}; "
+             f"[docs/bench/{name}](bench/{name})), median of {len(res['rows'][0]['repeats_ms'])} runs each:", "",
+             "| run | ranks × threads | ms per step | speed-up | bytes sent per step, per rank |",
+             "|---|---|---|---|---|"]
+    for r in res["rows"]:
+        sent = ", ".join(f"{b:.0f}" for b in r["bytes_sent_per_step"]) or "—"
+        lines.append(f"| {r['run']} | {r['ranks']} × {r['threads']} | {r['ms_per_step']:.3g} | "
+                     f"{base / r['ms_per_step']:.2f}× | {sent} |")
+    return "\n".join(lines)
+
+
+def render(root, check):
+    doc = os.path.join(root, "docs", "distributed.md")
+    with open(doc) as f:
+        text = f.read()
+    if BEGIN not in text or END not in text:
+        sys.exit(f"{doc}: no {BEGIN} ... {END}")
+    head, rest = text.split(BEGIN, 1)
+    _, tail = rest.split(END, 1)
+    new = head + BEGIN + "\n" + table(*latest(root)) + "\n" + END + tail
+    if check:
+        if new != text:
+            sys.exit(f"{doc}: the ranks table is not what the newest docs/bench/ranks-*.json gives "
+                     "(bench/mpi/ranks.py --write)")
+        return
+    with open(doc, "w") as f:
+        f.write(new)
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("--check", nargs="?", const=ROOT)
+    p.add_argument("--write", nargs="?", const=ROOT)
+    p.add_argument("--qbond", default=os.path.join(ROOT, "build", "qbond"))
+    p.add_argument("--n", type=int, default=40)
+    p.add_argument("--steps", type=int, default=200)
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--mpiexec", default="mpiexec")
+    p.add_argument("--mpiexec-flag", action="append", default=[])
+    p.add_argument("--out")
+    a = p.parse_args()
+    if a.check or a.write:
+        return render(a.check or a.write, check=bool(a.check))
+    res = measure(a)
+    out = a.out or os.path.join(ROOT, "docs", "bench", f"ranks-{res['date']}.json")
+    with open(out, "w") as f:
+        json.dump(res, f, indent=1)
+        f.write("\n")
+    print(table(os.path.basename(out), res))
+
+
+if __name__ == "__main__":
+    main()
