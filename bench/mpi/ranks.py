@@ -9,8 +9,8 @@ Usage: bench/mpi/ranks.py [--qbond PATH] [--n 40] [--steps 200] [--repeats 3] [-
 Measures `qbond run` of the canonical n³ lattice (samples.hpp's canonical_lattice(n)) stepped by
 velocity Verlet, without frames: alone on 1 and 2 threads, and over 2 ranks of 1 thread each. The
 runs alternate, `repeats` times each, and each configuration's median step time (run.json's
-wall_seconds over its steps) is kept with every repeat, the bytes each rank sent per step, and the
-machine. The table sits between `<!-- ranks:step -->` and `<!-- /ranks:step -->` in
+wall_seconds over its steps) is kept with every repeat, the bytes each rank sent per step, the
+machine and its load average (one minute) before and after. The table sits between `<!-- ranks:step -->` and `<!-- /ranks:step -->` in
 docs/distributed.md; --check exits 1 when it is not what the newest docs/bench/ranks-*.json gives.
 """
 import argparse
@@ -44,6 +44,7 @@ def scene(n, steps):
 
 
 def measure(a):
+    load_before = os.getloadavg()[0]
     work = tempfile.mkdtemp(prefix="qbond-ranks-")
     path = os.path.join(work, "lattice.json")
     with open(path, "w") as f:
@@ -78,6 +79,7 @@ def measure(a):
             "date": datetime.date.today().isoformat(),
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} hardware threads, "
                        "shared with other jobs",
+            "load_average": [round(load_before, 2), round(os.getloadavg()[0], 2)],
             "rows": rows}
 
 
@@ -93,8 +95,10 @@ def latest(root):
 
 def table(name, res):
     base = res["rows"][0]["ms_per_step"]
-    lines = [f"Measured by `bench/mpi/ranks.py` ({res['workload']}; {res['machine']}; "
-             f"[docs/bench/{name}](bench/{name})), median of {len(res['rows'][0]['repeats_ms'])} runs each:", "",
+    load = res["load_average"]
+    lines = [f"Measured by `bench/mpi/ranks.py` ({res['workload']}; {res['machine']}, load average "
+             f"{load[0]:g} before and {load[1]:g} after; [docs/bench/{name}](bench/{name})), "
+             f"median of {len(res['rows'][0]['repeats_ms'])} runs each:", "",
              "| run | ranks × threads | ms per step | speed-up | bytes sent per step, per rank |",
              "|---|---|---|---|---|"]
     for r in res["rows"]:

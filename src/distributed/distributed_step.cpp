@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <climits>
+#include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -9,6 +11,7 @@
 #include "integrators/bond_forces.hpp"
 #include "integrators/bond_partition.hpp"
 #include "ledger/step_work.hpp"
+#include "qbond/analysis/analysis.hpp"
 #include "qbond/distributed/distributed.hpp"
 
 namespace qbond::distributed {
@@ -49,6 +52,14 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       rank_(mpi_rank()),
       ranks_(mpi_ranks()),
       start_books_(whole.state.energy) {
+  if (!start_books_.initialised) {
+    // As the Simulation of a run on one rank opens them (its constructor).
+    const Energies e = energies(whole_.model, whole_.state);
+    start_books_.initial_total = e.total();
+    start_books_.initial_gravity = e.gravity;
+    start_books_.initial_time = whole_.state.time;
+    start_books_.initialised = true;
+  }
   cuts_ = bisect(whole_.state.x, ranks_);
   owner_ = parts_of(cuts_, whole_.state.x);
   std::vector<double> f;
@@ -157,15 +168,8 @@ StepReport DistributedStep::step(bool stop) {
   }
   max_over_ranks(flags);
   if (flags[0]) {
-    // Every piece back to the state before the step (the carried forces are then evaluated
-    // afresh, should the run go on).
-    if (sim_ && report.status == StepReport::Status::ok) {
-      State& s = sim_->world().state;
-      s.x = ledger_.x;
-      s.v = ledger_.v;
-      s.time = t0;
-      s.step = whole_.state.step;
-    }
+    // Every piece back to the state before the step.
+    if (sim_ && report.status == StepReport::Status::ok) roll_back({});
     if (sim_) sim_->world().state.carry = std::monostate{};
     carry_held_ = false;
     const bool mine = report.status != StepReport::Status::ok;
@@ -180,12 +184,78 @@ StepReport DistributedStep::step(bool stop) {
     return r;
   }
   stop_agreed_ = flags[2] != 0;
+  exchange_ghosts();
+  const StepWork work = charge_ledger();
+  if (StepReport r = check_energy(work.bonds_after); r.status != StepReport::Status::ok) {
+    if (sim_) roll_back(work);
+    return r;
+  }
   whole_.state.time = t0 + h_;  // as every piece's step sets it
   whole_.state.step += 1;
-  exchange_ghosts();
-  charge_ledger();
   if (flags[1]) migrate();
   return {};
+}
+
+void DistributedStep::roll_back(const StepWork& work) {
+  State& s = sim_->world().state;
+  s.x = ledger_.x;
+  s.v = ledger_.v;
+  s.time = whole_.state.time;
+  s.step = whole_.state.step;
+  s.carry = std::monostate{};  // evaluated afresh, should the run go on
+  carry_held_ = false;
+  anchors_ -= work.anchors;
+  damping_ -= work.damping;
+}
+
+StepReport DistributedStep::check_energy(double bonds_after) const {
+  // Each rank's sums over its owned quanta and bonds, then every rank's in rank order (the same
+  // on every rank): kinetic, gravity's potential, the impulse allowance, the bonds' energy, the
+  // anchors' work, and the fastest free quanta's speed and index.
+  double mine[7] = {0, 0, 0, bonds_after, anchors_, -1, 0};
+  if (sim_) {
+    const World& w = sim_->world();
+    const double t = whole_.state.time + h_ - start_books_.initial_time;
+    for (Index q : owned_) {
+      if (w.model.is_kinematic(q)) continue;
+      const double m = w.model.mass[q];
+      mine[0] += 0.5 * m * w.state.v[q].squaredNorm();
+      mine[1] -= m * w.model.gravity.dot(w.state.x[q]);
+      mine[2] += 0.5 * w.model.inv_mass[q] * (t * (m * w.model.gravity)).squaredNorm();
+      const double speed = w.state.v[q].norm();
+      if (speed > mine[5]) {
+        mine[5] = speed;
+        mine[6] = static_cast<double>(global_[q]);
+      }
+    }
+  }
+  const std::vector<double> all = all_gather(mine);
+  double sum[5] = {0, 0, 0, 0, 0}, speed = -1, who = 0;
+  for (std::size_t r = 0; r + 7 <= all.size(); r += 7) {
+    for (int k = 0; k < 5; ++k) sum[k] += all[r + static_cast<std::size_t>(k)];
+    if (all[r + 5] > speed) {
+      speed = all[r + 5];
+      who = all[r + 6];
+    }
+  }
+  const EnergyLedger& l = start_books_;
+  const double work_anchors = l.work_anchors + sum[4];
+  const double available = (l.initial_total - l.initial_gravity) + std::abs(sum[1] - l.initial_gravity) +
+                           std::abs(l.work_loads) + std::abs(work_anchors) + sum[2];
+  const double held = sum[0] + sum[3];
+  if (held <= limits_.energy_growth * available + limits_.energy_floor) return {};
+  const auto q = static_cast<Index>(who);
+  std::ostringstream msg;
+  msg.precision(6);
+  msg << "blow-up at step " << whole_.state.step + 1 << " (t = " << whole_.state.time + h_
+      << " s): energy runaway, kinetic + bond energy " << held << " J exceeds " << limits_.energy_growth << " x the "
+      << available << " J the system could have gained; fastest quanta " << whole_.model.quanta_id[q] << " at "
+      << speed << " m/s; the world keeps the state before this step";
+  StepReport r;
+  r.status = StepReport::Status::blowup;
+  r.message = msg.str();
+  r.worst = q;
+  return r;
 }
 
 void DistributedStep::exchange_ghosts() {
@@ -214,8 +284,8 @@ void DistributedStep::exchange_ghosts() {
       });
 }
 
-void DistributedStep::charge_ledger() {
-  if (!sim_) return;
+StepWork DistributedStep::charge_ledger() {
+  if (!sim_) return {};
   const World& w = sim_->world();
   const std::size_t n = global_.size();
   for (std::size_t q = 0; q < n; ++q) {
@@ -226,6 +296,7 @@ void DistributedStep::charge_ledger() {
                                   sim_->integrator().ledger_hints(), config_.threads);
   anchors_ += work.anchors;
   damping_ += work.damping;
+  return work;
 }
 
 std::vector<double> DistributedStep::owned_rows() const {

@@ -10,6 +10,7 @@
 #include "distributed/halo.hpp"
 #include "distributed/local_world.hpp"
 #include "distributed/partition.hpp"
+#include "ledger/step_work.hpp"
 #include "qbond/simulation/simulation.hpp"
 
 namespace qbond::distributed {
@@ -50,8 +51,15 @@ class DistributedStep {
   void build(const std::vector<double>* forces);
   // The ghosts' positions and velocities (and carried forces) from their owners.
   void exchange_ghosts();
-  // The anchors' and dampers' work over the owned bonds, from the state before the step.
-  void charge_ledger();
+  // The anchors' and dampers' work over the owned bonds, from the state before the step; returns
+  // the step's work of the anchors and dampers and the owned bonds' energy after it [J].
+  StepWork charge_ledger();
+  // The energy runaway check of a step on one rank (Simulation's check_energy), over every
+  // rank's quanta and bonds: a report naming the fastest quanta when the kinetic and bonds'
+  // energy exceed what the system could have gained.
+  StepReport check_energy(double bonds_after) const;
+  // Every piece back to the state before the step, its ledger charges `work` taken back.
+  void roll_back(const StepWork& work);
   // Quanta to the ranks whose boxes hold them (every rank learns every owned quanta's state), the
   // boxes cut anew when the ranks' loads drifted apart.
   void migrate();
@@ -78,7 +86,7 @@ class DistributedStep {
   Projection moved_;
   std::vector<Vec3> gravity_;   // m g per local quanta
   double anchors_ = 0, damping_ = 0;  // this rank's share since the run started [J]
-  EnergyLedger start_books_;          // the whole ledger when the run started
+  EnergyLedger start_books_;          // the whole ledger when the run started (opened if it was not)
   bool carry_held_ = false;  // every piece holds velocity Verlet's carried forces (none after a blow-up)
   bool stop_agreed_ = false;
   std::uint64_t migrations_ = 0;

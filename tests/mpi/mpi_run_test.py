@@ -2,7 +2,7 @@
 """A scene run over MPI ranks against the same scene run alone (docs/distributed.md).
 
 Usage: mpi_run_test.py QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC [--mpiexec-flag F ...]
-                       [--run-arg A ...] [--expect-migration]
+                       [--run-arg A ...] [--expect-migration] [--expect-blowup]
 
 Runs the scene alone, then twice over N ranks, and checks:
   - the two runs over N ranks wrote the same bytes (diagnostics.csv and every frame);
@@ -10,7 +10,9 @@ Runs the scene alone, then twice over N ranks, and checks:
     velocities to 1e-12 of their scale; every diagnostics column matches to 1e-12 of its scale
     (the energy columns, the ledger's work and dissipation among them, of the energy's);
   - with N = 1, the run writes the same bytes as the run alone;
-  - with --expect-migration, quanta moved between ranks during the run.
+  - with --expect-migration, quanta moved between ranks during the run;
+  - with --expect-blowup, every run stops with exit 3 (a blow-up) at the same step with the same
+    message, keeping the state before that step.
 Exits non-zero with a message naming the file, the column or quanta and the difference.
 """
 import argparse
@@ -33,6 +35,7 @@ p.add_argument("--mpiexec", required=True)
 p.add_argument("--mpiexec-flag", action="append", default=[])
 p.add_argument("--run-arg", action="append", default=[])
 p.add_argument("--expect-migration", action="store_true")
+p.add_argument("--expect-blowup", action="store_true")
 a = p.parse_args()
 
 REL = 1e-12
@@ -46,9 +49,14 @@ def run(out, ranks):
     if ranks:
         cmd = [a.mpiexec] + a.mpiexec_flag + ["-n", str(ranks)] + cmd
     r = subprocess.run(cmd, capture_output=True, text=True)
-    if r.returncode != 0:
+    if r.returncode != (3 if a.expect_blowup else 0):
         sys.exit(f"{' '.join(cmd)}: exit {r.returncode}\n{r.stdout}\n{r.stderr}")
+    if a.expect_blowup:
+        blowups.append([line for line in r.stderr.splitlines() if "blow-up at step" in line])
     return r.stdout
+
+
+blowups = []
 
 
 def read(path):
@@ -131,6 +139,9 @@ for name in frames(alone):
     linesn = vtk_to_numpy(pn.GetLines().GetData())
     if (lines1 != linesn).any():
         sys.exit(f"{name}: the bonds' ends differ over {a.ranks} ranks")
+
+if a.expect_blowup and not (len(blowups[0]) == 1 and blowups[0] == blowups[1] == blowups[2]):
+    sys.exit(f"the blow-up messages differ: {blowups}")
 
 moved = re.search(r"quanta moved between ranks after (\d+) steps", log)
 if a.expect_migration and (not moved or int(moved.group(1)) == 0):
