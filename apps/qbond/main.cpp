@@ -267,13 +267,17 @@ class Progress {
   double shown_ = -1e9, shown_frac_ = -1;
 };
 
-// A run over ranks: each rank's share of the quanta and of the ghost exchange.
-void print_ranks(const qbond::RanksStats& s, std::uint64_t steps) {
+// A run over ranks: each rank's share of the quanta and of the ghost exchange, and where its time
+// went per step.
+void print_ranks(const qbond::RanksStats& s) {
   std::printf("over %d ranks: quanta moved between ranks after %llu steps\n", s.ranks,
               static_cast<unsigned long long>(s.migrations));
+  const double steps = s.steps ? static_cast<double>(s.steps) : 1.0;
   for (std::size_t k = 0; k < s.owned.size(); ++k)
-    std::printf("  rank %zu: %zu quanta, %zu ghosts, %.4g bytes sent per step\n", k, s.owned[k], s.ghosts[k],
-                steps ? s.bytes_sent[k] / static_cast<double>(steps) : 0.0);
+    std::printf("  rank %zu: %zu quanta, %zu ghosts, %.4g bytes sent per step; per step %.3g ms stepping and %.3g ms "
+                "ledger (CPU), %.3g ms in all (wall)\n",
+                k, s.owned[k], s.ghosts[k], s.bytes_sent[k] / steps, 1e3 * s.stepping[k] / steps,
+                1e3 * s.bookkeeping[k] / steps, 1e3 * s.wall[k] / steps);
 }
 
 int run(const Options& o) {
@@ -327,7 +331,7 @@ int run(const Options& o) {
                 static_cast<unsigned long long>(r.steps_taken), r.wall_seconds,
                 r.wall_seconds > 0 ? r.steps_taken / r.wall_seconds : 0.0, w.state.time, b.now.total(),
                 b.dissipated_damping, b.dissipated_numerical);
-    if (ranks) print_ranks(ranks->stats(), r.steps_taken);
+    if (ranks) print_ranks(ranks->stats());
   }
   switch (r.status) {
     case RunStatus::completed: return 0;

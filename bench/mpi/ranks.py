@@ -9,8 +9,10 @@ Usage: bench/mpi/ranks.py [--qbond PATH] [--n 40] [--steps 200] [--repeats 3] [-
 Measures `qbond run` of the canonical n³ lattice (samples.hpp's canonical_lattice(n)) stepped by
 velocity Verlet, without frames: alone on 1 and 2 threads, and over 2 ranks of 1 thread each. The
 runs alternate, `repeats` times each, and each configuration's median step time (run.json's
-wall_seconds over its steps) is kept with every repeat, the bytes each rank sent per step, the
-machine and its load average (one minute) before and after. The table sits between `<!-- ranks:step -->` and `<!-- /ranks:step -->` in
+wall_seconds over its steps) is kept with every repeat; for the runs over ranks also each rank's
+CPU time per step stepping its piece and charging its ledger, its wall time per step and the
+bytes it sent per step (the lines the run prints); and the machine and its load average (one
+minute) before and after. The table sits between `<!-- ranks:step -->` and `<!-- /ranks:step -->` in
 docs/distributed.md; --check exits 1 when it is not what the newest docs/bench/ranks-*.json gives.
 """
 import argparse
@@ -51,7 +53,7 @@ def measure(a):
         json.dump(scene(a.n, a.steps), f)
     configs = [("alone", 1, 1), ("alone", 1, 2), ("ranks", 2, 1)]
     runs = {f"{kind}:{ranks}x{threads}": [] for kind, ranks, threads in configs}
-    sent = {}
+    ranks_seen = {f"{kind}:{ranks}x{threads}": [] for kind, ranks, threads in configs}
     for _ in range(a.repeats):
         for kind, ranks, threads in configs:
             out = os.path.join(work, "out")
@@ -66,15 +68,23 @@ def measure(a):
                 j = json.load(f)
             key = f"{kind}:{ranks}x{threads}"
             runs[key].append(1e3 * j["wall_seconds"] / j["steps_taken"])
-            per_rank = [float(x) for x in re.findall(r"rank \d+: \d+ quanta, \d+ ghosts, ([0-9.e+]+) bytes", r.stdout)]
+            # Each rank's line: bytes sent, CPU ms stepping and ledger, wall ms, per step.
+            per_rank = re.findall(r"rank \d+: \d+ quanta, \d+ ghosts, ([0-9.e+]+) bytes sent per step; per step "
+                                  r"([0-9.e+]+) ms stepping and ([0-9.e+]+) ms ledger \(CPU\), ([0-9.e+]+) ms", r.stdout)
             if per_rank:
-                sent[key] = per_rank
+                ranks_seen[key].append([[float(x) for x in rank] for rank in per_rank])
     shutil.rmtree(work, ignore_errors=True)
     rows = []
     for kind, ranks, threads in configs:
         key = f"{kind}:{ranks}x{threads}"
-        rows.append({"run": kind, "ranks": ranks, "threads": threads, "ms_per_step": statistics.median(runs[key]),
-                     "repeats_ms": runs[key], "bytes_sent_per_step": sent.get(key, [])})
+        row = {"run": kind, "ranks": ranks, "threads": threads, "ms_per_step": statistics.median(runs[key]),
+               "repeats_ms": runs[key]}
+        if ranks_seen[key]:
+            # Per rank, the median over the repeats of each figure.
+            per = [[statistics.median(rep[r][k] for rep in ranks_seen[key]) for k in range(4)] for r in range(ranks)]
+            row["per_rank"] = [{"bytes_sent_per_step": p[0], "stepping_cpu_ms": p[1], "ledger_cpu_ms": p[2],
+                                "wall_ms": p[3]} for p in per]
+        rows.append(row)
     return {"workload": f"canonical lattice n={a.n}, velocity_verlet, {a.steps} steps, no frames",
             "date": datetime.date.today().isoformat(),
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} hardware threads, "
@@ -99,12 +109,15 @@ def table(name, res):
     lines = [f"Measured by `bench/mpi/ranks.py` ({res['workload']}; {res['machine']}, load average "
              f"{load[0]:g} before and {load[1]:g} after; [docs/bench/{name}](bench/{name})), "
              f"median of {len(res['rows'][0]['repeats_ms'])} runs each:", "",
-             "| run | ranks × threads | ms per step | speed-up | bytes sent per step, per rank |",
-             "|---|---|---|---|---|"]
+             "| run | ranks × threads | ms per step | speed-up | per rank: stepping, ledger (CPU ms per step) | "
+             "bytes sent per step, per rank |",
+             "|---|---|---|---|---|---|"]
     for r in res["rows"]:
-        sent = ", ".join(f"{b:.0f}" for b in r["bytes_sent_per_step"]) or "—"
+        per = r.get("per_rank", [])
+        cpu = "; ".join(f"{p['stepping_cpu_ms']:.3g}, {p['ledger_cpu_ms']:.3g}" for p in per) or "—"
+        sent = ", ".join(f"{p['bytes_sent_per_step']:.0f}" for p in per) or "—"
         lines.append(f"| {r['run']} | {r['ranks']} × {r['threads']} | {r['ms_per_step']:.3g} | "
-                     f"{base / r['ms_per_step']:.2f}× | {sent} |")
+                     f"{base / r['ms_per_step']:.2f}× | {cpu} | {sent} |")
     return "\n".join(lines)
 
 

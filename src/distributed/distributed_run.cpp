@@ -44,15 +44,20 @@ struct RanksRun::Impl {
 
   // The ranks' counts into `stats` on rank 0 (collective).
   void gather_stats() {
-    const double mine[3] = {static_cast<double>(dist->owned_quanta()), static_cast<double>(dist->ghost_quanta()),
-                            8.0 * static_cast<double>(dist->doubles_sent())};
+    const distributed::DistributedStep::Times& t = dist->times();
+    const double mine[6] = {static_cast<double>(dist->owned_quanta()), static_cast<double>(dist->ghost_quanta()),
+                            8.0 * static_cast<double>(dist->doubles_sent()), t.stepping, t.bookkeeping, t.wall};
     const std::vector<double> all = distributed::gather_to_root(mine);
     stats.ranks = mpi_ranks();
     stats.migrations = dist->migrations();
-    for (std::size_t k = 0; k + 3 <= all.size(); k += 3) {
+    stats.steps = t.steps;
+    for (std::size_t k = 0; k + 6 <= all.size(); k += 6) {
       stats.owned.push_back(static_cast<std::size_t>(all[k]));
       stats.ghosts.push_back(static_cast<std::size_t>(all[k + 1]));
       stats.bytes_sent.push_back(all[k + 2]);
+      stats.stepping.push_back(all[k + 3]);
+      stats.bookkeeping.push_back(all[k + 4]);
+      stats.wall.push_back(all[k + 5]);
     }
   }
 

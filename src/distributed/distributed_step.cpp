@@ -1,7 +1,9 @@
 #include "distributed/distributed_step.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <climits>
+#include <ctime>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -87,20 +89,7 @@ void DistributedStep::build(const std::vector<double>* forces) {
   ledger_ = State{};
   Bonds& lb = ledger_.edit_bonds();
   const Bonds& pb = w.state.bonds;
-  for (Index b : piece.owned_bonds) {
-    lb.i.push_back(pb.i[b]);
-    lb.j.push_back(pb.j[b]);
-    lb.id.push_back(pb.id[b]);
-    lb.law.push_back(pb.law[b]);
-    lb.damping_model.push_back(pb.damping_model[b]);
-    lb.strength.push_back(pb.strength[b]);
-    lb.damping.push_back(pb.damping[b]);
-    lb.rest0.push_back(pb.rest0[b]);
-    lb.shape.push_back(pb.shape[b]);
-    lb.rest.push_back(pb.rest[b]);
-    lb.alive.push_back(pb.alive[b]);
-    lb.time.push_back(pb.time[b]);
-  }
+  for (Index b : piece.owned_bonds) append_bond(pb, b, pb.i[b], pb.j[b], lb);
   lb.first_formed = lb.size();
   build_adjacency(w.model, ledger_, ledger_adj_);
   gravity_.resize(n);
@@ -147,7 +136,24 @@ void DistributedStep::build(const std::vector<double>* forces) {
   sim_->set_track_energy(false);  // the ledger is charged here, over the owned bonds
 }
 
+namespace {
+// CPU time of this process [s].
+double cpu_seconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+// Wall time on a steady clock [s].
+double wall_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
 StepReport DistributedStep::step(bool stop) {
+  const double wall0 = wall_seconds(), cpu0 = cpu_seconds();
+  StepReport r = step_timed(stop, cpu0);
+  times_.wall += wall_seconds() - wall0;
+  ++times_.steps;
+  return r;
+}
+
+StepReport DistributedStep::step_timed(bool stop, double cpu0) {
   int flags[3] = {0, 0, stop ? 1 : 0};  // blow-up, migration, stop
   StepReport report;
   const double t0 = whole_.state.time;
@@ -166,6 +172,7 @@ StepReport DistributedStep::step(bool stop) {
         }
     }
   }
+  times_.stepping += cpu_seconds() - cpu0;
   max_over_ranks(flags);
   if (flags[0]) {
     // Every piece back to the state before the step.
@@ -185,7 +192,9 @@ StepReport DistributedStep::step(bool stop) {
   }
   stop_agreed_ = flags[2] != 0;
   exchange_ghosts();
+  const double cpu1 = cpu_seconds();
   const StepWork work = charge_ledger();
+  times_.bookkeeping += cpu_seconds() - cpu1;
   if (StepReport r = check_energy(work.bonds_after); r.status != StepReport::Status::ok) {
     if (sim_) roll_back(work);
     return r;

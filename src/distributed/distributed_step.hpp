@@ -44,8 +44,18 @@ class DistributedStep {
   std::uint64_t migrations() const { return migrations_; }
   // Doubles this rank has sent in ghost exchanges.
   std::size_t doubles_sent() const { return halo_.doubles_sent(); }
+  // Where this rank's time went over the steps taken: the CPU time of its own step (the piece's
+  // step, and the check for quanta that left the box) and of its bookkeeping (ledger and energy
+  // sums), and the wall time of whole steps, exchanges and waits included [s].
+  struct Times {
+    double stepping = 0, bookkeeping = 0, wall = 0;
+    std::uint64_t steps = 0;
+  };
+  const Times& times() const { return times_; }
 
  private:
+  // step() but for its timing (cpu0: the CPU time when the step began).
+  StepReport step_timed(bool stop, double cpu0);
   // Builds this rank's piece from whole_ and owner_, with the whole world's carried forces
   // (3 per quanta, by whole index) or, when null, with forces evaluated here and exchanged.
   void build(const std::vector<double>* forces);
@@ -87,6 +97,7 @@ class DistributedStep {
   std::vector<Vec3> gravity_;   // m g per local quanta
   double anchors_ = 0, damping_ = 0;  // this rank's share since the run started [J]
   EnergyLedger start_books_;          // the whole ledger when the run started (opened if it was not)
+  Times times_;
   bool carry_held_ = false;  // every piece holds velocity Verlet's carried forces (none after a blow-up)
   bool stop_agreed_ = false;
   std::uint64_t migrations_ = 0;

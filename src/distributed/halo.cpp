@@ -7,7 +7,7 @@
 namespace qbond::distributed {
 
 void Halo::transfer(const HaloPlan& plan) {
-  constexpr int kTag = 51;
+  constexpr int kTag = 1;  // the ghost exchange's messages
   std::vector<MPI_Request> requests(2 * plan.peers.size());
   for (std::size_t p = 0; p < plan.peers.size(); ++p)
     MPI_Irecv(recv_[p].data(), static_cast<int>(recv_[p].size()), MPI_DOUBLE, plan.peers[p], kTag, MPI_COMM_WORLD,

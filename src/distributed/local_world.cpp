@@ -5,9 +5,6 @@
 
 namespace qbond::distributed {
 
-namespace {
-
-// Appends whole bond b to `to`, its ends renumbered.
 void append_bond(const Bonds& from, std::size_t b, Index i, Index j, Bonds& to) {
   to.i.push_back(i);
   to.j.push_back(j);
@@ -22,8 +19,6 @@ void append_bond(const Bonds& from, std::size_t b, Index i, Index j, Bonds& to) 
   to.alive.push_back(from.alive[b]);
   to.time.push_back(from.time[b]);
 }
-
-}  // namespace
 
 Piece make_piece(const World& whole, std::span<const int> owner, int rank) {
   const Model& wm = whole.model;

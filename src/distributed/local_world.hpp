@@ -26,6 +26,9 @@ struct Piece {
 // Only alive bonds are taken. Loads are not distributed (the caller refuses them).
 Piece make_piece(const World& whole, std::span<const int> owner, int rank);
 
+// Appends bond b of `from` to `to`, its ends renumbered i and j (every field of the bond).
+void append_bond(const Bonds& from, std::size_t b, Index i, Index j, Bonds& to);
+
 // What a rank exchanges with each other rank: the local indices of the owned quanta another rank
 // needs as ghosts (send) and of the ghosts it receives from their owner (recv), both in the
 // whole world's order, so that one rank's send list is the other's recv list, entry by entry.

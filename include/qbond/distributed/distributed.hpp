@@ -41,6 +41,10 @@ struct RanksStats {
   std::vector<std::size_t> owned;     ///< quanta each rank owns at the end
   std::vector<std::size_t> ghosts;    ///< ghost quanta each rank holds at the end
   std::vector<double> bytes_sent;     ///< bytes each rank sent in ghost exchanges over the run
+  std::uint64_t steps = 0;            ///< steps taken
+  /// Per rank, over the steps taken [s]: the CPU time of stepping its piece, of its ledger and
+  /// energy sums, and the wall time of its whole steps (exchanges and waits for other ranks included).
+  std::vector<double> stepping, bookkeeping, wall;
 };
 
 /// A run of a scene over the job's ranks: every rank constructs it with the same scene and
