@@ -20,6 +20,11 @@ namespace qbond::distributed {
 
 namespace {
 
+// Writes the rows of owned_rows() of every rank into x, v and f (3 per quanta) by whole index;
+// throws unless every quanta of n appears exactly once.
+void unpack_rows(const std::vector<double>& rows, std::size_t n, std::vector<Vec3>& x, std::vector<Vec3>& v,
+                 std::vector<double>& f);
+
 // Velocity Verlet's carried forces for the quanta of a world, f (3 per quanta) with the state's
 // own positions and velocities: what its step left, so that the next step takes them.
 VerletForces carried(const State& s, const std::vector<double>& f) {
@@ -128,7 +133,6 @@ void DistributedStep::build(const std::vector<double>* forces) {
           [&](Index q, const double* in) { std::copy_n(in, 3, &f[3 * q]); });
     w.state.carry = carried(w.state, f);
   }
-  carry_held_ = verlet_;
   sim_.reset();
   if (n == 0) return;
   sim_ = std::make_unique<Simulation>(std::move(w), config_, h_);
@@ -176,14 +180,14 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0) {
   max_over_ranks(flags);
   if (flags[0]) {
     // Every piece back to the state before the step.
-    if (sim_ && report.status == StepReport::Status::ok) roll_back({});
-    if (sim_) sim_->world().state.carry = std::monostate{};
-    carry_held_ = false;
     const bool mine = report.status != StepReport::Status::ok;
+    const int who = mine ? static_cast<int>(global_[report.worst]) : INT_MAX;  // before the rebuild renumbers
+    if (sim_ && !mine) roll_back({});
+    rebuild_after_roll_back();
     const int first = min_over_ranks(mine ? rank_ : INT_MAX);
     std::string message = report.message;
     broadcast(message, first);
-    const int worst = min_over_ranks(rank_ == first ? static_cast<int>(global_[report.worst]) : INT_MAX);
+    const int worst = min_over_ranks(rank_ == first ? who : INT_MAX);
     StepReport r;
     r.status = StepReport::Status::blowup;
     r.message = message;
@@ -197,6 +201,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0) {
   times_.bookkeeping += cpu_seconds() - cpu1;
   if (StepReport r = check_energy(work.bonds_after); r.status != StepReport::Status::ok) {
     if (sim_) roll_back(work);
+    rebuild_after_roll_back();
     return r;
   }
   whole_.state.time = t0 + h_;  // as every piece's step sets it
@@ -211,10 +216,16 @@ void DistributedStep::roll_back(const StepWork& work) {
   s.v = ledger_.v;
   s.time = whole_.state.time;
   s.step = whole_.state.step;
-  s.carry = std::monostate{};  // evaluated afresh, should the run go on
-  carry_held_ = false;
   anchors_ -= work.anchors;
   damping_ -= work.damping;
+}
+
+void DistributedStep::rebuild_after_roll_back() {
+  // Velocity Verlet's carried forces were the step's: the pieces are rebuilt from the state
+  // before it, with forces evaluated afresh by their owners.
+  std::vector<double> unused;
+  unpack_rows(all_gather(owned_rows()), whole_.num_quanta(), whole_.state.x, whole_.state.v, unused);
+  build(nullptr);
 }
 
 StepReport DistributedStep::check_energy(double bonds_after) const {
@@ -325,8 +336,6 @@ std::vector<double> DistributedStep::owned_rows() const {
 }
 
 namespace {
-// Writes the rows of owned_rows() of every rank into x, v and f (3 per quanta) by whole index;
-// throws unless every quanta of n appears exactly once.
 void unpack_rows(const std::vector<double>& rows, std::size_t n, std::vector<Vec3>& x, std::vector<Vec3>& v,
                  std::vector<double>& f) {
   std::vector<std::uint8_t> seen(n, 0);
@@ -371,8 +380,8 @@ void DistributedStep::gather(World& into) {
   unpack_rows(rows, into.num_quanta(), s.x, s.v, f);
   s.time = whole_.state.time;
   s.step = whole_.state.step;
-  // The carried forces, when every piece holds its own (not after a blow-up).
-  s.carry = carry_held_ ? Carry(carried(s, f)) : Carry(std::monostate{});
+  // The carried forces (after a blow-up, evaluated afresh at the state before it).
+  s.carry = verlet_ ? Carry(carried(s, f)) : Carry(std::monostate{});
   double anchors = 0, damping = 0;
   for (std::size_t r = 0; r + 2 <= books.size(); r += 2) {
     anchors += books[r];

@@ -68,8 +68,10 @@ class DistributedStep {
   // rank's quanta and bonds: a report naming the fastest quanta when the kinetic and bonds'
   // energy exceed what the system could have gained.
   StepReport check_energy(double bonds_after) const;
-  // Every piece back to the state before the step, its ledger charges `work` taken back.
+  // This piece back to the state before the step, its ledger charges `work` taken back.
   void roll_back(const StepWork& work);
+  // Every piece rebuilt from the state the ranks hold (after roll_back), with fresh carried forces.
+  void rebuild_after_roll_back();
   // Quanta to the ranks whose boxes hold them (every rank learns every owned quanta's state), the
   // boxes cut anew when the ranks' loads drifted apart.
   void migrate();
@@ -98,7 +100,6 @@ class DistributedStep {
   double anchors_ = 0, damping_ = 0;  // this rank's share since the run started [J]
   EnergyLedger start_books_;          // the whole ledger when the run started (opened if it was not)
   Times times_;
-  bool carry_held_ = false;  // every piece holds velocity Verlet's carried forces (none after a blow-up)
   bool stop_agreed_ = false;
   std::uint64_t migrations_ = 0;
 };
