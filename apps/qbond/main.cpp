@@ -270,8 +270,8 @@ class Progress {
 // A run over ranks: each rank's share of the quanta and of the ghost exchange, and where its time
 // went per step.
 void print_ranks(const qbond::RanksStats& s) {
-  std::printf("over %d ranks: quanta moved between ranks after %llu steps\n", s.ranks,
-              static_cast<unsigned long long>(s.migrations));
+  std::printf("over %d ranks: quanta moved between ranks after %llu steps; boxes cut anew %llu times\n", s.ranks,
+              static_cast<unsigned long long>(s.migrations), static_cast<unsigned long long>(s.recuts));
   const double steps = s.steps ? static_cast<double>(s.steps) : 1.0;
   for (std::size_t k = 0; k < s.owned.size(); ++k)
     std::printf("  rank %zu: %zu quanta, %zu ghosts, %.4g bytes sent per step; per step %.3g ms stepping and %.3g ms "

@@ -50,6 +50,7 @@ struct RanksRun::Impl {
     const std::vector<double> all = distributed::gather_to_root(mine);
     stats.ranks = mpi_ranks();
     stats.migrations = dist->migrations();
+    stats.recuts = dist->recuts();
     stats.steps = t.steps;
     for (std::size_t k = 0; k + 6 <= all.size(); k += 6) {
       stats.owned.push_back(static_cast<std::size_t>(all[k]));

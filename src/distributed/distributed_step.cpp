@@ -366,6 +366,7 @@ void DistributedStep::migrate() {
   if (static_cast<double>(*std::max_element(load.begin(), load.end())) > kImbalance * mean) {
     cuts_ = bisect(whole_.state.x, ranks_);
     owner_ = parts_of(cuts_, whole_.state.x);
+    ++recuts_;
   }
   build(verlet_ ? &f : nullptr);
 }

@@ -42,6 +42,8 @@ class DistributedStep {
   std::size_t owned_quanta() const { return owned_.size(); }
   std::size_t ghost_quanta() const { return global_.size() - owned_.size(); }
   std::uint64_t migrations() const { return migrations_; }
+  // How often the boxes were cut anew because the ranks' loads drifted apart.
+  std::uint64_t recuts() const { return recuts_; }
   // Doubles this rank has sent in ghost exchanges.
   std::size_t doubles_sent() const { return halo_.doubles_sent(); }
   // Where this rank's time went over the steps taken: the CPU time of its own step (the piece's
@@ -102,6 +104,7 @@ class DistributedStep {
   Times times_;
   bool stop_agreed_ = false;
   std::uint64_t migrations_ = 0;
+  std::uint64_t recuts_ = 0;
 };
 
 }  // namespace qbond::distributed

@@ -2,7 +2,7 @@
 """A scene run over MPI ranks against the same scene run alone (docs/distributed.md).
 
 Usage: mpi_run_test.py QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC [--mpiexec-flag F ...]
-                       [--run-arg A ...] [--expect-migration] [--expect-blowup]
+                       [--run-arg A ...] [--expect-migration] [--expect-recut] [--expect-blowup]
 
 Runs the scene alone, then twice over N ranks, and checks:
   - the two runs over N ranks wrote the same bytes (diagnostics.csv and every frame);
@@ -10,7 +10,8 @@ Runs the scene alone, then twice over N ranks, and checks:
     velocities to 1e-12 of their scale; every diagnostics column matches to 1e-12 of its scale
     (the energy columns, the ledger's work and dissipation among them, of the energy's);
   - with N = 1, the run writes the same bytes as the run alone;
-  - with --expect-migration, quanta moved between ranks during the run;
+  - with --expect-migration, quanta moved between ranks during the run; with --expect-recut, the
+    boxes were cut anew when the ranks' loads drifted apart;
   - with --expect-blowup, every run stops with exit 3 (a blow-up) at the same step with the same
     message, keeping the state before that step.
 Exits non-zero with a message naming the file, the column or quanta and the difference.
@@ -35,6 +36,7 @@ p.add_argument("--mpiexec", required=True)
 p.add_argument("--mpiexec-flag", action="append", default=[])
 p.add_argument("--run-arg", action="append", default=[])
 p.add_argument("--expect-migration", action="store_true")
+p.add_argument("--expect-recut", action="store_true")
 p.add_argument("--expect-blowup", action="store_true")
 a = p.parse_args()
 
@@ -143,8 +145,10 @@ for name in frames(alone):
 if a.expect_blowup and not (len(blowups[0]) == 1 and blowups[0] == blowups[1] == blowups[2]):
     sys.exit(f"the blow-up messages differ: {blowups}")
 
-moved = re.search(r"quanta moved between ranks after (\d+) steps", log)
+moved = re.search(r"quanta moved between ranks after (\d+) steps; boxes cut anew (\d+) times", log)
 if a.expect_migration and (not moved or int(moved.group(1)) == 0):
     sys.exit(f"no quanta moved between ranks:\n{log}")
+if a.expect_recut and (not moved or int(moved.group(2)) == 0):
+    sys.exit(f"the boxes were never cut anew:\n{log}")
 print(f"{a.ranks} ranks: largest difference {worst:.3g} of scale; "
-      f"{moved.group(1) if moved else 0} steps with migrations")
+      f"{moved.group(1) if moved else 0} steps with migrations, {moved.group(2) if moved else 0} new cuts")
