@@ -9,8 +9,6 @@ namespace qbond::distributed {
 
 // The element-wise maximum over the ranks of `flags`, into `flags` on every rank.
 void max_over_ranks(std::span<int> flags);
-// The smallest of the ranks' `value`s, on every rank.
-int min_over_ranks(int value);
 // Every rank's `mine`, concatenated in rank order, on every rank.
 std::vector<double> all_gather(std::span<const double> mine);
 // Every rank's `mine`, concatenated in rank order, on rank 0 (empty on the others).

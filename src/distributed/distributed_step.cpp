@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <climits>
 #include <ctime>
 #include <cmath>
 #include <sstream>
@@ -158,55 +157,37 @@ StepReport DistributedStep::step(bool stop) {
 }
 
 StepReport DistributedStep::step_timed(bool stop, double cpu0) {
-  int flags[3] = {0, 0, stop ? 1 : 0};  // blow-up, migration, stop
-  StepReport report;
+  StepReport report;  // this rank's piece's
+  bool left = false;  // an owned quanta left this rank's box
   const double t0 = whole_.state.time;
   if (sim_) {
     State& s = sim_->world().state;
     ledger_.x = s.x;
     ledger_.v = s.v;
     report = sim_->step();
-    if (report.status != StepReport::Status::ok) {
-      flags[0] = 1;
-    } else {
+    if (report.status == StepReport::Status::ok)
       for (Index q : owned_)
         if (cuts_.part_of(s.x[q]) != rank_) {
-          flags[1] = 1;
+          left = true;
           break;
         }
-    }
   }
   times_.stepping += cpu_seconds() - cpu0;
-  max_over_ranks(flags);
-  if (flags[0]) {
-    // Every piece back to the state before the step.
-    const bool mine = report.status != StepReport::Status::ok;
-    const int who = mine ? static_cast<int>(global_[report.worst]) : INT_MAX;  // before the rebuild renumbers
-    if (sim_ && !mine) roll_back({});
-    rebuild_after_roll_back();
-    const int first = min_over_ranks(mine ? rank_ : INT_MAX);
-    std::string message = report.message;
-    broadcast(message, first);
-    const int worst = min_over_ranks(rank_ == first ? who : INT_MAX);
-    StepReport r;
-    r.status = StepReport::Status::blowup;
-    r.message = message;
-    r.worst = static_cast<Index>(worst);
-    return r;
-  }
-  stop_agreed_ = flags[2] != 0;
+  // A piece that refused its step sends its state before it: the step is then undone everywhere.
   exchange_ghosts();
   const double cpu1 = cpu_seconds();
   const StepWork work = charge_ledger();
   times_.bookkeeping += cpu_seconds() - cpu1;
-  if (StepReport r = check_energy(work.bonds_after); r.status != StepReport::Status::ok) {
+  const Verdict v = agree(report, left, stop, work.bonds_after);
+  if (v.report.status != StepReport::Status::ok) {
     if (sim_) roll_back(work);
     rebuild_after_roll_back();
-    return r;
+    return v.report;
   }
+  stop_agreed_ = v.stop;
   whole_.state.time = t0 + h_;  // as every piece's step sets it
   whole_.state.step += 1;
-  if (flags[1]) migrate();
+  if (v.migrate) migrate();
   return {};
 }
 
@@ -228,42 +209,63 @@ void DistributedStep::rebuild_after_roll_back() {
   build(nullptr);
 }
 
-StepReport DistributedStep::check_energy(double bonds_after) const {
-  // Each rank's sums over its owned quanta and bonds, then every rank's in rank order (the same
-  // on every rank): kinetic, gravity's potential, the impulse allowance, the bonds' energy, the
-  // anchors' work, and the fastest free quanta's speed and index.
-  double mine[7] = {0, 0, 0, bonds_after, anchors_, -1, 0};
-  if (sim_) {
+DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool left, bool stop,
+                                                double bonds_after) const {
+  // Each rank's flags (its step refused, a quanta out of its box, a stop asked for) and its sums
+  // over its owned quanta and bonds (kinetic energy, gravity's potential, the impulse allowance,
+  // the bonds' energy, the anchors' work, and its fastest free quanta's speed and index), then
+  // every rank's, added in rank order: the same on every rank.
+  constexpr std::size_t kFields = 10;
+  const bool refused = report.status != StepReport::Status::ok;
+  double mine[kFields] = {refused ? 1.0 : 0.0,  left ? 1.0 : 0.0, stop ? 1.0 : 0.0, 0, 0, 0, bonds_after,
+                          anchors_,            -1,                0};
+  if (refused) mine[9] = static_cast<double>(global_[report.worst]);
+  if (sim_ && !refused) {
     const World& w = sim_->world();
     const double t = whole_.state.time + h_ - start_books_.initial_time;
     for (Index q : owned_) {
       if (w.model.is_kinematic(q)) continue;
       const double m = w.model.mass[q];
-      mine[0] += 0.5 * m * w.state.v[q].squaredNorm();
-      mine[1] -= m * w.model.gravity.dot(w.state.x[q]);
-      mine[2] += 0.5 * w.model.inv_mass[q] * (t * (m * w.model.gravity)).squaredNorm();
+      mine[3] += 0.5 * m * w.state.v[q].squaredNorm();
+      mine[4] -= m * w.model.gravity.dot(w.state.x[q]);
+      mine[5] += 0.5 * w.model.inv_mass[q] * (t * (m * w.model.gravity)).squaredNorm();
       const double speed = w.state.v[q].norm();
-      if (speed > mine[5]) {
-        mine[5] = speed;
-        mine[6] = static_cast<double>(global_[q]);
+      if (speed > mine[8]) {
+        mine[8] = speed;
+        mine[9] = static_cast<double>(global_[q]);
       }
     }
   }
   const std::vector<double> all = all_gather(mine);
+  Verdict v;
+  int first_refused = -1;
   double sum[5] = {0, 0, 0, 0, 0}, speed = -1, who = 0;
-  for (std::size_t r = 0; r + 7 <= all.size(); r += 7) {
-    for (int k = 0; k < 5; ++k) sum[k] += all[r + static_cast<std::size_t>(k)];
-    if (all[r + 5] > speed) {
-      speed = all[r + 5];
-      who = all[r + 6];
+  for (std::size_t r = 0; r + kFields <= all.size(); r += kFields) {
+    const double* a = &all[r];
+    if (a[0] != 0 && first_refused < 0) first_refused = static_cast<int>(r / kFields);
+    v.migrate = v.migrate || a[1] != 0;
+    v.stop = v.stop || a[2] != 0;
+    for (std::size_t k = 0; k < 5; ++k) sum[k] += a[3 + k];
+    if (a[8] > speed) {
+      speed = a[8];
+      who = a[9];
     }
   }
+  if (first_refused >= 0) {
+    // The step's own check refused it on some piece: that piece's report, the first by rank.
+    v.report.status = StepReport::Status::blowup;
+    v.report.message = report.message;
+    broadcast(v.report.message, first_refused);
+    v.report.worst = static_cast<Index>(all[kFields * static_cast<std::size_t>(first_refused) + 9]);
+    return v;
+  }
+  // The energy runaway check of a run on one rank (Simulation::check_energy).
   const EnergyLedger& l = start_books_;
   const double work_anchors = l.work_anchors + sum[4];
   const double available = (l.initial_total - l.initial_gravity) + std::abs(sum[1] - l.initial_gravity) +
                            std::abs(l.work_loads) + std::abs(work_anchors) + sum[2];
   const double held = sum[0] + sum[3];
-  if (held <= limits_.energy_growth * available + limits_.energy_floor) return {};
+  if (held <= limits_.energy_growth * available + limits_.energy_floor) return v;
   const auto q = static_cast<Index>(who);
   std::ostringstream msg;
   msg.precision(6);
@@ -271,11 +273,10 @@ StepReport DistributedStep::check_energy(double bonds_after) const {
       << " s): energy runaway, kinetic + bond energy " << held << " J exceeds " << limits_.energy_growth << " x the "
       << available << " J the system could have gained; fastest quanta " << whole_.model.quanta_id[q] << " at "
       << speed << " m/s; the world keeps the state before this step";
-  StepReport r;
-  r.status = StepReport::Status::blowup;
-  r.message = msg.str();
-  r.worst = q;
-  return r;
+  v.report.status = StepReport::Status::blowup;
+  v.report.message = msg.str();
+  v.report.worst = q;
+  return v;
 }
 
 void DistributedStep::exchange_ghosts() {

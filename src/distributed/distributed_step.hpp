@@ -66,10 +66,15 @@ class DistributedStep {
   // The anchors' and dampers' work over the owned bonds, from the state before the step; returns
   // the step's work of the anchors and dampers and the owned bonds' energy after it [J].
   StepWork charge_ledger();
-  // The energy runaway check of a step on one rank (Simulation's check_energy), over every
-  // rank's quanta and bonds: a report naming the fastest quanta when the kinetic and bonds'
-  // energy exceed what the system could have gained.
-  StepReport check_energy(double bonds_after) const;
+  // What every rank decides after a step, from one all-gather: a blow-up (the first refusal of a
+  // piece's own step check, by rank, else the energy runaway check of a run on one rank,
+  // Simulation's check_energy, over every rank's quanta and bonds), whether quanta left their
+  // boxes, whether a stop was asked for.
+  struct Verdict {
+    StepReport report;
+    bool migrate = false, stop = false;
+  };
+  Verdict agree(const StepReport& report, bool left, bool stop, double bonds_after) const;
   // This piece back to the state before the step, its ledger charges `work` taken back.
   void roll_back(const StepWork& work);
   // Every piece rebuilt from the state the ranks hold (after roll_back), with fresh carried forces.

@@ -64,11 +64,6 @@ void max_over_ranks(std::span<int> flags) {
   MPI_Allreduce(MPI_IN_PLACE, flags.data(), static_cast<int>(flags.size()), MPI_INT, MPI_MAX, MPI_COMM_WORLD);
 }
 
-int min_over_ranks(int value) {
-  MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-  return value;
-}
-
 namespace {
 // Counts and displacements of a gather of `mine` from every rank (on every rank).
 std::vector<int> counts_of(std::span<const double> mine, std::vector<int>& displs) {
