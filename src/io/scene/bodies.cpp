@@ -11,6 +11,33 @@
 
 namespace qbond::scene_detail {
 
+// The body types of the `bodies` section, one row each: its type, what it makes and the keys it
+// accepts (every body's placement keys first, in the order error messages list them); body()
+// builds each. body_types() and the docs test read this table.
+std::span<const Builder::BodyReader> Builder::body_readers() {
+  auto keys = [](std::initializer_list<const char*> own) {
+    std::vector<const char*> all = {"name", "type", "origin", "rotation", "velocity", "angular_velocity"};
+    all.insert(all.end(), own);
+    return all;
+  };
+  static const BodyReader rows[] = {
+      {"lattice", "a square, cubic or FCC lattice of bonded quanta",
+       keys({"cell", "size", "spacing", "neighbors", "thickness", "material", "quanta_mass", "total_mass"})},
+      {"sheet", "a square lattice, optionally with bending bonds",
+       keys({"size", "spacing", "neighbors", "bending", "thickness", "material", "quanta_mass", "total_mass"})},
+      {"chain", "quanta in a line, consecutive ones bonded", keys({"start", "end", "count", "area", "material", "quanta_mass", "total_mass"})},
+      {"quanta", "quanta at given positions, no bonds", keys({"positions", "masses", "mass", "velocities", "volume"})},
+      {"packing", "irregular points bonded within a radius",
+       keys({"points", "size", "min_distance", "count", "bond_radius", "isolated", "seed", "material", "quanta_mass",
+             "total_mass"})},
+      {"mesh", "a closed OBJ/STL mesh filled with a simple-cubic lattice",
+       keys({"file", "scale", "spacing", "neighbors", "isolated", "material", "quanta_mass", "total_mass"})},
+      {"gas", "unbonded quanta with thermal velocities",
+       keys({"size", "count", "min_distance", "quanta_mass", "total_mass", "kT", "speeds", "seed"})},
+  };
+  return rows;
+}
+
 void Builder::bodies(const json& j, json& res, World& w) {
   if (!array(j, "bodies").size()) bad("bodies", "must hold at least one body");
   for (std::size_t k = 0; k < j.size(); ++k) body(j[k], item("bodies", k), res[k], w);
@@ -19,33 +46,15 @@ void Builder::bodies(const json& j, json& res, World& w) {
 void Builder::body(const json& j, const std::string& path, json& res, World& w) {
   if (!j.is_object()) bad(path, "expected an object, got " + type_name(j));
   const std::string type = j.contains("type") ? string(j["type"], path + ".type") : "";
-  static const std::initializer_list<const char*> common = {"name", "type", "origin", "rotation", "velocity",
-                                                            "angular_velocity"};
-  auto keys = [&](std::initializer_list<const char*> extra) {
-    std::vector<const char*> all(common);
-    all.insert(all.end(), extra);
-    return all;
-  };
-  std::vector<const char*> accepted;
-  if (type == "lattice")
-    accepted = keys({"cell", "size", "spacing", "neighbors", "thickness", "material", "quanta_mass", "total_mass"});
-  else if (type == "sheet")
-    accepted = keys({"size", "spacing", "neighbors", "bending", "thickness", "material", "quanta_mass", "total_mass"});
-  else if (type == "chain")
-    accepted = keys({"start", "end", "count", "area", "material", "quanta_mass", "total_mass"});
-  else if (type == "quanta")
-    accepted = keys({"positions", "masses", "mass", "velocities", "volume"});
-  else if (type == "packing")
-    accepted = keys({"points", "size", "min_distance", "count", "bond_radius", "isolated", "seed", "material",
-                     "quanta_mass", "total_mass"});
-  else if (type == "mesh")
-    accepted = keys({"file", "scale", "spacing", "neighbors", "isolated", "material", "quanta_mass", "total_mass"});
-  else if (type == "gas")
-    accepted = keys({"size", "count", "min_distance", "quanta_mass", "total_mass", "kT", "speeds", "seed"});
-  else if (type.empty())
-    bad(path + ".type", "required key missing");
-  else
-    bad(path + ".type", "unknown body type '" + type + "' (accepted: lattice, sheet, chain, quanta, packing, mesh, gas)");
+  const auto types = body_readers();
+  const auto row = std::find_if(types.begin(), types.end(), [&](const BodyReader& r) { return type == r.type; });
+  if (type.empty()) bad(path + ".type", "required key missing");
+  if (row == types.end()) {
+    std::vector<std::string> names;
+    for (const BodyReader& r : types) names.emplace_back(r.type);
+    bad(path + ".type", "unknown body type '" + type + "' (accepted: " + join(names) + ")");
+  }
+  const std::vector<const char*>& accepted = row->keys;
   for (const auto& [key, v] : j.items())
     if (std::find(accepted.begin(), accepted.end(), key) == accepted.end()) {
       std::vector<std::string> names(accepted.begin(), accepted.end());
@@ -80,7 +89,10 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
   // A material given by a modulus or a density fixes the bonds' stiffness or the quanta's
   // mass from the body's geometry (materials.hpp); the resolved scene records the numbers.
   const Material* mat = nullptr;
-  if (type != "quanta" && type != "gas") mat = &material(req("material"), at("material"));
+  // A body type that takes a material needs one (its row's keys say whether it does).
+  if (std::find_if(accepted.begin(), accepted.end(), [](const char* k) { return std::string_view(k) == "material"; }) !=
+      accepted.end())
+    mat = &material(req("material"), at("material"));
   auto mass_of = [&](double count, double calibrated) {
     const bool per = j.contains("quanta_mass");
     if (calibrated > 0) {
@@ -464,3 +476,17 @@ std::vector<Index> Builder::mesh_body(const json& j, const std::string& path, js
 }
 
 }  // namespace qbond::scene_detail
+
+namespace qbond {
+
+const std::vector<SceneType>& body_types() {
+  static const std::vector<SceneType> types = [] {
+    std::vector<SceneType> t;
+    for (const auto& r : scene_detail::Builder::body_readers())
+      t.push_back({r.type, r.doc, std::vector<std::string_view>(r.keys.begin(), r.keys.end())});
+    return t;
+  }();
+  return types;
+}
+
+}  // namespace qbond

@@ -3,6 +3,8 @@
 // functions are defined in the file named above them) into a Scene, and records the resolved
 // scene, with every default filled in.
 #include <map>
+#include <span>
+#include <string_view>
 
 #include "qbond/io/scene.hpp"
 
@@ -32,6 +34,24 @@ class Builder {
   static void renumber_for_locality(Scene& s);
 
   Scene build();
+
+  // One row of the heuristic types' table (heuristics.cpp): the type, what it does, the keys it
+  // accepts and its reader, which appends the rule(s) an entry makes.
+  struct HeuristicReader {
+    const char* type;
+    const char* doc;
+    std::vector<const char*> keys;
+    void (*read)(Builder& b, const Obj& o, std::string_view type, const World& w, std::vector<HeuristicSpec>& out);
+  };
+  static std::span<const HeuristicReader> heuristic_readers();
+
+  // One row of the body types' table (bodies.cpp): the type, what it makes, the keys it accepts.
+  struct BodyReader {
+    const char* type;
+    const char* doc;
+    std::vector<const char*> keys;
+  };
+  static std::span<const BodyReader> body_readers();
 
  private:
   IntegratorConfig integrator(const json& j);
@@ -110,6 +130,9 @@ class Builder {
   ContactMaterial contact_material(const Obj& o);
 
   std::vector<HeuristicSpec> heuristics(const json& j, const World& w);
+
+  // The `ground`, `plane`, `sphere` and `box` rows' reader.
+  static void obstacle(Builder& b, const Obj& o, std::string_view type, const World& w, std::vector<HeuristicSpec>& out);
 
   // Quanta that share no bond but start closer than two contact radii would be pushed apart on
   // the first step: a radius too large for the lattice.
