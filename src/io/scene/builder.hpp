@@ -24,6 +24,8 @@ struct Material {
   double density = 0;         ///< [kg/m³]; > 0: quanta masses from the body's lattice
 };
 
+struct BodyEntry;  // one `bodies` entry as its type's builder reads it (body_entry.hpp)
+
 class Builder {
  public:
   // builder.cpp: the scene's top level and its scene-wide sections (integrator, adaptive, limits)
@@ -45,15 +47,19 @@ class Builder {
   };
   static std::span<const HeuristicReader> heuristic_readers();
 
-  // One row of the body types' table (bodies.cpp): the type, what it makes, the keys it accepts.
+  // One row of the body types' table (bodies.cpp): the type, what it makes, the keys it accepts
+  // and its builder.
   struct BodyReader {
     const char* type;
     const char* doc;
     std::vector<const char*> keys;
+    std::vector<Index> (*build)(const BodyEntry& e);
   };
   static std::span<const BodyReader> body_readers();
 
  private:
+  friend struct BodyEntry;
+
   IntegratorConfig integrator(const json& j);
 
   // Adds a body's quanta and (an estimate of) its bonds to the world planned so far, and refuses
