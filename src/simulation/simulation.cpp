@@ -1,6 +1,5 @@
 #include "qbond/simulation/simulation.hpp"
 
-#include "core/parallel.hpp"
 #include "qbond/analysis/analysis.hpp"
 #include "simulation/stages.hpp"
 
