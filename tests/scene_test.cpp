@@ -1,9 +1,12 @@
 // Scene files, builders and selections.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
+#include <string_view>
 
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/builders/builders.hpp"
@@ -140,6 +143,98 @@ TEST(Scenes, EveryBadSceneFailsWithItsPathAndRule) {
     }
   }
   EXPECT_EQ(files, expected.size());
+}
+
+// A file of the source tree, whole.
+std::string source_text(const std::string& relative) {
+  std::ifstream f(std::string(QBOND_SOURCE_DIR) + "/" + relative);
+  std::stringstream text;
+  text << f.rdbuf();
+  return text.str();
+}
+
+// A document's section from its heading to the next heading of the same level (or the end).
+std::string doc_section(const std::string& doc, const std::string& heading) {
+  const std::size_t start = doc.find("\n" + heading + "\n");
+  if (start == std::string::npos) return {};
+  const std::string level = "\n" + heading.substr(0, heading.find(' ') + 1);
+  return doc.substr(start, doc.find(level, start + 1) - start);
+}
+
+// The message parse_scene gives for `text`, or "" when it parses.
+std::string scene_error(const std::string& text) {
+  try {
+    parse_scene(text);
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return {};
+}
+
+std::string joined(const std::vector<std::string_view>& keys) {
+  std::string s;
+  for (std::string_view k : keys) s += (s.empty() ? "" : ", ") + std::string(k);
+  return s;
+}
+
+// The docs' row for a type: "| `type` | `key`, `key`, … |", its keys but those every type takes.
+std::string key_row(const SceneType& t, const std::vector<SceneType>& all) {
+  std::vector<std::string_view> own;
+  for (std::string_view k : t.keys)
+    if (!std::all_of(all.begin(), all.end(), [&](const SceneType& o) {
+          return std::find(o.keys.begin(), o.keys.end(), k) != o.keys.end();
+        }))
+      own.push_back(k);
+  std::string row = "| `" + std::string(t.type) + "` |";
+  for (std::size_t i = 0; i < own.size(); ++i) row += (i ? ", `" : " `") + std::string(own[i]) + "`";
+  return row + " |";
+}
+
+// Heuristic and body types are each one table, the scene reader's: the reader accepts every row's
+// type with exactly the row's keys and lists the types it knows, and docs/scene-format.md's key
+// tables have one row per type with exactly its keys.
+TEST(Scenes, HeuristicAndBodyTypesAreOneTableTheReaderAndDocsFollow) {
+  const std::string format = source_text("docs/scene-format.md");
+  const std::string heuristics_doc = source_text("docs/heuristics.md");
+  const std::string heuristics_section = doc_section(format, "## `heuristics`");
+  const std::string bodies_section = doc_section(format, "## `bodies`");
+  ASSERT_FALSE(heuristics_section.empty());
+  ASSERT_FALSE(bodies_section.empty());
+  ASSERT_GE(heuristic_types().size(), 9u);
+  ASSERT_GE(body_types().size(), 7u);
+
+  const std::string one_quanta = R"({"timestep": 0.001, "steps": 1, "bodies": [{"name": "a", "type": "quanta", "positions": [[0, 0, 0]], "mass": 1}], )";
+  std::vector<std::string_view> heuristic_names;
+  for (const SceneType& t : heuristic_types()) {
+    const std::string type(t.type);
+    heuristic_names.push_back(t.type);
+    const std::string row = key_row(t, heuristic_types());
+    EXPECT_NE(heuristics_section.find(row), std::string::npos)
+        << "docs/scene-format.md's `heuristics` key table lacks the row " << row;
+    EXPECT_NE(heuristics_doc.find("`" + type + "`"), std::string::npos) << "docs/heuristics.md does not name " << type;
+    const std::string err =
+        scene_error(one_quanta + R"("heuristics": [{"type": ")" + type + R"(", "no_such_key": 1}]})");
+    EXPECT_NE(err.find("heuristics[0].no_such_key: unknown key (accepted: " + joined(t.keys) + ")"), std::string::npos)
+        << type << ": " << err;
+  }
+  const std::string unknown = scene_error(one_quanta + R"("heuristics": [{"type": "no_such_type"}]})");
+  EXPECT_NE(unknown.find("(accepted: " + joined(heuristic_names) + ")"), std::string::npos) << unknown;
+
+  std::vector<std::string_view> body_names;
+  for (const SceneType& t : body_types()) {
+    const std::string type(t.type);
+    body_names.push_back(t.type);
+    const std::string row = key_row(t, body_types());
+    EXPECT_NE(bodies_section.find(row), std::string::npos)
+        << "docs/scene-format.md's `bodies` key table lacks the row " << row;
+    const std::string err =
+        scene_error(R"({"timestep": 0.001, "steps": 1, "bodies": [{"name": "b", "type": ")" + type + R"(", "no_such_key": 1}]})");
+    EXPECT_NE(err.find("bodies[0].no_such_key: unknown key for a " + type + " body (accepted: " + joined(t.keys) + ")"),
+              std::string::npos)
+        << type << ": " << err;
+  }
+  const std::string unknown_body = scene_error(R"({"timestep": 0.001, "steps": 1, "bodies": [{"name": "b", "type": "no_such_type"}]})");
+  EXPECT_NE(unknown_body.find("(accepted: " + joined(body_names) + ")"), std::string::npos) << unknown_body;
 }
 
 TEST(Scenes, ResolvedSceneRebuildsTheSameWorld) {

@@ -103,4 +103,17 @@ double explicit_step_hint(const World& world);
 /// What `qbond validate` prints: counts, mass, bounding box, step and stability hint.
 std::string scene_summary(const Scene& scene);
 
+/// A `type` a scene section accepts: its name, one line on what it makes, and every key an entry
+/// of that type may hold (`type` included), as the scene reader checks them.
+struct SceneType {
+  std::string_view type;
+  std::string_view doc;
+  std::vector<std::string_view> keys;
+};
+/// The `heuristics` section's types, in the reader's order (its table: src/io/scene/heuristics.cpp).
+const std::vector<SceneType>& heuristic_types();
+/// The `bodies` section's types, in the reader's order (its table: src/io/scene/bodies.cpp); the
+/// keys include the placement keys every body takes.
+const std::vector<SceneType>& body_types();
+
 }  // namespace qbond

@@ -1,7 +1,7 @@
 #pragma once
 /// The step pipeline, as named stages: gather external forces → integrate →
-/// heuristics → check → energy ledger (optional) → apply → observers (simulation.cpp). Same inputs,
-/// same bits: nothing here depends on timing or thread count.
+/// heuristics → check → energy ledger (optional) → apply → observers (src/simulation/stages.hpp,
+/// one file each). Same inputs, same bits: nothing here depends on timing or thread count.
 #include <functional>
 #include <memory>
 #include <string>
@@ -12,6 +12,8 @@
 #include "qbond/model/world.hpp"
 
 namespace qbond {
+
+struct StepScratch;  // what the stages hand each other, and their buffers (src/simulation/)
 
 /// Limits past which a step counts as a blow-up.
 struct BlowupLimits {
@@ -76,9 +78,9 @@ class Simulation {
   const Integrator& integrator() const { return *integrator_; }
   /// The last projection: dx and dv after begin_step; after step() with no heuristic and no
   /// energy ledger they may be empty, the integrator having written the state to apply instead.
-  const Projection& projection() const { return projection_; }
+  const Projection& projection() const;
   /// Topology changes the heuristics made during the last step (cleared when a step begins).
-  const std::vector<BondEvent>& events() const { return events_; }
+  const std::vector<BondEvent>& events() const;
   double timestep() const { return h_; }
   void set_timestep(double h) { h_ = h; }
   BlowupLimits& limits() { return limits_; }
@@ -93,26 +95,9 @@ class Simulation {
   const Adjacency& adjacency();
 
  private:
-  struct Scratch;  // the stages' private state and buffers (simulation.cpp)
-
-  // The stages of a step, in order (simulation.cpp).
-  void gather_forces(bool in_place);
-  void integrate(bool in_place);
-  void open_books();
-  void run_heuristics();
-  StepReport check();
-  void charge_ledger();
-  void apply();
-  void restore_energy();
-  StepReport check_energy() const;
-  void observe();
-  StepReport roll_back(StepReport r, bool applied);
-
   bool ledger_on() const { return track_energy_ || integrator_->config().restore_energy; }
-  /// The state before the step into last_good_ (save, set_keep_last_good), or back from it;
-  /// applied: the step's positions, velocities and carry-over are already in the state (apply),
-  /// the ones before it in the scratch's next state and the projection.
-  void copy_last_good(bool save, bool applied = false);
+  /// The report, with the state before the step put back when set_keep_last_good(true).
+  StepReport roll_back(StepReport r, bool applied);
 
   World world_;
   std::unique_ptr<Integrator> integrator_;  // make_step_integrator's: simulation.cpp's stepper()
@@ -122,17 +107,7 @@ class Simulation {
   BlowupLimits limits_;
   bool track_energy_ = true;
   bool keep_last_good_ = false;
-  State last_good_;
-  bool last_good_has_bonds_ = false;  ///< whether last_good_ holds the bond arrays too
-  Adjacency adj_;
-  std::vector<Vec3> f_ext_;    ///< external force of this step [N] (n)
-  std::vector<Vec3> f_user_;   ///< one-step forces queued by add_force [N] (n)
-  bool forces_queued_ = false;  ///< f_user_ holds a force (else it is all zero)
-  Projection projection_;
-  StepContext ctx_;
-  std::vector<BondEvent> events_;
-  std::vector<Vec3> dv_forces_;  ///< the projection's dv before the heuristics [m/s] (n)
-  std::unique_ptr<Scratch> scratch_;
+  std::unique_ptr<StepScratch> scratch_;
 };
 
 }  // namespace qbond

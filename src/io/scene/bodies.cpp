@@ -1,5 +1,5 @@
 // Builder: the `bodies` section: lattices, sheets, chains, quanta, packings, meshes and gases.
-#include "io/scene/builder.hpp"
+#include "io/scene/body_entry.hpp"
 
 #include <cmath>
 
@@ -11,6 +11,51 @@
 
 namespace qbond::scene_detail {
 
+// The body types of the `bodies` section, one row each: its type, what it makes, the keys it
+// accepts (every body's placement keys first, in the order error messages list them) and its
+// builder, which makes the body's quanta and bonds in the body's frame (body() then places them).
+// Adding a body type is one row here; body_types() and the docs test read this table.
+std::span<const Builder::BodyReader> Builder::body_readers() {
+  auto keys = [](std::initializer_list<const char*> own) {
+    std::vector<const char*> all = {"name", "type", "origin", "rotation", "velocity", "angular_velocity"};
+    all.insert(all.end(), own);
+    return all;
+  };
+  static const BodyReader rows[] = {
+      {"lattice", "a square, cubic or FCC lattice of bonded quanta",
+       keys({"cell", "size", "spacing", "neighbors", "thickness", "material", "quanta_mass", "total_mass"}),
+       [](const BodyEntry& e) { return e.lattice(); }},
+      {"sheet", "a square lattice, optionally with bending bonds",
+       keys({"size", "spacing", "neighbors", "bending", "thickness", "material", "quanta_mass", "total_mass"}),
+       [](const BodyEntry& e) { return e.lattice(); }},
+      {"chain", "quanta in a line, consecutive ones bonded",
+       keys({"start", "end", "count", "area", "material", "quanta_mass", "total_mass"}),
+       [](const BodyEntry& e) { return e.chain(); }},
+      {"quanta", "quanta at given positions, no bonds", keys({"positions", "masses", "mass", "velocities", "volume"}),
+       [](const BodyEntry& e) { return e.quanta(); }},
+      {"packing", "irregular points bonded within a radius",
+       keys({"points", "size", "min_distance", "count", "bond_radius", "isolated", "seed", "material", "quanta_mass",
+             "total_mass"}),
+       [](const BodyEntry& e) {
+         auto mass_of = [&e](double count, double calibrated) { return e.mass_of(count, calibrated); };
+         return e.builder.packing_body(e.j, e.path, e.res, e.w, e.id, mass_of, *e.mat);
+       }},
+      {"mesh", "a closed OBJ/STL mesh filled with a simple-cubic lattice",
+       keys({"file", "scale", "spacing", "neighbors", "isolated", "material", "quanta_mass", "total_mass"}),
+       [](const BodyEntry& e) {
+         auto mass_of = [&e](double count, double calibrated) { return e.mass_of(count, calibrated); };
+         return e.builder.mesh_body(e.j, e.path, e.res, e.w, e.id, mass_of, *e.mat);
+       }},
+      {"gas", "unbonded quanta with thermal velocities",
+       keys({"size", "count", "min_distance", "quanta_mass", "total_mass", "kT", "speeds", "seed"}),
+       [](const BodyEntry& e) {
+         auto mass_of = [&e](double count, double calibrated) { return e.mass_of(count, calibrated); };
+         return e.builder.gas_body(e.j, e.path, e.res, e.w, e.id, mass_of);
+       }},
+  };
+  return rows;
+}
+
 void Builder::bodies(const json& j, json& res, World& w) {
   if (!array(j, "bodies").size()) bad("bodies", "must hold at least one body");
   for (std::size_t k = 0; k < j.size(); ++k) body(j[k], item("bodies", k), res[k], w);
@@ -19,219 +64,38 @@ void Builder::bodies(const json& j, json& res, World& w) {
 void Builder::body(const json& j, const std::string& path, json& res, World& w) {
   if (!j.is_object()) bad(path, "expected an object, got " + type_name(j));
   const std::string type = j.contains("type") ? string(j["type"], path + ".type") : "";
-  static const std::initializer_list<const char*> common = {"name", "type", "origin", "rotation", "velocity",
-                                                            "angular_velocity"};
-  auto keys = [&](std::initializer_list<const char*> extra) {
-    std::vector<const char*> all(common);
-    all.insert(all.end(), extra);
-    return all;
-  };
-  std::vector<const char*> accepted;
-  if (type == "lattice")
-    accepted = keys({"cell", "size", "spacing", "neighbors", "thickness", "material", "quanta_mass", "total_mass"});
-  else if (type == "sheet")
-    accepted = keys({"size", "spacing", "neighbors", "bending", "thickness", "material", "quanta_mass", "total_mass"});
-  else if (type == "chain")
-    accepted = keys({"start", "end", "count", "area", "material", "quanta_mass", "total_mass"});
-  else if (type == "quanta")
-    accepted = keys({"positions", "masses", "mass", "velocities", "volume"});
-  else if (type == "packing")
-    accepted = keys({"points", "size", "min_distance", "count", "bond_radius", "isolated", "seed", "material",
-                     "quanta_mass", "total_mass"});
-  else if (type == "mesh")
-    accepted = keys({"file", "scale", "spacing", "neighbors", "isolated", "material", "quanta_mass", "total_mass"});
-  else if (type == "gas")
-    accepted = keys({"size", "count", "min_distance", "quanta_mass", "total_mass", "kT", "speeds", "seed"});
-  else if (type.empty())
-    bad(path + ".type", "required key missing");
-  else
-    bad(path + ".type", "unknown body type '" + type + "' (accepted: lattice, sheet, chain, quanta, packing, mesh, gas)");
+  const auto types = body_readers();
+  const auto row = std::find_if(types.begin(), types.end(), [&](const BodyReader& r) { return type == r.type; });
+  if (type.empty()) bad(path + ".type", "required key missing");
+  if (row == types.end()) {
+    std::vector<std::string> names;
+    for (const BodyReader& r : types) names.emplace_back(r.type);
+    bad(path + ".type", "unknown body type '" + type + "' (accepted: " + join(names) + ")");
+  }
+  const std::vector<const char*>& accepted = row->keys;
   for (const auto& [key, v] : j.items())
     if (std::find(accepted.begin(), accepted.end(), key) == accepted.end()) {
       std::vector<std::string> names(accepted.begin(), accepted.end());
       bad(path + "." + key, "unknown key for a " + type + " body (accepted: " + join(names) + ")");
     }
-  auto req = [&](const char* key) -> const json& {
-    if (!j.contains(key)) bad(path + "." + key, "required key missing");
-    return j[key];
-  };
   auto at = [&](const char* key) { return path + "." + key; };
-  const std::string name = string(req("name"), at("name"));
+  if (!j.contains("name")) bad(at("name"), "required key missing");
+  const std::string name = string(j["name"], at("name"));
   if (auto it = body_index_.find(name); it != body_index_.end())
     bad(at("name"), "duplicate body name '" + name + "' (also bodies[" + std::to_string(it->second) + "])");
   const Index id = w.add_body(name);
   body_index_[name] = id;
 
-  // Sizes first, so that a typo does not allocate a billion quanta.
-  auto sizes = [&](std::size_t dims) {
-    const json& s = req("size");
-    if (!s.is_array() || s.size() != dims)
-      bad(at("size"), "expected an array of " + std::to_string(dims) + " integers for this cell");
-    std::array<int, 3> n{1, 1, 1};
-    double total = 1;
-    for (std::size_t d = 0; d < dims; ++d) {
-      const auto v = integer(s[d], item(at("size"), d), 1);
-      if (static_cast<double>(v) > kMaxQuanta) bad(item(at("size"), d), "is too large");
-      n[d] = static_cast<int>(v);
-      total *= static_cast<double>(v);
-    }
-    return std::pair{n, total};
-  };
   // A material given by a modulus or a density fixes the bonds' stiffness or the quanta's
-  // mass from the body's geometry (materials.hpp); the resolved scene records the numbers.
+  // mass from the body's geometry (materials.hpp); the resolved scene records the numbers. A body
+  // type that takes a material needs one (its row's keys say whether it does).
   const Material* mat = nullptr;
-  if (type != "quanta" && type != "gas") mat = &material(req("material"), at("material"));
-  auto mass_of = [&](double count, double calibrated) {
-    const bool per = j.contains("quanta_mass");
-    if (calibrated > 0) {
-      if (per || j.contains("total_mass"))
-        bad(path, "the mass comes from the density of material '" + j["material"].get<std::string>() +
-                      "'; drop 'quanta_mass'/'total_mass'");
-      res["quanta_mass"] = calibrated;
-      return calibrated;
-    }
-    if (per == j.contains("total_mass"))
-      bad(path, per ? "give either 'quanta_mass' or 'total_mass', not both"
-                    : "one of 'quanta_mass' or 'total_mass' is required");
-    return per ? positive(j["quanta_mass"], at("quanta_mass")) : positive(j["total_mass"], at("total_mass")) / count;
-  };
-  auto lattice_bond = [&](const LatticeCell& cell, double a, double thickness) {
-    BondSpec bond = mat->bond;
-    if (mat->youngs_modulus > 0) {
-      bond.stiffness = calibrated_stiffness(cell, mat->youngs_modulus, a, thickness);
-      res["stiffness"] = bond.stiffness;
-    }
-    return bond;
-  };
-  auto lattice_mass = [&](const LatticeCell& cell, double a, double thickness) {
-    return mat->density > 0 ? calibrated_mass(cell, mat->density, a, thickness) : 0.0;
-  };
-  auto too_many = [&](double count) {
-    if (count > kMaxQuanta)
-      bad(at("size"), "would make " + num_str(count) + " quanta (limit " + num_str(kMaxQuanta) + ")");
-  };
-  // A lattice's bonds: one per offset of its cell for each site (fewer at the faces).
-  auto plan_lattice = [&](double count, const LatticeCell& c) {
-    plan_memory(at("size"), count, count * static_cast<double>(c.offsets.size()));
-  };
-  // A square cell is a sheet of some thickness (default: the spacing), which turns its
-  // stiffness per length into a modulus and its area per quanta into a volume.
-  auto thickness = [&](double a, bool square) {
-    if (!j.contains("thickness")) return a;
-    if (!square) bad(at("thickness"), "only square (2D) cells have a thickness");
-    return positive(j["thickness"], at("thickness"));
-  };
-  std::vector<Index> ids;
-  if (type == "lattice" || type == "sheet") {
-    const std::string cell = type == "sheet" ? "square"
-                                             : choice<std::string>(req("cell"), at("cell"),
-                                                                   {{"square", "square"}, {"cubic", "cubic"}, {"fcc", "fcc"}});
-    const double a = positive(req("spacing"), at("spacing"));
-    const double t = thickness(a, cell == "square");
-    if (cell == "square") {
-      const auto [n, count] = sizes(2);
-      too_many(count);
-      SquareLattice l;
-      l.size = {n[0], n[1]};
-      l.spacing = a;
-      l.thickness = t;
-      if (j.contains("neighbors"))
-        l.diagonals = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"diagonal", true}});
-      if (j.contains("bending")) l.bending = boolean(j["bending"], at("bending"));
-      const LatticeCell c = square_cell(l.diagonals, l.bending);
-      plan_lattice(count, c);
-      l.bond = lattice_bond(c, a, t);
-      l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
-      res["neighbors"] = l.diagonals ? "diagonal" : "nearest";
-      if (type == "sheet") res["bending"] = l.bending;
-      res["thickness"] = t;
-      ids = add_square_lattice(w, l, id);
-    } else if (cell == "cubic") {
-      const auto [n, count] = sizes(3);
-      too_many(count);
-      CubicLattice l;
-      l.size = n;
-      l.spacing = a;
-      if (j.contains("neighbors"))
-        l.shells = choice<Shells>(j["neighbors"], at("neighbors"),
-                                  {{"nearest", Shells::nearest},
-                                   {"face_diagonal", Shells::face_diagonal},
-                                   {"body_diagonal", Shells::body_diagonal}});
-      const LatticeCell c = cubic_cell(l.shells);
-      plan_lattice(count, c);
-      l.bond = lattice_bond(c, a, t);
-      l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
-      res["neighbors"] = l.shells == Shells::nearest         ? "nearest"
-                         : l.shells == Shells::face_diagonal ? "face_diagonal"
-                                                             : "body_diagonal";
-      ids = add_cubic_lattice(w, l, id);
-    } else {
-      const auto [n, cells] = sizes(3);
-      const double count = std::ceil((2.0 * n[0] + 1) * (2.0 * n[1] + 1) * (2.0 * n[2] + 1) / 2);
-      too_many(count);
-      FccLattice l;
-      l.cells = n;
-      l.spacing = a;
-      if (j.contains("neighbors"))
-        l.second_shell = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"second", true}});
-      const LatticeCell c = fcc_cell(l.second_shell);
-      plan_lattice(count, c);
-      l.bond = lattice_bond(c, a, t);
-      l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
-      res["neighbors"] = l.second_shell ? "second" : "nearest";
-      // total_mass must divide by the real site count: rebuild the mass once it is known.
-      ids = add_fcc_lattice(w, l, id);
-      if (j.contains("total_mass"))
-        for (Index i : ids) {
-          w.model.mass[i] = j["total_mass"].get<double>() / static_cast<double>(ids.size());
-          w.model.inv_mass[i] = 1 / w.model.mass[i];
-        }
-    }
-  } else if (type == "chain") {
-    Chain c;
-    c.start = vec3(req("start"), at("start"));
-    c.end = vec3(req("end"), at("end"));
-    if (!((c.end - c.start).norm() > 0)) bad(at("end"), "must differ from start");
-    const auto count = integer(req("count"), at("count"), 2);
-    too_many(static_cast<double>(count));
-    plan_memory(at("count"), static_cast<double>(count), static_cast<double>(count - 1));
-    c.count = static_cast<int>(count);
-    const double segment = (c.end - c.start).norm() / static_cast<double>(count - 1);
-    c.bond = mat->bond;
-    const bool calibrated = mat->youngs_modulus > 0 || mat->density > 0;
-    if (j.contains("area"))
-      c.area = positive(j["area"], at("area"));
-    else if (calibrated)
-      bad(at("area"), "required: material '" + j["material"].get<std::string>() +
-                          "' is given by a modulus or density, which a chain turns into k = E A / segment, m = ρ A segment");
-    if (mat->youngs_modulus > 0) {
-      c.bond.stiffness = mat->youngs_modulus * c.area / segment;
-      res["stiffness"] = c.bond.stiffness;
-    }
-    c.quanta_mass = mass_of(static_cast<double>(count), mat->density > 0 ? mat->density * c.area * segment : 0.0);
-    ids = add_chain(w, c, id);
-  } else if (type == "packing") {
-    ids = packing_body(j, path, res, w, id, mass_of, *mat);
-  } else if (type == "mesh") {
-    ids = mesh_body(j, path, res, w, id, mass_of, *mat);
-  } else if (type == "gas") {
-    ids = gas_body(j, path, res, w, id, mass_of);
-  } else {
-    const json& pos = array(req("positions"), at("positions"));
-    if (pos.empty()) bad(at("positions"), "must hold at least one position");
-    too_many(static_cast<double>(pos.size()));
-    plan_memory(at("positions"), static_cast<double>(pos.size()), 0);
-    const bool per = j.contains("masses");
-    if (per == j.contains("mass"))
-      bad(path, per ? "give either 'masses' or 'mass', not both" : "one of 'masses' or 'mass' is required");
-    if (per && (!j["masses"].is_array() || j["masses"].size() != pos.size()))
-      bad(at("masses"), "expected an array of " + std::to_string(pos.size()) + " masses (one per position)");
-    const double mass = per ? 0.0 : positive(j["mass"], at("mass"));
-    const double volume = j.contains("volume") ? positive(j["volume"], at("volume")) : 0.0;
-    for (std::size_t k = 0; k < pos.size(); ++k)
-      ids.push_back(w.add_quanta(vec3(pos[k], item(at("positions"), k)), Vec3::Zero(),
-                                 per ? positive(j["masses"][k], item(at("masses"), k)) : mass, id, volume));
+  if (std::find_if(accepted.begin(), accepted.end(), [](const char* k) { return std::string_view(k) == "material"; }) !=
+      accepted.end()) {
+    if (!j.contains("material")) bad(at("material"), "required key missing");
+    mat = &material(j["material"], at("material"));
   }
+  const std::vector<Index> ids = row->build(BodyEntry{*this, j, path, res, w, id, mat, type});
   // Placement: rotate, translate, then the rigid velocity field.
   Placement p;
   if (j.contains("origin")) p.origin = vec3(j["origin"], at("origin"));
@@ -463,4 +327,199 @@ std::vector<Index> Builder::mesh_body(const json& j, const std::string& path, js
   return ids;
 }
 
+
+// ---- What the body types share (body_entry.hpp) ----------------------------------------------
+
+const json& BodyEntry::req(const char* key) const {
+  if (!j.contains(key)) bad(path + "." + key, "required key missing");
+  return j[key];
+}
+
+std::pair<std::array<int, 3>, double> BodyEntry::sizes(std::size_t dims) const {
+  const json& s = req("size");
+  if (!s.is_array() || s.size() != dims)
+    bad(at("size"), "expected an array of " + std::to_string(dims) + " integers for this cell");
+  std::array<int, 3> n{1, 1, 1};
+  double total = 1;
+  for (std::size_t d = 0; d < dims; ++d) {
+    const auto v = integer(s[d], item(at("size"), d), 1);
+    if (static_cast<double>(v) > kMaxQuanta) bad(item(at("size"), d), "is too large");
+    n[d] = static_cast<int>(v);
+    total *= static_cast<double>(v);
+  }
+  return std::pair{n, total};
+}
+
+double BodyEntry::mass_of(double count, double calibrated) const {
+  const bool per = j.contains("quanta_mass");
+  if (calibrated > 0) {
+    if (per || j.contains("total_mass"))
+      bad(path, "the mass comes from the density of material '" + j["material"].get<std::string>() +
+                    "'; drop 'quanta_mass'/'total_mass'");
+    res["quanta_mass"] = calibrated;
+    return calibrated;
+  }
+  if (per == j.contains("total_mass"))
+    bad(path, per ? "give either 'quanta_mass' or 'total_mass', not both"
+                  : "one of 'quanta_mass' or 'total_mass' is required");
+  return per ? positive(j["quanta_mass"], at("quanta_mass")) : positive(j["total_mass"], at("total_mass")) / count;
+}
+
+BondSpec BodyEntry::lattice_bond(const LatticeCell& cell, double a, double thickness) const {
+  BondSpec bond = mat->bond;
+  if (mat->youngs_modulus > 0) {
+    bond.stiffness = calibrated_stiffness(cell, mat->youngs_modulus, a, thickness);
+    res["stiffness"] = bond.stiffness;
+  }
+  return bond;
+}
+
+double BodyEntry::lattice_mass(const LatticeCell& cell, double a, double thickness) const {
+  return mat->density > 0 ? calibrated_mass(cell, mat->density, a, thickness) : 0.0;
+}
+
+void BodyEntry::too_many(double count) const {
+  if (count > kMaxQuanta)
+    bad(at("size"), "would make " + num_str(count) + " quanta (limit " + num_str(kMaxQuanta) + ")");
+}
+
+void BodyEntry::plan_lattice(double count, const LatticeCell& c) const {
+  builder.plan_memory(at("size"), count, count * static_cast<double>(c.offsets.size()));
+}
+
+double BodyEntry::thickness(double a, bool square) const {
+  if (!j.contains("thickness")) return a;
+  if (!square) bad(at("thickness"), "only square (2D) cells have a thickness");
+  return positive(j["thickness"], at("thickness"));
+}
+
+std::vector<Index> BodyEntry::lattice() const {
+  std::vector<Index> ids;
+  const std::string cell = type == "sheet" ? "square"
+                                           : choice<std::string>(req("cell"), at("cell"),
+                                                                 {{"square", "square"}, {"cubic", "cubic"}, {"fcc", "fcc"}});
+  const double a = positive(req("spacing"), at("spacing"));
+  const double t = thickness(a, cell == "square");
+  if (cell == "square") {
+    const auto [n, count] = sizes(2);
+    too_many(count);
+    SquareLattice l;
+    l.size = {n[0], n[1]};
+    l.spacing = a;
+    l.thickness = t;
+    if (j.contains("neighbors"))
+      l.diagonals = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"diagonal", true}});
+    if (j.contains("bending")) l.bending = boolean(j["bending"], at("bending"));
+    const LatticeCell c = square_cell(l.diagonals, l.bending);
+    plan_lattice(count, c);
+    l.bond = lattice_bond(c, a, t);
+    l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
+    res["neighbors"] = l.diagonals ? "diagonal" : "nearest";
+    if (type == "sheet") res["bending"] = l.bending;
+    res["thickness"] = t;
+    ids = add_square_lattice(w, l, id);
+  } else if (cell == "cubic") {
+    const auto [n, count] = sizes(3);
+    too_many(count);
+    CubicLattice l;
+    l.size = n;
+    l.spacing = a;
+    if (j.contains("neighbors"))
+      l.shells = choice<Shells>(j["neighbors"], at("neighbors"),
+                                {{"nearest", Shells::nearest},
+                                 {"face_diagonal", Shells::face_diagonal},
+                                 {"body_diagonal", Shells::body_diagonal}});
+    const LatticeCell c = cubic_cell(l.shells);
+    plan_lattice(count, c);
+    l.bond = lattice_bond(c, a, t);
+    l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
+    res["neighbors"] = l.shells == Shells::nearest         ? "nearest"
+                       : l.shells == Shells::face_diagonal ? "face_diagonal"
+                                                           : "body_diagonal";
+    ids = add_cubic_lattice(w, l, id);
+  } else {
+    const auto [n, cells] = sizes(3);
+    const double count = std::ceil((2.0 * n[0] + 1) * (2.0 * n[1] + 1) * (2.0 * n[2] + 1) / 2);
+    too_many(count);
+    FccLattice l;
+    l.cells = n;
+    l.spacing = a;
+    if (j.contains("neighbors"))
+      l.second_shell = choice<bool>(j["neighbors"], at("neighbors"), {{"nearest", false}, {"second", true}});
+    const LatticeCell c = fcc_cell(l.second_shell);
+    plan_lattice(count, c);
+    l.bond = lattice_bond(c, a, t);
+    l.quanta_mass = mass_of(count, lattice_mass(c, a, t));
+    res["neighbors"] = l.second_shell ? "second" : "nearest";
+    // total_mass must divide by the real site count: rebuild the mass once it is known.
+    ids = add_fcc_lattice(w, l, id);
+    if (j.contains("total_mass"))
+      for (Index i : ids) {
+        w.model.mass[i] = j["total_mass"].get<double>() / static_cast<double>(ids.size());
+        w.model.inv_mass[i] = 1 / w.model.mass[i];
+      }
+  }
+  return ids;
+}
+
+std::vector<Index> BodyEntry::chain() const {
+  std::vector<Index> ids;
+  Chain c;
+  c.start = vec3(req("start"), at("start"));
+  c.end = vec3(req("end"), at("end"));
+  if (!((c.end - c.start).norm() > 0)) bad(at("end"), "must differ from start");
+  const auto count = integer(req("count"), at("count"), 2);
+  too_many(static_cast<double>(count));
+  builder.plan_memory(at("count"), static_cast<double>(count), static_cast<double>(count - 1));
+  c.count = static_cast<int>(count);
+  const double segment = (c.end - c.start).norm() / static_cast<double>(count - 1);
+  c.bond = mat->bond;
+  const bool calibrated = mat->youngs_modulus > 0 || mat->density > 0;
+  if (j.contains("area"))
+    c.area = positive(j["area"], at("area"));
+  else if (calibrated)
+    bad(at("area"), "required: material '" + j["material"].get<std::string>() +
+                        "' is given by a modulus or density, which a chain turns into k = E A / segment, m = ρ A segment");
+  if (mat->youngs_modulus > 0) {
+    c.bond.stiffness = mat->youngs_modulus * c.area / segment;
+    res["stiffness"] = c.bond.stiffness;
+  }
+  c.quanta_mass = mass_of(static_cast<double>(count), mat->density > 0 ? mat->density * c.area * segment : 0.0);
+  ids = add_chain(w, c, id);
+  return ids;
+}
+
+std::vector<Index> BodyEntry::quanta() const {
+  std::vector<Index> ids;
+  const json& pos = array(req("positions"), at("positions"));
+  if (pos.empty()) bad(at("positions"), "must hold at least one position");
+  too_many(static_cast<double>(pos.size()));
+  builder.plan_memory(at("positions"), static_cast<double>(pos.size()), 0);
+  const bool per = j.contains("masses");
+  if (per == j.contains("mass"))
+    bad(path, per ? "give either 'masses' or 'mass', not both" : "one of 'masses' or 'mass' is required");
+  if (per && (!j["masses"].is_array() || j["masses"].size() != pos.size()))
+    bad(at("masses"), "expected an array of " + std::to_string(pos.size()) + " masses (one per position)");
+  const double mass = per ? 0.0 : positive(j["mass"], at("mass"));
+  const double volume = j.contains("volume") ? positive(j["volume"], at("volume")) : 0.0;
+  for (std::size_t k = 0; k < pos.size(); ++k)
+    ids.push_back(w.add_quanta(vec3(pos[k], item(at("positions"), k)), Vec3::Zero(),
+                               per ? positive(j["masses"][k], item(at("masses"), k)) : mass, id, volume));
+  return ids;
+}
+
 }  // namespace qbond::scene_detail
+
+namespace qbond {
+
+const std::vector<SceneType>& body_types() {
+  static const std::vector<SceneType> types = [] {
+    std::vector<SceneType> t;
+    for (const auto& r : scene_detail::Builder::body_readers())
+      t.push_back({r.type, r.doc, std::vector<std::string_view>(r.keys.begin(), r.keys.end())});
+    return t;
+  }();
+  return types;
+}
+
+}  // namespace qbond

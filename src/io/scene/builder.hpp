@@ -3,6 +3,8 @@
 // functions are defined in the file named above them) into a Scene, and records the resolved
 // scene, with every default filled in.
 #include <map>
+#include <span>
+#include <string_view>
 
 #include "qbond/io/scene.hpp"
 
@@ -22,6 +24,8 @@ struct Material {
   double density = 0;         ///< [kg/m³]; > 0: quanta masses from the body's lattice
 };
 
+struct BodyEntry;  // one `bodies` entry as its type's builder reads it (body_entry.hpp)
+
 class Builder {
  public:
   // builder.cpp: the scene's top level and its scene-wide sections (integrator, adaptive, limits)
@@ -33,7 +37,29 @@ class Builder {
 
   Scene build();
 
+  // One row of the heuristic types' table (heuristics.cpp): the type, what it does, the keys it
+  // accepts and its reader, which appends the rule(s) an entry makes.
+  struct HeuristicReader {
+    const char* type;
+    const char* doc;
+    std::vector<const char*> keys;
+    void (*read)(Builder& b, const Obj& o, std::string_view type, const World& w, std::vector<HeuristicSpec>& out);
+  };
+  static std::span<const HeuristicReader> heuristic_readers();
+
+  // One row of the body types' table (bodies.cpp): the type, what it makes, the keys it accepts
+  // and its builder.
+  struct BodyReader {
+    const char* type;
+    const char* doc;
+    std::vector<const char*> keys;
+    std::vector<Index> (*build)(const BodyEntry& e);
+  };
+  static std::span<const BodyReader> body_readers();
+
  private:
+  friend struct BodyEntry;
+
   IntegratorConfig integrator(const json& j);
 
   // Adds a body's quanta and (an estimate of) its bonds to the world planned so far, and refuses
@@ -110,6 +136,9 @@ class Builder {
   ContactMaterial contact_material(const Obj& o);
 
   std::vector<HeuristicSpec> heuristics(const json& j, const World& w);
+
+  // The `ground`, `plane`, `sphere` and `box` rows' reader.
+  static void obstacle(Builder& b, const Obj& o, std::string_view type, const World& w, std::vector<HeuristicSpec>& out);
 
   // Quanta that share no bond but start closer than two contact radii would be pushed apart on
   // the first step: a radius too large for the lattice.

@@ -22,140 +22,165 @@ ContactMaterial Builder::contact_material(const Obj& o) {
   return c;
 }
 
+// The heuristic types of the `heuristics` section, one row each: its type, what it does, the
+// keys it accepts (in the order error messages list them) and its reader. Adding a heuristic type
+// to scenes is one row here; heuristic_types() and the docs test read this table.
+std::span<const Builder::HeuristicReader> Builder::heuristic_readers() {
+  static const std::vector<const char*> obstacle_keys = {"type", "restitution", "friction", "margin"};
+  auto with = [](std::vector<const char*> keys, std::initializer_list<const char*> more) {
+    keys.insert(keys.end(), more);
+    return keys;
+  };
+  static const HeuristicReader rows[] = {
+      {"break", "fracture: bonds break past a strain, compression, tension or stress limit",
+       {"max_strain", "max_compression", "max_tension", "max_stress", "max_von_mises", "type", "probability", "select"},
+       [](Builder& b, const Obj& o, std::string_view, const World& w, std::vector<HeuristicSpec>& out) {
+         static const std::initializer_list<const char*> limits = {"max_strain", "max_compression", "max_tension",
+                                                                   "max_stress", "max_von_mises"};
+         BreakRule r;
+         double* fields[] = {&r.max_strain, &r.max_compression, &r.max_tension, &r.max_stress, &r.max_von_mises};
+         bool any = false;
+         for (std::size_t f = 0; f < limits.size(); ++f) {
+           const char* key = limits.begin()[f];
+           if (!o.has(key)) continue;
+           *fields[f] = positive(o[key], o.at(key));
+           any = true;
+         }
+         if (!any) bad(o.path(), "give at least one of " + join(std::vector<std::string>(limits.begin(), limits.end())));
+         if ((o.has("max_stress") || o.has("max_von_mises")) &&
+             std::none_of(w.model.volume.begin(), w.model.volume.end(), [](double v) { return v > 0; }))
+           bad(o.path(), "stress limits need quanta with volumes (lattice, sheet and chain bodies have them; "
+                         "give 'quanta' bodies a 'volume')");
+         if (o.has("probability")) {
+           r.probability = positive(o["probability"], o.at("probability"));
+           if (r.probability > 1) bad(o.at("probability"), "must be <= 1, got " + num_str(r.probability));
+         }
+         r.quanta = b.quanta_mask(o, w);
+         out.emplace_back(std::move(r));
+       }},
+      {"plastic", "plasticity: bilinear elastoplastic bonds with kinematic hardening",
+       {"type", "yield_strain", "hardening", "max_plastic_strain", "select"},
+       [](Builder& b, const Obj& o, std::string_view, const World& w, std::vector<HeuristicSpec>& out) {
+         PlasticRule r;
+         r.yield_strain = positive(o.required("yield_strain"), o.at("yield_strain"));
+         if (o.has("hardening")) {
+           r.hardening = non_negative(o["hardening"], o.at("hardening"));
+           if (r.hardening >= 1) bad(o.at("hardening"), "must be < 1, got " + num_str(r.hardening));
+         }
+         if (o.has("max_plastic_strain"))
+           r.max_plastic_strain = positive(o["max_plastic_strain"], o.at("max_plastic_strain"));
+         r.quanta = b.quanta_mask(o, w);
+         out.emplace_back(std::move(r));
+       }},
+      {"ground", "an obstacle: the plane z = height", with(obstacle_keys, {"height"}), &Builder::obstacle},
+      {"plane", "an obstacle: a plane through a point", with(obstacle_keys, {"point", "normal"}), &Builder::obstacle},
+      {"sphere", "an obstacle, or a container with inside: true",
+       with(obstacle_keys, {"center", "radius", "inside"}), &Builder::obstacle},
+      {"box", "an obstacle, or a container with inside: true",
+       with(obstacle_keys, {"center", "size", "rotation", "inside"}), &Builder::obstacle},
+      {"contact", "quanta-quanta collisions between quanta that share no bond",
+       {"type", "radius", "restitution", "friction", "iterations", "same_body"},
+       [](Builder& b, const Obj& o, std::string_view, const World& w, std::vector<HeuristicSpec>& out) {
+         QuantaContactRule r;
+         r.radius = positive(o.required("radius"), o.at("radius"));
+         r.material = b.contact_material(o);
+         if (o.has("iterations")) r.iterations = static_cast<int>(integer(o["iterations"], o.at("iterations"), 1));
+         if (o.has("same_body")) r.same_body = boolean(o["same_body"], o.at("same_body"));
+         b.check_contact_radius(r, o, w);
+         out.emplace_back(r);
+       }},
+      {"form", "bond formation: quanta that come close bond",
+       {"type", "capture_radius", "pairs", "max_bonds", "min_age", "rest_length", "material", "select"},
+       [](Builder& b, const Obj& o, std::string_view, const World& w, std::vector<HeuristicSpec>& out) {
+         FormRule r;
+         r.capture_radius = positive(o.required("capture_radius"), o.at("capture_radius"));
+         if (o.has("pairs"))
+           r.pairs = choice<FormPairs>(o["pairs"], o.at("pairs"),
+                                       {{"any", FormPairs::any},
+                                        {"same_body", FormPairs::same_body},
+                                        {"other_body", FormPairs::other_body}});
+         if (o.has("max_bonds")) r.max_bonds = static_cast<int>(integer(o["max_bonds"], o.at("max_bonds"), 1));
+         if (o.has("min_age")) r.min_age = non_negative(o["min_age"], o.at("min_age"));
+         if (o.has("rest_length")) r.rest_length = positive(o["rest_length"], o.at("rest_length"));
+         r.bond = b.bond_material(o.required("material"), o.at("material"));
+         r.quanta = b.quanta_mask(o, w);
+         out.emplace_back(std::move(r));
+       }},
+      {"liquid", "a cohesive liquid: a break rule and a form rule at the liquid's spacing",
+       {"type", "spacing", "max_strain", "capture_radius", "max_bonds", "material", "select"},
+       [](Builder& b, const Obj& o, std::string_view, const World& w, std::vector<HeuristicSpec>& out) {
+         // A preset: bonds break past max_strain and form again within the capture radius, at the
+         // rest length `spacing` the liquid keeps between its quanta (its density).
+         const double a = positive(o.required("spacing"), o.at("spacing"));
+         BreakRule br;
+         br.max_strain = o.has("max_strain") ? positive(o["max_strain"], o.at("max_strain")) : 0.3;
+         FormRule fr;
+         fr.capture_radius = o.has("capture_radius") ? positive(o["capture_radius"], o.at("capture_radius")) : 1.2 * a;
+         if (fr.capture_radius >= a * (1 + br.max_strain))
+           bad(o.at("capture_radius"), "must be below spacing x (1 + max_strain) = " +
+                                           num_str(a * (1 + br.max_strain)) + " m, or new bonds would break at once");
+         fr.max_bonds = o.has("max_bonds") ? static_cast<int>(integer(o["max_bonds"], o.at("max_bonds"), 1)) : 12;
+         fr.rest_length = a;
+         fr.bond = b.bond_material(o.required("material"), o.at("material"));
+         br.quanta = fr.quanta = b.quanta_mask(o, w);
+         out.emplace_back(std::move(br));
+         out.emplace_back(std::move(fr));
+       }},
+  };
+  return rows;
+}
+
+void Builder::obstacle(Builder& b, const Obj& o, std::string_view type, const World&, std::vector<HeuristicSpec>& out) {
+  Obstacle ob;
+  ob.material = b.contact_material(o);
+  if (o.has("margin")) ob.margin = non_negative(o["margin"], o.at("margin"));
+  if (type == "ground") {
+    ob.center = Vec3(0, 0, o.has("height") ? number(o["height"], o.at("height")) : 0.0);
+  } else if (type == "plane") {
+    ob.center = vec3(o.required("point"), o.at("point"));
+    ob.normal = direction(o.required("normal"), o.at("normal"));
+  } else if (type == "sphere") {
+    ob.shape = Obstacle::Shape::sphere;
+    ob.center = vec3(o.required("center"), o.at("center"));
+    ob.radius = positive(o.required("radius"), o.at("radius"));
+  } else {
+    ob.shape = Obstacle::Shape::box;
+    ob.center = vec3(o.required("center"), o.at("center"));
+    const Vec3 size = vec3(o.required("size"), o.at("size"));
+    if (!(size.minCoeff() > 0)) bad(o.at("size"), "every edge must be > 0");
+    ob.half_extents = 0.5 * size;
+    if (o.has("rotation")) {
+      Obj r(o["rotation"], o.at("rotation"), {"axis", "angle"});
+      ob.rotation = Eigen::AngleAxisd(number(r.required("angle"), r.at("angle")),
+                                      direction(r.required("axis"), r.at("axis")))
+                        .toRotationMatrix();
+    }
+  }
+  if (o.has("inside")) {
+    ob.inside = boolean(o["inside"], o.at("inside"));
+    const double room = ob.shape == Obstacle::Shape::sphere ? ob.radius : ob.half_extents.minCoeff();
+    if (ob.inside && !(ob.margin < room))
+      bad(o.at("margin"), "must be below the container's " + std::string(ob.shape == Obstacle::Shape::sphere ? "radius" : "half size") +
+                              " " + num_str(room) + " m, or no quanta fits inside");
+  }
+  // Every obstacle records the impulse it gives (diagnostics' obstacle<k>_ columns).
+  ob.record = static_cast<std::int32_t>(b.obstacles_++);
+  out.emplace_back(ob);
+}
+
 std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
+  std::vector<std::string> types;
+  for (const HeuristicReader& r : heuristic_readers()) types.emplace_back(r.type);
   std::vector<HeuristicSpec> out;
   for (std::size_t k = 0; k < j.size(); ++k) {
     const std::string path = item("heuristics", k);
     if (!j[k].is_object() || !j[k].contains("type"))
-      bad(path, "expected an object with a \"type\" (break, plastic, ground, plane, sphere, box, contact, form, liquid)");
+      bad(path, "expected an object with a \"type\" (" + join(types) + ")");
     const std::string type = string(j[k]["type"], path + ".type");
-    if (type == "break") {
-      static const std::initializer_list<const char*> limits = {"max_strain", "max_compression", "max_tension",
-                                                                "max_stress", "max_von_mises"};
-      std::vector<const char*> keys(limits);
-      keys.insert(keys.end(), {"type", "probability", "select"});
-      Obj o(j[k], path, keys);
-      BreakRule r;
-      double* fields[] = {&r.max_strain, &r.max_compression, &r.max_tension, &r.max_stress, &r.max_von_mises};
-      bool any = false;
-      for (std::size_t f = 0; f < limits.size(); ++f) {
-        const char* key = limits.begin()[f];
-        if (!o.has(key)) continue;
-        *fields[f] = positive(o[key], o.at(key));
-        any = true;
-      }
-      if (!any) bad(path, "give at least one of " + join(std::vector<std::string>(limits.begin(), limits.end())));
-      if ((o.has("max_stress") || o.has("max_von_mises")) &&
-          std::none_of(w.model.volume.begin(), w.model.volume.end(), [](double v) { return v > 0; }))
-        bad(path, "stress limits need quanta with volumes (lattice, sheet and chain bodies have them; "
-                  "give 'quanta' bodies a 'volume')");
-      if (o.has("probability")) {
-        r.probability = positive(o["probability"], o.at("probability"));
-        if (r.probability > 1) bad(o.at("probability"), "must be <= 1, got " + num_str(r.probability));
-      }
-      r.quanta = quanta_mask(o, w);
-      out.emplace_back(std::move(r));
-    } else if (type == "plastic") {
-      Obj o(j[k], path, {"type", "yield_strain", "hardening", "max_plastic_strain", "select"});
-      PlasticRule r;
-      r.yield_strain = positive(o.required("yield_strain"), o.at("yield_strain"));
-      if (o.has("hardening")) {
-        r.hardening = non_negative(o["hardening"], o.at("hardening"));
-        if (r.hardening >= 1) bad(o.at("hardening"), "must be < 1, got " + num_str(r.hardening));
-      }
-      if (o.has("max_plastic_strain")) r.max_plastic_strain = positive(o["max_plastic_strain"], o.at("max_plastic_strain"));
-      r.quanta = quanta_mask(o, w);
-      out.emplace_back(std::move(r));
-    } else if (type == "ground" || type == "plane" || type == "sphere" || type == "box") {
-      static const std::initializer_list<const char*> common = {"type", "restitution", "friction", "margin"};
-      std::vector<const char*> keys(common);
-      if (type == "ground") keys.push_back("height");
-      if (type == "plane") keys.insert(keys.end(), {"point", "normal"});
-      if (type == "sphere") keys.insert(keys.end(), {"center", "radius"});
-      if (type == "box") keys.insert(keys.end(), {"center", "size", "rotation"});
-      if (type == "sphere" || type == "box") keys.push_back("inside");
-      Obj o(j[k], path, keys);
-      Obstacle ob;
-      ob.material = contact_material(o);
-      if (o.has("margin")) ob.margin = non_negative(o["margin"], o.at("margin"));
-      if (type == "ground") {
-        ob.center = Vec3(0, 0, o.has("height") ? number(o["height"], o.at("height")) : 0.0);
-      } else if (type == "plane") {
-        ob.center = vec3(o.required("point"), o.at("point"));
-        ob.normal = direction(o.required("normal"), o.at("normal"));
-      } else if (type == "sphere") {
-        ob.shape = Obstacle::Shape::sphere;
-        ob.center = vec3(o.required("center"), o.at("center"));
-        ob.radius = positive(o.required("radius"), o.at("radius"));
-      } else {
-        ob.shape = Obstacle::Shape::box;
-        ob.center = vec3(o.required("center"), o.at("center"));
-        const Vec3 size = vec3(o.required("size"), o.at("size"));
-        if (!(size.minCoeff() > 0)) bad(o.at("size"), "every edge must be > 0");
-        ob.half_extents = 0.5 * size;
-        if (o.has("rotation")) {
-          Obj r(o["rotation"], o.at("rotation"), {"axis", "angle"});
-          ob.rotation = Eigen::AngleAxisd(number(r.required("angle"), r.at("angle")),
-                                          direction(r.required("axis"), r.at("axis")))
-                            .toRotationMatrix();
-        }
-      }
-      if (o.has("inside")) {
-        ob.inside = boolean(o["inside"], o.at("inside"));
-        const double room = ob.shape == Obstacle::Shape::sphere ? ob.radius : ob.half_extents.minCoeff();
-        if (ob.inside && !(ob.margin < room))
-          bad(o.at("margin"), "must be below the container's " + std::string(ob.shape == Obstacle::Shape::sphere ? "radius" : "half size") +
-                                  " " + num_str(room) + " m, or no quanta fits inside");
-      }
-      // Every obstacle records the impulse it gives (diagnostics' obstacle<k>_ columns).
-      ob.record = static_cast<std::int32_t>(obstacles_++);
-      out.emplace_back(ob);
-    } else if (type == "contact") {
-      Obj o(j[k], path, {"type", "radius", "restitution", "friction", "iterations", "same_body"});
-      QuantaContactRule r;
-      r.radius = positive(o.required("radius"), o.at("radius"));
-      r.material = contact_material(o);
-      if (o.has("iterations")) r.iterations = static_cast<int>(integer(o["iterations"], o.at("iterations"), 1));
-      if (o.has("same_body")) r.same_body = boolean(o["same_body"], o.at("same_body"));
-      check_contact_radius(r, o, w);
-      out.emplace_back(r);
-    } else if (type == "form") {
-      Obj o(j[k], path, {"type", "capture_radius", "pairs", "max_bonds", "min_age", "rest_length", "material", "select"});
-      FormRule r;
-      r.capture_radius = positive(o.required("capture_radius"), o.at("capture_radius"));
-      if (o.has("pairs"))
-        r.pairs = choice<FormPairs>(o["pairs"], o.at("pairs"),
-                                    {{"any", FormPairs::any},
-                                     {"same_body", FormPairs::same_body},
-                                     {"other_body", FormPairs::other_body}});
-      if (o.has("max_bonds")) r.max_bonds = static_cast<int>(integer(o["max_bonds"], o.at("max_bonds"), 1));
-      if (o.has("min_age")) r.min_age = non_negative(o["min_age"], o.at("min_age"));
-      if (o.has("rest_length")) r.rest_length = positive(o["rest_length"], o.at("rest_length"));
-      r.bond = bond_material(o.required("material"), o.at("material"));
-      r.quanta = quanta_mask(o, w);
-      out.emplace_back(std::move(r));
-    } else if (type == "liquid") {
-      // A preset: bonds break past max_strain and form again within the capture radius, at the
-      // rest length `spacing` the liquid keeps between its quanta (its density).
-      Obj o(j[k], path, {"type", "spacing", "max_strain", "capture_radius", "max_bonds", "material", "select"});
-      const double a = positive(o.required("spacing"), o.at("spacing"));
-      BreakRule br;
-      br.max_strain = o.has("max_strain") ? positive(o["max_strain"], o.at("max_strain")) : 0.3;
-      FormRule fr;
-      fr.capture_radius = o.has("capture_radius") ? positive(o["capture_radius"], o.at("capture_radius")) : 1.2 * a;
-      if (fr.capture_radius >= a * (1 + br.max_strain))
-        bad(o.at("capture_radius"), "must be below spacing x (1 + max_strain) = " + num_str(a * (1 + br.max_strain)) +
-                                        " m, or new bonds would break at once");
-      fr.max_bonds = o.has("max_bonds") ? static_cast<int>(integer(o["max_bonds"], o.at("max_bonds"), 1)) : 12;
-      fr.rest_length = a;
-      fr.bond = bond_material(o.required("material"), o.at("material"));
-      br.quanta = fr.quanta = quanta_mask(o, w);
-      out.emplace_back(std::move(br));
-      out.emplace_back(std::move(fr));
-    } else {
-      bad(path + ".type", "unknown heuristic '" + type +
-                              "' (accepted: break, plastic, ground, plane, sphere, box, contact, form, liquid)");
-    }
+    const auto rows = heuristic_readers();
+    const auto row = std::find_if(rows.begin(), rows.end(), [&](const HeuristicReader& r) { return type == r.type; });
+    if (row == rows.end()) bad(path + ".type", "unknown heuristic '" + type + "' (accepted: " + join(types) + ")");
+    row->read(*this, Obj(j[k], path, row->keys), type, w, out);
   }
   return out;
 }
@@ -176,3 +201,17 @@ void Builder::check_contact_radius(const QuantaContactRule& r, const Obj& o, con
 }
 
 }  // namespace qbond::scene_detail
+
+namespace qbond {
+
+const std::vector<SceneType>& heuristic_types() {
+  static const std::vector<SceneType> types = [] {
+    std::vector<SceneType> t;
+    for (const auto& r : scene_detail::Builder::heuristic_readers())
+      t.push_back({r.type, r.doc, std::vector<std::string_view>(r.keys.begin(), r.keys.end())});
+    return t;
+  }();
+  return types;
+}
+
+}  // namespace qbond
