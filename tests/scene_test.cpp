@@ -8,6 +8,7 @@
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/builders/builders.hpp"
 #include "qbond/io/files.hpp"
+#include "qbond/io/json_text.hpp"
 #include "qbond/model/ordering.hpp"
 #include "qbond/builders/packing.hpp"
 #include "qbond/io/scene.hpp"
@@ -180,6 +181,55 @@ TEST(Scenes, ResolvedSceneRebuildsTheSameWorld) {
   for (Index i = 0; i < a.world.num_quanta(); ++i)
     if (a.world.model.body[i] == 0) total += a.world.model.mass[i];
   EXPECT_NEAR(total, 1.0, 1e-12);  // total_mass spread over the FCC sites
+}
+
+// `//` and `/* */` comments and `description`/`notes` on any object are kept in the resolved
+// scene but change nothing in the world.
+TEST(Scenes, CommentsAndNotesChangeNothing) {
+  const std::string plain = R"({
+    "timestep": 0.001, "steps": 3, "gravity": [0, 0, -9.81],
+    "materials": {"m": {"stiffness": 100, "damping": 0.5}},
+    "integrator": {"type": "coupled_implicit"},
+    "bodies": [{"name": "rope", "type": "chain", "start": [0, 0, 0], "end": [0, 0, -1], "count": 5,
+                "quanta_mass": 0.1, "material": "m", "rotation": {"axis": [0, 1, 0], "angle": 0.2}}],
+    "anchors": [{"select": {"ids": [0]}, "motion": {"rotate": {"axis": [0, 0, 1], "center": [0, 0, 0], "rate": 1}}}],
+    "loads": [{"select": {"sphere": {"center": [0, 0, -1], "radius": 0.3}}, "force": [1, 0, 0]}],
+    "heuristics": [{"type": "break", "max_strain": 0.5}],
+    "output": {"probes": [{"name": "top", "select": {"ids": [0]}}]}
+  })";
+  const std::string annotated = R"(// a rope, twisted at its top
+  {
+    "timestep": 0.001, "steps": 3, "gravity": [0, 0, -9.81],  /* Earth's */
+    "materials": {"notes": "the section's own", "m": {"stiffness": 100, "damping": 0.5, "description": "steel"}},
+    "integrator": {"type": "coupled_implicit", "notes": ["the default", "written out"]},
+    "bodies": [{"name": "rope", "type": "chain", "start": [0, 0, 0], "end": [0, 0, -1], "count": 5,
+                "quanta_mass": 0.1, "material": "m", "notes": "1 m",
+                "rotation": {"axis": [0, 1, 0], "angle": 0.2, "description": "tilted"}}],
+    "anchors": [{"select": {"ids": [0], "notes": "the top"}, "notes": "turns",
+                 "motion": {"rotate": {"axis": [0, 0, 1], "center": [0, 0, 0], "rate": 1, "description": "1 rad/s"}}}],
+    "loads": [{"select": {"sphere": {"center": [0, 0, -1], "radius": 0.3, "notes": "the end"}}, "force": [1, 0, 0],
+               "description": "a push"}],
+    "heuristics": [{"type": "break", "max_strain": 0.5, "notes": "50 %"}],
+    "output": {"probes": [{"name": "top", "select": {"ids": [0]}, "description": "where it turns"}], "notes": "x"}
+  })";
+  const Scene a = parse_scene(plain, "a.json"), b = parse_scene(annotated, "a.json");
+  EXPECT_EQ(a.world.model, b.world.model);
+  EXPECT_EQ(a.world.state.x, b.world.state.x);
+  EXPECT_EQ(a.world.state.bonds.rest, b.world.state.bonds.rest);
+  EXPECT_EQ(a.heuristics.size(), b.heuristics.size());
+  EXPECT_EQ(b.resolved["bodies"][0]["notes"], "1 m");
+  EXPECT_EQ(parse_scene(b.resolved.dump(), "b.json").world.model, b.world.model);  // resumes read them too
+  // A note is text: anything else is refused with its path, and comments only in scene files.
+  try {
+    parse_scene(R"({"timestep": 1, "steps": 1, "bodies": [{"name": "a", "type": "quanta", "positions": [[0, 0, 0]],
+                    "mass": 1, "notes": 3}]})");
+    ADD_FAILURE() << "a numeric note was accepted";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.path, "bodies[0].notes");
+    EXPECT_EQ(e.rule, "expected a string or an array of strings, got a number");
+  }
+  EXPECT_THROW(parse_json_strict("{\"a\": 1 /* no */}"), JsonTextError);
+  EXPECT_EQ(parse_json_strict("{\"a\": 1 /* yes */}", kMaxJsonDepth, true)["a"], 1);
 }
 
 // Loading renumbers the world for locality (ordering.hpp); everything the scene selected follows

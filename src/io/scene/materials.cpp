@@ -10,6 +10,7 @@ void Builder::materials(const json& j, json& res) {
   if (!j.is_object()) bad("materials", "expected an object (material name -> parameters), got " + type_name(j));
   for (const auto& [name, mj] : j.items()) {
     const std::string path = "materials." + name;
+    if (annotation(name, mj, path)) continue;  // the section's own description or notes
     if (!mj.is_object()) bad(path, "expected an object, got " + type_name(mj));
     Material m;
     BondSpec& b = m.bond;
