@@ -995,6 +995,132 @@ def test_statics_of_a_loaded_bar():
         fail("a free bar converged")
 
 
+def schema_errors(schema, value, node=None, path="", root=None):
+    """The places where `value` breaks `node` (of `schema`): the draft-07 keywords the scene
+    schema uses ($ref, type, properties, additionalProperties, required, items, minItems,
+    maxItems, minProperties, enum, const, allOf, anyOf, not, if/then/else)."""
+    node = schema if node is None else node
+    if "$ref" in node:
+        node = schema["definitions"][node["$ref"].split("/")[-1]]
+    kinds = {"object": dict, "array": list, "string": str, "boolean": bool}
+    t = node.get("type")
+    if t == "number" and not (isinstance(value, (int, float)) and not isinstance(value, bool)) \
+            or t == "integer" and not (isinstance(value, int) and not isinstance(value, bool)) \
+            or t in kinds and not isinstance(value, kinds[t]):
+        return [f"{path}: not a {t}"]
+    errors = []
+    if "enum" in node and value not in node["enum"]:
+        errors.append(f"{path}: {value!r} not in {node['enum']}")
+    if "const" in node and value != node["const"]:
+        errors.append(f"{path}: {value!r} is not {node['const']!r}")
+    if isinstance(value, dict):
+        props = node.get("properties", {})
+        for k in node.get("required", []):
+            if k not in value:
+                errors.append(f"{path}.{k}: required")
+        if len(value) < node.get("minProperties", 0):
+            errors.append(f"{path}: too few keys")
+        for k, v in value.items():
+            if k in props:
+                errors += schema_errors(schema, v, props[k], f"{path}.{k}")
+            elif node.get("additionalProperties") is False:
+                errors.append(f"{path}.{k}: unknown key")
+            elif isinstance(node.get("additionalProperties"), dict):
+                errors += schema_errors(schema, v, node["additionalProperties"], f"{path}.{k}")
+    if isinstance(value, list):
+        if not node.get("minItems", 0) <= len(value) <= node.get("maxItems", len(value)):
+            errors.append(f"{path}: {len(value)} items")
+        if "items" in node:
+            for k, v in enumerate(value):
+                errors += schema_errors(schema, v, node["items"], f"{path}[{k}]")
+    for sub in node.get("allOf", []):
+        errors += schema_errors(schema, value, sub, path)
+    if "anyOf" in node and all(schema_errors(schema, value, sub, path) for sub in node["anyOf"]):
+        errors.append(f"{path}: matches none of anyOf")
+    if "not" in node and not schema_errors(schema, value, node["not"], path):
+        errors.append(f"{path}: matches 'not'")
+    if "if" in node:
+        branch = node.get("then") if not schema_errors(schema, value, node["if"], path) else node.get("else")
+        if branch is not None:
+            errors += schema_errors(schema, value, branch, path)
+    return errors
+
+
+def test_schema_matches_the_reader():
+    """`qbond schema` is docs/scene.schema.json, byte for byte; every built-in scene (comments
+    aside) passes it, annotated ones too, and each bad scene the reader refuses for an unknown key
+    or type the schema refuses as well."""
+    r = qbond("schema", check_code=0)
+    committed = open(os.path.join(SOURCE, "docs", "scene.schema.json")).read()
+    if r.stdout != committed:
+        fail("docs/scene.schema.json differs from `qbond schema`: regenerate it (qbond schema > docs/scene.schema.json)")
+    schema = json.loads(r.stdout)
+    scenes = sorted(f for f in os.listdir(os.path.join(SOURCE, "scenes")) if f.endswith(".json"))
+    if len(scenes) < 20:
+        fail(f"only {len(scenes)} scenes")
+    for name in scenes:
+        scene = json.load(open(os.path.join(SOURCE, "scenes", name)))
+        errors = schema_errors(schema, scene)
+        if errors:
+            fail(f"scenes/{name} breaks the schema the reader accepts it by: {errors[:5]}")
+        # Notes on every object are accepted by both.
+        def annotate(v):
+            if isinstance(v, dict):
+                return {**{k: annotate(x) for k, x in v.items()}, "notes": ["a note"]}
+            return [annotate(x) for x in v] if isinstance(v, list) else v
+        noted = annotate(scene)
+        # Motions and the materials map take notes beside their entries as well.
+        errors = schema_errors(schema, noted)
+        if errors:
+            fail(f"scenes/{name} with notes everywhere: {errors[:5]}")
+    # The reader's unknown keys and wrong types are the schema's.
+    refused = 0
+    for line in open(os.path.join(BAD_SCENES, "expected.txt")):
+        if line.startswith("#") or "\t" not in line:
+            continue
+        name, says = line.rstrip("\n").split("\t", 1)
+        if not any(w in says for w in ("unknown key", "unknown body type", "expected a number", "expected an object",
+                                        "unknown heuristic")):
+            continue
+        if not schema_errors(schema, json.load(open(os.path.join(BAD_SCENES, name)))):
+            fail(f"{name} (the reader says {says!r}) passes the schema")
+        refused += 1
+    if refused < 5:
+        fail(f"only {refused} bad scenes of unknown keys or types")
+    # A key no object takes, put in each object of a few scenes in turn: refused by both, and
+    # every kind of object met on the way.
+    d = fresh("schema")
+    os.makedirs(d)
+    kinds = set()
+
+    def objects(v, path=()):
+        if isinstance(v, dict):
+            yield path
+            for k, x in v.items():
+                yield from objects(x, path + (k,))
+        elif isinstance(v, list):
+            for k, x in enumerate(v):
+                yield from objects(x, path + (k,))
+    for name in ("collision.json", "gas_and_block.json", "liquid_blob.json", "plastic_beam.json", "twisted_bar.json"):
+        scene = json.load(open(os.path.join(SOURCE, "scenes", name)))
+        for path in objects(scene):
+            broken = json.loads(json.dumps(scene))
+            target = broken
+            for k in path:
+                target = target[k]
+            target["no_such_key"] = 1
+            if not any("no_such_key" in e for e in schema_errors(schema, broken)):
+                fail(f"{name} with no_such_key at {path} passes the schema")
+            f = os.path.join(d, "broken.json")
+            json.dump(broken, open(f, "w"))
+            v = qbond("validate", f)
+            if v.returncode != 2 or "no_such_key" not in v.stderr:
+                fail(f"{name} with no_such_key at {path}: the reader says {v.stderr!r}")
+            kinds.add(path[-2] if len(path) >= 2 and isinstance(path[-1], int) else path[-1] if path else "scene")
+    if len(kinds) < 12:
+        fail(f"too few kinds of object tried: {sorted(map(str, kinds))}")
+
+
 if __name__ == "__main__":
     os.makedirs(WORK, exist_ok=True)
     globals()["test_" + sys.argv[4]]()

@@ -1,5 +1,6 @@
-// The `qbond` program: `run` a scene with its outputs, `statics` (its equilibrium), `validate` scene files,
-// `experiment` (the paper's experiments), `bench` (the performance suite), `view` (the viewer).
+// The `qbond` program: `run` a scene with its outputs, `statics` (its equilibrium), `validate` scene
+// files, `schema` (theirs), `experiment` (the paper's experiments), `bench` (the performance
+// suite), `view` (the viewer).
 // The work is done by the library (scene.hpp, runner.hpp); this file holds what only a program
 // has: options, the progress display, signals and exit codes.
 #include <unistd.h>
@@ -21,6 +22,7 @@
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/io/checkpoint.hpp"
 #include "qbond/io/memory.hpp"
+#include "qbond/io/scene_schema.hpp"
 #include "qbond/simulation/runner.hpp"
 #include "qbond/simulation/statics_run.hpp"
 #include "qbond/builders/samples.hpp"
@@ -503,6 +505,8 @@ int main(int argc, char** argv) {
   statics_cmd->add_flag("--no-vtk", sa.no_vtk, "write no ParaView frame");
   statics_cmd->add_flag("-q,--quiet", sa.quiet, "print nothing but errors");
   statics_cmd->add_option("--max-memory", max_memory, memory_help)->check(memory_size());
+  CLI::App* schema_cmd = app.add_subcommand("schema", "print the JSON Schema of scene files, for editors "
+                                                      "(docs/scene-format.md)");
   ExperimentArgs ea;
   CLI::App* experiment_cmd = app.add_subcommand("experiment", "reproduce the paper's experiments (docs/experiments.md)");
   experiment_cmd->add_option("names", ea.names, "experiments to run, or 'all'");
@@ -575,6 +579,10 @@ int main(int argc, char** argv) {
     if (run_cmd->parsed()) return run(o);
     if (validate_cmd->parsed()) return validate(to_validate, o.max_memory);
     if (statics_cmd->parsed()) return statics(sa, o.max_memory);
+    if (schema_cmd->parsed()) {
+      std::printf("%s\n", qbond::scene_schema().dump(2).c_str());
+      return 0;
+    }
     if (bench_cmd->parsed()) {
       require_directory_of("--json", ba.json);
       return qbond::cli::bench(ba);

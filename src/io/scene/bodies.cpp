@@ -19,31 +19,11 @@ void Builder::bodies(const json& j, json& res, World& w) {
 void Builder::body(const json& j, const std::string& path, json& res, World& w) {
   if (!j.is_object()) bad(path, "expected an object, got " + type_name(j));
   const std::string type = j.contains("type") ? string(j["type"], path + ".type") : "";
-  static const std::initializer_list<const char*> common = {"name", "type", "origin", "rotation", "velocity",
-                                                            "angular_velocity"};
-  auto keys = [&](std::initializer_list<const char*> extra) {
-    std::vector<const char*> all(common);
-    all.insert(all.end(), extra);
-    return all;
-  };
   std::vector<const char*> accepted;
-  if (type == "lattice")
-    accepted = keys({"cell", "size", "spacing", "neighbors", "thickness", "material", "quanta_mass", "total_mass"});
-  else if (type == "sheet")
-    accepted = keys({"size", "spacing", "neighbors", "bending", "thickness", "material", "quanta_mass", "total_mass"});
-  else if (type == "chain")
-    accepted = keys({"start", "end", "count", "area", "material", "quanta_mass", "total_mass"});
-  else if (type == "quanta")
-    accepted = keys({"positions", "masses", "mass", "velocities", "volume"});
-  else if (type == "packing")
-    accepted = keys({"points", "size", "min_distance", "count", "bond_radius", "isolated", "seed", "material",
-                     "quanta_mass", "total_mass"});
-  else if (type == "mesh")
-    accepted = keys({"file", "scale", "spacing", "neighbors", "isolated", "material", "quanta_mass", "total_mass"});
-  else if (type == "gas")
-    accepted = keys({"size", "count", "min_distance", "quanta_mass", "total_mass", "kT", "speeds", "seed"});
-  else if (type.empty())
+  if (type.empty())
     bad(path + ".type", "required key missing");
+  else if (has_kind("body." + type))
+    accepted = keys_of("body." + type);
   else
     bad(path + ".type", "unknown body type '" + type + "' (accepted: lattice, sheet, chain, quanta, packing, mesh, gas)");
   for (const auto& [key, v] : j.items())
@@ -236,7 +216,7 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
   Placement p;
   if (j.contains("origin")) p.origin = vec3(j["origin"], at("origin"));
   if (j.contains("rotation")) {
-    Obj r(j["rotation"], at("rotation"), {"axis", "angle"});
+    Obj r(j["rotation"], at("rotation"), keys_of("rotation"));
     p.axis = direction(r.required("axis"), r.at("axis"));
     p.angle = number(r.required("angle"), r.at("angle"));
   }

@@ -9,6 +9,7 @@
 #include "qbond/builders/packing.hpp"
 
 #include "io/scene/json_reader.hpp"
+#include "io/scene/scene_keys.hpp"
 
 namespace qbond::scene_detail {
 

@@ -32,9 +32,7 @@ std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
     if (type == "break") {
       static const std::initializer_list<const char*> limits = {"max_strain", "max_compression", "max_tension",
                                                                 "max_stress", "max_von_mises"};
-      std::vector<const char*> keys(limits);
-      keys.insert(keys.end(), {"type", "probability", "select"});
-      Obj o(j[k], path, keys);
+      Obj o(j[k], path, keys_of("heuristic.break"));
       BreakRule r;
       double* fields[] = {&r.max_strain, &r.max_compression, &r.max_tension, &r.max_stress, &r.max_von_mises};
       bool any = false;
@@ -56,7 +54,7 @@ std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
       r.quanta = quanta_mask(o, w);
       out.emplace_back(std::move(r));
     } else if (type == "plastic") {
-      Obj o(j[k], path, {"type", "yield_strain", "hardening", "max_plastic_strain", "select"});
+      Obj o(j[k], path, keys_of("heuristic.plastic"));
       PlasticRule r;
       r.yield_strain = positive(o.required("yield_strain"), o.at("yield_strain"));
       if (o.has("hardening")) {
@@ -67,14 +65,7 @@ std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
       r.quanta = quanta_mask(o, w);
       out.emplace_back(std::move(r));
     } else if (type == "ground" || type == "plane" || type == "sphere" || type == "box") {
-      static const std::initializer_list<const char*> common = {"type", "restitution", "friction", "margin"};
-      std::vector<const char*> keys(common);
-      if (type == "ground") keys.push_back("height");
-      if (type == "plane") keys.insert(keys.end(), {"point", "normal"});
-      if (type == "sphere") keys.insert(keys.end(), {"center", "radius"});
-      if (type == "box") keys.insert(keys.end(), {"center", "size", "rotation"});
-      if (type == "sphere" || type == "box") keys.push_back("inside");
-      Obj o(j[k], path, keys);
+      Obj o(j[k], path, keys_of("heuristic." + type));
       Obstacle ob;
       ob.material = contact_material(o);
       if (o.has("margin")) ob.margin = non_negative(o["margin"], o.at("margin"));
@@ -94,7 +85,7 @@ std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
         if (!(size.minCoeff() > 0)) bad(o.at("size"), "every edge must be > 0");
         ob.half_extents = 0.5 * size;
         if (o.has("rotation")) {
-          Obj r(o["rotation"], o.at("rotation"), {"axis", "angle"});
+          Obj r(o["rotation"], o.at("rotation"), keys_of("rotation"));
           ob.rotation = Eigen::AngleAxisd(number(r.required("angle"), r.at("angle")),
                                           direction(r.required("axis"), r.at("axis")))
                             .toRotationMatrix();
@@ -111,7 +102,7 @@ std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
       ob.record = static_cast<std::int32_t>(obstacles_++);
       out.emplace_back(ob);
     } else if (type == "contact") {
-      Obj o(j[k], path, {"type", "radius", "restitution", "friction", "iterations", "same_body"});
+      Obj o(j[k], path, keys_of("heuristic.contact"));
       QuantaContactRule r;
       r.radius = positive(o.required("radius"), o.at("radius"));
       r.material = contact_material(o);
@@ -120,7 +111,7 @@ std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
       check_contact_radius(r, o, w);
       out.emplace_back(r);
     } else if (type == "form") {
-      Obj o(j[k], path, {"type", "capture_radius", "pairs", "max_bonds", "min_age", "rest_length", "material", "select"});
+      Obj o(j[k], path, keys_of("heuristic.form"));
       FormRule r;
       r.capture_radius = positive(o.required("capture_radius"), o.at("capture_radius"));
       if (o.has("pairs"))
@@ -137,7 +128,7 @@ std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
     } else if (type == "liquid") {
       // A preset: bonds break past max_strain and form again within the capture radius, at the
       // rest length `spacing` the liquid keeps between its quanta (its density).
-      Obj o(j[k], path, {"type", "spacing", "max_strain", "capture_radius", "max_bonds", "material", "select"});
+      Obj o(j[k], path, keys_of("heuristic.liquid"));
       const double a = positive(o.required("spacing"), o.at("spacing"));
       BreakRule br;
       br.max_strain = o.has("max_strain") ? positive(o["max_strain"], o.at("max_strain")) : 0.3;
