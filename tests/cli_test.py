@@ -995,6 +995,48 @@ def test_statics_of_a_loaded_bar():
         fail("a free bar converged")
 
 
+def test_twist_and_hold_scene():
+    """scenes/twist_and_hold.json turns its bar's end to 30 degrees in 0.5 s by one smooth
+    keyframe, then holds it: the end's quanta stand exactly at the turn w(s) = 3s^2 - 2s^3 of 30
+    degrees at each frame (half of it at 0.25 s), the same at 0.5 s and 1 s; at the end the bar,
+    twisted and come to rest, needs opposite torques about its axis from its two supports (their
+    sum is the rate of change of its angular momentum)."""
+    import math
+    import vtk
+    out = fresh("twist_and_hold")
+    qbond("run", os.path.join(SOURCE, "scenes", "twist_and_hold.json"), "--every", "125", "-o", out, "-q",
+          check_code=0)
+
+    def points(step):
+        r = vtk.vtkXMLPolyDataReader()
+        r.SetFileName(os.path.join(out, "frames", f"frame_{step:010d}.vtp"))
+        r.Update()
+        data = r.GetOutput()
+        ids = data.GetPointData().GetArray("id")
+        return {int(ids.GetValue(k)): data.GetPoint(k) for k in range(data.GetNumberOfPoints())}
+    start = points(0)
+    end = [i for i, p in start.items() if p[0] > 0.189]
+    if len(end) != 16:
+        fail(f"{len(end)} quanta at the twisted end, expected 4 x 4")
+    c = (0.19, 0.015, 0.015)
+    for step in (125, 250, 375, 500, 1000):
+        s = min(step / 500, 1.0)
+        angle = math.radians(30) * s * s * (3 - 2 * s)
+        now = points(step)
+        for i in end:
+            y, z = start[i][1] - c[1], start[i][2] - c[2]
+            want = (start[i][0], c[1] + y * math.cos(angle) - z * math.sin(angle),
+                    c[2] + y * math.sin(angle) + z * math.cos(angle))
+            if max(abs(a - b) for a, b in zip(now[i], want)) > 1e-12:
+                fail(f"step {step}: quanta {i} at {now[i]}, expected {want}")
+    _, rows = read_csv(os.path.join(out, "diagnostics.csv"))
+    col = {name: k for k, name in enumerate(rows[0])}
+    last = rows[-1]
+    held, twisted = float(last[col["held_end_tx"]]), float(last[col["twisted_end_tx"]])
+    if not (held < 0 < twisted) or abs(held + twisted) > 1e-6 * abs(held):
+        fail(f"torques about the bar's axis at the end: held {held}, twisted {twisted} N m")
+
+
 def schema_errors(schema, value, node=None, path="", root=None):
     """The places where `value` breaks `node` (of `schema`): the draft-07 keywords the scene
     schema uses ($ref, type, properties, additionalProperties, required, items, minItems,

@@ -97,6 +97,65 @@ TEST(Builders, PlacementIsRigidAndGivesTheRigidVelocityField) {
   EXPECT_LT((L - I * p.angular_velocity).norm(), 1e-13);
 }
 
+// A keyframed motion: a quarter turn about z in 1 s, a rise of 1 m in the next second, then held.
+// Linear: the exact pose and velocity inside each interval. Both interpolations: the velocity is
+// the position's derivative (central differences), the poses are met at the keyframes, smooth
+// ones at rest there.
+TEST(Motions, KeyframesInterpolateAndHold) {
+  const double pi = std::acos(-1.0);
+  for (Interpolation interpolation : {Interpolation::linear, Interpolation::smooth}) {
+    World w;
+    const Index q = w.add_quanta(Vec3(1, 0, 0), Vec3::Zero(), 1.0);
+    Motion m;
+    m.type = MotionType::keyframes;
+    m.axis = Vec3::UnitZ();
+    m.interpolation = interpolation;
+    m.keyframes = {{1.0, Vec3::Zero(), pi / 2}, {2.0, Vec3(0, 0, 1), pi / 2}};
+    w.prescribe({q}, m);
+    const Motion& p = w.model.motions.at(0);
+    Vec3 x, v;
+    auto at = [&](double t) {
+      p.at(0, t, x, v);
+      return x;
+    };
+    for (double t : {0.25, 0.5, 0.9, 1.3, 1.5, 1.99}) {
+      at(t);
+      const Vec3 v_exact = v;
+      constexpr double d = 1e-4;
+      const Vec3 fd = (at(t + d) - at(t - d)) / (2 * d);
+      // The central difference errs by d²/6 times the third derivative, below 120 m/s³ here
+      // (smooth: θ' <= 3π/4, θ'' <= 3π, θ''' = 6π, on a unit radius; the rise's 12 m/s³).
+      EXPECT_LT((fd - v_exact).norm(), d * d / 6 * 120) << "t = " << t;
+    }
+    EXPECT_LT((at(1.0) - Vec3(0, 1, 0)).norm(), 1e-15);
+    for (double t : {2.0, 2.5, 100.0}) {
+      EXPECT_LT((at(t) - Vec3(0, 1, 1)).norm(), 1e-15) << "held at t = " << t;
+      EXPECT_EQ(v, Vec3::Zero());
+    }
+    at(0.0);
+    EXPECT_EQ(x, Vec3(1, 0, 0));
+    if (interpolation == Interpolation::smooth) {
+      EXPECT_EQ(v, Vec3::Zero());  // at rest at every keyframe
+      at(1.0);
+      EXPECT_LT(v.norm(), 1e-15);
+    } else {
+      at(0.5);  // an eighth of a turn, at π/2 rad/s
+      EXPECT_LT((x - Vec3(std::cos(pi / 4), std::sin(pi / 4), 0)).norm(), 1e-15);
+      EXPECT_LT((v - pi / 2 * Vec3(-std::sin(pi / 4), std::cos(pi / 4), 0)).norm(), 1e-15);
+      at(1.5);  // half way up, at 1 m/s
+      EXPECT_LT((x - Vec3(0, 1, 0.5)).norm(), 1e-15);
+      EXPECT_LT((v - Vec3(0, 0, 1)).norm(), 1e-15);
+    }
+  }
+  // Times must increase from 0.
+  World w;
+  const Index q = w.add_quanta(Vec3(1, 0, 0), Vec3::Zero(), 1.0);
+  Motion m;
+  m.type = MotionType::keyframes;
+  m.keyframes = {{1.0, Vec3::Zero(), 0}, {1.0, Vec3(0, 0, 1), 0}};
+  EXPECT_THROW(w.prescribe({q}, m), std::invalid_argument);
+}
+
 TEST(Selections, CriteriaIntersectAndBodyIdsAreLocal) {
   World w;
   const Index a = w.add_body("a"), b = w.add_body("b");

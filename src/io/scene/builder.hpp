@@ -100,6 +100,8 @@ class Builder {
   void check_overlaps(const World& w);
 
   void anchors(const json& j, World& w);
+  /// An anchor's keyframed motion (`motion.keyframes`).
+  Motion keyframes(const json& j, const std::string& path);
 
   void loads(const json& j, World& w);
 

@@ -116,6 +116,37 @@ void Builder::check_overlaps(const World& w) {
   }
 }
 
+Motion Builder::keyframes(const json& j, const std::string& path) {
+  Obj o(j, path, keys_of("motion.keyframes"));
+  Motion m;
+  m.type = MotionType::keyframes;
+  if (o.has("interpolation"))
+    m.interpolation = choice<Interpolation>(o["interpolation"], o.at("interpolation"),
+                                            {{"linear", Interpolation::linear}, {"smooth", Interpolation::smooth}});
+  const json& frames = array(o.required("frames"), o.at("frames"));
+  if (frames.empty()) bad(o.at("frames"), "must hold at least one keyframe");
+  bool turns = false;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const std::string at = item(o.at("frames"), k);
+    Obj f(frames[k], at, keys_of("keyframe"));
+    Keyframe key;
+    key.time = positive(f.required("time"), f.at("time"));
+    if (k > 0 && !(key.time > m.keyframes.back().time))
+      bad(f.at("time"), "must be after the previous keyframe's " + num_str(m.keyframes.back().time) + " s, got " +
+                            num_str(key.time));
+    if (f.has("offset")) key.offset = vec3(f["offset"], f.at("offset"));
+    if (f.has("angle")) key.angle = number(f["angle"], f.at("angle"));
+    turns |= key.angle != 0;
+    m.keyframes.push_back(key);
+  }
+  // A turn needs its axis; without one no key is read that would make it.
+  if (turns || o.has("axis") || o.has("center")) {
+    m.axis = direction(o.required("axis"), o.at("axis"));
+    m.center = vec3(o.required("center"), o.at("center"));
+  }
+  return m;
+}
+
 void Builder::anchors(const json& j, World& w) {
   std::unordered_map<Index, std::size_t> by;
   for (std::size_t k = 0; k < j.size(); ++k) {
@@ -134,12 +165,13 @@ void Builder::anchors(const json& j, World& w) {
       if (mj.is_object())
         for (const auto& [key, v] : mj.items()) {
           if (annotation(key, v, path + "." + key)) continue;
-          if (key != "fixed" && key != "translate" && key != "rotate")
-            bad(path + "." + key, "unknown motion (accepted: fixed, translate, rotate)");
+          if (key != "fixed" && key != "translate" && key != "rotate" && key != "keyframes")
+            bad(path + "." + key, "unknown motion (accepted: fixed, translate, rotate, keyframes)");
           kinds.push_back(key);
         }
       if (!mj.is_object() || kinds.size() != 1)
-        bad(path, "expected one of {\"fixed\": {}}, {\"translate\": {...}}, {\"rotate\": {...}}");
+        bad(path, "expected one of {\"fixed\": {}}, {\"translate\": {...}}, {\"rotate\": {...}}, "
+                  "{\"keyframes\": {...}}");
       const std::string kind = kinds.front();
       const std::string at = path + "." + kind;
       if (kind == "fixed") {
@@ -154,6 +186,8 @@ void Builder::anchors(const json& j, World& w) {
         m.axis = direction(r.required("axis"), r.at("axis"));
         m.center = vec3(r.required("center"), r.at("center"));
         m.rate = number(r.required("rate"), r.at("rate"));
+      } else {
+        m = keyframes(mj[kind], at);
       }
     }
     w.prescribe(q, m);
