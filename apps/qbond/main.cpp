@@ -394,7 +394,7 @@ int validate(const std::vector<std::string>& scenes, std::uint64_t max_memory) {
 // `qbond statics`: the scene's static equilibrium and its outputs (statics_run.hpp).
 struct StaticsArgs {
   std::string scene, out;
-  double tolerance = 1e-10;
+  double tolerance = 1e-8;
   int max_iterations = 50;
   bool no_vtk = false, quiet = false;
 };
@@ -498,7 +498,7 @@ int main(int argc, char** argv) {
   statics_cmd->add_option("scene", sa.scene, "scene file (.json) or built-in scene name");
   statics_cmd->add_option("-o,--out", sa.out, "output directory (default: the scene's output.dir)");
   statics_cmd->add_option("--tolerance", sa.tolerance, "relative residual of the net force at which Newton stops "
-                                                       "(default: 1e-10)")
+                                                       "(default: 1e-8)")
       ->check(kPositive);
   statics_cmd->add_option("--max-iterations", sa.max_iterations, "Newton iterations at most (default: 50)")
       ->check(kPositive);

@@ -22,7 +22,7 @@ namespace qbond {
 /// Where and how closely statics solves.
 struct StaticsSettings {
   std::filesystem::path out_dir = "out";
-  double tolerance = 1e-10;  ///< solve_static's relative residual
+  double tolerance = 1e-8;   ///< solve_static's relative residual
   int max_iterations = 50;   ///< Newton iterations at most
   bool vtk = true;           ///< write static.vtp
 };
