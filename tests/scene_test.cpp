@@ -1,4 +1,6 @@
 // Scene files, builders and selections.
+#include "qbond/io/scene.hpp"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -7,11 +9,10 @@
 
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/builders/builders.hpp"
+#include "qbond/builders/packing.hpp"
 #include "qbond/io/files.hpp"
 #include "qbond/io/json_text.hpp"
 #include "qbond/model/ordering.hpp"
-#include "qbond/builders/packing.hpp"
-#include "qbond/io/scene.hpp"
 #include "qbond/model/selection.hpp"
 
 namespace qbond {
@@ -280,7 +281,8 @@ TEST(Scenes, CommentsAndNotesChangeNothing) {
   EXPECT_EQ(parse_scene(b.resolved.dump(), "b.json").world.model, b.world.model);  // resumes read them too
   // A note is text: anything else is refused with its path, and comments only in scene files.
   try {
-    parse_scene(R"({"timestep": 1, "steps": 1, "bodies": [{"name": "a", "type": "quanta", "positions": [[0, 0, 0]],
+    parse_scene(
+        R"({"timestep": 1, "steps": 1, "bodies": [{"name": "a", "type": "quanta", "positions": [[0, 0, 0]],
                     "mass": 1, "notes": 3}]})");
     ADD_FAILURE() << "a numeric note was accepted";
   } catch (const SceneError& e) {

@@ -20,12 +20,12 @@
 #include "bench.hpp"
 #include "experiment.hpp"
 #include "qbond/analysis/analysis.hpp"
+#include "qbond/builders/samples.hpp"
 #include "qbond/io/checkpoint.hpp"
 #include "qbond/io/memory.hpp"
 #include "qbond/io/scene_schema.hpp"
 #include "qbond/simulation/runner.hpp"
 #include "qbond/simulation/statics_run.hpp"
-#include "qbond/builders/samples.hpp"
 #include "qbond/version.hpp"
 #include "viewer.hpp"
 
@@ -154,7 +154,8 @@ qbond::Scene load_any(const std::string& arg, std::uint64_t max_memory = 0) {
   const bool exists = fs::exists(arg, ec);
   if (!path_like) {
     const auto builtins = qbond::builtin_scenes();
-    if (std::any_of(builtins.begin(), builtins.end(), [&](const qbond::BuiltinScene& s) { return s.name == arg; })) {
+    if (std::any_of(builtins.begin(), builtins.end(),
+                    [&](const qbond::BuiltinScene& s) { return s.name == arg; })) {
       if (exists)
         std::fprintf(stderr, "qbond: note: '%s' is the built-in scene; for the %s of that name, write ./%s\n",
                      arg.c_str(), fs::is_directory(arg, ec) ? "folder" : "file", arg.c_str());
@@ -179,11 +180,12 @@ std::uint64_t steps_of(const char* option, double length, double timestep) {
 void refuse_unread_options(const Options& o, const qbond::IntegratorConfig& c) {
   using namespace qbond;
   const IntegratorInfo& info = integrator_info(c.type);
-  const std::pair<bool, IntegratorOption> given[] = {{!o.neighbours.empty(), IntegratorOption::neighbours},
-                                                     {!o.solver.empty(), IntegratorOption::solver},
-                                                     {!o.preconditioner.empty(), IntegratorOption::preconditioner},
-                                                     {o.iterations > 0, IntegratorOption::iterations},
-                                                     {o.tolerance > 0, IntegratorOption::tolerance}};
+  const std::pair<bool, IntegratorOption> given[] = {
+      {!o.neighbours.empty(), IntegratorOption::neighbours},
+      {!o.solver.empty(), IntegratorOption::solver},
+      {!o.preconditioner.empty(), IntegratorOption::preconditioner},
+      {o.iterations > 0, IntegratorOption::iterations},
+      {o.tolerance > 0, IntegratorOption::tolerance}};
   for (const auto& [set, option] : given) {
     if (!set) continue;
     const std::string name = "--" + std::string(to_string(option));
@@ -197,13 +199,14 @@ void refuse_unread_options(const Options& o, const qbond::IntegratorConfig& c) {
     // The preconditioner is CG's, a coupled solve's tolerance too (the direct solvers are
     // exact), and the sweeps per Newton iteration are those of the solver sweep.
     const bool coupled = c.type == IntegratorType::coupled_implicit;
-    const char* needs = option == IntegratorOption::preconditioner || (option == IntegratorOption::tolerance && coupled)
-                            ? "cg"
-                        : option == IntegratorOption::iterations && info.reads(IntegratorOption::solver) ? "sweep"
-                                                                                                        : nullptr;
+    const char* needs =
+        option == IntegratorOption::preconditioner || (option == IntegratorOption::tolerance && coupled)
+            ? "cg"
+        : option == IntegratorOption::iterations && info.reads(IntegratorOption::solver) ? "sweep"
+                                                                                         : nullptr;
     if (needs && to_string(c.solver) != needs)
-      throw std::invalid_argument(name + " applies to " + std::string(info.key) + " with the solver " + needs +
-                                  " only, not " + std::string(to_string(c.solver)));
+      throw std::invalid_argument(name + " applies to " + std::string(info.key) + " with the solver " +
+                                  needs + " only, not " + std::string(to_string(c.solver)));
   }
 }
 
@@ -407,20 +410,23 @@ int statics(const StaticsArgs& a, std::uint64_t max_memory) {
   ss.max_iterations = a.max_iterations;
   ss.vtk = !a.no_vtk;
   if (!a.quiet)
-    std::printf("statics %s: %zu quanta, %zu bonds\noutput: %s\n", scene.name.c_str(), scene.world.num_quanta(),
-                scene.world.num_bonds(), fs::absolute(ss.out_dir).c_str());
+    std::printf("statics %s: %zu quanta, %zu bonds\noutput: %s\n", scene.name.c_str(),
+                scene.world.num_quanta(), scene.world.num_bonds(), fs::absolute(ss.out_dir).c_str());
   const qbond::StaticsReport r = qbond::run_statics(scene, ss);
   if (!a.quiet)
-    std::printf("%s after %d Newton iterations, residual %.3g; largest displacement %.6g m; load [%.6g, %.6g, %.6g] N, "
-                "reaction [%.6g, %.6g, %.6g] N\n",
-                r.result.converged ? "equilibrium" : "no equilibrium", r.result.iterations, r.result.residual,
-                r.max_displacement, r.load.x(), r.load.y(), r.load.z(), r.reaction.x(), r.reaction.y(),
-                r.reaction.z());
+    std::printf(
+        "%s after %d Newton iterations, residual %.3g; largest displacement %.6g m; load [%.6g, %.6g, %.6g] "
+        "N, "
+        "reaction [%.6g, %.6g, %.6g] N\n",
+        r.result.converged ? "equilibrium" : "no equilibrium", r.result.iterations, r.result.residual,
+        r.max_displacement, r.load.x(), r.load.y(), r.load.z(), r.reaction.x(), r.reaction.y(),
+        r.reaction.z());
   if (r.result.converged) return 0;
-  std::fprintf(stderr,
-               "qbond: no equilibrium within %d iterations (residual %.3g above %.3g): the loads may push a free "
-               "body or a mechanism; the outputs hold the state of the smallest residual\n",
-               ss.max_iterations, r.result.residual, ss.tolerance);
+  std::fprintf(
+      stderr,
+      "qbond: no equilibrium within %d iterations (residual %.3g above %.3g): the loads may push a free "
+      "body or a mechanism; the outputs hold the state of the smallest residual\n",
+      ss.max_iterations, r.result.residual, ss.tolerance);
   return kExitBlowup;
 }
 
@@ -494,19 +500,23 @@ int main(int argc, char** argv) {
   validate_cmd->add_option("--max-memory", max_memory, memory_help)->check(memory_size());
   StaticsArgs sa;
   CLI::App* statics_cmd = app.add_subcommand(
-      "statics", "solve a scene's static equilibrium: displacements, reactions and stresses (docs/running.md)");
+      "statics",
+      "solve a scene's static equilibrium: displacements, reactions and stresses (docs/running.md)");
   statics_cmd->add_option("scene", sa.scene, "scene file (.json) or built-in scene name");
   statics_cmd->add_option("-o,--out", sa.out, "output directory (default: the scene's output.dir)");
-  statics_cmd->add_option("--tolerance", sa.tolerance, "relative residual of the net force at which Newton stops "
-                                                       "(default: 1e-8)")
+  statics_cmd
+      ->add_option("--tolerance", sa.tolerance,
+                   "relative residual of the net force at which Newton stops "
+                   "(default: 1e-8)")
       ->check(kPositive);
   statics_cmd->add_option("--max-iterations", sa.max_iterations, "Newton iterations at most (default: 50)")
       ->check(kPositive);
   statics_cmd->add_flag("--no-vtk", sa.no_vtk, "write no ParaView frame");
   statics_cmd->add_flag("-q,--quiet", sa.quiet, "print nothing but errors");
   statics_cmd->add_option("--max-memory", max_memory, memory_help)->check(memory_size());
-  CLI::App* schema_cmd = app.add_subcommand("schema", "print the JSON Schema of scene files, for editors "
-                                                      "(docs/scene-format.md)");
+  CLI::App* schema_cmd = app.add_subcommand("schema",
+                                            "print the JSON Schema of scene files, for editors "
+                                            "(docs/scene-format.md)");
   ExperimentArgs ea;
   CLI::App* experiment_cmd = app.add_subcommand("experiment", "reproduce the paper's experiments (docs/experiments.md)");
   experiment_cmd->add_option("names", ea.names, "experiments to run, or 'all'");
@@ -517,7 +527,8 @@ int main(int argc, char** argv) {
                            "allow -o to be the source tree's committed experiments/results");
   // Flags that turn something off by a callback: a negated flag's help would show CLI11's
   // "{false}".
-  experiment_cmd->add_flag_callback("--no-plots", [&ea] { ea.plots = false; }, "write the CSVs and summaries only");
+  experiment_cmd->add_flag_callback(
+      "--no-plots", [&ea] { ea.plots = false; }, "write the CSVs and summaries only");
   qbond::cli::BenchArgs ba;
   CLI::App* bench_cmd = app.add_subcommand("bench", "measure the canonical workload against the memory-bandwidth bound "
                                                     "(docs/performance.md)");
@@ -556,17 +567,20 @@ int main(int argc, char** argv) {
       ->check(kPositive)
       ->needs(frames);
   view_cmd->add_option("--size", vo.width, "window width in pixels (height: 9/16 of it)")->check(CLI::Range(64, 8192));
-  view_cmd->add_flag_callback("--no-ui", [&vo] { vo.ui = false; }, "hide the control panel");
+  view_cmd->add_flag_callback(
+      "--no-ui", [&vo] { vo.ui = false; }, "hide the control panel");
   view_cmd->add_flag("--follow", vo.follow, "keep the camera aimed at the structure as it moves");
   view_cmd->add_option("--bonds", vo.bonds, "bond colours: strain, tension or plain")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, qbond::view::BondColor>{
-          {"strain", qbond::view::BondColor::strain}, {"tension", qbond::view::BondColor::tension},
-          {"plain", qbond::view::BondColor::none}}))
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, qbond::view::BondColor>{{"strain", qbond::view::BondColor::strain},
+                                                        {"tension", qbond::view::BondColor::tension},
+                                                        {"plain", qbond::view::BondColor::none}}))
       ->option_text("strain|tension|plain");
   view_cmd->add_option("--quanta", vo.quanta, "quanta colours: body, von_mises or speed")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, qbond::view::QuantaColor>{
-          {"body", qbond::view::QuantaColor::body}, {"von_mises", qbond::view::QuantaColor::von_mises},
-          {"speed", qbond::view::QuantaColor::speed}}))
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, qbond::view::QuantaColor>{{"body", qbond::view::QuantaColor::body},
+                                                          {"von_mises", qbond::view::QuantaColor::von_mises},
+                                                          {"speed", qbond::view::QuantaColor::speed}}))
       ->option_text("body|von_mises|speed");
   try {
     app.parse(argc, argv);

@@ -148,16 +148,19 @@ void refuse_nothing_to_run(const std::string& checkpoint, const Scene& scene, co
     const double end = static_cast<double>(settings.steps) * scene.timestep;
     if (s.time < end) return;
     throw std::invalid_argument(checkpoint + ": the checkpoint is at " + at + ", " +
-                                (s.time > end ? "past" : "already at") + " the run's end at t = " + scene_detail::num_str(end) +
+                                (s.time > end ? "past" : "already at") +
+                                " the run's end at t = " + scene_detail::num_str(end) +
                                 " s: nothing to run (the length is the total, not the time to add; ask for a "
-                                "--duration beyond " + scene_detail::num_str(s.time) + " s to continue)");
+                                "--duration beyond " +
+                                scene_detail::num_str(s.time) + " s to continue)");
   }
   if (s.step < settings.steps) return;
   throw std::invalid_argument(checkpoint + ": the checkpoint is at " + at + ", " +
                               (s.step > settings.steps ? "past" : "already at") + " the run's end at step " +
                               std::to_string(settings.steps) +
                               ": nothing to run (the step count is the total, not the steps to add; ask for "
-                              "--steps above " + std::to_string(s.step) + " to continue)");
+                              "--steps above " +
+                              std::to_string(s.step) + " to continue)");
 }
 
 }  // namespace
@@ -463,8 +466,8 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
     }
     if (stop && stop() && !r.finished()) {
       result.status = RunStatus::stopped;
-      result.message = "interrupted at step " + std::to_string(s.step) + " (t = " + scene_detail::num_str(s.time) +
-                       " s) before the end" +
+      result.message = "interrupted at step " + std::to_string(s.step) +
+                       " (t = " + scene_detail::num_str(s.time) + " s) before the end" +
                        (p.adaptive ? " at t = " + scene_detail::num_str(r.end_time()) + " s"
                                    : " at step " + std::to_string(r.settings.steps)) +
                        "; resume from " + r.out(kCheckpoint).string();

@@ -32,7 +32,8 @@ StaticsReport run_statics(Scene& scene, const StaticsSettings& settings) {
   const fs::path dir = fs::absolute(settings.out_dir);
   std::error_code ec;
   fs::create_directories(dir, ec);
-  if (ec) throw std::runtime_error("cannot create the output directory " + dir.string() + ": " + ec.message());
+  if (ec)
+    throw std::runtime_error("cannot create the output directory " + dir.string() + ": " + ec.message());
   const DirectoryLock lock(dir);
   remove_stale_temporaries(dir);
 
@@ -75,8 +76,10 @@ StaticsReport run_statics(Scene& scene, const StaticsSettings& settings) {
     const Vec3 u = s.x[i] - x_start[i];
     for (int c = 0; c < 3; ++c) displacement[3 * i + c] = u[c];
     report.max_displacement = std::max(report.max_displacement, u.norm());
-    if (m.is_kinematic(i)) report.reaction += Vec3(reaction[3 * i], reaction[3 * i + 1], reaction[3 * i + 2]);
-    else report.load += m.gravity * m.mass[i];
+    if (m.is_kinematic(i))
+      report.reaction += Vec3(reaction[3 * i], reaction[3 * i + 1], reaction[3 * i + 2]);
+    else
+      report.load += m.gravity * m.mass[i];
   }
   for (const Load& l : m.loads) report.load += l.force;
 
@@ -88,7 +91,8 @@ StaticsReport run_statics(Scene& scene, const StaticsSettings& settings) {
   // Rows by the user's ids, as in the frames.
   std::vector<std::size_t> order(n);
   std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return m.quanta_id[a] < m.quanta_id[b]; });
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return m.quanta_id[a] < m.quanta_id[b]; });
   std::string quanta = "id,body,kinematic,x,y,z,ux,uy,uz,rx,ry,rz,von_mises,sxx,syy,szz,syz,sxz,sxy\n";
   auto put = [](std::string& line, double v) {
     line += ',';
@@ -124,7 +128,8 @@ StaticsReport run_statics(Scene& scene, const StaticsSettings& settings) {
   std::vector<Probe> probes;
   for (const ProbeSpec& p : scene.output.probes) probes.push_back({p.name, p.quanta, p.about});
   const Diagnostics diagnostics(m, std::move(probes));
-  write_file_atomic(dir / "diagnostics.csv", diagnostics.header() + "\n" + diagnostics.row(m, s, SolveStats{}) + "\n");
+  write_file_atomic(dir / "diagnostics.csv",
+                    diagnostics.header() + "\n" + diagnostics.row(m, s, SolveStats{}) + "\n");
   if (settings.vtk) {
     const PointArray extra[] = {{"displacement", 3, displacement}, {"reaction", 3, reaction}};
     write_vtp(dir / "static.vtp", m, s, extra);

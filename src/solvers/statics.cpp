@@ -143,7 +143,8 @@ StaticResult solve_static(World& world, double tolerance, int max_iterations) {
         if (dof[i] >= 0) state.x[i] = x0[i] + step * dx.segment<3>(dof[i]);
       net_forces(model, state, f_ext, f);
       res.residual = free_norm(model, f) / scale;
-      progress = res.residual < before || (slope < 0 && potential(model, state, f_ext) <= pi0 + 1e-4 * step * slope);
+      progress =
+          res.residual < before || (slope < 0 && potential(model, state, f_ext) <= pi0 + 1e-4 * step * slope);
     }
     ++res.iterations;
     if (res.residual < best_residual) {

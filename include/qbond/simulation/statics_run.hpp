@@ -22,9 +22,9 @@ namespace qbond {
 /// Where and how closely statics solves.
 struct StaticsSettings {
   std::filesystem::path out_dir = "out";
-  double tolerance = 1e-8;   ///< solve_static's relative residual
-  int max_iterations = 50;   ///< Newton iterations at most
-  bool vtk = true;           ///< write static.vtp
+  double tolerance = 1e-8;  ///< solve_static's relative residual
+  int max_iterations = 50;  ///< Newton iterations at most
+  bool vtk = true;          ///< write static.vtp
 };
 
 /// What the equilibrium came to.

@@ -27,7 +27,8 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
   else
     bad(path + ".type", "unknown body type '" + type + "' (accepted: lattice, sheet, chain, quanta, packing, mesh, gas)");
   for (const auto& [key, v] : j.items())
-    if (std::find(accepted.begin(), accepted.end(), key) == accepted.end() && !annotation(key, v, path + "." + key)) {
+    if (std::find(accepted.begin(), accepted.end(), key) == accepted.end() &&
+        !annotation(key, v, path + "." + key)) {
       std::vector<std::string> names(accepted.begin(), accepted.end());
       bad(path + "." + key, "unknown key for a " + type + " body (accepted: " + join(names) + ")");
     }

@@ -4,12 +4,10 @@
 // scene, with every default filled in.
 #include <map>
 
-#include "qbond/io/scene.hpp"
-
-#include "qbond/builders/packing.hpp"
-
 #include "io/scene/json_reader.hpp"
 #include "io/scene/scene_keys.hpp"
+#include "qbond/builders/packing.hpp"
+#include "qbond/io/scene.hpp"
 
 namespace qbond::scene_detail {
 

@@ -121,8 +121,9 @@ Motion Builder::keyframes(const json& j, const std::string& path) {
   Motion m;
   m.type = MotionType::keyframes;
   if (o.has("interpolation"))
-    m.interpolation = choice<Interpolation>(o["interpolation"], o.at("interpolation"),
-                                            {{"linear", Interpolation::linear}, {"smooth", Interpolation::smooth}});
+    m.interpolation =
+        choice<Interpolation>(o["interpolation"], o.at("interpolation"),
+                              {{"linear", Interpolation::linear}, {"smooth", Interpolation::smooth}});
   const json& frames = array(o.required("frames"), o.at("frames"));
   if (frames.empty()) bad(o.at("frames"), "must hold at least one keyframe");
   bool turns = false;
@@ -132,8 +133,8 @@ Motion Builder::keyframes(const json& j, const std::string& path) {
     Keyframe key;
     key.time = positive(f.required("time"), f.at("time"));
     if (k > 0 && !(key.time > m.keyframes.back().time))
-      bad(f.at("time"), "must be after the previous keyframe's " + num_str(m.keyframes.back().time) + " s, got " +
-                            num_str(key.time));
+      bad(f.at("time"), "must be after the previous keyframe's " + num_str(m.keyframes.back().time) +
+                            " s, got " + num_str(key.time));
     if (f.has("offset")) key.offset = vec3(f["offset"], f.at("offset"));
     if (f.has("angle")) key.angle = number(f["angle"], f.at("angle"));
     turns |= key.angle != 0;
@@ -170,8 +171,9 @@ void Builder::anchors(const json& j, World& w) {
           kinds.push_back(key);
         }
       if (!mj.is_object() || kinds.size() != 1)
-        bad(path, "expected one of {\"fixed\": {}}, {\"translate\": {...}}, {\"rotate\": {...}}, "
-                  "{\"keyframes\": {...}}");
+        bad(path,
+            "expected one of {\"fixed\": {}}, {\"translate\": {...}}, {\"rotate\": {...}}, "
+            "{\"keyframes\": {...}}");
       const std::string kind = kinds.front();
       const std::string at = path + "." + kind;
       if (kind == "fixed") {

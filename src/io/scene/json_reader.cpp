@@ -90,7 +90,8 @@ const json& array(const json& j, const std::string& path) {
 bool annotation(const std::string& key, const json& value, const std::string& path) {
   if (key != "description" && key != "notes") return false;
   const bool text = value.is_string() ||
-                    (value.is_array() && std::all_of(value.begin(), value.end(), [](const json& v) { return v.is_string(); }));
+                    (value.is_array() &&
+                     std::all_of(value.begin(), value.end(), [](const json& v) { return v.is_string(); }));
   if (!text) bad(path, "expected a string or an array of strings, got " + type_name(value));
   return true;
 }

@@ -17,48 +17,91 @@ std::string names_of(const List& list) {
 
 std::vector<SceneObject> make_table() {
   std::vector<SceneObject> t = {
-      {"scene", "a scene file",
-       {{"name", "string"}, {"description", "string"}, {"seed", "integer"}, {"timestep", "number"},
-        {"steps", "integer"}, {"duration", "number"}, {"gravity", "vec3"}, {"integrator", "@integrator"},
-        {"adaptive", "@adaptive"}, {"limits", "@limits"}, {"materials", "{@material}"}, {"bodies", "[@body]"},
-        {"bonds", "[@bond]"}, {"anchors", "[@anchor]"}, {"loads", "[@load]"}, {"heuristics", "[@heuristic]"},
+      {"scene",
+       "a scene file",
+       {{"name", "string"},
+        {"description", "string"},
+        {"seed", "integer"},
+        {"timestep", "number"},
+        {"steps", "integer"},
+        {"duration", "number"},
+        {"gravity", "vec3"},
+        {"integrator", "@integrator"},
+        {"adaptive", "@adaptive"},
+        {"limits", "@limits"},
+        {"materials", "{@material}"},
+        {"bodies", "[@body]"},
+        {"bonds", "[@bond]"},
+        {"anchors", "[@anchor]"},
+        {"loads", "[@load]"},
+        {"heuristics", "[@heuristic]"},
         {"output", "@output"}}},
-      {"adaptive", "error-controlled steps",
-       {{"error", "number"}, {"energy", "number"}, {"min_step", "number"}, {"max_step", "number"},
+      {"adaptive",
+       "error-controlled steps",
+       {{"error", "number"},
+        {"energy", "number"},
+        {"min_step", "number"},
+        {"max_step", "number"},
         {"safety", "number"}}},
       {"limits", "blow-up detection", {{"max_speed", "number"}, {"energy_growth", "number"}}},
       {"rotation", "a rotation by `angle` [rad] about `axis`", {{"axis", "vec3"}, {"angle", "number"}}},
-      {"selection", "quanta chosen by every criterion given",
-       {{"ids", "array"}, {"body", "string"}, {"box", "array"}, {"sphere", "@sphere"},
-        {"half_space", "@half_space"}, {"all", "boolean"}}},
+      {"selection",
+       "quanta chosen by every criterion given",
+       {{"ids", "array"},
+        {"body", "string"},
+        {"box", "array"},
+        {"sphere", "@sphere"},
+        {"half_space", "@half_space"},
+        {"all", "boolean"}}},
       {"sphere", "a ball", {{"center", "vec3"}, {"radius", "number"}}},
       {"half_space", "the side of a plane the normal points to", {{"point", "vec3"}, {"normal", "vec3"}}},
-      {"bond.between", "one bond between two quanta",
+      {"bond.between",
+       "one bond between two quanta",
        {{"between", "array"}, {"body", "string"}, {"material", "string"}, {"rest_length", "number"}}},
-      {"bond.within", "bonds between two selections' quanta closer than `within`",
-       {{"from", "@selection"}, {"to", "@selection"}, {"within", "number"}, {"material", "string"},
+      {"bond.within",
+       "bonds between two selections' quanta closer than `within`",
+       {{"from", "@selection"},
+        {"to", "@selection"},
+        {"within", "number"},
+        {"material", "string"},
         {"rest_length", "number"}}},
       {"anchor", "quanta held or moved on a path", {{"select", "@selection"}, {"motion", "@motion"}}},
-      {"motion", "one of fixed, translate, rotate",
-       {{"fixed", "@motion.fixed"}, {"translate", "@motion.translate"}, {"rotate", "@motion.rotate"},
+      {"motion",
+       "one of fixed, translate, rotate",
+       {{"fixed", "@motion.fixed"},
+        {"translate", "@motion.translate"},
+        {"rotate", "@motion.rotate"},
         {"keyframes", "@motion.keyframes"}}},
       {"motion.fixed", "held where it is", {}},
       {"motion.translate", "moved at a constant velocity", {{"velocity", "vec3"}}},
       {"motion.rotate", "turned about an axis", {{"axis", "vec3"}, {"center", "vec3"}, {"rate", "number"}}},
-      {"motion.keyframes", "poses at given times, interpolated, the last one held",
-       {{"frames", "[@keyframe]"}, {"axis", "vec3"}, {"center", "vec3"}, {"interpolation", "enum:linear|smooth"}}},
-      {"keyframe", "a pose: rotated by `angle` about the motion's axis through its center, then shifted by `offset`",
+      {"motion.keyframes",
+       "poses at given times, interpolated, the last one held",
+       {{"frames", "[@keyframe]"},
+        {"axis", "vec3"},
+        {"center", "vec3"},
+        {"interpolation", "enum:linear|smooth"}}},
+      {"keyframe",
+       "a pose: rotated by `angle` about the motion's axis through its center, then shifted by `offset`",
        {{"time", "number"}, {"offset", "vec3"}, {"angle", "number"}}},
-      {"load", "a constant total force spread over the selection", {{"select", "@selection"}, {"force", "vec3"}}},
-      {"output", "what a run writes",
-       {{"dir", "string"}, {"every", "integer"}, {"vtk", "boolean"}, {"checkpoint_every", "integer"},
+      {"load",
+       "a constant total force spread over the selection",
+       {{"select", "@selection"}, {"force", "vec3"}}},
+      {"output",
+       "what a run writes",
+       {{"dir", "string"},
+        {"every", "integer"},
+        {"vtk", "boolean"},
+        {"checkpoint_every", "integer"},
         {"probes", "[@probe]"}}},
-      {"probe", "a named selection measured at every output step",
+      {"probe",
+       "a named selection measured at every output step",
        {{"name", "string"}, {"select", "@selection"}, {"about", "vec3"}}},
   };
   // Bodies: the keys every body takes, then its type's.
-  const std::vector<SceneKey> body = {{"name", "string"},    {"type", "string"},           {"origin", "vec3"},
-                                      {"rotation", "@rotation"}, {"velocity", "vec3"}, {"angular_velocity", "vec3"}};
+  const std::vector<SceneKey> body = {{"name", "string"},   {"type", "string"},
+                                      {"origin", "vec3"},   {"rotation", "@rotation"},
+                                      {"velocity", "vec3"}, {"angular_velocity", "vec3"}};
   const std::vector<SceneKey> massive = {{"quanta_mass", "number"}, {"total_mass", "number"}};
   auto add_body = [&](const std::string& type, const std::string& doc, std::vector<SceneKey> own, bool mass) {
     std::vector<SceneKey> keys = body;
@@ -67,31 +110,57 @@ std::vector<SceneObject> make_table() {
     t.push_back({"body." + type, doc, std::move(keys)});
   };
   add_body("lattice", "a lattice of cells",
-           {{"cell", "enum:square|cubic|fcc"}, {"size", "array"}, {"spacing", "number"}, {"neighbors", "string"},
-            {"thickness", "number"}, {"material", "string"}},
+           {{"cell", "enum:square|cubic|fcc"},
+            {"size", "array"},
+            {"spacing", "number"},
+            {"neighbors", "string"},
+            {"thickness", "number"},
+            {"material", "string"}},
            true);
   add_body("sheet", "a square lattice, optionally with bending bonds",
-           {{"size", "array"}, {"spacing", "number"}, {"neighbors", "string"}, {"bending", "boolean"},
-            {"thickness", "number"}, {"material", "string"}},
+           {{"size", "array"},
+            {"spacing", "number"},
+            {"neighbors", "string"},
+            {"bending", "boolean"},
+            {"thickness", "number"},
+            {"material", "string"}},
            true);
-  add_body("chain", "quanta on a line",
-           {{"start", "vec3"}, {"end", "vec3"}, {"count", "integer"}, {"area", "number"}, {"material", "string"}},
-           true);
+  add_body(
+      "chain", "quanta on a line",
+      {{"start", "vec3"}, {"end", "vec3"}, {"count", "integer"}, {"area", "number"}, {"material", "string"}},
+      true);
   add_body("quanta", "quanta at given positions, no bonds",
-           {{"positions", "array"}, {"masses", "array"}, {"mass", "number"}, {"velocities", "array"},
+           {{"positions", "array"},
+            {"masses", "array"},
+            {"mass", "number"},
+            {"velocities", "array"},
             {"volume", "number"}},
            false);
   add_body("packing", "quanta sampled in a box",
-           {{"points", "string"}, {"size", "array"}, {"min_distance", "number"}, {"count", "integer"},
-            {"bond_radius", "number"}, {"isolated", "enum:drop|keep|error"}, {"seed", "integer"}, {"material", "string"}},
+           {{"points", "string"},
+            {"size", "array"},
+            {"min_distance", "number"},
+            {"count", "integer"},
+            {"bond_radius", "number"},
+            {"isolated", "enum:drop|keep|error"},
+            {"seed", "integer"},
+            {"material", "string"}},
            true);
   add_body("mesh", "a closed surface mesh filled with a lattice",
-           {{"file", "string"}, {"scale", "number"}, {"spacing", "number"}, {"neighbors", "string"},
-            {"isolated", "enum:drop|keep|error"}, {"material", "string"}},
+           {{"file", "string"},
+            {"scale", "number"},
+            {"spacing", "number"},
+            {"neighbors", "string"},
+            {"isolated", "enum:drop|keep|error"},
+            {"material", "string"}},
            true);
   add_body("gas", "free quanta at a temperature",
-           {{"size", "array"}, {"count", "integer"}, {"min_distance", "number"}, {"kT", "number"},
-            {"speeds", "enum:maxwell|equal"}, {"seed", "integer"}},
+           {{"size", "array"},
+            {"count", "integer"},
+            {"min_distance", "number"},
+            {"kT", "number"},
+            {"speeds", "enum:maxwell|equal"},
+            {"seed", "integer"}},
            true);
   // Heuristics, by type.
   const std::vector<SceneKey> contact = {{"restitution", "number"}, {"friction", "number"}};
@@ -100,12 +169,20 @@ std::vector<SceneObject> make_table() {
     t.push_back({"heuristic." + type, doc, std::move(own)});
   };
   add_rule("break", "bonds break past a limit",
-           {{"max_strain", "number"}, {"max_compression", "number"}, {"max_tension", "number"},
-            {"max_stress", "number"}, {"max_von_mises", "number"}, {"probability", "number"}, {"select", "@selection"}});
-  add_rule("plastic", "bonds yield past a strain",
-           {{"yield_strain", "number"}, {"hardening", "number"}, {"max_plastic_strain", "number"},
+           {{"max_strain", "number"},
+            {"max_compression", "number"},
+            {"max_tension", "number"},
+            {"max_stress", "number"},
+            {"max_von_mises", "number"},
+            {"probability", "number"},
             {"select", "@selection"}});
-  const std::vector<SceneKey> obstacle = {{"restitution", "number"}, {"friction", "number"}, {"margin", "number"}};
+  add_rule("plastic", "bonds yield past a strain",
+           {{"yield_strain", "number"},
+            {"hardening", "number"},
+            {"max_plastic_strain", "number"},
+            {"select", "@selection"}});
+  const std::vector<SceneKey> obstacle = {
+      {"restitution", "number"}, {"friction", "number"}, {"margin", "number"}};
   auto add_obstacle = [&](const std::string& type, const std::string& doc, std::vector<SceneKey> own) {
     std::vector<SceneKey> keys = obstacle;
     keys.insert(keys.end(), own.begin(), own.end());
@@ -113,7 +190,8 @@ std::vector<SceneObject> make_table() {
   };
   add_obstacle("ground", "the half-space below z = height", {{"height", "number"}});
   add_obstacle("plane", "a half-space", {{"point", "vec3"}, {"normal", "vec3"}});
-  add_obstacle("sphere", "a ball, or a spherical container", {{"center", "vec3"}, {"radius", "number"}, {"inside", "boolean"}});
+  add_obstacle("sphere", "a ball, or a spherical container",
+               {{"center", "vec3"}, {"radius", "number"}, {"inside", "boolean"}});
   add_obstacle("box", "a box, or a box container",
                {{"center", "vec3"}, {"size", "vec3"}, {"rotation", "@rotation"}, {"inside", "boolean"}});
   std::vector<SceneKey> quanta_contact = {{"radius", "number"}};
@@ -121,13 +199,23 @@ std::vector<SceneObject> make_table() {
   quanta_contact.insert(quanta_contact.end(), {{"iterations", "integer"}, {"same_body", "boolean"}});
   add_rule("contact", "contact between unbonded quanta", quanta_contact);
   add_rule("form", "bonds form between quanta that come close",
-           {{"capture_radius", "number"}, {"pairs", "enum:any|same_body|other_body"}, {"max_bonds", "integer"},
-            {"min_age", "number"}, {"rest_length", "number"}, {"material", "string"}, {"select", "@selection"}});
+           {{"capture_radius", "number"},
+            {"pairs", "enum:any|same_body|other_body"},
+            {"max_bonds", "integer"},
+            {"min_age", "number"},
+            {"rest_length", "number"},
+            {"material", "string"},
+            {"select", "@selection"}});
   add_rule("liquid", "bonds break and form again: a liquid",
-           {{"spacing", "number"}, {"max_strain", "number"}, {"capture_radius", "number"}, {"max_bonds", "integer"},
-            {"material", "string"}, {"select", "@selection"}});
+           {{"spacing", "number"},
+            {"max_strain", "number"},
+            {"capture_radius", "number"},
+            {"max_bonds", "integer"},
+            {"material", "string"},
+            {"select", "@selection"}});
   // The integrator's keys are its table's options (integrators.hpp).
-  SceneObject integrator{"integrator", "the step integrator and its options", {{"type", names_of(integrator_table())}}};
+  SceneObject integrator{
+      "integrator", "the step integrator and its options", {{"type", names_of(integrator_table())}}};
   for (const IntegratorOptionInfo& opt : integrator_options()) {
     std::string holds;
     switch (opt.option) {
@@ -161,7 +249,8 @@ std::vector<SceneObject> make_table() {
 }  // namespace
 
 std::vector<std::string> material_keys(const LawInfo& law) {
-  std::vector<std::string> keys = {"law", "density", "damping", "damping_model", std::string(law.strength.key)};
+  std::vector<std::string> keys = {"law", "density", "damping", "damping_model",
+                                   std::string(law.strength.key)};
   if (law.calibrated_by_modulus) keys.emplace_back("youngs_modulus");
   for (const LawParam& p : law.shape) keys.emplace_back(p.key);
   return keys;

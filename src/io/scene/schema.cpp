@@ -1,6 +1,5 @@
-#include "qbond/io/scene_schema.hpp"
-
 #include "io/scene/scene_keys.hpp"
+#include "qbond/io/scene_schema.hpp"
 
 namespace qbond {
 using json = nlohmann::json;
@@ -11,13 +10,16 @@ namespace {
 json ref_to(const std::string& kind) { return {{"$ref", "#/definitions/" + kind}}; }
 
 json text() {
-  return {{"anyOf", json::array({{{"type", "string"}}, {{"type", "array"}, {"items", {{"type", "string"}}}}})}};
+  return {
+      {"anyOf", json::array({{{"type", "string"}}, {{"type", "array"}, {"items", {{"type", "string"}}}}})}};
 }
 
 // What a key holds (scene_keys.hpp) as a schema.
 json holds(const std::string& h) {
-  if (h == "number" || h == "integer" || h == "boolean" || h == "string" || h == "array") return {{"type", h}};
-  if (h == "vec3") return {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 3}, {"maxItems", 3}};
+  if (h == "number" || h == "integer" || h == "boolean" || h == "string" || h == "array")
+    return {{"type", h}};
+  if (h == "vec3")
+    return {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 3}, {"maxItems", 3}};
   if (h == "any") return json::object();
   if (h.starts_with("enum:")) {
     json values = json::array();
@@ -46,7 +48,8 @@ json object_of(const SceneObject& o) {
 
 // An object whose kind a key's value chooses: `prefix.VALUE` when `key` is VALUE, `absent` when
 // the key is missing (empty: then it is required).
-json chosen_by(const std::string& key, const std::string& prefix, const std::string& absent, const std::string& doc) {
+json chosen_by(const std::string& key, const std::string& prefix, const std::string& absent,
+               const std::string& doc) {
   json cases = json::array(), values = json::array();
   for (const SceneObject& o : scene_objects()) {
     if (!o.kind.starts_with(prefix + ".")) continue;
@@ -73,7 +76,8 @@ json scene_schema() {
   for (const SceneObject& o : scene_objects()) defs[o.kind] = object_of(o);
   defs["body"] = chosen_by("type", "body", "", "a body: its `type` chooses its keys");
   defs["heuristic"] = chosen_by("type", "heuristic", "", "a heuristic: its `type` chooses its keys");
-  defs["material"] = chosen_by("law", "material", "linear", "a bond material: its `law` (default linear) chooses its keys");
+  defs["material"] =
+      chosen_by("law", "material", "linear", "a bond material: its `law` (default linear) chooses its keys");
   defs["bond"] = {{"description", "extra bonds: one `between` two quanta, or all pairs `within` a distance"},
                   {"type", "object"},
                   {"if", {{"required", json::array({"between"})}}},
