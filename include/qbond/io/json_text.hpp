@@ -28,6 +28,7 @@ class JsonTextError : public std::runtime_error {
 /// resolve to the last one). The check is a streaming (SAX) pass with a stack of its own, so no
 /// input can overflow the call stack; the document is built only once the text has passed.
 /// With `comments`, `//` line and `/* */` block comments are read as white space (scene files).
-nlohmann::json parse_json_strict(std::string_view text, std::size_t max_depth = kMaxJsonDepth, bool comments = false);
+nlohmann::json parse_json_strict(std::string_view text, std::size_t max_depth = kMaxJsonDepth,
+                                 bool comments = false);
 
 }  // namespace qbond

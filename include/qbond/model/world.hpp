@@ -27,9 +27,9 @@ enum class MotionType : std::uint8_t {
 /// by `angle` about the motion's axis through its center, then shifted by `offset`. The start
 /// (time 0, no offset, no angle) is implicit.
 struct Keyframe {
-  double time = 0;                ///< [s] after the motion's start; increasing from one to the next
-  Vec3 offset = Vec3::Zero();     ///< [m]
-  double angle = 0;               ///< [rad], right-handed about the axis
+  double time = 0;             ///< [s] after the motion's start; increasing from one to the next
+  Vec3 offset = Vec3::Zero();  ///< [m]
+  double angle = 0;            ///< [rad], right-handed about the axis
 
   bool operator==(const Keyframe&) const = default;
 };
@@ -46,7 +46,7 @@ struct Motion {
   Vec3 axis = Vec3::UnitZ();     ///< rotate: unit axis
   Vec3 center = Vec3::Zero();    ///< rotate: a point on the axis [m]
   double rate = 0;               ///< rotate: angular rate [rad/s], right-handed about `axis`
-  std::vector<Keyframe> keyframes;  ///< keyframes: the poses after the start, by time
+  std::vector<Keyframe> keyframes;                      ///< keyframes: the poses after the start, by time
   Interpolation interpolation = Interpolation::linear;  ///< keyframes
   double t0 = 0;                 ///< time at which quanta sat at their reference positions [s]
   std::vector<Index> quanta;     ///< quanta that follow this motion
