@@ -1,4 +1,6 @@
 // Scene files, builders and selections.
+#include "qbond/io/scene.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,10 +12,10 @@
 
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/builders/builders.hpp"
-#include "qbond/io/files.hpp"
-#include "qbond/model/ordering.hpp"
 #include "qbond/builders/packing.hpp"
-#include "qbond/io/scene.hpp"
+#include "qbond/io/files.hpp"
+#include "qbond/io/json_text.hpp"
+#include "qbond/model/ordering.hpp"
 #include "qbond/model/selection.hpp"
 
 namespace qbond {
@@ -97,6 +99,65 @@ TEST(Builders, PlacementIsRigidAndGivesTheRigidVelocityField) {
     L += 0.5 * r.cross(w.state.v[i]);
   }
   EXPECT_LT((L - I * p.angular_velocity).norm(), 1e-13);
+}
+
+// A keyframed motion: a quarter turn about z in 1 s, a rise of 1 m in the next second, then held.
+// Linear: the exact pose and velocity inside each interval. Both interpolations: the velocity is
+// the position's derivative (central differences), the poses are met at the keyframes, smooth
+// ones at rest there.
+TEST(Motions, KeyframesInterpolateAndHold) {
+  const double pi = std::acos(-1.0);
+  for (Interpolation interpolation : {Interpolation::linear, Interpolation::smooth}) {
+    World w;
+    const Index q = w.add_quanta(Vec3(1, 0, 0), Vec3::Zero(), 1.0);
+    Motion m;
+    m.type = MotionType::keyframes;
+    m.axis = Vec3::UnitZ();
+    m.interpolation = interpolation;
+    m.keyframes = {{1.0, Vec3::Zero(), pi / 2}, {2.0, Vec3(0, 0, 1), pi / 2}};
+    w.prescribe({q}, m);
+    const Motion& p = w.model.motions.at(0);
+    Vec3 x, v;
+    auto at = [&](double t) {
+      p.at(0, t, x, v);
+      return x;
+    };
+    for (double t : {0.25, 0.5, 0.9, 1.3, 1.5, 1.99}) {
+      at(t);
+      const Vec3 v_exact = v;
+      constexpr double d = 1e-4;
+      const Vec3 fd = (at(t + d) - at(t - d)) / (2 * d);
+      // The central difference errs by d²/6 times the third derivative, below 120 m/s³ here
+      // (smooth: θ' <= 3π/4, θ'' <= 3π, θ''' = 6π, on a unit radius; the rise's 12 m/s³).
+      EXPECT_LT((fd - v_exact).norm(), d * d / 6 * 120) << "t = " << t;
+    }
+    EXPECT_LT((at(1.0) - Vec3(0, 1, 0)).norm(), 1e-15);
+    for (double t : {2.0, 2.5, 100.0}) {
+      EXPECT_LT((at(t) - Vec3(0, 1, 1)).norm(), 1e-15) << "held at t = " << t;
+      EXPECT_EQ(v, Vec3::Zero());
+    }
+    at(0.0);
+    EXPECT_EQ(x, Vec3(1, 0, 0));
+    if (interpolation == Interpolation::smooth) {
+      EXPECT_EQ(v, Vec3::Zero());  // at rest at every keyframe
+      at(1.0);
+      EXPECT_LT(v.norm(), 1e-15);
+    } else {
+      at(0.5);  // an eighth of a turn, at π/2 rad/s
+      EXPECT_LT((x - Vec3(std::cos(pi / 4), std::sin(pi / 4), 0)).norm(), 1e-15);
+      EXPECT_LT((v - pi / 2 * Vec3(-std::sin(pi / 4), std::cos(pi / 4), 0)).norm(), 1e-15);
+      at(1.5);  // half way up, at 1 m/s
+      EXPECT_LT((x - Vec3(0, 1, 0.5)).norm(), 1e-15);
+      EXPECT_LT((v - Vec3(0, 0, 1)).norm(), 1e-15);
+    }
+  }
+  // Times must increase from 0.
+  World w;
+  const Index q = w.add_quanta(Vec3(1, 0, 0), Vec3::Zero(), 1.0);
+  Motion m;
+  m.type = MotionType::keyframes;
+  m.keyframes = {{1.0, Vec3::Zero(), 0}, {1.0, Vec3(0, 0, 1), 0}};
+  EXPECT_THROW(w.prescribe({q}, m), std::invalid_argument);
 }
 
 TEST(Selections, CriteriaIntersectAndBodyIdsAreLocal) {
@@ -275,6 +336,56 @@ TEST(Scenes, ResolvedSceneRebuildsTheSameWorld) {
   for (Index i = 0; i < a.world.num_quanta(); ++i)
     if (a.world.model.body[i] == 0) total += a.world.model.mass[i];
   EXPECT_NEAR(total, 1.0, 1e-12);  // total_mass spread over the FCC sites
+}
+
+// `//` and `/* */` comments and `description`/`notes` on any object are kept in the resolved
+// scene but change nothing in the world.
+TEST(Scenes, CommentsAndNotesChangeNothing) {
+  const std::string plain = R"({
+    "timestep": 0.001, "steps": 3, "gravity": [0, 0, -9.81],
+    "materials": {"m": {"stiffness": 100, "damping": 0.5}},
+    "integrator": {"type": "coupled_implicit"},
+    "bodies": [{"name": "rope", "type": "chain", "start": [0, 0, 0], "end": [0, 0, -1], "count": 5,
+                "quanta_mass": 0.1, "material": "m", "rotation": {"axis": [0, 1, 0], "angle": 0.2}}],
+    "anchors": [{"select": {"ids": [0]}, "motion": {"rotate": {"axis": [0, 0, 1], "center": [0, 0, 0], "rate": 1}}}],
+    "loads": [{"select": {"sphere": {"center": [0, 0, -1], "radius": 0.3}}, "force": [1, 0, 0]}],
+    "heuristics": [{"type": "break", "max_strain": 0.5}],
+    "output": {"probes": [{"name": "top", "select": {"ids": [0]}}]}
+  })";
+  const std::string annotated = R"(// a rope, twisted at its top
+  {
+    "timestep": 0.001, "steps": 3, "gravity": [0, 0, -9.81],  /* Earth's */
+    "materials": {"notes": "the section's own", "m": {"stiffness": 100, "damping": 0.5, "description": "steel"}},
+    "integrator": {"type": "coupled_implicit", "notes": ["the default", "written out"]},
+    "bodies": [{"name": "rope", "type": "chain", "start": [0, 0, 0], "end": [0, 0, -1], "count": 5,
+                "quanta_mass": 0.1, "material": "m", "notes": "1 m",
+                "rotation": {"axis": [0, 1, 0], "angle": 0.2, "description": "tilted"}}],
+    "anchors": [{"select": {"ids": [0], "notes": "the top"}, "notes": "turns",
+                 "motion": {"rotate": {"axis": [0, 0, 1], "center": [0, 0, 0], "rate": 1, "description": "1 rad/s"}}}],
+    "loads": [{"select": {"sphere": {"center": [0, 0, -1], "radius": 0.3, "notes": "the end"}}, "force": [1, 0, 0],
+               "description": "a push"}],
+    "heuristics": [{"type": "break", "max_strain": 0.5, "notes": "50 %"}],
+    "output": {"probes": [{"name": "top", "select": {"ids": [0]}, "description": "where it turns"}], "notes": "x"}
+  })";
+  const Scene a = parse_scene(plain, "a.json"), b = parse_scene(annotated, "a.json");
+  EXPECT_EQ(a.world.model, b.world.model);
+  EXPECT_EQ(a.world.state.x, b.world.state.x);
+  EXPECT_EQ(a.world.state.bonds.rest, b.world.state.bonds.rest);
+  EXPECT_EQ(a.heuristics.size(), b.heuristics.size());
+  EXPECT_EQ(b.resolved["bodies"][0]["notes"], "1 m");
+  EXPECT_EQ(parse_scene(b.resolved.dump(), "b.json").world.model, b.world.model);  // resumes read them too
+  // A note is text: anything else is refused with its path, and comments only in scene files.
+  try {
+    parse_scene(
+        R"({"timestep": 1, "steps": 1, "bodies": [{"name": "a", "type": "quanta", "positions": [[0, 0, 0]],
+                    "mass": 1, "notes": 3}]})");
+    ADD_FAILURE() << "a numeric note was accepted";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.path, "bodies[0].notes");
+    EXPECT_EQ(e.rule, "expected a string or an array of strings, got a number");
+  }
+  EXPECT_THROW(parse_json_strict("{\"a\": 1 /* no */}"), JsonTextError);
+  EXPECT_EQ(parse_json_strict("{\"a\": 1 /* yes */}", kMaxJsonDepth, true)["a"], 1);
 }
 
 // Loading renumbers the world for locality (ordering.hpp); everything the scene selected follows

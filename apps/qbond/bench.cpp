@@ -217,6 +217,17 @@ int bench(const BenchArgs& a) {
   }
   json report = json::parse(nan_to_null(read_file(out)));
   fs::remove(out);
+  // Debian builds its libbenchmark without NDEBUG, and the library then warns about itself.
+  if (report.contains("context") && report["context"].value("library_build_type", "") == "debug")
+    std::fprintf(stderr,
+                 "qbond bench: the \"Library was built as DEBUG\" warning above is about the timing library "
+                 "(Google Benchmark, whose Debian package is built without NDEBUG), not the code it times: "
+                 "qbond_bench is built %s\n",
+#ifdef NDEBUG
+                 "optimised, without assertions");
+#else
+                 "with assertions (a debug build of qbond: its timings are not representative)");
+#endif
   // In the order the benchmarks were registered (integrator, size, threads), not the random one
   // they ran in.
   auto order = [](const json& b) {

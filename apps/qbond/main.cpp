@@ -1,5 +1,6 @@
-// The `qbond` program: `run` a scene with its outputs, `validate` scene files,
-// `experiment` (the paper's experiments), `bench` (the performance suite), `view` (the viewer).
+// The `qbond` program: `run` a scene with its outputs, `statics` (its equilibrium), `validate` scene
+// files, `schema` (theirs), `experiment` (the paper's experiments), `bench` (the performance
+// suite), `view` (the viewer).
 // The work is done by the library (scene.hpp, runner.hpp); this file holds what only a program
 // has: options, the progress display, signals and exit codes.
 #include <unistd.h>
@@ -19,11 +20,13 @@
 #include "bench.hpp"
 #include "experiment.hpp"
 #include "qbond/analysis/analysis.hpp"
+#include "qbond/builders/samples.hpp"
 #include "qbond/io/checkpoint.hpp"
 #include "qbond/io/memory.hpp"
+#include "qbond/io/scene_schema.hpp"
 #include "qbond/simulation/runner.hpp"
-#include "qbond/builders/samples.hpp"
 #include "qbond/distributed/distributed.hpp"
+#include "qbond/simulation/statics_run.hpp"
 #include "qbond/version.hpp"
 #include "viewer.hpp"
 
@@ -142,11 +145,26 @@ std::string option_help(qbond::IntegratorOption option) {
 }
 
 /// A scene from a file path, or a built-in scene by name (the default one when none is given).
+/// The rule (docs/running.md): an argument with a '/' or ending in .json is a file; any other is
+/// a built-in scene's name when there is one of that name (a file or folder of the same name is
+/// then reached as ./NAME, which a note says), else a file.
 qbond::Scene load_any(const std::string& arg, std::uint64_t max_memory = 0) {
   if (arg.empty()) return qbond::builtin_scene(qbond::kDefaultScene, max_memory);
+  const bool path_like = arg.find('/') != std::string::npos || fs::path(arg).extension() == ".json";
   std::error_code ec;
-  if (fs::exists(arg, ec) || fs::path(arg).extension() == ".json") return qbond::load_scene(arg, max_memory);
-  return qbond::builtin_scene(arg, max_memory);
+  const bool exists = fs::exists(arg, ec);
+  if (!path_like) {
+    const auto builtins = qbond::builtin_scenes();
+    if (std::any_of(builtins.begin(), builtins.end(),
+                    [&](const qbond::BuiltinScene& s) { return s.name == arg; })) {
+      if (exists)
+        std::fprintf(stderr, "qbond: note: '%s' is the built-in scene; for the %s of that name, write ./%s\n",
+                     arg.c_str(), fs::is_directory(arg, ec) ? "folder" : "file", arg.c_str());
+      return qbond::builtin_scene(arg, max_memory);
+    }
+    if (!exists) return qbond::builtin_scene(arg, max_memory);  // its error lists the built-in scenes
+  }
+  return qbond::load_scene(arg, max_memory);
 }
 
 /// The steps of `length` at `timestep`, or std::invalid_argument naming `option`.
@@ -155,6 +173,41 @@ std::uint64_t steps_of(const char* option, double length, double timestep) {
     return qbond::steps_for_duration(length, timestep);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string(option) + ": " + e.what());
+  }
+}
+
+/// An integrator option given on the command line that the run's integrator (or its solver)
+/// does not read would change nothing: refused, naming the integrators that read it.
+void refuse_unread_options(const Options& o, const qbond::IntegratorConfig& c) {
+  using namespace qbond;
+  const IntegratorInfo& info = integrator_info(c.type);
+  const std::pair<bool, IntegratorOption> given[] = {
+      {!o.neighbours.empty(), IntegratorOption::neighbours},
+      {!o.solver.empty(), IntegratorOption::solver},
+      {!o.preconditioner.empty(), IntegratorOption::preconditioner},
+      {o.iterations > 0, IntegratorOption::iterations},
+      {o.tolerance > 0, IntegratorOption::tolerance}};
+  for (const auto& [set, option] : given) {
+    if (!set) continue;
+    const std::string name = "--" + std::string(to_string(option));
+    if (!info.reads(option)) {
+      std::string readers;
+      for (const IntegratorInfo& i : integrator_table())
+        if (i.reads(option)) readers += (readers.empty() ? "" : ", ") + std::string(i.key);
+      throw std::invalid_argument(name + " does not apply to the integrator " + std::string(info.key) +
+                                  " (it is read by " + readers + ")");
+    }
+    // The preconditioner is CG's, a coupled solve's tolerance too (the direct solvers are
+    // exact), and the sweeps per Newton iteration are those of the solver sweep.
+    const bool coupled = c.type == IntegratorType::coupled_implicit;
+    const char* needs =
+        option == IntegratorOption::preconditioner || (option == IntegratorOption::tolerance && coupled)
+            ? "cg"
+        : option == IntegratorOption::iterations && info.reads(IntegratorOption::solver) ? "sweep"
+                                                                                         : nullptr;
+    if (needs && to_string(c.solver) != needs)
+      throw std::invalid_argument(name + " applies to " + std::string(info.key) + " with the solver " +
+                                  needs + " only, not " + std::string(to_string(c.solver)));
   }
 }
 
@@ -186,6 +239,7 @@ void apply(const Options& o, qbond::Scene& scene, qbond::RunSettings& rs) {
   if (!o.preconditioner.empty()) c.preconditioner = parse_preconditioner(o.preconditioner);
   if (o.iterations > 0) c.iterations = o.iterations;
   if (o.tolerance > 0) c.tolerance = o.tolerance;
+  refuse_unread_options(o, c);
   if (o.threads > max_threads())
     throw std::invalid_argument("--threads: must be <= " + std::to_string(max_threads()) + " (4 x this machine's " +
                                 std::to_string(std::thread::hardware_concurrency()) +
@@ -364,6 +418,42 @@ int validate(const std::vector<std::string>& scenes, std::uint64_t max_memory) {
   return bad ? kExitBadInput : 0;
 }
 
+// `qbond statics`: the scene's static equilibrium and its outputs (statics_run.hpp).
+struct StaticsArgs {
+  std::string scene, out;
+  double tolerance = 1e-8;
+  int max_iterations = 50;
+  bool no_vtk = false, quiet = false;
+};
+
+int statics(const StaticsArgs& a, std::uint64_t max_memory) {
+  qbond::Scene scene = load_any(a.scene, max_memory);
+  qbond::StaticsSettings ss;
+  ss.out_dir = a.out.empty() ? fs::path(scene.output.dir) : fs::path(a.out);
+  ss.tolerance = a.tolerance;
+  ss.max_iterations = a.max_iterations;
+  ss.vtk = !a.no_vtk;
+  if (!a.quiet)
+    std::printf("statics %s: %zu quanta, %zu bonds\noutput: %s\n", scene.name.c_str(),
+                scene.world.num_quanta(), scene.world.num_bonds(), fs::absolute(ss.out_dir).c_str());
+  const qbond::StaticsReport r = qbond::run_statics(scene, ss);
+  if (!a.quiet)
+    std::printf(
+        "%s after %d Newton iterations, residual %.3g; largest displacement %.6g m; load [%.6g, %.6g, %.6g] "
+        "N, "
+        "reaction [%.6g, %.6g, %.6g] N\n",
+        r.result.converged ? "equilibrium" : "no equilibrium", r.result.iterations, r.result.residual,
+        r.max_displacement, r.load.x(), r.load.y(), r.load.z(), r.reaction.x(), r.reaction.y(),
+        r.reaction.z());
+  if (r.result.converged) return 0;
+  std::fprintf(
+      stderr,
+      "qbond: no equilibrium within %d iterations (residual %.3g above %.3g): the loads may push a free "
+      "body or a mechanism; the outputs hold the state of the smallest residual\n",
+      ss.max_iterations, r.result.residual, ss.tolerance);
+  return kExitBlowup;
+}
+
 // `qbond experiment`: runs the paper's experiments (experiments/), writes their CSVs,
 // summaries and results.json, draws their plots with plot.py; exit 1 when a claim fails.
 struct ExperimentArgs {
@@ -433,6 +523,25 @@ int main(int argc, char** argv) {
   CLI::App* validate_cmd = app.add_subcommand("validate", "check scene files and print their summaries");
   validate_cmd->add_option("scenes", to_validate, "scene files or built-in scene names")->required();
   validate_cmd->add_option("--max-memory", max_memory, memory_help)->check(memory_size());
+  StaticsArgs sa;
+  CLI::App* statics_cmd = app.add_subcommand(
+      "statics",
+      "solve a scene's static equilibrium: displacements, reactions and stresses (docs/running.md)");
+  statics_cmd->add_option("scene", sa.scene, "scene file (.json) or built-in scene name");
+  statics_cmd->add_option("-o,--out", sa.out, "output directory (default: the scene's output.dir)");
+  statics_cmd
+      ->add_option("--tolerance", sa.tolerance,
+                   "relative residual of the net force at which Newton stops "
+                   "(default: 1e-8)")
+      ->check(kPositive);
+  statics_cmd->add_option("--max-iterations", sa.max_iterations, "Newton iterations at most (default: 50)")
+      ->check(kPositive);
+  statics_cmd->add_flag("--no-vtk", sa.no_vtk, "write no ParaView frame");
+  statics_cmd->add_flag("-q,--quiet", sa.quiet, "print nothing but errors");
+  statics_cmd->add_option("--max-memory", max_memory, memory_help)->check(memory_size());
+  CLI::App* schema_cmd = app.add_subcommand("schema",
+                                            "print the JSON Schema of scene files, for editors "
+                                            "(docs/scene-format.md)");
   ExperimentArgs ea;
   CLI::App* experiment_cmd = app.add_subcommand("experiment", "reproduce the paper's experiments (docs/experiments.md)");
   experiment_cmd->add_option("names", ea.names, "experiments to run, or 'all'");
@@ -441,7 +550,10 @@ int main(int argc, char** argv) {
   experiment_cmd->add_option("-o,--out", ea.out, "results directory (default: ./experiment_results)");
   experiment_cmd->add_flag("--update-results", ea.update_results,
                            "allow -o to be the source tree's committed experiments/results");
-  experiment_cmd->add_flag("!--no-plots", ea.plots, "write the CSVs and summaries only");
+  // Flags that turn something off by a callback: a negated flag's help would show CLI11's
+  // "{false}".
+  experiment_cmd->add_flag_callback(
+      "--no-plots", [&ea] { ea.plots = false; }, "write the CSVs and summaries only");
   qbond::cli::BenchArgs ba;
   CLI::App* bench_cmd = app.add_subcommand("bench", "measure the canonical workload against the memory-bandwidth bound "
                                                     "(docs/performance.md)");
@@ -480,16 +592,21 @@ int main(int argc, char** argv) {
       ->check(kPositive)
       ->needs(frames);
   view_cmd->add_option("--size", vo.width, "window width in pixels (height: 9/16 of it)")->check(CLI::Range(64, 8192));
-  view_cmd->add_flag("!--no-ui", vo.ui, "hide the control panel");
+  view_cmd->add_flag_callback(
+      "--no-ui", [&vo] { vo.ui = false; }, "hide the control panel");
   view_cmd->add_flag("--follow", vo.follow, "keep the camera aimed at the structure as it moves");
   view_cmd->add_option("--bonds", vo.bonds, "bond colours: strain, tension or plain")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, qbond::view::BondColor>{
-          {"strain", qbond::view::BondColor::strain}, {"tension", qbond::view::BondColor::tension},
-          {"plain", qbond::view::BondColor::none}}));
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, qbond::view::BondColor>{{"strain", qbond::view::BondColor::strain},
+                                                        {"tension", qbond::view::BondColor::tension},
+                                                        {"plain", qbond::view::BondColor::none}}))
+      ->option_text("strain|tension|plain");
   view_cmd->add_option("--quanta", vo.quanta, "quanta colours: body, von_mises or speed")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, qbond::view::QuantaColor>{
-          {"body", qbond::view::QuantaColor::body}, {"von_mises", qbond::view::QuantaColor::von_mises},
-          {"speed", qbond::view::QuantaColor::speed}}));
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, qbond::view::QuantaColor>{{"body", qbond::view::QuantaColor::body},
+                                                          {"von_mises", qbond::view::QuantaColor::von_mises},
+                                                          {"speed", qbond::view::QuantaColor::speed}}))
+      ->option_text("body|von_mises|speed");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -500,6 +617,11 @@ int main(int argc, char** argv) {
     if (!max_memory.empty()) o.max_memory = qbond::parse_bytes(max_memory);
     if (run_cmd->parsed()) return run(o);
     if (validate_cmd->parsed()) return validate(to_validate, o.max_memory);
+    if (statics_cmd->parsed()) return statics(sa, o.max_memory);
+    if (schema_cmd->parsed()) {
+      std::printf("%s\n", qbond::scene_schema().dump(2).c_str());
+      return 0;
+    }
     if (bench_cmd->parsed()) {
       require_directory_of("--json", ba.json);
       return qbond::cli::bench(ba);

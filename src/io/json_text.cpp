@@ -92,12 +92,12 @@ class Checker : public nlohmann::json_sax<json> {
 
 }  // namespace
 
-json parse_json_strict(std::string_view text, std::size_t max_depth) {
+json parse_json_strict(std::string_view text, std::size_t max_depth, bool comments) {
   Checker checker(max_depth);
-  const bool ok = json::sax_parse(text, &checker);
+  const bool ok = json::sax_parse(text, &checker, json::input_format_t::json, /*strict=*/true, comments);
   if (checker.error()) throw *checker.error();
   if (!ok) throw JsonTextError("", "invalid JSON");
-  return json::parse(text);
+  return json::parse(text, nullptr, /*allow_exceptions=*/true, comments);
 }
 
 }  // namespace qbond

@@ -27,6 +27,26 @@ void Motion::at(std::size_t k, double t, Vec3& x, Vec3& v) const {
       v = (rate * axis).cross(x - center);
       return;
     }
+    case MotionType::keyframes: {
+      // The interval holding tau: from the previous pose (the start, or a keyframe) to the next.
+      Keyframe from, to;
+      double w = 1, dw = 0;  // the fraction of the way, and its rate [1/s]; held past the last
+      std::size_t next = 0;
+      while (next < keyframes.size() && keyframes[next].time <= tau) from = keyframes[next++];
+      if (next < keyframes.size() && tau > 0) {
+        to = keyframes[next];
+        const double span = to.time - from.time, s = (tau - from.time) / span;
+        w = interpolation == Interpolation::linear ? s : s * s * (3 - 2 * s);
+        dw = (interpolation == Interpolation::linear ? 1 : 6 * s * (1 - s)) / span;
+      } else {
+        to = from;
+      }
+      const double angle = from.angle + w * (to.angle - from.angle);
+      const Vec3 r = Eigen::AngleAxisd(angle, axis) * (x0[k] - center);
+      x = center + r + from.offset + w * (to.offset - from.offset);
+      v = (dw * (to.angle - from.angle) * axis).cross(r) + dw * (to.offset - from.offset);
+      return;
+    }
   }
 }
 
@@ -161,10 +181,13 @@ std::uint32_t Model::intern_shape(const LawShape& shape) {
 void World::prescribe(std::vector<Index> quanta, Motion motion) {
   motion.t0 = state.time;
   motion.x0.clear();
-  if (motion.type == MotionType::rotate) {
+  if (motion.type == MotionType::rotate || motion.type == MotionType::keyframes) {
     if (!(motion.axis.norm() > 0)) throw std::invalid_argument("rotation axis must be non-zero");
     motion.axis.normalize();
   }
+  for (std::size_t k = 0; k < motion.keyframes.size(); ++k)
+    if (!(motion.keyframes[k].time > (k ? motion.keyframes[k - 1].time : 0.0)))
+      throw std::invalid_argument("keyframe times must increase from 0");
   for (Index i : quanta) {
     if (i >= num_quanta()) throw std::invalid_argument("prescribed quanta out of range");
     model.inv_mass[i] = 0.0;

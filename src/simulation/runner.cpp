@@ -139,6 +139,30 @@ const char* to_string(RunStatus s) {
   return "?";
 }
 
+/// A resume whose end is at or before the checkpoint's state would run nothing and exit as if it
+/// had completed: refused (before anything is written), saying where the checkpoint is.
+void refuse_nothing_to_run(const std::string& checkpoint, const Scene& scene, const RunSettings& settings) {
+  const State& s = scene.world.state;
+  const std::string at = "step " + std::to_string(s.step) + ", t = " + scene_detail::num_str(s.time) + " s";
+  if (scene.adaptive.enabled) {
+    const double end = static_cast<double>(settings.steps) * scene.timestep;
+    if (s.time < end) return;
+    throw std::invalid_argument(checkpoint + ": the checkpoint is at " + at + ", " +
+                                (s.time > end ? "past" : "already at") +
+                                " the run's end at t = " + scene_detail::num_str(end) +
+                                " s: nothing to run (the length is the total, not the time to add; ask for a "
+                                "--duration beyond " +
+                                scene_detail::num_str(s.time) + " s to continue)");
+  }
+  if (s.step < settings.steps) return;
+  throw std::invalid_argument(checkpoint + ": the checkpoint is at " + at + ", " +
+                              (s.step > settings.steps ? "past" : "already at") + " the run's end at step " +
+                              std::to_string(settings.steps) +
+                              ": nothing to run (the step count is the total, not the steps to add; ask for "
+                              "--steps above " +
+                              std::to_string(s.step) + " to continue)");
+}
+
 }  // namespace
 
 RunSettings settings_of(const Scene& scene) {
@@ -354,6 +378,7 @@ Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene
     throw CheckpointError(name + ": " + e.what());
   }
   scene.world.state = std::move(ck.state);
+  refuse_nothing_to_run(name, scene, settings);
   auto impl = std::make_unique<Impl>(std::move(scene), std::move(settings));
   Impl& r = *impl;
   r.resumed_from = fs::absolute(checkpoint).string();
@@ -444,6 +469,11 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
     }
     if (stop && stop() && !r.finished()) {
       result.status = RunStatus::stopped;
+      result.message = "interrupted at step " + std::to_string(s.step) +
+                       " (t = " + scene_detail::num_str(s.time) + " s) before the end" +
+                       (p.adaptive ? " at t = " + scene_detail::num_str(r.end_time()) + " s"
+                                   : " at step " + std::to_string(r.settings.steps)) +
+                       "; resume from " + r.out(kCheckpoint).string();
       break;
     }
   }

@@ -27,6 +27,8 @@ class JsonTextError : public std::runtime_error {
 /// (1e999), nesting deeper than `max_depth` and duplicate keys (which the library would silently
 /// resolve to the last one). The check is a streaming (SAX) pass with a stack of its own, so no
 /// input can overflow the call stack; the document is built only once the text has passed.
-nlohmann::json parse_json_strict(std::string_view text, std::size_t max_depth = kMaxJsonDepth);
+/// With `comments`, `//` line and `/* */` block comments are read as white space (scene files).
+nlohmann::json parse_json_strict(std::string_view text, std::size_t max_depth = kMaxJsonDepth,
+                                 bool comments = false);
 
 }  // namespace qbond

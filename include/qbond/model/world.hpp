@@ -19,7 +19,25 @@ enum class MotionType : std::uint8_t {
   fixed,      ///< stays at its reference position
   translate,  ///< x(t) = x0 + velocity (t - t0)
   rotate,     ///< x(t) = center + R(axis, rate (t - t0)) (x0 - center)
+  keyframes,  ///< x(t) = center + R(axis, θ(t - t0)) (x0 - center) + u(t - t0), θ and u
+              ///< interpolated between keyframes (Keyframe), held after the last
 };
+
+/// One pose of a keyframed motion: at `time` after the motion's start, the quanta stand rotated
+/// by `angle` about the motion's axis through its center, then shifted by `offset`. The start
+/// (time 0, no offset, no angle) is implicit.
+struct Keyframe {
+  double time = 0;             ///< [s] after the motion's start; increasing from one to the next
+  Vec3 offset = Vec3::Zero();  ///< [m]
+  double angle = 0;            ///< [rad], right-handed about the axis
+
+  bool operator==(const Keyframe&) const = default;
+};
+
+/// How a keyframed motion goes from one pose to the next, with s the fraction of the interval:
+/// linear, w(s) = s (constant velocity in each interval), or smooth, w(s) = 3s² − 2s³ (velocity
+/// 0 at every keyframe, so that starts and holds do not jerk).
+enum class Interpolation : std::uint8_t { linear, smooth };
 
 /// A prescribed motion shared by a selection of kinematic quanta.
 struct Motion {
@@ -28,6 +46,8 @@ struct Motion {
   Vec3 axis = Vec3::UnitZ();     ///< rotate: unit axis
   Vec3 center = Vec3::Zero();    ///< rotate: a point on the axis [m]
   double rate = 0;               ///< rotate: angular rate [rad/s], right-handed about `axis`
+  std::vector<Keyframe> keyframes;                      ///< keyframes: the poses after the start, by time
+  Interpolation interpolation = Interpolation::linear;  ///< keyframes
   double t0 = 0;                 ///< time at which quanta sat at their reference positions [s]
   std::vector<Index> quanta;     ///< quanta that follow this motion
   std::vector<Vec3> x0;          ///< their reference positions [m] (same length as `quanta`)

@@ -43,7 +43,7 @@ enum class RunStatus : std::uint8_t { completed, stopped, blowup };
 
 struct RunResult {
   RunStatus status = RunStatus::completed;
-  std::string message;  ///< blow-up: what, where and when
+  std::string message;  ///< blow-up: what, where and when; stopped: the step it was interrupted at
   std::uint64_t steps_taken = 0;
   double wall_seconds = 0;
 };
@@ -68,6 +68,8 @@ class Runner {
   /// written past the checkpoint's step are dropped so that the directory reads as if the run had
   /// never stopped. The checkpoint's metadata is checked like a scene (CheckpointError naming the
   /// file and the JSON path), and its scene must fit `max_memory` (0: default_memory_limit()).
+  /// A checkpoint already at or past the run's end (nothing to run) is std::invalid_argument,
+  /// thrown before anything is written.
   static Runner resume(const std::filesystem::path& checkpoint,
                        const std::function<void(Scene&, RunSettings&)>& adjust = {}, std::uint64_t max_memory = 0);
   ~Runner();

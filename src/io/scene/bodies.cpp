@@ -16,38 +16,74 @@ namespace qbond::scene_detail {
 // builder, which makes the body's quanta and bonds in the body's frame (body() then places them).
 // Adding a body type is one row here; body_types() and the docs test read this table.
 std::span<const Builder::BodyReader> Builder::body_readers() {
-  auto keys = [](std::initializer_list<const char*> own) {
-    std::vector<const char*> all = {"name", "type", "origin", "rotation", "velocity", "angular_velocity"};
+  // Every body takes the placement keys, then its type's own; a body of quanta given by a count
+  // also takes its mass as one quanta's or the body's total.
+  auto keys = [](std::initializer_list<SceneKey> own, bool massive = true) {
+    std::vector<SceneKey> all = {{"name", "string"},   {"type", "string"},
+                                 {"origin", "vec3"},   {"rotation", "@rotation"},
+                                 {"velocity", "vec3"}, {"angular_velocity", "vec3"}};
     all.insert(all.end(), own);
+    if (massive) all.insert(all.end(), {{"quanta_mass", "number"}, {"total_mass", "number"}});
     return all;
   };
   static const BodyReader rows[] = {
       {"lattice", "a square, cubic or FCC lattice of bonded quanta",
-       keys({"cell", "size", "spacing", "neighbors", "thickness", "material", "quanta_mass", "total_mass"}),
+       keys({{"cell", "enum:square|cubic|fcc"},
+             {"size", "array"},
+             {"spacing", "number"},
+             {"neighbors", "string"},
+             {"thickness", "number"},
+             {"material", "string"}}),
        [](const BodyEntry& e) { return e.lattice(); }},
       {"sheet", "a square lattice, optionally with bending bonds",
-       keys({"size", "spacing", "neighbors", "bending", "thickness", "material", "quanta_mass", "total_mass"}),
+       keys({{"size", "array"},
+             {"spacing", "number"},
+             {"neighbors", "string"},
+             {"bending", "boolean"},
+             {"thickness", "number"},
+             {"material", "string"}}),
        [](const BodyEntry& e) { return e.lattice(); }},
       {"chain", "quanta in a line, consecutive ones bonded",
-       keys({"start", "end", "count", "area", "material", "quanta_mass", "total_mass"}),
+       keys({{"start", "vec3"}, {"end", "vec3"}, {"count", "integer"}, {"area", "number"}, {"material", "string"}}),
        [](const BodyEntry& e) { return e.chain(); }},
-      {"quanta", "quanta at given positions, no bonds", keys({"positions", "masses", "mass", "velocities", "volume"}),
+      {"quanta", "quanta at given positions, no bonds", keys({{"positions", "array"},
+             {"masses", "array"},
+             {"mass", "number"},
+             {"velocities", "array"},
+             {"volume", "number"}},
+            false),
        [](const BodyEntry& e) { return e.quanta(); }},
       {"packing", "irregular points bonded within a radius",
-       keys({"points", "size", "min_distance", "count", "bond_radius", "isolated", "seed", "material", "quanta_mass",
-             "total_mass"}),
+       keys({{"points", "string"},
+             {"size", "array"},
+             {"min_distance", "number"},
+             {"count", "integer"},
+             {"bond_radius", "number"},
+             {"isolated", "enum:drop|keep|error"},
+             {"seed", "integer"},
+             {"material", "string"}}),
        [](const BodyEntry& e) {
          auto mass_of = [&e](double count, double calibrated) { return e.mass_of(count, calibrated); };
          return e.builder.packing_body(e.j, e.path, e.res, e.w, e.id, mass_of, *e.mat);
        }},
       {"mesh", "a closed OBJ/STL mesh filled with a simple-cubic lattice",
-       keys({"file", "scale", "spacing", "neighbors", "isolated", "material", "quanta_mass", "total_mass"}),
+       keys({{"file", "string"},
+             {"scale", "number"},
+             {"spacing", "number"},
+             {"neighbors", "string"},
+             {"isolated", "enum:drop|keep|error"},
+             {"material", "string"}}),
        [](const BodyEntry& e) {
          auto mass_of = [&e](double count, double calibrated) { return e.mass_of(count, calibrated); };
          return e.builder.mesh_body(e.j, e.path, e.res, e.w, e.id, mass_of, *e.mat);
        }},
       {"gas", "unbonded quanta with thermal velocities",
-       keys({"size", "count", "min_distance", "quanta_mass", "total_mass", "kT", "speeds", "seed"}),
+       keys({{"size", "array"},
+             {"count", "integer"},
+             {"min_distance", "number"},
+             {"kT", "number"},
+             {"speeds", "enum:maxwell|equal"},
+             {"seed", "integer"}}),
        [](const BodyEntry& e) {
          auto mass_of = [&e](double count, double calibrated) { return e.mass_of(count, calibrated); };
          return e.builder.gas_body(e.j, e.path, e.res, e.w, e.id, mass_of);
@@ -72,9 +108,10 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
     for (const BodyReader& r : types) names.emplace_back(r.type);
     bad(path + ".type", "unknown body type '" + type + "' (accepted: " + join(names) + ")");
   }
-  const std::vector<const char*>& accepted = row->keys;
+  const std::vector<const char*> accepted = keys_of("body." + type);
   for (const auto& [key, v] : j.items())
-    if (std::find(accepted.begin(), accepted.end(), key) == accepted.end()) {
+    if (std::find(accepted.begin(), accepted.end(), key) == accepted.end() &&
+        !annotation(key, v, path + "." + key)) {
       std::vector<std::string> names(accepted.begin(), accepted.end());
       bad(path + "." + key, "unknown key for a " + type + " body (accepted: " + join(names) + ")");
     }
@@ -100,7 +137,7 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
   Placement p;
   if (j.contains("origin")) p.origin = vec3(j["origin"], at("origin"));
   if (j.contains("rotation")) {
-    Obj r(j["rotation"], at("rotation"), {"axis", "angle"});
+    Obj r(j["rotation"], at("rotation"), keys_of("rotation"));
     p.axis = direction(r.required("axis"), r.at("axis"));
     p.angle = number(r.required("angle"), r.at("angle"));
   }
@@ -516,7 +553,11 @@ const std::vector<SceneType>& body_types() {
   static const std::vector<SceneType> types = [] {
     std::vector<SceneType> t;
     for (const auto& r : scene_detail::Builder::body_readers())
-      t.push_back({r.type, r.doc, std::vector<std::string_view>(r.keys.begin(), r.keys.end())});
+      {
+      std::vector<std::string_view> keys;
+      for (const scene_detail::SceneKey& k : r.keys) keys.emplace_back(k.name);
+      t.push_back({r.type, r.doc, std::move(keys)});
+    }
     return t;
   }();
   return types;

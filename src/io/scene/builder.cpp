@@ -35,9 +35,7 @@ void Builder::renumber_for_locality(Scene& s) {
 Scene Builder::build() {
   Scene s;
   json res = root_;
-  Obj top(root_, "",
-          {"name", "description", "seed", "timestep", "steps", "duration", "gravity", "integrator", "adaptive", "limits",
-           "materials", "bodies", "bonds", "anchors", "loads", "heuristics", "output"});
+  Obj top(root_, "", keys_of("scene"));
   s.name = top.has("name") ? string(top["name"], "name") : default_name_;
   s.description = top.has("description") ? string(top["description"], "description") : "";
   s.seed = top.has("seed") ? integer(top["seed"], "seed", 0) : 1;
@@ -126,13 +124,10 @@ void Builder::check_memory(const std::string& path, double quanta, double bonds)
 }
 
 IntegratorConfig Builder::integrator(const json& j) {
-  // The keys are the integrator table's options (integrators.hpp); an option the chosen
-  // integrator does not read is accepted and ignored, as resolved scenes list every option.
-  std::vector<std::string> keys = {"type"};
-  for (const IntegratorOptionInfo& opt : integrator_options()) keys.emplace_back(opt.key);
-  std::vector<const char*> key_names;
-  for (const std::string& k : keys) key_names.push_back(k.c_str());
-  Obj o(j, "integrator", key_names);
+  // The keys are the integrator table's options (integrators.hpp, through scene_keys); an option
+  // the chosen integrator does not read is accepted and ignored, as resolved scenes list every
+  // option.
+  Obj o(j, "integrator", keys_of("integrator"));
   IntegratorConfig c = default_integrator();
   auto parse = [&](const char* key, auto fn, auto& field) {
     if (!o.has(key)) return;
@@ -181,7 +176,7 @@ IntegratorConfig Builder::integrator(const json& j) {
 }
 
 AdaptiveConfig Builder::adaptive(const json& j, double timestep, double horizon) {
-  Obj o(j, "adaptive", {"error", "energy", "min_step", "max_step", "safety"});
+  Obj o(j, "adaptive", keys_of("adaptive"));
   AdaptiveConfig a;
   a.enabled = true;
   a.horizon = horizon;
@@ -200,7 +195,7 @@ AdaptiveConfig Builder::adaptive(const json& j, double timestep, double horizon)
 }
 
 BlowupLimits Builder::limits(const json& j) {
-  Obj o(j, "limits", {"max_speed", "energy_growth"});
+  Obj o(j, "limits", keys_of("limits"));
   BlowupLimits l;
   if (o.has("max_speed")) l.max_speed = positive(o["max_speed"], o.at("max_speed"));
   if (o.has("energy_growth")) l.energy_growth = positive(o["energy_growth"], o.at("energy_growth"));

@@ -6,11 +6,10 @@
 #include <span>
 #include <string_view>
 
-#include "qbond/io/scene.hpp"
-
-#include "qbond/builders/packing.hpp"
-
 #include "io/scene/json_reader.hpp"
+#include "io/scene/scene_keys.hpp"
+#include "qbond/builders/packing.hpp"
+#include "qbond/io/scene.hpp"
 
 namespace qbond::scene_detail {
 
@@ -42,7 +41,7 @@ class Builder {
   struct HeuristicReader {
     const char* type;
     const char* doc;
-    std::vector<const char*> keys;
+    std::vector<SceneKey> keys;
     void (*read)(Builder& b, const Obj& o, std::string_view type, const World& w, std::vector<HeuristicSpec>& out);
   };
   static std::span<const HeuristicReader> heuristic_readers();
@@ -52,7 +51,7 @@ class Builder {
   struct BodyReader {
     const char* type;
     const char* doc;
-    std::vector<const char*> keys;
+    std::vector<SceneKey> keys;
     std::vector<Index> (*build)(const BodyEntry& e);
   };
   static std::span<const BodyReader> body_readers();
@@ -125,6 +124,8 @@ class Builder {
   void check_overlaps(const World& w);
 
   void anchors(const json& j, World& w);
+  /// An anchor's keyframed motion (`motion.keyframes`).
+  Motion keyframes(const json& j, const std::string& path);
 
   void loads(const json& j, World& w);
 

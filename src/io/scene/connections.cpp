@@ -11,7 +11,7 @@
 namespace qbond::scene_detail {
 
 std::vector<Index> Builder::selection(const json& j, const std::string& path, const World& w) {
-  Obj o(j, path, {"ids", "body", "box", "sphere", "half_space", "all"});
+  Obj o(j, path, keys_of("selection"));
   Selection s;
   if (o.has("body")) {
     const std::string name = string(o["body"], o.at("body"));
@@ -39,11 +39,11 @@ std::vector<Index> Builder::selection(const json& j, const std::string& path, co
     if ((s.box->first.array() > s.box->second.array()).any()) bad(o.at("box"), "min must be <= max in every axis");
   }
   if (o.has("sphere")) {
-    Obj sp(o["sphere"], o.at("sphere"), {"center", "radius"});
+    Obj sp(o["sphere"], o.at("sphere"), keys_of("sphere"));
     s.sphere = {vec3(sp.required("center"), sp.at("center")), positive(sp.required("radius"), sp.at("radius"))};
   }
   if (o.has("half_space")) {
-    Obj h(o["half_space"], o.at("half_space"), {"point", "normal"});
+    Obj h(o["half_space"], o.at("half_space"), keys_of("half_space"));
     s.half_space = {vec3(h.required("point"), h.at("point")), direction(h.required("normal"), h.at("normal"))};
   }
   if (o.has("all")) {
@@ -68,7 +68,7 @@ void Builder::bonds(const json& j, World& w) {
     const std::string path = item("bonds", k);
     if (!j[k].is_object()) bad(path, "expected an object, got " + type_name(j[k]));
     if (j[k].contains("between")) {
-      Obj o(j[k], path, {"between", "body", "material", "rest_length"});
+      Obj o(j[k], path, keys_of("bond.between"));
       const json& ends = o["between"];
       if (!ends.is_array() || ends.size() != 2) bad(o.at("between"), "expected two quanta ids [i, j]");
       json ids = json::object();
@@ -85,7 +85,7 @@ void Builder::bonds(const json& j, World& w) {
         bad(o.at("between"), "quanta " + std::to_string(a) + " and " + std::to_string(b) + " are already bonded");
       w.add_bond(a, b, spec);
     } else {
-      Obj o(j[k], path, {"from", "to", "within", "material", "rest_length"});
+      Obj o(j[k], path, keys_of("bond.within"));
       const std::vector<Index> from = selection(o.required("from"), o.at("from"), w);
       const std::vector<Index> to = selection(o.required("to"), o.at("to"), w);
       const double r = positive(o.required("within"), o.at("within"));
@@ -116,10 +116,42 @@ void Builder::check_overlaps(const World& w) {
   }
 }
 
+Motion Builder::keyframes(const json& j, const std::string& path) {
+  Obj o(j, path, keys_of("motion.keyframes"));
+  Motion m;
+  m.type = MotionType::keyframes;
+  if (o.has("interpolation"))
+    m.interpolation =
+        choice<Interpolation>(o["interpolation"], o.at("interpolation"),
+                              {{"linear", Interpolation::linear}, {"smooth", Interpolation::smooth}});
+  const json& frames = array(o.required("frames"), o.at("frames"));
+  if (frames.empty()) bad(o.at("frames"), "must hold at least one keyframe");
+  bool turns = false;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const std::string at = item(o.at("frames"), k);
+    Obj f(frames[k], at, keys_of("keyframe"));
+    Keyframe key;
+    key.time = positive(f.required("time"), f.at("time"));
+    if (k > 0 && !(key.time > m.keyframes.back().time))
+      bad(f.at("time"), "must be after the previous keyframe's " + num_str(m.keyframes.back().time) +
+                            " s, got " + num_str(key.time));
+    if (f.has("offset")) key.offset = vec3(f["offset"], f.at("offset"));
+    if (f.has("angle")) key.angle = number(f["angle"], f.at("angle"));
+    turns |= key.angle != 0;
+    m.keyframes.push_back(key);
+  }
+  // A turn needs its axis; without one no key is read that would make it.
+  if (turns || o.has("axis") || o.has("center")) {
+    m.axis = direction(o.required("axis"), o.at("axis"));
+    m.center = vec3(o.required("center"), o.at("center"));
+  }
+  return m;
+}
+
 void Builder::anchors(const json& j, World& w) {
   std::unordered_map<Index, std::size_t> by;
   for (std::size_t k = 0; k < j.size(); ++k) {
-    Obj o(j[k], item("anchors", k), {"select", "motion"});
+    Obj o(j[k], item("anchors", k), keys_of("anchor"));
     const std::vector<Index> q = selection(o.required("select"), o.at("select"), w);
     for (Index i : q)
       if (auto [it, fresh] = by.emplace(i, k); !fresh)
@@ -129,24 +161,35 @@ void Builder::anchors(const json& j, World& w) {
     if (o.has("motion")) {
       const json& mj = o["motion"];
       const std::string path = o.at("motion");
-      if (!mj.is_object() || mj.size() != 1)
-        bad(path, "expected one of {\"fixed\": {}}, {\"translate\": {...}}, {\"rotate\": {...}}");
-      const std::string kind = mj.begin().key();
+      // One motion, beside which only the annotations may stand.
+      std::vector<std::string> kinds;
+      if (mj.is_object())
+        for (const auto& [key, v] : mj.items()) {
+          if (annotation(key, v, path + "." + key)) continue;
+          if (key != "fixed" && key != "translate" && key != "rotate" && key != "keyframes")
+            bad(path + "." + key, "unknown motion (accepted: fixed, translate, rotate, keyframes)");
+          kinds.push_back(key);
+        }
+      if (!mj.is_object() || kinds.size() != 1)
+        bad(path,
+            "expected one of {\"fixed\": {}}, {\"translate\": {...}}, {\"rotate\": {...}}, "
+            "{\"keyframes\": {...}}");
+      const std::string kind = kinds.front();
       const std::string at = path + "." + kind;
       if (kind == "fixed") {
-        Obj(mj[kind], at, {});
+        Obj(mj[kind], at, keys_of("motion.fixed"));
       } else if (kind == "translate") {
-        Obj t(mj[kind], at, {"velocity"});
+        Obj t(mj[kind], at, keys_of("motion.translate"));
         m.type = MotionType::translate;
         m.velocity = vec3(t.required("velocity"), t.at("velocity"));
       } else if (kind == "rotate") {
-        Obj r(mj[kind], at, {"axis", "center", "rate"});
+        Obj r(mj[kind], at, keys_of("motion.rotate"));
         m.type = MotionType::rotate;
         m.axis = direction(r.required("axis"), r.at("axis"));
         m.center = vec3(r.required("center"), r.at("center"));
         m.rate = number(r.required("rate"), r.at("rate"));
       } else {
-        bad(at, "unknown motion (accepted: fixed, translate, rotate)");
+        m = keyframes(mj[kind], at);
       }
     }
     w.prescribe(q, m);
@@ -155,7 +198,7 @@ void Builder::anchors(const json& j, World& w) {
 
 void Builder::loads(const json& j, World& w) {
   for (std::size_t k = 0; k < j.size(); ++k) {
-    Obj o(j[k], item("loads", k), {"select", "force"});
+    Obj o(j[k], item("loads", k), keys_of("load"));
     const std::vector<Index> q = selection(o.required("select"), o.at("select"), w);
     const Vec3 f = vec3(o.required("force"), o.at("force"));
     for (Index i : q)

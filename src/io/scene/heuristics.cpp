@@ -26,14 +26,23 @@ ContactMaterial Builder::contact_material(const Obj& o) {
 // keys it accepts (in the order error messages list them) and its reader. Adding a heuristic type
 // to scenes is one row here; heuristic_types() and the docs test read this table.
 std::span<const Builder::HeuristicReader> Builder::heuristic_readers() {
-  static const std::vector<const char*> obstacle_keys = {"type", "restitution", "friction", "margin"};
-  auto with = [](std::vector<const char*> keys, std::initializer_list<const char*> more) {
+  using Keys = std::vector<SceneKey>;
+  static const Keys obstacle_keys = {
+      {"type", "string"}, {"restitution", "number"}, {"friction", "number"}, {"margin", "number"}};
+  auto with = [](Keys keys, std::initializer_list<SceneKey> more) {
     keys.insert(keys.end(), more);
     return keys;
   };
   static const HeuristicReader rows[] = {
       {"break", "fracture: bonds break past a strain, compression, tension or stress limit",
-       {"max_strain", "max_compression", "max_tension", "max_stress", "max_von_mises", "type", "probability", "select"},
+       {{"max_strain", "number"},
+        {"max_compression", "number"},
+        {"max_tension", "number"},
+        {"max_stress", "number"},
+        {"max_von_mises", "number"},
+        {"type", "string"},
+        {"probability", "number"},
+        {"select", "@selection"}},
        [](Builder& b, const Obj& o, std::string_view, const World& w, std::vector<HeuristicSpec>& out) {
          static const std::initializer_list<const char*> limits = {"max_strain", "max_compression", "max_tension",
                                                                    "max_stress", "max_von_mises"};
@@ -59,7 +68,11 @@ std::span<const Builder::HeuristicReader> Builder::heuristic_readers() {
          out.emplace_back(std::move(r));
        }},
       {"plastic", "plasticity: bilinear elastoplastic bonds with kinematic hardening",
-       {"type", "yield_strain", "hardening", "max_plastic_strain", "select"},
+       {{"type", "string"},
+        {"yield_strain", "number"},
+        {"hardening", "number"},
+        {"max_plastic_strain", "number"},
+        {"select", "@selection"}},
        [](Builder& b, const Obj& o, std::string_view, const World& w, std::vector<HeuristicSpec>& out) {
          PlasticRule r;
          r.yield_strain = positive(o.required("yield_strain"), o.at("yield_strain"));
@@ -72,14 +85,19 @@ std::span<const Builder::HeuristicReader> Builder::heuristic_readers() {
          r.quanta = b.quanta_mask(o, w);
          out.emplace_back(std::move(r));
        }},
-      {"ground", "an obstacle: the plane z = height", with(obstacle_keys, {"height"}), &Builder::obstacle},
-      {"plane", "an obstacle: a plane through a point", with(obstacle_keys, {"point", "normal"}), &Builder::obstacle},
+      {"ground", "an obstacle: the plane z = height", with(obstacle_keys, {{"height", "number"}}), &Builder::obstacle},
+      {"plane", "an obstacle: a plane through a point", with(obstacle_keys, {{"point", "vec3"}, {"normal", "vec3"}}), &Builder::obstacle},
       {"sphere", "an obstacle, or a container with inside: true",
-       with(obstacle_keys, {"center", "radius", "inside"}), &Builder::obstacle},
+       with(obstacle_keys, {{"center", "vec3"}, {"radius", "number"}, {"inside", "boolean"}}), &Builder::obstacle},
       {"box", "an obstacle, or a container with inside: true",
-       with(obstacle_keys, {"center", "size", "rotation", "inside"}), &Builder::obstacle},
+       with(obstacle_keys, {{"center", "vec3"}, {"size", "vec3"}, {"rotation", "@rotation"}, {"inside", "boolean"}}), &Builder::obstacle},
       {"contact", "quanta-quanta collisions between quanta that share no bond",
-       {"type", "radius", "restitution", "friction", "iterations", "same_body"},
+       {{"type", "string"},
+        {"radius", "number"},
+        {"restitution", "number"},
+        {"friction", "number"},
+        {"iterations", "integer"},
+        {"same_body", "boolean"}},
        [](Builder& b, const Obj& o, std::string_view, const World& w, std::vector<HeuristicSpec>& out) {
          QuantaContactRule r;
          r.radius = positive(o.required("radius"), o.at("radius"));
@@ -90,7 +108,14 @@ std::span<const Builder::HeuristicReader> Builder::heuristic_readers() {
          out.emplace_back(r);
        }},
       {"form", "bond formation: quanta that come close bond",
-       {"type", "capture_radius", "pairs", "max_bonds", "min_age", "rest_length", "material", "select"},
+       {{"type", "string"},
+        {"capture_radius", "number"},
+        {"pairs", "enum:any|same_body|other_body"},
+        {"max_bonds", "integer"},
+        {"min_age", "number"},
+        {"rest_length", "number"},
+        {"material", "string"},
+        {"select", "@selection"}},
        [](Builder& b, const Obj& o, std::string_view, const World& w, std::vector<HeuristicSpec>& out) {
          FormRule r;
          r.capture_radius = positive(o.required("capture_radius"), o.at("capture_radius"));
@@ -107,7 +132,13 @@ std::span<const Builder::HeuristicReader> Builder::heuristic_readers() {
          out.emplace_back(std::move(r));
        }},
       {"liquid", "a cohesive liquid: a break rule and a form rule at the liquid's spacing",
-       {"type", "spacing", "max_strain", "capture_radius", "max_bonds", "material", "select"},
+       {{"type", "string"},
+        {"spacing", "number"},
+        {"max_strain", "number"},
+        {"capture_radius", "number"},
+        {"max_bonds", "integer"},
+        {"material", "string"},
+        {"select", "@selection"}},
        [](Builder& b, const Obj& o, std::string_view, const World& w, std::vector<HeuristicSpec>& out) {
          // A preset: bonds break past max_strain and form again within the capture radius, at the
          // rest length `spacing` the liquid keeps between its quanta (its density).
@@ -150,7 +181,7 @@ void Builder::obstacle(Builder& b, const Obj& o, std::string_view type, const Wo
     if (!(size.minCoeff() > 0)) bad(o.at("size"), "every edge must be > 0");
     ob.half_extents = 0.5 * size;
     if (o.has("rotation")) {
-      Obj r(o["rotation"], o.at("rotation"), {"axis", "angle"});
+      Obj r(o["rotation"], o.at("rotation"), keys_of("rotation"));
       ob.rotation = Eigen::AngleAxisd(number(r.required("angle"), r.at("angle")),
                                       direction(r.required("axis"), r.at("axis")))
                         .toRotationMatrix();
@@ -180,7 +211,7 @@ std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
     const auto rows = heuristic_readers();
     const auto row = std::find_if(rows.begin(), rows.end(), [&](const HeuristicReader& r) { return type == r.type; });
     if (row == rows.end()) bad(path + ".type", "unknown heuristic '" + type + "' (accepted: " + join(types) + ")");
-    row->read(*this, Obj(j[k], path, row->keys), type, w, out);
+    row->read(*this, Obj(j[k], path, keys_of("heuristic." + type)), type, w, out);
   }
   return out;
 }
@@ -208,7 +239,11 @@ const std::vector<SceneType>& heuristic_types() {
   static const std::vector<SceneType> types = [] {
     std::vector<SceneType> t;
     for (const auto& r : scene_detail::Builder::heuristic_readers())
-      t.push_back({r.type, r.doc, std::vector<std::string_view>(r.keys.begin(), r.keys.end())});
+      {
+      std::vector<std::string_view> keys;
+      for (const scene_detail::SceneKey& k : r.keys) keys.emplace_back(k.name);
+      t.push_back({r.type, r.doc, std::move(keys)});
+    }
     return t;
   }();
   return types;

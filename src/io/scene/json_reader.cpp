@@ -1,5 +1,6 @@
 #include "io/scene/json_reader.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -84,6 +85,15 @@ Vec3 direction(const json& j, const std::string& path) {
 const json& array(const json& j, const std::string& path) {
   if (!j.is_array()) bad(path, "expected an array, got " + type_name(j));
   return j;
+}
+
+bool annotation(const std::string& key, const json& value, const std::string& path) {
+  if (key != "description" && key != "notes") return false;
+  const bool text = value.is_string() ||
+                    (value.is_array() &&
+                     std::all_of(value.begin(), value.end(), [](const json& v) { return v.is_string(); }));
+  if (!text) bad(path, "expected a string or an array of strings, got " + type_name(value));
+  return true;
 }
 
 std::string item(const std::string& path, std::size_t k) { return path + "[" + std::to_string(k) + "]"; }

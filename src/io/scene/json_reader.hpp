@@ -50,7 +50,12 @@ T choice(const json& j, const std::string& path, std::initializer_list<std::pair
   bad(path, "unknown value '" + s + "' (accepted: " + join(all) + ")");
 }
 
-/// An object whose keys are checked against the accepted ones.
+/// Whether `key` is one of the free annotations every object takes, `description` and `notes`
+/// (a string or an array of strings, which qbond keeps but does not read); Bad when its value is
+/// neither.
+bool annotation(const std::string& key, const json& value, const std::string& path);
+
+/// An object whose keys are checked against the accepted ones (and the annotations).
 class Obj {
  public:
   Obj(const json& j, std::string path, std::initializer_list<const char*> keys)
@@ -59,6 +64,9 @@ class Obj {
     if (!j.is_object()) bad(path_, "expected an object, got " + type_name(j));
     for (const auto& item : j.items()) {
       const std::string& k = item.key();
+      if (std::find_if(keys.begin(), keys.end(), [&](const char* a) { return k == a; }) == keys.end() &&
+          annotation(k, item.value(), at(k)))
+        continue;
       if (std::find_if(keys.begin(), keys.end(), [&](const char* a) { return k == a; }) == keys.end()) {
         std::vector<std::string> all(keys.begin(), keys.end());
         bad(at(k), "unknown key (accepted: " + join(all) + ")");

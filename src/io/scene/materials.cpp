@@ -10,6 +10,7 @@ void Builder::materials(const json& j, json& res) {
   if (!j.is_object()) bad("materials", "expected an object (material name -> parameters), got " + type_name(j));
   for (const auto& [name, mj] : j.items()) {
     const std::string path = "materials." + name;
+    if (annotation(name, mj, path)) continue;  // the section's own description or notes
     if (!mj.is_object()) bad(path, "expected an object, got " + type_name(mj));
     Material m;
     BondSpec& b = m.bond;
@@ -23,9 +24,7 @@ void Builder::materials(const json& j, json& res) {
     }
     const LawInfo& info = law_info(b.law);
     const std::string law_name(info.name);
-    std::vector<std::string> keys = {"law", "density", "damping", "damping_model", std::string(info.strength.key)};
-    if (info.calibrated_by_modulus) keys.emplace_back("youngs_modulus");
-    for (const LawParam& p : info.shape) keys.emplace_back(p.key);
+    const std::vector<std::string> keys = material_keys(info);
     // A key of another law: say whose it is.
     for (const auto& [key, v] : mj.items()) {
       if (std::find(keys.begin(), keys.end(), key) != keys.end()) continue;
@@ -39,9 +38,7 @@ void Builder::materials(const json& j, json& res) {
         bad(path + "." + key, "not a parameter of the " + law_name + " law (its keys: " + join(keys) +
                                   "; '" + key + "' belongs to: " + join(owners) + ")");
     }
-    std::vector<const char*> accepted;
-    for (const std::string& k : keys) accepted.push_back(k.c_str());
-    Obj o(mj, path, accepted);
+    Obj o(mj, path, keys_of("material." + law_name));
     const std::string strength(info.strength.key);
     if (info.calibrated_by_modulus)
       o.one_of(strength.c_str(), "youngs_modulus");

@@ -4,7 +4,7 @@
 namespace qbond::scene_detail {
 
 OutputSpec Builder::output(const json& j, std::uint64_t steps, const World& w) {
-  Obj o(j, "output", {"dir", "every", "vtk", "checkpoint_every", "probes"});
+  Obj o(j, "output", keys_of("output"));
   OutputSpec out;
   if (o.has("dir")) out.dir = string(o["dir"], o.at("dir"));
   if (out.dir.empty()) bad(o.at("dir"), "must not be empty");
@@ -15,7 +15,7 @@ OutputSpec Builder::output(const json& j, std::uint64_t steps, const World& w) {
     const json& a = array(o["probes"], o.at("probes"));
     std::map<std::string, std::size_t> seen;
     for (std::size_t k = 0; k < a.size(); ++k) {
-      Obj p(a[k], item(o.at("probes"), k), {"name", "select", "about"});
+      Obj p(a[k], item(o.at("probes"), k), keys_of("probe"));
       ProbeSpec s;
       s.name = string(p.required("name"), p.at("name"));
       if (s.name.empty() || !std::all_of(s.name.begin(), s.name.end(), [](char c) {

@@ -22,7 +22,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const SceneF
   try {
     json root;
     try {
-      root = parse_json_strict(text);
+      root = parse_json_strict(text, kMaxJsonDepth, /*comments=*/true);
     } catch (const JsonTextError& e) {
       throw SceneError(source, e.path, e.rule);
     }
