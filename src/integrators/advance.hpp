@@ -82,6 +82,10 @@ class StepIntegrator : public Integrator {
                        const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out, Advanced& to);
   // The ledger that charges each substep of a step taken in substeps (null when it is off).
   void set_substep_ledger(SubstepLedger* ledger) { substeps_ = ledger; }
+  // Asks that the next projection be taken in substeps, each split again while it would create
+  // energy (Simulation's energy guard, after the whole step created some); false when this
+  // integrator cannot.
+  virtual bool split_next_step() { return false; }
 
  protected:
   using Integrator::Integrator;

@@ -1,6 +1,7 @@
 #include "qbond/simulation/simulation.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <sstream>
@@ -23,9 +24,22 @@ struct Simulation::Scratch {
   double bonds_after = 0;      // the bonds' energy after the step, from the ledger [J]
   EnergyLedger books;          // the ledger before the step (energy restoration)
   double e_start = 0;          // E before the step (energy restoration) [J]
+  // The energy guard (retake_gaining_step): E at the end of the last step, for the state of
+  // `guard_step` (the next step's start), and the ledger before this step's charges.
+  Energies guard_start;
+  std::uint64_t guard_step = ~std::uint64_t{0};
+  double guard_time = 0;
+  EnergyLedger guard_books;
+  Energies quanta_after;       // kinetic and gravity energy of `next` (the guard's, reused by check_energy)
+  bool quanta_after_valid = false;
 };
 
 namespace {
+// A step that ends with more energy than its books allow by more than this fraction of its
+// energies' magnitudes is retaken in substeps (retake_gaining_step): above the solver's own error
+// (CG at its relative tolerance) and round-off.
+constexpr double kStepGainTolerance = 1e-9;
+
 // Every integrator comes from make_step_integrator: its private paths (advance.hpp).
 StepIntegrator& stepper(const std::unique_ptr<Integrator>& integrator) {
   return static_cast<StepIntegrator&>(*integrator);
@@ -51,9 +65,14 @@ void Simulation::begin_step() {
 StepReport Simulation::end_step() {
   if (keep_last_good_) copy_last_good(true);  // before heuristics and ledger: a rollback undoes both
   open_books();
-  run_heuristics();
-  if (StepReport r = check(); r.status != StepReport::Status::ok) return roll_back(std::move(r), false);
-  if (ledger_on()) charge_ledger();
+  scratch_->quanta_after_valid = false;
+  for (bool retaken = false;; retaken = true) {
+    scratch_->guard_books = world_.state.energy;
+    run_heuristics();
+    if (StepReport r = check(); r.status != StepReport::Status::ok) return roll_back(std::move(r), false);
+    if (ledger_on()) charge_ledger();
+    if (retaken || !retake_gaining_step()) break;
+  }
   apply();
   restore_energy();
   if (StepReport r = check_energy(); r.status != StepReport::Status::ok) return roll_back(std::move(r), true);
@@ -139,6 +158,54 @@ void Simulation::charge_ledger() {
                                        f_ext_, ctx_.h);
 }
 
+bool Simulation::retake_gaining_step() {
+  // The step as projected, from E₀ to E₁ = K₁ + U₁ + G₁ (U₁ the ledger's, K₁ and G₁ of the state
+  // it applies), against what the books say it could reach: E₀ + loads' and anchors' work −
+  // dampers' and heuristics' dissipation. A step above that by more than round-off and the solve's
+  // tolerance created energy; an integrator that can take it in substeps does so.
+  Scratch& k = *scratch_;
+  if (!ledger_on()) return false;
+  const Model& m = world_.model;
+  const State& s = world_.state;
+  const int threads = integrator_->config().threads;
+  const std::size_t n = m.num_quanta();
+  using Pair = std::array<double, 2>;
+  const Pair kg = deterministic_reduce(
+      n, threads, Pair{0, 0},
+      [&](Pair acc, std::size_t i) {
+        if (m.inv_mass[i] == 0) return acc;
+        acc[0] += 0.5 * m.mass[i] * k.next.v[i].squaredNorm();
+        acc[1] -= m.mass[i] * m.gravity.dot(k.next.x[i]);
+        return acc;
+      },
+      [](const Pair& a, const Pair& b) { return Pair{a[0] + b[0], a[1] + b[1]}; });
+  k.quanta_after = {.kinetic = kg[0], .bonds = 0, .gravity = kg[1]};
+  k.quanta_after_valid = true;
+  if (k.guard_step != s.step || k.guard_time != s.time) {
+    k.guard_start = energies(m, s, threads);  // the first step, or the state was replaced
+    k.guard_step = s.step;
+    k.guard_time = s.time;
+  }
+  const Energies& e0 = k.guard_start;
+  const EnergyLedger& l = s.energy;
+  const EnergyLedger& b = k.guard_books;
+  const double work = (l.work_loads - b.work_loads) + (l.work_anchors - b.work_anchors);
+  const double lost = (l.dissipated_damping - b.dissipated_damping) + (l.dissipated_heuristics - b.dissipated_heuristics);
+  const double e1 = kg[0] + k.bonds_after + kg[1];
+  const double gain = e1 - e0.total() - work + lost;
+  const double scale = e0.kinetic + e0.bonds + kg[0] + k.bonds_after + std::abs(kg[1] - e0.gravity) + std::abs(work) +
+                       std::abs(lost);
+  if (!(gain > kStepGainTolerance * scale + limits_.energy_floor)) return false;
+  // Heuristics may have edited the bonds: they are undone only from the copy of the last good state.
+  if (!heuristics_.empty() && !keep_last_good_) return false;
+  if (!stepper(integrator_).split_next_step()) return false;
+  if (!heuristics_.empty()) copy_last_good(false);
+  world_.state.energy = b;
+  k.quanta_after_valid = false;
+  integrate(false);
+  return true;
+}
+
 void Simulation::apply() {
   State& s = world_.state;
   s.x.swap(scratch_->next.x);  // x + Δx and v + Δv (the prescribed quanta placed), from check
@@ -164,7 +231,7 @@ void Simulation::restore_energy() {
   scale_internal_velocities(m, adjacency(), s, target - e_end);
 }
 
-StepReport Simulation::check_energy() const {
+StepReport Simulation::check_energy() {
   StepReport r;
   if (!track_energy_) return r;
   const Model& m = world_.model;
@@ -173,8 +240,12 @@ StepReport Simulation::check_energy() const {
   const int threads = integrator_->config().threads;
   // The bonds' energy the ledger summed at the positions this step applied (the same pass as
   // the dampers' work), but for round-off where a prescribed quanta landed on its path instead.
-  Energies e = quanta_energies(m, s, threads);
+  const bool reuse = scratch_->quanta_after_valid && !integrator_->config().restore_energy;
+  Energies e = reuse ? scratch_->quanta_after : quanta_energies(m, s, threads);
   e.bonds = scratch_->bonds_after;
+  scratch_->guard_start = e;  // the next step's start (retake_gaining_step)
+  scratch_->guard_step = s.step;
+  scratch_->guard_time = s.time;
   // External forces can also give energy before they have done measurable work (a step from
   // rest changes velocity before position): allow the kinetic energy their impulse over the
   // elapsed time would give each free quanta, Σ |f_ext t|² / (2 m).
@@ -185,7 +256,7 @@ StepReport Simulation::check_energy() const {
   const double available = (l.initial_total - l.initial_gravity) + std::abs(e.gravity - l.initial_gravity) +
                            std::abs(l.work_loads) + std::abs(l.work_anchors) + impulse;
   const double held = e.kinetic + e.bonds;
-  if (held <= limits_.energy_growth * available + limits_.energy_floor) return r;
+  if (held <= limits_.energy_growth * available + limits_.energy_floor) return check_gain(e, available);
   const auto [speed, who] = max_speed(m, s);
   std::ostringstream msg;
   msg.precision(6);
@@ -195,6 +266,34 @@ StepReport Simulation::check_energy() const {
   r.status = StepReport::Status::blowup;
   r.message = msg.str();
   r.worst = who;
+  return r;
+}
+
+StepReport Simulation::check_gain(const Energies& e, double available) {
+  // E(t) − E(0) beyond the loads' and anchors' work: energy the integrator (or a heuristic) made.
+  const EnergyLedger& l = world_.state.energy;
+  const double gain = e.total() - l.initial_total - l.work_loads - l.work_anchors;
+  if (gain > gain_.largest) {
+    gain_.largest = gain;
+    gain_.relative = available > 0 ? gain / available : HUGE_VAL;
+  }
+  if (gain <= limits_.energy_gain * available + limits_.energy_floor) return {};
+  const State& s = world_.state;
+  if (!gain_.exceeded) {
+    gain_.exceeded = true;
+    gain_.first_step = s.step;
+    gain_.first_time = s.time;
+  }
+  if (!limits_.stop_on_energy_gain) return {};
+  std::ostringstream msg;
+  msg.precision(6);
+  msg << "energy gained at step " << s.step << " (t = " << s.time << " s): the energy exceeds its initial value plus "
+      << "the external work by " << gain << " J, more than " << limits_.energy_gain << " x the " << available
+      << " J the system could hold (limits.stop_on_energy_gain)";
+  StepReport r;
+  r.status = StepReport::Status::blowup;
+  r.message = msg.str();
+  r.worst = max_speed(world_.model, s).second;
   return r;
 }
 
