@@ -30,7 +30,8 @@ class CoupledIntegrator final : public StepIntegrator {
 
   bool forms_gravity() const override { return true; }
 
-  bool split_next_step() override { return split_ = true; }
+  bool splits_gaining_steps() const override { return true; }
+  void split_next_step() override { split_ = true; }
 
   void project(const Model& model, const State& state, const Adjacency& adj,
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {

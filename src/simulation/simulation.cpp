@@ -8,6 +8,7 @@
 
 #include "qbond/analysis/analysis.hpp"
 #include "integrators/advance.hpp"
+#include "integrators/energy_guard.hpp"
 #include "integrators/energy_restore.hpp"
 #include "core/parallel.hpp"
 #include "ledger/ledger_stage.hpp"
@@ -32,6 +33,7 @@ struct Simulation::Scratch {
   EnergyLedger guard_books;
   Energies quanta_after;       // kinetic and gravity energy of `next` (the guard's, reused by check_energy)
   bool quanta_after_valid = false;
+  EnergyGuard guard;           // retake_gaining_projection's
 };
 
 namespace {
@@ -66,12 +68,15 @@ StepReport Simulation::end_step() {
   if (keep_last_good_) copy_last_good(true);  // before heuristics and ledger: a rollback undoes both
   open_books();
   scratch_->quanta_after_valid = false;
+  // With heuristics, the integrator's own projection is checked before they edit it (what they
+  // add or take is theirs, not the integrator's); without, the ledger's books after the step.
+  if (!heuristics_.empty()) retake_gaining_projection();
   for (bool retaken = false;; retaken = true) {
     scratch_->guard_books = world_.state.energy;
     run_heuristics();
     if (StepReport r = check(); r.status != StepReport::Status::ok) return roll_back(std::move(r), false);
     if (ledger_on()) charge_ledger();
-    if (retaken || !retake_gaining_step()) break;
+    if (retaken || !heuristics_.empty() || !retake_gaining_step()) break;
   }
   apply();
   restore_energy();
@@ -161,8 +166,8 @@ void Simulation::charge_ledger() {
 bool Simulation::retake_gaining_step() {
   // The step as projected, from E₀ to E₁ = K₁ + U₁ + G₁ (U₁ the ledger's, K₁ and G₁ of the state
   // it applies), against what the books say it could reach: E₀ + loads' and anchors' work −
-  // dampers' and heuristics' dissipation. A step above that by more than round-off and the solve's
-  // tolerance created energy; an integrator that can take it in substeps does so.
+  // dampers' dissipation. A step above that by more than round-off and the solve's tolerance
+  // created energy; an integrator that can take it in substeps does so.
   Scratch& k = *scratch_;
   if (!ledger_on()) return false;
   const Model& m = world_.model;
@@ -181,6 +186,7 @@ bool Simulation::retake_gaining_step() {
       [](const Pair& a, const Pair& b) { return Pair{a[0] + b[0], a[1] + b[1]}; });
   k.quanta_after = {.kinetic = kg[0], .bonds = 0, .gravity = kg[1]};
   k.quanta_after_valid = true;
+  if (!stepper(integrator_).splits_gaining_steps()) return false;
   if (k.guard_step != s.step || k.guard_time != s.time) {
     k.guard_start = energies(m, s, threads);  // the first step, or the state was replaced
     k.guard_step = s.step;
@@ -190,20 +196,29 @@ bool Simulation::retake_gaining_step() {
   const EnergyLedger& l = s.energy;
   const EnergyLedger& b = k.guard_books;
   const double work = (l.work_loads - b.work_loads) + (l.work_anchors - b.work_anchors);
-  const double lost = (l.dissipated_damping - b.dissipated_damping) + (l.dissipated_heuristics - b.dissipated_heuristics);
+  const double lost = l.dissipated_damping - b.dissipated_damping;
   const double e1 = kg[0] + k.bonds_after + kg[1];
   const double gain = e1 - e0.total() - work + lost;
   const double scale = e0.kinetic + e0.bonds + kg[0] + k.bonds_after + std::abs(kg[1] - e0.gravity) + std::abs(work) +
                        std::abs(lost);
   if (!(gain > kStepGainTolerance * scale + limits_.energy_floor)) return false;
-  // Heuristics may have edited the bonds: they are undone only from the copy of the last good state.
-  if (!heuristics_.empty() && !keep_last_good_) return false;
-  if (!stepper(integrator_).split_next_step()) return false;
-  if (!heuristics_.empty()) copy_last_good(false);
   world_.state.energy = b;
   k.quanta_after_valid = false;
+  stepper(integrator_).split_next_step();
   integrate(false);
   return true;
+}
+
+void Simulation::retake_gaining_projection() {
+  // The integrator's projection against its own books (energy_guard.hpp: one pass over the
+  // quanta and one over the bonds), before the heuristics edit it.
+  StepIntegrator& integrator = stepper(integrator_);
+  if (!ledger_on() || !integrator.splits_gaining_steps()) return;
+  const StepEnergyBalance b = scratch_->guard.balance(world_.model, world_.state, adjacency(), f_ext_, projection_,
+                                                      ctx_.h, integrator.ledger_hints(), integrator.config().threads);
+  if (!b.gains(kStepGainTolerance)) return;
+  integrator.split_next_step();
+  integrate(false);
 }
 
 void Simulation::apply() {

@@ -122,6 +122,7 @@ class Simulation {
   StepReport check();
   void charge_ledger();
   bool retake_gaining_step();
+  void retake_gaining_projection();
   void apply();
   void restore_energy();
   StepReport check_energy();
