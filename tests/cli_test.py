@@ -1169,6 +1169,58 @@ def test_schema_matches_the_reader():
             kinds.add(path[-2] if len(path) >= 2 and isinstance(path[-1], int) else path[-1] if path else "scene")
     if len(kinds) < 12:
         fail(f"too few kinds of object tried: {sorted(map(str, kinds))}")
+def test_default_never_gains_energy():
+    """scenes/four_quanta.json at h = 5 s: the default integrator's linearised step would take the
+    2 J of the four quanta to 86.8 J in one step; retaken in substeps, no row of diagnostics.csv
+    exceeds the initial energy, and the run reports no gain."""
+    out = fresh("no_gain")
+    r = qbond("run", "four_quanta", "--dt", "5", "--steps", "200", "--every", "1", "--out", out, check_code=0)
+    if "warning" in r.stderr:
+        fail(f"the default integrator's run warns: {r.stderr}")
+    _, rows = read_csv(os.path.join(out, "diagnostics.csv"))
+    col = {name: k for k, name in enumerate(rows[0])}
+    e0 = float(rows[1][col["total"]])
+    worst = max(float(row[col["total"]]) for row in rows[1:])
+    if abs(e0 - 2.0) > 1e-12 or worst > e0 * (1 + 1e-8):
+        fail(f"the energy went from {e0} J to {worst} J")
+    if len(rows) != 202:
+        fail(f"{len(rows) - 1} rows, expected 201")
+    run = json.load(open(os.path.join(out, "run.json")))
+    if run["status"] != "completed" or run["energy_gain"]["exceeded"]:
+        fail(f"run.json: {run['status']}, {run['energy_gain']}")
+
+
+def test_energy_gain_is_reported():
+    """hybrid_implicit (one sweep a step, its default) on the pendulum at 1/60 s pumps energy: the
+    run warns, events.csv has an energy_gain row, run.json says exceeded; with
+    limits.stop_on_energy_gain the run ends there with exit status 3."""
+    out = fresh("gain")
+    r = qbond("run", "pendulum", "--integrator", "hybrid_implicit", "--neighbours", "sweep", "--dt", "0.0166667",
+              "--steps", "180", "--out", out, check_code=0)
+    if "warning: the energy exceeded its initial value plus the external work" not in r.stderr:
+        fail(f"no warning: {r.stderr!r}")
+    run = json.load(open(os.path.join(out, "run.json")))
+    gain = run["energy_gain"]
+    if run["status"] != "completed" or not gain["exceeded"] or not gain["relative"] > gain["limit"]:
+        fail(f"run.json: {run['status']}, {gain}")
+    _, rows = read_csv(os.path.join(out, "events.csv"))
+    hits = [row for row in rows[1:] if row[2] == "energy_gain"]
+    if len(hits) != 1 or int(hits[0][0]) != gain["first_step"]:
+        fail(f"events.csv energy_gain rows: {hits}, run.json first_step {gain['first_step']}")
+    # The same run told to stop at the gain, from a scene file with the key.
+    d = fresh("gain_stop")
+    os.makedirs(d)
+    scene = json.load(open(os.path.join(SOURCE, "scenes", "pendulum.json")))
+    scene["limits"] = {"stop_on_energy_gain": True}
+    path = os.path.join(d, "pendulum.json")
+    json.dump(scene, open(path, "w"))
+    r = qbond("run", path, "--integrator", "hybrid_implicit", "--neighbours", "sweep", "--dt", "0.0166667",
+              "--steps", "180", "--out", os.path.join(d, "out"), "-q")
+    if r.returncode != 3 or "energy gained at step" not in r.stderr:
+        fail(f"stop_on_energy_gain: exit {r.returncode}, stderr {r.stderr!r}")
+    run = json.load(open(os.path.join(d, "out", "run.json")))
+    if run["status"] != "blowup" or run["last_step"] >= 180:
+        fail(f"stop_on_energy_gain: run.json {run['status']} at step {run['last_step']}")
 
 
 if __name__ == "__main__":

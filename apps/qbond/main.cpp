@@ -386,6 +386,13 @@ int run(const Options& o) {
                 r.wall_seconds > 0 ? r.steps_taken / r.wall_seconds : 0.0, w.state.time, b.now.total(),
                 b.dissipated_damping, b.dissipated_numerical);
     if (ranks) print_ranks(ranks->stats());
+    if (r.energy_gain.exceeded)
+      std::fprintf(stderr,
+                   "qbond: warning: the energy exceeded its initial value plus the external work by %.3g J "
+                   "(%.3g of what the system could hold; limit %.3g) from step %llu (t = %.6g s): the integrator "
+                   "made energy (events.csv, run.json; limits.stop_on_energy_gain ends such a run)\n",
+                   r.energy_gain.largest, r.energy_gain.relative, runner->simulation().limits().energy_gain,
+                   static_cast<unsigned long long>(r.energy_gain.first_step), r.energy_gain.first_time);
   }
   switch (r.status) {
     case RunStatus::completed: return 0;

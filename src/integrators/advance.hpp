@@ -82,6 +82,11 @@ class StepIntegrator : public Integrator {
                        const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out, Advanced& to);
   // The ledger that charges each substep of a step taken in substeps (null when it is off).
   void set_substep_ledger(SubstepLedger* ledger) { substeps_ = ledger; }
+  // Whether this integrator can retake a step that creates energy in substeps (split_next_step).
+  virtual bool splits_gaining_steps() const { return false; }
+  // Asks that the next projection be taken in substeps, each split again while it would create
+  // energy (Simulation's energy guard, after the whole step created some).
+  virtual void split_next_step() {}
 
  protected:
   using Integrator::Integrator;

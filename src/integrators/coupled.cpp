@@ -1,15 +1,27 @@
 // Coupled implicit integrator (Eq. 13 linearised, Baraff–Witkin 1998): one global linear solve
 // of (M + h C + h² K) Δv = b per step (backward_euler.hpp), by dense Gaussian elimination (the
 // paper's method, cubic cost), sparse LDLᵀ, or CG preconditioned by block Jacobi (matrix-free)
-// or by multigrid (multigrid_step.hpp).
+// or by multigrid (multigrid_step.hpp). A step that would create energy (bonds turning far in
+// one step, where the linearisation fails), found by Simulation's energy guard, is taken again
+// in halves, each checked by energy_guard.hpp.
+#include <algorithm>
 #include <cassert>
 
 #include "integrators/backward_euler.hpp"
+#include "integrators/energy_guard.hpp"
 #include "integrators/integrator_common.hpp"
 #include "integrators/multigrid_step.hpp"
 
 namespace qbond {
 namespace {
+
+// A substep creating more than this fraction of the magnitudes of its energy terms is
+// split in two; below it, the difference is the solve's own error (CG stops at a relative
+// residual, momentum restoration shifts velocities by that error) and round-off, not the
+// linearisation.
+constexpr double kGainTolerance = 1e-9;
+// Halvings of a step that creates energy, at most (2^kMaxDepth substeps of h / 2^kMaxDepth).
+constexpr int kMaxDepth = 10;
 
 class CoupledIntegrator final : public StepIntegrator {
  public:
@@ -18,10 +30,40 @@ class CoupledIntegrator final : public StepIntegrator {
 
   bool forms_gravity() const override { return true; }
 
+  bool splits_gaining_steps() const override { return true; }
+  void split_next_step() override { split_ = true; }
+
   void project(const Model& model, const State& state, const Adjacency& adj,
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
-    begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/false, config_.threads, out, sys_);
     stats_ = {};
+    if (!split_) return solve(model, state, adj, f_ext, ctx, /*whole=*/true, out);
+    // The whole step created energy (Simulation's guard): taken again as two halves, each from
+    // the state the one before reached, and each split again while it creates energy. Kinematic
+    // rows keep the whole step's prescribed motion; the carry-over is the whole step's Δv.
+    split_ = false;
+    const std::size_t n = model.num_quanta();
+    out.resize(n);
+    project_kinematic(model, state, ctx, out);
+    sub_ = state;
+    const double t0 = ctx.t, t1 = ctx.t + ctx.h, tm = t0 + 0.5 * ctx.h;
+    substep(model, adj, f_ext, t0, tm, ctx.step, 1);
+    substep(model, adj, f_ext, tm, t1, ctx.step, 1);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (model.is_kinematic(static_cast<Index>(i))) continue;
+      out.dx[i] = sub_.x[i] - state.x[i];
+      out.dv[i] = sub_.v[i] - state.v[i];
+    }
+    if (config_.solver == CoupledSolver::cg) keep_guess(config_.warm_start, out.dv, ctx.h, state.carry, config_.threads, out);
+  }
+
+ private:
+  // One linearised backward-Euler step of length ctx.h from `state` into `out`. A whole step
+  // starts CG from the warm start and may use the multigrid hierarchy; a substep starts from
+  // zero with block Jacobi (a hierarchy is kept for the whole step's length).
+  void solve(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
+             const StepContext& ctx, bool whole, Projection& out) {
+    begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/false, config_.threads, out, sys_);
+    SolveStats step{};
     switch (config_.solver) {
       case CoupledSolver::dense:
       case CoupledSolver::ldlt:
@@ -29,24 +71,27 @@ class CoupledIntegrator final : public StepIntegrator {
         break;
       case CoupledSolver::cg: {
         topo_.update(model, adj);
-        const bool guessed =
-            initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, config_.threads, y_);
-        if (use_multigrid(model)) {
+        const bool guessed = whole && initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry,
+                                                    config_.threads, y_);
+        if (!guessed) y_.assign(model.num_quanta(), Vec3::Zero());
+        if (whole && use_multigrid(model)) {
           multigrid_.solve(model, state, adj, sys_, ctx.h, config_.tolerance, cg_cap(config_, topo_), config_.threads,
-                           y_, !guessed, stats_);
+                           y_, !guessed, step);
           // Steps so small that block Jacobi would converge as fast: back to it (the hierarchy is kept).
-          if (stats_.iterations <= 2) slow_jacobi_ = false;
+          if (step.iterations <= 2) slow_jacobi_ = false;
         }
         else
         {
           conjugate_gradient(model, state.bonds, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
-                             !guessed, stats_);
-          slow_jacobi_ = stats_.iterations > kMultigridAfter;
-          jacobi_quanta_ = model.num_quanta();
+                             !guessed, step);
+          if (whole) {
+            slow_jacobi_ = step.iterations > kMultigridAfter;
+            jacobi_quanta_ = model.num_quanta();
+          }
         }
         if (config_.restore_momentum)
           restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
-        keep_guess(config_.warm_start, y_, ctx.h, state.carry, config_.threads, out);
+        if (whole) keep_guess(config_.warm_start, y_, ctx.h, state.carry, config_.threads, out);
         break;
       }
       case CoupledSolver::sweep:
@@ -54,9 +99,43 @@ class CoupledIntegrator final : public StepIntegrator {
         break;
     }
     write_free_rows(model, state, ctx.h, y_, config_.threads, out);
+    stats_.iterations += step.iterations;
+    stats_.residual = std::max(stats_.residual, step.residual);
   }
 
- private:
+  // Takes sub_ (the state at t0) to t1: one linearised step or, while that creates energy and
+  // depth < kMaxDepth, two halves. Hands each substep taken to the ledger, when on.
+  void substep(const Model& model, const Adjacency& adj, const std::vector<Vec3>& f_ext, double t0, double t1,
+               std::uint64_t step, int depth) {
+    const std::size_t n = model.num_quanta();
+    const double H = t1 - t0;
+    const StepContext ctx{H, t0, step};
+    solve(model, sub_, adj, f_ext, ctx, /*whole=*/false, sub_out_);
+    const bool gains =
+        guard_.balance(model, sub_, adj, f_ext, sub_out_, H, ledger_hints(), config_.threads).gains(kGainTolerance);
+    if (gains && depth < kMaxDepth) {
+      const double tm = t0 + 0.5 * H;
+      substep(model, adj, f_ext, t0, tm, step, depth + 1);
+      substep(model, adj, f_ext, tm, t1, step, depth + 1);
+      return;
+    }
+    ++stats_.substeps;
+    if (gains) ++stats_.unconverged;
+    sub_x1_.resize(n);
+    sub_v1_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      sub_x1_[i] = sub_.x[i] + sub_out_.dx[i];
+      sub_v1_[i] = sub_.v[i] + sub_out_.dv[i];
+    }
+    if (substeps_) substeps_->charge(model, sub_, adj, sub_out_, sub_x1_, sub_v1_, f_ext, H);
+    sub_.x.swap(sub_x1_);
+    sub_.v.swap(sub_v1_);
+    // Kinematic quanta exactly on their path (as the step's apply_checked puts them).
+    for (const Motion& motion : model.motions)
+      for (std::size_t k = 0; k < motion.quanta.size(); ++k)
+        motion.at(k, t1, sub_.x[motion.quanta[k]], sub_.v[motion.quanta[k]]);
+  }
+
   // multigrid as asked, or (automatic) once block Jacobi was slow on this body: a hierarchy is
   // then kept and pays for its set-up over the following steps.
   bool use_multigrid(const Model& model) {
@@ -72,6 +151,11 @@ class CoupledIntegrator final : public StepIntegrator {
   std::vector<Vec3> y_;
   DirectSolver direct_;
   MultigridStep multigrid_;
+  EnergyGuard guard_;
+  bool split_ = false;                 // split_next_step: the next projection in substeps
+  State sub_;                          // substepping: the state the substeps have reached
+  Projection sub_out_;                 // substepping: one substep's projection
+  std::vector<Vec3> sub_x1_, sub_v1_;  // substepping: the state a substep applies
 };
 
 }  // namespace

@@ -154,6 +154,52 @@ QBOND_VECTOR_CLONES double energy_chunk(const Model& m, const State& s, std::siz
   return chunk_sums<1>(s, b0, b1, block, any_law, all_linear)[0];
 }
 
+// U_b(r1) − U_b(r0) of a linear bond, as ½ k (r1 − r0)(r1 + r0 − 2 L): no cancellation between
+// two large energies when the bond barely moves.
+QBOND_VECTOR_INLINE double linear_energy_change(double k, double r0, double r1, double rest) {
+  return 0.5 * k * (r1 - r0) * (r1 + r0 - 2 * rest);
+}
+
+// |(x_j + Δx_j) − (x_i + Δx_i)| for positions and displacements stored as consecutive triples.
+QBOND_VECTOR_INLINE double moved_length(const double* x, const double* dx, std::size_t i, std::size_t j) {
+  double r2 = 0;
+  QBOND_UNROLL(3)
+  for (std::size_t c = 0; c < 3; ++c) {
+    const double d = (x[3 * j + c] - x[3 * i + c]) + (dx[3 * j + c] - dx[3 * i + c]);
+    r2 += d * d;
+  }
+  return std::sqrt(r2);
+}
+
+// Σ U_b(r1) − U_b(r0) and Σ U_b(r0) + U_b(r1) over bonds [b0, b1) (bond_energy_change).
+QBOND_VECTOR_CLONES Sums<2> energy_change_chunk(const Model& m, const State& s, const double* dx, std::size_t b0,
+                                               std::size_t b1) {
+  const double* x = s.x.data()->data();
+  const double* rest = s.bonds.rest.data();
+  const double* k = s.bonds.strength.data();
+  const Law* law = s.bonds.law.data();
+  auto block = [=]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, double(&t)[2][kLanes])
+                   QBOND_LAMBDA_INLINE {
+    QBOND_SIMD for (std::size_t l = 0; l < L; ++l) {
+      const double r0 = length(x, i + l, j + l), r1 = moved_length(x, dx, i + l, j + l);
+      t[0][l] = linear_energy_change(k[b + l], r0, r1, rest[b + l]);
+      t[1][l] = linear_energy(k[b + l], r0, rest[b + l]) + linear_energy(k[b + l], r1, rest[b + l]);
+    }
+  };
+  auto any_law = [&](std::size_t i, std::size_t j, std::size_t b) {
+    const double r0 = length(x, i, j), r1 = moved_length(x, dx, i, j);
+    if (law[b] == Law::linear)
+      return Sums<2>{linear_energy_change(k[b], r0, r1, rest[b]),
+                     linear_energy(k[b], r0, rest[b]) + linear_energy(k[b], r1, rest[b])};
+    const double u0 = s.bonds.law_at(m.shapes, b, r0, rest[b]).U, u1 = s.bonds.law_at(m.shapes, b, r1, rest[b]).U;
+    return Sums<2>{u1 - u0, std::abs(u0) + std::abs(u1)};
+  };
+  auto all_linear = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
+    return law[b] == Law::linear && uniform_prefix(law, b, count);
+  };
+  return chunk_sums<2>(s, b0, b1, block, any_law, all_linear);
+}
+
 // How the step's dampers were evaluated: at the start's bond direction (φ = 0) or along d + φ Δd,
 // and at the start's velocities (θ = 0), the end's (θ = 1) or v + θ Δv. The common cases read
 // fewer arrays and do fewer operations a bond.
@@ -254,6 +300,16 @@ double bond_energy_sum(const Model& m, const State& s, int threads) {
   return reduce_chunks(
       s.bonds.size(), bond_pass_threads(m.num_quanta(), threads), 0.0,
       [&](std::size_t b0, std::size_t b1) { return energy_chunk(m, s, b0, b1); }, std::plus<>{});
+}
+
+BondEnergyChange bond_energy_change(const Model& m, const State& s, std::span<const Vec3> dx, int threads) {
+  assert(dx.size() == m.num_quanta());
+  auto chunk = [&](std::size_t b0, std::size_t b1) { return energy_change_chunk(m, s, dx.data()->data(), b0, b1); };
+  const Sums<2> sums = reduce_chunks(s.bonds.size(), bond_pass_threads(m.num_quanta(), threads), Sums<2>{},
+                                     chunk, [](const Sums<2>& p, const Sums<2>& q) {
+                                       return Sums<2>{p[0] + q[0], p[1] + q[1]};
+                                     });
+  return {sums[0], sums[1]};
 }
 
 BondStepSums bond_step_sums(const Model& m, const State& s, const AppliedState& a, double h, double theta,

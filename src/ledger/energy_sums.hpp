@@ -15,6 +15,16 @@ namespace qbond {
 /// Σ U_b(r_b) over the alive bonds, r_b their lengths at the state's positions (Eqs. 2–3) [J].
 double bond_energy_sum(const Model& m, const State& s, int threads);
 
+/// How the bonds' energy changes when the quanta move by dx from the state's positions:
+/// Σ U_b(|d₁|) − U_b(|d₀|), d₁ = d₀ + Δx_j − Δx_i, over the alive bonds, each bond's difference formed directly (for the
+/// linear law ½ k (r₁ − r₀)(r₁ + r₀ − 2L), exact where the bond barely moves), and the scale of
+/// its round-off, Σ |U_b(|d₀|)| + |U_b(|d₁|)| [J]. One pass over the bonds.
+struct BondEnergyChange {
+  double change = 0;
+  double scale = 0;
+};
+BondEnergyChange bond_energy_change(const Model& m, const State& s, std::span<const Vec3> dx, int threads);
+
 /// The positions and velocities a step applies, x + Δx and v + Δv of every quanta (prescribed
 /// ones before they are put on their paths), formed once a step (Simulation's check stage).
 struct AppliedState {

@@ -7,14 +7,49 @@
 
 namespace qbond::stage {
 
-StepReport check_energy(const Model& m, const State& s, const BlowupLimits& limits, int threads,
-                        const StepScratch& k) {
+namespace {
+
+// E(t) - E(0) beyond the loads' and anchors' work: energy the integrator (or a heuristic) made.
+StepReport check_gain(const Model& m, const State& s, const BlowupLimits& limits, const Energies& e, double available,
+                      EnergyGain& gain) {
+  const EnergyLedger& l = s.energy;
+  const double g = e.total() - l.initial_total - l.work_loads - l.work_anchors;
+  if (g > gain.largest) {
+    gain.largest = g;
+    gain.relative = available > 0 ? g / available : HUGE_VAL;
+  }
+  if (g <= limits.energy_gain * available + limits.energy_floor) return {};
+  if (!gain.exceeded) {
+    gain.exceeded = true;
+    gain.first_step = s.step;
+    gain.first_time = s.time;
+  }
+  if (!limits.stop_on_energy_gain) return {};
+  std::ostringstream msg;
+  msg.precision(6);
+  msg << "energy gained at step " << s.step << " (t = " << s.time << " s): the energy exceeds its initial value plus "
+      << "the external work by " << g << " J, more than " << limits.energy_gain << " x the " << available
+      << " J the system could hold (limits.stop_on_energy_gain)";
+  StepReport r;
+  r.status = StepReport::Status::blowup;
+  r.message = msg.str();
+  r.worst = max_speed(m, s).second;
+  return r;
+}
+
+}  // namespace
+
+StepReport check_energy(const Model& m, const State& s, const BlowupLimits& limits, bool restored, int threads,
+                        EnergyGain& gain, StepScratch& k) {
   StepReport r;
   const EnergyLedger& l = s.energy;
   // The bonds' energy the ledger summed at the positions this step applied (the same pass as
   // the dampers' work), but for round-off where a prescribed quanta landed on its path instead.
-  Energies e = quanta_energies(m, s, threads);
+  Energies e = k.quanta_after_valid && !restored ? k.quanta_after : quanta_energies(m, s, threads);
   e.bonds = k.bonds_after;
+  k.guard_start = e;  // the next step's start (retake_gaining_step)
+  k.guard_step = s.step;
+  k.guard_time = s.time;
   // External forces can also give energy before they have done measurable work (a step from
   // rest changes velocity before position): allow the kinetic energy their impulse over the
   // elapsed time would give each free quanta, Σ |f_ext t|² / (2 m).
@@ -25,7 +60,7 @@ StepReport check_energy(const Model& m, const State& s, const BlowupLimits& limi
   const double available = (l.initial_total - l.initial_gravity) + std::abs(e.gravity - l.initial_gravity) +
                            std::abs(l.work_loads) + std::abs(l.work_anchors) + impulse;
   const double held = e.kinetic + e.bonds;
-  if (held <= limits.energy_growth * available + limits.energy_floor) return r;
+  if (held <= limits.energy_growth * available + limits.energy_floor) return check_gain(m, s, limits, e, available, gain);
   const auto [speed, who] = max_speed(m, s);
   std::ostringstream msg;
   msg.precision(6);

@@ -43,6 +43,16 @@ constexpr const char* kRunJson = "run.json";
 constexpr const char* kEvents = "events.csv";
 constexpr const char* kEventsHeader = "step,time,event,reason,bond,i,j,strain,tension";
 
+// The events.csv row of a run whose energy first exceeded its initial value plus the external
+// work by more than limits.energy_gain: the step, the time and the gain relative to what the
+// system could hold (in the strain column); no bond.
+std::string gain_row(const EnergyGain& g) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "%llu,%.17g,energy_gain,exceeds_initial_plus_work,,,,%.17g,",
+                static_cast<unsigned long long>(g.first_step), g.first_time, g.relative);
+  return buf;
+}
+
 // One row of events.csv; bond and quanta named by their user ids (Bonds::id, Model::quanta_id).
 std::string event_row(const BondEvent& e, const World& w) {
   const Model& m = w.model;
@@ -311,6 +321,13 @@ struct Runner::Impl {
       j["quanta"] = w.num_quanta();
       j["bonds"] = w.num_bonds();
       j["bonds_alive"] = w.num_alive_bonds();
+      const EnergyGain& g = r->energy_gain;
+      j["energy_gain"] = {{"exceeded", g.exceeded}, {"largest", g.largest}, {"relative", g.relative},
+                          {"limit", scene.limits.energy_gain}};
+      if (g.exceeded) {
+        j["energy_gain"]["first_step"] = g.first_step;
+        j["energy_gain"]["first_time"] = g.first_time;
+      }
     }
     if (in_place) write_in_place(out(kRunJson), j.dump(2));
     else write_file_atomic(out(kRunJson), j.dump(2) + "\n");
@@ -446,6 +463,7 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
   p.first_step = start;
   p.last_step = r.settings.steps;
   p.adaptive = r.scene.adaptive.enabled;
+  bool gain_reported = r.sim.energy_gain().exceeded;
   try {
   while (!r.finished()) {
     const StepReport rep = r.step();
@@ -455,6 +473,10 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
       break;
     }
     for (const BondEvent& e : r.sim.events()) r.events->write_line(event_row(e, r.sim.world()));
+    if (r.sim.energy_gain().exceeded && !gain_reported) {
+      r.events->write_line(gain_row(r.sim.energy_gain()));
+      gain_reported = true;
+    }
     const State& s = r.sim.world().state;
     if (s.step % r.settings.every == 0) r.output();
     if (r.settings.checkpoint_every && s.step % r.settings.checkpoint_every == 0) r.checkpoint();
@@ -479,6 +501,7 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
   }
   result.steps_taken = r.sim.world().state.step - start;
   result.wall_seconds = wall();
+  result.energy_gain = r.sim.energy_gain();
   // The state the run ends with (the last good one after a blow-up) is always saved.
   r.output();
   r.write_series();

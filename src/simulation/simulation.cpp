@@ -39,14 +39,25 @@ StepReport Simulation::end_step() {
   // Before heuristics and ledger: a rollback undoes both.
   if (keep_last_good_) stage::save_last_good(s, !heuristics_.empty(), k);
   if (restore) stage::open_books(m, s, threads, k);
-  stage::run_heuristics(m, s, heuristics_, threads, k);
-  if (StepReport r = stage::check(m, s, limits_.max_speed, threads, k); r.status != StepReport::Status::ok)
-    return roll_back(std::move(r), false);
-  if (ledger_on()) stage::charge_ledger(m, s, k);
+  k.quanta_after_valid = false;
+  // With heuristics, the integrator's own projection is guarded before they edit it (what they
+  // add or take is theirs); without, the step as the ledger charged it.
+  StepIntegrator& integrator = stepper(integrator_);
+  if (ledger_on() && !heuristics_.empty()) stage::retake_gaining_projection(m, s, integrator, h_, limits_.max_speed, k);
+  for (bool retaken = false;; retaken = true) {
+    k.guard_books = s.energy;
+    stage::run_heuristics(m, s, heuristics_, threads, k);
+    if (StepReport r = stage::check(m, s, limits_.max_speed, threads, k); r.status != StepReport::Status::ok)
+      return roll_back(std::move(r), false);
+    if (!ledger_on()) break;
+    stage::charge_ledger(m, s, k);
+    if (retaken || !heuristics_.empty() || !stage::retake_gaining_step(m, s, integrator, h_, limits_, k)) break;
+  }
   stage::apply(s, k);
   if (restore) stage::restore_energy(m, s, threads, k);
   if (track_energy_) {
-    if (StepReport r = stage::check_energy(m, s, limits_, threads, k); r.status != StepReport::Status::ok)
+    if (StepReport r = stage::check_energy(m, s, limits_, restore, threads, gain_, k);
+        r.status != StepReport::Status::ok)
       return roll_back(std::move(r), true);
   }
   stage::observe(m, s, observers_, k);

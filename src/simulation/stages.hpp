@@ -46,6 +46,21 @@ StepReport check(const Model& model, const State& state, double max_speed, int t
 // k.bonds_after.
 void charge_ledger(const Model& model, State& state, StepScratch& k);
 
+// The energy guard, without heuristics: the step as charged, from E0 to E1 = K1 + U1 + G1,
+// against E0 + loads' and anchors' work - dampers' dissipation. A step above that by more than
+// round-off and the solve's tolerance made energy; an integrator that can takes it again in
+// substeps. Reads model, state, k.next, k.bonds_after, k.guard_books. Writes k.quanta_after; when
+// it retakes, state.energy (back to k.guard_books) and what integrate writes. Returns whether it
+// retook the step (then check and charge_ledger run again).
+bool retake_gaining_step(const Model& model, State& state, StepIntegrator& integrator, double h,
+                         const BlowupLimits& limits, StepScratch& k);
+
+// The energy guard with heuristics: the integrator's own projection against its own books
+// (energy_guard.hpp), before the heuristics edit it; what they add or take is theirs. Reads
+// model, state, k.f_ext, k.projection. Retakes the step in substeps (integrate) when it gains.
+void retake_gaining_projection(const Model& model, const State& state, StepIntegrator& integrator, double h,
+                               double max_speed, StepScratch& k);
+
 // Applies the step: x, v and the carry-over from k.next and k.projection, time and step index.
 // Writes state (x, v, carry, time, step); k.next and k.projection receive the values before the
 // step (a rollback reads them); clears the queued forces.
@@ -55,10 +70,13 @@ void apply(State& state, StepScratch& k);
 // plus the step's work less its dissipation. Reads k.books, k.e_start, state.energy. Writes state.v.
 void restore_energy(const Model& model, State& state, int threads, StepScratch& k);
 
-// The energy runaway check: kinetic plus bond energy within limits.energy_growth times what the
-// system could have gained. Reads model, state, k.bonds_after, k.f_ext. Returns a report or ok.
-StepReport check_energy(const Model& model, const State& state, const BlowupLimits& limits, int threads,
-                        const StepScratch& k);
+// The energy checks: kinetic plus bond energy within limits.energy_growth times what the system
+// could have gained (a runaway), and E(t) - E(0) beyond the external work, recorded in `gain` and
+// past limits.energy_gain reported (a stop with limits.stop_on_energy_gain). Reads model, state,
+// k.bonds_after, k.quanta_after (unless `restored`), k.f_ext. Writes gain, k.guard_start.
+// Returns a report or ok.
+StepReport check_energy(const Model& model, const State& state, const BlowupLimits& limits, bool restored,
+                        int threads, EnergyGain& gain, StepScratch& k);
 
 // Hands the applied step to the observers, in order. Reads model, state, k.ctx.
 void observe(const Model& model, const State& state, std::span<Observer* const> observers, const StepScratch& k);

@@ -2,10 +2,13 @@
 // What the stages of a step (stages.hpp) hand each other besides the model and the state, and
 // their buffers: private to the step, never part of the contract.
 #include <algorithm>
+#include <cstdint>
 #include <vector>
 
 #include "integrators/advance.hpp"
+#include "integrators/energy_guard.hpp"
 #include "ledger/ledger_stage.hpp"
+#include "qbond/analysis/analysis.hpp"
 #include "qbond/heuristics/heuristics.hpp"
 #include "qbond/integrators/integrators.hpp"
 #include "qbond/model/world.hpp"
@@ -28,6 +31,15 @@ struct StepScratch {
   double bonds_after = 0;       // the bonds' energy after the step, from the ledger [J]
   EnergyLedger books;           // the ledger before the step (energy restoration)
   double e_start = 0;           // E before the step (energy restoration) [J]
+  // The energy guard (guard_energy.cpp): E at the end of the last step, for the state of
+  // `guard_step` (the next step's start), and the ledger before this step's charges.
+  Energies guard_start;
+  std::uint64_t guard_step = ~std::uint64_t{0};
+  double guard_time = 0;
+  EnergyLedger guard_books;
+  Energies quanta_after;        // kinetic and gravity energy of `next` (the guard's, reused by check_energy)
+  bool quanta_after_valid = false;
+  EnergyGuard guard;            // retake_gaining_projection's
   State last_good;              // the state before the step, for a rollback (save_last_good)
   bool last_good_has_bonds = false;  // whether last_good holds the bond arrays too
   Adjacency adj;                // of the alive bonds, rebuilt when the topology changes

@@ -46,6 +46,10 @@ struct RunResult {
   std::string message;  ///< blow-up: what, where and when; stopped: the step it was interrupted at
   std::uint64_t steps_taken = 0;
   double wall_seconds = 0;
+  /// The run's largest energy gain beyond the external work (Simulation::energy_gain): when it
+  /// exceeded limits.energy_gain, events.csv has an `energy_gain` row at the step it first did,
+  /// and run.json an `energy_gain` object with `exceeded` true.
+  EnergyGain energy_gain;
 };
 
 /// One run: the simulation and the files it writes into settings.out_dir:

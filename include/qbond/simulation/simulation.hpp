@@ -22,6 +22,20 @@ struct BlowupLimits {
   /// gained (initial kinetic + bond energy + |gravity work| + |load and anchor work|).
   double energy_growth = 1e3;
   double energy_floor = 1e-9;  ///< [J] absolute slack so that systems at rest don't trip it
+  /// Energy gained: E(t) − E(0) − (loads' + anchors' work) above this fraction of what the system
+  /// could hold without gaining (as for energy_growth, less the factor) is reported
+  /// (Simulation::energy_gain) and, with stop_on_energy_gain, ends the run like a blow-up.
+  double energy_gain = 0.01;
+  bool stop_on_energy_gain = false;
+};
+
+/// The largest energy gain of a run beyond the work done on it (BlowupLimits::energy_gain).
+struct EnergyGain {
+  double largest = 0;           ///< largest E(t) − E(0) − work seen [J]
+  double relative = 0;          ///< the same over what the system could hold then
+  bool exceeded = false;        ///< relative went above BlowupLimits::energy_gain
+  std::uint64_t first_step = 0; ///< the step at which it first did
+  double first_time = 0;        ///< [s]
 };
 
 /// Outcome of one step.
@@ -84,6 +98,9 @@ class Simulation {
   double timestep() const { return h_; }
   void set_timestep(double h) { h_ = h; }
   BlowupLimits& limits() { return limits_; }
+  /// The largest energy gain beyond external work since this Simulation was made (checked every
+  /// step with the energy ledger on).
+  const EnergyGain& energy_gain() const { return gain_; }
   /// Whether the energy ledger is updated, and checked for a runaway, every step (costs one pass
   /// over the bonds).
   void set_track_energy(bool on) { track_energy_ = on; }
@@ -105,6 +122,7 @@ class Simulation {
   std::vector<Observer*> observers_;
   double h_;
   BlowupLimits limits_;
+  EnergyGain gain_;
   bool track_energy_ = true;
   bool keep_last_good_ = false;
   std::unique_ptr<StepScratch> scratch_;

@@ -91,7 +91,10 @@ Scene Builder::build() {
                        {"restore_momentum", c.restore_momentum}, {"threads", c.threads},
                        {"newton_iterations", c.newton_iterations}, {"newton_polish", c.newton_polish},
                        {"restore_energy", c.restore_energy}, {"preconditioner", to_string(c.preconditioner)}};
-  res["limits"] = {{"max_speed", s.limits.max_speed}, {"energy_growth", s.limits.energy_growth}};
+  res["limits"] = {{"max_speed", s.limits.max_speed},
+                   {"energy_growth", s.limits.energy_growth},
+                   {"energy_gain", s.limits.energy_gain},
+                   {"stop_on_energy_gain", s.limits.stop_on_energy_gain}};
   if (s.adaptive.enabled)
     res["adaptive"] = {{"error", s.adaptive.error},       {"energy", s.adaptive.energy},
                        {"min_step", s.adaptive.min_step}, {"max_step", s.adaptive.max_step},
@@ -199,6 +202,9 @@ BlowupLimits Builder::limits(const json& j) {
   BlowupLimits l;
   if (o.has("max_speed")) l.max_speed = positive(o["max_speed"], o.at("max_speed"));
   if (o.has("energy_growth")) l.energy_growth = positive(o["energy_growth"], o.at("energy_growth"));
+  if (o.has("energy_gain")) l.energy_gain = positive(o["energy_gain"], o.at("energy_gain"));
+  if (o.has("stop_on_energy_gain"))
+    l.stop_on_energy_gain = boolean(o["stop_on_energy_gain"], o.at("stop_on_energy_gain"));
   return l;
 }
 
