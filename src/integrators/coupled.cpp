@@ -5,6 +5,7 @@
 #include <cassert>
 
 #include "integrators/backward_euler.hpp"
+#include "integrators/contact_solve.hpp"
 #include "integrators/integrator_common.hpp"
 #include "integrators/multigrid_step.hpp"
 
@@ -21,6 +22,31 @@ class CoupledIntegrator final : public StepIntegrator {
   void project(const Model& model, const State& state, const Adjacency& adj,
                const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) override {
     begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/false, config_.threads, out, sys_);
+    const bool contacts = contact_.begin(model, state, f_ext, ctx.h, config_.threads, sys_);
+    solve(model, state, adj, f_ext, ctx);
+    // Contacts: solved again, from the last solution, while the active set changes.
+    for (int pass = 1; contacts && pass < kContactPasses && contact_.update(model, state, ctx.h, config_.threads, y_, sys_);
+         ++pass) {
+      const SolveStats first = stats_;
+      solve(model, state, adj, f_ext, ctx, /*warm=*/true);
+      stats_.iterations += first.iterations;
+    }
+    if (config_.solver == CoupledSolver::cg) {
+      if (config_.restore_momentum)
+        restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_, contact_.touching());
+      keep_guess(config_.warm_start, y_, ctx.h, state.carry, config_.threads, out);
+    }
+    write_free_rows(model, state, ctx.h, y_, config_.threads, out);
+    if (contacts) contact_.finish(model, state, ctx.h, y_, out);
+  }
+
+ private:
+  // Active-set passes of a step with contacts at most (each a solve).
+  static constexpr int kContactPasses = 8;
+
+  // One solve of the step's system into y_; `warm`: from y_ itself (a contact pass).
+  void solve(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
+             const StepContext& ctx, bool warm = false) {
     stats_ = {};
     switch (config_.solver) {
       case CoupledSolver::dense:
@@ -30,7 +56,7 @@ class CoupledIntegrator final : public StepIntegrator {
       case CoupledSolver::cg: {
         topo_.update(model, adj);
         const bool guessed =
-            initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, config_.threads, y_);
+            warm || initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, config_.threads, y_);
         if (use_multigrid(model)) {
           multigrid_.solve(model, state, adj, sys_, ctx.h, config_.tolerance, cg_cap(config_, topo_), config_.threads,
                            y_, !guessed, stats_);
@@ -44,19 +70,14 @@ class CoupledIntegrator final : public StepIntegrator {
           slow_jacobi_ = stats_.iterations > kMultigridAfter;
           jacobi_quanta_ = model.num_quanta();
         }
-        if (config_.restore_momentum)
-          restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
-        keep_guess(config_.warm_start, y_, ctx.h, state.carry, config_.threads, out);
         break;
       }
       case CoupledSolver::sweep:
         assert(false && "make_integrator rejects coupled_implicit with sweep");
         break;
     }
-    write_free_rows(model, state, ctx.h, y_, config_.threads, out);
   }
 
- private:
   // multigrid as asked, or (automatic) once block Jacobi was slow on this body: a hierarchy is
   // then kept and pays for its set-up over the following steps.
   bool use_multigrid(const Model& model) {
@@ -66,6 +87,7 @@ class CoupledIntegrator final : public StepIntegrator {
   }
 
   ImplicitSystem sys_;
+  ContactSolve contact_;
   bool slow_jacobi_ = false;        // the last block-Jacobi solve took more than kMultigridAfter iterations
   std::size_t jacobi_quanta_ = 0;   // the quanta then
   TopologyCache topo_;

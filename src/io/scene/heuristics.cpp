@@ -19,6 +19,11 @@ ContactMaterial Builder::contact_material(const Obj& o) {
     if (c.restitution > 1) bad(o.at("restitution"), "must be <= 1, got " + num_str(c.restitution));
   }
   if (o.has("friction")) c.friction = non_negative(o["friction"], o.at("friction"));
+  if (o.has("static_friction")) {
+    c.static_friction = non_negative(o["static_friction"], o.at("static_friction"));
+    if (c.static_friction < c.friction)
+      bad(o.at("static_friction"), "must be >= friction (" + num_str(c.friction) + "), got " + num_str(c.static_friction));
+  }
   return c;
 }
 
@@ -67,7 +72,8 @@ std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
       r.quanta = quanta_mask(o, w);
       out.emplace_back(std::move(r));
     } else if (type == "ground" || type == "plane" || type == "sphere" || type == "box") {
-      static const std::initializer_list<const char*> common = {"type", "restitution", "friction", "margin"};
+      static const std::initializer_list<const char*> common = {"type", "restitution", "friction", "margin",
+                                                                 "static_friction", "method", "penalty"};
       std::vector<const char*> keys(common);
       if (type == "ground") keys.push_back("height");
       if (type == "plane") keys.insert(keys.end(), {"point", "normal"});
@@ -107,6 +113,20 @@ std::vector<HeuristicSpec> Builder::heuristics(const json& j, const World& w) {
           bad(o.at("margin"), "must be below the container's " + std::string(ob.shape == Obstacle::Shape::sphere ? "radius" : "half size") +
                                   " " + num_str(room) + " m, or no quanta fits inside");
       }
+      if (o.has("method"))
+        ob.method = choice<ContactMethod>(o["method"], o.at("method"),
+                                          {{"projection", ContactMethod::projection},
+                                           {"implicit", ContactMethod::implicit}});
+      if (o.has("penalty")) ob.penalty = positive(o["penalty"], o.at("penalty"));
+      if (ob.method == ContactMethod::implicit) {
+        if (integrator_.type != IntegratorType::coupled_implicit)
+          bad(o.at("method"), "'implicit' contact is solved by the coupled_implicit integrator, not " +
+                                  std::string(to_string(integrator_.type)) + " (use \"projection\")");
+        out.emplace_back(ob);
+        continue;
+      }
+      if (o.has("static_friction") || o.has("penalty"))
+        bad(path, "static_friction and penalty are keys of \"method\": \"implicit\" obstacles");
       // Every obstacle records the impulse it gives (diagnostics' obstacle<k>_ columns).
       ob.record = static_cast<std::int32_t>(obstacles_++);
       out.emplace_back(ob);
