@@ -12,6 +12,14 @@ namespace {
 
 constexpr Index kNone = ~Index{0};
 
+// A contact starts sliding when the quanta moves along the surface faster than this many times
+// the speed gravity gives in a step (below it, a stick trial decides).
+constexpr double kSlideSpeed = 0.5;
+// The stick spring's stiffness over the normal one's. Anchored at each step's start, a stuck
+// quanta under a tangential load F creeps F / k_t a step: 100 k keeps that to 1/100 of its
+// normal spring's deflection under the same force.
+constexpr double kStickStiffness = 100;
+
 bool has_friction(const ContactMaterial& m) { return m.friction > 0 || m.static_coefficient() > 0; }
 
 Mat3 tangential(const Vec3& n) { return Mat3::Identity() - n * n.transpose(); }
@@ -48,6 +56,18 @@ bool ContactSolve::make(const Model& model, const State& state, double h, Index 
   }
   c.n = n;
   c.k = ob.penalty * model.mass[i] / (h * h);
+  // A quanta already sliding along the surface starts sliding, with the force its spring holds
+  // now (or that stops its approach within the step): a stick trial would hold it for a solve
+  // and tip the body it belongs to.
+  const ContactMaterial& mat = ob.material;
+  const Vec3 vt = tangential(n) * state.v[i];
+  const double speed = vt.norm();
+  if (has_friction(mat) && speed > kSlideSpeed * h * model.gravity.norm() && speed > 0) {
+    c.slide = true;
+    c.slide_dir = vt / speed;
+    c.slide_fn = std::max(c.k * std::max(0.0, -c.gap_ref), model.mass[i] * c.v_in / h);
+    c.fn = c.slide_fn;
+  }
   return true;
 }
 
@@ -62,7 +82,7 @@ Vec3 ContactSolve::contact_force(const Model& model, const State& s, double h, c
   Vec3 f = normal_force(s, h, c, y) * c.n;
   if (!has_friction(mat)) return f;
   if (c.slide) return f - mat.friction * c.slide_fn * c.slide_dir;
-  return f - c.k * h * (tangential(c.n) * (s.v[c.i] + y));
+  return f - kStickStiffness * c.k * h * (tangential(c.n) * (s.v[c.i] + y));
 }
 
 void ContactSolve::write(const Model& model, const State& state, double h, int threads, ImplicitSystem& sys) {
@@ -90,8 +110,8 @@ void ContactSolve::write(const Model& model, const State& state, double h, int t
       sys.rhs[i] -= (h * mat.friction * c.slide_fn) * c.slide_dir;
     } else {
       const Mat3 P = tangential(n);
-      sys.diag[i] += (h2 * c.k) * P;
-      sys.rhs[i] -= (h2 * c.k) * (P * v);
+      sys.diag[i] += (h2 * kStickStiffness * c.k) * P;
+      sys.rhs[i] -= (h2 * kStickStiffness * c.k) * (P * v);
     }
   }
   for (Index i : saved_) sys.diag_inv[i] = sys.diag[i].inverse();
@@ -135,7 +155,8 @@ bool ContactSolve::update(const Model& model, const State& state, double h, int 
   std::size_t k = 0;
   const std::size_t n = model.num_quanta();
   const std::size_t nob = model.obstacles.size();
-  auto released = [&](Index i, std::uint32_t o) { return released_[i * nob + o] != 0; };
+  // A contact released twice in a step stays released: the active set cannot cycle.
+  auto released = [&](Index i, std::uint32_t o) { return released_[i * nob + o] >= 2; };
   for (std::size_t q = 0; q < n; ++q) {
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i)) continue;
@@ -146,7 +167,7 @@ bool ContactSolve::update(const Model& model, const State& state, double h, int 
         Contact c = contacts_[k++];
         c.fn = normal_force(state, h, c, y[i]);
         if (c.fn < 0) {  // the spring pulls: the quanta leaves the surface
-          released_[i * nob + o] = 1;
+          ++released_[i * nob + o];
           changed = true;
           continue;
         }
@@ -154,7 +175,7 @@ bool ContactSolve::update(const Model& model, const State& state, double h, int 
         if (has_friction(mat)) {
           const Vec3 vt = tangential(c.n) * v1;
           if (!c.slide) {
-            const Vec3 ft = -c.k * h * vt;
+            const Vec3 ft = -kStickStiffness * c.k * h * vt;
             const double limit = mat.static_coefficient() * c.fn;
             if (ft.norm() > limit) {  // past static friction: it slides where the spring held it
               c.slide = true;
@@ -229,7 +250,9 @@ void ContactSolve::finish(const Model& model, const State& state, double h, cons
   x1_.resize(n);
   for (std::size_t q = 0; q < n; ++q) x1_[q] = state.x[q] + out.dx[q];
   const double u0 = stored(model, state.x, h), u1 = stored(model, x1_, h);
-  out.contact.dissipated = -work - (u1 - u0);
+  // A step whose balance comes out negative (the linearised springs gave energy back, as when a
+  // stick spring lets go) charges nothing: that energy is the integrator's, left to `numerical`.
+  out.contact.dissipated = std::max(0.0, -work - (u1 - u0));
   out.contact.stored = u1;
   out.contact.charged = true;
 }

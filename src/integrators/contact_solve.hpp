@@ -11,8 +11,8 @@
 // g* is 0, or for an impact (a quanta on the free side at the start, approaching at v_in) with
 // restitution e the gap at which it would end after bouncing, e (h v_in − φ(x))⁺; its end
 // normal velocity is then set to e v_in.
-// Coulomb friction: a sticking contact is a tangential spring to the start position,
-// A_ii += h² k P, b_i −= h² k P v (P = I − n nᵀ); it slides when that force passes μ_s f_n, and a
+// Coulomb friction: a sticking contact is a tangential spring k_t = 100 k to the start position,
+// A_ii += h² k_t P, b_i −= h² k_t P v (P = I − n nᵀ); it slides when that force passes μ_s f_n, and a
 // sliding contact feels the constant −μ_k f_n t (t the sliding direction) in b_i.
 // The active set (which quanta touch which obstacle, stick or slide, f_n) is found by solving,
 // checking every contact against the solution, and solving again while it changes.
@@ -67,7 +67,7 @@ class ContactSolve {
   double stored(const Model& model, const std::vector<Vec3>& x, double h) const;
 
   std::vector<Contact> contacts_;  // by quanta, then obstacle
-  std::vector<std::uint8_t> released_;  // per quanta and obstacle: a contact dropped this step, not made again
+  std::vector<std::uint8_t> released_;  // per quanta and obstacle: times its contact was dropped this step
   std::vector<std::uint8_t> touching_;
   std::vector<Index> saved_;  // quanta whose diagonal block and rhs are saved
   std::vector<Index> slot_;   // per quanta: its index in saved_, or -1
