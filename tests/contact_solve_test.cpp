@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "qbond/analysis/analysis.hpp"
+#include "qbond/io/scene.hpp"
 #include "qbond/simulation/simulation.hpp"
 #include "test_util.hpp"
 
@@ -198,6 +199,40 @@ TEST(SolvedContact, AnImpactLeavesWithTheRestitutionTimesItsApproachAtFrameSized
   const EnergyBudget b = energy_budget(sim.world().model, sim.world().state);
   // The impact takes (1 − e²) of the approach's kinetic energy, charged to the contact.
   EXPECT_NEAR(b.dissipated_contact, 0.5 * 1e-3 * vz * vz * (1 - e * e), 0.05 * 0.5 * 1e-3 * vz * vz);
+}
+
+std::string scene_with(const std::string& obstacle, const std::string& integrator = "coupled_implicit") {
+  return R"({"timestep": 0.01, "steps": 1, "integrator": {"type": ")" + integrator + R"("},
+    "bodies": [{"name": "q", "type": "quanta", "positions": [[0, 0, 1]], "mass": 0.001}],
+    "heuristics": [)" + obstacle + "]}";
+}
+
+TEST(SolvedContact, SceneObstaclesWithMethodImplicitJoinTheModel) {
+  const Scene s = parse_scene(scene_with(R"({"type": "ground", "margin": 0.005, "method": "implicit",
+      "friction": 0.4, "static_friction": 0.5, "restitution": 0.5, "penalty": 500},
+      {"type": "ground", "height": -1})"));
+  ASSERT_EQ(s.world.model.obstacles.size(), 1u);
+  const Obstacle& o = s.world.model.obstacles[0];
+  EXPECT_EQ(o.method, ContactMethod::implicit);
+  EXPECT_EQ(o.material.friction, 0.4);
+  EXPECT_EQ(o.material.static_coefficient(), 0.5);
+  EXPECT_EQ(o.material.restitution, 0.5);
+  EXPECT_EQ(o.penalty, 500);
+  ASSERT_EQ(s.heuristics.size(), 1u);  // the projection one stays a rule, numbered from 0
+  EXPECT_EQ(std::get<Obstacle>(s.heuristics[0]).record, 0);
+  auto refused = [](const std::string& text, const std::string& says) {
+    try {
+      parse_scene(text);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+  };
+  refused(scene_with(R"({"type": "ground", "method": "implicit"})", "velocity_verlet"), "coupled_implicit");
+  refused(scene_with(R"({"type": "ground", "method": "implicit", "friction": 0.5, "static_friction": 0.4})"),
+          "must be >= friction");
+  refused(scene_with(R"({"type": "ground", "penalty": 10})"), "method");
+  refused(scene_with(R"({"type": "ground", "method": "solve"})"), "method");
 }
 
 }  // namespace
