@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <sstream>
+#include <stdexcept>
 
 #include "qbond/analysis/analysis.hpp"
 #include "integrators/advance.hpp"
@@ -215,6 +216,9 @@ StepReport Simulation::roll_back(StepReport r, bool applied) {
 Simulation::Simulation(World world, const IntegratorConfig& config, double h)
     : world_(std::move(world)), integrator_(make_step_integrator(config)), h_(h), scratch_(std::make_unique<Scratch>()) {
   checked_thread_count(config.threads);  // before any parallel region: OpenMP crashes on absurd counts
+  if (!world_.model.obstacles.empty() && config.type != IntegratorType::coupled_implicit)
+    throw std::invalid_argument("the model's obstacles are held inside the coupled_implicit step's solve, not by " +
+                                std::string(to_string(config.type)) + " (make them projection rules)");
   const std::size_t n = world_.num_quanta();
   f_ext_.assign(n, Vec3::Zero());
   f_user_.assign(n, Vec3::Zero());

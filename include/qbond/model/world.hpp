@@ -91,12 +91,12 @@ struct EnergyLedger {
   double work_anchors = 0;          ///< work done on the structure by prescribed quanta [J]
   double dissipated_damping = 0;    ///< energy removed by bond dampers [J]
   double dissipated_heuristics = 0; ///< energy removed by heuristics (plastic work, contacts) [J]
+  bool initialised = false;
   /// Energy the contacts inside the step's solve removed (restitution < 1, friction, the penalty
   /// springs' own damping) [J]
   double dissipated_contact = 0;
   /// Energy the solve's contact penalty springs hold at the current state, Σ ½ k δ² [J]
   double contact_stored = 0;
-  bool initialised = false;
 
   bool operator==(const EnergyLedger&) const = default;
 };
