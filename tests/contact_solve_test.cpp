@@ -204,7 +204,8 @@ TEST(SolvedContact, AnImpactLeavesWithTheRestitutionTimesItsApproachAtFrameSized
 std::string scene_with(const std::string& obstacle, const std::string& integrator = "coupled_implicit") {
   return R"({"timestep": 0.01, "steps": 1, "integrator": {"type": ")" + integrator + R"("},
     "bodies": [{"name": "q", "type": "quanta", "positions": [[0, 0, 1]], "mass": 0.001}],
-    "heuristics": [)" + obstacle + "]}";
+    "heuristics": [)" +
+         obstacle + "]}";
 }
 
 TEST(SolvedContact, SceneObstaclesWithMethodImplicitJoinTheModel) {

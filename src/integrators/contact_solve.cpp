@@ -19,6 +19,9 @@ constexpr double kSlideSpeed = 0.5;
 // quanta under a tangential load F creeps F / k_t a step: 100 k keeps that to 1/100 of its
 // normal spring's deflection under the same force.
 constexpr double kStickStiffness = 100;
+// A sliding contact's f_n and direction are settled when a solve changes them by less than this
+// fraction: its friction force is then right to that fraction.
+constexpr double kSlideSettled = 1e-3;
 
 bool has_friction(const ContactMaterial& m) { return m.friction > 0 || m.static_coefficient() > 0; }
 
@@ -137,7 +140,8 @@ bool ContactSolve::begin(const Model& model, const State& state, const std::vect
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i)) continue;
     // The step's motion predicted from the start velocity and the external force alone.
-    const Vec3 x1 = state.x[i] + h * state.v[i] + (h * h * model.inv_mass[i]) * external_force(model, f_ext, i);
+    const Vec3 x1 =
+        state.x[i] + h * state.v[i] + (h * h * model.inv_mass[i]) * external_force(model, f_ext, i);
     for (std::uint32_t o = 0; o < model.obstacles.size(); ++o) {
       Contact c;
       if (make(model, state, h, i, o, x1, c)) contacts_.push_back(c);
@@ -147,11 +151,11 @@ bool ContactSolve::begin(const Model& model, const State& state, const std::vect
   return true;
 }
 
-bool ContactSolve::update(const Model& model, const State& state, double h, int threads, const std::vector<Vec3>& y,
-                          ImplicitSystem& sys) {
+bool ContactSolve::update(const Model& model, const State& state, double h, int threads,
+                          const std::vector<Vec3>& y, ImplicitSystem& sys) {
   bool changed = false;
-  std::vector<Contact> next;
-  next.reserve(contacts_.size());
+  std::vector<Contact>& next = next_;
+  next.clear();
   std::size_t k = 0;
   const std::size_t n = model.num_quanta();
   const std::size_t nob = model.obstacles.size();
@@ -190,7 +194,9 @@ bool ContactSolve::update(const Model& model, const State& state, double h, int 
             const double speed = vt.norm();
             const Vec3 dir = speed > 0 ? Vec3(vt / speed) : c.slide_dir;
             // The sliding force takes f_n and the direction of the last solve until they settle.
-            if (std::abs(c.fn - c.slide_fn) > 1e-4 * c.fn || (dir - c.slide_dir).norm() > 1e-4) changed = true;
+            if (std::abs(c.fn - c.slide_fn) > kSlideSettled * c.fn ||
+                (dir - c.slide_dir).norm() > kSlideSettled)
+              changed = true;
             c.slide_fn = c.fn;
             c.slide_dir = dir;
           }

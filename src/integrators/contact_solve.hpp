@@ -12,8 +12,8 @@
 // restitution e the gap at which it would end after bouncing, e (h v_in − φ(x))⁺; its end
 // normal velocity is then set to e v_in.
 // Coulomb friction: a sticking contact is a tangential spring k_t = 100 k to the start position,
-// A_ii += h² k_t P, b_i −= h² k_t P v (P = I − n nᵀ); it slides when that force passes μ_s f_n, and a
-// sliding contact feels the constant −μ_k f_n t (t the sliding direction) in b_i.
+// A_ii += h² k_t P, b_i −= h² k_t P v (P = I − n nᵀ); it slides when that force passes μ_s f_n,
+// and a sliding contact feels the constant −μ_k f_n t (t the sliding direction) in b_i.
 // The active set (which quanta touch which obstacle, stick or slide, f_n) is found by solving,
 // checking every contact against the solution, and solving again while it changes.
 #include <utility>
@@ -45,7 +45,7 @@ class ContactSolve {
   struct Contact {
     Index i = 0;
     std::uint32_t obstacle = 0;
-    Vec3 n = Vec3::UnitZ();  // unit normal to the free side
+    Vec3 n = Vec3::UnitZ();   // unit normal to the free side
     Vec3 ref = Vec3::Zero();  // reference point, gap there `gap_ref`
     double gap_ref = 0;
     double target = 0;  // g*
@@ -66,7 +66,8 @@ class ContactSolve {
   void write(const Model& model, const State& state, double h, int threads, ImplicitSystem& sys);
   double stored(const Model& model, const std::vector<Vec3>& x, double h) const;
 
-  std::vector<Contact> contacts_;  // by quanta, then obstacle
+  std::vector<Contact> contacts_;       // by quanta, then obstacle
+  std::vector<Contact> next_;  // update's new set (scratch)
   std::vector<std::uint8_t> released_;  // per quanta and obstacle: times its contact was dropped this step
   std::vector<std::uint8_t> touching_;
   std::vector<Index> saved_;  // quanta whose diagonal block and rhs are saved

@@ -25,8 +25,8 @@ class CoupledIntegrator final : public StepIntegrator {
     const bool contacts = contact_.begin(model, state, f_ext, ctx.h, config_.threads, sys_);
     solve(model, state, adj, f_ext, ctx);
     // Contacts: solved again, from the last solution, while the active set changes.
-    for (int pass = 1; contacts && pass < kContactPasses && contact_.update(model, state, ctx.h, config_.threads, y_, sys_);
-         ++pass) {
+    for (int pass = 1;
+         contacts && pass < kContactPasses && contact_.update(model, state, ctx.h, config_.threads, y_, sys_); ++pass) {
       const SolveStats first = stats_;
       solve(model, state, adj, f_ext, ctx, /*warm=*/true);
       stats_.iterations += first.iterations;

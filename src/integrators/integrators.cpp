@@ -388,7 +388,8 @@ void restore_component_momentum(const Model& model, const FreeComponents& comps,
   for (std::size_t c = 0; c + 1 < comps.offset.size(); ++c) {
     Vec3 wanted = Vec3::Zero(), got = Vec3::Zero();
     bool held = false;
-    for (Index k = comps.offset[c]; k < comps.offset[c + 1]; ++k) held = held || (!skip.empty() && skip[comps.quanta[k]]);
+    if (!skip.empty())
+      for (Index k = comps.offset[c]; k < comps.offset[c + 1] && !held; ++k) held = skip[comps.quanta[k]] != 0;
     if (held) continue;
     for (Index k = comps.offset[c]; k < comps.offset[c + 1]; ++k) {
       const Index i = comps.quanta[k];
