@@ -87,8 +87,10 @@ EnergyBudget energy_budget(const Model& model, const State& state) {
   b.work_anchors = l.work_anchors;
   b.dissipated_damping = l.dissipated_damping;
   b.dissipated_heuristics = l.dissipated_heuristics;
-  b.dissipated_numerical = l.work_loads + l.work_anchors - l.dissipated_damping -
-                           l.dissipated_heuristics - (b.now.total() - l.initial_total);
+  b.dissipated_contact = l.dissipated_contact;
+  b.contact_stored = l.contact_stored;
+  b.dissipated_numerical = l.work_loads + l.work_anchors - l.dissipated_damping - l.dissipated_heuristics -
+                           l.dissipated_contact - (b.now.total() + l.contact_stored - l.initial_total);
   return b;
 }
 

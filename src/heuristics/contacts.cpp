@@ -116,8 +116,7 @@ double container_exit(const Obstacle& o, const Vec3& a, const Vec3& b) {
   return t <= 1 ? t : -1.0;
 }
 
-// Smallest t in [0, 1] at which a + t (b - a) enters the obstacle inflated by its margin (leaves
-// a container shrunk by it), given that a is on the free side; negative when it does not.
+// Obstacle::entry.
 double entry(const Obstacle& o, const Vec3& a, const Vec3& b) {
   if (o.inside) return container_exit(o, a, b);
   const Vec3 d = b - a;
@@ -368,6 +367,8 @@ double Obstacle::contact_volume() const {
   const Vec3 e = 2 * (half_extents - Vec3::Constant(margin));
   return e.prod();
 }
+
+double Obstacle::entry(const Vec3& a, const Vec3& b) const { return qbond::entry(*this, a, b); }
 
 std::unique_ptr<Heuristic> make_obstacle_heuristic(std::vector<Obstacle> obstacles) {
   return std::make_unique<ObstacleHeuristic>(std::move(obstacles));

@@ -1,13 +1,15 @@
 // Coupled implicit integrator (Eq. 13 linearised, Baraff–Witkin 1998): one global linear solve
 // of (M + h C + h² K) Δv = b per step (backward_euler.hpp), by dense Gaussian elimination (the
 // paper's method, cubic cost), sparse LDLᵀ, or CG preconditioned by block Jacobi (matrix-free)
-// or by multigrid (multigrid_step.hpp). A step that would create energy (bonds turning far in
+// or by multigrid (multigrid_step.hpp); obstacles in contact add their penalty springs to the
+// system (contact_solve.hpp), solved again while the active set changes. A step that would create energy (bonds turning far in
 // one step, where the linearisation fails), found by Simulation's energy guard, is taken again
 // in halves, each checked by energy_guard.hpp.
 #include <algorithm>
 #include <cassert>
 
 #include "integrators/backward_euler.hpp"
+#include "integrators/contact_solve.hpp"
 #include "integrators/energy_guard.hpp"
 #include "integrators/integrator_common.hpp"
 #include "integrators/multigrid_step.hpp"
@@ -57,12 +59,38 @@ class CoupledIntegrator final : public StepIntegrator {
   }
 
  private:
-  // One linearised backward-Euler step of length ctx.h from `state` into `out`. A whole step
-  // starts CG from the warm start and may use the multigrid hierarchy; a substep starts from
-  // zero with block Jacobi (a hierarchy is kept for the whole step's length).
+  // Active-set passes of a step with contacts at most (each a solve).
+  static constexpr int kContactPasses = 8;
+
+  // One linearised backward-Euler step of length ctx.h from `state` into `out`, with the
+  // obstacles' contacts in its system. A whole step starts CG from the warm start and may use the
+  // multigrid hierarchy; a substep starts from zero with block Jacobi (a hierarchy is kept for the
+  // whole step's length).
   void solve(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
              const StepContext& ctx, bool whole, Projection& out) {
     begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/false, config_.threads, out, sys_);
+    const bool contacts = contact_.begin(model, state, f_ext, ctx.h, config_.threads, sys_);
+    SolveStats step{};
+    linear_solve(model, state, adj, f_ext, ctx, whole, /*warm=*/false, step);
+    // Contacts: solved again, from the last solution, while the active set changes.
+    for (int pass = 1;
+         contacts && pass < kContactPasses && contact_.update(model, state, ctx.h, config_.threads, y_, sys_); ++pass)
+      linear_solve(model, state, adj, f_ext, ctx, whole, /*warm=*/true, step);
+    if (config_.solver == CoupledSolver::cg) {
+      if (config_.restore_momentum)
+        restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_, contact_.touching());
+      if (whole) keep_guess(config_.warm_start, y_, ctx.h, state.carry, config_.threads, out);
+    }
+    write_free_rows(model, state, ctx.h, y_, config_.threads, out);
+    if (contacts) contact_.finish(model, state, ctx.h, y_, out);
+    stats_.iterations += step.iterations;
+    stats_.residual = std::max(stats_.residual, step.residual);
+  }
+
+  // One solve of the step's system into y_, its iterations added to `total`; `warm`: from y_
+  // itself (a contact pass).
+  void linear_solve(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
+                    const StepContext& ctx, bool whole, bool warm, SolveStats& total) {
     SolveStats step{};
     switch (config_.solver) {
       case CoupledSolver::dense:
@@ -71,8 +99,8 @@ class CoupledIntegrator final : public StepIntegrator {
         break;
       case CoupledSolver::cg: {
         topo_.update(model, adj);
-        const bool guessed = whole && initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry,
-                                                    config_.threads, y_);
+        const bool guessed = warm || (whole && initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry,
+                                                             config_.threads, y_));
         if (!guessed) y_.assign(model.num_quanta(), Vec3::Zero());
         if (whole && use_multigrid(model)) {
           multigrid_.solve(model, state, adj, sys_, ctx.h, config_.tolerance, cg_cap(config_, topo_), config_.threads,
@@ -89,18 +117,14 @@ class CoupledIntegrator final : public StepIntegrator {
             jacobi_quanta_ = model.num_quanta();
           }
         }
-        if (config_.restore_momentum)
-          restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
-        if (whole) keep_guess(config_.warm_start, y_, ctx.h, state.carry, config_.threads, out);
         break;
       }
       case CoupledSolver::sweep:
         assert(false && "make_integrator rejects coupled_implicit with sweep");
         break;
     }
-    write_free_rows(model, state, ctx.h, y_, config_.threads, out);
-    stats_.iterations += step.iterations;
-    stats_.residual = std::max(stats_.residual, step.residual);
+    total.iterations += step.iterations;
+    total.residual = step.residual;
   }
 
   // Takes sub_ (the state at t0) to t1: one linearised step or, while that creates energy and
@@ -145,6 +169,7 @@ class CoupledIntegrator final : public StepIntegrator {
   }
 
   ImplicitSystem sys_;
+  ContactSolve contact_;
   bool slow_jacobi_ = false;        // the last block-Jacobi solve took more than kMultigridAfter iterations
   std::size_t jacobi_quanta_ = 0;   // the quanta then
   TopologyCache topo_;

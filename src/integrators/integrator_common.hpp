@@ -68,8 +68,11 @@ inline int cg_cap(const IntegratorConfig& c, const TopologyCache& topo) {
 // Gives every free component (no bond to a kinematic quanta) its exact momentum change over the
 // step, h Σ f_ext, by a uniform velocity shift: an iterative solve stopped early leaves a small
 // momentum error that would otherwise accumulate (a free body creeping or falling too slowly).
+// Components with a quanta marked in `skip` (not empty: one flag per quanta) are left alone: an
+// obstacle's impulse is part of their momentum change.
 void restore_component_momentum(const Model& model, const FreeComponents& comps,
-                                const std::vector<Vec3>& f_ext, double h, std::vector<Vec3>& dv);
+                                const std::vector<Vec3>& f_ext, double h, std::vector<Vec3>& dv,
+                                const std::vector<std::uint8_t>& skip = {});
 
 // Writes the free quanta's rows of a projection from Δv: dx = h (v + Δv) (Eq. 10).
 void write_free_rows(const Model& model, const State& state, double h, const std::vector<Vec3>& dv,

@@ -383,9 +383,14 @@ void TopologyCache::update(const Model& model, const Adjacency& adj) {
 }
 
 void restore_component_momentum(const Model& model, const FreeComponents& comps,
-                                const std::vector<Vec3>& f_ext, double h, std::vector<Vec3>& dv) {
+                                const std::vector<Vec3>& f_ext, double h, std::vector<Vec3>& dv,
+                                const std::vector<std::uint8_t>& skip) {
   for (std::size_t c = 0; c + 1 < comps.offset.size(); ++c) {
     Vec3 wanted = Vec3::Zero(), got = Vec3::Zero();
+    bool held = false;
+    if (!skip.empty())
+      for (Index k = comps.offset[c]; k < comps.offset[c + 1] && !held; ++k) held = skip[comps.quanta[k]] != 0;
+    if (held) continue;
     for (Index k = comps.offset[c]; k < comps.offset[c + 1]; ++k) {
       const Index i = comps.quanta[k];
       wanted += h * external_force(model, f_ext, i);

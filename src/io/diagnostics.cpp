@@ -27,7 +27,7 @@ void put(std::string& out, const Vec3& v) {
 }  // namespace
 
 Diagnostics::Diagnostics(const Model& model, std::vector<Probe> probes, std::vector<Obstacle> obstacles)
-    : probes_(std::move(probes)) {
+    : probes_(std::move(probes)), contact_columns_(!model.obstacles.empty()) {
   for (Obstacle& o : obstacles)
     if (o.record >= 0) obstacles_.push_back(std::move(o));
   for (const Probe& p : probes_) {
@@ -50,6 +50,7 @@ std::string Diagnostics::header() const {
     for (const char* c : {"_jx", "_jy", "_jz", "_jn"}) h += "," + k + c;
     if (o.inside) h += "," + k + "_pressure";
   }
+  if (contact_columns_) h += ",contact_energy,dissipated_contact";
   return h + ",work,numerical,iterations,residual,timestep";
 }
 
@@ -62,8 +63,8 @@ std::string Diagnostics::row(const Model& model, const State& state, const Solve
   put(r, state.time);
   put(r, b.now.kinetic);
   put(r, potential);
-  put(r, b.dissipated_damping + b.dissipated_heuristics);
-  put(r, b.now.kinetic + potential);
+  put(r, b.dissipated_damping + b.dissipated_heuristics + b.dissipated_contact);
+  put(r, b.now.kinetic + potential + b.contact_stored);
   put(r, linear_momentum(model, state));
   put(r, angular_momentum(model, state));
   put(r, max_speed(model, state).first);
@@ -92,6 +93,10 @@ std::string Diagnostics::row(const Model& model, const State& state, const Solve
       const double elapsed = state.time - state.energy.initial_time;
       put(r, elapsed > 0 ? J.normal / (o.contact_area() * elapsed) : 0.0);
     }
+  }
+  if (contact_columns_) {
+    put(r, b.contact_stored);
+    put(r, b.dissipated_contact);
   }
   put(r, b.work_loads + b.work_anchors);
   put(r, b.dissipated_numerical);

@@ -28,6 +28,10 @@ double LedgerStage::charge_step(const Model& model, State& s, const Adjacency& a
   l.work_loads += w.loads;
   l.work_anchors += split_ ? anchors_ : w.anchors;
   l.dissipated_damping += split_ ? damping_ : w.damping;
+  if (p.contact.charged) {
+    l.dissipated_contact += p.contact.dissipated;
+    l.contact_stored = p.contact.stored;
+  }
   return w.bonds_after;
 }
 

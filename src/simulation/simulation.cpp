@@ -1,5 +1,8 @@
 #include "qbond/simulation/simulation.hpp"
 
+#include <stdexcept>
+#include <string>
+
 #include "qbond/analysis/analysis.hpp"
 #include "simulation/stages.hpp"
 
@@ -74,6 +77,9 @@ StepReport Simulation::roll_back(StepReport r, bool applied) {
 Simulation::Simulation(World world, const IntegratorConfig& config, double h)
     : world_(std::move(world)), integrator_(make_step_integrator(config)), h_(h), scratch_(std::make_unique<StepScratch>()) {
   checked_thread_count(config.threads);  // before any parallel region: OpenMP crashes on absurd counts
+  if (!world_.model.obstacles.empty() && config.type != IntegratorType::coupled_implicit)
+    throw std::invalid_argument("the model's obstacles are held inside the coupled_implicit step's solve, not by " +
+                                std::string(to_string(config.type)) + " (make them projection rules)");
   const std::size_t n = world_.num_quanta();
   scratch_->f_ext.assign(n, Vec3::Zero());
   scratch_->f_user.assign(n, Vec3::Zero());

@@ -40,7 +40,8 @@ void bond_tension_strain(const Model& model, const State& state, std::vector<dou
                          std::vector<double>& strain);
 
 /// The energy budget as one line of numbers [J]. `numerical` is what the integrator itself
-/// dissipated: work_loads + work_anchors - dissipated_damping - dissipated_heuristics - ΔE.
+/// dissipated: work_loads + work_anchors - dissipated_damping - dissipated_heuristics
+/// - dissipated_contact - ΔE, E counting the contact springs' energy (contact_stored).
 struct EnergyBudget {
   Energies now;
   double initial_total = 0;
@@ -48,6 +49,8 @@ struct EnergyBudget {
   double work_anchors = 0;
   double dissipated_damping = 0;
   double dissipated_heuristics = 0;
+  double dissipated_contact = 0;
+  double contact_stored = 0;
   double dissipated_numerical = 0;
 };
 EnergyBudget energy_budget(const Model& model, const State& state);

@@ -41,6 +41,14 @@ struct Projection {
   /// Set by a heuristic that changed bond parameters without a topology change (plasticity's rest
   /// lengths): the step then drops a carry-over that does not hold after it (drop_after_bond_edit).
   bool bonds_edited = false;
+  /// The energy of the contacts the step's solve held (Model::obstacles), for the ledger:
+  /// what they removed over the step, −Σ J·(v + v₁)/2 − ΔU (J each quanta's contact impulse),
+  /// and their springs' energy U at x + dx [J].
+  struct ContactEnergy {
+    double dissipated = 0;
+    double stored = 0;
+    bool charged = false;  ///< set by an integrator that solved contacts this step
+  } contact;
   /// Sizes for n quanta and clears the rest; dx and dv zeroed unless `zero` is false (for an
   /// integrator that writes every row).
   void resize(std::size_t n, bool zero = true) {
@@ -54,6 +62,7 @@ struct Projection {
     if (carry.index() != 0) spare_ = std::move(carry);  // keep's storage for this step
     carry = std::monostate{};
     bonds_edited = false;
+    contact = {};
   }
 
  private:

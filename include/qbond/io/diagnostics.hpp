@@ -30,6 +30,7 @@ class Diagnostics {
   std::vector<Probe> probes_;
   std::vector<bool> reaction_, stress_;
   std::vector<Obstacle> obstacles_;  // the recorded ones
+  bool contact_columns_ = false;     // the model has obstacles in the step's solve
 };
 
 }  // namespace qbond

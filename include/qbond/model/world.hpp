@@ -7,6 +7,7 @@
 
 #include "qbond/integrators/carry.hpp"
 #include "qbond/model/bonds.hpp"
+#include "qbond/model/obstacle.hpp"
 #include "qbond/laws/laws.hpp"
 #include "qbond/core/line_vector.hpp"
 #include "qbond/core/math.hpp"
@@ -87,6 +88,9 @@ struct Model {
   Vec3 gravity = Vec3::Zero();    ///< [m/s²]
   std::vector<Load> loads;
   std::vector<Motion> motions;
+  /// Obstacles the implicit step keeps the quanta out of inside its solve (ContactMethod::implicit;
+  /// coupled_implicit only). The post-projection ones are heuristics.
+  std::vector<Obstacle> obstacles;
 
   std::size_t num_quanta() const { return mass.size(); }
   bool is_kinematic(Index i) const { return inv_mass[i] == 0.0; }
@@ -97,8 +101,8 @@ struct Model {
 };
 
 /// Running energy accounts (docs/integrators.md); with the current energies they close the budget
-/// E(t) - E(0) = work_loads + work_anchors - dissipated_damping - dissipated_heuristics
-///               - (numerical dissipation), see analysis.hpp.
+/// E(t) + contact_stored - E(0) = work_loads + work_anchors - dissipated_damping
+///               - dissipated_heuristics - dissipated_contact - (numerical dissipation), see analysis.hpp.
 struct EnergyLedger {
   double initial_total = 0;         ///< E(0) = kinetic + bond + gravity potential [J]
   double initial_gravity = 0;       ///< gravity potential at t = 0 [J]
@@ -108,6 +112,11 @@ struct EnergyLedger {
   double dissipated_damping = 0;    ///< energy removed by bond dampers [J]
   double dissipated_heuristics = 0; ///< energy removed by heuristics (plastic work, contacts) [J]
   bool initialised = false;
+  /// Energy the contacts inside the step's solve removed (restitution < 1, friction, the penalty
+  /// springs' own damping) [J]
+  double dissipated_contact = 0;
+  /// Energy the solve's contact penalty springs hold at the current state, Σ ½ k δ² [J]
+  double contact_stored = 0;
 
   bool operator==(const EnergyLedger&) const = default;
 };

@@ -55,6 +55,7 @@ Scene Builder::build() {
   w.model.gravity = top.has("gravity") ? vec3(top["gravity"], "gravity") : Vec3::Zero();
   w.state.rng = Rng{s.seed};
   s.integrator = integrator(top.has("integrator") ? top["integrator"] : json::object());
+  integrator_ = s.integrator;
   s.limits = limits(top.has("limits") ? top["limits"] : json::object());
   if (top.has("adaptive")) s.adaptive = adaptive(top["adaptive"], s.timestep, static_cast<double>(s.steps) * s.timestep);
   if (top.has("materials")) materials(top["materials"], res["materials"]);
@@ -64,6 +65,13 @@ Scene Builder::build() {
   if (top.has("anchors")) anchors(array(top["anchors"], "anchors"), w);
   if (top.has("loads")) loads(array(top["loads"], "loads"), w);
   if (top.has("heuristics")) s.heuristics = heuristics(array(top["heuristics"], "heuristics"), w);
+  // Obstacles the step's solve holds are the model's, not rules that edit the projection.
+  std::erase_if(s.heuristics, [&](const HeuristicSpec& h) {
+    const auto* o = std::get_if<Obstacle>(&h);
+    if (!o || o->method != ContactMethod::implicit) return false;
+    w.model.obstacles.push_back(*o);
+    return true;
+  });
   // The shapes of the bonds formation may make join the model's table now: a step never writes it.
   for (const HeuristicSpec& h : s.heuristics)
     if (const auto* f = std::get_if<FormRule>(&h)) bond_law(w.model, f->bond);

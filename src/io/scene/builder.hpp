@@ -154,6 +154,7 @@ class Builder {
   std::map<std::string, Index> body_index_;
   SceneFiles files_;
   std::size_t obstacles_ = 0;  // obstacles numbered so far (their Obstacle::record)
+  IntegratorConfig integrator_;  // the scene's (obstacles solved in the step need coupled_implicit)
   double planned_quanta_ = 0, planned_bonds_ = 0;  // of the bodies so far (plan_memory)
 };
 

@@ -19,6 +19,11 @@ ContactMaterial Builder::contact_material(const Obj& o) {
     if (c.restitution > 1) bad(o.at("restitution"), "must be <= 1, got " + num_str(c.restitution));
   }
   if (o.has("friction")) c.friction = non_negative(o["friction"], o.at("friction"));
+  if (o.has("static_friction")) {
+    c.static_friction = non_negative(o["static_friction"], o.at("static_friction"));
+    if (c.static_friction < c.friction)
+      bad(o.at("static_friction"), "must be >= friction (" + num_str(c.friction) + "), got " + num_str(c.static_friction));
+  }
   return c;
 }
 
@@ -27,8 +32,10 @@ ContactMaterial Builder::contact_material(const Obj& o) {
 // to scenes is one row here; heuristic_types() and the docs test read this table.
 std::span<const Builder::HeuristicReader> Builder::heuristic_readers() {
   using Keys = std::vector<SceneKey>;
-  static const Keys obstacle_keys = {
-      {"type", "string"}, {"restitution", "number"}, {"friction", "number"}, {"margin", "number"}};
+  static const Keys obstacle_keys = {{"type", "string"},          {"restitution", "number"},
+                                     {"friction", "number"},      {"margin", "number"},
+                                     {"static_friction", "number"}, {"method", "enum:projection|implicit"},
+                                     {"penalty", "number"}};
   auto with = [](Keys keys, std::initializer_list<SceneKey> more) {
     keys.insert(keys.end(), more);
     return keys;
@@ -194,6 +201,19 @@ void Builder::obstacle(Builder& b, const Obj& o, std::string_view type, const Wo
       bad(o.at("margin"), "must be below the container's " + std::string(ob.shape == Obstacle::Shape::sphere ? "radius" : "half size") +
                               " " + num_str(room) + " m, or no quanta fits inside");
   }
+  if (o.has("method"))
+    ob.method = choice<ContactMethod>(o["method"], o.at("method"),
+                                      {{"projection", ContactMethod::projection}, {"implicit", ContactMethod::implicit}});
+  if (o.has("penalty")) ob.penalty = positive(o["penalty"], o.at("penalty"));
+  if (ob.method == ContactMethod::implicit) {
+    if (b.integrator_.type != IntegratorType::coupled_implicit)
+      bad(o.at("method"), "'implicit' contact is solved by the coupled_implicit integrator, not " +
+                              std::string(to_string(b.integrator_.type)) + " (use \"projection\")");
+    out.emplace_back(ob);
+    return;
+  }
+  if (o.has("static_friction") || o.has("penalty"))
+    bad(o.path(), "static_friction and penalty are keys of \"method\": \"implicit\" obstacles");
   // Every obstacle records the impulse it gives (diagnostics' obstacle<k>_ columns).
   ob.record = static_cast<std::int32_t>(b.obstacles_++);
   out.emplace_back(ob);
