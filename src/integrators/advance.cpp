@@ -91,4 +91,22 @@ Blowup find_blowup(const Model& model, std::span<const Vec3> x, std::span<const 
   return {true, who, msg.str()};
 }
 
+void StepIntegrator::apply_substep(const Model& model, const Adjacency& adj, const std::vector<Vec3>& f_ext, double H,
+                                   double t1, const Projection& p, State& sub, std::vector<Vec3>& x1,
+                                   std::vector<Vec3>& v1) {
+  const std::size_t n = model.num_quanta();
+  x1.resize(n);
+  v1.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    x1[i] = sub.x[i] + p.dx[i];
+    v1[i] = sub.v[i] + p.dv[i];
+  }
+  if (substeps_) substeps_->charge(model, sub, adj, p, x1, v1, f_ext, H);
+  sub.x.swap(x1);
+  sub.v.swap(v1);
+  for (const Motion& motion : model.motions)
+    for (std::size_t k = 0; k < motion.quanta.size(); ++k)
+      motion.at(k, t1, sub.x[motion.quanta[k]], sub.v[motion.quanta[k]]);
+}
+
 }  // namespace qbond

@@ -90,6 +90,12 @@ class StepIntegrator : public Integrator {
 
  protected:
   using Integrator::Integrator;
+  // Moves `sub` (the state a step taken in substeps has reached) by one substep's projection `p`
+  // of length H to t1: charges the substep to the ledger, when on, and puts the kinematic quanta
+  // exactly on their paths (as the step's apply_checked does). x1, v1: buffers.
+  void apply_substep(const Model& model, const Adjacency& adj, const std::vector<Vec3>& f_ext, double H, double t1,
+                     const Projection& p, State& sub, std::vector<Vec3>& x1, std::vector<Vec3>& v1);
+
   SubstepLedger* substeps_ = nullptr;
 
  private:

@@ -131,7 +131,6 @@ class CoupledIntegrator final : public StepIntegrator {
   // depth < kMaxDepth, two halves. Hands each substep taken to the ledger, when on.
   void substep(const Model& model, const Adjacency& adj, const std::vector<Vec3>& f_ext, double t0, double t1,
                std::uint64_t step, int depth) {
-    const std::size_t n = model.num_quanta();
     const double H = t1 - t0;
     const StepContext ctx{H, t0, step};
     solve(model, sub_, adj, f_ext, ctx, /*whole=*/false, sub_out_);
@@ -145,19 +144,7 @@ class CoupledIntegrator final : public StepIntegrator {
     }
     ++stats_.substeps;
     if (gains) ++stats_.unconverged;
-    sub_x1_.resize(n);
-    sub_v1_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      sub_x1_[i] = sub_.x[i] + sub_out_.dx[i];
-      sub_v1_[i] = sub_.v[i] + sub_out_.dv[i];
-    }
-    if (substeps_) substeps_->charge(model, sub_, adj, sub_out_, sub_x1_, sub_v1_, f_ext, H);
-    sub_.x.swap(sub_x1_);
-    sub_.v.swap(sub_v1_);
-    // Kinematic quanta exactly on their path (as the step's apply_checked puts them).
-    for (const Motion& motion : model.motions)
-      for (std::size_t k = 0; k < motion.quanta.size(); ++k)
-        motion.at(k, t1, sub_.x[motion.quanta[k]], sub_.v[motion.quanta[k]]);
+    apply_substep(model, adj, f_ext, H, t1, sub_out_, sub_, sub_x1_, sub_v1_);
   }
 
   // multigrid as asked, or (automatic) once block Jacobi was slow on this body: a hierarchy is

@@ -319,19 +319,7 @@ class NewtonIntegrator final : public StepIntegrator {
       sub_out_.dv[i] = y_[i];
       sub_out_.dx[i] = step_.dx(model, y_, static_cast<Index>(i));
     }
-    sub_x1_.resize(n);
-    sub_v1_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      sub_x1_[i] = sub_.x[i] + sub_out_.dx[i];
-      sub_v1_[i] = sub_.v[i] + sub_out_.dv[i];
-    }
-    if (substeps_) substeps_->charge(model, sub_, adj, sub_out_, sub_x1_, sub_v1_, f_ext, H);
-    sub_.x.swap(sub_x1_);
-    sub_.v.swap(sub_v1_);
-    // Kinematic quanta exactly on their path (as the step's apply_checked puts them).
-    for (const Motion& motion : model.motions)
-      for (std::size_t k = 0; k < motion.quanta.size(); ++k)
-        motion.at(k, t1, sub_.x[motion.quanta[k]], sub_.v[motion.quanta[k]]);
+    apply_substep(model, adj, f_ext, H, t1, sub_out_, sub_, sub_x1_, sub_v1_);
   }
 
   // Newton's iteration for one step of length h from `state`, starting from y_ (kinematic rows

@@ -56,6 +56,18 @@ class Builder {
   };
   static std::span<const BodyReader> body_readers();
 
+  // The public list (scene.hpp) of a table's types and their keys' names.
+  template <class Row>
+  static std::vector<SceneType> scene_types(std::span<const Row> rows) {
+    std::vector<SceneType> t;
+    for (const Row& r : rows) {
+      std::vector<std::string_view> keys;
+      for (const SceneKey& k : r.keys) keys.emplace_back(k.name);
+      t.push_back({r.type, r.doc, std::move(keys)});
+    }
+    return t;
+  }
+
  private:
   friend struct BodyEntry;
 

@@ -256,16 +256,7 @@ void Builder::check_contact_radius(const QuantaContactRule& r, const Obj& o, con
 namespace qbond {
 
 const std::vector<SceneType>& heuristic_types() {
-  static const std::vector<SceneType> types = [] {
-    std::vector<SceneType> t;
-    for (const auto& r : scene_detail::Builder::heuristic_readers())
-      {
-      std::vector<std::string_view> keys;
-      for (const scene_detail::SceneKey& k : r.keys) keys.emplace_back(k.name);
-      t.push_back({r.type, r.doc, std::move(keys)});
-    }
-    return t;
-  }();
+  static const std::vector<SceneType> types = scene_detail::Builder::scene_types(scene_detail::Builder::heuristic_readers());
   return types;
 }
 
