@@ -288,5 +288,37 @@ TEST(Multigrid, SceneKey) {
   for (const auto& p : preconditioners()) EXPECT_EQ(parse_preconditioner(p.key), p.value);
 }
 
+
+// The system changes within a run without a topology change or another step length (an impact,
+// a stiffening): the kept hierarchy's solve is cut off at a few times its first iterations, the
+// hierarchy's values are refreshed, and the solve still reaches the direct solver's solution.
+TEST(Multigrid, StaleHierarchyRefreshedWithinTheStep) {
+  World w = moving_lattice(12, 6, 6, true);
+  MultigridStep mg;
+  std::vector<Vec3> y;
+  SolveStats stats;
+  auto solve = [&] {
+    StepSystem s;
+    build_adjacency(w.model, w.state, s.adj);
+    begin_implicit_step(w.model, w.state, s.adj, gravity_forces(w), {.h = kH}, false, 1, s.kin, s.sys);
+    mg.solve(w.model, w.state, s.adj, s.sys, kH, kTol, 100000, 1, y, true, stats);
+    return s.mismatch(w, y);
+  };
+  EXPECT_LT(solve(), kAgree);
+  const int first = stats.iterations;
+  EXPECT_EQ(mg.builds, 1);
+  // The bonds of one half of the body become 1e4 times stiffer: the hierarchy's coarse operators
+  // no longer match the system.
+  Bonds& bonds = w.state.edit_bonds();
+  for (std::size_t b = 0; b < bonds.size(); ++b)
+    if (w.state.x[bonds.i[b]].x() < w.state.x[0].x() + 0.05) bonds.strength[b] *= 1e4;
+  EXPECT_LT(solve(), kAgree);
+  EXPECT_LE(stats.residual, kTol);
+  EXPECT_EQ(mg.builds, 1);
+  EXPECT_EQ(mg.updates, 1) << "iterations " << stats.iterations << ", first solve " << first;
+  // Cut off at 4 × first + 20, then the refreshed hierarchy's own iterations.
+  EXPECT_LE(stats.iterations, 2 * (4 * first + 20)) << "first solve " << first;
+}
+
 }  // namespace
 }  // namespace qbond
