@@ -29,6 +29,15 @@ Energies quanta_energies(const Model& model, const State& state, int threads) {
   return e;
 }
 
+void open_ledger(const Model& model, const State& state, EnergyLedger& ledger) {
+  if (ledger.initialised) return;
+  const Energies e = energies(model, state);
+  ledger.initial_total = e.total();
+  ledger.initial_gravity = e.gravity;
+  ledger.initial_time = state.time;
+  ledger.initialised = true;
+}
+
 Energies energies(const Model& model, const State& state, int threads) {
   Energies e = quanta_energies(model, state, threads);
   e.bonds = bond_energy_sum(model, state, threads);

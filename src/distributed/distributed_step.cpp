@@ -58,14 +58,7 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       rank_(mpi_rank()),
       ranks_(mpi_ranks()),
       start_books_(whole.state.energy) {
-  if (!start_books_.initialised) {
-    // As the Simulation of a run on one rank opens them (its constructor).
-    const Energies e = energies(whole_.model, whole_.state);
-    start_books_.initial_total = e.total();
-    start_books_.initial_gravity = e.gravity;
-    start_books_.initial_time = whole_.state.time;
-    start_books_.initialised = true;
-  }
+  open_ledger(whole_.model, whole_.state, start_books_);  // as a run on one rank's Simulation does
   cuts_ = bisect(whole_.state.x, ranks_);
   owner_ = parts_of(cuts_, whole_.state.x);
   std::vector<double> f;

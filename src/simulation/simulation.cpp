@@ -83,14 +83,7 @@ Simulation::Simulation(World world, const IntegratorConfig& config, double h)
   const std::size_t n = world_.num_quanta();
   scratch_->f_ext.assign(n, Vec3::Zero());
   scratch_->f_user.assign(n, Vec3::Zero());
-  EnergyLedger& l = world_.state.energy;
-  if (!l.initialised) {
-    const Energies e = energies(world_.model, world_.state);
-    l.initial_total = e.total();
-    l.initial_gravity = e.gravity;
-    l.initial_time = world_.state.time;
-    l.initialised = true;
-  }
+  open_ledger(world_.model, world_.state, world_.state.energy);
 }
 
 Simulation::Simulation(Simulation&&) noexcept = default;

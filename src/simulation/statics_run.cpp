@@ -45,14 +45,8 @@ StaticsReport run_statics(Scene& scene, const StaticsSettings& settings) {
   // The energy accounts open at the start, and the loads' work is theirs over the displacement
   // (constant forces), so that the diagnostics row's numerical column is the energy a structure
   // loaded at once from rest must lose to come to rest at the equilibrium.
+  open_ledger(m, s, s.energy);
   EnergyLedger& ledger = s.energy;
-  if (!ledger.initialised) {
-    const Energies e = energies(m, s);
-    ledger.initial_total = e.total();
-    ledger.initial_gravity = e.gravity;
-    ledger.initial_time = s.time;
-    ledger.initialised = true;
-  }
   StaticsReport report;
   report.result = solve_static(w, settings.tolerance, settings.max_iterations);
   for (const Load& l : m.loads)

@@ -21,6 +21,9 @@ Energies energies(const Model& model, const State& state, int threads = 1);
 /// The kinetic and gravity energies alone (bonds left 0), in one pass over the quanta, with the
 /// bits energies() gives them: for a caller that has the bonds' energy already.
 Energies quanta_energies(const Model& model, const State& state, int threads = 1);
+/// Opens `ledger` at `state` unless it is open already: E(0) = energies(model, state).total(),
+/// its gravity part and the time, so that the ledger's columns count from there.
+void open_ledger(const Model& model, const State& state, EnergyLedger& ledger);
 
 /// Σ m v over free quanta [kg·m/s].
 Vec3 linear_momentum(const Model& model, const State& state);
