@@ -57,8 +57,8 @@ struct Bonds {
     return evaluate_law(law[b], r, L, law_args(shapes, b));
   }
   /// Bond b's mean tension over a step from length r0 to r1 (MeanTension).
-  MeanTension mean_tension_at(const std::vector<LawShape>& shapes, std::size_t b, double r0, double r1,
-                              double L) const {
+  [[gnu::always_inline]] MeanTension mean_tension_at(const std::vector<LawShape>& shapes, std::size_t b,
+                                                     double r0, double r1, double L) const {
     if (law[b] == Law::linear) return LinearLaw::mean(r0, r1, L, {.strength = strength[b]});
     return mean_tension(law[b], r0, r1, L, law_args(shapes, b));
   }
