@@ -222,9 +222,9 @@ def test_replay():
     # steps are what live frame f shows after f + 1 frames' steps.
     run = pendulum_run("replay_run", 510, 17)
     for live_frames in (10, 30):
-        live_img, live = view(f"replay_live_{live_frames}", "--frames", str(live_frames), "--no-ui")
+        live_img, live = view(f"replay_live_{live_frames}", "--frames", str(live_frames))
         # Replay frame k (k = live_frames) is drawn by viewer frame k: k + 1 frames.
-        img, rep = view(f"replay_{live_frames}", os.path.join(run, "series.pvd"), "--frames", str(live_frames + 1), "--no-ui")
+        img, rep = view(f"replay_{live_frames}", os.path.join(run, "series.pvd"), "--frames", str(live_frames + 1))
         check_structure(img, rep, f"replay frame {live_frames}")
         if rep["replay"]["frame"] != live_frames or rep["replay"]["frames"] != 31:
             fail(f"replay shows frame {rep['replay']} after {live_frames + 1} viewer frames, expected {live_frames} of 31")
@@ -234,14 +234,14 @@ def test_replay():
             fail(f"after {live_frames * 17} steps the live view draws the quanta in {live['quanta_px']}, the replay in {rep['quanta_px']}")
         print(f"replay frame {live_frames}: quanta box {rep['quanta_px']} (live {live['quanta_px']})")
     # The pendulum swings: the replay's last frame is not its first.
-    _, first = view("replay_first", run, "--frames", "1", "--no-ui")
+    _, first = view("replay_first", run, "--frames", "1")
     if first["replay"]["frame"] != 0 or box_close(first["quanta_px"], rep["quanta_px"], 10):
         fail(f"replay frame 0 {first['quanta_px']} and frame 30 {rep['quanta_px']} should differ")
     # --time: the last frame at or before it; a directory replays as its series.pvd does.
-    _, at = view("replay_time", run, "--frames", "1", "--time", "0.1705", "--no-ui")
+    _, at = view("replay_time", run, "--frames", "1", "--time", "0.1705")
     if at["replay"]["frame"] != 10:
         fail(f"--time 0.1705 shows frame {at['replay']['frame']}, expected 10 (t = 0.17)")
-    _, by_pvd = view("replay_time_pvd", os.path.join(run, "series.pvd"), "--frames", "1", "--time", "0.1705", "--no-ui")
+    _, by_pvd = view("replay_time_pvd", os.path.join(run, "series.pvd"), "--frames", "1", "--time", "0.1705")
     if at["quanta_px"] != by_pvd["quanta_px"]:
         fail(f"the directory and its series.pvd replay differently: {at['quanta_px']} vs {by_pvd['quanta_px']}")
     # With the panel: the time slider's replay controls are drawn (a non-blank panel).
@@ -258,9 +258,9 @@ def test_camera():
     def point(p):
         return ",".join(f"{x:g}" for x in p)
 
-    _, default = view("cam_default", "--frames", "1", "--no-ui")
-    img1, s1 = view("cam_near", "--frames", "1", "--no-ui", "--camera-position", point(eye), "--camera-target", point(target))
-    img2, s2 = view("cam_far", "--frames", "1", "--no-ui", "--camera-position", point(target + 2 * (eye - target)),
+    _, default = view("cam_default", "--frames", "1")
+    img1, s1 = view("cam_near", "--frames", "1", "--camera-position", point(eye), "--camera-target", point(target))
+    img2, s2 = view("cam_far", "--frames", "1", "--camera-position", point(target + 2 * (eye - target)),
                     "--camera-target", point(target))
     check_structure(img1, s1, "camera near")
     if np.abs(np.array(s1["camera"]["eye"]) - eye).max() > 1e-4 or np.abs(np.array(s1["camera"]["target"]) - target).max() > 1e-6:
@@ -277,7 +277,7 @@ def test_camera():
     if not 0.45 < ratio < 0.55:
         fail(f"doubling the camera's distance scaled the quanta's box by {ratio:.3f}, expected about 0.5")
     # A narrower field of view magnifies by the ratio of the tangents of the half angles.
-    _, s3 = view("cam_fov", "--frames", "1", "--no-ui", "--camera-position", point(eye), "--camera-target", point(target),
+    _, s3 = view("cam_fov", "--frames", "1", "--camera-position", point(eye), "--camera-target", point(target),
                  "--camera-fov", "30")
     expect = np.tan(np.radians(s1["camera"]["fov"] / 2)) / np.tan(np.radians(15))
     got = (s3["quanta_px"][3] - s3["quanta_px"][1]) / (y1 - y0)
@@ -293,8 +293,8 @@ def test_camera():
     path = os.path.join(WORK, "cam_scene.json")
     with open(path, "w") as f:
         json.dump(scene, f)
-    img4, s4 = view("cam_scene", path, "--frames", "1", "--no-ui")
-    differ = (np.abs(img4 - img1).max(axis=2) > 0).mean()
+    img4, s4 = view("cam_scene", path, "--frames", "1")
+    differ = (np.abs(viewport(img4, s4) - viewport(img1, s1)).max(axis=2) > 0).mean()
     if s4["quanta_px"] != s1["quanta_px"] or differ > 1e-3:
         fail(f"the scene's camera draws {s4['quanta_px']} ({differ:.2%} of pixels differ), the options {s1['quanta_px']}")
 

@@ -86,8 +86,8 @@ double Viewer::advance_replay(Timing& timing) {
     }
   }
   single_step_ = false;
-  if (replay_->index() != before) {
-    timing.simulated += replay_->time(replay_->index()) - replay_->time(before);
+  timing.simulated += replay_->time(replay_->index()) - replay_->time(before);
+  if (replay_->index() != before || kinetic_.empty()) {
     const Energies e = energies(world().model, world().state);
     push_history(kinetic_, e.kinetic);
   }
