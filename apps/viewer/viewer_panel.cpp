@@ -201,8 +201,9 @@ void Viewer::help() {
       "wheel                 zoom\n"
       "f                     frame the scene\n"
       "space                 pause / run\n"
-      ".                     one step\n"
-      "r                     reset the scene\n"
+      ".                     one step (a replay: one frame)\n"
+      ",                     a replay: one frame back\n"
+      "r                     reset the scene (a replay: its first frame)\n"
       "h                     this help\n\n"
       "orange spheres are anchored or prescribed quanta");
   ImGui::End();
