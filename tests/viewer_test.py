@@ -244,6 +244,20 @@ def test_replay():
     _, by_pvd = view("replay_time_pvd", os.path.join(run, "series.pvd"), "--frames", "1", "--time", "0.1705")
     if at["quanta_px"] != by_pvd["quanta_px"]:
         fail(f"the directory and its series.pvd replay differently: {at['quanta_px']} vs {by_pvd['quanta_px']}")
+    # A bare name is a built-in scene's before a run folder of that name (as for `qbond run`);
+    # ./NAME is the folder.
+    d = os.path.join(WORK, "replay_named")
+    shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d)
+    subprocess.run([QBOND, "run", "pendulum", "--steps", "34", "--every", "17", "-q", "--out", "pendulum"], cwd=d,
+                   check=True, timeout=300, capture_output=True)
+    for arg, replayed in (("pendulum", False), ("./pendulum", True)):
+        r = subprocess.run(display_prefix() + [QBOND, "view", arg, "--frames", "1", "--stats", "s.json"], cwd=d,
+                           capture_output=True, text=True, timeout=300)
+        with open(os.path.join(d, "s.json")) as f:
+            got = json.load(f)["replay"] is not None
+        if r.returncode != 0 or got != replayed:
+            fail(f"qbond view {arg} beside a run folder 'pendulum': exit {r.returncode}, replayed {got}, expected {replayed}")
     # With the panel: the time slider's replay controls are drawn (a non-blank panel).
     img, stats = view("replay_panel", run, "--frames", "5")
     check_structure(img, stats, "replay with the panel")
