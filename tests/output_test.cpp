@@ -16,6 +16,9 @@
 #include "qbond/model/ordering.hpp"
 #include "qbond/io/probes.hpp"
 #include "qbond/io/vtk.hpp"
+#include "qbond/io/vtp_reader.hpp"
+#include "qbond/analysis/analysis.hpp"
+#include "qbond/analysis/stress.hpp"
 #include "integrators/affine_run_terms.hpp"  // soa_stride
 #include "test_util.hpp"
 
@@ -404,6 +407,82 @@ TEST(Vtk, FrameDeclaresItsCountsAndSeriesListsFrames) {
   s.write(dir / "s.pvd");
   EXPECT_NE(read_file(dir / "s.pvd").find("<DataSet timestep=\"0.5\" group=\"\" part=\"0\" file=\"f.vtp\"/>"),
             std::string::npos);
+}
+
+// The reader gets back what the writer wrote: points by user id, lines by bond id with their
+// strain and tension (the vertex cells' entries dropped), the point arrays; and a series sorted
+// by time with its files resolved against the .pvd's directory.
+TEST(Vtk, ReaderGetsBackWhatTheWriterWrote) {
+  World w = test::lattice(3, 2, 2, 100, 1e-3, 0.01, true);
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) {
+    w.state.x[i] += Vec3(1e-4 * static_cast<double>(i % 3), -2e-4 * static_cast<double>(i % 2), 0);  // strain the bonds
+    w.state.v[i] = Vec3(0.1 * static_cast<double>(i), 0, -0.2);
+  }
+  w.model.inv_mass[2] = 0;  // kinematic
+  w.break_bond(1);
+  const fs::path dir = temp_dir("vtp_reader");
+  write_vtp(dir / "f.vtp", w.model, w.state);
+  const VtpFrame f = read_vtp(dir / "f.vtp");
+  const std::size_t n = w.num_quanta();
+  ASSERT_EQ(f.x.size(), n);
+  std::vector<double> tension, strain;
+  bond_tension_strain(w.model, w.state, tension, strain);
+  std::vector<Mat3> sigma;
+  virial_stress(w.model, w.state, sigma);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t k = w.model.quanta_id[i];
+    EXPECT_EQ(f.x[k], w.state.x[i]);
+    EXPECT_EQ(f.v[k], w.state.v[i]);
+    EXPECT_EQ(f.mass[k], w.model.mass[i]);
+    EXPECT_EQ(f.kinematic[k], w.model.is_kinematic(static_cast<Index>(i)) ? 1 : 0);
+    EXPECT_EQ(f.body[k], static_cast<std::int32_t>(w.model.body[i]));
+    EXPECT_EQ(f.von_mises[k], von_mises(sigma[i]));
+  }
+  ASSERT_EQ(f.lines.size(), w.num_alive_bonds());
+  ASSERT_EQ(f.strain.size(), f.lines.size());
+  std::size_t line = 0;
+  for (Index b : bonds_by_id(w.state.bonds)) {
+    if (!w.state.bonds.alive[b]) continue;
+    EXPECT_EQ(f.lines[line].first, w.model.quanta_id[w.state.bonds.i[b]]);
+    EXPECT_EQ(f.lines[line].second, w.model.quanta_id[w.state.bonds.j[b]]);
+    EXPECT_EQ(f.strain[line], strain[b]);
+    EXPECT_EQ(f.tension[line], tension[b]);
+    ++line;
+  }
+  EXPECT_GT(*std::max_element(f.strain.begin(), f.strain.end()), 0.0);
+
+  PvdSeries s;
+  s.add(0.25, "b.vtp");
+  s.add(0.125, "a & b.vtp");
+  s.write(dir / "s.pvd");
+  const std::vector<PvdEntry> e = read_pvd(dir / "s.pvd");
+  ASSERT_EQ(e.size(), 2u);
+  EXPECT_EQ(e[0].time, 0.125);
+  EXPECT_EQ(e[0].file, dir / "a & b.vtp");
+  EXPECT_EQ(e[1].file, dir / "b.vtp");
+}
+
+// A frame cut short, another VTK encoding, or a collection of nothing is an error naming the file.
+TEST(Vtk, ReaderRefusesWhatItCannotRead) {
+  World w = test::lattice(2, 2, 1, 100, 1e-3, 0, false);
+  const fs::path dir = temp_dir("vtp_reader_errors");
+  write_vtp(dir / "f.vtp", w.model, w.state);
+  const std::string text = read_file(dir / "f.vtp");
+  write_file_atomic(dir / "cut.vtp", text.substr(0, text.size() - 100));
+  EXPECT_THROW(read_vtp(dir / "cut.vtp"), VtkReadError);
+  std::string ascii = text;
+  ascii.replace(ascii.find("format=\"appended\""), 17, "format=\"ascii\"   ");
+  write_file_atomic(dir / "ascii.vtp", ascii);
+  try {
+    read_vtp(dir / "ascii.vtp");
+    ADD_FAILURE() << "an ASCII array was read";
+  } catch (const VtkReadError& e) {
+    EXPECT_NE(std::string(e.what()).find("ascii.vtp"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(read_vtp(dir / "missing.vtp"), VtkReadError);
+  PvdSeries none;
+  none.write(dir / "none.pvd");
+  EXPECT_THROW(read_pvd(dir / "none.pvd"), VtkReadError);
 }
 
 // Frames list quanta by user id and bonds by bond id, so a renumbered world (ordering.hpp)

@@ -82,6 +82,21 @@ TEST(OrbitCamera, PixelsAndRaysAgree) {
   EXPECT_FALSE(cam.to_pixel(cam.eye() - (cam.target - cam.eye()), w, h, px, py));  // behind the eye
 }
 
+TEST(OrbitCamera, LookAtPutsTheEyeAndTargetWhereAsked) {
+  view::OrbitCamera cam;
+  const view::Vec3f eye(2.0f, -1.5f, 1.2f), target(0.1f, 0.3f, -0.4f);
+  cam.look_at(eye, target);
+  EXPECT_LT((cam.eye() - eye).norm(), 1e-5f * (eye - target).norm());
+  EXPECT_EQ(cam.target, target);
+  // The target is drawn at the viewport's centre; a point beside it, off the centre.
+  float px = 0, py = 0;
+  ASSERT_TRUE(cam.to_pixel(target, 800, 600, px, py));
+  EXPECT_NEAR(px, 400, 1e-2);
+  EXPECT_NEAR(py, 300, 1e-2);
+  ASSERT_TRUE(cam.to_pixel(target + view::Vec3f(0, 0, 0.5f), 800, 600, px, py));
+  EXPECT_LT(py, 290);  // z is up on screen
+}
+
 TEST(OrbitCamera, FramingPutsTheBoxInView) {
   view::OrbitCamera cam;
   const view::Vec3f lo(-1, -0.1f, 0), hi(3, 0.1f, 0.4f);

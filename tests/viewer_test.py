@@ -202,6 +202,150 @@ def test_mouse_drag():
         fail(f"the mouse drag moved quanta {PUSHED} only {moved:.3g} m")
 
 
+def pendulum_run(name, steps, every):
+    """`qbond run` of the pendulum into WORK/name; returns the run directory."""
+    d = os.path.join(WORK, name)
+    shutil.rmtree(d, ignore_errors=True)
+    subprocess.run([QBOND, "run", "pendulum", "--steps", str(steps), "--every", str(every), "-q", "--out", d],
+                   check=True, timeout=300, capture_output=True)
+    return d
+
+
+def box_close(a, b, px):
+    return max(abs(x - y) for x, y in zip(a, b)) <= px
+
+
+def test_replay():
+    """A finished run replayed shows the quanta where the live viewer shows them after the same
+    simulated time; --time picks the frame; the directory and its series.pvd are the same."""
+    # Headless, the live viewer takes 17 steps of 1 ms a frame (1/60 s): frames written every 17
+    # steps are what live frame f shows after f + 1 frames' steps.
+    run = pendulum_run("replay_run", 510, 17)
+    for live_frames in (10, 30):
+        live_img, live = view(f"replay_live_{live_frames}", "--frames", str(live_frames))
+        # Replay frame k (k = live_frames) is drawn by viewer frame k: k + 1 frames.
+        img, rep = view(f"replay_{live_frames}", os.path.join(run, "series.pvd"), "--frames", str(live_frames + 1))
+        check_structure(img, rep, f"replay frame {live_frames}")
+        if rep["replay"]["frame"] != live_frames or rep["replay"]["frames"] != 31:
+            fail(f"replay shows frame {rep['replay']} after {live_frames + 1} viewer frames, expected {live_frames} of 31")
+        if abs(rep["replay"]["time"] - live_frames * 0.017) > 1e-12:
+            fail(f"replay frame {live_frames} is at t = {rep['replay']['time']}, expected {live_frames * 0.017}")
+        if not box_close(live["quanta_px"], rep["quanta_px"], 2):
+            fail(f"after {live_frames * 17} steps the live view draws the quanta in {live['quanta_px']}, the replay in {rep['quanta_px']}")
+        print(f"replay frame {live_frames}: quanta box {rep['quanta_px']} (live {live['quanta_px']})")
+    # The pendulum swings: the replay's last frame is not its first.
+    _, first = view("replay_first", run, "--frames", "1")
+    if first["replay"]["frame"] != 0 or box_close(first["quanta_px"], rep["quanta_px"], 10):
+        fail(f"replay frame 0 {first['quanta_px']} and frame 30 {rep['quanta_px']} should differ")
+    # --time: the last frame at or before it; a directory replays as its series.pvd does.
+    _, at = view("replay_time", run, "--frames", "1", "--time", "0.1705")
+    if at["replay"]["frame"] != 10:
+        fail(f"--time 0.1705 shows frame {at['replay']['frame']}, expected 10 (t = 0.17)")
+    _, by_pvd = view("replay_time_pvd", os.path.join(run, "series.pvd"), "--frames", "1", "--time", "0.1705")
+    if at["quanta_px"] != by_pvd["quanta_px"]:
+        fail(f"the directory and its series.pvd replay differently: {at['quanta_px']} vs {by_pvd['quanta_px']}")
+    # A bare name is a built-in scene's before a run folder of that name (as for `qbond run`);
+    # ./NAME is the folder.
+    d = os.path.join(WORK, "replay_named")
+    shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d)
+    subprocess.run([QBOND, "run", "pendulum", "--steps", "34", "--every", "17", "-q", "--out", "pendulum"], cwd=d,
+                   check=True, timeout=300, capture_output=True)
+    for arg, replayed in (("pendulum", False), ("./pendulum", True)):
+        r = subprocess.run(display_prefix() + [QBOND, "view", arg, "--frames", "1", "--stats", "s.json"], cwd=d,
+                           capture_output=True, text=True, timeout=300)
+        with open(os.path.join(d, "s.json")) as f:
+            got = json.load(f)["replay"] is not None
+        if r.returncode != 0 or got != replayed:
+            fail(f"qbond view {arg} beside a run folder 'pendulum': exit {r.returncode}, replayed {got}, expected {replayed}")
+    # With the panel: the time slider's replay controls are drawn (a non-blank panel).
+    img, stats = view("replay_panel", run, "--frames", "5")
+    check_structure(img, stats, "replay with the panel")
+
+
+def test_camera():
+    """A camera from the command line changes the picture as its geometry says; the scene's
+    `camera` gives the same picture; bad cameras are refused with exit 2."""
+    target = np.array([0.0, 0.0, 0.6])  # about the middle of the pendulum (rope 0.2..1.2 m, cube below)
+    eye = np.array([2.0, -2.5, 1.4])
+
+    def point(p):
+        return ",".join(f"{x:g}" for x in p)
+
+    _, default = view("cam_default", "--frames", "1")
+    img1, s1 = view("cam_near", "--frames", "1", "--camera-position", point(eye), "--camera-target", point(target))
+    img2, s2 = view("cam_far", "--frames", "1", "--camera-position", point(target + 2 * (eye - target)),
+                    "--camera-target", point(target))
+    check_structure(img1, s1, "camera near")
+    if np.abs(np.array(s1["camera"]["eye"]) - eye).max() > 1e-4 or np.abs(np.array(s1["camera"]["target"]) - target).max() > 1e-6:
+        fail(f"the camera is at {s1['camera']}, asked for eye {eye} target {target}")
+    if box_close(default["quanta_px"], s1["quanta_px"], 10):
+        fail(f"the camera did not change the picture: boxes {default['quanta_px']} and {s1['quanta_px']}")
+    # The target is drawn at the view's centre: the quanta's box straddles it.
+    w, h = s1["viewport"][2], s1["viewport"][3]
+    x0, y0, x1, y1 = s1["quanta_px"]
+    if not (x0 < w / 2 < x1 and y0 < h / 2 < y1):
+        fail(f"the target {target} (the pendulum's middle) is not inside the quanta's box {s1['quanta_px']} around the centre ({w / 2}, {h / 2})")
+    # Twice as far: the picture of the pendulum is half as large (perspective: within 10 %).
+    ratio = (s2["quanta_px"][3] - s2["quanta_px"][1]) / (y1 - y0)
+    if not 0.45 < ratio < 0.55:
+        fail(f"doubling the camera's distance scaled the quanta's box by {ratio:.3f}, expected about 0.5")
+    # A narrower field of view magnifies by the ratio of the tangents of the half angles.
+    _, s3 = view("cam_fov", "--frames", "1", "--camera-position", point(eye), "--camera-target", point(target),
+                 "--camera-fov", "30")
+    expect = np.tan(np.radians(s1["camera"]["fov"] / 2)) / np.tan(np.radians(15))
+    got = (s3["quanta_px"][3] - s3["quanta_px"][1]) / (y1 - y0)
+    if abs(got / expect - 1) > 0.05:
+        fail(f"--camera-fov 30 magnified the quanta's box {got:.3f}x, expected {expect:.3f}x")
+    print(f"camera: default box {default['quanta_px']}, near {s1['quanta_px']}, twice as far x{ratio:.3f}, "
+          f"fov 30 x{got:.3f} (expected {expect:.3f})")
+
+    # The scene's camera: the same picture as the same options.
+    with open(os.path.join(SOURCE, "scenes", "pendulum.json")) as f:
+        scene = json.load(f)
+    scene["camera"] = {"position": eye.tolist(), "target": target.tolist()}
+    path = os.path.join(WORK, "cam_scene.json")
+    with open(path, "w") as f:
+        json.dump(scene, f)
+    img4, s4 = view("cam_scene", path, "--frames", "1")
+    differ = (np.abs(viewport(img4, s4) - viewport(img1, s1)).max(axis=2) > 0).mean()
+    if s4["quanta_px"] != s1["quanta_px"] or differ > 1e-3:
+        fail(f"the scene's camera draws {s4['quanta_px']} ({differ:.2%} of pixels differ), the options {s1['quanta_px']}")
+
+    # Bad cameras: refused before any window opens, exit 2, saying what is wrong.
+    bad = [
+        (["--camera-position", "1,1,1", "--camera-target", "1,1,1"], "must differ"),
+        (["--camera-position", "0,0,5", "--camera-target", "0,0,0"], "straight up or down"),
+        (["--camera-fov", "0"], "--camera-fov"),
+        (["--camera-fov", "180"], "--camera-fov"),
+        (["--camera-position", "1,2", "--camera-target", "0,0,0"], "X,Y,Z"),
+        (["--camera-position", "1,2,nan", "--camera-target", "0,0,0"], "X,Y,Z"),
+        (["--camera-position", "1,2,3"], "go together"),
+    ]
+    for args, says in bad:
+        r = subprocess.run([QBOND, "view", "--frames", "1", *args], capture_output=True, text=True, timeout=60)
+        if r.returncode != 2 or says not in r.stderr:
+            fail(f"qbond view {' '.join(args)} exited {r.returncode} ({r.stderr.strip()}), expected 2 saying '{says}'")
+    for cam, says in [({"position": [0, 0, 1], "target": [0, 0, 0]}, "camera.position"),
+                      ({"position": [1, 0, 0]}, "go together"), ({"fov": 200}, "camera.fov")]:
+        scene["camera"] = cam
+        with open(path, "w") as f:
+            json.dump(scene, f)
+        r = subprocess.run([QBOND, "view", path, "--frames", "1"], capture_output=True, text=True, timeout=60)
+        if r.returncode != 2 or says not in r.stderr:
+            fail(f"a scene camera {cam} exited {r.returncode} ({r.stderr.strip()}), expected 2 saying '{says}'")
+    # A replay is watched, not pushed; a series naming a missing frame is refused.
+    run = pendulum_run("cam_replay_run", 34, 17)
+    r = subprocess.run([QBOND, "view", run, "--frames", "1", "--script", path], capture_output=True, text=True, timeout=60)
+    if r.returncode != 2 or "does not apply to a replay" not in r.stderr:
+        fail(f"a replay with --script exited {r.returncode} ({r.stderr.strip()}), expected 2")
+    os.remove(os.path.join(run, "frames", sorted(os.listdir(os.path.join(run, "frames")))[0]))
+    r = subprocess.run([QBOND, "view", run, "--frames", "1"], capture_output=True, text=True, timeout=60)
+    if r.returncode != 2 or "frame_" not in r.stderr:
+        fail(f"a replay of a missing frame exited {r.returncode} ({r.stderr.strip()}), expected 2 naming the file")
+    print(f"camera: {len(bad) + 3} bad cameras and 2 bad replays refused with exit 2")
+
+
 tests = {name[5:]: f for name, f in globals().items() if name.startswith("test_")}
 if TEST not in tests:
     fail(f"no such test; known: {', '.join(tests)}")

@@ -28,6 +28,7 @@
 #include "qbond/distributed/distributed.hpp"
 #include "qbond/simulation/statics_run.hpp"
 #include "qbond/version.hpp"
+#include "replay.hpp"
 #include "viewer.hpp"
 
 namespace {
@@ -165,6 +166,38 @@ qbond::Scene load_any(const std::string& arg, std::uint64_t max_memory = 0) {
     if (!exists) return qbond::builtin_scene(arg, max_memory);  // its error lists the built-in scenes
   }
   return qbond::load_scene(arg, max_memory);
+}
+
+/// Whether `qbond view ARG` replays a finished run: ARG is a .pvd file or a run directory
+/// holding series.pvd, named as a path (a '/' or the .pvd extension) or by a name no built-in
+/// scene has (load_any's rule: a built-in name wins over a folder of that name).
+bool names_replay(const std::string& arg) {
+  if (arg.empty() || !qbond::view::is_replay(arg)) return false;
+  if (arg.find('/') != std::string::npos || fs::path(arg).extension() == ".pvd") return true;
+  const auto builtins = qbond::builtin_scenes();
+  return std::none_of(builtins.begin(), builtins.end(), [&](const qbond::BuiltinScene& s) { return s.name == arg; });
+}
+
+/// "X,Y,Z" as a point, or std::invalid_argument naming `option`.
+qbond::Vec3 parse_point(const char* option, const std::string& text) {
+  qbond::Vec3 p;
+  std::size_t at = 0;
+  for (int k = 0; k < 3; ++k) {
+    const std::size_t end = k < 2 ? text.find(',', at) : text.size();
+    const std::string part = end == std::string::npos ? "" : text.substr(at, end - at);
+    std::size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(part, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (part.empty() || used != part.size() || !std::isfinite(v))
+      throw std::invalid_argument(std::string(option) + ": expected three numbers X,Y,Z [m], got \"" + text + "\"");
+    p[k] = v;
+    at = end + 1;
+  }
+  return p;
 }
 
 /// The steps of `length` at `timestep`, or std::invalid_argument naming `option`.
@@ -584,7 +617,18 @@ int main(int argc, char** argv) {
   qbond::view::ViewOptions vo;
   CLI::App* view_cmd = app.add_subcommand("view", "the real-time viewer: watch a scene and pull on it with the mouse "
                                                   "(default scene: the pendulum; docs/viewer.md)");
-  view_cmd->add_option("scene", view_scene, "scene file (.json) or built-in scene name");
+  view_cmd->add_option("scene", view_scene,
+                       "scene file (.json) or built-in scene name; or a finished run to replay: its directory or series.pvd");
+  std::string camera_position, camera_target;
+  view_cmd->add_option("--camera-position", camera_position, "the camera's eye X,Y,Z [m] (with --camera-target)")
+      ->option_text("X,Y,Z");
+  view_cmd->add_option("--camera-target", camera_target, "the point the camera looks at X,Y,Z [m] (with --camera-position)")
+      ->option_text("X,Y,Z");
+  double camera_fov = 0;
+  auto* fov_opt = view_cmd->add_option("--camera-fov", camera_fov, "the camera's vertical field of view [degrees] (default 45.8)")
+                      ->option_text("DEGREES");
+  view_cmd->add_option("--time", vo.replay_time, "replay: start at the last frame at or before this time [s]")
+      ->option_text("SECONDS");
   auto* frames =
       view_cmd->add_option("--frames", vo.frames, "run this many frames without user input, then exit")
           ->check(kPositive);
@@ -638,6 +682,13 @@ int main(int argc, char** argv) {
       require_directory_of("--stats", vo.stats);
       require_directory_of("--save", vo.save);
       vo.height = vo.width * 9 / 16;
+      if (!camera_position.empty()) vo.camera.position = parse_point("--camera-position", camera_position);
+      if (!camera_target.empty()) vo.camera.target = parse_point("--camera-target", camera_target);
+      if (fov_opt->count() > 0) vo.camera.fov = camera_fov;
+      if (names_replay(view_scene)) {
+        vo.replay = view_scene;
+        return qbond::view::run_viewer(qbond::Scene{}, vo);
+      }
       return qbond::view::run_viewer(load_any(view_scene), vo);
     }
     if (experiment_cmd->parsed()) {
@@ -648,6 +699,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "qbond: %s\n", e.what());
     return kExitBadInput;
   } catch (const qbond::CheckpointError& e) {
+    std::fprintf(stderr, "qbond: %s\n", e.what());
+    return kExitBadInput;
+  } catch (const qbond::VtkReadError& e) {
     std::fprintf(stderr, "qbond: %s\n", e.what());
     return kExitBadInput;
   } catch (const std::invalid_argument& e) {

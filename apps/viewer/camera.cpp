@@ -51,6 +51,14 @@ Mat4f OrbitCamera::projection(float aspect) const {
   return p;
 }
 
+void OrbitCamera::look_at(const Vec3f& e, const Vec3f& t) {
+  const Vec3f d = e - t;  // eye() = target + distance (cos p cos y, cos p sin y, sin p)
+  target = t;
+  distance = std::max(d.norm(), 1e-6f);
+  yaw = std::atan2(d.y(), d.x());
+  pitch = std::clamp(std::asin(std::clamp(d.z() / distance, -1.0f, 1.0f)), -kMaxPitch, kMaxPitch);
+}
+
 void OrbitCamera::orbit(float dx, float dy) {
   yaw -= 0.01f * dx;
   pitch = std::clamp(pitch + 0.01f * dy, -kMaxPitch, kMaxPitch);

@@ -25,6 +25,9 @@ struct OrbitCamera {
   /// Perspective projection for a viewport of aspect w/h, near and far planes scaled with distance.
   Mat4f projection(float aspect) const;
 
+  /// Puts the eye at `eye` looking at `target` (the field of view unchanged). The pitch is
+  /// clamped to ±(π/2 − 0.01): scenes check a camera with camera_problem (qbond/io/scene.hpp).
+  void look_at(const Vec3f& eye, const Vec3f& target);
   /// Turns the eye about the target by pixel motion (dx, dy).
   void orbit(float dx, float dy);
   /// Moves target and eye in the view plane by pixel motion on a viewport `height` pixels tall.

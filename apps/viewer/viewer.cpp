@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <numeric>
 #include <stdexcept>
 
@@ -62,17 +63,37 @@ double percentile(std::vector<double> v, double p) {
 
 }  // namespace
 
-Viewer::Viewer(Scene scene, std::vector<ScriptEvent> script, const ViewOptions& o, int fb_w, int fb_h)
-    : scene_(std::move(scene)), opt_(o), fb_w_(fb_w), fb_h_(fb_h), initial_(scene_.world), config_(scene_.integrator),
-      h_(scene_.timestep), script_(std::move(script)) {
+Viewer::Viewer(Scene scene, std::unique_ptr<Replay> replay, std::vector<ScriptEvent> script, const ViewOptions& o,
+               int fb_w, int fb_h)
+    : scene_(std::move(scene)), replay_(std::move(replay)), opt_(o), fb_w_(fb_w), fb_h_(fb_h), initial_(scene_.world),
+      config_(scene_.integrator), h_(scene_.timestep), script_(std::move(script)) {
   for (const HeuristicSpec& hs : scene_.heuristics)
     if (const auto* ob = std::get_if<Obstacle>(&hs)) obstacles_.push_back(*ob);
   bounds(initial_.state.x, lo_, hi_);
   size_ = std::max((hi_ - lo_).norm(), 1e-3);
   radius_ = draw_radius(scene_, size_);
   gravity_ = initial_.model.gravity;
-  reset();
-  frame_camera();
+  if (replay_) show_frame(replay_->at_time(opt_.replay_time));
+  else reset();
+  apply_camera();
+}
+
+void Viewer::apply_camera() {
+  // The command line's keys win over the scene's.
+  const CameraSpec& placed = opt_.camera.position ? opt_.camera : scene_.camera;
+  const std::optional<double>& fov = opt_.camera.fov ? opt_.camera.fov : scene_.camera.fov;
+  if (fov) cam_.fov_y = static_cast<float>(*fov * std::numbers::pi / 180);
+  frame_camera();  // with the field of view chosen
+  if (placed.position && placed.target) {
+    cam_.look_at(placed.position->cast<float>(), placed.target->cast<float>());
+    camera_fixed_ = true;
+  }
+}
+
+void Viewer::show_frame(std::size_t k) {
+  k = std::min(k, replay_->size() - 1);
+  replay_->load(k);
+  replay_clock_ = replay_->time(k);
 }
 
 void Viewer::frame(std::uint64_t f, Timing& timing) {
@@ -115,6 +136,10 @@ void Viewer::frame_camera() {
 }
 
 void Viewer::reset() {
+  if (replay_) {
+    show_frame(0);
+    return;
+  }
   World w = initial_;
   for (std::size_t b = 0; b < w.num_bonds(); ++b) {
     w.state.bonds.strength[b] *= stiffness_scale_;
@@ -163,6 +188,14 @@ nlohmann::json stats_json(const Timing& t, const Viewer& v, int fb_w, int fb_h) 
       {"gl_renderer", reinterpret_cast<const char*>(glGetString(GL_RENDERER))},
       {"blowup", v.blowup()},
       {"last_grab", v.last_grab()},
+      {"camera",
+       {{"eye", {v.camera().eye().x(), v.camera().eye().y(), v.camera().eye().z()}},
+        {"target", {v.camera().target.x(), v.camera().target.y(), v.camera().target.z()}},
+        {"fov", v.camera().fov_y * 180 / std::numbers::pi}}},
+      {"replay", v.replay() ? nlohmann::json{{"frame", v.replay()->index()},
+                                             {"frames", v.replay()->size()},
+                                             {"time", v.replay()->time(v.replay()->index())}}
+                            : nlohmann::json(nullptr)},
   };
 }
 
@@ -171,6 +204,29 @@ nlohmann::json stats_json(const Timing& t, const Viewer& v, int fb_w, int fb_h) 
 int run_viewer(Scene scene, const ViewOptions& o) {
   if (o.width < 64 || o.height < 64) throw std::invalid_argument("window size must be at least 64 x 64");
   // Bad input is refused before a window opens.
+  if (o.camera.position.has_value() != o.camera.target.has_value())
+    throw std::invalid_argument("--camera-position and --camera-target go together: give both or neither");
+  if (o.camera.position)
+    if (const std::string p = camera_problem(*o.camera.position, *o.camera.target); !p.empty())
+      throw std::invalid_argument("--camera-position, --camera-target: " + p);
+  if (o.camera.fov && !(*o.camera.fov > 0 && *o.camera.fov < 180)) {
+    char got[32];
+    std::snprintf(got, sizeof got, "%g", *o.camera.fov);
+    throw std::invalid_argument(std::string("--camera-fov must be in (0, 180) degrees, got ") + got);
+  }
+  std::unique_ptr<Replay> replay;
+  if (!o.replay.empty()) {
+    // A recorded run cannot be pushed, pulled or changed: only watched.
+    for (const auto& [set, name] : {std::pair{!o.script.empty(), "--script"}, std::pair{!o.save.empty(), "--save"},
+                                    std::pair{o.steps_per_frame > 0, "--steps-per-frame"}})
+      if (set) throw std::invalid_argument(std::string(name) + " does not apply to a replay (" + o.replay + ")");
+    replay = std::make_unique<Replay>(o.replay);
+    std::string note;
+    scene = replay_scene(*replay, note);
+    if (!note.empty()) std::fprintf(stderr, "qbond view: %s\n", note.c_str());
+  } else if (o.replay_time != 0) {
+    throw std::invalid_argument("--time applies to a replay (a run directory or its series.pvd)");
+  }
   std::vector<ScriptEvent> script;
   if (!o.script.empty()) {
     if (!fs::is_regular_file(o.script)) throw std::invalid_argument("script " + o.script + ": no such file");
@@ -204,7 +260,7 @@ int run_viewer(Scene scene, const ViewOptions& o) {
   {
     int fb_w = 0, fb_h = 0;
     glfwGetFramebufferSize(window, &fb_w, &fb_h);
-    Viewer viewer(std::move(scene), std::move(script), o, std::max(fb_w, 1), std::max(fb_h, 1));
+    Viewer viewer(std::move(scene), std::move(replay), std::move(script), o, std::max(fb_w, 1), std::max(fb_h, 1));
     glfwSetWindowUserPointer(window, &viewer);
     install_callbacks(window);
     ImGui_ImplGlfw_InitForOpenGL(window, true);  // chains to the callbacks above

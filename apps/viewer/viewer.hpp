@@ -23,10 +23,15 @@ struct ViewOptions {
   bool follow = false;         ///< keep the camera aimed at the quanta's box
   BondColor bonds = BondColor::strain;
   QuantaColor quanta = QuantaColor::body;
+  CameraSpec camera;           ///< from the command line: overrides the scene's `camera`, key by key
+  std::string replay;          ///< a finished run to replay (its series.pvd or its directory) instead of a scene
+  double replay_time = 0;      ///< replay: start at the last frame at or before this time [s]
 };
 
-/// Runs the viewer on a scene; returns the program's exit code (3 when a headless run blew up).
-/// Throws std::runtime_error when no window can be opened, std::invalid_argument on bad options.
+/// Runs the viewer on a scene, or on the run `options.replay` names (then `scene` is ignored);
+/// returns the program's exit code (3 when a headless run blew up). Throws std::runtime_error
+/// when no window can be opened, std::invalid_argument on bad options, VtkReadError on a replay's
+/// unreadable frame.
 int run_viewer(Scene scene, const ViewOptions& options);
 
 }  // namespace qbond::view

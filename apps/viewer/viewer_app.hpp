@@ -22,6 +22,7 @@
 #include "qbond/simulation/interaction.hpp"
 #include "qbond/simulation/simulation.hpp"
 #include "renderer.hpp"
+#include "replay.hpp"
 #include "script.hpp"
 #include "viewer.hpp"
 
@@ -57,8 +58,10 @@ void install_callbacks(GLFWwindow* window);
 /// The viewer: a scene stepped in real time, drawn, and pulled on with the mouse.
 class Viewer {
  public:
-  /// Starts the scene; the framebuffer is fb_w × fb_h pixels.
-  Viewer(Scene scene, std::vector<ScriptEvent> script, const ViewOptions& o, int fb_w, int fb_h);
+  /// Starts the scene, or with `replay` shows that run's frames instead of stepping (the scene
+  /// then gives the ground, obstacles and camera); the framebuffer is fb_w × fb_h pixels.
+  Viewer(Scene scene, std::unique_ptr<Replay> replay, std::vector<ScriptEvent> script, const ViewOptions& o, int fb_w,
+         int fb_h);
 
   /// One frame f: scripted input, physics, drawing.
   void frame(std::uint64_t f, Timing& timing);
@@ -70,8 +73,12 @@ class Viewer {
   const std::string& blowup() const { return blowup_; }
   /// The user id of the quanta the mouse last grabbed (-1: none).
   long long last_grab() const { return last_grab_; }
-  /// The world as stepped so far.
-  const World& world() const { return sim_->world(); }
+  /// The world as stepped so far, or the replay's frame shown.
+  const World& world() const { return replay_ ? replay_->world() : sim_->world(); }
+  /// The replay, or null for a live scene.
+  const Replay* replay() const { return replay_.get(); }
+  /// The camera.
+  const OrbitCamera& camera() const { return cam_; }
   /// Pixel box [x0, y0, x1, y1] (origin top left of the window) of the free and kinematic quanta.
   std::array<float, 4> quanta_box() const;
   // Input from GLFW callbacks (not called when ImGui wants the mouse or the keyboard).
@@ -92,8 +99,13 @@ class Viewer {
   static void bounds(const std::vector<Vec3>& x, Vec3& lo, Vec3& hi);
   /// Aims at the quanta and, below them, the ground planes they will land on.
   void frame_camera();
-  /// Rebuilds the simulation from the scene's initial world with the panel's settings.
+  /// Rebuilds the simulation from the scene's initial world with the panel's settings; a replay
+  /// goes back to its first frame.
   void reset();
+  /// Puts the camera where the scene's `camera` and the command line's say (they win key by key).
+  void apply_camera();
+  /// Shows replay frame k (clamped to the last) and sets the playback clock to its time.
+  void show_frame(std::size_t k);
   /// Scales the alive model's bonds to the panel's factors (the initial world keeps the originals).
   void rescale();
 
@@ -105,6 +117,8 @@ class Viewer {
   void step();
   /// Simulated over wall time of the recent frames.
   double real_time_factor() const;
+  /// A replay's frame: the next one headless, the one the playback clock has reached otherwise.
+  double advance_replay(Timing& timing);
 
   // Mouse, keys and scripted input (viewer_input.cpp)
   /// Plays one scripted event as the input it stands for.
@@ -131,12 +145,17 @@ class Viewer {
   // The ImGui panel (viewer_panel.cpp)
   /// The panel on the right.
   void panel();
+  /// The panel's physics settings (live scenes).
+  void physics_controls();
+  /// The panel's time slider, play/pause and step buttons, and playback speed (replays).
+  void replay_controls();
   /// Colour bars of what the bonds and quanta show: in the panel, or over the view without one.
   void legend();
   /// The help window (h).
   void help();
 
   Scene scene_;
+  std::unique_ptr<Replay> replay_;
   ViewOptions opt_;
   int fb_w_, fb_h_;
   World initial_;
@@ -150,6 +169,10 @@ class Viewer {
   Vec3 lo_, hi_;
   Vec3f last_centre_ = Vec3f::Constant(std::numeric_limits<float>::quiet_NaN());  // the box's centre at the last frame
   double size_ = 1, radius_ = 0.01;
+  bool camera_fixed_ = false;  ///< a camera the scene or the command line placed: not moved to keep bodies in view
+  double replay_clock_ = 0;    ///< [s] the replay's playback time
+  float replay_speed_ = 1;     ///< replay: simulated seconds per wall second
+  std::uint64_t replay_frames_ = 0;  ///< headless replay: viewer frames drawn so far
 
   std::size_t next_event_ = 0;
   std::optional<PullSpring> drag_;

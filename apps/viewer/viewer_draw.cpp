@@ -45,7 +45,7 @@ void Viewer::draw() {
     const Vec3f centre = ((lo + hi) / 2).cast<float>();
     if (follow_)
       cam_.target = centre;
-    else if (centre != last_centre_)
+    else if (centre != last_centre_ && !camera_fixed_)
       cam_.keep_in_view(centre, static_cast<float>(vw) / static_cast<float>(std::max(fb_h_, 1)), 0.6f);
     last_centre_ = centre;
   }
@@ -56,7 +56,13 @@ void Viewer::draw() {
 
   // Bonds.
   lines_.clear();
-  if (bond_color_ != BondColor::none) bond_tension_strain(m, s, tension_, strain_);
+  if (replay_) {  // the run's own values (the world's bonds are placeholders in the frame's order)
+    const VtpFrame& f = replay_->frame();
+    tension_ = f.tension.size() == s.bonds.size() ? f.tension : std::vector<double>(s.bonds.size(), 0.0);
+    strain_ = f.strain.size() == s.bonds.size() ? f.strain : std::vector<double>(s.bonds.size(), 0.0);
+  } else if (bond_color_ != BondColor::none) {
+    bond_tension_strain(m, s, tension_, strain_);
+  }
   const std::vector<double>& value = bond_color_ == BondColor::tension ? tension_ : strain_;
   magnitudes_.clear();
   if (bond_color_ != BondColor::none)
@@ -75,7 +81,10 @@ void Viewer::draw() {
   // Quanta.
   spheres_.clear();
   const bool stress = quanta_color_ == QuantaColor::von_mises;
-  if (stress) {
+  if (stress && replay_) {
+    mises_ = replay_->frame().von_mises;
+    mises_.resize(m.num_quanta(), 0.0);
+  } else if (stress) {
     virial_stress(m, s, sigma_);
     mises_.resize(sigma_.size());
     for (std::size_t i = 0; i < sigma_.size(); ++i) mises_[i] = von_mises(sigma_[i]);

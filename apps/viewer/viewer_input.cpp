@@ -13,11 +13,20 @@ namespace qbond::view {
 
 void Viewer::key(int k) {
   switch (k) {
-    case GLFW_KEY_SPACE: paused_ = !paused_; break;
+    case GLFW_KEY_SPACE:
+      paused_ = !paused_;
+      if (replay_ && !paused_ && replay_->index() + 1 == replay_->size()) show_frame(0);  // play again from the start
+      break;
     case GLFW_KEY_PERIOD: single_step_ = true; break;
+    case GLFW_KEY_COMMA:
+      if (replay_ && replay_->index() > 0) show_frame(replay_->index() - 1);
+      break;
     case GLFW_KEY_R: reset(); break;
     case GLFW_KEY_H: help_ = !help_; break;
-    case GLFW_KEY_F: frame_camera(); break;
+    case GLFW_KEY_F:
+      frame_camera();
+      camera_fixed_ = false;
+      break;
     default: break;
   }
 }
@@ -30,7 +39,7 @@ void Viewer::mouse_button(int button, bool press, double mx, double my, bool shi
   }
   last_mx_ = mx, last_my_ = my;
   if (button == GLFW_MOUSE_BUTTON_LEFT && !shift) {
-    if (grab(mx, my)) return;
+    if (!replay_ && grab(mx, my)) return;  // a recorded run cannot be pulled
     mode_ = Mode::orbit;
   } else {
     mode_ = Mode::pan;

@@ -10,6 +10,7 @@
 namespace qbond::view {
 
 double Viewer::advance(Timing& timing) {
+  if (replay_) return advance_replay(timing);
   const auto t0 = Clock::now();
   int steps = 0;
   if (opt_.frames > 0) {  // headless: a fixed number of steps, the same for every run
@@ -65,6 +66,32 @@ void Viewer::step() {
     blowup_ = r.message;
     paused_ = true;
   }
+}
+
+double Viewer::advance_replay(Timing& timing) {
+  const auto t0 = Clock::now();
+  const std::size_t before = replay_->index();
+  if (opt_.frames > 0) {  // headless: one recorded frame per viewer frame, the same for every run
+    if (replay_frames_++ > 0 && (!paused_ || single_step_)) show_frame(replay_->index() + 1);
+  } else {  // interactive: the recorded times at the panel's speed
+    const double wall = last_frame_ ? std::min(seconds_since(*last_frame_), 0.1) : 0.0;
+    last_frame_ = Clock::now();
+    if (single_step_) {
+      show_frame(replay_->index() + 1);
+    } else if (!paused_) {
+      const double clock = replay_clock_ + wall * replay_speed_;
+      show_frame(replay_->at_time(clock));
+      replay_clock_ = clock;
+      if (replay_->index() + 1 == replay_->size()) paused_ = true;  // the end: space plays it again
+    }
+  }
+  single_step_ = false;
+  timing.simulated += replay_->time(replay_->index()) - replay_->time(before);
+  if (replay_->index() != before || kinetic_.empty()) {
+    const Energies e = energies(world().model, world().state);
+    push_history(kinetic_, e.kinetic);
+  }
+  return seconds_since(t0);
 }
 
 double Viewer::real_time_factor() const {

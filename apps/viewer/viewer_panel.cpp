@@ -1,5 +1,7 @@
 // The ImGui panel: the scene's state, the integrator and its options (from the integrator table),
 // the physics factors, colourings with their legend, and plots of energy and step time.
+#include "gl.hpp"
+#include <GLFW/glfw3.h>
 #include <imgui.h>
 
 #include <algorithm>
@@ -31,19 +33,56 @@ void Viewer::panel() {
   ImGui::Begin("qbond", nullptr, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
   const World& w = world();
   ImGui::Text("%s", scene_.name.c_str());
-  ImGui::Text("t = %.3f s   step %llu", w.state.time, static_cast<unsigned long long>(w.state.step));
+  if (replay_) ImGui::Text("t = %.4g s   frame %zu of %zu", w.state.time, replay_->index() + 1, replay_->size());
+  else ImGui::Text("t = %.3f s   step %llu", w.state.time, static_cast<unsigned long long>(w.state.step));
   const std::size_t alive = w.num_alive_bonds();
-  ImGui::Text("quanta %zu  bonds %zu  broken %zu", w.num_quanta(), alive, w.num_bonds() - alive);
+  if (replay_) ImGui::Text("quanta %zu  bonds %zu", w.num_quanta(), alive);
+  else ImGui::Text("quanta %zu  bonds %zu  broken %zu", w.num_quanta(), alive, w.num_bonds() - alive);
   if (!blowup_.empty()) ImGui::TextColored(ImVec4(1, 0.3f, 0.3f, 1), "BLOW-UP (r resets):\n%s", blowup_.c_str());
   else if (paused_) ImGui::TextColored(ImVec4(1, 0.8f, 0.2f, 1), "paused (space)");
-  if (opt_.frames == 0) {
+  if (opt_.frames == 0 && !replay_) {
     const double rt = real_time_factor();
     if (rt < 0.95 && !paused_) ImGui::TextColored(ImVec4(1, 0.5f, 0.2f, 1), "behind: %.2fx real time", rt);
     else ImGui::Text("%.2fx real time", rt);
   }
-  ImGui::Text("%.1f fps, %d steps/frame", static_cast<double>(ImGui::GetIO().Framerate), steps_last_frame_);
+  if (replay_) ImGui::Text("%.1f fps", static_cast<double>(ImGui::GetIO().Framerate));
+  else ImGui::Text("%.1f fps, %d steps/frame", static_cast<double>(ImGui::GetIO().Framerate), steps_last_frame_);
   ImGui::Separator();
 
+  if (replay_) replay_controls();
+  else physics_controls(), ImGui::SameLine();
+  ImGui::Checkbox("camera follows", &follow_);
+  ImGui::Separator();
+  int bc = static_cast<int>(bond_color_), qc = static_cast<int>(quanta_color_);
+  if (ImGui::Combo("bonds", &bc, kBondColorNames, IM_ARRAYSIZE(kBondColorNames))) {
+    bond_color_ = static_cast<BondColor>(bc);
+    bond_range_.reset();
+  }
+  // Stress needs the quanta's volumes; a replay has it when the run wrote it (0 where unknown).
+  const std::vector<double>& known = replay_ ? replay_->frame().von_mises : w.model.volume;
+  const bool volumes = std::any_of(known.begin(), known.end(), [](double v) { return v > 0; });
+  if (ImGui::Combo("quanta", &qc, kQuantaColorNames, IM_ARRAYSIZE(kQuantaColorNames))) {
+    quanta_color_ = static_cast<QuantaColor>(qc);
+    if (quanta_color_ == QuantaColor::von_mises && !volumes) quanta_color_ = QuantaColor::body;
+    quanta_range_.reset();
+  }
+  if (!volumes) ImGui::TextDisabled("no quanta volumes: no stress colouring");
+  legend();
+  ImGui::Separator();
+  char label[64];
+  std::snprintf(label, sizeof label, "%.4g J", energy_.empty() ? 0.0 : static_cast<double>(energy_.back()));
+  if (!replay_) plot("total energy", energy_, label);
+  std::snprintf(label, sizeof label, "%.4g J", kinetic_.empty() ? 0.0 : static_cast<double>(kinetic_.back()));
+  plot("kinetic", kinetic_, label);
+  std::snprintf(label, sizeof label, "%.3g ms", step_ms_.empty() ? 0.0 : static_cast<double>(step_ms_.back()));
+  if (!replay_) plot("step time", step_ms_, label);
+  ImGui::Separator();
+  ImGui::TextDisabled(replay_ ? "h: help   space: play/pause   r: start\n.: next frame   ,: previous   f: frame"
+                              : "h: help   space: pause   .: step   r: reset   f: frame");
+  ImGui::End();
+}
+
+void Viewer::physics_controls() {
   // Every integrator by name, and the options the chosen one reads (integrators.hpp's table).
   int type = integrator_menu_.index(config_.type);
   const std::vector<const char*> types = integrator_menu_.labels();
@@ -97,33 +136,28 @@ void Viewer::panel() {
   }
   ImGui::SameLine();
   ImGui::TextDisabled("(%zu)", scene_.heuristics.size());
-  ImGui::SameLine();
-  ImGui::Checkbox("camera follows", &follow_);
-  ImGui::Separator();
-  int bc = static_cast<int>(bond_color_), qc = static_cast<int>(quanta_color_);
-  if (ImGui::Combo("bonds", &bc, kBondColorNames, IM_ARRAYSIZE(kBondColorNames))) {
-    bond_color_ = static_cast<BondColor>(bc);
-    bond_range_.reset();
-  }
-  const bool volumes = std::any_of(w.model.volume.begin(), w.model.volume.end(), [](double v) { return v > 0; });
-  if (ImGui::Combo("quanta", &qc, kQuantaColorNames, IM_ARRAYSIZE(kQuantaColorNames))) {
-    quanta_color_ = static_cast<QuantaColor>(qc);
-    if (quanta_color_ == QuantaColor::von_mises && !volumes) quanta_color_ = QuantaColor::body;
-    quanta_range_.reset();
-  }
-  if (!volumes) ImGui::TextDisabled("no quanta volumes: no stress colouring");
-  legend();
-  ImGui::Separator();
+}
+
+void Viewer::replay_controls() {
+  const std::size_t n = replay_->size(), k = replay_->index();
+  ImGui::TextDisabled("replay of %s", replay_->series().string().c_str());
+  int frame = static_cast<int>(k);
   char label[64];
-  std::snprintf(label, sizeof label, "%.4g J", energy_.empty() ? 0.0 : static_cast<double>(energy_.back()));
-  plot("total energy", energy_, label);
-  std::snprintf(label, sizeof label, "%.4g J", kinetic_.empty() ? 0.0 : static_cast<double>(kinetic_.back()));
-  plot("kinetic", kinetic_, label);
-  std::snprintf(label, sizeof label, "%.3g ms", step_ms_.empty() ? 0.0 : static_cast<double>(step_ms_.back()));
-  plot("step time", step_ms_, label);
-  ImGui::Separator();
-  ImGui::TextDisabled("h: help   space: pause   .: step   r: reset   f: frame");
-  ImGui::End();
+  std::snprintf(label, sizeof label, "%%d / %zu", n - 1);
+  if (ImGui::SliderInt("frame", &frame, 0, static_cast<int>(n) - 1, label)) show_frame(static_cast<std::size_t>(frame));
+  float t = static_cast<float>(replay_clock_);
+  if (ImGui::SliderFloat("time [s]", &t, static_cast<float>(replay_->time(0)), static_cast<float>(replay_->time(n - 1)), "%.4g"))
+    show_frame(replay_->at_time(t)), replay_clock_ = t;
+  if (ImGui::Button("|<")) show_frame(0);
+  ImGui::SameLine();
+  if (ImGui::Button("<") && k > 0) show_frame(k - 1);
+  ImGui::SameLine();
+  if (ImGui::Button(paused_ ? "play" : "pause")) key(GLFW_KEY_SPACE);
+  ImGui::SameLine();
+  if (ImGui::Button(">")) single_step_ = true;
+  ImGui::SameLine();
+  if (ImGui::Button(">|")) show_frame(n - 1);
+  ImGui::SliderFloat("speed x", &replay_speed_, 0.01f, 100, "%.2f", ImGuiSliderFlags_Logarithmic);
 }
 
 void Viewer::legend() {
@@ -167,8 +201,9 @@ void Viewer::help() {
       "wheel                 zoom\n"
       "f                     frame the scene\n"
       "space                 pause / run\n"
-      ".                     one step\n"
-      "r                     reset the scene\n"
+      ".                     one step (a replay: one frame)\n"
+      ",                     a replay: one frame back\n"
+      "r                     reset the scene (a replay: its first frame)\n"
       "h                     this help\n\n"
       "orange spheres are anchored or prescribed quanta");
   ImGui::End();

@@ -51,6 +51,20 @@ using HeuristicSpec = std::variant<BreakRule, PlasticRule, Obstacle, QuantaConta
 /// Creates the heuristic an entry describes.
 std::unique_ptr<Heuristic> make_heuristic(const HeuristicSpec& spec);
 
+/// The scene's `camera`: how `qbond view` looks at it (runs ignore it). Position and target come
+/// together or not at all; without them the viewer frames the scene itself.
+struct CameraSpec {
+  std::optional<Vec3> position, target;  ///< the eye and the point it looks at [m]
+  std::optional<double> fov;             ///< vertical field of view [degrees], in (0, 180)
+};
+
+/// Why a camera at `position` looking at `target` cannot be used, or "" when it can: the two
+/// points must differ, and the view must not be within kCameraVerticalLimit of straight up or
+/// down (z is the picture's up, which a vertical view leaves undefined).
+std::string camera_problem(const Vec3& position, const Vec3& target);
+/// Closest a camera's view may come to vertical [rad].
+inline constexpr double kCameraVerticalLimit = 0.01;
+
 /// A loaded scene: the world built, the run's parameters, and the scene with every default
 /// filled in (`resolved`: what run.json and checkpoints record; it rebuilds the same world).
 struct Scene {
@@ -65,6 +79,7 @@ struct Scene {
   World world;
   std::vector<HeuristicSpec> heuristics;  ///< in the order the step applies them
   OutputSpec output;
+  CameraSpec camera;
   nlohmann::json resolved;
 };
 

@@ -57,6 +57,7 @@ Scene Builder::build() {
   s.integrator = integrator(top.has("integrator") ? top["integrator"] : json::object());
   integrator_ = s.integrator;
   s.limits = limits(top.has("limits") ? top["limits"] : json::object());
+  if (top.has("camera")) s.camera = camera(top["camera"]);
   if (top.has("adaptive")) s.adaptive = adaptive(top["adaptive"], s.timestep, static_cast<double>(s.steps) * s.timestep);
   if (top.has("materials")) materials(top["materials"], res["materials"]);
   bodies(top.required("bodies"), res["bodies"], w);
@@ -214,6 +215,23 @@ BlowupLimits Builder::limits(const json& j) {
   if (o.has("stop_on_energy_gain"))
     l.stop_on_energy_gain = boolean(o["stop_on_energy_gain"], o.at("stop_on_energy_gain"));
   return l;
+}
+
+CameraSpec Builder::camera(const json& j) {
+  Obj o(j, "camera", keys_of("camera"));
+  CameraSpec c;
+  if (o.has("position") != o.has("target"))
+    bad(o.has("position") ? o.at("position") : o.at("target"), "position and target go together: give both or neither");
+  if (o.has("position")) {
+    c.position = vec3(o["position"], o.at("position"));
+    c.target = vec3(o["target"], o.at("target"));
+    if (const std::string p = camera_problem(*c.position, *c.target); !p.empty()) bad(o.at("position"), p);
+  }
+  if (o.has("fov")) {
+    c.fov = positive(o["fov"], o.at("fov"));
+    if (*c.fov >= 180) bad(o.at("fov"), "must be < 180 (degrees), got " + num_str(*c.fov));
+  }
+  return c;
 }
 
 }  // namespace qbond::scene_detail

@@ -81,6 +81,8 @@ class Builder {
   AdaptiveConfig adaptive(const json& j, double timestep, double horizon);
 
   BlowupLimits limits(const json& j);
+  /// The `camera` section.
+  CameraSpec camera(const json& j);
 
   // materials.cpp: the `materials` section: named bond materials
   // Each material's law and its keys come from the law registry (laws/registry.hpp): the law's

@@ -33,6 +33,14 @@ Scene parse_scene(std::string_view text, const std::string& source, const SceneF
   }
 }
 
+std::string camera_problem(const Vec3& position, const Vec3& target) {
+  const Vec3 d = position - target;
+  if (!(d.norm() > 0)) return "the camera's position and target must differ";
+  if (std::abs(d.z()) / d.norm() > std::cos(kCameraVerticalLimit))
+    return "the camera must not look straight up or down (z is the picture's up): move the position sideways of the target";
+  return "";
+}
+
 std::uint64_t steps_for_duration(double duration, double timestep) {
   const double n = std::ceil(duration / timestep - 1e-9);
   const auto g = [](double v) { return num_str(v); };
