@@ -1370,6 +1370,38 @@ def test_file_body_scenes():
             if counts.get("quanta") != quanta or (bonds is not None and counts.get("bonds") != bonds):
                 fail(f"{arg}: {r.stdout}")
 
+def test_tet_bar_statics():
+    """`qbond statics` on the tet_mesh bar clamped at x = 0: the load is the weight of the free
+    nodes, g ρ Σ V_i with V_i the lumped volumes recomputed here from scenes/meshes/bar.msh (a
+    quarter of each tetrahedron's volume to each of its nodes), and the clamp's reaction balances
+    it to Newton's tolerance (1e-8 of the load)."""
+    lines = open(os.path.join(SOURCE, "scenes", "meshes", "bar.msh")).read().split("\n")
+    start = lines.index("$Nodes")
+    nodes = {}
+    for line in lines[start + 2:start + 2 + int(lines[start + 1])]:
+        tag, x, y, z = line.split()
+        nodes[int(tag)] = (float(x), float(y), float(z))
+    start = lines.index("$Elements")
+    volume = {tag: 0.0 for tag in nodes}
+    for line in lines[start + 2:start + 2 + int(lines[start + 1])]:
+        f = [int(v) for v in line.split()]
+        tet = f[3 + f[2]:]
+        a, b, c, d = (nodes[t] for t in tet)
+        u, v, w = ([q[k] - a[k] for k in range(3)] for q in (b, c, d))
+        det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0])
+        for t in tet:
+            volume[t] += abs(det) / 24
+    free = sum(v for tag, v in volume.items() if nodes[tag][0] > 0.001)
+    expected = -9.81 * 1000 * free
+    d = fresh("tet_bar_statics")
+    qbond("statics", os.path.join(SOURCE, "scenes", "tet_bar.json"), "-o", d, "--no-vtk", "-q", check_code=0)
+    result = json.load(open(os.path.join(d, "statics.json")))
+    load, reaction = result["load"], result["reaction"]
+    if abs(load[2] - expected) > 1e-12 * abs(expected) or abs(load[0]) > 0 or abs(load[1]) > 0:
+        fail(f"load {load}, expected [0, 0, {expected}]")
+    if any(abs(load[k] + reaction[k]) > 1e-8 * abs(expected) for k in range(3)):
+        fail(f"reaction {reaction} does not balance the load {load}")
+
 
 if __name__ == "__main__":
     os.makedirs(WORK, exist_ok=True)
