@@ -382,3 +382,41 @@ TEST(LammpsData, RoundTripIsBitExact) {
   expect_same_structure(b.world, round_trip(b, materials, by_stiffness, dir).world, false);
   std::filesystem::remove_all(dir);
 }
+
+// Every prefix of each example file, and each with one byte replaced by a stride of characters
+// that matter to the readers, is read or refused with a std::runtime_error naming the file: no
+// other exception, no crash (a deterministic complement of the mesh fuzz target, which also
+// covers the CSV and LAMMPS readers here).
+TEST(FileReaders, TruncatedOrCorruptedFilesAreReadOrRefused) {
+  struct Case {
+    std::filesystem::path file;
+    void (*read)(const std::string& text, const std::string& name);
+  };
+  const Case cases[] = {
+      {kSource / "scenes/meshes/bar.msh", [](const std::string& t, const std::string& n) { parse_tet_mesh(t, n); }},
+      {kSource / "scenes/meshes/bar_v41.msh", [](const std::string& t, const std::string& n) { parse_tet_mesh(t, n); }},
+      {kSource / "scenes/meshes/bar.vtu", [](const std::string& t, const std::string& n) { parse_tet_mesh(t, n); }},
+      {kSource / "scenes/data/truss_quanta.csv", [](const std::string& t, const std::string& n) { parse_quanta_csv(t, n); }},
+      {kSource / "scenes/data/truss_bonds.csv", [](const std::string& t, const std::string& n) { parse_bonds_csv(t, n, 13); }},
+      {kSource / "scenes/data/block_and_rope.data", [](const std::string& t, const std::string& n) { parse_lammps_data(t, n); }},
+  };
+  const std::string replacements = "0-9 \n#,.$<>\"/e";
+  for (const Case& c : cases) {
+    const std::string text = read_file(c.file);
+    const std::string name = c.file.filename().string();
+    auto check = [&](const std::string& t) {
+      try {
+        c.read(t, name);
+      } catch (const std::runtime_error& e) {
+        ASSERT_TRUE(std::string(e.what()).starts_with(name)) << e.what();
+      }
+    };
+    for (std::size_t n = 0; n <= text.size(); n += 11) check(text.substr(0, n));
+    for (std::size_t p = 0; p < text.size(); p += 29)
+      for (char r : replacements) {
+        std::string t = text;
+        t[p] = r;
+        check(t);
+      }
+  }
+}
