@@ -7,6 +7,7 @@ Run with Debian's /usr/bin/python3 (ctest does); TEST is one of the functions na
 import csv
 import json
 import os
+import re
 import shutil
 import signal
 import struct
@@ -1221,6 +1222,185 @@ def test_energy_gain_is_reported():
     run = json.load(open(os.path.join(d, "out", "run.json")))
     if run["status"] != "blowup" or run["last_step"] >= 180:
         fail(f"stop_on_energy_gain: run.json {run['status']} at step {run['last_step']}")
+
+
+
+def lammps_sections(path):
+    """The sections of a LAMMPS data file: {keyword: [entry lines]} (comments and blank lines
+    dropped), and the header's bond-type comments {type: description}."""
+    sections, current, comments = {}, None, {}
+    for line in open(path).read().splitlines()[1:]:
+        if line.startswith("# bond type "):
+            t, _, rest = line[len("# bond type "):].partition(":")
+            comments[int(t)] = rest.strip()
+        text = line.split("#")[0].strip()
+        if not text:
+            continue
+        if text[0].isalpha():
+            current = text
+            sections[current] = []
+        elif current:
+            sections[current].append(text)
+    return sections, comments
+
+
+def bond_set(sections, comments):
+    """A data file's bonds as {(smaller atom ID, larger atom ID): the bond type's law and numbers}."""
+    out = {}
+    for line in sections.get("Bonds", []):
+        _, t, a, b = line.split()
+        out[tuple(sorted((int(a), int(b))))] = comments.get(int(t), t)
+    return out
+
+
+def same_structure(a, b):
+    """Two data files qbond wrote hold the same structure: the same header counts, masses,
+    atoms (but for their molecule IDs: a scene read from a data file is one body), velocities
+    and bonds, character for character."""
+    sa, ca = lammps_sections(a)
+    sb, cb = lammps_sections(b)
+    for section in ("Masses", "Atoms", "Velocities"):
+        la, lb = sa.get(section, []), sb.get(section, [])
+        if section == "Atoms":
+            la, lb = ([" ".join(x.split()[:1] + x.split()[2:]) for x in lines] for lines in (la, lb))
+        if la != lb or not la:
+            diff = [(x, y) for x, y in zip(la, lb) if x != y][:3]
+            fail(f"{section} of {a} and {b} differ: {diff or (len(la), len(lb))}")
+    if bond_set(sa, ca) != bond_set(sb, cb) or not bond_set(sa, ca):
+        fail(f"the bonds of {a} and {b} differ")
+
+
+LAMMPS_SCENE = {
+    "timestep": 0.001, "steps": 1,
+    "materials": {"steel": {"stiffness": 20000, "damping": 0.5}, "rope": {"stiffness": 300}},
+    "bodies": [
+        {"name": "block", "type": "lattice", "cell": "cubic", "size": [4, 3, 2], "spacing": 0.0137,
+         "material": "steel", "quanta_mass": 0.0123, "velocity": [0.1, -0.2, 0.3],
+         "origin": [0.01, 0.02, 0.1], "rotation": {"axis": [1, 2, 3], "angle": 0.3}},
+        {"name": "rope", "type": "chain", "start": [0.1, 0.03, 0.12], "end": [0.25, 0.03, 0.12], "count": 7,
+         "material": "rope", "total_mass": 0.031}]}
+
+
+def reading_scene(data, materials):
+    return {"timestep": 0.001, "steps": 1, "materials": LAMMPS_SCENE["materials"],
+            "bodies": [{"name": "read", "type": "lammps", "file": data, "bond_materials": materials}]}
+
+
+def test_export_lammps():
+    """`qbond export SCENE --lammps FILE` writes a data file whose header counts match its
+    sections, and which a `lammps` body reads back as the same structure: exporting that scene
+    again writes the same atoms, velocities, masses and bonds, character for character."""
+    d = fresh("export_lammps")
+    os.makedirs(d)
+    scene = os.path.join(d, "scene.json")
+    json.dump(LAMMPS_SCENE, open(scene, "w"))
+    first = os.path.join(d, "first.data")
+    r = qbond("export", scene, "--lammps", first, check_code=0)
+    if "wrote" not in r.stdout or "31 atoms" not in r.stdout:
+        fail(r.stdout)
+    sections, comments = lammps_sections(first)
+    header = open(first).read()
+    atoms = len(sections["Atoms"])
+    if atoms != 31 or f"\n{atoms} atoms\n" not in header:
+        fail(f"{atoms} atom lines; header:\n{header[:400]}")
+    if f"\n{len(sections['Bonds'])} bonds\n" not in header or "2 atom types" not in header or "2 bond types" not in header:
+        fail(header[:400])
+    if sorted(comments.values()) != sorted(["linear, stiffness 20000, damping 0.5 (axial)",
+                                            "linear, stiffness 300, damping 0 (axial)"]):
+        fail(f"bond type comments {comments}")
+    names = ["steel" if "20000" in comments[t] else "rope" for t in sorted(comments)]
+    again = os.path.join(d, "again.json")
+    json.dump(reading_scene(first, names), open(again, "w"))
+    second = os.path.join(d, "second.data")
+    qbond("export", again, "--lammps", second, "-q", check_code=0)
+    same_structure(first, second)
+    # Refusals: no such directory, a bond type without a material, a bad line.
+    r = qbond("export", scene, "--lammps", os.path.join(d, "nowhere", "x.data"), check_code=2)
+    if "no directory" not in r.stderr:
+        fail(r.stderr)
+    json.dump(reading_scene(first, ["steel"]), open(again, "w"))
+    r = qbond("validate", again, check_code=2)
+    if "bond_materials: expected 2 material names" not in r.stderr:
+        fail(r.stderr)
+    broken = os.path.join(d, "broken.data")
+    open(broken, "w").write(open(first).read().replace("\nAtoms # bond\n\n1 ", "\nAtoms # bond\n\n1 x "))
+    json.dump(reading_scene(broken, names), open(again, "w"))
+    r = qbond("validate", again, check_code=2)
+    if "broken.data:" not in r.stderr or "an Atoms line of this style" not in r.stderr:
+        fail(r.stderr)
+
+
+def test_lammps_reads_the_export():
+    """LAMMPS itself (`lmp`, when installed; the test is skipped without it) reads an export with
+    read_data and writes it back with write_data; qbond reads LAMMPS's file as the same structure:
+    the same atoms, velocities and masses (re-exported character for character) and bonds."""
+    lmp = shutil.which("lmp") or shutil.which("lmp_serial")
+    if not lmp:
+        print("SKIP: LAMMPS (lmp) is not installed")
+        sys.exit(77)
+    d = fresh("lammps_reads")
+    os.makedirs(d)
+    scene = os.path.join(d, "scene.json")
+    json.dump(LAMMPS_SCENE, open(scene, "w"))
+    ours = os.path.join(d, "ours.data")
+    qbond("export", scene, "--lammps", ours, "-q", check_code=0)
+    theirs = os.path.join(d, "theirs.data")
+    script = os.path.join(d, "in.lmp")
+    open(script, "w").write(f"units si\natom_style bond\nboundary f f f\nread_data {ours}\nwrite_data {theirs}\n")
+    r = subprocess.run([lmp, "-in", script, "-log", "none", "-screen", "none"], capture_output=True, text=True, cwd=d)
+    if r.returncode != 0 or not os.path.exists(theirs):
+        fail(f"lmp: exit {r.returncode}\n{r.stdout}\n{r.stderr}")
+    _, comments = lammps_sections(ours)
+    names = ["steel" if "20000" in comments[t] else "rope" for t in sorted(comments)]
+    again = os.path.join(d, "again.json")
+    json.dump(reading_scene(theirs, names), open(again, "w"))
+    back = os.path.join(d, "back.data")
+    qbond("export", again, "--lammps", back, "-q", check_code=0)
+    same_structure(ours, back)
+
+
+def test_file_body_scenes():
+    """The example scenes of the file-reading bodies build what their files hold: the tet_mesh
+    bar (81 nodes, 344 unique edges of 192 tetrahedra), the CSV truss (13 quanta, 23 bonds) and
+    the LAMMPS data file LAMMPS wrote (31 atoms)."""
+    for name, quanta, bonds in (("tet_bar", 81, 344), ("csv_truss", 13, 23), ("lammps_drop", 31, None)):
+        for arg in (os.path.join(SOURCE, "scenes", name + ".json"), name):  # the built-in one reads its files compiled in
+            r = qbond("validate", arg, check_code=0)
+            counts = {k: int(v) for k, v in re.findall(r"^  (quanta|bonds) +(\d+)", r.stdout, re.M)}
+            if counts.get("quanta") != quanta or (bonds is not None and counts.get("bonds") != bonds):
+                fail(f"{arg}: {r.stdout}")
+
+def test_tet_bar_statics():
+    """`qbond statics` on the tet_mesh bar clamped at x = 0: the load is the weight of the free
+    nodes, g ρ Σ V_i with V_i the lumped volumes recomputed here from scenes/meshes/bar.msh (a
+    quarter of each tetrahedron's volume to each of its nodes), and the clamp's reaction balances
+    it to Newton's tolerance (1e-8 of the load)."""
+    lines = open(os.path.join(SOURCE, "scenes", "meshes", "bar.msh")).read().split("\n")
+    start = lines.index("$Nodes")
+    nodes = {}
+    for line in lines[start + 2:start + 2 + int(lines[start + 1])]:
+        tag, x, y, z = line.split()
+        nodes[int(tag)] = (float(x), float(y), float(z))
+    start = lines.index("$Elements")
+    volume = {tag: 0.0 for tag in nodes}
+    for line in lines[start + 2:start + 2 + int(lines[start + 1])]:
+        f = [int(v) for v in line.split()]
+        tet = f[3 + f[2]:]
+        a, b, c, d = (nodes[t] for t in tet)
+        u, v, w = ([q[k] - a[k] for k in range(3)] for q in (b, c, d))
+        det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0])
+        for t in tet:
+            volume[t] += abs(det) / 24
+    free = sum(v for tag, v in volume.items() if nodes[tag][0] > 0.001)
+    expected = -9.81 * 1000 * free
+    d = fresh("tet_bar_statics")
+    qbond("statics", os.path.join(SOURCE, "scenes", "tet_bar.json"), "-o", d, "--no-vtk", "-q", check_code=0)
+    result = json.load(open(os.path.join(d, "statics.json")))
+    load, reaction = result["load"], result["reaction"]
+    if abs(load[2] - expected) > 1e-12 * abs(expected) or abs(load[0]) > 0 or abs(load[1]) > 0:
+        fail(f"load {load}, expected [0, 0, {expected}]")
+    if any(abs(load[k] + reaction[k]) > 1e-8 * abs(expected) for k in range(3)):
+        fail(f"reaction {reaction} does not balance the load {load}")
 
 
 if __name__ == "__main__":

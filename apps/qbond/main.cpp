@@ -1,5 +1,5 @@
 // The `qbond` program: `run` a scene with its outputs, `statics` (its equilibrium), `validate` scene
-// files, `schema` (theirs), `experiment` (the paper's experiments), `bench` (the performance
+// files, `export` (the built world for LAMMPS), `schema` (theirs), `experiment` (the paper's experiments), `bench` (the performance
 // suite), `view` (the viewer).
 // The work is done by the library (scene.hpp, runner.hpp); this file holds what only a program
 // has: options, the progress display, signals and exit codes.
@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <thread>
@@ -22,6 +23,7 @@
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/builders/samples.hpp"
 #include "qbond/io/checkpoint.hpp"
+#include "qbond/io/lammps_data.hpp"
 #include "qbond/io/memory.hpp"
 #include "qbond/io/scene_schema.hpp"
 #include "qbond/simulation/runner.hpp"
@@ -494,6 +496,27 @@ int statics(const StaticsArgs& a, std::uint64_t max_memory) {
   return kExitBlowup;
 }
 
+// `qbond export`: the world a scene builds, before its first step, as another program's input.
+struct ExportArgs {
+  std::string scene, lammps;
+  bool quiet = false;
+};
+
+int export_scene(const ExportArgs& a, std::uint64_t max_memory) {
+  const qbond::Scene scene = load_any(a.scene, max_memory);
+  std::ofstream out(a.lammps);
+  if (!out) throw std::runtime_error("--lammps: cannot write " + a.lammps);
+  qbond::write_lammps_data(out, scene.world, scene.name);
+  out.close();
+  if (!out) throw std::runtime_error("--lammps: writing " + a.lammps + " failed");
+  if (!a.quiet)
+    std::printf("wrote %s: %zu atoms, %d bond(s) of %d bond type(s) (LAMMPS data, units si, atom_style bond)\n",
+                a.lammps.c_str(), scene.world.num_quanta(),
+                static_cast<int>(qbond::lammps_bond_types(scene.world).first.size()),
+                qbond::lammps_bond_types(scene.world).second);
+  return 0;
+}
+
 // `qbond experiment`: runs the paper's experiments (experiments/), writes their CSVs,
 // summaries and results.json, draws their plots with plot.py; exit 1 when a claim fails.
 struct ExperimentArgs {
@@ -579,6 +602,16 @@ int main(int argc, char** argv) {
   statics_cmd->add_flag("--no-vtk", sa.no_vtk, "write no ParaView frame");
   statics_cmd->add_flag("-q,--quiet", sa.quiet, "print nothing but errors");
   statics_cmd->add_option("--max-memory", max_memory, memory_help)->check(memory_size());
+  ExportArgs xa;
+  CLI::App* export_cmd = app.add_subcommand(
+      "export", "write the world a scene builds (before its first step) for another program (docs/running.md)");
+  export_cmd->add_option("scene", xa.scene, "scene file (.json) or built-in scene name")->required();
+  export_cmd
+      ->add_option("--lammps", xa.lammps,
+                   "write a LAMMPS data file (units si, atom_style bond: atoms, masses, velocities, bonds)")
+      ->required();
+  export_cmd->add_flag("-q,--quiet", xa.quiet, "print nothing but errors");
+  export_cmd->add_option("--max-memory", max_memory, memory_help)->check(memory_size());
   CLI::App* schema_cmd = app.add_subcommand("schema",
                                             "print the JSON Schema of scene files, for editors "
                                             "(docs/scene-format.md)");
@@ -669,6 +702,10 @@ int main(int argc, char** argv) {
     if (run_cmd->parsed()) return run(o);
     if (validate_cmd->parsed()) return validate(to_validate, o.max_memory);
     if (statics_cmd->parsed()) return statics(sa, o.max_memory);
+    if (export_cmd->parsed()) {
+      require_directory_of("--lammps", xa.lammps);
+      return export_scene(xa, o.max_memory);
+    }
     if (schema_cmd->parsed()) {
       std::printf("%s\n", qbond::scene_schema().dump(2).c_str());
       return 0;

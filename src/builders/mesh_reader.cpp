@@ -11,51 +11,18 @@
 #include <unordered_map>
 
 #include "builders/bonded_points.hpp"
+#include "io/text_fields.hpp"
 #include "qbond/io/files.hpp"
 
 namespace qbond {
 
 namespace {
 
-[[noreturn]] void malformed(const std::string& name, std::size_t line, const std::string& rule) {
-  throw std::runtime_error(name + (line ? ":" + std::to_string(line) : "") + ": " + rule);
-}
-
-/// Whitespace-separated tokens of one line.
-std::vector<std::string_view> tokens(std::string_view line) {
-  std::vector<std::string_view> out;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() &&
-           (line[i] == ' ' || line[i] == '\t' || line[i] == '\r' || line[i] == '\f' || line[i] == '\v'))
-      ++i;
-    const std::size_t start = i;
-    while (i < line.size() &&
-           !(line[i] == ' ' || line[i] == '\t' || line[i] == '\r' || line[i] == '\f' || line[i] == '\v'))
-      ++i;
-    if (i > start) out.push_back(line.substr(start, i - start));
-  }
-  return out;
-}
-
-bool parse_double(std::string_view t, double& v) {
-  if (!t.empty() && t[0] == '+') t.remove_prefix(1);
-  const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
-  return r.ec == std::errc() && r.ptr == t.data() + t.size() && std::isfinite(v);
-}
-
-bool parse_long(std::string_view t, long long& v) {
-  if (!t.empty() && t[0] == '+') t.remove_prefix(1);
-  const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
-  return r.ec == std::errc() && r.ptr == t.data() + t.size();
-}
-
-std::string quoted(std::string_view t) {
-  std::string q = "'";  // appended piecewise: GCC 12 warns (-Wrestrict) falsely on "'" + string + ...
-  q.append(t.substr(0, 40));
-  q.append(t.size() > 40 ? "...'" : "'");
-  return q;
-}
+using text::malformed;
+using text::parse_double;
+using text::parse_long;
+using text::quoted;
+using text::tokens;
 
 /// Merges vertices with identical coordinates (STL stores every triangle's corners separately).
 class Welder {

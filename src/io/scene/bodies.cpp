@@ -77,6 +77,24 @@ std::span<const Builder::BodyReader> Builder::body_readers() {
          auto mass_of = [&e](double count, double calibrated) { return e.mass_of(count, calibrated); };
          return e.builder.mesh_body(e.j, e.path, e.res, e.w, e.id, mass_of, *e.mat);
        }},
+      {"tet_mesh", "a tetrahedral mesh (Gmsh .msh, VTK .vtu): quanta at nodes, bonds on edges",
+       keys({{"file", "string"}, {"scale", "number"}, {"material", "string"}, {"total_mass", "number"}}, false),
+       [](const BodyEntry& e) { return e.tet_mesh(); }},
+      {"csv", "quanta and bonds from CSV tables",
+       keys({{"quanta", "string"},
+             {"bonds", "string"},
+             {"bond_material", "string"},
+             {"mass", "number"},
+             {"volume", "number"}},
+            false),
+       [](const BodyEntry& e) { return e.csv(); }},
+      {"lammps", "atoms and bonds from a LAMMPS data file",
+       keys({{"file", "string"},
+             {"atom_style", "enum:atomic|bond|molecular|full"},
+             {"bond_materials", "array"},
+             {"volume", "number"}},
+            false),
+       [](const BodyEntry& e) { return e.lammps(); }},
       {"gas", "unbonded quanta with thermal velocities",
        keys({{"size", "array"},
              {"count", "integer"},
@@ -143,9 +161,10 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
   }
   if (j.contains("velocity")) p.velocity = vec3(j["velocity"], at("velocity"));
   if (j.contains("angular_velocity")) p.angular_velocity = vec3(j["angular_velocity"], at("angular_velocity"));
-  // A gas keeps its thermal velocities: the placement's rigid field adds a drift to them.
+  // A gas keeps its thermal velocities, and a body read from a file the file's velocities: the
+  // placement's rigid field adds a drift to them.
   std::vector<Vec3> thermal;
-  if (type == "gas")
+  if (type == "gas" || type == "csv" || type == "lammps")
     for (Index i : ids) thermal.push_back(w.state.v[i]);
   place_body(w, ids, p);
   for (std::size_t k = 0; k < thermal.size(); ++k) w.state.v[ids[k]] += thermal[k];

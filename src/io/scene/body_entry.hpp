@@ -47,6 +47,10 @@ struct BodyEntry {
   std::vector<Index> lattice() const;  // `lattice` and `sheet`
   std::vector<Index> chain() const;
   std::vector<Index> quanta() const;
+  // file_bodies.cpp: the types read from other programs' files
+  std::vector<Index> tet_mesh() const;
+  std::vector<Index> csv() const;
+  std::vector<Index> lammps() const;
 };
 
 }  // namespace qbond::scene_detail
