@@ -573,7 +573,8 @@ int main(int argc, char** argv) {
                         "an unknown name lists every row)");
   bench_cmd->add_flag("--solve", ba.solve,
                       "compare solvers instead: one backward-Euler step at h = 1/60 s to a relative residual of 1e-6, "
-                      "qbond's CG against Eigen's CG and sparse Cholesky");
+                      "qbond's CG (block Jacobi, multigrid) against Eigen's CG and sparse Cholesky and, when built "
+                      "with PETSc, PETSc's CG with GAMG and with BoomerAMG");
   bench_cmd->add_flag("--as-run", ba.as_run,
                       "time each step as `qbond run` takes it: energy ledger (blow-up check, diagnostics) and the "
                       "copy kept for a rollback (rows named INTEGRATOR+run)");
