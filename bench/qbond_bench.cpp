@@ -13,8 +13,10 @@
 //
 // With --solve: the time to reach the backward-Euler solution of one step at h = 1/60 s to a
 // relative residual of 1e-6, by qbond's CG preconditioned by 3×3 block Jacobi (matrix-free) and by
-// multigrid (set-up included, and reported apart), and by Eigen's
-// CG (diagonal preconditioner) and sparse Cholesky (SimplicialLLT) on the same assembled system.
+// multigrid (set-up included, and reported apart), by Eigen's CG (diagonal preconditioner) and
+// sparse Cholesky (SimplicialLLT) on the same assembled system, and (built with PETSc) by PETSc's
+// CG with GAMG and with hypre's BoomerAMG (set-up and solve apart); every row's residual is the
+// true one, ‖b − A y‖ / ‖b‖.
 #include <benchmark/benchmark.h>
 
 #include <Eigen/IterativeLinearSolvers>
@@ -30,6 +32,9 @@
 #include <vector>
 
 #include "bench_integrators.hpp"
+#ifdef QBOND_PETSC
+#include "petsc_solve.hpp"
+#endif
 #include "integrators/backward_euler.hpp"  // internal: the linear system the implicit integrators solve
 #include "integrators/multigrid_step.hpp"   // internal: its multigrid-preconditioned solve
 #include "qbond/model/ordering.hpp"
@@ -134,28 +139,6 @@ void triad_benchmark(benchmark::State& st, int threads) {
 
 constexpr double kSolveStep = 1.0 / 60, kSolveTolerance = 1e-6;
 
-// qbond's default step at h = 1/60 s, block-Jacobi CG to a relative residual of 1e-6 (linearisation
-// included).
-void solve_qbond(benchmark::State& st, int n) {
-  Scene scene = canonical_lattice(n);
-  IntegratorConfig cfg = default_integrator();
-  cfg.preconditioner = Preconditioner::block_jacobi;
-  cfg.threads = 1;
-  cfg.tolerance = kSolveTolerance;
-  const std::size_t quanta = scene.world.num_quanta();
-  for (auto _ : st) {
-    st.PauseTiming();
-    Simulation sim(scene.world, cfg, kSolveStep);  // every solve from the same state
-    sim.set_track_energy(false);
-    sim.set_keep_last_good(false);
-    st.ResumeTiming();
-    sim.begin_step();
-    st.counters["solver_iterations"] = sim.integrator().stats().iterations;
-    st.counters["residual"] = sim.integrator().stats().residual;
-  }
-  st.counters["quanta"] = static_cast<double>(quanta);
-}
-
 // The canonical lattice at rest with its adjacency and gravity as the external forces: the system
 // the solver rows solve.
 struct SolveCase {
@@ -169,6 +152,44 @@ struct SolveCase {
     for (std::size_t i = 0; i < f_ext.size(); ++i) f_ext[i] = m.mass[i] * m.gravity;
   }
 };
+
+// The true relative residual ‖b − A y‖ / ‖b‖ over the free quanta, by CG's own product.
+double true_residual(const Model& m, const State& state, const ImplicitSystem& sys, const std::vector<Vec3>& y) {
+  std::vector<Vec3> Ay;
+  apply_system(m, state.bonds, sys, y, 1, Ay);
+  double r2 = 0;
+  for (std::size_t i = 0; i < y.size(); ++i)
+    if (!m.is_kinematic(static_cast<Index>(i))) r2 += (sys.rhs[i] - Ay[i]).squaredNorm();
+  return std::sqrt(r2) / sys.rhs_norm;
+}
+
+// The default step's system (begin_implicit_step: the linearisation included) solved by CG
+// preconditioned by 3×3 block Jacobi from zero, on one thread, as coupled_implicit with
+// preconditioner block_jacobi solves it.
+void solve_qbond(benchmark::State& st, int n) {
+  const SolveCase c(n);
+  const World& w = c.scene.world;
+  const Model& m = w.model;
+  double residual = 0;
+  int iterations = 0;
+  for (auto _ : st) {
+    st.PauseTiming();
+    ImplicitSystem sys;
+    Projection kin;
+    std::vector<Vec3> y(w.num_quanta(), Vec3::Zero());
+    SolveStats stats;
+    st.ResumeTiming();
+    begin_implicit_step(m, w.state, c.adj, c.f_ext, {.h = kSolveStep}, /*edges=*/false, 1, kin, sys);
+    conjugate_gradient(m, w.state.bonds, sys, kSolveTolerance, 100000, 1, y, /*y_zero=*/true, stats);
+    st.PauseTiming();
+    iterations = stats.iterations;
+    residual = true_residual(m, w.state, sys, y);
+    st.ResumeTiming();
+  }
+  st.counters["solver_iterations"] = iterations;
+  st.counters["residual"] = residual;
+  st.counters["quanta"] = static_cast<double>(w.num_quanta());
+}
 
 // The default step's system (begin_implicit_step) solved by multigrid-preconditioned CG from zero,
 // the hierarchy built for it (MultigridStep, as coupled_implicit with preconditioner multigrid
@@ -196,12 +217,7 @@ void solve_multigrid(benchmark::State& st, int n) {
     solve = mg.solve_seconds;
     iterations = stats.iterations;
     levels = static_cast<double>(mg.mg.levels());
-    std::vector<Vec3> Ay;
-    apply_system(m, w.state.bonds, sys, y, 1, Ay);
-    double r2 = 0;
-    for (std::size_t i = 0; i < y.size(); ++i)
-      if (!m.is_kinematic(static_cast<Index>(i))) r2 += (sys.rhs[i] - Ay[i]).squaredNorm();
-    residual = std::sqrt(r2) / sys.rhs_norm;
+    residual = true_residual(m, w.state, sys, y);
     st.ResumeTiming();
   }
   st.counters["solver_iterations"] = iterations;
@@ -247,6 +263,46 @@ void solve_eigen(benchmark::State& st, int n, bool cholesky) {
   st.counters["residual"] = residual;
   st.counters["quanta"] = static_cast<double>(w.num_quanta());
 }
+
+#ifdef QBOND_PETSC
+// The same system assembled (assemble_system) and copied into PETSc, solved by PETSc's CG with GAMG
+// (the free quanta's rigid-body modes as near-null space) or hypre's BoomerAMG to the same
+// relative residual (bench/petsc_solve.hpp); counters: the set-up (the copy into PETSc included)
+// and the solve apart, and the true residual.
+void solve_petsc(benchmark::State& st, int n, bench::PetscPreconditioner pc) {
+  const SolveCase c(n);
+  const World& w = c.scene.world;
+  const Model& m = w.model;
+  ImplicitSystem sys;
+  Projection kin;
+  std::vector<Eigen::Index> dof;
+  std::vector<Eigen::Triplet<double>> triplets;
+  Eigen::SparseMatrix<double> A;
+  Eigen::VectorXd b;
+  std::vector<double> coordinates;
+  bench::PetscSolveResult r;
+  for (auto _ : st) {
+    begin_implicit_step(m, w.state, c.adj, c.f_ext, {.h = kSolveStep}, /*edges=*/false, 1, kin, sys);
+    assemble_system(m, w.state, sys, dof, triplets, A, b);
+    coordinates.resize(static_cast<std::size_t>(A.rows()));
+    for (std::size_t i = 0; i < dof.size(); ++i)
+      if (dof[i] >= 0)
+        for (int d = 0; d < 3; ++d) coordinates[static_cast<std::size_t>(dof[i] + d)] = w.state.x[i][d];
+    r = bench::petsc_solve(A, b, coordinates, pc, kSolveTolerance, 100000);
+    if (!r.converged) {
+      st.SkipWithError("PETSc's CG did not converge");
+      break;
+    }
+    benchmark::DoNotOptimize(r.x.data());
+  }
+  st.counters["solver_iterations"] = r.iterations;
+  st.counters["residual"] = r.true_residual;
+  st.counters["setup_seconds"] = r.matrix_seconds + r.setup_seconds;
+  st.counters["solve_seconds"] = r.solve_seconds;
+  if (r.levels > 0) st.counters["levels"] = r.levels;
+  st.counters["quanta"] = static_cast<double>(w.num_quanta());
+}
+#endif
 
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> out;
@@ -326,6 +382,14 @@ int main(int argc, char** argv) {
       benchmark::RegisterBenchmark(("solve/eigen_cg" + tail).c_str(),
                                    [n](benchmark::State& st) { solve_eigen(st, n, false); })
           ->UseRealTime()->Unit(benchmark::kMillisecond);
+#ifdef QBOND_PETSC
+      benchmark::RegisterBenchmark(("solve/petsc_gamg" + tail).c_str(), [n](benchmark::State& st) {
+        solve_petsc(st, n, bench::PetscPreconditioner::gamg);
+      })->UseRealTime()->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark(("solve/petsc_boomeramg" + tail).c_str(), [n](benchmark::State& st) {
+        solve_petsc(st, n, bench::PetscPreconditioner::boomeramg);
+      })->UseRealTime()->Unit(benchmark::kMillisecond);
+#endif
       // SimplicialLLT's fill-in on a 3D lattice: minutes and gigabytes past 20³ (docs/performance.md).
       if (n <= 20)
         benchmark::RegisterBenchmark(("solve/eigen_cholesky" + tail).c_str(),

@@ -6,7 +6,7 @@ Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
 docs/performance.md, docs/integrators.md or docs/running.md; the opening marker may carry
 `machine="..."`, which the provenance line quotes. KIND is one of step, asrun, solve, multigrid,
-peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, ab, targets;
+peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, ab, realtime, damping, targets;
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -24,7 +24,7 @@ NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z
 
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "multigrid", "peers": "peers",
           "peers_rounds": "peers", "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory",
-          "fuzz": "fuzz", "ab": "ab"}
+          "fuzz": "fuzz", "ab": "ab", "realtime": "realtime", "damping": "damping"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
 PARALLEL_MIN = 4096
@@ -66,6 +66,9 @@ def date_of(data):
 
 def provenance(name, data, machine, command):
     where = f"{machine} ({data['machine']})" if machine else data["machine"]
+    # A run at a lower priority (the machine shared) names it: `nice -n N` before the command.
+    if data.get("nice", 0) > 0 and not command.startswith("nice"):
+        command = f"nice -n {data['nice']} {command}"
     return f"Measured {date_of(data)} on {where} with `{command}`; results: `docs/bench/{name}`."
 
 
@@ -130,14 +133,28 @@ def step_table(name, data, machine, extra=""):
     return lines
 
 
+SOLVERS = ["qbond_cg", "qbond_mg", "eigen_cg", "eigen_cholesky", "petsc_gamg", "petsc_boomeramg"]
+
+
 def solve_table(name, data, machine):
-    cmd = f"build/qbond bench --solve -n {','.join(map(str, sizes(data['rows'])))} --json docs/bench/{name}"
+    reps = f" --repetitions {data['repetitions']}" if data["repetitions"] != 3 else ""
+    cmd = f"build/qbond bench --solve -n {','.join(map(str, sizes(data['rows'])))}{reps} --json docs/bench/{name}"
+    # The timing thread's CPU time, when the results have it (a loaded host: wall time over it).
+    has_cpu = all("cpu_seconds" in r for r in data["rows"])
     lines = [provenance(name, data, machine, cmd), "",
-             "| n | solver | iterations | ms | relative residual | time / qbond's CG |", "|---|---|---|---|---|---|"]
-    for r in sorted(data["rows"], key=lambda r: (n_of(r), ["qbond_cg", "qbond_mg", "eigen_cg", "eigen_cholesky"].index(r["solver"]))):
+             "| n | solver | iterations | ms |" + (" CPU ms |" if has_cpu else "") +
+             " set-up ms | CG ms | true relative residual | time / qbond's CG |" +
+             (" CPU time / qbond's CG's |" if has_cpu else ""),
+             "|---|---|---|---|---|---|---|---|" + ("---|---|" if has_cpu else "")]
+    cg_cpu = {n_of(r): r.get("cpu_seconds") for r in data["rows"] if r["solver"] == "qbond_cg"}
+    for r in sorted(data["rows"], key=lambda r: (n_of(r), SOLVERS.index(r["solver"]))):
         it = f"{r['iterations']:.0f}" if r["iterations"] else "direct"
-        lines.append(f"| {n_of(r)} | {r['solver']} | {it} | {sig(r['seconds'] * 1e3)} | {r['relative_residual']:.1e} | "
-                     f"{sig(r['ratio_to_qbond_cg'])} |")
+        setup = sig(r["setup_seconds"] * 1e3) if "setup_seconds" in r else ""
+        cg = sig(r["solve_seconds"] * 1e3) if "solve_seconds" in r else ""
+        cpu = f" {sig(r['cpu_seconds'] * 1e3)} |" if has_cpu else ""
+        lines.append(f"| {n_of(r)} | {r['solver']} | {it} | {sig(r['seconds'] * 1e3)} |{cpu} {setup} | {cg} | "
+                     f"{r['relative_residual']:.1e} | {sig(r['ratio_to_qbond_cg'])} |" +
+                     (f" {sig(r['cpu_seconds'] / cg_cpu[n_of(r)])} |" if has_cpu else ""))
     return lines
 
 
@@ -316,6 +333,68 @@ def targets(bench_dir, machines):
     return lines
 
 
+def realtime_table(name, data, machine):
+    """`qbond bench --realtime`: a 1/60 s frame's wall time per workload and thread count."""
+    lines = [provenance(name, data, machine, data["command"]) +
+             f" Median of up to {data['max_frames']} frames after {data['warmup_frames']} warm-up frames, "
+             f"at most {data['budget_seconds']:g} s measured a row." +
+             (f" Host load average {data['load_average'][0]:.1f} at the start, {data['load_average'][1]:.1f} at the end "
+              "(runnable processes; the machine's cores are in its name): wall time over CPU time shows what the "
+              "other work took." if "load_average" in data else ""), "",
+             "| workload | quanta | bonds | integrator | h [s] | steps a frame | threads | frame ms (median) | "
+             "CPU ms a frame | × real time | keeps up with 60 Hz | note |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in data["rows"]:
+        note = []
+        if r["failure"]:
+            note.append("blew up: " + r["failure"])
+        if r.get("warmup_only"):
+            note.append("cut off by the budget: one warm-up frame measured")
+        elif r["cut_off"]:
+            note.append(f"cut off by the budget after {r['frames']} frame{'s' if r['frames'] != 1 else ''}")
+        if r["adaptive"]:
+            note.append("adaptive steps")
+        if r["kind"] == "scene" and r["quanta"] > 10000:
+            note.append("over 10 000 quanta")
+        frame = sig(r["median_frame_seconds"] * 1e3) if r["median_frame_seconds"] is not None else "–"
+        factor = sig(r["real_time_factor"]) if r["real_time_factor"] is not None else "–"
+        cpu = sig(r["median_frame_cpu_seconds"] * 1e3) if r["median_frame_cpu_seconds"] is not None else "–"
+        lines.append(f"| {r['workload']} | {r['quanta']} | {r['bonds']} | {r['integrator']} | {r['timestep']:.3g} | "
+                     f"{r['steps_per_frame']} | {r['threads']} | {frame} | {cpu} | {factor} | "
+                     f"{'yes' if r['keeps_up'] else 'no'} | {'; '.join(note)} |")
+    keep = [r for r in data["rows"] if r["kind"] == "scene" and r["quanta"] <= 10000 and r["threads"] == 2]
+    ok = sum(r["keeps_up"] for r in keep)
+    one = [r for r in data["rows"] if r["kind"] == "scene" and r["quanta"] <= 10000 and r["threads"] == 1]
+    cpu_ok = sum(r["median_frame_cpu_seconds"] is not None and r["median_frame_cpu_seconds"] <= data["frame_seconds"]
+                 for r in one)
+    lines += ["", f"Scenes of at most 10 000 quanta keeping up with 60 Hz on 2 threads: {ok} of {len(keep)}; "
+              f"whose frame's CPU time on one thread is within 1/60 s: {cpu_ok} of {len(one)}."]
+    return lines
+
+
+def damping_table(name, data, machine):
+    """The first modes' numerical damping by integrator and step, beside backward Euler's."""
+    lines = [provenance(name, data, machine, data["command"]) +
+             f" Structure: {data['structure']}; each mode started alone at rest, "
+             f"{data['amplitude']:g} m at most, run {data['periods']:g} of its periods (at least one step).", "",
+             "| integrator | h [s] | mode | ω [rad/s] | ωh | steps | measured \\|λ\\| | backward Euler \\|λ\\| | "
+             "measured ζ | backward Euler ζ |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in data["rows"]:
+        if r["stable"]:
+            amp, zeta = f"{r['amplification']:.6f}", f"{r['damping_ratio']:.3g}"
+        else:
+            amp, zeta = "unstable", "–"
+        lines.append(f"| {r['integrator']} | {r['h']:.3g} | {r['mode']} | {sig(r['omega'])} | {sig(r['omega_h'])} | "
+                     f"{r['steps']} | {amp} | {r['backward_euler_amplification']:.6f} | {zeta} | "
+                     f"{r['backward_euler_damping_ratio']:.3g} |")
+    lines += ["", "The method on a single spring (two 1 g quanta, k = 1000 N/m, the default integrator), where "
+              "backward Euler's value is exact:", "",
+              "| h [s] | ωh | measured \\|λ\\| | backward Euler \\|λ\\| | relative difference |", "|---|---|---|---|---|"]
+    for r in data["single_spring"]:
+        a, b = r["amplification"], r["backward_euler_amplification"]
+        lines.append(f"| {r['h']:.3g} | {sig(r['omega_h'])} | {a:.9f} | {b:.9f} | {abs(a - b) / b:.1e} |")
+    return lines
+
+
 def render(kind, machine, bench_dir):
     if kind == "targets":
         return targets(bench_dir, machine)
@@ -330,7 +409,9 @@ def render(kind, machine, bench_dir):
             "memory": lambda: memory_table(name, data, machine),
             "runmemory": lambda: runmemory_table(name, data, machine),
             "fuzz": lambda: fuzz_table(name, data, machine),
-            "ab": lambda: ab_table(name, data, machine)}[kind]()
+            "ab": lambda: ab_table(name, data, machine),
+            "realtime": lambda: realtime_table(name, data, machine),
+            "damping": lambda: damping_table(name, data, machine)}[kind]()
 
 
 BLOCK = re.compile(r"(<!-- bench:(?P<kind>\w+)(?P<attrs>[^>]*)-->\n)(?P<body>.*?)(<!-- /bench:(?P=kind) -->)", re.S)

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "bench.hpp"
+#include "realtime.hpp"
 #include "experiment.hpp"
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/builders/samples.hpp"
@@ -638,7 +639,8 @@ int main(int argc, char** argv) {
                         "an unknown name lists every row)");
   bench_cmd->add_flag("--solve", ba.solve,
                       "compare solvers instead: one backward-Euler step at h = 1/60 s to a relative residual of 1e-6, "
-                      "qbond's CG against Eigen's CG and sparse Cholesky");
+                      "qbond's CG (block Jacobi, multigrid) against Eigen's CG and sparse Cholesky and, when built "
+                      "with PETSc, PETSc's CG with GAMG and with BoomerAMG");
   bench_cmd->add_flag("--as-run", ba.as_run,
                       "time each step as `qbond run` takes it: energy ledger (blow-up check, diagnostics) and the "
                       "copy kept for a rollback (rows named INTEGRATOR+run)");
@@ -646,6 +648,14 @@ int main(int argc, char** argv) {
   bench_cmd->add_option("--repetitions", ba.repetitions, "repetitions; the median is reported (default: 3)")
       ->check(kPositive);
   bench_cmd->add_option("--json", ba.json, "also write the table as JSON to this file");
+  bool realtime = false;
+  qbond::cli::RealtimeArgs ra;
+  bench_cmd->add_flag("--realtime", realtime,
+                      "the wall time of a 1/60 s frame instead, for the canonical lattice (default integrator, one step "
+                      "a frame) and every built-in scene (its own settings), on 1 and 2 threads unless -j says");
+  bench_cmd->add_option("--scenes", ra.scenes, "with --realtime: built-in scenes, comma-separated (default: every one)");
+  bench_cmd->add_option("--budget", ra.budget, "with --realtime: wall seconds measured per row at most (default: 8)")
+      ->check(kPositive);
   std::string view_scene;
   qbond::view::ViewOptions vo;
   CLI::App* view_cmd = app.add_subcommand("view", "the real-time viewer: watch a scene and pull on it with the mouse "
@@ -712,6 +722,13 @@ int main(int argc, char** argv) {
     }
     if (bench_cmd->parsed()) {
       require_directory_of("--json", ba.json);
+      if (realtime) {
+        if (!ba.sizes.empty()) ra.sizes = ba.sizes;
+        if (bench_cmd->count("--threads") > 0) ra.threads = ba.threads;
+        ra.json = ba.json;
+        for (int k = 0; k < argc; ++k) ra.command += (k ? " " : "") + std::string(k ? argv[k] : "build/qbond");
+        return qbond::cli::bench_realtime(ra);
+      }
       return qbond::cli::bench(ba);
     }
     if (view_cmd->parsed()) {
