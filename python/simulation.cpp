@@ -463,7 +463,12 @@ void bind_simulation(py::module_& m) {
              const py::object& axis, const py::object& center, double rate, const py::object& keyframes,
              const std::string& interpolation) {
             Simulation& sim = *of(self).sim;
-            prescribe_checked(sim.world(), to_indices(ids), make_motion(motion, velocity, axis, center, rate, keyframes, interpolation));
+            World& w = sim.world();
+            // The quanta leave the energy the ledger counts (kinematic quanta carry none of it):
+            // what they held is charged as the anchors' work, so the budget still balances.
+            const double before = energies(w.model, w.state).total();
+            prescribe_checked(w, to_indices(ids), make_motion(motion, velocity, axis, center, rate, keyframes, interpolation));
+            w.state.energy.work_anchors += energies(w.model, w.state).total() - before;
             // The integrator's structures (a preconditioner, a kept hierarchy) were built for
             // the old masses: a fresh one of the same configuration.
             sim.set_integrator(sim.integrator().config());
@@ -471,7 +476,8 @@ void bind_simulation(py::module_& m) {
           py::arg("quanta"), py::arg("motion") = "fixed", py::arg("velocity") = py::make_tuple(0, 0, 0),
           py::arg("axis") = py::make_tuple(0, 0, 1), py::arg("center") = py::make_tuple(0, 0, 0), py::arg("rate") = 0.0,
           py::arg("keyframes") = py::list(), py::arg("interpolation") = "linear",
-          "World.prescribe between steps: the motion starts now, from the quanta's current positions.")
+          "World.prescribe between steps: the motion starts now, from the quanta's current positions. The energy "
+          "they held leaves the ledger's total as work of the anchors (the budget still balances).")
       .def(
           "add_probe",
           [](py::object self, const std::string& name, const py::object& ids, const py::object& about) {

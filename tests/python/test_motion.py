@@ -92,7 +92,11 @@ def test_prescribe_between_steps_starts_from_where_the_quanta_are():
     tip = np.flatnonzero(sim.positions[:, 0] > 0.049)
     x_then, t_then = sim.positions[tip].copy(), sim.time
     assert np.all(sim.inverse_masses[tip] > 0)
+    numerical, total = sim.ledger()["dissipated_numerical"], sim.energies()["total"]
     sim.prescribe(tip, "translate", velocity=(0, 0, 0.1))
+    # The tip's energy left the total as the anchors' work: the budget's residual is unchanged.
+    assert abs(sim.energies()["total"] - total) > 1e-6
+    assert sim.ledger()["dissipated_numerical"] == pytest.approx(numerical, abs=1e-15)
     sim.step(30)
     assert np.allclose(sim.positions[tip], x_then + [0, 0, 0.1 * (sim.time - t_then)], rtol=0, atol=1e-15)
     assert np.all(sim.inverse_masses[tip] == 0)
