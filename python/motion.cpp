@@ -31,7 +31,8 @@ Keyframe keyframe_of(const py::handle& item, std::size_t k) {
   } else {
     const py::tuple t = py::tuple(py::reinterpret_borrow<py::object>(item));
     if (t.size() < 2 || t.size() > 3)
-      throw py::value_error(at + ": expected (time, offset) or (time, offset, angle), or a dict of those keys");
+      throw py::value_error(at +
+                            ": expected (time, offset) or (time, offset, angle), or a dict of those keys");
     key.time = t[0].cast<double>();
     key.offset = finite_vec3(t[1], "offset");
     if (t.size() == 3) key.angle = t[2].cast<double>();
@@ -42,8 +43,9 @@ Keyframe keyframe_of(const py::handle& item, std::size_t k) {
 
 }  // namespace
 
-Motion make_motion(const std::string& type, const py::object& velocity, const py::object& axis, const py::object& center,
-                   double rate, const py::object& keyframes, const std::string& interpolation) {
+Motion make_motion(const std::string& type, const py::object& velocity, const py::object& axis,
+                   const py::object& center, double rate, const py::object& keyframes,
+                   const std::string& interpolation) {
   Motion m;
   if (type == "fixed") {
     m.type = MotionType::fixed;
@@ -60,16 +62,20 @@ Motion make_motion(const std::string& type, const py::object& velocity, const py
     m.type = MotionType::keyframes;
     m.axis = finite_vec3(axis, "axis");
     m.center = finite_vec3(center, "center");
-    if (interpolation == "linear") m.interpolation = Interpolation::linear;
-    else if (interpolation == "smooth") m.interpolation = Interpolation::smooth;
-    else throw py::value_error("interpolation: must be linear or smooth, got '" + interpolation + "'");
+    if (interpolation == "linear")
+      m.interpolation = Interpolation::linear;
+    else if (interpolation == "smooth")
+      m.interpolation = Interpolation::smooth;
+    else
+      throw py::value_error("interpolation: must be linear or smooth, got '" + interpolation + "'");
     std::size_t k = 0;
     for (const py::handle item : keyframes) {
       Keyframe key = keyframe_of(item, k);
       const double previous = k ? m.keyframes.back().time : 0.0;
       if (!(key.time > previous) || !std::isfinite(key.time))
-        throw py::value_error("keyframes[" + std::to_string(k) + "].time: must be after the previous keyframe's " +
-                              std::to_string(previous) + " s, got " + std::to_string(key.time));
+        throw py::value_error("keyframes[" + std::to_string(k) +
+                              "].time: must be after the previous keyframe's " + std::to_string(previous) +
+                              " s, got " + std::to_string(key.time));
       m.keyframes.push_back(key);
       ++k;
     }
@@ -89,7 +95,8 @@ void prescribe_checked(World& w, std::vector<Index> quanta, Motion motion) {
   for (const Motion& m : w.model.motions)
     for (Index i : m.quanta) moved[i] = 1;
   for (Index i : quanta) {
-    if (moved[i]) throw py::value_error("quanta " + std::to_string(i) + " already follows a prescribed motion");
+    if (moved[i])
+      throw py::value_error("quanta " + std::to_string(i) + " already follows a prescribed motion");
     moved[i] = 1;  // and not twice in this one
   }
   w.prescribe(std::move(quanta), std::move(motion));
@@ -98,17 +105,22 @@ void prescribe_checked(World& w, std::vector<Index> quanta, Motion motion) {
 void bind_world_motion(py::class_<World>& world) {
   world.def(
       "prescribe",
-      [](World& w, const py::object& ids, const std::string& motion, const py::object& velocity, const py::object& axis,
-         const py::object& center, double rate, const py::object& keyframes, const std::string& interpolation) {
-        prescribe_checked(w, to_indices(ids), make_motion(motion, velocity, axis, center, rate, keyframes, interpolation));
+      [](World& w, const py::object& ids, const std::string& motion, const py::object& velocity,
+         const py::object& axis, const py::object& center, double rate, const py::object& keyframes,
+         const std::string& interpolation) {
+        prescribe_checked(w, to_indices(ids),
+                          make_motion(motion, velocity, axis, center, rate, keyframes, interpolation));
       },
       py::arg("quanta"), py::arg("motion") = "fixed", py::arg("velocity") = py::make_tuple(0, 0, 0),
-      py::arg("axis") = py::make_tuple(0, 0, 1), py::arg("center") = py::make_tuple(0, 0, 0), py::arg("rate") = 0.0,
-      py::arg("keyframes") = py::list(), py::arg("interpolation") = "linear",
+      py::arg("axis") = py::make_tuple(0, 0, 1), py::arg("center") = py::make_tuple(0, 0, 0),
+      py::arg("rate") = 0.0, py::arg("keyframes") = py::list(), py::arg("interpolation") = "linear",
       "Makes the quanta kinematic, following a motion from their current positions at the current time t0: "
-      "'fixed'; 'translate', x = x0 + velocity (t − t0); 'rotate', `rate` [rad/s] about `axis` through `center`; "
-      "'keyframes', poses (time after t0 [s], offset [m], angle [rad] about axis through center) reached in turn "
-      "with 'linear' or 'smooth' (3s² − 2s³) interpolation and held after the last. Raises ValueError for a quanta "
+      "'fixed'; 'translate', x = x0 + velocity (t − t0); 'rotate', `rate` [rad/s] about `axis` through "
+      "`center`; "
+      "'keyframes', poses (time after t0 [s], offset [m], angle [rad] about axis through center) reached in "
+      "turn "
+      "with 'linear' or 'smooth' (3s² − 2s³) interpolation and held after the last. Raises ValueError for a "
+      "quanta "
       "already prescribed.");
 }
 
