@@ -4,9 +4,15 @@ Python against the same bare step in C++ (qbond_step_times), and the cost per qu
 force callback and of a Python heuristic. Each step is timed on its own and the medians compared, as qbond_step_times
 does (a shared host's slow steps then do not decide the result).
 
-    PYTHONPATH=build/python /usr/bin/python3 bench/python_overhead.py build/qbond_step_times [--n 20] [--steps 200]
+    PYTHONPATH=build/python /usr/bin/python3 bench/python_overhead.py build/qbond_step_times [--n 20] [--steps 200] \
+        [--json docs/bench/python-DATE.json --machine "vm, 2 cores"]
+
+With --json the rows are written there; scripts/bench_tables.py renders them into docs/api.md.
 """
 import argparse
+import datetime
+import json
+import os
 import re
 import statistics
 import subprocess
@@ -56,6 +62,8 @@ def main():
     p.add_argument("--n", type=int, default=20)
     p.add_argument("--steps", type=int, default=200)
     p.add_argument("--rounds", type=int, default=3)
+    p.add_argument("--json", help="write the results to this file")
+    p.add_argument("--machine", default=f"{os.cpu_count()} cores", help="the machine, for the results' provenance")
     args = p.parse_args()
 
     def drag(x, v, f):
@@ -74,10 +82,21 @@ def main():
     base = statistics.median(rows["C++"])
     print(f"canonical lattice n = {args.n} ({n_quanta} quanta), default integrator, 1 thread, "
           f"median of {args.steps} steps, median of {args.rounds} rounds")
+    out = []
     for name, values in rows.items():
         ms = statistics.median(values)
         extra = (ms - base) * 1e6 / n_quanta
         print(f"{name:26s} {ms:9.4f} ms/step  {100 * (ms / base - 1):+6.2f} %  {extra:+8.2f} ns/quanta")
+        out.append({"config": name, "ms_per_step": ms, "rounds_ms": values, "percent_over_cpp": 100 * (ms / base - 1),
+                    "ns_per_quanta_over_cpp": extra})
+    if args.json:
+        command = (f"PYTHONPATH=build/python /usr/bin/python3 bench/python_overhead.py build/qbond_step_times "
+                   f"--n {args.n} --steps {args.steps} --rounds {args.rounds}")
+        with open(args.json, "w") as f:
+            json.dump({"date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+                       "machine": args.machine, "command": command, "n": args.n, "quanta": n_quanta,
+                       "steps": args.steps, "rounds": args.rounds, "rows": out}, f, indent=1)
+            f.write("\n")
 
 
 if __name__ == "__main__":

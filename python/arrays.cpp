@@ -44,4 +44,16 @@ py::object json_loads(const std::string& text) { return py::module_::import("jso
 
 std::string json_dumps(const py::handle& o) { return py::module_::import("json").attr("dumps")(o).cast<std::string>(); }
 
+py::array_t<std::int64_t> ids_array(const std::vector<Index>& ids) {
+  py::array_t<std::int64_t> a(static_cast<py::ssize_t>(ids.size()));
+  for (std::size_t k = 0; k < ids.size(); ++k) a.mutable_at(static_cast<py::ssize_t>(k)) = ids[k];
+  return a;
+}
+
+void check_quanta(const World& w, const std::vector<Index>& ids) {
+  for (Index i : ids)
+    if (i >= w.num_quanta())
+      throw py::index_error("quanta " + std::to_string(i) + " does not exist (the world has " + std::to_string(w.num_quanta()) + ")");
+}
+
 }  // namespace qbond::python

@@ -34,6 +34,9 @@ void bind_scene(py::module_& m) {
           "integrator", [](const Scene& s) { return json_loads(s.resolved["integrator"].dump()); },
           "The integrator and its options, as a dict.")
       .def_property_readonly("world", [](const Scene& s) { return s.world; }, "A copy of the scene's world.")
+      .def_property_readonly(
+          "adaptive", [](const Scene& s) { return json_loads(s.resolved.value("adaptive", nlohmann::json(nullptr)).dump()); },
+          "The scene's adaptive step control, as a dict (None when its steps are fixed).")
       .def("__repr__", [](const Scene& s) { return "<qbond.Scene '" + s.name + "'>"; });
 
   m.def(

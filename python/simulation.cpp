@@ -8,6 +8,8 @@
 #include "errors.hpp"
 
 #include "qbond/analysis/analysis.hpp"
+#include "qbond/integrators/adaptive.hpp"
+#include "qbond/io/probes.hpp"
 #include "qbond/io/checkpoint.hpp"
 #include "qbond/io/scene.hpp"
 #include "qbond/simulation/simulation.hpp"
@@ -29,6 +31,11 @@ struct PySimulation {
   bool track_energy = true;    ///< mirrors Simulation::set_track_energy (which has no getter)
   bool keep_last_good = true;  ///< mirrors Simulation::set_keep_last_good
   std::vector<PyHeuristic*> py_heuristics;  ///< the Python heuristics among the simulation's
+  AdaptiveConfig adaptive;     ///< enabled: each step is adaptive_step's (error and energy controlled)
+  double end_time = HUGE_VAL;  ///< [s] where adaptive steps end (a scene's horizon: steps × timestep)
+  double last_h = 0;           ///< [s] the step that led to the current state
+  std::uint64_t rejected = 0;  ///< adaptive tries undone so far
+  std::vector<Probe> probes;   ///< named selections probes() measures
 
   PySimulation(World world, const IntegratorConfig& config, double h)
       : sim(std::make_unique<Simulation>(std::move(world), config, h)),
@@ -128,13 +135,15 @@ void queue(Simulation& sim, const std::vector<Vec3>& f) {
     if (f[i].x() != 0 || f[i].y() != 0 || f[i].z() != 0) sim.add_force(static_cast<Index>(i), f[i]);
 }
 
-/// Steps n times with the GIL released (taken back only to call a Python force callback).
-void step_n(py::object self_obj, std::uint64_t n) {
+/// Steps n times with the GIL released (taken back only to call a Python force callback); or,
+/// with `until` (adaptive steps only), until the time reaches it. An adaptive step ends at
+/// min(until, end_time).
+void step_n(py::object self_obj, std::uint64_t n, std::optional<double> until = std::nullopt) {
   PySimulation& self = self_obj.cast<PySimulation&>();
   Simulation& sim = *self.sim;
   const bool callback = !self.force_callback.is_none();
-  py::gil_scoped_release release;
-  for (std::uint64_t k = 0; k < n; ++k) {
+  // The forces of one try; an adaptive step retried needs them again.
+  auto forces = [&] {
     if (callback) {
       py::gil_scoped_acquire acquire;
       std::fill(self.user.begin(), self.user.end(), Vec3::Zero());
@@ -143,7 +152,25 @@ void step_n(py::object self_obj, std::uint64_t n) {
       queue(sim, self.user);
     }
     if (any_nonzero(self.external)) queue(sim, self.external);
-    const StepReport r = sim.step();
+  };
+  const double t_end = until ? std::min(*until, self.end_time) : self.end_time;
+  py::gil_scoped_release release;
+  for (std::uint64_t k = 0; until ? sim.world().state.time < t_end : k < n; ++k) {
+    StepReport r;
+    if (self.adaptive.enabled) {
+      if (!(sim.world().state.time < t_end)) break;  // at the scene's end: nothing left to step
+      // Without forces the controller gets none, as `qbond run` calls it (the same bits).
+      const AdaptiveReport a = callback || any_nonzero(self.external)
+                                   ? adaptive_step(sim, self.adaptive, t_end, forces)
+                                   : adaptive_step(sim, self.adaptive, t_end);
+      self.last_h = a.h;
+      self.rejected += static_cast<std::uint64_t>(a.rejected);
+      r = a.step;
+    } else {
+      forces();
+      self.last_h = sim.timestep();
+      r = sim.step();
+    }
     if (!self.py_heuristics.empty()) {
       py::gil_scoped_acquire acquire;
       for (PyHeuristic* h : self.py_heuristics) h->rethrow();
@@ -156,6 +183,52 @@ void step_n(py::object self_obj, std::uint64_t n) {
 }
 
 PySimulation& of(py::object& o) { return o.cast<PySimulation&>(); }
+
+py::array_t<double> vec3_array(const Vec3& v) {
+  py::array_t<double> a(3);
+  for (int k = 0; k < 3; ++k) a.mutable_at(k) = v[k];
+  return a;
+}
+
+/// A probe's measurement as a dict: mean, and force and torque (kinematic quanta only), stress
+/// and von_mises_max (quanta with volumes only).
+py::dict probe_dict(const World& w, const Probe& probe) {
+  const ProbeValue v = measure_probe(w.model, w.state, probe);
+  py::dict d;
+  d["mean"] = vec3_array(v.mean);
+  if (v.has_reaction) {
+    d["force"] = vec3_array(v.force);
+    d["torque"] = vec3_array(v.torque);
+  }
+  if (v.has_stress) {
+    py::array_t<double> s({3, 3});
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) s.mutable_at(i, j) = v.stress(i, j);
+    d["stress"] = s;
+    d["von_mises_max"] = v.von_mises_max;
+  }
+  return d;
+}
+
+Probe probe_of(const World& w, std::string name, const py::object& ids, const py::object& about) {
+  Probe p{std::move(name), to_indices(ids), std::nullopt};
+  check_quanta(w, p.quanta);
+  if (p.quanta.empty()) throw py::value_error("a probe needs at least one quanta");
+  if (!about.is_none()) p.about = to_vec3(about);
+  return p;
+}
+
+py::dict adaptive_dict(const AdaptiveConfig& a) {
+  py::dict d;
+  d["enabled"] = a.enabled;
+  d["error"] = a.error;
+  d["energy"] = a.energy;
+  d["min_step"] = a.min_step;
+  d["max_step"] = a.max_step;
+  d["safety"] = a.safety;
+  d["horizon"] = a.horizon;
+  return d;
+}
 
 /// Puts a saved state in the world after checking it is one of this world (its quanta and scene
 /// bonds); `where` prefixes the error. A copy assignment: the arrays keep their storage, and so
@@ -183,9 +256,15 @@ void bind_simulation(py::module_& m) {
              s->sim->limits() = scene.limits;
              s->sim->set_keep_last_good(true);
              for (const HeuristicSpec& h : scene.heuristics) s->sim->add_heuristic(make_heuristic(h));
+             s->adaptive = scene.adaptive;
+             if (scene.adaptive.enabled) s->end_time = static_cast<double>(scene.steps) * scene.timestep;
+             for (const ProbeSpec& p : scene.output.probes) s->probes.push_back({p.name, p.quanta, p.about});
+             s->last_h = scene.timestep;
              return s;
            }),
-           py::arg("scene"), "Steps a scene as `qbond run` does: its world, step, integrator, heuristics and limits.")
+           py::arg("scene"),
+           "Steps a scene as `qbond run` does: its world, step, integrator, heuristics, limits, probes and "
+           "adaptive step control (which then ends at the scene's horizon, steps × timestep: end_time).")
       .def(py::init([](const World& world, double timestep, const std::optional<std::string>& integrator, const py::kwargs& options) {
              if (!(timestep > 0) || !std::isfinite(timestep)) throw py::value_error("timestep: must be > 0, got " + std::to_string(timestep));
              IntegratorConfig c = default_integrator();
@@ -193,21 +272,26 @@ void bind_simulation(py::module_& m) {
              c = configure(c, options);
              auto s = std::make_unique<PySimulation>(world, c, timestep);
              s->sim->set_keep_last_good(true);
+             s->last_h = timestep;
              return s;
            }),
            py::arg("world"), py::arg("timestep"), py::arg("integrator") = py::none(),
            "Steps a copy of `world` with steps of `timestep` [s] and the named integrator (None: qbond's default), "
            "options as keywords (neighbours, solver, iterations, tolerance, threads, ...).")
-      .def("step", &step_n, py::arg("n") = 1,
-           "Takes n steps, without the GIL. Raises BlowupError (the world keeps its last good state).")
+      .def("step", [](py::object self, std::uint64_t n) { step_n(std::move(self), n); }, py::arg("n") = 1,
+           "Takes n steps (adaptive: n accepted ones, none past end_time), without the GIL. Raises BlowupError (the "
+           "world keeps its last good state).")
       .def(
           "run",
           [](py::object self, double duration) {
-            const double h = of(self).sim->timestep();
-            if (!(duration >= 0)) throw py::value_error("duration: must be >= 0");
-            step_n(self, static_cast<std::uint64_t>(std::ceil(duration / h - 1e-9)));
+            PySimulation& s = of(self);
+            if (!(duration >= 0) || !std::isfinite(duration)) throw py::value_error("duration: must be >= 0");
+            if (s.adaptive.enabled) return step_n(self, 0, s.sim->world().state.time + duration);
+            step_n(self, static_cast<std::uint64_t>(std::ceil(duration / s.sim->timestep() - 1e-9)));
           },
-          py::arg("duration"), "Steps for `duration` seconds: ceil(duration / timestep) steps, as a scene's `duration`.")
+          py::arg("duration"),
+          "Steps for `duration` seconds: ceil(duration / timestep) steps, as a scene's `duration`; adaptive, until "
+          "the time has advanced by `duration` (the last step ends exactly there, or at end_time if sooner).")
       .def_property_readonly("time", [](py::object self) { return of(self).sim->world().state.time; }, "Simulated time [s].")
       .def_property_readonly("step_count", [](py::object self) { return of(self).sim->world().state.step; }, "Steps taken.")
       .def_property(
@@ -217,6 +301,55 @@ void bind_simulation(py::module_& m) {
             of(self).sim->set_timestep(h);
           },
           "Step length [s].")
+      .def(
+          "set_adaptive",
+          [](py::object self, bool enabled, const py::kwargs& options) {
+            AdaptiveConfig a = of(self).adaptive;
+            a.enabled = enabled;
+            for (const auto& [key_handle, value] : options) {
+              const std::string key = key_handle.cast<std::string>();
+              const double x = value.cast<double>();
+              if (key == "error") a.error = x;
+              else if (key == "energy") a.energy = x;
+              else if (key == "min_step") a.min_step = x;
+              else if (key == "max_step") a.max_step = x;
+              else if (key == "safety") a.safety = x;
+              else if (key == "horizon") a.horizon = x;
+              else
+                throw py::value_error("unknown adaptive option '" + key +
+                                      "' (options: error, energy, min_step, max_step, safety, horizon)");
+            }
+            auto positive = [](double v, const char* name) {
+              if (!(v > 0) || !std::isfinite(v)) throw py::value_error(std::string(name) + ": must be > 0, got " + std::to_string(v));
+            };
+            positive(a.error, "error");
+            positive(a.energy, "energy");
+            positive(a.min_step, "min_step");
+            positive(a.safety, "safety");
+            positive(a.horizon, "horizon");
+            if (!(a.max_step >= 0) || !std::isfinite(a.max_step)) throw py::value_error("max_step: must be >= 0 (0: no limit)");
+            if (a.max_step > 0 && a.max_step < a.min_step) throw py::value_error("max_step: must be >= min_step");
+            of(self).adaptive = a;
+          },
+          py::arg("enabled") = true,
+          "Turns adaptive step control (docs/integrators.md) on or off; options as keywords (error [m], energy, "
+          "min_step [s], max_step [s], safety, horizon [s]); unnamed options are kept. Each step then takes the "
+          "longest step its error estimate and energy drift allow, starting from `timestep`, and leaves the next "
+          "proposal there.")
+      .def_property_readonly("adaptive", [](py::object self) { return adaptive_dict(of(self).adaptive); },
+                             "The adaptive step control's settings, as a dict (enabled: whether steps adapt).")
+      .def_property(
+          "end_time", [](py::object self) { return of(self).end_time; },
+          [](py::object self, double t) {
+            if (std::isnan(t)) throw py::value_error("end_time: must be a number");
+            of(self).end_time = t;
+          },
+          "[s] where adaptive steps stop (the last one ends exactly there): a scene's horizon, steps × timestep, "
+          "else infinity.")
+      .def_property_readonly("last_step_size", [](py::object self) { return of(self).last_h; },
+                             "[s] the length of the step that led to the current state.")
+      .def_property_readonly("rejected_steps", [](py::object self) { return of(self).rejected; },
+                             "Adaptive tries undone (and retried shorter) so far.")
       .def_property_readonly("num_quanta", [](py::object self) { return of(self).sim->world().num_quanta(); })
       .def_property_readonly("num_bonds", [](py::object self) { return of(self).sim->world().num_bonds(); })
       .def_property_readonly("world", [](py::object self) { return of(self).sim->world(); }, "A copy of the world.")
@@ -288,12 +421,90 @@ void bind_simulation(py::module_& m) {
           "position and velocity changes to edit. Energy it removes shows in the ledger's dissipated_numerical. "
           "An exception it raises is raised by step() after that step.")
       .def(
+          "add_break_rule",
+          [](py::object self, double max_strain, double max_compression, double max_tension, double probability,
+             const py::object& ids) {
+            const World& w = of(self).sim->world();
+            BreakRule r;
+            auto limit = [](double v, const char* name) {
+              if (!(v > 0)) throw py::value_error(std::string(name) + ": must be > 0, got " + std::to_string(v));
+              return v;
+            };
+            r.max_strain = limit(max_strain, "max_strain");
+            r.max_compression = limit(max_compression, "max_compression");
+            r.max_tension = limit(max_tension, "max_tension");
+            if (!(probability > 0 && probability <= 1))
+              throw py::value_error("probability: must be in (0, 1], got " + std::to_string(probability));
+            r.probability = probability;
+            if (!ids.is_none()) {
+              const std::vector<Index> q = to_indices(ids);
+              check_quanta(w, q);
+              r.quanta.assign(w.num_quanta(), 0);
+              for (Index i : q) r.quanta[i] = 1;
+            }
+            of(self).sim->add_heuristic(make_heuristic(HeuristicSpec(r)));
+          },
+          py::arg("max_strain") = HUGE_VAL, py::arg("max_compression") = HUGE_VAL, py::arg("max_tension") = HUGE_VAL,
+          py::arg("probability") = 1.0, py::arg("quanta") = py::none(),
+          "Adds a fracture rule after the heuristics there are, as a scene's {\"type\": \"break\"}: a bond past "
+          "max_strain, max_compression (strains) or max_tension [N] breaks, with `probability` per step (drawn "
+          "from the state's seeded generator); `quanta`: only bonds with both ends among them (None: all).")
+      .def(
           "clear_heuristics",
           [](py::object self) {
             of(self).py_heuristics.clear();
             of(self).sim->clear_heuristics();
           },
           "Removes every heuristic (the scene's and the Python ones).")
+      // Prescribed motion and probes.
+      .def(
+          "prescribe",
+          [](py::object self, const py::object& ids, const std::string& motion, const py::object& velocity,
+             const py::object& axis, const py::object& center, double rate, const py::object& keyframes,
+             const std::string& interpolation) {
+            Simulation& sim = *of(self).sim;
+            World& w = sim.world();
+            // The quanta leave the energy the ledger counts (kinematic quanta carry none of it):
+            // what they held is charged as the anchors' work, so the budget still balances.
+            const double before = energies(w.model, w.state).total();
+            prescribe_checked(w, to_indices(ids), make_motion(motion, velocity, axis, center, rate, keyframes, interpolation));
+            w.state.energy.work_anchors += energies(w.model, w.state).total() - before;
+            // The integrator's structures (a preconditioner, a kept hierarchy) were built for
+            // the old masses: a fresh one of the same configuration.
+            sim.set_integrator(sim.integrator().config());
+          },
+          py::arg("quanta"), py::arg("motion") = "fixed", py::arg("velocity") = py::make_tuple(0, 0, 0),
+          py::arg("axis") = py::make_tuple(0, 0, 1), py::arg("center") = py::make_tuple(0, 0, 0), py::arg("rate") = 0.0,
+          py::arg("keyframes") = py::list(), py::arg("interpolation") = "linear",
+          "World.prescribe between steps: the motion starts now, from the quanta's current positions. The energy "
+          "they held leaves the ledger's total as work of the anchors (the budget still balances).")
+      .def(
+          "add_probe",
+          [](py::object self, const std::string& name, const py::object& ids, const py::object& about) {
+            PySimulation& s = of(self);
+            for (const Probe& p : s.probes)
+              if (p.name == name) throw py::value_error("a probe named '" + name + "' exists already");
+            s.probes.push_back(probe_of(s.sim->world(), name, ids, about));
+          },
+          py::arg("name"), py::arg("quanta"), py::arg("about") = py::none(),
+          "Adds a named probe of the quanta, measured by probes(); `about`: the torque's reference point (None: "
+          "the quanta's mean position).")
+      .def(
+          "probes",
+          [](py::object self) {
+            py::dict d;
+            for (const Probe& p : of(self).probes) d[py::str(p.name)] = probe_dict(of(self).sim->world(), p);
+            return d;
+          },
+          "Measures every probe (the scene's output.probes and add_probe's) as `qbond run`'s diagnostics.csv: "
+          "name → dict of mean [m]; force [N] and torque [N·m], the reaction of the support, when every quanta is "
+          "kinematic; stress [Pa] (3×3, virial) and von_mises_max [Pa] when they have volumes.")
+      .def(
+          "probe",
+          [](py::object self, const py::object& ids, const py::object& about) {
+            return probe_dict(of(self).sim->world(), probe_of(of(self).sim->world(), "", ids, about));
+          },
+          py::arg("quanta"), py::arg("about") = py::none(), "Measures the quanta once, as probes() measures a probe.")
       // Energies.
       .def(
           "energies",

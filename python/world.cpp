@@ -7,20 +7,6 @@
 
 namespace qbond::python {
 
-namespace {
-
-py::array_t<std::int64_t> ids_array(const std::vector<Index>& ids) {
-  py::array_t<std::int64_t> a(static_cast<py::ssize_t>(ids.size()));
-  for (std::size_t k = 0; k < ids.size(); ++k) a.mutable_at(static_cast<py::ssize_t>(k)) = ids[k];
-  return a;
-}
-
-void check_quanta(const World& w, const std::vector<Index>& ids) {
-  for (Index i : ids)
-    if (i >= w.num_quanta())
-      throw py::index_error("quanta " + std::to_string(i) + " does not exist (the world has " + std::to_string(w.num_quanta()) + ")");
-}
-
 Shells parse_shells(const std::string& s) {
   if (s == "nearest") return Shells::nearest;
   if (s == "face_diagonal") return Shells::face_diagonal;
@@ -28,11 +14,9 @@ Shells parse_shells(const std::string& s) {
   throw py::value_error("shells: must be one of nearest, face_diagonal, body_diagonal, got '" + s + "'");
 }
 
-}  // namespace
-
 void bind_world(py::module_& m) {
-  py::class_<World>(m, "World", "Quanta (point masses) and the bonds between them, with gravity, loads and anchors.")
-      .def(py::init<>(), "An empty world.")
+  py::class_<World> world(m, "World", "Quanta (point masses) and the bonds between them, with gravity, loads and anchors.");
+  world.def(py::init<>(), "An empty world.")
       .def_property_readonly("num_quanta", &World::num_quanta, "Number of quanta.")
       .def_property_readonly("num_bonds", &World::num_bonds, "Number of bonds, broken ones included.")
       .def_property(
@@ -163,6 +147,8 @@ void bind_world(py::module_& m) {
       .def("__repr__", [](const World& w) {
         return "<qbond.World " + std::to_string(w.num_quanta()) + " quanta, " + std::to_string(w.num_bonds()) + " bonds>";
       });
+  bind_world_geometry(world);
+  bind_world_motion(world);
 }
 
 }  // namespace qbond::python

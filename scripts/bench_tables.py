@@ -6,7 +6,8 @@ Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
 docs/performance.md, docs/integrators.md or docs/running.md; the opening marker may carry
 `machine="..."`, which the provenance line quotes. KIND is one of step, asrun, solve, multigrid,
-peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, ab, realtime, damping, targets;
+peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, ab, realtime, damping, targets,
+python (docs/api.md: bench/python_overhead.py's);
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -24,7 +25,7 @@ NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z
 
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "multigrid", "peers": "peers",
           "peers_rounds": "peers", "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory",
-          "fuzz": "fuzz", "ab": "ab", "realtime": "realtime", "damping": "damping"}
+          "fuzz": "fuzz", "ab": "ab", "realtime": "realtime", "damping": "damping", "python": "python"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
 PARALLEL_MIN = 4096
@@ -271,6 +272,28 @@ def fuzz_table(name, data, machine):
     return lines
 
 
+def python_table(name, data, machine):
+    """What stepping from Python adds to the C++ step (bench/python_overhead.py)."""
+    rows = {r["config"]: r for r in data["rows"]}
+    over = rows["Python"]["percent_over_cpp"]
+    lines = [provenance(name, data, machine, data["command"]) +
+             f" Canonical lattice n = {data['n']} ({data['quanta']} quanta), default integrator, one thread; "
+             f"per configuration the median of {data['steps']} steps, then of {data['rounds']} interleaved rounds.",
+             "",
+             "| stepped | ms per step | rounds [ms] | over the C++ step | per quanta |", "|---|---|---|---|---|"]
+    for r in data["rows"]:
+        spread = f"{min(r['rounds_ms']):.3f}–{max(r['rounds_ms']):.3f}"
+        if r["config"] == "C++":
+            lines.append(f"| C++ (qbond_step_times) | {r['ms_per_step']:.3f} | {spread} | – | – |")
+            continue
+        percent, per = r["percent_over_cpp"], r["ns_per_quanta_over_cpp"]
+        lines.append(f"| {r['config']} | {r['ms_per_step']:.3f} | {spread} | {percent:+.2f} % | {per:+.1f} ns |")
+    # A negative difference is the host's noise (the rounds' spread shows its size), not a gain.
+    lines += ["", f"Stepping from Python costs {over:+.2f} % over the C++ step: "
+              f"{'within' if over <= 2 else 'beyond'} the target of at most 2 % more."]
+    return lines
+
+
 def targets(bench_dir, machines):
     sname, step = latest(bench_dir, "qbond")
     vname, solve = latest(bench_dir, "solve")
@@ -411,7 +434,8 @@ def render(kind, machine, bench_dir):
             "fuzz": lambda: fuzz_table(name, data, machine),
             "ab": lambda: ab_table(name, data, machine),
             "realtime": lambda: realtime_table(name, data, machine),
-            "damping": lambda: damping_table(name, data, machine)}[kind]()
+            "damping": lambda: damping_table(name, data, machine),
+            "python": lambda: python_table(name, data, machine)}[kind]()
 
 
 BLOCK = re.compile(r"(<!-- bench:(?P<kind>\w+)(?P<attrs>[^>]*)-->\n)(?P<body>.*?)(<!-- /bench:(?P=kind) -->)", re.S)
@@ -429,7 +453,7 @@ def main(argv):
         return m.group(1) + body + m.group(5)
 
     total, stale = 0, []
-    for page in ("performance.md", "integrators.md", "running.md"):
+    for page in ("performance.md", "integrators.md", "running.md", "api.md"):
         doc = os.path.join(root, "docs", page)
         with open(doc) as f:
             text = f.read()

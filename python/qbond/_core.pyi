@@ -56,6 +56,29 @@ class World:
                            damping: float = 0.0, diagonals: bool = True, bending: bool = False,
                            body: int = 0) -> npt.NDArray[np.int64]:
         """Adds a square sheet in the xy plane (x fastest); returns its quanta."""
+    def add_fcc_lattice(self, cells: Sequence[int], spacing: float, quanta_mass: float, stiffness: float,
+                        damping: float = 0.0, law: str = "linear", second_shell: bool = False,
+                        body: int = 0) -> npt.NDArray[np.int64]:
+        """Adds a face-centred cubic block of cubic cells of side `spacing`; returns its quanta."""
+    def add_point_packing(self, size: Vec3Like, min_distance: float, bond_radius: float, quanta_mass: float,
+                          stiffness: float, damping: float = 0.0, law: str = "linear", points: str = "poisson",
+                          count: int = 0, seed: int = 1, isolated: str = "drop",
+                          body: int = 0) -> npt.NDArray[np.int64]:
+        """Adds Poisson-disk or random points in [0, size] bonded within bond_radius; returns its quanta."""
+    def add_mesh(self, file: str, spacing: float, quanta_mass: float, stiffness: float, damping: float = 0.0,
+                 law: str = "linear", shells: str = "face_diagonal", scale: float = 1.0, isolated: str = "drop",
+                 body: int = 0) -> npt.NDArray[np.int64]:
+        """Fills a closed OBJ or STL mesh (coordinates × scale [m]) with a simple-cubic lattice; returns its quanta."""
+    def add_gas(self, size: Vec3Like, count: int, min_distance: float, quanta_mass: float, kT: float,
+                speeds: str = "maxwell", seed: int = 1, body: int = 0) -> npt.NDArray[np.int64]:
+        """Adds unbonded quanta in [0, size] with kinetic energy exactly 3/2 count kT [J]; returns them."""
+    def place(self, quanta: IndicesLike, origin: Vec3Like = (0, 0, 0), axis: Vec3Like = (0, 0, 1),
+              angle: float = 0.0, velocity: Vec3Like = (0, 0, 0), angular_velocity: Vec3Like = (0, 0, 0)) -> None:
+        """Rotates (angle [rad] about axis) and translates a body built at the origin; sets its rigid velocity."""
+    def prescribe(self, quanta: IndicesLike, motion: str = "fixed", velocity: Vec3Like = (0, 0, 0),
+                  axis: Vec3Like = (0, 0, 1), center: Vec3Like = (0, 0, 0), rate: float = 0.0,
+                  keyframes: Sequence[Any] = (), interpolation: str = "linear") -> None:
+        """Makes the quanta follow a motion: fixed, translate, rotate or keyframes ((time, offset[, angle]) or dicts)."""
     def select_box(self, lo: Vec3Like, hi: Vec3Like) -> npt.NDArray[np.int64]:
         """Indices of the quanta inside the box [lo, hi]."""
     def anchor(self, quanta: IndicesLike) -> None:
@@ -105,6 +128,9 @@ class Scene:
     @property
     def world(self) -> World:
         """A copy of the scene's world."""
+    @property
+    def adaptive(self) -> Optional[dict[str, Any]]:
+        """The scene's adaptive step control (None when its steps are fixed)."""
 
 def read_checkpoint(path: str) -> dict[str, Any]:
     """A checkpoint's metadata, step, time, positions and velocities. Raises CheckpointError."""
@@ -126,6 +152,19 @@ class Simulation:
     @property
     def step_count(self) -> int: ...
     timestep: float
+    def set_adaptive(self, enabled: bool = True, **options: float) -> None:
+        """Adaptive step control on or off; options error, energy, min_step, max_step, safety, horizon."""
+    @property
+    def adaptive(self) -> dict[str, Any]:
+        """The adaptive step control's settings (enabled: whether steps adapt)."""
+    end_time: float
+    """[s] where adaptive steps stop: a scene's horizon, else infinity."""
+    @property
+    def last_step_size(self) -> float:
+        """[s] the step that led to the current state."""
+    @property
+    def rejected_steps(self) -> int:
+        """Adaptive tries undone so far."""
     @property
     def num_quanta(self) -> int: ...
     @property
@@ -173,8 +212,21 @@ class Simulation:
         self, fn: Callable[[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]], None]
     ) -> None:
         """fn(x, dx, dv) between each step's projection and its application edits the writable dx, dv."""
+    def add_break_rule(self, max_strain: float = ..., max_compression: float = ..., max_tension: float = ...,
+                       probability: float = 1.0, quanta: Optional[IndicesLike] = None) -> None:
+        """Adds a fracture rule: bonds past a strain or tension [N] break (with `probability` per step)."""
     def clear_heuristics(self) -> None:
         """Removes every heuristic (the scene's and the Python ones)."""
+    def prescribe(self, quanta: IndicesLike, motion: str = "fixed", velocity: Vec3Like = (0, 0, 0),
+                  axis: Vec3Like = (0, 0, 1), center: Vec3Like = (0, 0, 0), rate: float = 0.0,
+                  keyframes: Sequence[Any] = (), interpolation: str = "linear") -> None:
+        """World.prescribe between steps: the motion starts now, from where the quanta are."""
+    def add_probe(self, name: str, quanta: IndicesLike, about: Optional[Vec3Like] = None) -> None:
+        """Adds a named probe measured by probes()."""
+    def probes(self) -> dict[str, dict[str, Any]]:
+        """name → mean [m]; force [N], torque [N·m] (kinematic quanta); stress [Pa], von_mises_max [Pa]."""
+    def probe(self, quanta: IndicesLike, about: Optional[Vec3Like] = None) -> dict[str, Any]:
+        """Measures the quanta once, as probes() does."""
     def energies(self) -> dict[str, float]: ...
     def ledger(self) -> dict[str, float]: ...
     def save_checkpoint(self, path: str) -> None: ...
