@@ -296,6 +296,23 @@ TEST(Laws, CohesiveBondBreaksAtItsFailureStretchWithoutAHeuristic) {
   EXPECT_EQ(sim.world().state.bonds.alive[e.bond], 0);
 }
 
+TEST(Laws, CohesiveBondFailsWhateverTheBreakRuleSelects) {
+  // A break rule whose selection holds no quanta leaves the bonds alone, but not their failure:
+  // the step breaks the bond at s_f all the same, reason `failure`.
+  const double k = 100.0, ep = 0.01, ef = 0.05;
+  Simulation sim(cohesive_bar(k, ep, ef, 0.02), test::config(IntegratorType::energy_momentum), 1e-3);
+  sim.add_heuristic(make_heuristic(BreakRule{.max_strain = 0.001, .quanta = {0, 0, 0}}));
+  std::vector<BondEvent> events;
+  for (int n = 0; n < 8000 && events.empty(); ++n) {
+    sim.step();
+    events = sim.events();
+  }
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].reason, BondEvent::Reason::failure);
+  EXPECT_GE(events[0].strain, ef);
+  EXPECT_DOUBLE_EQ(sim.world().state.energy.dissipated_heuristics, 0.5 * k * ep * ef);
+}
+
 TEST(Laws, CohesiveBondBreaksWhenTheStepWouldAdvanceInPlace) {
   // Velocity Verlet without the ledger advances a step in place when nothing edits it; bonds that
   // can fail keep the step projected, so the failure stage sees it: the bond breaks once, at s_f.
