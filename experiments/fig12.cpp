@@ -90,7 +90,7 @@ Tear tear(bool packing, double phi, std::uint64_t seed, int max_steps) {
     const double y = sim.world().state.x[i].y();
     rule.quanta[i] = y > 0.15 * kH && y < 0.85 * kH;
   }
-  sim.add_heuristic(make_break_heuristic(rule));
+  sim.add_heuristic(make_heuristic(rule));
   Tear t;
   std::vector<Index> parent(n);
   auto components = [&](const World& ww) {

@@ -52,7 +52,7 @@ BoxedGas boxed_gas(std::size_t n, double sigma, double L, double kT, Gas::Speeds
   QuantaContactRule rule;
   rule.radius = r;
   rule.material.restitution = 1;
-  sim.add_heuristic(make_quanta_contact_heuristic(rule));
+  sim.add_heuristic(make_heuristic(rule));
   return {std::move(sim), box, std::move(ids)};
 }
 

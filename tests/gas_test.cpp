@@ -63,7 +63,7 @@ Simulation gas_simulation(const Boxed& b, double h) {
   QuantaContactRule r;
   r.radius = b.radius;
   r.material.restitution = 1;
-  sim.add_heuristic(make_quanta_contact_heuristic(r));
+  sim.add_heuristic(make_heuristic(r));
   return sim;
 }
 
@@ -136,7 +136,7 @@ TEST(Contacts, HeadOnElasticCollisionExchangesVelocities) {
   QuantaContactRule r;
   r.radius = 0.002;
   r.material.restitution = 1;
-  sim.add_heuristic(make_quanta_contact_heuristic(r));
+  sim.add_heuristic(make_heuristic(r));
   for (int n = 0; n < 100; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
   const State& s = sim.world().state;
   EXPECT_NEAR(s.v[0].x(), -1, 1e-14);

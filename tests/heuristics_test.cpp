@@ -38,7 +38,7 @@ double strain_of(const World& w, std::size_t b) {
 TEST(Break, ABarBreaksWhereTheStrainFirstPassesTheThreshold) {
   const double eps_max = 0.05;
   Simulation sim(pulled_chain(12, 0.01, 100, 0.01, 7), test::coupled(CoupledSolver::ldlt), 1e-3);
-  sim.add_heuristic(make_break_heuristic({.max_strain = eps_max}));
+  sim.add_heuristic(make_heuristic(BreakRule{.max_strain = eps_max}));
   std::vector<BondEvent> events;
   for (int n = 0; n < 4000 && events.empty(); ++n) {
     // Before the break no bond was past the threshold at the end of a step.
@@ -69,7 +69,7 @@ TEST(Break, RandomBreakingDependsOnTheSeedOnly) {
     pull.velocity = Vec3(0.05, 0, 0);
     w.prescribe(end, pull);
     Simulation sim(std::move(w), default_integrator(), 1e-3);
-    sim.add_heuristic(make_break_heuristic({.max_strain = 0.02, .probability = 0.05}));
+    sim.add_heuristic(make_heuristic(BreakRule{.max_strain = 0.02, .probability = 0.05}));
     std::vector<Index> broken;
     for (int n = 0; n < 400; ++n) {
       EXPECT_EQ(sim.step().status, StepReport::Status::ok);
@@ -102,7 +102,7 @@ TEST(Break, StressCriteriaBreakAtTheVirialStress) {
     w.model.volume = {V, V};
     w.prescribe({0, 1}, Motion{});  // held, so the projected state is the initial one
     Simulation sim(std::move(w), default_integrator(), 1e-3);
-    sim.add_heuristic(make_break_heuristic(c.rule));
+    sim.add_heuristic(make_heuristic(c.rule));
     sim.step();
     ASSERT_EQ(sim.events().size(), c.breaks ? 1u : 0u);
     if (c.breaks) {
@@ -134,7 +134,7 @@ TEST(Plastic, ALoadedUnloadedBondKeepsThePermanentSetTheoryPredicts) {
   w.prescribe({0}, Motion{});
   w.add_load({1}, Vec3(F, 0, 0));
   Simulation sim(std::move(w), test::coupled(CoupledSolver::ldlt), 1e-3);
-  sim.add_heuristic(make_plastic_heuristic({.yield_strain = ey, .hardening = alpha}));
+  sim.add_heuristic(make_heuristic(PlasticRule{.yield_strain = ey, .hardening = alpha}));
   for (int n = 0; n < 5000; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
   const double c = alpha / (1 - alpha);
   const double p = (F / (k * L0) - ey) / c;
@@ -151,7 +151,7 @@ TEST(Plastic, ALoadedUnloadedBondKeepsThePermanentSetTheoryPredicts) {
 
 TEST(Plastic, PastTheDuctilityLimitTheBondBreaks) {
   Simulation sim(pulled_chain(2, 0.01, 100, 0.01, 99), test::coupled(CoupledSolver::ldlt), 1e-3);
-  sim.add_heuristic(make_plastic_heuristic({.yield_strain = 0.01, .max_plastic_strain = 0.1}));
+  sim.add_heuristic(make_heuristic(PlasticRule{.yield_strain = 0.01, .max_plastic_strain = 0.1}));
   for (int n = 0; n < 200 && sim.events().empty(); ++n) sim.step();
   ASSERT_EQ(sim.events().size(), 1u);
   EXPECT_EQ(sim.events()[0].reason, BondEvent::Reason::ductility);
@@ -249,7 +249,7 @@ TEST(Contacts, TwoCollidingBodiesConserveLinearMomentum) {
   }
   const Vec3 p0 = linear_momentum(w.model, w.state);
   Simulation sim(std::move(w), default_integrator(), 1e-4);
-  sim.add_heuristic(make_quanta_contact_heuristic({.radius = 0.004, .material = {0.5, 0.3}}));
+  sim.add_heuristic(make_heuristic(QuantaContactRule{.radius = 0.004, .material = {0.5, 0.3}}));
   for (int n = 0; n < 400; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
   const World& done = sim.world();
   const Vec3 p1 = linear_momentum(done.model, done.state);
@@ -299,7 +299,7 @@ TEST(Contacts, ADroppedSheetFoldsOnItselfWithoutPassingThroughItself) {
   const double R = 0.0045;
   Simulation sim(std::move(w), default_integrator(), 1e-3);
   sim.add_heuristic(make_obstacle_heuristic({ground(0, 0.5)}));
-  sim.add_heuristic(make_quanta_contact_heuristic({.radius = R, .material = {0, 0.3}}));
+  sim.add_heuristic(make_heuristic(QuantaContactRule{.radius = R, .material = {0, 0.3}}));
   double closest = INFINITY;
   for (int n = 0; n < 1500; ++n) {
     ASSERT_EQ(sim.step().status, StepReport::Status::ok);
@@ -353,7 +353,7 @@ World approaching(double d01, double gap, double speed) {
 TEST(Form, QuantaWithinTheCaptureRadiusBondAtTheirDistance) {
   const double h = 1e-3, speed = 1.0, capture = 0.012;
   Simulation sim(approaching(0.03, 0.02, speed), default_integrator(), h);
-  sim.add_heuristic(make_form_heuristic({.capture_radius = capture, .bond = {.stiffness = 50}}));
+  sim.add_heuristic(make_heuristic(FormRule{.capture_radius = capture, .bond = {.stiffness = 50}}));
   std::vector<BondEvent> formed;
   double distance_before = 0;
   for (int n = 0; n < 12 && formed.empty(); ++n) {
@@ -387,7 +387,7 @@ TEST(Form, PairRulesAndBondCountsLimitWhoBonds) {
     Simulation sim(std::move(w), default_integrator(), 1e-3);
     rule.capture_radius = 0.0105;
     rule.bond.stiffness = 10;
-    sim.add_heuristic(make_form_heuristic(rule));
+    sim.add_heuristic(make_heuristic(rule));
     sim.step();
     std::vector<std::pair<Index, Index>> pairs;
     for (const BondEvent& e : sim.events()) pairs.emplace_back(e.i, e.j);
@@ -415,7 +415,7 @@ TEST(Form, BrokenPairsWaitMinAgeAndSlotsAreReused) {
   w.add_quanta(Vec3(0, 0, 0), Vec3::Zero(), 1e-3);
   w.add_quanta(Vec3(0.005, 0, 0), Vec3::Zero(), 1e-3);
   Simulation sim(std::move(w), default_integrator(), 1e-3);
-  sim.add_heuristic(make_form_heuristic({.capture_radius = 0.01, .min_age = 0.0045, .bond = {.stiffness = 10}}));
+  sim.add_heuristic(make_heuristic(FormRule{.capture_radius = 0.01, .min_age = 0.0045, .bond = {.stiffness = 10}}));
   sim.step();
   ASSERT_EQ(sim.world().num_bonds(), 1u);
   sim.world().break_bond(0);  // at t = 1 ms
@@ -434,7 +434,7 @@ TEST(Form, BrokenPairsWaitMinAgeAndSlotsAreReused) {
 // state, and the model the rule's shape was interned in is all it needs.
 TEST(Form, AFormedBondTravelsWithTheState) {
   Simulation sim(approaching(0.03, 0.001, 0.0), default_integrator(), 1e-3);
-  sim.add_heuristic(make_form_heuristic({.capture_radius = 0.002, .bond = {.stiffness = 10}}));
+  sim.add_heuristic(make_heuristic(FormRule{.capture_radius = 0.002, .bond = {.stiffness = 10}}));
   const Model model = sim.world().model;
   sim.step();
   ASSERT_EQ(sim.world().num_bonds(), 1u);
@@ -464,7 +464,7 @@ TEST(Form, WeldedBlocksHoldTogetherAndKeepMomentum) {
   const auto lower = add_cubic_lattice(w, low, b1);
   const Vec3 p0 = linear_momentum(w.model, w.state);
   Simulation sim(std::move(w), default_integrator(), 1e-3);
-  sim.add_heuristic(make_form_heuristic({.capture_radius = 0.0105, .pairs = FormPairs::other_body,
+  sim.add_heuristic(make_heuristic(FormRule{.capture_radius = 0.0105, .pairs = FormPairs::other_body,
                                          .bond = {.stiffness = 200, .damping = 0.05}}));
   std::size_t welds = 0;
   for (int n = 0; n < 200; ++n) {

@@ -729,7 +729,7 @@ TEST(VelocityVerlet, CarriesItsForcesOnlyForTheStateItLeft) {
 TEST(VelocityVerlet, PlasticFlowDropsTheCarriedForces) {
   World w = test::two_quanta(1e-3, 1000, 0.01, 2e-4, 0.0, 0.01);
   Simulation sim(std::move(w), test::config(IntegratorType::velocity_verlet), 1e-5);
-  sim.add_heuristic(make_plastic_heuristic({.yield_strain = 0.01}));  // the 2% stretch flows at once
+  sim.add_heuristic(make_heuristic(PlasticRule{.yield_strain = 0.01}));  // the 2% stretch flows at once
   sim.step();
   EXPECT_TRUE(std::holds_alternative<std::monostate>(sim.world().state.carry));
   const double rest = sim.world().state.bonds.rest[0];

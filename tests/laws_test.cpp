@@ -271,16 +271,16 @@ World cohesive_bar(double k, double ep, double ef, double v) {
   return w;
 }
 
-TEST(Laws, CohesiveBondBreaksAtItsFailureStretch) {
-  // Pulled past the peak, one bond softens and takes the stretch until it reaches s_f, where the
-  // break heuristic (a rule with no thresholds) breaks it: an event with reason `failure`, its
-  // fracture energy G charged as dissipated, and the bond stays broken.
+TEST(Laws, CohesiveBondBreaksAtItsFailureStretchWithoutAHeuristic) {
+  // A world built through the API, no heuristic: pulled past the peak, one bond softens and takes
+  // the stretch until it reaches s_f, where the step itself breaks it: an event with reason
+  // `failure`, its fracture energy G charged to the ledger as dissipated, no step refused by the
+  // energy checks, and the bond stays broken.
   const double k = 100.0, ep = 0.01, ef = 0.05, G = 0.5 * k * ep * ef;
   Simulation sim(cohesive_bar(k, ep, ef, 0.02), test::config(IntegratorType::energy_momentum), 1e-3);
-  sim.add_heuristic(make_break_heuristic(BreakRule{}));
   std::vector<BondEvent> events;
   for (int n = 0; n < 8000 && events.empty(); ++n) {
-    sim.step();
+    ASSERT_EQ(sim.step().status, StepReport::Status::ok) << "step " << n;
     events = sim.events();
   }
   ASSERT_EQ(events.size(), 1u);
@@ -294,6 +294,40 @@ TEST(Laws, CohesiveBondBreaksAtItsFailureStretch) {
   EXPECT_DOUBLE_EQ(w.state.energy.dissipated_heuristics, G);
   for (int n = 0; n < 200; ++n) sim.step();  // the pull goes on: the broken bond stays broken
   EXPECT_EQ(sim.world().state.bonds.alive[e.bond], 0);
+}
+
+TEST(Laws, CohesiveBondFailsWhateverTheBreakRuleSelects) {
+  // A break rule whose selection holds no quanta leaves the bonds alone, but not their failure:
+  // the step breaks the bond at s_f all the same, reason `failure`.
+  const double k = 100.0, ep = 0.01, ef = 0.05;
+  Simulation sim(cohesive_bar(k, ep, ef, 0.02), test::config(IntegratorType::energy_momentum), 1e-3);
+  sim.add_heuristic(make_heuristic(BreakRule{.max_strain = 0.001, .quanta = {0, 0, 0}}));
+  std::vector<BondEvent> events;
+  for (int n = 0; n < 8000 && events.empty(); ++n) {
+    sim.step();
+    events = sim.events();
+  }
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].reason, BondEvent::Reason::failure);
+  EXPECT_GE(events[0].strain, ef);
+  EXPECT_DOUBLE_EQ(sim.world().state.energy.dissipated_heuristics, 0.5 * k * ep * ef);
+}
+
+TEST(Laws, CohesiveBondBreaksWhenTheStepWouldAdvanceInPlace) {
+  // Velocity Verlet without the ledger advances a step in place when nothing edits it; bonds that
+  // can fail keep the step projected, so the failure stage sees it: the bond breaks once, at s_f.
+  const double k = 100.0, ep = 0.01, ef = 0.05;
+  Simulation sim(cohesive_bar(k, ep, ef, 0.02), test::config(IntegratorType::velocity_verlet), 1e-3);
+  sim.set_track_energy(false);
+  std::vector<BondEvent> events;
+  for (int n = 0; n < 8000 && events.empty(); ++n) {
+    ASSERT_EQ(sim.step().status, StepReport::Status::ok) << "step " << n;
+    events = sim.events();
+  }
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].reason, BondEvent::Reason::failure);
+  EXPECT_GE(events[0].strain, ef);
+  EXPECT_DOUBLE_EQ(sim.world().state.energy.dissipated_heuristics, 0.5 * k * ep * ef);
 }
 
 TEST(Laws, SofteningBondUnderImplicitSteps) {

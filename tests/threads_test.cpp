@@ -30,7 +30,7 @@ void step_canonical(int n, IntegratorType type) {
   scene.integrator.type = type;
   scene.integrator.threads = 2;
   Simulation sim(std::move(scene.world), scene.integrator, scene.timestep);
-  sim.add_heuristic(make_break_heuristic({.max_strain = 0.5}));
+  sim.add_heuristic(make_heuristic(BreakRule{.max_strain = 0.5}));
   for (int k = 0; k < 3; ++k) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
 }
 

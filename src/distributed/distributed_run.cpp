@@ -26,6 +26,12 @@ void check_distributable(const Scene& scene, int ranks) {
     throw std::invalid_argument(over + "takes velocity_verlet, explicit_euler or symplectic_euler, not " +
                                 std::string(to_string(t)) + one);
   if (!scene.heuristics.empty()) throw std::invalid_argument(over + "does not distribute heuristics yet" + one);
+  // A bond failing on one rank must fail on the ranks that hold it as a ghost's: not exchanged yet.
+  const Bonds& b = scene.world.state.bonds;
+  for (std::size_t k = 0; k < b.size(); ++k)
+    if (law_breaks(b.law[k]))
+      throw std::invalid_argument(over + "does not distribute bonds that break at their law's failure stretch (" +
+                                  std::string(to_string(b.law[k])) + ") yet" + one);
   if (!scene.world.model.loads.empty()) throw std::invalid_argument(over + "does not distribute loads yet" + one);
   if (scene.adaptive.enabled) throw std::invalid_argument(over + "does not adapt its step yet" + one);
   if (scene.integrator.restore_energy)

@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <unordered_set>
 
 #include "heuristics/spatial_hash.hpp"
+#include "io/scene/heuristic_entry.hpp"
 
 namespace qbond {
 namespace {
@@ -374,8 +376,134 @@ std::unique_ptr<Heuristic> make_obstacle_heuristic(std::vector<Obstacle> obstacl
   return std::make_unique<ObstacleHeuristic>(std::move(obstacles));
 }
 
-std::unique_ptr<Heuristic> make_quanta_contact_heuristic(QuantaContactRule rule) {
+std::unique_ptr<Heuristic> make_heuristic(const Obstacle& obstacle) { return make_obstacle_heuristic({obstacle}); }
+
+std::unique_ptr<Heuristic> make_heuristic(QuantaContactRule rule) {
   return std::make_unique<QuantaContactHeuristic>(rule);
 }
 
 }  // namespace qbond
+
+// ---- Scene types: `ground`, `plane`, `sphere`, `box` and `contact` --------------------------
+
+namespace qbond::scene_detail {
+namespace {
+
+void read_obstacle(const HeuristicEntry& e) {
+  const Obj& o = e.o;
+  Obstacle ob;
+  ob.material = e.contact_material();
+  if (o.has("margin")) ob.margin = non_negative(o["margin"], o.at("margin"));
+  if (e.type == "ground") {
+    ob.center = Vec3(0, 0, o.has("height") ? number(o["height"], o.at("height")) : 0.0);
+  } else if (e.type == "plane") {
+    ob.center = vec3(o.required("point"), o.at("point"));
+    ob.normal = direction(o.required("normal"), o.at("normal"));
+  } else if (e.type == "sphere") {
+    ob.shape = Obstacle::Shape::sphere;
+    ob.center = vec3(o.required("center"), o.at("center"));
+    ob.radius = positive(o.required("radius"), o.at("radius"));
+  } else {
+    ob.shape = Obstacle::Shape::box;
+    ob.center = vec3(o.required("center"), o.at("center"));
+    const Vec3 size = vec3(o.required("size"), o.at("size"));
+    if (!(size.minCoeff() > 0)) bad(o.at("size"), "every edge must be > 0");
+    ob.half_extents = 0.5 * size;
+    if (o.has("rotation")) {
+      Obj r(o["rotation"], o.at("rotation"), keys_of("rotation"));
+      ob.rotation = Eigen::AngleAxisd(number(r.required("angle"), r.at("angle")),
+                                      direction(r.required("axis"), r.at("axis")))
+                        .toRotationMatrix();
+    }
+  }
+  if (o.has("inside")) {
+    ob.inside = boolean(o["inside"], o.at("inside"));
+    const double room = ob.shape == Obstacle::Shape::sphere ? ob.radius : ob.half_extents.minCoeff();
+    if (ob.inside && !(ob.margin < room))
+      bad(o.at("margin"), "must be below the container's " + std::string(ob.shape == Obstacle::Shape::sphere ? "radius" : "half size") +
+                              " " + num_str(room) + " m, or no quanta fits inside");
+  }
+  if (o.has("method"))
+    ob.method = choice<ContactMethod>(o["method"], o.at("method"),
+                                      {{"projection", ContactMethod::projection}, {"implicit", ContactMethod::implicit}});
+  if (o.has("penalty")) ob.penalty = positive(o["penalty"], o.at("penalty"));
+  if (ob.method == ContactMethod::implicit) {
+    if (e.integrator().type != IntegratorType::coupled_implicit)
+      bad(o.at("method"), "'implicit' contact is solved by the coupled_implicit integrator, not " +
+                              std::string(to_string(e.integrator().type)) + " (use \"projection\")");
+    // Held by the step's solve: the model's, not a rule that edits the projection.
+    e.w.model.obstacles.push_back(ob);
+    return;
+  }
+  if (o.has("static_friction") || o.has("penalty"))
+    bad(o.path(), "static_friction and penalty are keys of \"method\": \"implicit\" obstacles");
+  // Every obstacle records the impulse it gives (diagnostics' obstacle<k>_ columns).
+  ob.record = e.next_obstacle_record();
+  e.out.emplace_back(ob);
+}
+
+// Quanta that share no bond but start closer than two contact radii would be pushed apart on
+// the first step: a radius too large for the lattice.
+void check_contact_radius(const QuantaContactRule& r, const Obj& o, const World& w) {
+  std::unordered_set<std::uint64_t> bonded;
+  for (std::size_t b = 0; b < w.num_bonds(); ++b) bonded.insert(pair_key(w.state.bonds.i[b], w.state.bonds.j[b]));
+  for (const auto& [a, b] : pairs_within_radius(w.state.x, 2 * r.radius)) {
+    if (bonded.count(pair_key(a, b))) continue;
+    if (!r.same_body && w.model.body[a] == w.model.body[b]) continue;
+    if (w.model.is_kinematic(a) && w.model.is_kinematic(b)) continue;
+    const double d = (w.state.x[a] - w.state.x[b]).norm();
+    if (d < 2 * r.radius)
+      bad(o.at("radius"), "2 x radius = " + num_str(2 * r.radius) + " m exceeds the distance " + num_str(d) +
+                              " m of quanta " + std::to_string(a) + " and " + std::to_string(b) +
+                              ", which share no bond: they would be pushed apart at once");
+  }
+}
+
+}  // namespace
+
+std::span<const HeuristicReader> scene_readers(std::type_identity<Obstacle>) {
+  using Keys = std::vector<SceneKey>;
+  static const Keys obstacle_keys = {{"type", "string"},          {"restitution", "number"},
+                                     {"friction", "number"},      {"margin", "number"},
+                                     {"static_friction", "number"}, {"method", "enum:projection|implicit"},
+                                     {"penalty", "number"}};
+  auto with = [](Keys keys, std::initializer_list<SceneKey> more) {
+    keys.insert(keys.end(), more);
+    return keys;
+  };
+  static const HeuristicReader rows[] = {
+      {"ground", "an obstacle: the plane z = height", with(obstacle_keys, {{"height", "number"}}), read_obstacle},
+      {"plane", "an obstacle: a plane through a point", with(obstacle_keys, {{"point", "vec3"}, {"normal", "vec3"}}), read_obstacle},
+      {"sphere", "an obstacle, or a container with inside: true",
+       with(obstacle_keys, {{"center", "vec3"}, {"radius", "number"}, {"inside", "boolean"}}), read_obstacle},
+      {"box", "an obstacle, or a container with inside: true",
+       with(obstacle_keys, {{"center", "vec3"}, {"size", "vec3"}, {"rotation", "@rotation"}, {"inside", "boolean"}}),
+       read_obstacle},
+  };
+  return rows;
+}
+
+std::span<const HeuristicReader> scene_readers(std::type_identity<QuantaContactRule>) {
+  static const HeuristicReader rows[] = {
+      {"contact", "quanta-quanta collisions between quanta that share no bond",
+       {{"type", "string"},
+        {"radius", "number"},
+        {"restitution", "number"},
+        {"friction", "number"},
+        {"iterations", "integer"},
+        {"same_body", "boolean"}},
+       [](const HeuristicEntry& e) {
+         const Obj& o = e.o;
+         QuantaContactRule r;
+         r.radius = positive(o.required("radius"), o.at("radius"));
+         r.material = e.contact_material();
+         if (o.has("iterations")) r.iterations = static_cast<int>(integer(o["iterations"], o.at("iterations"), 1));
+         if (o.has("same_body")) r.same_body = boolean(o["same_body"], o.at("same_body"));
+         check_contact_radius(r, o, e.w);
+         e.out.emplace_back(r);
+       }},
+  };
+  return rows;
+}
+
+}  // namespace qbond::scene_detail

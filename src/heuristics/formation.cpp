@@ -4,6 +4,7 @@
 #include <unordered_set>
 
 #include "heuristics/spatial_hash.hpp"
+#include "io/scene/heuristic_entry.hpp"
 
 namespace qbond {
 namespace {
@@ -98,9 +99,77 @@ class FormHeuristic final : public Heuristic {
 
 }  // namespace
 
-std::unique_ptr<Heuristic> make_form_heuristic(FormRule rule) {
+std::unique_ptr<Heuristic> make_heuristic(FormRule rule) {
   if (!(rule.capture_radius > 0)) throw std::invalid_argument("form: capture_radius must be > 0");
   return std::make_unique<FormHeuristic>(std::move(rule));
 }
 
 }  // namespace qbond
+
+// ---- Scene types: `form` and `liquid` --------------------------------------------------------
+
+namespace qbond::scene_detail {
+
+std::span<const HeuristicReader> scene_readers(std::type_identity<FormRule>) {
+  // The shape of a law the rule's bonds follow joins the model's table while the world is built,
+  // so a step never writes it (the heuristic's bind() finds it there).
+  static const HeuristicReader rows[] = {
+      {"form", "bond formation: quanta that come close bond",
+       {{"type", "string"},
+        {"capture_radius", "number"},
+        {"pairs", "enum:any|same_body|other_body"},
+        {"max_bonds", "integer"},
+        {"min_age", "number"},
+        {"rest_length", "number"},
+        {"material", "string"},
+        {"select", "@selection"}},
+       [](const HeuristicEntry& e) {
+         const Obj& o = e.o;
+         FormRule r;
+         r.capture_radius = positive(o.required("capture_radius"), o.at("capture_radius"));
+         if (o.has("pairs"))
+           r.pairs = choice<FormPairs>(o["pairs"], o.at("pairs"),
+                                       {{"any", FormPairs::any},
+                                        {"same_body", FormPairs::same_body},
+                                        {"other_body", FormPairs::other_body}});
+         if (o.has("max_bonds")) r.max_bonds = static_cast<int>(integer(o["max_bonds"], o.at("max_bonds"), 1));
+         if (o.has("min_age")) r.min_age = non_negative(o["min_age"], o.at("min_age"));
+         if (o.has("rest_length")) r.rest_length = positive(o["rest_length"], o.at("rest_length"));
+         r.bond = e.bond_material("material");
+         bond_law(e.w.model, r.bond);
+         r.quanta = e.quanta_mask();
+         e.out.emplace_back(std::move(r));
+       }},
+      {"liquid", "a cohesive liquid: a break rule and a form rule at the liquid's spacing",
+       {{"type", "string"},
+        {"spacing", "number"},
+        {"max_strain", "number"},
+        {"capture_radius", "number"},
+        {"max_bonds", "integer"},
+        {"material", "string"},
+        {"select", "@selection"}},
+       [](const HeuristicEntry& e) {
+         const Obj& o = e.o;
+         // A preset: bonds break past max_strain and form again within the capture radius, at the
+         // rest length `spacing` the liquid keeps between its quanta (its density).
+         const double a = positive(o.required("spacing"), o.at("spacing"));
+         BreakRule br;
+         br.max_strain = o.has("max_strain") ? positive(o["max_strain"], o.at("max_strain")) : 0.3;
+         FormRule fr;
+         fr.capture_radius = o.has("capture_radius") ? positive(o["capture_radius"], o.at("capture_radius")) : 1.2 * a;
+         if (fr.capture_radius >= a * (1 + br.max_strain))
+           bad(o.at("capture_radius"), "must be below spacing x (1 + max_strain) = " +
+                                           num_str(a * (1 + br.max_strain)) + " m, or new bonds would break at once");
+         fr.max_bonds = o.has("max_bonds") ? static_cast<int>(integer(o["max_bonds"], o.at("max_bonds"), 1)) : 12;
+         fr.rest_length = a;
+         fr.bond = e.bond_material("material");
+         bond_law(e.w.model, fr.bond);
+         br.quanta = fr.quanta = e.quanta_mask();
+         e.out.emplace_back(std::move(br));
+         e.out.emplace_back(std::move(fr));
+       }},
+  };
+  return rows;
+}
+
+}  // namespace qbond::scene_detail

@@ -3,6 +3,8 @@
 #include <cmath>
 
 #include "core/parallel.hpp"
+#include "heuristics/breaking.hpp"
+#include "io/scene/heuristic_entry.hpp"
 #include "qbond/analysis/stress.hpp"
 
 namespace qbond {
@@ -12,37 +14,6 @@ namespace {
 // they hold for bonds formed during the run too.
 bool applies(const std::vector<std::uint8_t>& quanta, const Bonds& bonds, std::size_t b) {
   return quanta.empty() || (quanta[bonds.i[b]] && quanta[bonds.j[b]]);
-}
-
-// Length, strain and elastic tension of bond b at the projected end-of-step positions.
-struct Stretch {
-  double r = 0, strain = 0, tension = 0;
-};
-Stretch stretch(const Model& m, const State& s, const Projection& p, std::size_t b) {
-  Stretch st;
-  st.r = (projected(s, p, s.bonds.j[b]) - projected(s, p, s.bonds.i[b])).norm();
-  const double L = s.bonds.rest[b];
-  st.strain = L > 0 ? (st.r - L) / L : 0.0;
-  st.tension = s.bonds.law_at(m.shapes, b, st.r, L).T;
-  return st;
-}
-
-// Breaks bond b at the end of this step: records the event and charges its stored energy.
-void break_now(const Model& m, State& s, const HeuristicContext& ctx, std::size_t b, const Stretch& st,
-               BondEvent::Reason why) {
-  s.energy.dissipated_heuristics += s.bonds.law_at(m.shapes, b, st.r, s.bonds.rest[b]).U;
-  s.break_bond(static_cast<Index>(b));
-  BondEvent e;
-  e.kind = BondEvent::Kind::broken;
-  e.reason = why;
-  e.step = ctx.step.step;
-  e.time = ctx.step.t + ctx.step.h;
-  e.bond = static_cast<Index>(b);
-  e.i = s.bonds.i[b];
-  e.j = s.bonds.j[b];
-  e.strain = st.strain;
-  e.tension = st.tension;
-  ctx.events.push_back(e);
 }
 
 class BreakHeuristic final : public Heuristic {
@@ -70,14 +41,10 @@ class BreakHeuristic final : public Heuristic {
     parallel_for(nb, bond_pass_threads(m.num_quanta(), ctx.threads), [&](std::size_t b) {
       why_[b] = kNone;
       if (!bonds.alive[b]) return;
-      const bool can_fail = law_breaks(bonds.law[b]);
-      if (!can_fail && !applies(rule_.quanta, bonds, b)) return;
-      const Stretch st = stretch(m, s, p, b);
-      if (can_fail && st.r - bonds.rest[b] >= bonds.failure_stretch_at(m.shapes, b, bonds.rest[b])) {
-        why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::failure);
-        return;
-      }
       if (!applies(rule_.quanta, bonds, b)) return;
+      const Stretch st = stretch(m, s, p, b);
+      // A bond past its law's failure stretch fails (the break_failed_bonds stage), whatever the rule.
+      if (law_breaks(bonds.law[b]) && past_failure(m, s, b, st)) return;
       if (st.strain > rule_.max_strain)
         why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::strain);
       else if (-st.strain > rule_.max_compression)
@@ -95,9 +62,8 @@ class BreakHeuristic final : public Heuristic {
     });
     for (std::size_t b = 0; b < nb; ++b) {
       if (why_[b] == kNone) continue;
-      const bool failed = why_[b] == static_cast<std::uint8_t>(BondEvent::Reason::failure);
-      if (!failed && rule_.probability < 1 && !(s.rng.uniform() < rule_.probability)) continue;
-      break_now(m, s, ctx, b, stretch(m, s, p, b), static_cast<BondEvent::Reason>(why_[b]));
+      if (rule_.probability < 1 && !(s.rng.uniform() < rule_.probability)) continue;
+      break_now(m, s, ctx.step, ctx.events, b, stretch(m, s, p, b), static_cast<BondEvent::Reason>(why_[b]));
     }
   }
 
@@ -134,7 +100,7 @@ class PlasticHeuristic final : public Heuristic {
     s.energy.dissipated_heuristics += released;
     for (std::size_t b = 0; b < nb; ++b) {
       p.bonds_edited |= edit_[b] != kKept;
-      if (edit_[b] == kDuctile) break_now(m, s, ctx, b, stretch(m, s, p, b), BondEvent::Reason::ductility);
+      if (edit_[b] == kDuctile) break_now(m, s, ctx.step, ctx.events, b, stretch(m, s, p, b), BondEvent::Reason::ductility);
     }
   }
 
@@ -156,12 +122,83 @@ double plastic_rest_length(const PlasticRule& rule, double r, double L, double L
   return (r + c * L0 - sign * rule.yield_strain * L0) / (1 + c);
 }
 
-std::unique_ptr<Heuristic> make_break_heuristic(BreakRule rule) {
+std::unique_ptr<Heuristic> make_heuristic(BreakRule rule) {
   return std::make_unique<BreakHeuristic>(std::move(rule));
 }
 
-std::unique_ptr<Heuristic> make_plastic_heuristic(PlasticRule rule) {
+std::unique_ptr<Heuristic> make_heuristic(PlasticRule rule) {
   return std::make_unique<PlasticHeuristic>(std::move(rule));
 }
 
 }  // namespace qbond
+
+// ---- Scene types: `break` and `plastic` ------------------------------------------------------
+
+namespace qbond::scene_detail {
+
+std::span<const HeuristicReader> scene_readers(std::type_identity<BreakRule>) {
+  static const HeuristicReader rows[] = {
+      {"break", "fracture: bonds break past a strain, compression, tension or stress limit",
+       {{"max_strain", "number"},
+        {"max_compression", "number"},
+        {"max_tension", "number"},
+        {"max_stress", "number"},
+        {"max_von_mises", "number"},
+        {"type", "string"},
+        {"probability", "number"},
+        {"select", "@selection"}},
+       [](const HeuristicEntry& e) {
+         const Obj& o = e.o;
+         static const std::initializer_list<const char*> limits = {"max_strain", "max_compression", "max_tension",
+                                                                   "max_stress", "max_von_mises"};
+         BreakRule r;
+         double* fields[] = {&r.max_strain, &r.max_compression, &r.max_tension, &r.max_stress, &r.max_von_mises};
+         bool any = false;
+         for (std::size_t f = 0; f < limits.size(); ++f) {
+           const char* key = limits.begin()[f];
+           if (!o.has(key)) continue;
+           *fields[f] = positive(o[key], o.at(key));
+           any = true;
+         }
+         if (!any) bad(o.path(), "give at least one of " + join(std::vector<std::string>(limits.begin(), limits.end())));
+         if ((o.has("max_stress") || o.has("max_von_mises")) &&
+             std::none_of(e.w.model.volume.begin(), e.w.model.volume.end(), [](double v) { return v > 0; }))
+           bad(o.path(), "stress limits need quanta with volumes (lattice, sheet and chain bodies have them; "
+                         "give 'quanta' bodies a 'volume')");
+         if (o.has("probability")) {
+           r.probability = positive(o["probability"], o.at("probability"));
+           if (r.probability > 1) bad(o.at("probability"), "must be <= 1, got " + num_str(r.probability));
+         }
+         r.quanta = e.quanta_mask();
+         e.out.emplace_back(std::move(r));
+       }},
+  };
+  return rows;
+}
+
+std::span<const HeuristicReader> scene_readers(std::type_identity<PlasticRule>) {
+  static const HeuristicReader rows[] = {
+      {"plastic", "plasticity: bilinear elastoplastic bonds with kinematic hardening",
+       {{"type", "string"},
+        {"yield_strain", "number"},
+        {"hardening", "number"},
+        {"max_plastic_strain", "number"},
+        {"select", "@selection"}},
+       [](const HeuristicEntry& e) {
+         const Obj& o = e.o;
+         PlasticRule r;
+         r.yield_strain = positive(o.required("yield_strain"), o.at("yield_strain"));
+         if (o.has("hardening")) {
+           r.hardening = non_negative(o["hardening"], o.at("hardening"));
+           if (r.hardening >= 1) bad(o.at("hardening"), "must be < 1, got " + num_str(r.hardening));
+         }
+         if (o.has("max_plastic_strain"))
+           r.max_plastic_strain = positive(o["max_plastic_strain"], o.at("max_plastic_strain"));
+         r.quanta = e.quanta_mask();
+         e.out.emplace_back(std::move(r));
+       }},
+  };
+  return rows;
+}
+
+}  // namespace qbond::scene_detail

@@ -1,6 +1,6 @@
 #include "qbond/heuristics/heuristics.hpp"
 
-#include "qbond/io/scene.hpp"
+#include "qbond/heuristics/registry.hpp"
 
 namespace qbond {
 
@@ -27,14 +27,7 @@ std::string_view to_string(BondEvent::Reason r) {
 }
 
 std::unique_ptr<Heuristic> make_heuristic(const HeuristicSpec& spec) {
-  struct Make {
-    std::unique_ptr<Heuristic> operator()(const BreakRule& r) const { return make_break_heuristic(r); }
-    std::unique_ptr<Heuristic> operator()(const PlasticRule& r) const { return make_plastic_heuristic(r); }
-    std::unique_ptr<Heuristic> operator()(const Obstacle& o) const { return make_obstacle_heuristic({o}); }
-    std::unique_ptr<Heuristic> operator()(const QuantaContactRule& r) const { return make_quanta_contact_heuristic(r); }
-    std::unique_ptr<Heuristic> operator()(const FormRule& r) const { return make_form_heuristic(r); }
-  };
-  return std::visit(Make{}, spec);
+  return std::visit([](const auto& rule) { return make_heuristic(rule); }, spec);
 }
 
 }  // namespace qbond

@@ -18,9 +18,9 @@ StepIntegrator& stepper(const std::unique_ptr<Integrator>& integrator) {
 // ---- The step: its stages in order (stages.hpp) -------------------------------------------------
 
 StepReport Simulation::step() {
-  // Nothing after the integrator reads dx and dv without heuristics and the ledger: it may then
-  // advance the state in place, in its own passes.
-  const bool in_place = heuristics_.empty() && !ledger_on();
+  // Nothing after the integrator reads dx and dv without heuristics, failing bonds and the
+  // ledger: it may then advance the state in place, in its own passes.
+  const bool in_place = !edits_bonds() && !ledger_on();
   stage::gather_forces(world_.model, stepper(integrator_), in_place, *scratch_);
   stage::integrate(world_.model, world_.state, stepper(integrator_), h_, limits_.max_speed, ledger_on(), in_place,
                    *scratch_);
@@ -39,22 +39,27 @@ StepReport Simulation::end_step() {
   StepScratch& k = *scratch_;
   const int threads = integrator_->config().threads;
   const bool restore = integrator_->config().restore_energy;
+  // The heuristics and the failure of bonds edit the projection or the bonds; the stages around
+  // them depend on whether any runs.
+  const bool fails = k.bonds_can_fail(s);
+  const bool edits = !heuristics_.empty() || fails;
   // Before heuristics and ledger: a rollback undoes both.
-  if (keep_last_good_) stage::save_last_good(s, !heuristics_.empty(), k);
+  if (keep_last_good_) stage::save_last_good(s, edits, k);
   if (restore) stage::open_books(m, s, threads, k);
   k.quanta_after_valid = false;
   // With heuristics, the integrator's own projection is guarded before they edit it (what they
   // add or take is theirs); without, the step as the ledger charged it.
   StepIntegrator& integrator = stepper(integrator_);
-  if (ledger_on() && !heuristics_.empty()) stage::retake_gaining_projection(m, s, integrator, h_, limits_.max_speed, k);
+  if (ledger_on() && edits) stage::retake_gaining_projection(m, s, integrator, h_, limits_.max_speed, k);
   for (bool retaken = false;; retaken = true) {
     k.guard_books = s.energy;
     stage::run_heuristics(m, s, heuristics_, threads, k);
+    if (fails) stage::break_failed_bonds(m, s, threads, k);
     if (StepReport r = stage::check(m, s, limits_.max_speed, threads, k); r.status != StepReport::Status::ok)
       return roll_back(std::move(r), false);
     if (!ledger_on()) break;
     stage::charge_ledger(m, s, k);
-    if (retaken || !heuristics_.empty() || !stage::retake_gaining_step(m, s, integrator, h_, limits_, k)) break;
+    if (retaken || edits || !stage::retake_gaining_step(m, s, integrator, h_, limits_, k)) break;
   }
   stage::apply(s, k);
   if (restore) stage::restore_energy(m, s, threads, k);
@@ -66,6 +71,8 @@ StepReport Simulation::end_step() {
   stage::observe(m, s, observers_, k);
   return {};
 }
+
+bool Simulation::edits_bonds() { return !heuristics_.empty() || scratch_->bonds_can_fail(world_.state); }
 
 StepReport Simulation::roll_back(StepReport r, bool applied) {
   if (!keep_last_good_) return r;

@@ -36,6 +36,12 @@ void open_books(const Model& model, const State& state, int threads, StepScratch
 void run_heuristics(const Model& model, State& state, std::span<const std::unique_ptr<Heuristic>> heuristics,
                     int threads, StepScratch& k);
 
+// A bond whose law breaks it (the cohesive law's failure stretch s_f) and whose projected stretch
+// r - L reached it breaks, whatever the heuristics: reason `failure`, its stored energy (the
+// fracture energy G) charged as dissipated. Runs when an alive bond's law can fail
+// (k.bonds_can_fail). Reads model, state, k.projection, k.ctx. Writes the state's bonds and
+// energy ledger, k.events, k.failed.
+void break_failed_bonds(const Model& model, State& state, int threads, StepScratch& k);
 // The blow-up check: nothing non-finite, no free quanta faster than max_speed.
 // Reads model, state, k.projection, k.ctx. Writes k.next (x + dx, v + dv, the prescribed quanta
 // placed) unless the integrate stage advanced in place. Returns a blow-up report or ok.

@@ -25,7 +25,7 @@ struct StepScratch {
   Projection projection;        // the step's {dx, dv} and carry-over
   Advanced next;                // the state the step applies, x + dx and v + dv, and its check
   PrescribedAt prescribed;      // where the check stage places the prescribed quanta
-  std::vector<BondEvent> events;    // topology changes the heuristics made this step
+  std::vector<BondEvent> events;    // topology changes the heuristics and failures made this step
   std::vector<Vec3> dv_forces;      // the projection's dv before the heuristics [m/s] (n)
   LedgerStage ledger;           // with the substeps of a step taken in substeps
   double bonds_after = 0;       // the bonds' energy after the step, from the ledger [J]
@@ -43,11 +43,25 @@ struct StepScratch {
   State last_good;              // the state before the step, for a rollback (save_last_good)
   bool last_good_has_bonds = false;  // whether last_good holds the bond arrays too
   Adjacency adj;                // of the alive bonds, rebuilt when the topology changes
+  std::vector<std::uint8_t> failed;  // per bond: reached its law's failure stretch (break_failed_bonds)
+  bool can_fail = false;             // an alive bond's law can fail, for the topology of `fail_version`
+  std::uint64_t fail_version = ~std::uint64_t{0};
 
   // The adjacency of the state's alive bonds, rebuilt only when its topology version changed.
   const Adjacency& adjacency(const Model& model, const State& state) {
     if (adj.version != state.topology_version()) build_adjacency(model, state, adj);
     return adj;
+  }
+  // Whether an alive bond follows a law with a failure stretch (then break_failed_bonds runs),
+  // found again only when the topology version changed.
+  bool bonds_can_fail(const State& state) {
+    if (fail_version != state.topology_version()) {
+      const Bonds& b = state.bonds;
+      can_fail = false;
+      for (std::size_t i = 0; i < b.size() && !can_fail; ++i) can_fail = b.alive[i] && law_breaks(b.law[i]);
+      fail_version = state.topology_version();
+    }
+    return can_fail;
   }
   // Drops the forces queued for the next step.
   void clear_forces() {

@@ -15,6 +15,8 @@ namespace qbond {
 /// recorded obstacle gives (m Δv of each contact, in the order of the quanta) is summed into
 /// State::obstacle_impulse.
 std::unique_ptr<Heuristic> make_obstacle_heuristic(std::vector<Obstacle> obstacles);
+/// The contact rule of one obstacle (make_obstacle_heuristic of it alone).
+std::unique_ptr<Heuristic> make_heuristic(const Obstacle& obstacle);
 
 /// Contact between quanta that share no bond: spheres of `radius`, found with a uniform-grid
 /// spatial hash (cost linear in the quanta), including quanta of the same body (self-collision).
@@ -27,6 +29,6 @@ struct QuantaContactRule {
   int iterations = 4;      ///< Gauss–Seidel passes over the contacts (stacks need several)
   bool same_body = true;   ///< whether quanta of one body collide with each other
 };
-std::unique_ptr<Heuristic> make_quanta_contact_heuristic(QuantaContactRule rule);
+std::unique_ptr<Heuristic> make_heuristic(QuantaContactRule rule);
 
 }  // namespace qbond

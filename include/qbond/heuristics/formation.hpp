@@ -33,6 +33,6 @@ struct FormRule {
   std::vector<std::uint8_t> quanta{};
 };
 
-std::unique_ptr<Heuristic> make_form_heuristic(FormRule rule);
+std::unique_ptr<Heuristic> make_heuristic(FormRule rule);
 
 }  // namespace qbond

@@ -16,9 +16,9 @@ namespace qbond {
 /// its von Mises stress), with `probability` per step (the paper's
 /// random breaking under extreme stress; drawn from State::rng in bond order, so the cracks
 /// depend on the seed only). The bond's stored energy at that length is charged as dissipated.
-/// Whatever the thresholds, `probability` and selection, a bond whose law declares a failure
-/// stretch (the cohesive law's s_f) breaks once r − L reaches it (reason `failure`, no draw):
-/// BreakRule{} applies only that.
+/// A bond whose law declares a failure stretch (the cohesive law's s_f) and has reached it is left
+/// to the step, which breaks it after the heuristics whether a break rule is on or not (reason
+/// `failure`, no draw).
 struct BreakRule {
   double max_strain = std::numeric_limits<double>::infinity();
   double max_compression = std::numeric_limits<double>::infinity();
@@ -48,7 +48,7 @@ struct PlasticRule {
 /// Rest length a bond flows to (PlasticRule), or L itself while within the yield surface.
 double plastic_rest_length(const PlasticRule& rule, double r, double L, double L0);
 
-std::unique_ptr<Heuristic> make_break_heuristic(BreakRule rule);
-std::unique_ptr<Heuristic> make_plastic_heuristic(PlasticRule rule);
+std::unique_ptr<Heuristic> make_heuristic(BreakRule rule);
+std::unique_ptr<Heuristic> make_heuristic(PlasticRule rule);
 
 }  // namespace qbond

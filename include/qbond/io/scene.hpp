@@ -12,9 +12,7 @@
 #include <vector>
 
 #include "qbond/integrators/adaptive.hpp"
-#include "qbond/heuristics/contacts.hpp"
-#include "qbond/heuristics/formation.hpp"
-#include "qbond/heuristics/fracture.hpp"
+#include "qbond/heuristics/registry.hpp"
 #include "qbond/integrators/integrators.hpp"
 #include "qbond/simulation/simulation.hpp"
 #include "qbond/model/world.hpp"
@@ -45,11 +43,6 @@ struct OutputSpec {
   std::uint64_t checkpoint_every = 0;  ///< steps between checkpoints (0: end and stops only)
   std::vector<ProbeSpec> probes;
 };
-
-/// One entry of the scene's `heuristics` list.
-using HeuristicSpec = std::variant<BreakRule, PlasticRule, Obstacle, QuantaContactRule, FormRule>;
-/// Creates the heuristic an entry describes.
-std::unique_ptr<Heuristic> make_heuristic(const HeuristicSpec& spec);
 
 /// The scene's `camera`: how `qbond view` looks at it (runs ignore it). Position and target come
 /// together or not at all; without them the viewer frames the scene itself.

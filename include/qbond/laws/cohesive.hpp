@@ -10,9 +10,9 @@ namespace qbond {
 ///   T = k s_p (s_f − s)/(s_f − s_p)  for s_p < s < s_f,
 ///   T = 0                            for s ≥ s_f;
 /// U = k s²/2, then G − k s_p (s_f − s)²/(2 (s_f − s_p)), then G = k s_p s_f / 2 (the energy a bond
-/// takes to break, the area under T). The law declares s_f as its failure stretch: the break
-/// heuristic breaks a bond that reaches it (events.csv reason `failure`) and charges G as
-/// dissipated. Softening is elastic: a bond unloaded before s_f goes back along T(s), not along a
+/// takes to break, the area under T). The law declares s_f as its failure stretch: the step breaks a
+/// bond that reaches it (events.csv reason `failure`), with or without heuristics, and charges G
+/// as dissipated. Softening is elastic: a bond unloaded before s_f goes back along T(s), not along a
 /// damaged secant (no damage history is kept).
 struct CohesiveLaw {
   static constexpr std::string_view name = "cohesive";

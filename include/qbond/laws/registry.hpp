@@ -70,7 +70,7 @@ inline constexpr int kNumLaws = 0
   return {};
 }
 
-/// Stretch r − L at which the law breaks its bond (the break heuristic applies it); +∞ for laws
+/// Stretch r − L at which the law breaks its bond (the step's break_failed_bonds stage applies it); +∞ for laws
 /// that never break by themselves.
 inline double failure_stretch(Law law, double L, const LawArgs& a) {
   switch (law) {

@@ -110,7 +110,7 @@ struct EnergyLedger {
   double work_loads = 0;            ///< work of loads and user forces on free quanta [J]
   double work_anchors = 0;          ///< work done on the structure by prescribed quanta [J]
   double dissipated_damping = 0;    ///< energy removed by bond dampers [J]
-  double dissipated_heuristics = 0; ///< energy removed by heuristics (plastic work, contacts) [J]
+  double dissipated_heuristics = 0; ///< energy removed by heuristics (plastic work, contacts) and fracture [J]
   bool initialised = false;
   /// Energy the contacts inside the step's solve removed (restitution < 1, friction, the penalty
   /// springs' own damping) [J]

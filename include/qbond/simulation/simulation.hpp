@@ -106,13 +106,16 @@ class Simulation {
   void set_track_energy(bool on) { track_energy_ = on; }
   /// Whether each step first copies the state so that an energy runaway, found only after the
   /// step applied, can be undone (costs one copy per step of the state's small fields, and of its
-  /// bond arrays when a heuristic is on: positions and velocities are kept by the step's own
+  /// bond arrays when a heuristic is on or a bond's law can fail: positions and velocities are kept by the step's own
   /// swap; runs that save the last good state on blow-up turn it on).
   void set_keep_last_good(bool on) { keep_last_good_ = on; }
   const Adjacency& adjacency();
 
  private:
   bool ledger_on() const { return track_energy_ || integrator_->config().restore_energy; }
+  /// Whether a stage after the integrator edits the bonds: a heuristic, or the failure of bonds
+  /// whose law breaks them (a cohesive bond at its failure stretch).
+  bool edits_bonds();
   /// The report, with the state before the step put back when set_keep_last_good(true).
   StepReport roll_back(StepReport r, bool applied);
 

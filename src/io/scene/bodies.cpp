@@ -161,19 +161,13 @@ void Builder::body(const json& j, const std::string& path, json& res, World& w) 
   }
   if (j.contains("velocity")) p.velocity = vec3(j["velocity"], at("velocity"));
   if (j.contains("angular_velocity")) p.angular_velocity = vec3(j["angular_velocity"], at("angular_velocity"));
-  // A gas keeps its thermal velocities, and a body read from a file the file's velocities: the
-  // placement's rigid field adds a drift to them.
-  std::vector<Vec3> thermal;
-  if (type == "gas" || type == "csv" || type == "lammps")
-    for (Index i : ids) thermal.push_back(w.state.v[i]);
+  // Velocities a builder gave its quanta (a gas's thermal ones, a quanta body's `velocities`, a
+  // file's) are kept: the placement's rigid field adds a drift to them.
+  std::vector<Vec3> own;
+  if (std::any_of(ids.begin(), ids.end(), [&](Index i) { return !w.state.v[i].isZero(); }))
+    for (Index i : ids) own.push_back(w.state.v[i]);
   place_body(w, ids, p);
-  for (std::size_t k = 0; k < thermal.size(); ++k) w.state.v[ids[k]] += thermal[k];
-  if (type == "quanta" && j.contains("velocities")) {
-    const json& vs = j["velocities"];
-    if (!vs.is_array() || vs.size() != ids.size())
-      bad(at("velocities"), "expected an array of " + std::to_string(ids.size()) + " velocities (one per position)");
-    for (std::size_t k = 0; k < ids.size(); ++k) w.state.v[ids[k]] += vec3(vs[k], item(at("velocities"), k));
-  }
+  for (std::size_t k = 0; k < own.size(); ++k) w.state.v[ids[k]] += own[k];
   res["origin"] = {p.origin.x(), p.origin.y(), p.origin.z()};
   res["velocity"] = {p.velocity.x(), p.velocity.y(), p.velocity.z()};
   res["angular_velocity"] = {p.angular_velocity.x(), p.angular_velocity.y(), p.angular_velocity.z()};
@@ -561,6 +555,13 @@ std::vector<Index> BodyEntry::quanta() const {
   for (std::size_t k = 0; k < pos.size(); ++k)
     ids.push_back(w.add_quanta(vec3(pos[k], item(at("positions"), k)), Vec3::Zero(),
                                per ? positive(j["masses"][k], item(at("masses"), k)) : mass, id, volume));
+  // Each quanta's own velocity, kept when the body is placed (its rigid velocity adds to it).
+  if (j.contains("velocities")) {
+    const json& vs = j["velocities"];
+    if (!vs.is_array() || vs.size() != ids.size())
+      bad(at("velocities"), "expected an array of " + std::to_string(ids.size()) + " velocities (one per position)");
+    for (std::size_t k = 0; k < ids.size(); ++k) w.state.v[ids[k]] = vec3(vs[k], item(at("velocities"), k));
+  }
   return ids;
 }
 

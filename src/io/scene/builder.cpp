@@ -66,21 +66,6 @@ Scene Builder::build() {
   if (top.has("anchors")) anchors(array(top["anchors"], "anchors"), w);
   if (top.has("loads")) loads(array(top["loads"], "loads"), w);
   if (top.has("heuristics")) s.heuristics = heuristics(array(top["heuristics"], "heuristics"), w);
-  // Obstacles the step's solve holds are the model's, not rules that edit the projection.
-  std::erase_if(s.heuristics, [&](const HeuristicSpec& h) {
-    const auto* o = std::get_if<Obstacle>(&h);
-    if (!o || o->method != ContactMethod::implicit) return false;
-    w.model.obstacles.push_back(*o);
-    return true;
-  });
-  // The shapes of the bonds formation may make join the model's table now: a step never writes it.
-  for (const HeuristicSpec& h : s.heuristics)
-    if (const auto* f = std::get_if<FormRule>(&h)) bond_law(w.model, f->bond);
-  // A law that breaks its bonds at a failure stretch (cohesive) does so through the break
-  // heuristic: a scene with such bonds and no break rule gets BreakRule{}, which applies only that.
-  if (can_fail(w, s.heuristics) &&
-      std::none_of(s.heuristics.begin(), s.heuristics.end(), [](const HeuristicSpec& h) { return std::holds_alternative<BreakRule>(h); }))
-    s.heuristics.push_back(BreakRule{});
   w.state.obstacle_impulse.assign(obstacles_, ObstacleImpulse{});
   check_memory("", static_cast<double>(w.num_quanta()), static_cast<double>(w.num_bonds()));
   s.output = output(top.has("output") ? top["output"] : json::object(), s.steps, w);

@@ -24,6 +24,17 @@ struct Material {
 };
 
 struct BodyEntry;  // one `bodies` entry as its type's builder reads it (body_entry.hpp)
+struct HeuristicEntry;  // one `heuristics` entry as its type's reader reads it (heuristic_entry.hpp)
+
+// One scene type of the `heuristics` section: the type, what it does, the keys it accepts (in
+// the order error messages list them) and its reader, which appends the rule(s) an entry makes.
+// Each rule's file lists its types (heuristic_entry.hpp).
+struct HeuristicReader {
+  const char* type;
+  const char* doc;
+  std::vector<SceneKey> keys;
+  void (*read)(const HeuristicEntry& e);
+};
 
 class Builder {
  public:
@@ -36,14 +47,8 @@ class Builder {
 
   Scene build();
 
-  // One row of the heuristic types' table (heuristics.cpp): the type, what it does, the keys it
-  // accepts and its reader, which appends the rule(s) an entry makes.
-  struct HeuristicReader {
-    const char* type;
-    const char* doc;
-    std::vector<SceneKey> keys;
-    void (*read)(Builder& b, const Obj& o, std::string_view type, const World& w, std::vector<HeuristicSpec>& out);
-  };
+  // The heuristic types' table: each registered rule's scene types (QBOND_HEURISTICS), in the
+  // registry's order.
   static std::span<const HeuristicReader> heuristic_readers();
 
   // One row of the body types' table (bodies.cpp): the type, what it makes, the keys it accepts
@@ -70,6 +75,7 @@ class Builder {
 
  private:
   friend struct BodyEntry;
+  friend struct HeuristicEntry;
 
   IntegratorConfig integrator(const json& j);
 
@@ -88,9 +94,6 @@ class Builder {
   // Each material's law and its keys come from the law registry (laws/registry.hpp): the law's
   // strength and shape parameters, with their defaults and checks.
   void materials(const json& j, json& res);
-
-  // Whether a bond of the world, or one a formation rule makes, follows a law with a failure stretch.
-  static bool can_fail(const World& w, const std::vector<HeuristicSpec>& heuristics);
 
   // A material for a single bond: it must say its stiffness (a modulus needs a lattice).
   BondSpec bond_material(const json& j, const std::string& path);
@@ -143,21 +146,9 @@ class Builder {
 
   void loads(const json& j, World& w);
 
-  // heuristics.cpp: the `heuristics` section: fracture, plasticity, obstacles, contact, formation
-  // Per bond: 1 when both ends are in the entry's `select` (every bond without one).
-  // A rule's `select`: per quanta, 1 when selected (empty: all).
-  std::vector<std::uint8_t> quanta_mask(const Obj& o, const World& w);
-
-  ContactMaterial contact_material(const Obj& o);
-
-  std::vector<HeuristicSpec> heuristics(const json& j, const World& w);
-
-  // The `ground`, `plane`, `sphere` and `box` rows' reader.
-  static void obstacle(Builder& b, const Obj& o, std::string_view type, const World& w, std::vector<HeuristicSpec>& out);
-
-  // Quanta that share no bond but start closer than two contact radii would be pushed apart on
-  // the first step: a radius too large for the lattice.
-  void check_contact_radius(const QuantaContactRule& r, const Obj& o, const World& w);
+  // heuristics.cpp: the `heuristics` section, each entry read by its type's reader (the rule's
+  // own file, src/heuristics/); obstacles solved inside the step join the model instead.
+  std::vector<HeuristicSpec> heuristics(const json& j, World& w);
 
   // output.cpp: the `output` section
   OutputSpec output(const json& j, std::uint64_t steps, const World& w);

@@ -70,15 +70,6 @@ void Builder::materials(const json& j, json& res) {
   }
 }
 
-bool Builder::can_fail(const World& w, const std::vector<HeuristicSpec>& heuristics) {
-  for (std::size_t b = 0; b < w.num_bonds(); ++b)
-    if (std::isfinite(w.state.bonds.failure_stretch_at(w.model.shapes, b, w.state.bonds.rest[b]))) return true;
-  for (const HeuristicSpec& h : heuristics)
-    if (const auto* f = std::get_if<FormRule>(&h))
-      if (std::isfinite(failure_stretch(f->bond.law, 1.0, {f->bond.stiffness, 1.0, f->bond.shape}))) return true;
-  return false;
-}
-
 BondSpec Builder::bond_material(const json& j, const std::string& path) {
   const Material& m = material(j, path);
   if (m.youngs_modulus > 0)

@@ -109,7 +109,7 @@ std::vector<SceneObject> make_table() {
   // Body and heuristic types: their tables' rows (bodies.cpp, heuristics.cpp).
   for (const Builder::BodyReader& r : Builder::body_readers())
     t.push_back({"body." + std::string(r.type), r.doc, r.keys});
-  for (const Builder::HeuristicReader& r : Builder::heuristic_readers())
+  for (const HeuristicReader& r : Builder::heuristic_readers())
     t.push_back({"heuristic." + std::string(r.type), r.doc, r.keys});
   // The integrator's keys are its table's options (integrators.hpp).
   SceneObject integrator{

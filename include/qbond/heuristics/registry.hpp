@@ -1,0 +1,50 @@
+#pragma once
+/// The registry of heuristics: every rule is declared once, in its own header (fracture.hpp,
+/// contacts.hpp, …) with its factory `make_heuristic(Rule)`, and listed once in QBOND_HEURISTICS
+/// below. HeuristicSpec (a scene's `heuristics` entries), make_heuristic(const HeuristicSpec&),
+/// the scene reader's heuristic types, their keys in the JSON Schema, heuristic_types() and the
+/// docs test all derive from this list.
+///
+/// Adding a heuristic touches only: its files (the rule and its factory in a header here; its
+/// step, its factory and its scene types — `scene_readers(std::type_identity<Rule>)`, see
+/// src/io/scene/heuristic_entry.hpp — in src/heuristics/), its tests, and one line of
+/// QBOND_HEURISTICS (beside its #include). Its row in docs/scene-format.md's `heuristics` key
+/// table follows (tests/scene_test.cpp fails until it exists).
+#include <memory>
+#include <variant>
+
+#include "qbond/heuristics/contacts.hpp"
+#include "qbond/heuristics/formation.hpp"
+#include "qbond/heuristics/fracture.hpp"
+#include "qbond/model/obstacle.hpp"
+
+namespace qbond {
+
+/// X(rule type), in the order the scene reader lists the types each rule reads.
+#define QBOND_HEURISTICS(X) \
+  X(BreakRule)              \
+  X(PlasticRule)            \
+  X(Obstacle)               \
+  X(QuantaContactRule)      \
+  X(FormRule)
+
+namespace heuristics_detail {
+struct First {};  // leads the list below so that every rule can follow a comma
+template <class V>
+struct DropFirst;
+template <class F, class... R>
+struct DropFirst<std::variant<F, R...>> {
+  using type = std::variant<R...>;
+};
+}  // namespace heuristics_detail
+
+/// One rule of a scene's `heuristics` list: one of the registered rule types.
+#define QBOND_HEURISTIC_ALTERNATIVE(Rule) , Rule
+using HeuristicSpec = heuristics_detail::DropFirst<
+    std::variant<heuristics_detail::First QBOND_HEURISTICS(QBOND_HEURISTIC_ALTERNATIVE)>>::type;
+#undef QBOND_HEURISTIC_ALTERNATIVE
+
+/// Creates the heuristic a rule describes (the rule's own make_heuristic).
+std::unique_ptr<Heuristic> make_heuristic(const HeuristicSpec& spec);
+
+}  // namespace qbond
