@@ -21,10 +21,10 @@ import re
 import sys
 
 # Files that use a registered rule for their own purpose: the `liquid` scene type makes a break
-# rule beside its form rule; the gas builder's doc names the contact its quanta need; the viewer
-# draws quanta at the contact radius.
+# rule beside its form rule, and the Python module offers it as a method; the gas builder's doc
+# names the contact its quanta need; the viewer draws quanta at the contact radius.
 CONSUMERS = {
-    "BreakRule": {"src/heuristics/formation.cpp"},
+    "BreakRule": {"src/heuristics/formation.cpp", "python/simulation.cpp"},
     "QuantaContactRule": {"include/qbond/builders/gas.hpp", "apps/viewer/viewer_draw.cpp"},
 }
 # Files that use a law for their own purpose: the linear law is the default bond's and has the

@@ -1,4 +1,5 @@
 """Steps release the GIL: a Python thread makes progress while qbond steps."""
+import sys
 import threading
 import time
 
@@ -19,13 +20,21 @@ def test_a_python_thread_progresses_during_a_long_step():
 
     worker = threading.Thread(target=count)
     worker.start()
-    time.sleep(0.05)
-    # One call that lasts a good fraction of a second; with the GIL held the counter could not
-    # advance at all until it returned.
-    start_ticks, start = ticks, time.perf_counter()
-    sim.step(40)
-    during, seconds = ticks - start_ticks, time.perf_counter() - start
+    # The counter's rate while the main thread sleeps (GIL free), under the same load as below.
+    t0, k0 = time.perf_counter(), ticks
+    time.sleep(0.1)
+    rate = (ticks - k0) / (time.perf_counter() - t0)
+    # One call of at least 0.25 s: with the GIL held the counter could advance only until the
+    # call took the GIL, at most one switch interval (sys.getswitchinterval(), 5 ms) of counting.
+    steps, seconds = 4, 0.0
+    while seconds < 0.25:  # until one call lasts long enough to tell (steps get cheaper once warm)
+        steps *= 2
+        start_ticks, start = ticks, time.perf_counter()
+        sim.step(steps)
+        during, seconds = ticks - start_ticks, time.perf_counter() - start
     stop.set()
     worker.join()
-    assert seconds > 0.05, "the step call was too short to tell"
-    assert during > 1000, f"only {during} ticks in {seconds:.3f} s of stepping"
+    held = rate * sys.getswitchinterval()  # what a GIL-holding call would leave the counter
+    assert rate > 0, "the counter did not run while the main thread slept"
+    assert during > max(10 * held, 0.1 * rate * seconds), (
+        f"{during} ticks in {seconds:.3f} s of stepping; {rate:.0f} ticks/s while sleeping")
