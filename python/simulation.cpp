@@ -46,19 +46,16 @@ struct PySimulation {
 IntegratorConfig configure(IntegratorConfig c, const py::kwargs& options) {
   for (const auto& [key_handle, value] : options) {
     const std::string key = key_handle.cast<std::string>();
-    if (key == "neighbours") c.neighbours = parse_neighbour_model(value.cast<std::string>());
-    else if (key == "solver") c.solver = parse_coupled_solver(value.cast<std::string>());
-    else if (key == "warm_start") c.warm_start = parse_warm_start(value.cast<std::string>());
-    else if (key == "iterations") c.iterations = value.cast<int>();
-    else if (key == "max_iterations") c.max_iterations = value.cast<int>();
-    else if (key == "newton_iterations") c.newton_iterations = value.cast<int>();
-    else if (key == "threads") c.threads = value.cast<int>();
-    else if (key == "tolerance") c.tolerance = value.cast<double>();
-    else if (key == "chebyshev_rho") c.chebyshev_rho = value.cast<double>();
-    else if (key == "newton_polish") c.newton_polish = value.cast<bool>();
-    else if (key == "restore_momentum") c.restore_momentum = value.cast<bool>();
-    else if (key == "restore_energy") c.restore_energy = value.cast<bool>();
-    else {
+    const auto options = integrator_options();
+    const auto opt = std::find_if(options.begin(), options.end(), [&](const IntegratorOptionInfo& o) { return o.key == key; });
+    if (opt != options.end()) {
+      switch (opt->holds) {
+        case IntegratorOptionInfo::Holds::integer: c.*opt->integer = value.cast<int>(); break;
+        case IntegratorOptionInfo::Holds::number: c.*opt->number = value.cast<double>(); break;
+        case IntegratorOptionInfo::Holds::boolean: c.*opt->boolean = value.cast<bool>(); break;
+        case IntegratorOptionInfo::Holds::name: opt->set_name(c, value.cast<std::string>()); break;
+      }
+    } else {
       std::string names;
       for (const IntegratorOptionInfo& o : integrator_options()) names += (names.empty() ? "" : ", ") + std::string(o.key);
       throw py::value_error("unknown integrator option '" + key + "' (options: " + names + ")");
@@ -71,18 +68,15 @@ IntegratorConfig configure(IntegratorConfig c, const py::kwargs& options) {
 py::dict config_dict(const IntegratorConfig& c) {
   py::dict d;
   d["type"] = std::string(to_string(c.type));
-  d["neighbours"] = std::string(to_string(c.neighbours));
-  d["solver"] = std::string(to_string(c.solver));
-  d["warm_start"] = std::string(to_string(c.warm_start));
-  d["iterations"] = c.iterations;
-  d["max_iterations"] = c.max_iterations;
-  d["newton_iterations"] = c.newton_iterations;
-  d["threads"] = c.threads;
-  d["tolerance"] = c.tolerance;
-  d["chebyshev_rho"] = c.chebyshev_rho;
-  d["newton_polish"] = c.newton_polish;
-  d["restore_momentum"] = c.restore_momentum;
-  d["restore_energy"] = c.restore_energy;
+  for (const IntegratorOptionInfo& opt : integrator_options()) {
+    const std::string key(opt.key);
+    switch (opt.holds) {
+      case IntegratorOptionInfo::Holds::integer: d[key.c_str()] = c.*opt.integer; break;
+      case IntegratorOptionInfo::Holds::number: d[key.c_str()] = c.*opt.number; break;
+      case IntegratorOptionInfo::Holds::boolean: d[key.c_str()] = c.*opt.boolean; break;
+      case IntegratorOptionInfo::Holds::name: d[key.c_str()] = std::string(opt.name_of(c)); break;
+    }
+  }
   return d;
 }
 

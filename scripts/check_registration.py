@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Checks that a heuristic and a law are each declared in their own files and registered by one
-line, so that adding one touches only its files, its tests and that line.
+line, so that adding one touches only its files, its tests and that line; and that integrator
+options are read and written through their table's rows alone.
 
 For each rule of QBOND_HEURISTICS (include/qbond/heuristics/registry.hpp): its factory
 make_heuristic(Rule) is declared in a header of include/qbond/heuristics/, and its factory and
@@ -34,6 +35,14 @@ LAW_CONSUMERS = {
                   "src/integrators/affine_run_terms.hpp", "src/integrators/hybrid_frozen_kernel.cpp",
                   "src/ledger/energy_sums.cpp"},
     "InverseLaw": {"src/io/checkpoint.cpp"},
+}
+# Files that name an integrator option for another purpose: the scene reader checks the values of
+# `solver` and `warm_start` an integrator takes; the diagnostics write the solver's own iteration
+# count.
+OPTION_CONSUMERS = {
+    "solver": {"src/io/scene/builder.cpp"},
+    "warm_start": {"src/io/scene/builder.cpp"},
+    "iterations": {"src/io/diagnostics.cpp"},
 }
 SCANNED = ("src", "include", "apps", "python", "fuzz")
 
@@ -100,6 +109,19 @@ def main():
             failures.append(f"law {law_type}: declared in {sorted(header)}, also named in {sorted(extra)}")
         own = header | {law_registry}
         print(f"law {law_type}: {len(own)} files {sorted(own)}" + (f"; consumers {sorted(others)}" if others else ""))
+
+    # Integrator options: the scene reader, the resolved scene, the JSON Schema and the Python
+    # module go through each option's row of integrator_options() (src/integrators/integrators.cpp).
+    table = files["src/integrators/integrators.cpp"]
+    options = re.findall(r'\.key = "([a-z_]+)"', table[table.index("kOptions[]"):])
+    generic = [f for f in files if f.startswith("src/io/") or (f.startswith("python/") and f.endswith(".cpp"))]
+    for key in options:
+        pattern = re.compile(r'"' + key + r'"|\.' + key + r"\b")
+        naming = {f for f in generic if pattern.search(files[f])} - OPTION_CONSUMERS.get(key, set())
+        if naming:
+            failures.append(f"integrator option {key}: also read or written in {sorted(naming)}")
+    print(f"integrator options: {len(options)} rows, none named by the scene reader, the resolved scene, "
+          "the JSON Schema or the Python module")
 
     for f in failures:
         print("FAIL:", f)

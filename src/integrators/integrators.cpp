@@ -25,10 +25,13 @@ int max_threads() {
   return static_cast<int>(std::max(64u, 4 * std::min(hardware, 1u << 20)));
 }
 
+namespace {
+std::string thread_bound();
+}  // namespace
+
 int checked_thread_count(int threads) {
   const int limit = max_threads();
-  const std::string bound = std::to_string(limit) + " (4 x this machine's " +
-                            std::to_string(std::thread::hardware_concurrency()) + " hardware threads, at least 64)";
+  const std::string bound = thread_bound();
   if (threads < 0) throw std::invalid_argument("threads: must be >= 0, got " + std::to_string(threads));
   if (threads > limit)
     throw std::invalid_argument("threads: must be <= " + bound + ", got " + std::to_string(threads));
@@ -52,20 +55,64 @@ constexpr std::uint16_t bits(std::initializer_list<IntegratorOption> options) {
   return b;
 }
 
-constexpr IntegratorOptionInfo kOptions[] = {
-    {O::neighbours, "neighbours", "how the hybrid solve treats a quanta's neighbours"},
-    {O::solver, "solver", "the linear solver"},
-    {O::iterations, "iterations", "sweeps per step (hybrid) or per Newton iteration (solver sweep), >= 1"},
-    {O::max_iterations, "max_iterations", "CG's iteration cap (0: three times the free unknowns)"},
-    {O::tolerance, "tolerance", "relative residual at which sweeps, CG and Newton stop"},
-    {O::chebyshev_rho, "chebyshev_rho", "sweeps: spectral radius for Chebyshev acceleration, [0, 1) (0: off)"},
-    {O::warm_start, "warm_start", "the iterative solvers' initial guess"},
-    {O::restore_momentum, "restore_momentum", "give each free component its exact momentum change"},
-    {O::newton_iterations, "newton_iterations", "Newton iterations per step at most, >= 1"},
-    {O::newton_polish, "newton_polish", "exact-Newton corrections to round-off once the tolerance is met"},
-    {O::threads, "threads", "OpenMP threads (0: all cores); the same bits for any count"},
-    {O::restore_energy, "restore_energy", "give back the energy the integrator removed (or take back what it made)"},
-    {O::preconditioner, "preconditioner", "CG's preconditioner"},
+template <class List>
+std::vector<std::string_view> keys_of(const List& list) {
+  std::vector<std::string_view> keys;
+  for (const auto& v : list) keys.push_back(v.key);
+  return keys;
+}
+
+std::string thread_bound() {
+  return std::to_string(max_threads()) + " (4 x this machine's " + std::to_string(std::thread::hardware_concurrency()) +
+         " hardware threads, at least 64)";
+}
+
+using H = IntegratorOptionInfo::Holds;
+using C = IntegratorConfig;
+// Every option, one row each: its key, one line, and its field with the values it takes.
+const IntegratorOptionInfo kOptions[] = {
+    {.option = O::neighbours, .key = "neighbours", .description = "how the hybrid solve treats a quanta's neighbours",
+     .holds = H::name,
+     .name_of = [](const C& c) { return to_string(c.neighbours); },
+     .set_name = [](C& c, std::string_view s) { c.neighbours = parse_neighbour_model(s); },
+     .names = [] { return keys_of(neighbour_models()); }},
+    {.option = O::solver, .key = "solver", .description = "the linear solver", .holds = H::name,
+     .name_of = [](const C& c) { return to_string(c.solver); },
+     .set_name = [](C& c, std::string_view s) { c.solver = parse_coupled_solver(s); },
+     .names = [] { return keys_of(coupled_solvers()); }},
+    {.option = O::iterations, .key = "iterations",
+     .description = "sweeps per step (hybrid) or per Newton iteration (solver sweep), >= 1", .holds = H::integer,
+     .integer = &C::iterations, .least = 1},
+    {.option = O::max_iterations, .key = "max_iterations",
+     .description = "CG's iteration cap (0: three times the free unknowns)", .holds = H::integer,
+     .integer = &C::max_iterations},
+    {.option = O::tolerance, .key = "tolerance", .description = "relative residual at which sweeps, CG and Newton stop",
+     .holds = H::number, .number = &C::tolerance, .positive = true},
+    {.option = O::chebyshev_rho, .key = "chebyshev_rho",
+     .description = "sweeps: spectral radius for Chebyshev acceleration, [0, 1) (0: off)", .holds = H::number,
+     .number = &C::chebyshev_rho, .below = 1},
+    {.option = O::warm_start, .key = "warm_start", .description = "the iterative solvers' initial guess",
+     .holds = H::name,
+     .name_of = [](const C& c) { return to_string(c.warm_start); },
+     .set_name = [](C& c, std::string_view s) { c.warm_start = parse_warm_start(s); },
+     .names = [] { return keys_of(warm_starts()); }},
+    {.option = O::restore_momentum, .key = "restore_momentum",
+     .description = "give each free component its exact momentum change", .holds = H::boolean,
+     .boolean = &C::restore_momentum},
+    {.option = O::newton_iterations, .key = "newton_iterations", .description = "Newton iterations per step at most, >= 1",
+     .holds = H::integer, .integer = &C::newton_iterations, .least = 1},
+    {.option = O::newton_polish, .key = "newton_polish",
+     .description = "exact-Newton corrections to round-off once the tolerance is met", .holds = H::boolean,
+     .boolean = &C::newton_polish},
+    {.option = O::threads, .key = "threads", .description = "OpenMP threads (0: all cores); the same bits for any count",
+     .holds = H::integer, .integer = &C::threads, .most = max_threads, .most_text = thread_bound},
+    {.option = O::restore_energy, .key = "restore_energy",
+     .description = "give back the energy the integrator removed (or take back what it made)", .holds = H::boolean,
+     .boolean = &C::restore_energy},
+    {.option = O::preconditioner, .key = "preconditioner", .description = "CG's preconditioner", .holds = H::name,
+     .name_of = [](const C& c) { return to_string(c.preconditioner); },
+     .set_name = [](C& c, std::string_view s) { c.preconditioner = parse_preconditioner(s); },
+     .names = [] { return keys_of(preconditioners()); }},
 };
 
 constexpr NamedValue<NeighbourModel> kNeighbourModels[] = {

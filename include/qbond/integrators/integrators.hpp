@@ -2,6 +2,8 @@
 /// Integrators (docs/integrators.md). Every integrator, explicit or implicit, only *projects* a step: it
 /// returns the change of position and velocity of every quanta without moving anything, so that
 /// heuristics can edit the projection before the step applies it (simulation.hpp).
+#include <cstdint>
+#include <limits>
 #include <memory>
 #include <span>
 #include <string>
@@ -239,11 +241,30 @@ enum class IntegratorOption : std::uint16_t {
   preconditioner = 1 << 12,
 };
 
-/// An option's scene-file key and what it sets, one line.
+/// An option: its scene-file key, what it sets (one line), and the field of IntegratorConfig
+/// that holds it with the values it takes. The scene reader, the resolved scene, the JSON Schema
+/// and the Python module read and write every option through its row alone.
 struct IntegratorOptionInfo {
+  /// What the field holds: a count, a number, a flag, or one of a list of names.
+  enum class Holds : std::uint8_t { integer, number, boolean, name };
   IntegratorOption option;
   std::string_view key;
   std::string_view description;
+  Holds holds;
+  int IntegratorConfig::*integer = nullptr;    ///< integer: the field, at least `least`
+  double IntegratorConfig::*number = nullptr;  ///< number: the field, > 0 when `positive`, else ≥ 0
+  bool IntegratorConfig::*boolean = nullptr;   ///< boolean: the field
+  /// name: the field's scene-file name, setting it from one (throws std::invalid_argument listing
+  /// the names), and the names it takes.
+  std::string_view (*name_of)(const IntegratorConfig&) = nullptr;
+  void (*set_name)(IntegratorConfig&, std::string_view) = nullptr;
+  std::vector<std::string_view> (*names)() = nullptr;
+  std::int64_t least = 0;
+  /// integer: the largest count, and how to say it (empty: no bound).
+  int (*most)() = nullptr;
+  std::string (*most_text)() = nullptr;
+  bool positive = false;
+  double below = std::numeric_limits<double>::infinity();  ///< number: values must be below it
 };
 
 class StepIntegrator;  // the integrators with their private paths (src/integrators/advance.hpp)

@@ -78,13 +78,16 @@ Scene Builder::build() {
   res.erase("duration");
   res["gravity"] = {w.model.gravity.x(), w.model.gravity.y(), w.model.gravity.z()};
   const IntegratorConfig& c = s.integrator;
-  res["integrator"] = {{"type", to_string(c.type)},          {"neighbours", to_string(c.neighbours)},
-                       {"solver", to_string(c.solver)},      {"iterations", c.iterations},
-                       {"max_iterations", c.max_iterations}, {"tolerance", c.tolerance},
-                       {"chebyshev_rho", c.chebyshev_rho},   {"warm_start", to_string(c.warm_start)},
-                       {"restore_momentum", c.restore_momentum}, {"threads", c.threads},
-                       {"newton_iterations", c.newton_iterations}, {"newton_polish", c.newton_polish},
-                       {"restore_energy", c.restore_energy}, {"preconditioner", to_string(c.preconditioner)}};
+  json& ri = res["integrator"] = {{"type", to_string(c.type)}};
+  for (const IntegratorOptionInfo& opt : integrator_options()) {
+    json& v = ri[std::string(opt.key)];
+    switch (opt.holds) {
+      case IntegratorOptionInfo::Holds::integer: v = c.*opt.integer; break;
+      case IntegratorOptionInfo::Holds::number: v = c.*opt.number; break;
+      case IntegratorOptionInfo::Holds::boolean: v = c.*opt.boolean; break;
+      case IntegratorOptionInfo::Holds::name: v = opt.name_of(c); break;
+    }
+  }
   res["limits"] = {{"max_speed", s.limits.max_speed},
                    {"energy_growth", s.limits.energy_growth},
                    {"energy_gain", s.limits.energy_gain},
@@ -135,31 +138,48 @@ IntegratorConfig Builder::integrator(const json& j) {
     }
   };
   parse("type", parse_integrator_type, c.type);
-  parse("neighbours", parse_neighbour_model, c.neighbours);
-  parse("solver", parse_coupled_solver, c.solver);
-  parse("warm_start", parse_warm_start, c.warm_start);
-  parse("preconditioner", parse_preconditioner, c.preconditioner);
-  if (o.has("iterations")) c.iterations = static_cast<int>(integer(o["iterations"], o.at("iterations"), 1));
-  if (o.has("max_iterations"))
-    c.max_iterations = static_cast<int>(integer(o["max_iterations"], o.at("max_iterations"), 0));
-  if (o.has("tolerance")) c.tolerance = positive(o["tolerance"], o.at("tolerance"));
-  if (o.has("chebyshev_rho")) {
-    c.chebyshev_rho = non_negative(o["chebyshev_rho"], o.at("chebyshev_rho"));
-    if (c.chebyshev_rho >= 1) bad(o.at("chebyshev_rho"), "must be < 1, got " + num_str(c.chebyshev_rho));
+  for (const IntegratorOptionInfo& opt : integrator_options()) {
+    const std::string key(opt.key);
+    if (!o.has(key.c_str())) continue;
+    const json& v = o[key.c_str()];
+    const std::string at = o.at(key);
+    switch (opt.holds) {
+      case IntegratorOptionInfo::Holds::integer: {
+        const std::uint64_t n = integer(v, at, opt.least);
+        const std::uint64_t most = opt.most ? static_cast<std::uint64_t>(opt.most())
+                                            : static_cast<std::uint64_t>(std::numeric_limits<int>::max());
+        if (n > most) {
+          std::string rule = "must be <= ";
+          rule += opt.most_text ? opt.most_text() : std::to_string(most);
+          rule += ", got ";
+          rule += std::to_string(n);
+          bad(at, rule);
+        }
+        c.*opt.integer = static_cast<int>(n);
+        break;
+      }
+      case IntegratorOptionInfo::Holds::number: {
+        const double x = opt.positive ? positive(v, at) : non_negative(v, at);
+        if (!(x < opt.below)) {
+          std::string rule = "must be < ";
+          rule += num_str(opt.below);
+          rule += ", got ";
+          rule += num_str(x);
+          bad(at, rule);
+        }
+        c.*opt.number = x;
+        break;
+      }
+      case IntegratorOptionInfo::Holds::boolean: c.*opt.boolean = boolean(v, at); break;
+      case IntegratorOptionInfo::Holds::name:
+        try {
+          opt.set_name(c, string(v, at));
+        } catch (const std::invalid_argument& e) {
+          bad(at, e.what());
+        }
+        break;
+    }
   }
-  if (o.has("newton_iterations"))
-    c.newton_iterations = static_cast<int>(integer(o["newton_iterations"], o.at("newton_iterations"), 1));
-  if (o.has("newton_polish")) c.newton_polish = boolean(o["newton_polish"], o.at("newton_polish"));
-  if (o.has("threads")) {
-    const std::uint64_t t = integer(o["threads"], o.at("threads"), 0);
-    if (t > static_cast<std::uint64_t>(max_threads()))
-      bad(o.at("threads"), "must be <= " + std::to_string(max_threads()) + " (4 x this machine's " +
-                               std::to_string(std::thread::hardware_concurrency()) +
-                               " hardware threads, at least 64), got " + std::to_string(t));
-    c.threads = static_cast<int>(t);
-  }
-  if (o.has("restore_momentum")) c.restore_momentum = boolean(o["restore_momentum"], o.at("restore_momentum"));
-  if (o.has("restore_energy")) c.restore_energy = boolean(o["restore_energy"], o.at("restore_energy"));
   const IntegratorInfo& info = integrator_info(c.type);
   auto takes = [&](const char* key, IntegratorOption option, auto list, auto value) {
     if (!o.has(key) || !info.reads(option) || std::find(list.begin(), list.end(), value) != list.end()) return;

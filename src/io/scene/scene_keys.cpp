@@ -3,6 +3,7 @@
 #include "io/scene/builder.hpp"
 
 #include <algorithm>
+#include <ranges>
 #include <stdexcept>
 
 #include "qbond/integrators/integrators.hpp"
@@ -10,10 +11,14 @@
 namespace qbond::scene_detail {
 namespace {
 
-template <class List>
-std::string names_of(const List& list) {
+// "enum:a|b|c": what a key holds that takes one of these names.
+template <class Names>
+std::string enum_of(const Names& names) {
   std::string s = "enum:";
-  for (const auto& v : list) s += (s.size() > 5 ? "|" : "") + std::string(v.key);
+  for (std::string_view n : names) {
+    if (s.size() > 5) s += '|';
+    s += n;
+  }
   return s;
 }
 
@@ -113,23 +118,14 @@ std::vector<SceneObject> make_table() {
     t.push_back({"heuristic." + std::string(r.type), r.doc, r.keys});
   // The integrator's keys are its table's options (integrators.hpp).
   SceneObject integrator{
-      "integrator", "the step integrator and its options", {{"type", names_of(integrator_table())}}};
+      "integrator", "the step integrator and its options", {{"type", enum_of(integrator_table() | std::views::transform(&IntegratorInfo::key))}}};
   for (const IntegratorOptionInfo& opt : integrator_options()) {
     std::string holds;
-    switch (opt.option) {
-      case IntegratorOption::neighbours: holds = names_of(neighbour_models()); break;
-      case IntegratorOption::solver: holds = names_of(coupled_solvers()); break;
-      case IntegratorOption::warm_start: holds = names_of(warm_starts()); break;
-      case IntegratorOption::preconditioner: holds = names_of(preconditioners()); break;
-      case IntegratorOption::iterations:
-      case IntegratorOption::max_iterations:
-      case IntegratorOption::newton_iterations:
-      case IntegratorOption::threads: holds = "integer"; break;
-      case IntegratorOption::tolerance:
-      case IntegratorOption::chebyshev_rho: holds = "number"; break;
-      case IntegratorOption::restore_momentum:
-      case IntegratorOption::newton_polish:
-      case IntegratorOption::restore_energy: holds = "boolean"; break;
+    switch (opt.holds) {
+      case IntegratorOptionInfo::Holds::integer: holds = "integer"; break;
+      case IntegratorOptionInfo::Holds::number: holds = "number"; break;
+      case IntegratorOptionInfo::Holds::boolean: holds = "boolean"; break;
+      case IntegratorOptionInfo::Holds::name: holds = enum_of(opt.names()); break;
     }
     integrator.keys.push_back({std::string(opt.key), holds});
   }
