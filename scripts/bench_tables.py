@@ -6,7 +6,7 @@ Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
 docs/performance.md, docs/integrators.md or docs/running.md; the opening marker may carry
 `machine="..."`, which the provenance line quotes. KIND is one of step, asrun, solve, multigrid,
-peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, ab, targets;
+peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, soak, killresume, ab, targets;
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -24,7 +24,7 @@ NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z
 
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "multigrid", "peers": "peers",
           "peers_rounds": "peers", "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory",
-          "fuzz": "fuzz", "ab": "ab"}
+          "fuzz": "fuzz", "soak": "soak", "killresume": "killresume", "ab": "ab"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
 PARALLEL_MIN = 4096
@@ -238,10 +238,11 @@ def memory_table(name, data, machine):
 
 def runmemory_table(name, data, machine):
     lines = [provenance(name, data, machine, data["command"]), "",
-             "| n | neighbours | integrator | quanta | bonds | peak resident [GB] | estimate |",
-             "|---|---|---|---|---|---|---|"]
+             "| n | neighbours | integrator | heuristics | quanta | bonds | peak resident [GB] | estimate |",
+             "|---|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
-        lines.append(f"| {r['n']} | {r['neighbors']} | {r['integrator']} | {r['quanta']} | {r['bonds']} | "
+        lines.append(f"| {r['n']} | {r['neighbors']} | {r['integrator']} | {r.get('heuristics', 'none')} | "
+                     f"{r['quanta']} | {r['bonds']} | "
                      f"{r['max_rss_kib'] * 1024 / 1e9:.3g} | {r['estimate']} |")
     return lines
 
@@ -251,6 +252,36 @@ def fuzz_table(name, data, machine):
              "| target | inputs run | seconds | peak resident [MB] | result |", "|---|---|---|---|---|"]
     for r in data["rows"]:
         lines.append(f"| {r['target']} | {r['runs']} | {r['seconds'] if r['seconds'] is not None else '–'} | {r['peak_rss_mb']} | {r['result']} |")
+    return lines
+
+
+def killresume_table(name, data, machine):
+    """scripts/soak's kill/resume loop: a run killed and resumed against the uninterrupted run."""
+    k = data["kill_resume"]
+    same = ", ".join(f"{what} ({size})" for what, size in k.get("identical", {}).items())
+    return [provenance(name, data, machine, data["command"]), "",
+            "| steps | uninterrupted [s] | SIGKILLs | resumes | byte for byte against the uninterrupted run | result |",
+            "|---|---|---|---|---|---|",
+            f"| {k['steps']} | {k.get('uninterrupted_seconds', '–')} | {k.get('killed', 0)} (seed {k['seed']}) | "
+            f"{k.get('resumed', 0)} | {same or '–'} | {'; '.join(k['failures']) or 'identical'} |"]
+
+
+def soak_table(name, data, machine):
+    """scripts/soak's long run: steps, speed, bond events and the resident memory's trend."""
+    s = data["soak"]
+    mib = lambda kib: f"{kib / 1024:.1f}"
+    lines = [provenance(name, data, machine, data["command"]), "",
+             "| steps (asked) | status | wall [s] | steps/s | bonds broken or formed | memory samples | "
+             "resident, second half's mean / peak [MiB] | growth over the second half [KiB] | bound [KiB] | result |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    if "rss_peak_kib" in s:
+        memory = (f"{mib(s['rss_second_half_mean_kib'])} / {mib(s['rss_peak_kib'])} | {s['rss_second_half_growth_kib']} | "
+                  f"{s['rss_flat_bound_kib']}")
+    else:
+        memory = "– | – | –"
+    lines.append(f"| {s['steps']} ({s['steps_asked']}) | {s['status']} | {s['seconds']} | {s['steps_per_second']} | "
+                 f"{s['bond_events']} | {s['samples']} | {memory} | "
+                 f"{'; '.join(s['failures']) or 'no sanitizer report, memory flat'} |")
     return lines
 
 
@@ -330,6 +361,8 @@ def render(kind, machine, bench_dir):
             "memory": lambda: memory_table(name, data, machine),
             "runmemory": lambda: runmemory_table(name, data, machine),
             "fuzz": lambda: fuzz_table(name, data, machine),
+            "soak": lambda: soak_table(name, data, machine),
+            "killresume": lambda: killresume_table(name, data, machine),
             "ab": lambda: ab_table(name, data, machine)}[kind]()
 
 
