@@ -6,8 +6,8 @@ Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
 docs/performance.md, docs/integrators.md or docs/running.md; the opening marker may carry
 `machine="..."`, which the provenance line quotes. KIND is one of step, asrun, solve, multigrid,
-peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, ab, realtime, damping, targets,
-python (docs/api.md: bench/python_overhead.py's);
+peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, soak, killresume, ab, realtime,
+damping, targets, python (docs/api.md: bench/python_overhead.py's);
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -25,7 +25,8 @@ NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z
 
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "multigrid", "peers": "peers",
           "peers_rounds": "peers", "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory",
-          "fuzz": "fuzz", "ab": "ab", "realtime": "realtime", "damping": "damping", "python": "python"}
+          "fuzz": "fuzz", "soak": "soak", "killresume": "killresume", "ab": "ab", "realtime": "realtime",
+          "damping": "damping", "python": "python"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
 PARALLEL_MIN = 4096
@@ -256,10 +257,11 @@ def memory_table(name, data, machine):
 
 def runmemory_table(name, data, machine):
     lines = [provenance(name, data, machine, data["command"]), "",
-             "| n | neighbours | integrator | quanta | bonds | peak resident [GB] | estimate |",
-             "|---|---|---|---|---|---|---|"]
+             "| n | neighbours | integrator | heuristics | quanta | bonds | peak resident [GB] | estimate |",
+             "|---|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
-        lines.append(f"| {r['n']} | {r['neighbors']} | {r['integrator']} | {r['quanta']} | {r['bonds']} | "
+        lines.append(f"| {r['n']} | {r['neighbors']} | {r['integrator']} | {r.get('heuristics', 'none')} | "
+                     f"{r['quanta']} | {r['bonds']} | "
                      f"{r['max_rss_kib'] * 1024 / 1e9:.3g} | {r['estimate']} |")
     return lines
 
@@ -291,6 +293,36 @@ def python_table(name, data, machine):
     # A negative difference is the host's noise (the rounds' spread shows its size), not a gain.
     lines += ["", f"Stepping from Python costs {over:+.2f} % over the C++ step: "
               f"{'within' if over <= 2 else 'beyond'} the target of at most 2 % more."]
+    return lines
+
+
+def killresume_table(name, data, machine):
+    """scripts/soak's kill/resume loop: a run killed and resumed against the uninterrupted run."""
+    k = data["kill_resume"]
+    same = ", ".join(f"{what} ({size})" for what, size in k.get("identical", {}).items())
+    return [provenance(name, data, machine, data["command"]), "",
+            "| steps | uninterrupted [s] | SIGKILLs | resumes | byte for byte against the uninterrupted run | result |",
+            "|---|---|---|---|---|---|",
+            f"| {k['steps']} | {k.get('uninterrupted_seconds', '–')} | {k.get('killed', 0)} (seed {k['seed']}) | "
+            f"{k.get('resumed', 0)} | {same or '–'} | {'; '.join(k['failures']) or 'identical'} |"]
+
+
+def soak_table(name, data, machine):
+    """scripts/soak's long run: steps, speed, bond events and the resident memory's trend."""
+    s = data["soak"]
+    mib = lambda kib: f"{kib / 1024:.1f}"
+    lines = [provenance(name, data, machine, data["command"]), "",
+             "| steps (asked) | status | wall [s] | steps/s | bonds broken or formed | memory samples | "
+             "resident, second half's mean / peak [MiB] | growth over the second half [KiB] | bound [KiB] | result |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    if "rss_peak_kib" in s:
+        memory = (f"{mib(s['rss_second_half_mean_kib'])} / {mib(s['rss_peak_kib'])} | {s['rss_second_half_growth_kib']} | "
+                  f"{s['rss_flat_bound_kib']}")
+    else:
+        memory = "– | – | –"
+    lines.append(f"| {s['steps']} ({s['steps_asked']}) | {s['status']} | {s['seconds']} | {s['steps_per_second']} | "
+                 f"{s['bond_events']} | {s['samples']} | {memory} | "
+                 f"{'; '.join(s['failures']) or 'no sanitizer report, memory flat'} |")
     return lines
 
 
@@ -432,6 +464,8 @@ def render(kind, machine, bench_dir):
             "memory": lambda: memory_table(name, data, machine),
             "runmemory": lambda: runmemory_table(name, data, machine),
             "fuzz": lambda: fuzz_table(name, data, machine),
+            "soak": lambda: soak_table(name, data, machine),
+            "killresume": lambda: killresume_table(name, data, machine),
             "ab": lambda: ab_table(name, data, machine),
             "realtime": lambda: realtime_table(name, data, machine),
             "damping": lambda: damping_table(name, data, machine),

@@ -837,6 +837,54 @@ def test_failed_runs_end_run_json():
         fail(f"run.json: status {run['status']!r}, message {run.get('message')!r}")
 
 
+# The exit status ctest reads as "skipped" (SKIP_RETURN_CODE in tests/CMakeLists.txt).
+SKIPPED = 77
+
+
+def test_full_disk_ends_run_json_failed():
+    """A run whose outputs fill their file system (a 1 MB tmpfs, mounted in a private mount
+    namespace so that nothing outside the test sees it) exits 1 naming the file it could not
+    write, run.json ends "failed" with that reason, no temporary file is left, and the checkpoint
+    of the last scheduled step before the disk filled is intact: it resumes. Skipped where a tmpfs
+    cannot be mounted (not root, or no unshare(1) or mount namespaces)."""
+    unshare = shutil.which("unshare")
+    if os.geteuid() != 0 or not unshare or \
+            subprocess.run([unshare, "--mount", "--propagation", "private", "true"], capture_output=True).returncode:
+        print("skipped: mounting a tmpfs needs root and unshare(1) with mount namespaces")
+        sys.exit(SKIPPED)
+    d = fresh("full_disk")
+    mnt, kept = os.path.join(d, "mnt"), os.path.join(d, "kept")
+    os.makedirs(mnt)
+    every = 10
+    # Inside the namespace: mount, run until the disk is full, copy what the run left to the real
+    # disk (the tmpfs goes with the namespace). Exit 200 when the mount itself is refused.
+    script = ('mount -t tmpfs -o size=1m qbond_full_disk "$1" || exit 200\n'
+              '"$2" run pendulum --steps 1000000 --every 1 --checkpoint-every "$4" --out "$1/out" -q\n'
+              'code=$?\ncp -a "$1/out" "$3" || exit 201\nexit $code\n')
+    r = subprocess.run([unshare, "--mount", "--propagation", "private", "/bin/sh", "-c", script, "sh", mnt, QBOND,
+                        kept, str(every)], capture_output=True, text=True, timeout=600)
+    if r.returncode == 200:
+        print(f"skipped: mount -t tmpfs was refused: {r.stderr.strip()}")
+        sys.exit(SKIPPED)
+    if r.returncode != 1 or "No space left on device" not in r.stderr or os.path.join(mnt, "out") not in r.stderr:
+        fail(f"exit {r.returncode}, stderr {r.stderr!r}")
+    run = json.load(open(os.path.join(kept, "run.json")))
+    if run["status"] != "failed" or "No space left on device" not in run.get("message", ""):
+        fail(f"run.json: status {run['status']!r}, message {run.get('message')!r}")
+    left = [f for _, _, files in os.walk(kept) for f in files if ".tmp." in f]
+    if left:
+        fail(f"temporary files left: {left}")
+    # The checkpoint is the last one the schedule asked for: at the failed step's multiple of
+    # `every`, or the one before when writing that one is what failed.
+    last = run["last_step"]
+    again = fresh("full_disk_resumed")
+    qbond("run", "--resume", os.path.join(kept, "checkpoint.qbc"), "--steps", str(last + 1), "--no-vtk",
+          "--out", again, "-q", check_code=0)
+    first = json.load(open(os.path.join(again, "run.json")))["first_step"]
+    if first <= 0 or first not in (last // every * every, last // every * every - every):
+        fail(f"the checkpoint left is at step {first}; the run failed at step {last}, checkpointing every {every}")
+
+
 def test_stale_temporaries_are_removed():
     """Temporaries that killed runs left (.checkpoint.qbc.tmp.PID, frames/.frame_*.vtp.tmp.PID)
     are removed when a run starts in the directory; a live process's are kept."""

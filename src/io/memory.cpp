@@ -29,9 +29,9 @@ std::uint64_t available_memory() {
 std::uint64_t default_memory_limit() { return available_memory() / 4 * 3; }
 
 std::uint64_t estimated_run_memory(double quanta, double bonds) {
-  // Fitted to `qbond run` peaks (docs/running.md, "Memory"): per quanta, per bond, and the
-  // program itself.
-  constexpr double kPerQuanta = 1200, kPerBond = 460, kBase = 32e6;
+  // Fitted to `qbond run` peaks (docs/running.md, "Memory"): per quanta, per bond (with the copy
+  // of the bonds a scene with heuristics keeps to undo a step), and the program itself.
+  constexpr double kPerQuanta = 1200, kPerBond = 520, kBase = 32e6;
   const double bytes = kPerQuanta * quanta + kPerBond * bonds + kBase;
   return bytes >= 1.8e19 ? ~std::uint64_t{0} : static_cast<std::uint64_t>(bytes);
 }
