@@ -62,7 +62,29 @@ def main():
     d, n = ledger(bounce)
     table.append(f"| ball_bounce | e = 0.5 from 1 m | apex ratios {', '.join(f'{r:.3f}' for r in ratios)} "
                  f"(e² = 0.25) | {d:.3g} | {n:.3g} |")
+    stack = run("stack")
+    table.append(rest_row("stack", "three 4×4×4 blocks stacked on the ground", stack, ["bottom", "middle", "top"], 2.0))
+    trampoline = run("trampoline")
+    table.append(rest_row("trampoline", "a 4×4×4 block dropped 20 cm onto a 15×15 sheet held on its edges", trampoline,
+                          ["block", "sheet"], 4.0))
+    gap = run("gap")
+    d, n = ledger(gap)
+    table.append(f"| gap | a 3×3×3 block dropped 30 cm onto ledges 2.5 cm apart | block's mean height "
+                 f"{gap[-1]['block_z'] * 100:.2f} cm at the end (ledges' centres at 10 cm), falls through: "
+                 f"{'no' if gap[-1]['block_z'] > 0.1 else 'yes'} | {d:.3g} | {n:.3g} |")
     print("\n".join(table))
+
+
+def rest_row(name, shows, rows, bodies, settle):
+    """A resting scene's row: after `settle` s, each body's mean height's largest change over the rest
+    of the run in radii, and the kinetic energy over the gravity energy released."""
+    after = [r for r in rows if r["time"] >= settle]
+    drift = max(max(r[b + "_z"] for r in after) - min(r[b + "_z"] for r in after) for b in bodies)
+    released = rows[0]["potential"] - after[0]["potential"]
+    ke = max(r["kinetic"] for r in after)
+    d, n = ledger(rows)
+    return (f"| {name} | {shows} | after {settle:g} s: mean heights vary ≤ {drift / RADIUS:.2e} radii; kinetic energy "
+            f"≤ {ke / released:.2e} of the {released * 1000:.3g} mJ released | {d:.3g} | {n:.3g} |")
 
 
 if __name__ == "__main__":

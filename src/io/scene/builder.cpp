@@ -65,8 +65,13 @@ Scene Builder::build() {
   if (top.has("anchors")) anchors(array(top["anchors"], "anchors"), w);
   if (top.has("loads")) loads(array(top["loads"], "loads"), w);
   if (top.has("heuristics")) s.heuristics = heuristics(array(top["heuristics"], "heuristics"), w);
-  // Obstacles the step's solve holds are the model's, not rules that edit the projection.
+  // Obstacles and quanta contact the step's solve holds are the model's, not rules that edit the projection.
   std::erase_if(s.heuristics, [&](const HeuristicSpec& h) {
+    if (const auto* c = std::get_if<QuantaContactRule>(&h); c && c->method == ContactMethod::implicit) {
+      if (w.model.quanta_contact.radius > 0) bad("heuristics", "one \"contact\" rule with \"method\": \"implicit\" at most");
+      w.model.quanta_contact = *c;
+      return true;
+    }
     const auto* o = std::get_if<Obstacle>(&h);
     if (!o || o->method != ContactMethod::implicit) return false;
     w.model.obstacles.push_back(*o);

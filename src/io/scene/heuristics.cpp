@@ -104,13 +104,28 @@ std::span<const Builder::HeuristicReader> Builder::heuristic_readers() {
         {"restitution", "number"},
         {"friction", "number"},
         {"iterations", "integer"},
-        {"same_body", "boolean"}},
+        {"same_body", "boolean"},
+        {"static_friction", "number"},
+        {"method", "enum:projection|implicit"},
+        {"penalty", "number"}},
        [](Builder& b, const Obj& o, std::string_view, const World& w, std::vector<HeuristicSpec>& out) {
          QuantaContactRule r;
          r.radius = positive(o.required("radius"), o.at("radius"));
          r.material = b.contact_material(o);
          if (o.has("iterations")) r.iterations = static_cast<int>(integer(o["iterations"], o.at("iterations"), 1));
          if (o.has("same_body")) r.same_body = boolean(o["same_body"], o.at("same_body"));
+         if (o.has("method"))
+           r.method = choice<ContactMethod>(o["method"], o.at("method"),
+                                            {{"projection", ContactMethod::projection}, {"implicit", ContactMethod::implicit}});
+         if (o.has("penalty")) r.penalty = positive(o["penalty"], o.at("penalty"));
+         if (r.method == ContactMethod::implicit) {
+           if (b.integrator_.type != IntegratorType::coupled_implicit)
+             bad(o.at("method"), "'implicit' contact is solved by the coupled_implicit integrator, not " +
+                                     std::string(to_string(b.integrator_.type)) + " (use \"projection\")");
+           if (o.has("iterations")) bad(o.at("iterations"), "is a key of \"method\": \"projection\" contact");
+         } else if (o.has("static_friction") || o.has("penalty")) {
+           bad(o.path(), "static_friction and penalty are keys of \"method\": \"implicit\" contact");
+         }
          b.check_contact_radius(r, o, w);
          out.emplace_back(r);
        }},
