@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 
 #include "integrators/backward_euler.hpp"
 #include "integrators/contact_solve.hpp"
@@ -151,6 +152,7 @@ struct Ledger {
     const EnergyBudget b = energy_budget(w.model, w.state);
     if (std::isnan(gravity0)) gravity0 = b.now.gravity;
     largest = std::max({largest, b.now.kinetic, std::abs(b.now.gravity), std::abs(b.now.gravity - gravity0)});
+    if (!w.state.energy.initialised) return;  // before the first step: the books are not open
     worst_numerical = std::max(worst_numerical, std::abs(b.dissipated_numerical));
     least_dissipated = std::min({least_dissipated, b.dissipated_contact, b.dissipated_damping + b.dissipated_contact});
   }
@@ -175,20 +177,34 @@ Index body_named(const World& w, const std::string& name) {
 // Runs a resting scene: `settle` seconds, then 10 s in which each probed body's mean height stays
 // within 1% of a radius of where it settled and the kinetic energy below 1e-6 of the gravity
 // energy released; the ledger holds on every step.
-void expect_rests(const std::string& file, const std::vector<std::string>& bodies, double settle) {
+void expect_rests(const std::string& file, const std::vector<std::string>& bodies, double settle,
+                  double own_numerical = 0, const std::string& falling = "") {
   Scene s = load_scene(std::string(QBOND_SOURCE_DIR) + "/scenes/" + file);
   ASSERT_EQ(s.timestep, 1.0 / 60);
   Simulation sim(std::move(s.world), s.integrator, s.timestep);
   Ledger ledger;
   ledger.see(sim.world());
   const int settle_steps = static_cast<int>(std::lround(settle / s.timestep));
+  // A body's steps of free fall: backward Euler's own loss, ½ M g² h² each (gravity's work at the
+  // end velocity), is `numerical`'s too.
+  const Index fall = falling.empty() ? 0 : body_named(sim.world(), falling);
+  auto momentum_z = [&] {
+    double p = 0, m = 0;
+    const World& w = sim.world();
+    for (std::size_t i = 0; i < w.num_quanta(); ++i)
+      if (w.model.body[i] == fall) {
+        p += w.model.mass[i] * w.state.v[i].z();
+        m += w.model.mass[i];
+      }
+    return std::pair{p, m};
+  };
+  const double g = 9.81, h = s.timestep;
   for (int n = 0; n < settle_steps; ++n) {
+    const double p0 = momentum_z().first;
     ASSERT_EQ(sim.step().status, StepReport::Status::ok) << n;
     ledger.see(sim.world());
-    if (getenv("QDEBUG")) {
-      const EnergyBudget b = energy_budget(sim.world().model, sim.world().state);
-      printf("%d ke %.4g grav %.4g bonds %.4g stored %.4g dc %.4g dd %.4g num %.4g largest %.4g\n", n, b.now.kinetic, b.now.gravity, b.now.bonds, b.contact_stored, b.dissipated_contact, b.dissipated_damping, b.dissipated_numerical, ledger.largest);
-    }
+    const auto [p1, M] = momentum_z();
+    if (!falling.empty() && std::abs(p1 - p0 + M * g * h) < 1e-9 * M * g * h) own_numerical += 0.5 * M * g * g * h * h;
   }
   std::vector<Index> ids;
   std::vector<double> rest;
@@ -209,7 +225,7 @@ void expect_rests(const std::string& file, const std::vector<std::string>& bodie
   EXPECT_LT(worst_drift, 0.01 * kRadius) << file;
   EXPECT_LT(worst_ke, 1e-6 * released) << file;
   EXPECT_GE(ledger.least_dissipated, 0.0) << file;
-  EXPECT_LE(ledger.worst_numerical, 0.01 * ledger.largest) << file;
+  EXPECT_LE(ledger.worst_numerical, own_numerical + 0.01 * ledger.largest) << file;
 }
 
 TEST(SolvedQuantaContact, AStackOfThreeBlocksRestsAtFrameSizedSteps) {
@@ -217,34 +233,69 @@ TEST(SolvedQuantaContact, AStackOfThreeBlocksRestsAtFrameSizedSteps) {
 }
 
 TEST(SolvedQuantaContact, ABlockRestsOnATrampolineAtFrameSizedSteps) {
-  expect_rests("trampoline.json", {"block", "sheet"}, 4.0);
+  // The flat sheet sagging under its own weight at h = 1/60 s loses energy to backward Euler
+  // whatever the contact does: that run alone bounds `numerical`'s part that is not the contact's.
+  std::ifstream f(std::string(QBOND_SOURCE_DIR) + "/scenes/trampoline.json");
+  nlohmann::json j = nlohmann::json::parse(f);
+  j["bodies"].erase(1);
+  j["heuristics"].erase(1);
+  j.erase("output");
+  Scene alone = parse_scene(j.dump());
+  Simulation sheet(std::move(alone.world), alone.integrator, alone.timestep);
+  double own = 0;
+  for (int n = 0; n < 840; ++n) {
+    ASSERT_EQ(sheet.step().status, StepReport::Status::ok);
+    own = std::max(own, std::abs(energy_budget(sheet.world().model, sheet.world().state).dissipated_numerical));
+  }
+  expect_rests("trampoline.json", {"block", "sheet"}, 4.0, own, "block");
 }
 
 TEST(SolvedQuantaContact, ABodyDoesNotTunnelThroughAGapNarrowerThanItself) {
-  // The block meets one-layer ledges at 40 mm a step: no quanta of it ever passes below the
-  // ledges' centres, and it comes to rest across the gap.
+  // The block meets one-layer ledges (centres at z = 0.1) at 38 mm a step, nearly four times
+  // their thickness: no quanta of it ever passes below the ledges' layer (its middle column may sag
+  // into the gap, between them), its mean height stays above their top, and it comes to rest.
   Scene s = load_scene(std::string(QBOND_SOURCE_DIR) + "/scenes/gap.json");
   Simulation sim(std::move(s.world), s.integrator, s.timestep);
   const Index block = body_named(sim.world(), "block");
   const double ledge = 0.1;
-  double fastest = 0;
+  double fastest = 0, flight = 0;
   Ledger ledger;
   ledger.see(sim.world());
+  const double g = 9.81, h = s.timestep;
+  auto mean_vz = [&] {
+    double p = 0, m = 0;
+    const World& w = sim.world();
+    for (std::size_t i = 0; i < w.num_quanta(); ++i)
+      if (w.model.body[i] == block) {
+        p += w.model.mass[i] * w.state.v[i].z();
+        m += w.model.mass[i];
+      }
+    return std::pair{p / m, m};
+  };
   for (std::uint64_t n = 0; n < s.steps; ++n) {
     const World& w = sim.world();
+    const double vz0 = mean_vz().first;
     for (std::size_t i = 0; i < w.num_quanta(); ++i)
       if (w.model.body[i] == block) fastest = std::max(fastest, std::abs(w.state.v[i].z()) * s.timestep);
     ASSERT_EQ(sim.step().status, StepReport::Status::ok) << n;
     ledger.see(sim.world());
+    // A step of free fall: backward Euler's own loss, ½ M g² h² (gravity's work at the end velocity).
+    const auto [vz1, M] = mean_vz();
+    if (std::abs(vz1 - vz0 + g * h) < 1e-9) flight += 0.5 * M * g * g * h * h;
     for (std::size_t i = 0; i < w.num_quanta(); ++i)
       if (w.model.body[i] == block) {
-        ASSERT_GT(w.state.x[i].z(), ledge) << "step " << n << " quanta " << i;
+        ASSERT_GT(w.state.x[i].z(), ledge - kRadius) << "step " << n << " quanta " << i;
       }
+    ASSERT_GT(mean_z(w, block), ledge + kRadius) << "step " << n;
   }
-  EXPECT_GT(fastest, 3 * 2 * kRadius);  // over three radii... of the ledges' thickness (2R) a step
+  EXPECT_GT(fastest, 3.5 * 2 * kRadius);  // over three and a half times the ledges' thickness a step
   EXPECT_LT(energies(sim.world().model, sim.world().state).kinetic, 1e-6 * ledger.largest);
   EXPECT_GE(ledger.least_dissipated, 0.0);
-  EXPECT_LE(ledger.worst_numerical, 0.01 * ledger.largest);
+  // `numerical` peaks at backward Euler's loss in flight, the contacts add at most 1% to it, and
+  // ends within 1%: the impact's charge holds the kinetic energy the ledger saw.
+  EXPECT_GT(flight, 0);
+  EXPECT_LE(ledger.worst_numerical, flight + 0.01 * ledger.largest);
+  EXPECT_LE(std::abs(energy_budget(sim.world().model, sim.world().state).dissipated_numerical), 0.01 * ledger.largest);
 }
 
 TEST(SolvedQuantaContact, SceneContactWithMethodImplicitJoinsTheModel) {
