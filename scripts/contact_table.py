@@ -65,7 +65,7 @@ def main():
     stack = run("stack")
     table.append(rest_row("stack", "three 4×4×4 blocks stacked on the ground", stack, ["bottom", "middle", "top"], 2.0))
     trampoline = run("trampoline")
-    table.append(rest_row("trampoline", "a 4×4×4 block dropped 20 cm onto a 15×15 sheet held on its edges", trampoline,
+    table.append(rest_row("trampoline", "a 4×4×4 block released 5 mm above a 15×15 sheet held on its edges", trampoline,
                           ["block", "sheet"], 4.0))
     gap = run("gap")
     d, n = ledger(gap)
