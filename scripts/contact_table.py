@@ -5,6 +5,7 @@ Usage: scripts/contact_table.py [BUILD_DIR]   (default: build; needs BUILD_DIR/q
 Reads each run's diagnostics.csv: the ledger's columns on every row and what the scene shows.
 """
 import csv
+import json
 import math
 import os
 import subprocess
@@ -73,6 +74,35 @@ def main():
                  f"{gap[-1]['block_z'] * 100:.2f} cm at the end (ledges' centres at 10 cm), falls through: "
                  f"{'no' if gap[-1]['block_z'] > 0.1 else 'yes'} | {d:.3g} | {n:.3g} |")
     print("\n".join(table))
+    print()
+    print(convergence())
+
+
+def convergence():
+    """The trampoline's block and sheet mean heights after 2 s at h = 1/60 ... 1/480 s, and the change
+    from the step before."""
+    with open(os.path.join(ROOT, "scenes", "trampoline.json")) as f:
+        scene = json.load(f)
+    rows = ["| h [s] | block's mean height after 2 s [m] | change from the h before | sheet's [m] | change |",
+            "|---|---|---|---|---|"]
+    last = None
+    for n in (60, 120, 240, 480):
+        s = dict(scene, timestep=1.0 / n, duration=2.0)
+        s["output"] = dict(scene["output"], every=n // 6)
+        path = os.path.join(RUNS, f"trampoline_{n}.json")
+        os.makedirs(RUNS, exist_ok=True)
+        with open(path, "w") as f:
+            json.dump(s, f)
+        out = os.path.join(RUNS, f"trampoline_{n}")
+        subprocess.run([os.path.join(BUILD, "qbond"), "run", path, "--out", out, "--quiet"], check=True,
+                       stdout=subprocess.DEVNULL)
+        with open(os.path.join(out, "diagnostics.csv")) as f:
+            r = list(csv.DictReader(f))[-1]
+        b, sh = float(r["block_z"]), float(r["sheet_z"])
+        change = ("", "") if last is None else (f"{b - last[0]:.2e}", f"{sh - last[1]:.2e}")
+        rows.append(f"| 1/{n} | {b:.7f} | {change[0]} | {sh:.7f} | {change[1]} |")
+        last = (b, sh)
+    return "\n".join(rows)
 
 
 def rest_row(name, shows, rows, bodies, settle):

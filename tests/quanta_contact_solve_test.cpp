@@ -250,6 +250,30 @@ TEST(SolvedQuantaContact, ABlockRestsOnATrampolineAtFrameSizedSteps) {
   expect_rests("trampoline.json", {"block", "sheet"}, 4.0, own, "block");
 }
 
+TEST(SolvedQuantaContact, TheTrampolinesStateConvergesAsTheStepShrinks) {
+  // The block's and the sheet's mean heights after 2 s at h = 1/60, 1/120, 1/240, 1/480 s: the
+  // difference between successive steps shrinks (the penalty's depth F h² / (κ μ) with them).
+  std::ifstream f(std::string(QBOND_SOURCE_DIR) + "/scenes/trampoline.json");
+  const nlohmann::json j0 = nlohmann::json::parse(f);
+  std::vector<double> block, sheet;
+  for (int per_second : {60, 120, 240, 480}) {
+    nlohmann::json j = j0;
+    j["timestep"] = 1.0 / per_second;
+    j["duration"] = 2.0;
+    j.erase("output");
+    Scene s = parse_scene(j.dump());
+    Simulation sim(std::move(s.world), s.integrator, s.timestep);
+    for (std::uint64_t n = 0; n < s.steps; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
+    block.push_back(mean_z(sim.world(), body_named(sim.world(), "block")));
+    sheet.push_back(mean_z(sim.world(), body_named(sim.world(), "sheet")));
+  }
+  for (std::size_t n = 2; n < block.size(); ++n) {
+    EXPECT_LT(std::abs(block[n] - block[n - 1]), std::abs(block[n - 1] - block[n - 2])) << n;
+    EXPECT_LT(std::abs(sheet[n] - sheet[n - 1]), std::abs(sheet[n - 1] - sheet[n - 2])) << n;
+  }
+  EXPECT_LT(std::abs(block[3] - block[2]), 0.01 * kRadius);
+}
+
 TEST(SolvedQuantaContact, ABodyDoesNotTunnelThroughAGapNarrowerThanItself) {
   // The block meets one-layer ledges (centres at z = 0.1) at 38 mm a step, nearly four times
   // their thickness: no quanta of it ever passes below the ledges' layer (its middle column may sag
