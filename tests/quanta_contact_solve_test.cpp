@@ -154,7 +154,8 @@ struct Ledger {
     largest = std::max({largest, b.now.kinetic, std::abs(b.now.gravity), std::abs(b.now.gravity - gravity0)});
     if (!w.state.energy.initialised) return;  // before the first step: the books are not open
     worst_numerical = std::max(worst_numerical, std::abs(b.dissipated_numerical));
-    least_dissipated = std::min({least_dissipated, b.dissipated_contact, b.dissipated_damping + b.dissipated_contact});
+    least_dissipated =
+        std::min({least_dissipated, b.dissipated_contact, b.dissipated_damping + b.dissipated_contact});
   }
 };
 
@@ -204,7 +205,8 @@ void expect_rests(const std::string& file, const std::vector<std::string>& bodie
     ASSERT_EQ(sim.step().status, StepReport::Status::ok) << n;
     ledger.see(sim.world());
     const auto [p1, M] = momentum_z();
-    if (!falling.empty() && std::abs(p1 - p0 + M * g * h) < 1e-9 * M * g * h) own_numerical += 0.5 * M * g * g * h * h;
+    if (!falling.empty() && std::abs(p1 - p0 + M * g * h) < 1e-9 * M * g * h)
+      own_numerical += 0.5 * M * g * g * h * h;
   }
   std::vector<Index> ids;
   std::vector<double> rest;
@@ -245,7 +247,8 @@ TEST(SolvedQuantaContact, ABlockRestsOnATrampolineAtFrameSizedSteps) {
   double own = 0;
   for (int n = 0; n < 840; ++n) {
     ASSERT_EQ(sheet.step().status, StepReport::Status::ok);
-    own = std::max(own, std::abs(energy_budget(sheet.world().model, sheet.world().state).dissipated_numerical));
+    own =
+        std::max(own, std::abs(energy_budget(sheet.world().model, sheet.world().state).dissipated_numerical));
   }
   expect_rests("trampoline.json", {"block", "sheet"}, 4.0, own, "block");
 }
@@ -319,7 +322,8 @@ TEST(SolvedQuantaContact, ABodyDoesNotTunnelThroughAGapNarrowerThanItself) {
   // ends within 1%: the impact's charge holds the kinetic energy the ledger saw.
   EXPECT_GT(flight, 0);
   EXPECT_LE(ledger.worst_numerical, flight + 0.01 * ledger.largest);
-  EXPECT_LE(std::abs(energy_budget(sim.world().model, sim.world().state).dissipated_numerical), 0.01 * ledger.largest);
+  EXPECT_LE(std::abs(energy_budget(sim.world().model, sim.world().state).dissipated_numerical),
+            0.01 * ledger.largest);
 }
 
 TEST(SolvedQuantaContact, SceneContactWithMethodImplicitJoinsTheModel) {
@@ -332,7 +336,8 @@ TEST(SolvedQuantaContact, SceneContactWithMethodImplicitJoinsTheModel) {
     t.replace(t.find("CONTACT"), 7, contact);
     return t;
   };
-  const Scene s = parse_scene(scene(R"({"type": "contact", "radius": 0.1, "method": "implicit", "friction": 0.3,
+  const Scene s =
+      parse_scene(scene(R"({"type": "contact", "radius": 0.1, "method": "implicit", "friction": 0.3,
       "static_friction": 0.4, "restitution": 0.5, "penalty": 200, "same_body": false})"));
   EXPECT_TRUE(s.heuristics.empty());
   const QuantaContactRule& r = s.world.model.quanta_contact;
@@ -349,9 +354,11 @@ TEST(SolvedQuantaContact, SceneContactWithMethodImplicitJoinsTheModel) {
       EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
     }
   };
-  refused(scene(R"({"type": "contact", "radius": 0.1, "method": "implicit"})", "velocity_verlet"), "coupled_implicit");
+  refused(scene(R"({"type": "contact", "radius": 0.1, "method": "implicit"})", "velocity_verlet"),
+          "coupled_implicit");
   refused(scene(R"({"type": "contact", "radius": 0.1, "penalty": 10})"), "method");
-  refused(scene(R"({"type": "contact", "radius": 0.1, "method": "implicit", "iterations": 3})"), "projection");
+  refused(scene(R"({"type": "contact", "radius": 0.1, "method": "implicit", "iterations": 3})"),
+          "projection");
 }
 
 }  // namespace

@@ -104,8 +104,8 @@ Vec3 ContactSolve::pair_force(const Model& model, const State& s, double h, cons
   return f - kStickStiffness * p.k * h * (tangential(p.n) * w1);
 }
 
-bool ContactSolve::make_pair(const Model& model, const State& state, double h, std::uint32_t c, const Vec3& d1,
-                             PairContact& p) const {
+bool ContactSolve::make_pair(const Model& model, const State& state, double h, std::uint32_t c,
+                             const Vec3& d1, PairContact& p) const {
   const auto [i, j] = candidates_[c];
   const double D = 2 * model.quanta_contact.radius;
   const Vec3 d0 = state.x[j] - state.x[i];
@@ -234,8 +234,8 @@ void ContactSolve::write(const Model& model, const State& state, double h, int t
     const double kt = stick ? h2 * kStickStiffness * p.k : 0.0;
     const double a = h2 * p.k - kt, b = kt;
     Vec3 f = (h * p.k * c0) * p.n;  // h × the force on j the step's start gives
-    if (has_friction(pmat)) f -= p.slide ? Vec3((h * pmat.friction * p.slide_fn) * p.slide_dir)
-                                         : Vec3(kt * (tangential(p.n) * w));
+    if (has_friction(pmat))
+      f -= p.slide ? Vec3((h * pmat.friction * p.slide_fn) * p.slide_dir) : Vec3(kt * (tangential(p.n) * w));
     const Mat3 B = block_matrix(p.n, a, b);
     if (free_i) {
       save_row(i, sys);
@@ -258,8 +258,8 @@ void ContactSolve::write(const Model& model, const State& state, double h, int t
   for (const PairContact& p : pairs_) touching_[p.i] = touching_[p.j] = 1;
 }
 
-bool ContactSolve::begin(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
-                         double h, int threads, ImplicitSystem& sys) {
+bool ContactSolve::begin(const Model& model, const State& state, const Adjacency& adj,
+                         const std::vector<Vec3>& f_ext, double h, int threads, ImplicitSystem& sys) {
   contacts_.clear();
   pairs_.clear();
   candidates_.clear();
@@ -307,7 +307,8 @@ template <class C>
 bool update_friction(const ContactMaterial& mat, double stick_k, double h, const Vec3& vt, C& c) {
   if (!c.slide) {
     const Vec3 ft = -stick_k * h * vt;
-    if (ft.norm() > mat.static_coefficient() * c.fn) {  // past static friction: it slides where the spring held it
+    if (ft.norm() > mat.static_coefficient() * c.fn) {
+      // Past static friction: it slides where the spring held it.
       c.slide = true;
       c.slide_dir = -ft.normalized();
       c.slide_fn = c.fn;
@@ -322,7 +323,8 @@ bool update_friction(const ContactMaterial& mat, double stick_k, double h, const
   const double speed = vt.norm();
   const Vec3 dir = speed > 0 ? Vec3(vt / speed) : c.slide_dir;
   // The sliding force takes f_n and the direction of the last solve until they settle.
-  const bool changed = std::abs(c.fn - c.slide_fn) > kSlideSettled * c.fn || (dir - c.slide_dir).norm() > kSlideSettled;
+  const bool changed =
+      std::abs(c.fn - c.slide_fn) > kSlideSettled * c.fn || (dir - c.slide_dir).norm() > kSlideSettled;
   c.slide_fn = c.fn;
   c.slide_dir = dir;
   return changed;

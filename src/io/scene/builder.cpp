@@ -68,7 +68,8 @@ Scene Builder::build() {
   // Obstacles and quanta contact the step's solve holds are the model's, not rules that edit the projection.
   std::erase_if(s.heuristics, [&](const HeuristicSpec& h) {
     if (const auto* c = std::get_if<QuantaContactRule>(&h); c && c->method == ContactMethod::implicit) {
-      if (w.model.quanta_contact.radius > 0) bad("heuristics", "one \"contact\" rule with \"method\": \"implicit\" at most");
+      if (w.model.quanta_contact.radius > 0)
+        bad("heuristics", "one \"contact\" rule with \"method\": \"implicit\" at most");
       w.model.quanta_contact = *c;
       return true;
     }
