@@ -9,8 +9,8 @@ its scene types (scene_readers(std::type_identity<Rule>)) are defined in one sou
 src/heuristics/. Outside those files and the registry, no file of the library, the programs or
 the Python module names the rule, except the consumers listed below, which use a rule for their
 own purpose (drawing, diagnostics), not to make it work. A rule declared outside
-include/qbond/heuristics/ (Obstacle: also the model's, for contacts inside the step) is checked
-for its factory and scene types only.
+include/qbond/heuristics/ (Obstacle and QuantaContactRule: also the model's, for contacts inside
+the step) is checked for its factory and scene types only.
 
 For each law of QBOND_LAWS (include/qbond/laws/registry.hpp): no file outside its header and the
 registry names its type or its enum value, except the consumers listed below.

@@ -5,6 +5,7 @@ Usage: scripts/contact_table.py [BUILD_DIR]   (default: build; needs BUILD_DIR/q
 Reads each run's diagnostics.csv: the ledger's columns on every row and what the scene shows.
 """
 import csv
+import json
 import math
 import os
 import subprocess
@@ -62,7 +63,58 @@ def main():
     d, n = ledger(bounce)
     table.append(f"| ball_bounce | e = 0.5 from 1 m | apex ratios {', '.join(f'{r:.3f}' for r in ratios)} "
                  f"(e² = 0.25) | {d:.3g} | {n:.3g} |")
+    stack = run("stack")
+    table.append(rest_row("stack", "three 4×4×4 blocks stacked on the ground", stack, ["bottom", "middle", "top"], 2.0))
+    trampoline = run("trampoline")
+    table.append(rest_row("trampoline", "a 4×4×4 block released 5 mm above a 15×15 sheet held on its edges", trampoline,
+                          ["block", "sheet"], 4.0))
+    gap = run("gap")
+    d, n = ledger(gap)
+    table.append(f"| gap | a 3×3×3 block dropped 30 cm onto ledges 1.5 cm apart | block's mean height "
+                 f"{gap[-1]['block_z'] * 100:.2f} cm at the end (ledges' centres at 10 cm), falls through: "
+                 f"{'no' if gap[-1]['block_z'] > 0.1 else 'yes'} | {d:.3g} | {n:.3g} |")
     print("\n".join(table))
+    print()
+    print(convergence())
+
+
+def convergence():
+    """The trampoline's block and sheet mean heights after 2 s at h = 1/60 ... 1/480 s, and the change
+    from the step before."""
+    with open(os.path.join(ROOT, "scenes", "trampoline.json")) as f:
+        scene = json.load(f)
+    rows = ["| h [s] | block's mean height after 2 s [m] | change from the h before | sheet's [m] | change |",
+            "|---|---|---|---|---|"]
+    last = None
+    for n in (60, 120, 240, 480):
+        s = dict(scene, timestep=1.0 / n, duration=2.0)
+        s["output"] = dict(scene["output"], every=n // 6)
+        path = os.path.join(RUNS, f"trampoline_{n}.json")
+        os.makedirs(RUNS, exist_ok=True)
+        with open(path, "w") as f:
+            json.dump(s, f)
+        out = os.path.join(RUNS, f"trampoline_{n}")
+        subprocess.run([os.path.join(BUILD, "qbond"), "run", path, "--out", out, "--quiet"], check=True,
+                       stdout=subprocess.DEVNULL)
+        with open(os.path.join(out, "diagnostics.csv")) as f:
+            r = list(csv.DictReader(f))[-1]
+        b, sh = float(r["block_z"]), float(r["sheet_z"])
+        change = ("", "") if last is None else (f"{b - last[0]:.2e}", f"{sh - last[1]:.2e}")
+        rows.append(f"| 1/{n} | {b:.7f} | {change[0]} | {sh:.7f} | {change[1]} |")
+        last = (b, sh)
+    return "\n".join(rows)
+
+
+def rest_row(name, shows, rows, bodies, settle):
+    """A resting scene's row: after `settle` s, each body's mean height's largest change over the rest
+    of the run in radii, and the kinetic energy over the gravity energy released."""
+    after = [r for r in rows if r["time"] >= settle]
+    drift = max(max(r[b + "_z"] for r in after) - min(r[b + "_z"] for r in after) for b in bodies)
+    released = rows[0]["potential"] - after[0]["potential"]
+    ke = max(r["kinetic"] for r in after)
+    d, n = ledger(rows)
+    return (f"| {name} | {shows} | after {settle:g} s: mean heights vary ≤ {drift / RADIUS:.2e} radii; kinetic energy "
+            f"≤ {ke / released:.2e} of the {released * 1000:.3g} mJ released | {d:.3g} | {n:.3g} |")
 
 
 if __name__ == "__main__":

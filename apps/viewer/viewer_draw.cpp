@@ -23,6 +23,7 @@ double draw_radius(const Scene& scene, double size) {
   for (const HeuristicSpec& h : scene.heuristics)
     if (const auto* c = std::get_if<QuantaContactRule>(&h)) return c->radius;
   const World& w = scene.world;
+  if (w.model.quanta_contact.radius > 0) return w.model.quanta_contact.radius;
   if (w.num_bonds() > 0) {
     std::vector<double> r(w.num_bonds());
     for (std::size_t b = 0; b < r.size(); ++b)

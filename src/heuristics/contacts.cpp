@@ -491,7 +491,10 @@ std::span<const HeuristicReader> scene_readers(std::type_identity<QuantaContactR
         {"restitution", "number"},
         {"friction", "number"},
         {"iterations", "integer"},
-        {"same_body", "boolean"}},
+        {"same_body", "boolean"},
+        {"static_friction", "number"},
+        {"method", "enum:projection|implicit"},
+        {"penalty", "number"}},
        [](const HeuristicEntry& e) {
          const Obj& o = e.o;
          QuantaContactRule r;
@@ -499,7 +502,24 @@ std::span<const HeuristicReader> scene_readers(std::type_identity<QuantaContactR
          r.material = e.contact_material();
          if (o.has("iterations")) r.iterations = static_cast<int>(integer(o["iterations"], o.at("iterations"), 1));
          if (o.has("same_body")) r.same_body = boolean(o["same_body"], o.at("same_body"));
+         if (o.has("method"))
+           r.method = choice<ContactMethod>(o["method"], o.at("method"),
+                                            {{"projection", ContactMethod::projection}, {"implicit", ContactMethod::implicit}});
+         if (o.has("penalty")) r.penalty = positive(o["penalty"], o.at("penalty"));
          check_contact_radius(r, o, e.w);
+         if (r.method == ContactMethod::implicit) {
+           if (e.integrator().type != IntegratorType::coupled_implicit)
+             bad(o.at("method"), "'implicit' contact is solved by the coupled_implicit integrator, not " +
+                                     std::string(to_string(e.integrator().type)) + " (use \"projection\")");
+           if (o.has("iterations")) bad(o.at("iterations"), "is a key of \"method\": \"projection\" contact");
+           if (e.w.model.quanta_contact.radius > 0)
+             bad(o.path(), "one \"contact\" rule with \"method\": \"implicit\" at most");
+           // Held by the step's solve: the model's, not a rule that edits the projection.
+           e.w.model.quanta_contact = r;
+           return;
+         }
+         if (o.has("static_friction") || o.has("penalty"))
+           bad(o.path(), "static_friction and penalty are keys of \"method\": \"implicit\" contact");
          e.out.emplace_back(r);
        }},
   };

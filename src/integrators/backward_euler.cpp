@@ -56,6 +56,13 @@ Eigen::Index assemble_system(const Model& model, const State& state, const Impli
     add_block(p, q, -B);
     add_block(q, p, -B);
   }
+  for (const PairCoupling& c : sys.couplings) {
+    const Eigen::Index p = dof[c.i], q = dof[c.j];
+    if (p < 0 || q < 0) continue;
+    const Mat3 B = block_matrix(c.u, c.a, c.b);
+    add_block(p, q, -B);
+    add_block(q, p, -B);
+  }
   A.resize(3 * nf, 3 * nf);
   A.setFromTriplets(triplets.begin(), triplets.end());
   return nf;

@@ -101,8 +101,17 @@ inline void block_entries(const Vec3& u, double a, double c, double (&B)[6]) {
   B[5] = au.y() * u.z();
 }
 
+// A coupling of two quanta other than a bond (a contact between them in the step's solve): the
+// block B = a u uᵀ + b I is in A_ii and A_jj (sys.diag) and −B in A_ij and A_ji.
+struct PairCoupling {
+  Index i = 0, j = 0;
+  Vec3 u = Vec3::Zero();
+  double a = 0, b = 0;
+};
+
 struct ImplicitSystem {
   BondBlocks bonds;
+  std::vector<PairCoupling> couplings;  // besides the bonds' (contact_solve.hpp); empty without contact
   std::vector<EdgeBlock> edges;  // per adjacency entry of a free quanta (adj.offset[n]), when asked for
   std::vector<Mat3> diag;      // A_ii (n); identity for kinematic quanta
   std::vector<Mat3> diag_inv;  // A_ii⁻¹ (n)

@@ -291,6 +291,7 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
   const double h = ctx.h;
   sys.part.update(model, state.bonds, adj, threads);
   sys.bonds.resize(state.bonds.size());
+  sys.couplings.clear();  // a contact solve adds its own
   const BuildArrays a(sys.arrays, n);
   // The kinematic rows (project_kinematic's), each range's by the thread that reads them first
   // (PrescribedAt says why).

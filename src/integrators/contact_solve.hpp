@@ -16,9 +16,19 @@
 // and a sliding contact feels the constant −μ_k f_n t (t the sliding direction) in b_i.
 // The active set (which quanta touch which obstacle, stick or slide, f_n) is found by solving,
 // checking every contact against the solution, and solving again while it changes.
+//
+// Quanta–quanta contact (Model::quanta_contact) is the same spring on the gap of a pair,
+// φ = |x_j − x_i| − 2R, linearised about the pair's reference separation d_r (its start, or where
+// the relative path enters 2R) along n = d_r/|d_r|: φ ≈ φ(d_r) + n·(x_j − x_i − d_r), k = κ μ / h²
+// (μ the reduced mass). Its block B = h² k n nᵀ (plus the stick spring's h² k_t P) enters A_ii and
+// A_jj, and −B the off-diagonal A_ij, A_ji (ImplicitSystem::couplings, which CG's product, the
+// multigrid's fine level and the direct solvers' assembly read); b_j gains h k c n and b_i loses
+// it. Candidates are the unbonded pairs whose relative path predicted for the step comes within
+// 2R plus one radius (a spatial hash of the paths' midpoints): the active set is chosen among them.
 #include <utility>
 #include <vector>
 
+#include "heuristics/spatial_hash.hpp"
 #include "integrators/backward_euler.hpp"
 
 namespace qbond {
@@ -27,8 +37,8 @@ class ContactSolve {
  public:
   // Finds the contacts of the step predicted from x + h v + h² f_ext/m and adds their terms to
   // sys. False (sys untouched) when the model has no such obstacle.
-  bool begin(const Model& model, const State& state, const std::vector<Vec3>& f_ext, double h, int threads,
-             ImplicitSystem& sys);
+  bool begin(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext, double h,
+             int threads, ImplicitSystem& sys);
   // Checks the contacts against the solve's Δv (y): drops those pulling, switches stick and
   // slide, adds those whose path now enters an obstacle. True (and sys updated) when the set
   // changed and the step must be solved again.
@@ -56,6 +66,29 @@ class ContactSolve {
     Vec3 slide_dir = Vec3::Zero();  // unit, the friction pushes along −slide_dir
     double slide_fn = 0;            // f_n the sliding force used
   };
+  // A contact of quanta i and j (i < j): what Contact holds, for their relative motion.
+  struct PairContact {
+    std::uint32_t candidate = 0;  // its index in candidates_
+    Index i = 0, j = 0;
+    Vec3 n = Vec3::UnitZ();      // unit, from i to j
+    Vec3 d_ref = Vec3::Zero();   // reference separation x_j − x_i, gap there `gap_ref`
+    double gap_ref = 0, target = 0, v_in = 0, k = 0, fn = 0;
+    bool slide = false;
+    Vec3 slide_dir = Vec3::Zero();  // unit, j's motion relative to i along the surface
+    double slide_fn = 0;
+  };
+  // The contact of the pair of candidate c given that its relative path from the start to the end
+  // separation d1 enters 2R (or ends inside it); false when it does not.
+  bool make_pair(const Model& model, const State& state, double h, std::uint32_t c, const Vec3& d1,
+                 PairContact& p) const;
+  // The pair's normal force on j at Δv = y (negative: pulls), and all the force the solve applied on j.
+  double pair_normal_force(const State& s, double h, const PairContact& p, const std::vector<Vec3>& y) const;
+  Vec3 pair_force(const Model& model, const State& s, double h, const PairContact& p, const std::vector<Vec3>& y) const;
+  // candidates_: the unbonded pairs (rule permitting) whose relative path predicted from x1 comes
+  // within 2R plus one radius, in increasing i then j.
+  void find_candidates(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& x1);
+  // The row of quanta i saved before the contacts were first written.
+  void save_row(Index i, const ImplicitSystem& sys);
   // The contact of quanta i with obstacle o, given that its path x → x1 enters it; false when it does not.
   bool make(const Model& model, const State& state, double h, Index i, std::uint32_t o, const Vec3& x1,
             Contact& c) const;
@@ -64,6 +97,7 @@ class ContactSolve {
   // The force the solve applied at Δv = y: normal, and the stick spring's or the sliding friction.
   Vec3 contact_force(const Model& model, const State& s, double h, const Contact& c, const Vec3& y) const;
   void write(const Model& model, const State& state, double h, int threads, ImplicitSystem& sys);
+  // The springs' energy at positions x: Σ ½ k φ² over the obstacles' and the candidates' overlaps.
   double stored(const Model& model, const std::vector<Vec3>& x, double h) const;
 
   std::vector<Contact> contacts_;       // by quanta, then obstacle
@@ -75,6 +109,13 @@ class ContactSolve {
   std::vector<Mat3> base_diag_;
   std::vector<Vec3> base_rhs_;
   std::vector<Vec3> x1_;  // end positions (scratch)
+  std::vector<std::pair<Index, Index>> candidates_;
+  std::vector<PairContact> pairs_, next_pairs_;  // by candidate
+  std::vector<std::uint8_t> pair_released_;      // per candidate: times its contact was dropped this step
+  std::vector<Vec3> mid_;                        // the predicted paths' midpoints (scratch)
+  std::vector<double> reach_;                    // half the predicted paths' lengths (scratch)
+  std::vector<Vec3> impulse_;                    // per quanta: the contacts' impulse this step (finish)
+  SpatialHash grid_;
 };
 
 }  // namespace qbond

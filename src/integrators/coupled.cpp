@@ -1,7 +1,7 @@
 // Coupled implicit integrator (Eq. 13 linearised, Baraff–Witkin 1998): one global linear solve
 // of (M + h C + h² K) Δv = b per step (backward_euler.hpp), by dense Gaussian elimination (the
 // paper's method, cubic cost), sparse LDLᵀ, or CG preconditioned by block Jacobi (matrix-free)
-// or by multigrid (multigrid_step.hpp); obstacles in contact add their penalty springs to the
+// or by multigrid (multigrid_step.hpp); contacts (obstacles, quanta pairs) add their penalty springs to the
 // system (contact_solve.hpp), solved again while the active set changes. A step that would create energy (bonds turning far in
 // one step, where the linearisation fails), found by Simulation's energy guard, is taken again
 // in halves, each checked by energy_guard.hpp.
@@ -69,7 +69,7 @@ class CoupledIntegrator final : public StepIntegrator {
   void solve(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
              const StepContext& ctx, bool whole, Projection& out) {
     begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/false, config_.threads, out, sys_);
-    const bool contacts = contact_.begin(model, state, f_ext, ctx.h, config_.threads, sys_);
+    const bool contacts = contact_.begin(model, state, adj, f_ext, ctx.h, config_.threads, sys_);
     SolveStats step{};
     linear_solve(model, state, adj, f_ext, ctx, whole, /*warm=*/false, step);
     // Contacts: solved again, from the last solution, while the active set changes.

@@ -27,7 +27,7 @@ void put(std::string& out, const Vec3& v) {
 }  // namespace
 
 Diagnostics::Diagnostics(const Model& model, std::vector<Probe> probes, std::vector<Obstacle> obstacles)
-    : probes_(std::move(probes)), contact_columns_(!model.obstacles.empty()) {
+    : probes_(std::move(probes)), contact_columns_(model.solves_contact()) {
   for (Obstacle& o : obstacles)
     if (o.record >= 0) obstacles_.push_back(std::move(o));
   for (const Probe& p : probes_) {

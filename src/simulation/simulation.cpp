@@ -84,8 +84,8 @@ StepReport Simulation::roll_back(StepReport r, bool applied) {
 Simulation::Simulation(World world, const IntegratorConfig& config, double h)
     : world_(std::move(world)), integrator_(make_step_integrator(config)), h_(h), scratch_(std::make_unique<StepScratch>()) {
   checked_thread_count(config.threads);  // before any parallel region: OpenMP crashes on absurd counts
-  if (!world_.model.obstacles.empty() && config.type != IntegratorType::coupled_implicit)
-    throw std::invalid_argument("the model's obstacles are held inside the coupled_implicit step's solve, not by " +
+  if (world_.model.solves_contact() && config.type != IntegratorType::coupled_implicit)
+    throw std::invalid_argument("the model's obstacles and quanta contact are held inside the coupled_implicit step's solve, not by " +
                                 std::string(to_string(config.type)) + " (make them projection rules)");
   const std::size_t n = world_.num_quanta();
   scratch_->f_ext.assign(n, Vec3::Zero());

@@ -170,6 +170,16 @@ void bond_product(const Model& model, const Bonds& bonds, const ImplicitSystem& 
   for_each_part_runs<ProductTerms>(sys.part, [&](std::span<const BondRun> runs, ProductTerms& t) {
     part_product(model, bonds, runs, sys.bonds, y, out, t);
   });
+  // Contacts between quanta: few next to the bonds, added in order after them (the same bits
+  // for any thread count); a kinematic end's y is 0.
+  for (const PairCoupling& c : sys.couplings) {
+    const Vec3 yi(y[0][c.i], y[1][c.i], y[2][c.i]), yj(y[0][c.j], y[1][c.j], y[2][c.j]);
+    const Vec3 bi = block_times(c.u, c.a, c.b, yj), bj = block_times(c.u, c.a, c.b, yi);
+    for (int k = 0; k < 3; ++k) {
+      out[k][c.i] -= bi[k];
+      out[k][c.j] -= bj[k];
+    }
+  }
 }
 
 // out = A y (bond_product's conditions).

@@ -18,17 +18,7 @@ std::unique_ptr<Heuristic> make_obstacle_heuristic(std::vector<Obstacle> obstacl
 /// The contact rule of one obstacle (make_obstacle_heuristic of it alone).
 std::unique_ptr<Heuristic> make_heuristic(const Obstacle& obstacle);
 
-/// Contact between quanta that share no bond: spheres of `radius`, found with a uniform-grid
-/// spatial hash (cost linear in the quanta), including quanta of the same body (self-collision).
-/// Overlaps in the projected positions are pushed apart along the line of centres in inverse-mass
-/// proportion (the centre of mass does not move), approaching pairs exchange equal and opposite
-/// impulses (restitution, Coulomb friction): linear momentum is conserved exactly.
-struct QuantaContactRule {
-  double radius = 0;       ///< [m] contact radius of every quanta
-  ContactMaterial material;
-  int iterations = 4;      ///< Gauss–Seidel passes over the contacts (stacks need several)
-  bool same_body = true;   ///< whether quanta of one body collide with each other
-};
+/// Contact between quanta that share no bond by the projection rule (QuantaContactRule, obstacle.hpp).
 std::unique_ptr<Heuristic> make_heuristic(QuantaContactRule rule);
 
 }  // namespace qbond

@@ -1,5 +1,5 @@
 #pragma once
-/// Static obstacles (ground, planes, spheres, boxes) and their contact materials: kept apart from
+/// Static obstacles (ground, planes, spheres, boxes), quanta–quanta contact and their contact materials: kept apart from
 /// the quanta by the post-projection contact rule (heuristics/contacts.hpp) or inside the
 /// implicit step's solve (docs/heuristics.md).
 #include <cstdint>
@@ -65,6 +65,25 @@ struct Obstacle {
   double entry(const Vec3& a, const Vec3& b) const;
 
   bool operator==(const Obstacle&) const = default;
+};
+
+/// Contact between quanta that share no bond: spheres of `radius`, found with a uniform-grid
+/// spatial hash (cost linear in the quanta), including quanta of the same body (self-collision).
+/// By projection: overlaps in the projected positions are pushed apart along the line of centres in inverse-mass
+/// proportion (the centre of mass does not move), approaching pairs exchange equal and opposite
+/// impulses (restitution, Coulomb friction): linear momentum is conserved exactly.
+struct QuantaContactRule {
+  double radius = 0;       ///< [m] contact radius of every quanta
+  ContactMaterial material;
+  int iterations = 4;      ///< Gauss–Seidel passes over the contacts (stacks need several)
+  bool same_body = true;   ///< whether quanta of one body collide with each other
+  /// projection: the heuristic edits the projected step; implicit: each touching pair is a penalty
+  /// spring inside coupled_implicit's solve (Model::quanta_contact).
+  ContactMethod method = ContactMethod::projection;
+  /// implicit: κ in the pair's spring k = κ μ / h² (μ the pair's reduced mass), as Obstacle::penalty.
+  double penalty = 1000;
+
+  bool operator==(const QuantaContactRule&) const = default;
 };
 
 }  // namespace qbond

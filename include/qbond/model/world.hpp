@@ -91,6 +91,12 @@ struct Model {
   /// Obstacles the implicit step keeps the quanta out of inside its solve (ContactMethod::implicit;
   /// coupled_implicit only). The post-projection ones are heuristics.
   std::vector<Obstacle> obstacles;
+  /// Quanta–quanta contact the implicit step holds inside its solve (ContactMethod::implicit;
+  /// coupled_implicit only); radius 0: none. The post-projection rule is a heuristic.
+  QuantaContactRule quanta_contact;
+
+  /// Whether the step's solve holds contacts (obstacles or quanta–quanta).
+  bool solves_contact() const { return !obstacles.empty() || quanta_contact.radius > 0; }
 
   std::size_t num_quanta() const { return mass.size(); }
   bool is_kinematic(Index i) const { return inv_mass[i] == 0.0; }
