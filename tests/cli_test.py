@@ -1003,15 +1003,21 @@ def test_options_that_do_not_apply_are_refused():
 
 def test_help_shows_no_parser_internals():
     """Every command's --help is the program's words: no default values in braces, no enumeration
-    maps (CLI11's '{false}', 'ENUM:value in {plain->2,...}')."""
-    for cmd in ([], ["run"], ["validate"], ["statics"], ["experiment"], ["bench"], ["view"]):
+    maps, no validator names (CLI11's '{false}', 'ENUM:value in {plain->2,...}', 'INT:POSITIVE',
+    'Needs:')."""
+    for cmd in ([], ["run"], ["validate"], ["statics"], ["export"], ["schema"], ["experiment"], ["bench"], ["view"]):
         r = qbond(*cmd, "--help", check_code=0)
-        for internal in ("{false}", "{true}", "ENUM", "->", "value in {"):
+        for internal in ("{false}", "{true}", "ENUM", "->", "value in {", "INT:", "FLOAT:", "TEXT:", "Needs:",
+                         "Excludes:", " in ["):
             if internal in r.stdout:
                 fail(f"qbond {' '.join(cmd)} --help shows {internal!r}:\n{r.stdout}")
     r = qbond("view", "--help", check_code=0)
-    if "--bonds strain|tension|plain" not in r.stdout or "--no-ui " not in r.stdout:
+    if ("--bonds strain|tension|plain" not in r.stdout or "--no-ui " not in r.stdout
+            or "--size N (64 to 8192)" not in r.stdout):
         fail(f"view --help:\n{r.stdout}")
+    r = qbond("run", "--help", check_code=0)
+    if "--steps N (not with --duration)" not in r.stdout:
+        fail(f"run --help:\n{r.stdout}")
 
 
 def bar_scene(path, count, stiffness, force, anchored=True):

@@ -35,6 +35,43 @@
 #include "viewer.hpp"
 
 namespace {
+
+// --help in the program's words: a plain placeholder for each option's value (N, NUMBER, TEXT,
+// or the option's own, such as SIZE or DEGREES) where CLI11 prints its validators' names
+// (INT:POSITIVE, INT:INT in [64 - 8192]), and what an option needs or excludes said in words.
+class HelpFormatter : public CLI::Formatter {
+ public:
+  std::string make_option_opts(const CLI::Option* opt) const override {
+    if (!opt->get_option_text().empty()) return " " + opt->get_option_text();
+    std::string out;
+    if (opt->get_type_size() != 0 && !opt->get_type_name().empty()) {
+      out += " " + placeholder(opt->get_type_name());
+      if (opt->get_expected_max() == CLI::detail::expected_max_vector_size) out += " ...";
+      if (opt->get_required()) out += " (required)";
+    }
+    // Said once: where the description already names the other option, it says how.
+    auto unsaid = [&](const CLI::Option* other) { return opt->get_description().find(other->get_name()) == std::string::npos; };
+    for (const CLI::Option* other : opt->get_needs())
+      if (unsaid(other)) out += " (with " + other->get_name() + ")";
+    for (const CLI::Option* other : opt->get_excludes())
+      if (unsaid(other)) out += " (not with " + other->get_name() + ")";
+    return out;
+  }
+
+ private:
+  static std::string placeholder(const std::string& type) {
+    const std::string head = type.substr(0, type.find(':'));
+    const std::string tail = type.find(':') == std::string::npos ? "" : type.substr(type.find(':') + 1);
+    // A range check reads "INT:INT in [64 - 8192]": N (64 to 8192).
+    if (const std::size_t a = type.find(" in ["), b = type.find(" - ", a), c = type.find(']', b);
+        a != std::string::npos && b != std::string::npos && c != std::string::npos)
+      return placeholder(type.substr(0, a)) + " (" + type.substr(a + 5, b - a - 5) + " to " + type.substr(b + 3, c - b - 3) + ")";
+    if (head == "INT" || head == "UINT") return "N";
+    if (head == "FLOAT") return "NUMBER";
+    if (head == "TEXT") return tail.empty() || !std::all_of(tail.begin(), tail.end(), ::isupper) ? "TEXT" : tail;
+    return type;  // the option's own name for its value (DEGREES, X,Y,Z)
+  }
+};
 namespace fs = std::filesystem;
 
 // Exit codes (README, "Running a scene").
@@ -544,6 +581,7 @@ int experiment(const ExperimentArgs& a) {
 int main(int argc, char** argv) {
   const qbond::MpiSession mpi(argc, argv);  // when mpirun or srun started this program as a rank
   CLI::App app{"qbond: the quanta-bond method. Deformable, breakable solids, stepped implicitly."};
+  app.formatter(std::make_shared<HelpFormatter>());  // before the subcommands, which copy it
   app.set_version_flag("--version", std::string("qbond ") + QBOND_VERSION);
   app.require_subcommand(1);
   Options o;
