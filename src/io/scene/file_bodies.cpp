@@ -39,7 +39,9 @@ std::vector<Index> BodyEntry::tet_mesh() const {
   if (!by_density && !j.contains("total_mass"))
     bad(path, "the mass needs a material with a 'density' or the body's 'total_mass'");
   const double total_mass = by_density ? 0.0 : positive(j["total_mass"], at("total_mass"));
-  const auto [bytes, resolved] = builder.scene_file(file, at("file"));
+  // Named references, not a structured binding: clang before 16 cannot capture one in a lambda.
+  const std::pair<std::string, std::string> read_bytes = builder.scene_file(file, at("file"));
+  const std::string &bytes = read_bytes.first, &resolved = read_bytes.second;
   TetMesh mesh = parsed(at("file"), [&] { return parse_tet_mesh(bytes, file); });
   if (scale != 1)
     for (Vec3& x : mesh.nodes) x *= scale;
@@ -62,7 +64,8 @@ std::vector<Index> BodyEntry::tet_mesh() const {
 
 std::vector<Index> BodyEntry::csv() const {
   const std::string qfile = string(req("quanta"), at("quanta"));
-  const auto [qbytes, qresolved] = builder.scene_file(qfile, at("quanta"));
+  const std::pair<std::string, std::string> read_qbytes = builder.scene_file(qfile, at("quanta"));
+  const std::string &qbytes = read_qbytes.first, &qresolved = read_qbytes.second;
   const CsvQuanta q = parsed(at("quanta"), [&] { return parse_quanta_csv(qbytes, qfile); });
   too_many(static_cast<double>(q.x.size()));
   const bool column = !q.mass.empty();
@@ -75,7 +78,8 @@ std::vector<Index> BodyEntry::csv() const {
   std::string bresolved;
   if (j.contains("bonds")) {
     const std::string bfile = string(j["bonds"], at("bonds"));
-    const auto [bbytes, where] = builder.scene_file(bfile, at("bonds"));
+    const std::pair<std::string, std::string> read_bbytes = builder.scene_file(bfile, at("bonds"));
+    const std::string &bbytes = read_bbytes.first, &where = read_bbytes.second;
     b = parsed(at("bonds"), [&] { return parse_bonds_csv(bbytes, bfile, q.x.size()); });
     bresolved = where;
     if (b.material.empty() && !j.contains("bond_material"))
@@ -109,7 +113,8 @@ std::vector<Index> BodyEntry::lammps() const {
                                {"molecular", AtomStyle::molecular},
                                {"full", AtomStyle::full}});
   const double vol = j.contains("volume") ? positive(j["volume"], at("volume")) : 0.0;
-  const auto [bytes, resolved] = builder.scene_file(file, at("file"));
+  const std::pair<std::string, std::string> read_bytes = builder.scene_file(file, at("file"));
+  const std::string &bytes = read_bytes.first, &resolved = read_bytes.second;
   const LammpsData d = parsed(at("file"), [&] { return parse_lammps_data(bytes, file, style ? &*style : nullptr); });
   too_many(static_cast<double>(d.x.size()));
   builder.plan_memory(at("file"), static_cast<double>(d.x.size()), static_cast<double>(d.bond_ends.size()));

@@ -3,7 +3,6 @@
 #include "io/scene/builder.hpp"
 
 #include <algorithm>
-#include <ranges>
 #include <stdexcept>
 
 #include "qbond/integrators/integrators.hpp"
@@ -20,6 +19,12 @@ std::string enum_of(const Names& names) {
     s += n;
   }
   return s;
+}
+
+std::vector<std::string_view> integrator_keys() {
+  std::vector<std::string_view> keys;
+  for (const IntegratorInfo& i : integrator_table()) keys.push_back(i.key);
+  return keys;
 }
 
 std::vector<SceneObject> make_table() {
@@ -118,7 +123,7 @@ std::vector<SceneObject> make_table() {
     t.push_back({"heuristic." + std::string(r.type), r.doc, r.keys});
   // The integrator's keys are its table's options (integrators.hpp).
   SceneObject integrator{
-      "integrator", "the step integrator and its options", {{"type", enum_of(integrator_table() | std::views::transform(&IntegratorInfo::key))}}};
+      "integrator", "the step integrator and its options", {{"type", enum_of(integrator_keys())}}};
   for (const IntegratorOptionInfo& opt : integrator_options()) {
     std::string holds;
     switch (opt.holds) {
