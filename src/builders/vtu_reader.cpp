@@ -70,7 +70,8 @@ class VtuReader {
         }
         mesh.tets.push_back(tet);
         mesh.tet_line.push_back(conn_line);
-      } else if (!(type == std::floor(type) && is_skipped_cell(static_cast<long long>(type)))) {
+      } else if (!(type == std::floor(type) && type >= 0 && type < 256 &&  // VTK's cell types fit a byte
+                   is_skipped_cell(static_cast<long long>(type)))) {
         fail(type_at, "cell " + std::to_string(c) + " has VTK type " + text_number(type) +
                           ": only tetra cells (10) make a body (vertex, line, triangle and quad cells are skipped)");
       }
