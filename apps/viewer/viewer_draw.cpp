@@ -57,7 +57,7 @@ void Viewer::draw() {
 
   // Bonds.
   lines_.clear();
-  if (replay_) {  // the run's own values (the world's bonds are placeholders in the frame's order)
+  if (replay_) {  // the run's own values: a replayed world's bonds hold only the frame's ends, in its order
     const VtpFrame& f = replay_->frame();
     tension_ = f.tension.size() == s.bonds.size() ? f.tension : std::vector<double>(s.bonds.size(), 0.0);
     strain_ = f.strain.size() == s.bonds.size() ? f.strain : std::vector<double>(s.bonds.size(), 0.0);
