@@ -2,6 +2,7 @@
 // the OBJ/STL readers, the closed-mesh check, voxelisation, and the scene's packing/mesh bodies.
 #include "qbond/builders/packing.hpp"
 
+#include <stdexcept>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -180,6 +181,9 @@ TEST(PairsWithinRadius, ExactlyThePairsBruteForceFinds) {
       for (int i = 0; i < 3; ++i) grid.emplace_back(0.25 * i, 0.25 * j, 0.25 * k);
   EXPECT_EQ(pairs_within_radius(grid, 0.25).size(), 54u);
   EXPECT_EQ(pairs_within_radius(grid, 0.25), brute_pairs(grid, 0.25));
+  // A budget of pairs: met exactly is fine, one short is refused.
+  EXPECT_EQ(pairs_within_radius(grid, 0.25, 54).size(), 54u);
+  EXPECT_THROW(pairs_within_radius(grid, 0.25, 53), std::length_error);
 }
 
 // SpatialHash::pairs (contacts, bond formation) against its documented order, by brute force:

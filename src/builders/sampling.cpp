@@ -178,14 +178,18 @@ std::vector<Vec3> sample_points(const PointPacking& s) {
   return x;
 }
 
-std::vector<std::pair<Index, Index>> pairs_within_radius(const std::vector<Vec3>& x, double radius) {
+std::vector<std::pair<Index, Index>> pairs_within_radius(const std::vector<Vec3>& x, double radius,
+                                                         std::size_t max_pairs) {
   if (!(radius > 0)) throw std::invalid_argument("pair radius must be > 0");
   std::vector<Index> all(x.size());
   std::iota(all.begin(), all.end(), Index{0});
   std::vector<std::pair<Index, Index>> pairs;
   // Visited in increasing a, then b: the pairs come out sorted.
   pairs_within(x, all, all, radius, [&](Index a, Index b) {
-    if (a < b) pairs.emplace_back(a, b);
+    if (a >= b) return;
+    if (pairs.size() == max_pairs)
+      throw std::length_error("more than " + std::to_string(max_pairs) + " pairs lie within " + num(radius) + " m");
+    pairs.emplace_back(a, b);
   });
   return pairs;
 }
@@ -227,7 +231,7 @@ std::vector<Index> add_bonded_points(World& world, std::vector<Vec3> x,
 
 std::vector<Index> add_point_packing(World& world, const PointPacking& s, Index body) {
   std::vector<Vec3> x = sample_points(s);
-  auto pairs = pairs_within_radius(x, s.bond_radius);
+  auto pairs = pairs_within_radius(x, s.bond_radius, s.max_bonds);
   return add_bonded_points(world, std::move(x), std::move(pairs), s.quanta_mass, s.bond, s.isolated, body,
                            "point packing");
 }

@@ -1,6 +1,7 @@
 #pragma once
 /// Point packings (docs/geometry.md): Poisson-disk or random points in a box, bonded within a
 /// radius (the paper's Figure 12 asymmetric structures).
+#include <cstddef>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -33,6 +34,7 @@ struct PointPacking {
   BondSpec bond;                    ///< law, stiffness, damping; rest length = initial distance
   std::uint64_t seed = 1;           ///< same seed, same points (on every platform: qbond's own Rng)
   Isolated isolated = Isolated::drop;
+  std::size_t max_bonds = SIZE_MAX;  ///< more pairs within bond_radius: refused before they are stored
 };
 
 /// The packing's points, in the order they were accepted. Deterministic for a seed: only the
@@ -47,8 +49,10 @@ std::vector<Vec3> sample_points(const PointPacking& spec);
 double max_points(const PointPacking& spec);
 
 /// Every pair (i, j), i < j, with |x_i − x_j| <= radius, sorted; found with a uniform grid of
-/// cell `radius` (cost linear in the points for bounded density).
-std::vector<std::pair<Index, Index>> pairs_within_radius(const std::vector<Vec3>& x, double radius);
+/// cell `radius` (cost linear in the points for bounded density). Throws std::length_error as
+/// soon as more than `max_pairs` pairs are found, so that a radius far too large costs no more.
+std::vector<std::pair<Index, Index>> pairs_within_radius(const std::vector<Vec3>& x, double radius,
+                                                         std::size_t max_pairs = SIZE_MAX);
 
 /// Adds the packing to `world` as body `body`: its points (minus isolated ones when dropped)
 /// in sampling order, bonded in sorted pair order. Returns the ids of its quanta.

@@ -274,12 +274,16 @@ std::vector<Index> Builder::packing_body(const json& j, const std::string& path,
   p.bond = mat.bond;
   mass_of(1.0, mat.density);  // the mass keys' errors before the sampling's
   p.quanta_mass = 1;
+  p.max_bonds = bonds_left();
   std::vector<Index> ids;
   try {
     ids = add_point_packing(w, p, id);
   } catch (const std::invalid_argument& e) {
     bad(path, e.what());
+  } catch (const std::length_error& e) {
+    bad(at("bond_radius"), std::string(e.what()) + ": more bonds than the memory limit holds");
   }
+  plan_memory(at("bond_radius"), 0, static_cast<double>(w.num_bonds()));
   if (ids.empty())
     bad(at("bond_radius"), "no two points lie within " + num_str(p.bond_radius) + " m: every point is isolated");
   // Each point stands for the box's volume over the points (a flat packing: a layer one mean

@@ -112,9 +112,20 @@ void Builder::plan_memory(const std::string& path, double quanta, double bonds) 
   check_memory(path, planned_quanta_, planned_bonds_);
 }
 
+std::uint64_t Builder::memory_limit() const {
+  return files_.max_memory > 0 ? files_.max_memory : default_memory_limit();
+}
+
+std::size_t Builder::bonds_left() const {
+  const double base = static_cast<double>(estimated_run_memory(planned_quanta_, planned_bonds_));
+  const double per_bond = static_cast<double>(estimated_run_memory(0, 1e6) - estimated_run_memory(0, 0)) / 1e6;
+  const double left = (static_cast<double>(memory_limit()) - base) / per_bond;
+  return left <= 0 ? 0 : left >= 1e15 ? std::size_t{1'000'000'000'000'000} : static_cast<std::size_t>(left);
+}
+
 void Builder::check_memory(const std::string& path, double quanta, double bonds) const {
   const bool given = files_.max_memory > 0;
-  const std::uint64_t limit = given ? files_.max_memory : default_memory_limit();
+  const std::uint64_t limit = memory_limit();
   const std::uint64_t need = estimated_run_memory(quanta, bonds);
   if (need <= limit) return;
   bad(path, "would need about " + format_bytes(static_cast<double>(need)) + " of memory (" + num_str(quanta) +

@@ -83,6 +83,9 @@ class Builder {
   // it at `path` when the run would then need more memory than allowed (before it is built).
   void plan_memory(const std::string& path, double quanta, double bonds);
   void check_memory(const std::string& path, double quanta, double bonds) const;
+  // How many more bonds than planned so far fit in the memory limit.
+  std::size_t bonds_left() const;
+  std::uint64_t memory_limit() const;
 
   AdaptiveConfig adaptive(const json& j, double timestep, double horizon);
 
