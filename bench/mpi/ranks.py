@@ -1,19 +1,23 @@
 #!/usr/bin/python3
 """Step time of a run over MPI ranks against the run alone, on the canonical lattice.
 
-Usage: bench/mpi/ranks.py [--qbond PATH] [--n 40] [--steps 200] [--repeats 3] [--mpiexec PATH]
-                          [--mpiexec-flag F ...] [--out docs/bench/ranks-DATE.json]
-       bench/mpi/ranks.py --check [ROOT]     (the table of docs/distributed.md against the results)
-       bench/mpi/ranks.py --write [ROOT]     (rewrites that table from the newest results)
+Usage: bench/mpi/ranks.py [--qbond PATH] [--integrator velocity_verlet] [--n 40] [--steps 200]
+                          [--repeats 3] [--mpiexec PATH] [--mpiexec-flag F ...] [--out FILE]
+       bench/mpi/ranks.py --check [ROOT]     (the tables of docs/distributed.md against the results)
+       bench/mpi/ranks.py --write [ROOT]     (rewrites those tables from the newest results)
 
 Measures `qbond run` of the canonical n³ lattice (samples.hpp's canonical_lattice(n)) stepped by
-velocity Verlet, without frames: alone on 1 and 2 threads, and over 2 ranks of 1 thread each. The
+the integrator (velocity Verlet unless told), without frames: alone on 1 and 2 threads, and over
+2 ranks of 1 thread each. The
 runs alternate, `repeats` times each, and each configuration's median step time (run.json's
 wall_seconds over its steps) is kept with every repeat; for the runs over ranks also each rank's
 CPU time per step stepping its piece and charging its ledger, its wall time per step and the
 bytes it sent per step (the lines the run prints); and the machine and its load average (one
-minute) before and after. The table sits between `<!-- ranks:step -->` and `<!-- /ranks:step -->` in
-docs/distributed.md; --check exits 1 when it is not what the newest docs/bench/ranks-*.json gives.
+minute) before and after. Results go to docs/bench/ranks-DATE.json for velocity Verlet and
+docs/bench/ranks-INTEGRATOR-DATE.json for another integrator; each integrator's table sits between
+`<!-- ranks:step -->` and `<!-- /ranks:step -->` (velocity Verlet) or `<!-- ranks:step:INTEGRATOR -->`
+and `<!-- /ranks:step:INTEGRATOR -->` in docs/distributed.md; --check exits 1 when one is not what
+the newest results of its integrator give.
 """
 import argparse
 import datetime
@@ -28,15 +32,26 @@ import sys
 import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-BEGIN, END = "<!-- ranks:step -->", "<!-- /ranks:step -->"
-NAME = re.compile(r"^ranks-(\d{4}-\d\d-\d\d)([a-z]*)\.json$")
+VERLET = "velocity_verlet"
+# The integrators with a table in docs/distributed.md.
+TABLES = [VERLET, "coupled_implicit"]
 
 
-def scene(n, steps):
-    """canonical_lattice(n) (src/builders/samples.cpp), stepped by velocity Verlet."""
+def markers(integrator):
+    tag = "ranks:step" if integrator == VERLET else f"ranks:step:{integrator}"
+    return f"<!-- {tag} -->", f"<!-- /{tag} -->"
+
+
+def name_pattern(integrator):
+    mid = "" if integrator == VERLET else re.escape(integrator) + "-"
+    return re.compile(rf"^ranks-{mid}(\d{{4}}-\d\d-\d\d)([a-z]*)\.json$")
+
+
+def scene(n, steps, integrator):
+    """canonical_lattice(n) (src/builders/samples.cpp), stepped by `integrator`."""
     return {
         "name": f"canonical_lattice_{n}", "timestep": 1e-4, "steps": steps, "gravity": [0, 0, -9.81],
-        "integrator": {"type": "velocity_verlet"},
+        "integrator": {"type": integrator},
         "materials": {"bond": {"law": "linear", "stiffness": 1000, "damping": 0.01, "damping_model": "axial"}},
         "bodies": [{"name": "lattice", "type": "lattice", "cell": "cubic", "neighbors": "face_diagonal",
                     "size": [n, n, n], "spacing": 0.01, "quanta_mass": 1e-3, "material": "bond"}],
@@ -50,7 +65,7 @@ def measure(a):
     work = tempfile.mkdtemp(prefix="qbond-ranks-")
     path = os.path.join(work, "lattice.json")
     with open(path, "w") as f:
-        json.dump(scene(a.n, a.steps), f)
+        json.dump(scene(a.n, a.steps, a.integrator), f)
     configs = [("alone", 1, 1), ("alone", 1, 2), ("ranks", 2, 1)]
     runs = {f"{kind}:{ranks}x{threads}": [] for kind, ranks, threads in configs}
     ranks_seen = {f"{kind}:{ranks}x{threads}": [] for kind, ranks, threads in configs}
@@ -85,7 +100,8 @@ def measure(a):
             row["per_rank"] = [{"bytes_sent_per_step": p[0], "stepping_cpu_ms": p[1], "ledger_cpu_ms": p[2],
                                 "wall_ms": p[3]} for p in per]
         rows.append(row)
-    return {"workload": f"canonical lattice n={a.n}, velocity_verlet, {a.steps} steps, no frames",
+    return {"workload": f"canonical lattice n={a.n}, {a.integrator}, {a.steps} steps, no frames",
+            "integrator": a.integrator,
             "date": datetime.date.today().isoformat(),
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} hardware threads, "
                        "shared with other jobs",
@@ -93,11 +109,12 @@ def measure(a):
             "rows": rows}
 
 
-def latest(root):
+def latest(root, integrator):
     bench = os.path.join(root, "docs", "bench")
-    found = sorted((m[1], len(m[2]), m[2], name) for name in os.listdir(bench) if (m := NAME.match(name)))
+    pattern = name_pattern(integrator)
+    found = sorted((m[1], len(m[2]), m[2], name) for name in os.listdir(bench) if (m := pattern.match(name)))
     if not found:
-        sys.exit("ranks.py: no docs/bench/ranks-DATE.json")
+        sys.exit(f"ranks.py: no docs/bench/ranks-*.json of {integrator}")
     name = found[-1][3]
     with open(os.path.join(bench, name)) as f:
         return name, json.load(f)
@@ -125,11 +142,14 @@ def render(root, check):
     doc = os.path.join(root, "docs", "distributed.md")
     with open(doc) as f:
         text = f.read()
-    if BEGIN not in text or END not in text:
-        sys.exit(f"{doc}: no {BEGIN} ... {END}")
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    new = head + BEGIN + "\n" + table(*latest(root)) + "\n" + END + tail
+    new = text
+    for integrator in TABLES:
+        begin, end = markers(integrator)
+        if begin not in new or end not in new:
+            sys.exit(f"{doc}: no {begin} ... {end}")
+        head, rest = new.split(begin, 1)
+        _, tail = rest.split(end, 1)
+        new = head + begin + "\n" + table(*latest(root, integrator)) + "\n" + end + tail
     if check:
         if new != text:
             sys.exit(f"{doc}: the ranks table is not what the newest docs/bench/ranks-*.json gives "
@@ -144,6 +164,7 @@ def main():
     p.add_argument("--check", nargs="?", const=ROOT)
     p.add_argument("--write", nargs="?", const=ROOT)
     p.add_argument("--qbond", default=os.path.join(ROOT, "build", "qbond"))
+    p.add_argument("--integrator", default=VERLET)
     p.add_argument("--n", type=int, default=40)
     p.add_argument("--steps", type=int, default=200)
     p.add_argument("--repeats", type=int, default=3)
@@ -154,7 +175,8 @@ def main():
     if a.check or a.write:
         return render(a.check or a.write, check=bool(a.check))
     res = measure(a)
-    out = a.out or os.path.join(ROOT, "docs", "bench", f"ranks-{res['date']}.json")
+    mid = "" if a.integrator == VERLET else f"{a.integrator}-"
+    out = a.out or os.path.join(ROOT, "docs", "bench", f"ranks-{mid}{res['date']}.json")
     with open(out, "w") as f:
         json.dump(res, f, indent=1)
         f.write("\n")

@@ -21,10 +21,23 @@ void check_distributable(const Scene& scene, int ranks) {
   const std::string over = "a run over " + std::to_string(ranks) + " ranks ";
   const std::string one = "; run it on one rank (without mpirun)";
   const IntegratorType t = scene.integrator.type;
-  if (t != IntegratorType::velocity_verlet && t != IntegratorType::explicit_euler &&
+#ifdef QBOND_DISTRIBUTED_IMPLICIT
+  const bool implicit = t == IntegratorType::coupled_implicit;
+  const char* taken = "takes coupled_implicit, velocity_verlet, explicit_euler or symplectic_euler, not ";
+#else
+  const bool implicit = false;
+  const char* taken =
+      "takes velocity_verlet, explicit_euler or symplectic_euler (this qbond was built without PETSc, "
+      "which solves coupled_implicit over ranks), not ";
+#endif
+  if (!implicit && t != IntegratorType::velocity_verlet && t != IntegratorType::explicit_euler &&
       t != IntegratorType::symplectic_euler)
-    throw std::invalid_argument(over + "takes velocity_verlet, explicit_euler or symplectic_euler, not " +
-                                std::string(to_string(t)) + one);
+    throw std::invalid_argument(over + taken + std::string(to_string(t)) + one);
+  if (implicit && scene.integrator.solver != CoupledSolver::cg)
+    throw std::invalid_argument(over + "solves coupled_implicit with PETSc's CG (solver cg), not solver " +
+                                std::string(to_string(scene.integrator.solver)) + one);
+  if (implicit && scene.world.model.solves_contact())
+    throw std::invalid_argument(over + "does not distribute obstacles and quanta contact yet" + one);
   if (!scene.heuristics.empty()) throw std::invalid_argument(over + "does not distribute heuristics yet" + one);
   // A bond failing on one rank must fail on the ranks that hold it as a ghost's: not exchanged yet.
   const Bonds& b = scene.world.state.bonds;

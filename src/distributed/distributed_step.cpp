@@ -55,10 +55,16 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       h_(h),
       limits_(limits),
       verlet_(config.type == IntegratorType::velocity_verlet),
+      implicit_(config.type == IntegratorType::coupled_implicit),
       rank_(mpi_rank()),
       ranks_(mpi_ranks()),
       start_books_(whole.state.energy) {
   open_ledger(whole_.model, whole_.state, start_books_);  // as a run on one rank's Simulation does
+  if (implicit_) {
+    Adjacency adj;
+    build_adjacency(whole_.model, whole_.state, adj);
+    free_components(whole_.model, adj, components_);
+  }
   cuts_ = bisect(whole_.state.x, ranks_);
   owner_ = parts_of(cuts_, whole_.state.x);
   std::vector<double> f;
@@ -92,14 +98,25 @@ void DistributedStep::build(const std::vector<double>* forces) {
   gravity_.resize(n);
   for (std::size_t q = 0; q < n; ++q) gravity_[q] = w.model.mass[q] * w.model.gravity;
   moved_.resize(n);
-  // Every owned bond once over the ranks: the pieces hold the whole world's bonds.
+  // Every owned bond once over the ranks: the pieces hold the whole world's bonds. The implicit
+  // solve needs every rank in every step, and a rank without quanta takes none.
   {
-    const std::vector<double> mine{static_cast<double>(piece.owned_bonds.size())};
-    double total = 0;
-    for (double c : all_gather(mine)) total += c;
+    const std::vector<double> mine{static_cast<double>(piece.owned_bonds.size()),
+                                   static_cast<double>(owned_.size())};
+    const std::vector<double> all = all_gather(mine);
+    double total = 0, fewest = HUGE_VAL;
+    for (std::size_t r = 0; r + 2 <= all.size(); r += 2) {
+      total += all[r];
+      fewest = std::min(fewest, all[r + 1]);
+    }
     if (total != static_cast<double>(piece.whole_alive_bonds))
       throw std::logic_error("the ranks' pieces hold " + std::to_string(total) + " bonds of " +
                              std::to_string(piece.whole_alive_bonds));
+    if (implicit_ && fewest == 0)
+      throw std::invalid_argument("a run of " + std::to_string(whole_.num_quanta()) + " quanta over " +
+                                  std::to_string(ranks_) +
+                                  " ranks leaves a rank without quanta, which the implicit solve over ranks "
+                                  "cannot take; run it on fewer ranks");
   }
   if (verlet_) {
     // The carried forces: the whole world's, or this piece's own for its owned quanta (whose
@@ -130,6 +147,42 @@ void DistributedStep::build(const std::vector<double>* forces) {
   sim_ = std::make_unique<Simulation>(std::move(w), config_, h_);
   sim_->limits() = limits_;
   sim_->set_track_energy(false);  // the ledger is charged here, over the owned bonds
+#ifdef QBOND_DISTRIBUTED_IMPLICIT
+  if (implicit_) replace_step_integrator(*sim_, make_coupled_over_ranks(config_, solve_layout()));
+#endif
+}
+
+SolveLayout DistributedStep::solve_layout() {
+  // The whole system's block rows: each rank's owned free quanta in whole-world order, rank after
+  // rank (the same numbering on every rank, from the owners alone).
+  const std::size_t n = whole_.num_quanta();
+  std::vector<std::int64_t> next(static_cast<std::size_t>(ranks_) + 1, 0);
+  for (std::size_t q = 0; q < n; ++q)
+    if (!whole_.model.is_kinematic(static_cast<Index>(q))) ++next[static_cast<std::size_t>(owner_[q]) + 1];
+  for (std::size_t r = 1; r < next.size(); ++r) next[r] += next[r - 1];
+  SolveLayout layout;
+  layout.first_row = next[static_cast<std::size_t>(rank_)];
+  layout.rows = next.back();
+  std::vector<std::int64_t> rows(n, -1);
+  for (std::size_t q = 0; q < n; ++q)
+    if (!whole_.model.is_kinematic(static_cast<Index>(q))) rows[q] = next[static_cast<std::size_t>(owner_[q])]++;
+  std::vector<Index> local(n, ~Index{0});
+  layout.row.resize(global_.size());
+  for (std::size_t l = 0; l < global_.size(); ++l) {
+    local[global_[l]] = static_cast<Index>(l);
+    layout.row[l] = rows[global_[l]];
+  }
+  for (Index l : owned_)
+    if (layout.row[l] >= 0) layout.owned_free.push_back(l);
+  const FreeComponents& c = components_;
+  layout.component_offset.push_back(0);
+  for (std::size_t k = 0; k + 1 < c.offset.size(); ++k) {
+    for (Index m = c.offset[k]; m < c.offset[k + 1]; ++m)
+      if (owner_[c.quanta[m]] == rank_) layout.component_owned.push_back(local[c.quanta[m]]);
+    layout.component_offset.push_back(static_cast<Index>(layout.component_owned.size()));
+  }
+  layout.component_mass = c.mass;
+  return layout;
 }
 
 namespace {

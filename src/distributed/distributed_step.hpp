@@ -7,11 +7,13 @@
 #include <optional>
 #include <vector>
 
+#include "distributed/coupled_over_ranks.hpp"
 #include "distributed/halo.hpp"
 #include "distributed/local_world.hpp"
 #include "distributed/partition.hpp"
 #include "ledger/step_work.hpp"
 #include "qbond/simulation/simulation.hpp"
+#include "solvers/coloring.hpp"
 
 namespace qbond::distributed {
 
@@ -19,8 +21,9 @@ class DistributedStep {
  public:
   // Splits `whole` (the same on every rank) over the job's ranks; config.type must be an explicit
   // integrator that takes one force evaluation per step (velocity_verlet, explicit_euler,
-  // symplectic_euler: the caller checks). Velocity Verlet's carried forces come from
-  // whole.state.carry when it holds them, else are evaluated once here.
+  // symplectic_euler) or, built with PETSc, coupled_implicit with the cg solver (the caller
+  // checks). Velocity Verlet's carried forces come from whole.state.carry when it holds them,
+  // else are evaluated once here. Throws when the implicit solve would leave a rank without quanta.
   DistributedStep(const World& whole, const IntegratorConfig& config, double h, const BlowupLimits& limits);
   ~DistributedStep();
 
@@ -61,6 +64,8 @@ class DistributedStep {
   // Builds this rank's piece from whole_ and owner_, with the whole world's carried forces
   // (3 per quanta, by whole index) or, when null, with forces evaluated here and exchanged.
   void build(const std::vector<double>* forces);
+  // This rank's place in the whole implicit system, from owner_ and the built piece.
+  SolveLayout solve_layout();
   // The ghosts' positions and velocities (and carried forces) from their owners.
   void exchange_ghosts();
   // The anchors' and dampers' work over the owned bonds, from the state before the step; returns
@@ -90,6 +95,7 @@ class DistributedStep {
   double h_;
   BlowupLimits limits_;
   bool verlet_;
+  bool implicit_;  // coupled_implicit: the pieces' steps solve one system over the ranks
   int rank_, ranks_;
   Bisection cuts_;
   std::vector<int> owner_;
@@ -106,6 +112,9 @@ class DistributedStep {
   std::vector<Vec3> gravity_;   // m g per local quanta
   double anchors_ = 0, damping_ = 0;  // this rank's share since the run started [J]
   EnergyLedger start_books_;          // the whole ledger when the run started (opened if it was not)
+  // coupled_implicit: the whole world's free components (its topology does not change in a run over
+  // ranks).
+  FreeComponents components_;
   Times times_;
   bool stop_agreed_ = false;
   std::uint64_t migrations_ = 0;

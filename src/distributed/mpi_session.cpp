@@ -5,6 +5,9 @@
 #include <stdexcept>
 
 #include "distributed/collectives.hpp"
+#ifdef QBOND_DISTRIBUTED_IMPLICIT
+#include "distributed/coupled_over_ranks.hpp"
+#endif
 #include "qbond/distributed/distributed.hpp"
 
 namespace qbond {
@@ -29,6 +32,9 @@ MpiSession::MpiSession(int& argc, char**& argv) {
 }
 
 MpiSession::~MpiSession() {
+#ifdef QBOND_DISTRIBUTED_IMPLICIT
+  distributed::end_petsc();  // PETSc ends before the MPI it runs on
+#endif
   if (!g_started) return;
   int done = 0;
   MPI_Finalized(&done);

@@ -21,6 +21,8 @@
 
 namespace qbond {
 
+class Simulation;
+
 // The state a step applies and its blow-up check.
 struct Advanced {
   double max_speed = HUGE_VAL;  // [m/s] the limit (the caller's): no free quanta may be faster
@@ -104,6 +106,10 @@ class StepIntegrator : public Integrator {
 
 // make_integrator's integrators, with their private paths.
 std::unique_ptr<StepIntegrator> make_step_integrator(const IntegratorConfig& config);
+
+// Gives `sim` an integrator make_step_integrator does not build (a run over ranks' coupled step,
+// whose solve spans the ranks) in place of its own; drops the old one's carry-over.
+void replace_step_integrator(Simulation& sim, std::unique_ptr<StepIntegrator> integrator);
 
 // x + dx and v + dv of a projection from `state` into to.x, to.v, the prescribed quanta placed on
 // their paths at t1 (place_kinematic, with their range: PrescribedAt), and the rule's verdict into

@@ -103,6 +103,12 @@ void Simulation::set_integrator(const IntegratorConfig& config) {
   world_.state.carry = std::monostate{};  // the carry-over was the old integrator's
 }
 
+void replace_step_integrator(Simulation& sim, std::unique_ptr<StepIntegrator> integrator) {
+  checked_thread_count(integrator->config().threads);
+  sim.integrator_ = std::move(integrator);
+  sim.world_.state.carry = std::monostate{};
+}
+
 const Adjacency& Simulation::adjacency() { return scratch_->adjacency(world_.model, world_.state); }
 
 const Projection& Simulation::projection() const { return scratch_->projection; }

@@ -86,6 +86,8 @@ class Simulation {
   void add_observer(Observer* o) { observers_.push_back(o); }
   /// Replaces the integrator (keeps the world, drops the old one's carry-over, State::carry).
   void set_integrator(const IntegratorConfig& config);
+  /// The library's own path to an integrator that make_integrator does not build (internal).
+  friend void replace_step_integrator(Simulation& sim, std::unique_ptr<StepIntegrator> integrator);
 
   World& world() { return world_; }
   const World& world() const { return world_; }

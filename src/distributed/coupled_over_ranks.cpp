@@ -1,0 +1,243 @@
+#include "distributed/coupled_over_ranks.hpp"
+
+#include <petscksp.h>
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+#include "distributed/collectives.hpp"
+#include "integrators/backward_euler.hpp"
+#include "integrators/integrator_common.hpp"
+
+namespace qbond::distributed {
+
+namespace {
+
+void check(PetscErrorCode code, const char* call) {
+  if (code != 0)
+    throw std::runtime_error(std::string("PETSc: ") + call + " failed (error " + std::to_string(code) + ")");
+}
+
+bool g_petsc_started = false;  // this program started PETSc (end_petsc ends it)
+
+// PETSc over MPI_COMM_WORLD, started once MPI runs; without PETSc's signal handlers, so that
+// the run's own SIGTERM handling (a stop agreed by every rank) stays in place.
+void start_petsc() {
+  PetscBool up = PETSC_FALSE;
+  check(PetscInitialized(&up), "PetscInitialized");
+  if (up) return;
+  check(PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr), "PetscOptionsSetValue");
+  check(PetscInitializeNoArguments(), "PetscInitializeNoArguments");
+  g_petsc_started = true;
+}
+
+// The whole system's rows a rank owns, as a PETSc matrix (AIJ in 3×3 blocks) with its vectors and
+// its CG solver, built for one piece and its bonds (the pattern holds while they do).
+class RanksSystem {
+ public:
+  RanksSystem(const SolveLayout& layout, const State& state, const Adjacency& adj, const IntegratorConfig& config) {
+    start_petsc();
+    const auto own = static_cast<PetscInt>(layout.owned_free.size());
+    const auto total = static_cast<PetscInt>(layout.rows);
+    const std::int64_t first = layout.first_row, last = first + own;
+    // Preallocation by block row: the blocks in this rank's columns and in the others'.
+    std::vector<PetscInt> d(static_cast<std::size_t>(own), 1), o(static_cast<std::size_t>(own), 0);
+    for (PetscInt k = 0; k < own; ++k) {
+      const Index i = layout.owned_free[static_cast<std::size_t>(k)];
+      for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+        const std::int64_t r = layout.row[adj.other[e]];
+        if (r < 0) continue;
+        ++((r >= first && r < last) ? d : o)[static_cast<std::size_t>(k)];
+      }
+      d[static_cast<std::size_t>(k)] = std::min(d[static_cast<std::size_t>(k)], own);
+      o[static_cast<std::size_t>(k)] = std::min(o[static_cast<std::size_t>(k)], total - own);
+    }
+    check(MatCreate(PETSC_COMM_WORLD, &A_), "MatCreate");
+    check(MatSetSizes(A_, 3 * own, 3 * own, 3 * total, 3 * total), "MatSetSizes");
+    check(MatSetBlockSize(A_, 3), "MatSetBlockSize");
+    check(MatSetType(A_, MATAIJ), "MatSetType");
+    check(MatXAIJSetPreallocation(A_, 3, d.data(), o.data(), nullptr, nullptr), "MatXAIJSetPreallocation");
+    check(MatSetOption(A_, MAT_SPD, PETSC_TRUE), "MatSetOption(MAT_SPD)");
+    check(MatSetOption(A_, MAT_SPD_ETERNAL, PETSC_TRUE), "MatSetOption(MAT_SPD_ETERNAL)");
+    check(MatCreateVecs(A_, &x_, &b_), "MatCreateVecs");
+    // The rigid-body modes of the owned free quanta's positions at the start: the near-null space
+    // a smoothed-aggregation preconditioner takes (PETSC_OPTIONS="-pc_type gamg").
+    Vec coords;
+    check(VecDuplicate(x_, &coords), "VecDuplicate");
+    {
+      PetscScalar* c = nullptr;
+      check(VecGetArray(coords, &c), "VecGetArray");
+      for (PetscInt k = 0; k < own; ++k)
+        for (int j = 0; j < 3; ++j) c[3 * k + j] = state.x[layout.owned_free[static_cast<std::size_t>(k)]][j];
+      check(VecRestoreArray(coords, &c), "VecRestoreArray");
+    }
+    MatNullSpace rigid;
+    check(MatNullSpaceCreateRigidBody(coords, &rigid), "MatNullSpaceCreateRigidBody");
+    check(MatSetNearNullSpace(A_, rigid), "MatSetNearNullSpace");
+    check(MatNullSpaceDestroy(&rigid), "MatNullSpaceDestroy");
+    check(VecDestroy(&coords), "VecDestroy");
+
+    check(KSPCreate(PETSC_COMM_WORLD, &ksp_), "KSPCreate");
+    check(KSPSetOperators(ksp_, A_, A_), "KSPSetOperators");
+    check(KSPSetType(ksp_, KSPCG), "KSPSetType(KSPCG)");
+    // qbond's CG criterion: the true (unpreconditioned) residual against ‖b‖.
+    check(KSPSetNormType(ksp_, KSP_NORM_UNPRECONDITIONED), "KSPSetNormType");
+    const int cap = config.max_iterations > 0 ? config.max_iterations : static_cast<int>(3 * layout.rows);
+    check(KSPSetTolerances(ksp_, config.tolerance, 0.0, PETSC_DEFAULT, cap), "KSPSetTolerances");
+    PC pc;
+    check(KSPGetPC(ksp_, &pc), "KSPGetPC");
+    // hypre's BoomerAMG: the same bits on every run over the same ranks. (GAMG's parallel
+    // Galerkin products add other ranks' contributions in the order they arrive.)
+    check(PCSetType(pc, PCHYPRE), "PCSetType(PCHYPRE)");
+    check(PCHYPRESetType(pc, "boomeramg"), "PCHYPRESetType(boomeramg)");
+    check(KSPSetFromOptions(ksp_), "KSPSetFromOptions");  // PETSC_OPTIONS may choose another
+  }
+  RanksSystem(const RanksSystem&) = delete;
+  RanksSystem& operator=(const RanksSystem&) = delete;
+  ~RanksSystem() {
+    (void)KSPDestroy(&ksp_);
+    (void)VecDestroy(&x_);
+    (void)VecDestroy(&b_);
+    (void)MatDestroy(&A_);
+  }
+
+  // Solves the step's system (sys, built on the piece) for the owned free quanta's rows of y,
+  // from y's rows when `guessed`, else from zero (collective).
+  void solve(const SolveLayout& layout, const Adjacency& adj, const ImplicitSystem& sys, bool guessed,
+             std::vector<Vec3>& y, SolveStats& stats) {
+    check(MatZeroEntries(A_), "MatZeroEntries");
+    const std::size_t own = layout.owned_free.size();
+    // One block row at a time: its diagonal block, then −B_b towards each free neighbour in the
+    // quanta's adjacency order (values row-major over the row's 3 × 3·columns).
+    for (std::size_t k = 0; k < own; ++k) {
+      const Index i = layout.owned_free[k];
+      cols_.assign(1, static_cast<PetscInt>(layout.row[i]));
+      blocks_.assign(1, sys.diag[i]);
+      for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+        const std::int64_t r = layout.row[adj.other[e]];
+        if (r < 0) continue;
+        const Index bond = adj.bond[e];
+        cols_.push_back(static_cast<PetscInt>(r));
+        blocks_.push_back(-block_matrix(sys.bonds.u(bond), sys.bonds.Ba[bond], sys.bonds.Bb[bond]));
+      }
+      const std::size_t nc = cols_.size();
+      values_.resize(9 * nc);
+      for (std::size_t c = 0; c < nc; ++c)
+        for (int r = 0; r < 3; ++r)
+          for (int s = 0; s < 3; ++s) values_[static_cast<std::size_t>(r) * 3 * nc + 3 * c + static_cast<std::size_t>(s)] = blocks_[c](r, s);
+      check(MatSetValuesBlocked(A_, 1, &cols_[0], static_cast<PetscInt>(nc), cols_.data(), values_.data(), ADD_VALUES),
+            "MatSetValuesBlocked");
+    }
+    check(MatAssemblyBegin(A_, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+    check(MatAssemblyEnd(A_, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+    {
+      PetscScalar *pb = nullptr, *px = nullptr;
+      check(VecGetArray(b_, &pb), "VecGetArray");
+      check(VecGetArray(x_, &px), "VecGetArray");
+      for (std::size_t k = 0; k < own; ++k)
+        for (int j = 0; j < 3; ++j) {
+          const Index i = layout.owned_free[k];
+          pb[3 * k + static_cast<std::size_t>(j)] = sys.rhs[i][j];
+          px[3 * k + static_cast<std::size_t>(j)] = guessed ? y[i][j] : 0.0;
+        }
+      check(VecRestoreArray(b_, &pb), "VecRestoreArray");
+      check(VecRestoreArray(x_, &px), "VecRestoreArray");
+    }
+    check(KSPSetInitialGuessNonzero(ksp_, guessed ? PETSC_TRUE : PETSC_FALSE), "KSPSetInitialGuessNonzero");
+    check(KSPSolve(ksp_, b_, x_), "KSPSolve");
+    PetscInt its = 0;
+    PetscReal rnorm = 0, bnorm = 0;
+    check(KSPGetIterationNumber(ksp_, &its), "KSPGetIterationNumber");
+    check(KSPGetResidualNorm(ksp_, &rnorm), "KSPGetResidualNorm");
+    check(VecNorm(b_, NORM_2, &bnorm), "VecNorm");
+    stats.iterations += static_cast<int>(its);
+    stats.residual = bnorm > 0 ? rnorm / bnorm : rnorm;
+    const PetscScalar* px = nullptr;
+    check(VecGetArrayRead(x_, &px), "VecGetArrayRead");
+    for (std::size_t k = 0; k < own; ++k)
+      y[layout.owned_free[k]] = Vec3(px[3 * k], px[3 * k + 1], px[3 * k + 2]);
+    check(VecRestoreArrayRead(x_, &px), "VecRestoreArrayRead");
+  }
+
+ private:
+  Mat A_ = nullptr;
+  Vec x_ = nullptr, b_ = nullptr;
+  KSP ksp_ = nullptr;
+  std::vector<PetscInt> cols_;
+  std::vector<Mat3> blocks_;
+  std::vector<PetscScalar> values_;
+};
+
+class CoupledOverRanks final : public StepIntegrator {
+ public:
+  // Dampers at the end-of-step velocity (backward Euler), as the coupled integrator on one rank.
+  CoupledOverRanks(const IntegratorConfig& c, SolveLayout layout)
+      : StepIntegrator(c, {.damping_theta = 1.0}), layout_(std::move(layout)) {}
+
+  bool forms_gravity() const override { return true; }
+
+  void project(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
+               const StepContext& ctx, Projection& out) override {
+    stats_ = {};
+    const int threads = config_.threads;
+    begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/false, threads, out, sys_);
+    const bool guessed = initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, threads, y_);
+    if (!guessed) y_.assign(model.num_quanta(), Vec3::Zero());
+    if (!system_) system_ = std::make_unique<RanksSystem>(layout_, state, adj, config_);
+    system_->solve(layout_, adj, sys_, guessed, y_, stats_);
+    if (config_.restore_momentum) restore_momentum(model, f_ext, ctx.h);
+    keep_guess(config_.warm_start, y_, ctx.h, state.carry, threads, out);
+    // The ghosts' rows are their owners' to write: the exchange after the step brings them.
+    write_free_rows(model, state, ctx.h, y_, threads, out);
+  }
+
+ private:
+  // restore_component_momentum over the whole world's free components: each rank's sums over its
+  // owned members, added in rank order (the same shift on every rank).
+  void restore_momentum(const Model& model, const std::vector<Vec3>& f_ext, double h) {
+    const std::size_t nc = layout_.component_mass.size();
+    sums_.assign(6 * nc, 0.0);
+    for (std::size_t c = 0; c < nc; ++c)
+      for (Index k = layout_.component_offset[c]; k < layout_.component_offset[c + 1]; ++k) {
+        const Index i = layout_.component_owned[k];
+        const Vec3 wanted = h * external_force(model, f_ext, i), got = model.mass[i] * y_[i];
+        for (int j = 0; j < 3; ++j) {
+          sums_[6 * c + static_cast<std::size_t>(j)] += wanted[j];
+          sums_[6 * c + 3 + static_cast<std::size_t>(j)] += got[j];
+        }
+      }
+    const std::vector<double> all = all_gather(sums_);
+    for (std::size_t c = 0; c < nc; ++c) {
+      Vec3 wanted = Vec3::Zero(), got = Vec3::Zero();
+      for (std::size_t r = 0; r + 6 * nc <= all.size(); r += 6 * nc) {
+        wanted += Vec3(all[r + 6 * c], all[r + 6 * c + 1], all[r + 6 * c + 2]);
+        got += Vec3(all[r + 6 * c + 3], all[r + 6 * c + 4], all[r + 6 * c + 5]);
+      }
+      const Vec3 shift = (wanted - got) / layout_.component_mass[c];
+      for (Index k = layout_.component_offset[c]; k < layout_.component_offset[c + 1]; ++k)
+        y_[layout_.component_owned[k]] += shift;
+    }
+  }
+
+  SolveLayout layout_;
+  ImplicitSystem sys_;
+  std::vector<Vec3> y_;
+  std::vector<double> sums_;
+  std::unique_ptr<RanksSystem> system_;
+};
+
+}  // namespace
+
+std::unique_ptr<StepIntegrator> make_coupled_over_ranks(const IntegratorConfig& config, SolveLayout layout) {
+  return std::make_unique<CoupledOverRanks>(config, std::move(layout));
+}
+
+void end_petsc() {
+  if (!g_petsc_started) return;
+  PetscBool done = PETSC_FALSE;
+  if (PetscFinalized(&done) == 0 && !done) (void)PetscFinalize();
+  g_petsc_started = false;
+}
+
+}  // namespace qbond::distributed

@@ -1,0 +1,195 @@
+#!/usr/bin/python3
+"""A scene stepped by coupled_implicit over MPI ranks against the same scene run alone
+(docs/distributed.md).
+
+Usage: mpi_implicit_test.py QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC [--mpiexec-flag F ...]
+
+The run alone solves each step's system with qbond's CG, the run over ranks with PETSc's CG; both
+stop at ‖b − A Δv‖ ≤ τ ‖b‖ (τ the scene's `tolerance`), so each step's Δv is within κ τ ‖Δv*‖ of
+the exact one (κ the condition number of A = M + h C + h² K) and the two runs' Δv within 2 κ τ ‖Δv*‖.
+κ ≤ 1 + 2 z (h c + h² k) / m by Gershgorin's theorem (z bonds a quanta at most, each block of norm
+at most h c + h² k for a linear law of stiffness k and damping c, eigenvalues at least m). Summed
+over S steps, with ‖Δv‖ ≤ 2 max ‖v‖ (a step's change of velocity), the velocities differ by at most
+    ‖v₁ − v_N‖₂ ≤ 4 κ τ S max ‖v‖₂,
+the positions by h S times that, and the energy columns by twice that relative error of their
+scale (energies are quadratic in v). The scene's frames are written every step, so that max ‖v‖
+is over every step. Checks:
+  - the two runs over N ranks wrote the same bytes (diagnostics.csv and every frame);
+  - every frame holds every quanta and bond of the run alone, at its positions and velocities to
+    the bounds above; every diagnostics column but the solver's (iterations, residual: 0 over ranks) to
+    twice the relative bound plus round-off, of its scale (the energy columns of the energy's, a
+    vector's components of the vector's);
+  - the ledger over ranks closes: total − total at the start = work − dissipated − numerical to
+    round-off.
+Exits non-zero with a message naming the file, the column or quanta and the difference.
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+
+p = argparse.ArgumentParser()
+p.add_argument("qbond")
+p.add_argument("scene")
+p.add_argument("work")
+p.add_argument("--ranks", type=int, required=True)
+p.add_argument("--mpiexec", required=True)
+p.add_argument("--mpiexec-flag", action="append", default=[])
+a = p.parse_args()
+
+ROUND_OFF = 1e-12
+ENERGY = {"kinetic", "potential", "dissipated", "total", "work", "numerical"}
+SOLVER = {"iterations", "residual"}
+# Bonds a quanta of a cubic lattice has at most, by its `neighbors`.
+BONDS_PER_QUANTA = {"nearest": 6, "face_diagonal": 18, "body_diagonal": 26}
+
+with open(a.scene) as f:
+    scene = json.load(f)
+h = scene["timestep"]
+steps = scene["steps"]
+tau = scene["integrator"]["tolerance"]
+if scene["integrator"].get("type", "coupled_implicit") != "coupled_implicit":
+    sys.exit(f"{a.scene}: the bound is coupled_implicit's")
+if scene["output"].get("every") != 1:
+    sys.exit(f"{a.scene}: the bound needs a frame every step")
+kappa = 1.0
+for body in scene["bodies"]:
+    mat = scene["materials"][body["material"]]
+    if body["type"] != "lattice" or body.get("cell") != "cubic" or mat["law"] != "linear":
+        sys.exit(f"{a.scene}: the bound is for cubic lattices of linear bonds")
+    z = BONDS_PER_QUANTA[body.get("neighbors", "face_diagonal")]
+    kappa = max(kappa, 1 + 2 * z * (h * mat.get("damping", 0) + h * h * mat["stiffness"]) / body["quanta_mass"])
+REL_V = 4 * kappa * tau * steps
+
+
+def run(out, ranks):
+    if os.path.exists(out):
+        shutil.rmtree(out)
+    cmd = [a.qbond, "run", a.scene, "-o", out]
+    if ranks:
+        cmd = [a.mpiexec] + a.mpiexec_flag + ["-n", str(ranks)] + cmd
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"{' '.join(cmd)}: exit {r.returncode}\n{r.stdout}\n{r.stderr}")
+    return r.stdout
+
+
+def read(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+def frames(out):
+    return sorted(os.listdir(os.path.join(out, "frames")))
+
+
+def rows(out):
+    with open(os.path.join(out, "diagnostics.csv")) as f:
+        return list(csv.reader(f))
+
+
+def poly(path):
+    r = vtk.vtkXMLPolyDataReader()
+    r.SetFileName(path)
+    r.Update()
+    return r.GetOutput()
+
+
+os.makedirs(a.work, exist_ok=True)
+alone = os.path.join(a.work, "alone")
+first, second = os.path.join(a.work, "ranks_a"), os.path.join(a.work, "ranks_b")
+run(alone, 0)
+run(first, a.ranks)
+run(second, a.ranks)
+
+# The same rank count, the same bits.
+if frames(first) != frames(second):
+    sys.exit("two runs over the same ranks wrote different frames")
+for name in ["diagnostics.csv"] + [os.path.join("frames", f) for f in frames(first)]:
+    if read(os.path.join(first, name)) != read(os.path.join(second, name)):
+        sys.exit(f"{name}: two runs over {a.ranks} ranks wrote different bytes")
+
+# Frames: every quanta and bond, positions and velocities within the bound.
+if frames(alone) != frames(first):
+    sys.exit("the runs wrote different frames")
+data = []
+for name in frames(alone):
+    p1, pn = poly(os.path.join(alone, "frames", name)), poly(os.path.join(first, "frames", name))
+    if (p1.GetNumberOfPoints(), p1.GetNumberOfLines()) != (pn.GetNumberOfPoints(), pn.GetNumberOfLines()):
+        sys.exit(f"{name}: {p1.GetNumberOfPoints()} quanta and {p1.GetNumberOfLines()} bonds alone, "
+                 f"{pn.GetNumberOfPoints()} and {pn.GetNumberOfLines()} over {a.ranks} ranks")
+    if (vtk_to_numpy(p1.GetLines().GetData()) != vtk_to_numpy(pn.GetLines().GetData())).any():
+        sys.exit(f"{name}: the bonds' ends differ over {a.ranks} ranks")
+    v = lambda d: vtk_to_numpy(d.GetPointData().GetArray("velocity"))
+    x = lambda d: vtk_to_numpy(d.GetPoints().GetData())
+    data.append((name, x(p1), x(pn), v(p1), v(pn)))
+vmax = max(np.linalg.norm(v1) for _, _, _, v1, _ in data)
+if not vmax > 0:
+    sys.exit("the scene does not move: nothing to compare")
+worst_v = worst_x = 0.0
+for name, x1, xn, v1, vn in data:
+    dv, dx = np.linalg.norm(v1 - vn), np.linalg.norm(x1 - xn)
+    if dv > REL_V * vmax:
+        sys.exit(f"{name}: velocities differ by {dv:g}, beyond 4 κ τ S max‖v‖ = {REL_V * vmax:g} "
+                 f"(κ ≤ {kappa:g}, τ = {tau:g}, S = {steps})")
+    if dx > h * steps * REL_V * vmax + ROUND_OFF * np.abs(x1).max():
+        sys.exit(f"{name}: positions differ by {dx:g}, beyond h S 4 κ τ S max‖v‖ = {h * steps * REL_V * vmax:g}")
+    worst_v, worst_x = max(worst_v, dv / vmax), max(worst_x, dx / (h * steps * vmax))
+
+# Diagnostics: every column but the solver's, within twice the bound of its scale.
+one, many = rows(alone), rows(first)
+if one[0] != many[0]:
+    sys.exit(f"diagnostics columns differ: {one[0]} vs {many[0]}")
+if len(one) != len(many):
+    sys.exit(f"diagnostics: {len(one) - 1} rows alone, {len(many) - 1} over {a.ranks} ranks")
+header = one[0]
+col = {name: k for k, name in enumerate(header)}
+values = [[float(x) for x in r] for r in one[1:]]
+scale = {hd: max(abs(r[k]) for r in values) for k, hd in enumerate(header)}
+energy_scale = max(scale[hd] for hd in ENERGY if hd in scale)
+
+
+def group(hd):
+    """A vector's or tensor's components share its scale (px, py, pz; a probe's x, y, z, its force
+    fx, fy, fz or torque tx, ty, tz; its stress sxx ... sxy)."""
+    m = re.match(r"^(.*_s)[xyz]{2}$", hd) or re.match(r"^(.*_[a-z]?)[xyz]$", hd) or re.match(r"^([pl])[xyz]$", hd)
+    return m.group(1) if m else hd
+
+
+for hd in header:
+    scale[hd] = max(scale[o] for o in header if group(o) == group(hd))
+worst_d = 0.0
+for r1, rn in zip(one[1:], many[1:]):
+    for k, hd in enumerate(header):
+        if hd in SOLVER:
+            continue
+        x1, xn = float(r1[k]), float(rn[k])
+        s = energy_scale if hd in ENERGY else scale[hd]
+        if abs(x1 - xn) > (2 * REL_V + ROUND_OFF) * s:
+            sys.exit(f"diagnostics step {r1[0]}, {hd}: {x1!r} alone, {xn!r} over {a.ranks} ranks (scale {s:g}, "
+                     f"bound {(2 * REL_V + ROUND_OFF) * s:g})")
+        if s > 0:
+            worst_d = max(worst_d, abs(x1 - xn) / s)
+
+# The ledger over ranks closes: total − total₀ = work − dissipated − numerical.
+total0 = float(many[1][col["total"]]) if int(float(many[1][col["step"]])) == 0 else None
+if total0 is not None:
+    for rn in many[1:]:
+        got = float(rn[col["total"]]) - total0
+        want = float(rn[col["work"]]) - float(rn[col["dissipated"]]) - float(rn[col["numerical"]])
+        if abs(got - want) > ROUND_OFF * energy_scale * 10:
+            sys.exit(f"diagnostics step {rn[0]}: the ledger over {a.ranks} ranks does not close "
+                     f"({got!r} vs {want!r})")
+
+print(f"{a.ranks} ranks: κ ≤ {kappa:.4g}, τ = {tau:g}, S = {steps}: velocities differ by {worst_v:.3g} of "
+      f"max‖v‖ (bound {REL_V:.3g}), positions by {worst_x:.3g} of h S max‖v‖, diagnostics by {worst_d:.3g} "
+      "of their scale")
