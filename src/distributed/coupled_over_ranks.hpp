@@ -2,8 +2,9 @@
 // The coupled implicit step (backward Euler, backward_euler.hpp) of a run over ranks: each rank
 // builds the system's rows of the free quanta it owns from its piece (local_world.hpp: an owned
 // quanta's bonds are all in its piece), and the ranks solve (M + h C + h² K) Δv = b together with
-// PETSc's CG preconditioned by hypre's algebraic multigrid (BoomerAMG), to qbond's CG stopping
-// rule ‖b − A Δv‖ ≤ tolerance ‖b‖.
+// PETSc's CG preconditioned by A's 3 × 3 diagonal blocks (preconditioner block_jacobi) or by
+// hypre's algebraic multigrid (BoomerAMG: multigrid, automatic), to qbond's CG stopping rule
+// ‖b − A Δv‖ ≤ tolerance ‖b‖.
 // Built with MPI and PETSc (QBOND_DISTRIBUTED_IMPLICIT).
 #include <cstdint>
 #include <memory>
