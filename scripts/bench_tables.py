@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Renders the measured tables of docs/performance.md, docs/integrators.md and docs/running.md from docs/bench/.
+"""Renders the measured tables of docs/performance.md, docs/integrators.md, docs/running.md, docs/api.md
+and docs/heuristics.md from docs/bench/.
 
 Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default: this script's parent)
 
@@ -7,7 +8,8 @@ Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
 docs/performance.md, docs/integrators.md or docs/running.md; the opening marker may carry
 `machine="..."`, which the provenance line quotes. KIND is one of step, asrun, solve, multigrid,
 peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, soak, killresume, ab, realtime,
-damping, targets, python (docs/api.md: bench/python_overhead.py's);
+damping, targets, python (docs/api.md: bench/python_overhead.py's), contact (docs/heuristics.md:
+`qbond bench --contact`'s);
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -26,7 +28,7 @@ NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "multigrid", "peers": "peers",
           "peers_rounds": "peers", "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory",
           "fuzz": "fuzz", "soak": "soak", "killresume": "killresume", "ab": "ab", "realtime": "realtime",
-          "damping": "damping", "python": "python"}
+          "damping": "damping", "python": "python", "contact": "contact"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
 PARALLEL_MIN = 4096
@@ -450,6 +452,34 @@ def damping_table(name, data, machine):
     return lines
 
 
+def contact_table(name, data, machine):
+    """`qbond bench --contact`: a step with contact inside the implicit step, by projection and without."""
+    lines = [provenance(name, data, machine, data["command"]) +
+             f" One thread; each scene stepped {data['warmup_seconds']:g} s of simulated time first, then "
+             f"{data['rounds']} interleaved rounds of {data['steps']} steps a variant; a variant's time is the "
+             "median of its steps, a ratio the median of the rounds' ratios.", "",
+             "| scene | quanta | bonds | h [s] | implicit ms | projection ms | no contact ms | implicit / no contact | "
+             "implicit / projection | note |", "|---|---|---|---|---|---|---|---|---|---|"]
+
+    def ms(v):
+        return sig(v["median_ms"]) if v["median_ms"] is not None else "–"
+
+    def ratio(x):
+        return f"{x:.2f}" if x is not None else "–"
+
+    for r in data["rows"]:
+        note = "; ".join(f"{v} blew up: {r[v]['failure']}" for v in ("implicit", "projection", "none") if r[v]["failure"])
+        lines.append(f"| {r['scene']} | {r['quanta']} | {r['bonds']} | {r['timestep']:.3g} | {ms(r['implicit'])} | "
+                     f"{ms(r['projection'])} | {ms(r['none'])} | {ratio(r['implicit_over_none'])} | "
+                     f"{ratio(r['implicit_over_projection'])} | {note} |")
+    mesh = [r for r in data["rows"] if r["scene"] == "mesh_drop" and r["implicit_over_none"] is not None]
+    if mesh:
+        extra = mesh[0]["implicit_over_none"] - 1
+        lines += ["", f"mesh_drop at h = {mesh[0]['timestep']:.3g} s: contact inside the step adds {extra:.0%} to its step "
+                  f"without contact ({'within' if extra <= 0.3 else 'beyond'} the target of at most 30 %)."]
+    return lines
+
+
 def render(kind, machine, bench_dir):
     if kind == "targets":
         return targets(bench_dir, machine)
@@ -469,7 +499,8 @@ def render(kind, machine, bench_dir):
             "ab": lambda: ab_table(name, data, machine),
             "realtime": lambda: realtime_table(name, data, machine),
             "damping": lambda: damping_table(name, data, machine),
-            "python": lambda: python_table(name, data, machine)}[kind]()
+            "python": lambda: python_table(name, data, machine),
+            "contact": lambda: contact_table(name, data, machine)}[kind]()
 
 
 BLOCK = re.compile(r"(<!-- bench:(?P<kind>\w+)(?P<attrs>[^>]*)-->\n)(?P<body>.*?)(<!-- /bench:(?P=kind) -->)", re.S)
@@ -487,7 +518,7 @@ def main(argv):
         return m.group(1) + body + m.group(5)
 
     total, stale = 0, []
-    for page in ("performance.md", "integrators.md", "running.md", "api.md"):
+    for page in ("performance.md", "integrators.md", "running.md", "api.md", "heuristics.md"):
         doc = os.path.join(root, "docs", page)
         with open(doc) as f:
             text = f.read()

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "bench.hpp"
+#include "contact_cost.hpp"
 #include "realtime.hpp"
 #include "experiment.hpp"
 #include "qbond/analysis/analysis.hpp"
@@ -691,9 +692,15 @@ int main(int argc, char** argv) {
   bench_cmd->add_flag("--realtime", realtime,
                       "the wall time of a 1/60 s frame instead, for the canonical lattice (default integrator, one step "
                       "a frame) and every built-in scene (its own settings), on 1 and 2 threads unless -j says");
-  bench_cmd->add_option("--scenes", ra.scenes, "with --realtime: built-in scenes, comma-separated (default: every one)");
+  bench_cmd->add_option("--scenes", ra.scenes, "with --realtime or --contact: built-in scenes, comma-separated (default: every one; --contact: the contact scenes)");
   bench_cmd->add_option("--budget", ra.budget, "with --realtime: wall seconds measured per row at most (default: 8)")
       ->check(kPositive);
+  bool contact_cost = false;
+  qbond::cli::ContactCostArgs ca;
+  bench_cmd->add_flag("--contact", contact_cost,
+                      "what contact costs a step instead: each scene's step (one thread) with its obstacles and quanta "
+                      "contact inside the implicit step, by projection and without contact, in interleaved rounds");
+  bench_cmd->add_option("--rounds", ca.rounds, "with --contact: interleaved rounds (default: 5)")->check(kPositive);
   std::string view_scene;
   qbond::view::ViewOptions vo;
   CLI::App* view_cmd = app.add_subcommand("view", "the real-time viewer: watch a scene and pull on it with the mouse "
@@ -760,12 +767,21 @@ int main(int argc, char** argv) {
     }
     if (bench_cmd->parsed()) {
       require_directory_of("--json", ba.json);
+      if (realtime && contact_cost)
+        throw std::invalid_argument("qbond bench: --realtime and --contact are two benchmarks: give one of them");
       if (realtime) {
         if (!ba.sizes.empty()) ra.sizes = ba.sizes;
         if (bench_cmd->count("--threads") > 0) ra.threads = ba.threads;
         ra.json = ba.json;
         for (int k = 0; k < argc; ++k) ra.command += (k ? " " : "") + std::string(k ? argv[k] : "build/qbond");
         return qbond::cli::bench_realtime(ra);
+      }
+      if (contact_cost) {
+        if (bench_cmd->count("--scenes") > 0) ca.scenes = ra.scenes;
+        ca.dt = ba.dt;
+        ca.json = ba.json;
+        for (int k = 0; k < argc; ++k) ca.command += (k ? " " : "") + std::string(k ? argv[k] : "build/qbond");
+        return qbond::cli::bench_contact(ca);
       }
       return qbond::cli::bench(ba);
     }
