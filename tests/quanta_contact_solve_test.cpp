@@ -256,8 +256,11 @@ TEST(SolvedQuantaContact, ABlockRestsOnATrampolineAtFrameSizedSteps) {
 TEST(SolvedQuantaContact, TheTrampolinesStateConvergesAsTheStepShrinks) {
   // The block's and the sheet's mean heights after 2 s at h = 1/60, 1/120, 1/240, 1/480 s: the
   // difference between successive steps shrinks (the penalty's depth F h² / (κ μ) with them).
+  // Without pair friction: a stuck contact's rest state depends on its history (static friction
+  // holds any tangential load below μ_s f_n), so with it the state need not converge.
   std::ifstream f(std::string(QBOND_SOURCE_DIR) + "/scenes/trampoline.json");
-  const nlohmann::json j0 = nlohmann::json::parse(f);
+  nlohmann::json j0 = nlohmann::json::parse(f);
+  j0["heuristics"][1].erase("friction");
   std::vector<double> block, sheet;
   for (int per_second : {60, 120, 240, 480}) {
     nlohmann::json j = j0;
