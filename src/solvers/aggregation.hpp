@@ -9,7 +9,7 @@
 namespace qbond {
 
 /// Groups the block rows of A (graph: its off-diagonal blocks) into aggregates, in index order:
-/// a point whose neighbours are all free starts an aggregate with them (with radius 2 also with
+/// a point whose neighbours are all free starts an aggregate with them (radius 1; with 2 also with
 /// its neighbours' free neighbours: about half as many aggregates); a point left over
 /// joins the aggregate of its first aggregated neighbour; what remains groups with its free
 /// neighbours. agg[i] is point i's aggregate; returns their count. The same aggregates for the
