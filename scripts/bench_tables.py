@@ -6,7 +6,7 @@ Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
 docs/performance.md, docs/integrators.md or docs/running.md; the opening marker may carry
 `machine="..."`, which the provenance line quotes. KIND is one of step, asrun, solve, multigrid,
-peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, soak, killresume, ab, realtime,
+peers, peers_rounds, peers_accuracy, peers_frequencies, memory, runmemory, fuzz, soak, killresume, ab, realtime,
 damping, targets, python (docs/api.md: bench/python_overhead.py's);
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
@@ -24,7 +24,8 @@ from collections import defaultdict
 NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z]*)(?:-(?P<run>\d+))?\.json$")
 
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "multigrid", "peers": "peers",
-          "peers_rounds": "peers", "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory",
+          "peers_rounds": "peers", "peers_accuracy": "peers",
+          "peers_frequencies": "peers", "memory": "memory", "runmemory": "runmemory",
           "fuzz": "fuzz", "soak": "soak", "killresume": "killresume", "ab": "ab", "realtime": "realtime",
           "damping": "damping", "python": "python"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
@@ -183,6 +184,8 @@ def multigrid_table(name, data, machine):
 
 
 def peers_command(name, data):
+    if "command" in data:
+        return data["command"]
     return f"bench/peers/run --n {','.join(str(p['n']) for p in data['per_step'])} --json docs/bench/{name}"
 
 
@@ -237,13 +240,40 @@ def peers_rounds(name, data, machine):
     return lines
 
 
-def peers_seconds(name, data, machine):
-    n = max(p["n"] for p in data["per_step"])
-    lines = [provenance(name, data, machine, peers_command(name, data)) + f" n = {n}.", "",
-             "| method | largest stable step [s] | s per step | s per simulated second |", "|---|---|---|---|"]
-    for k, v in sorted(data["per_simulated_second"].items(), key=lambda kv: kv[1]["seconds_per_simulated_second"]):
-        lines.append(f"| {k} | {sig(v['largest_stable_step'])} | {sig(v['seconds_per_step'])} | "
-                     f"{sig(v['seconds_per_simulated_second'])} |")
+def peers_accuracy(name, data, machine):
+    """Each method's largest step meeting each accuracy criterion and its cost per simulated second there."""
+    lines = [provenance(name, data, machine, peers_command(name, data)), "",
+             "| n | criterion | method | damping | largest step meeting it [s] | error there | s per step | "
+             "s per simulated second | × qbond's best |", "|---|---|---|---|---|---|---|---|---|"]
+    for acc in data["accuracy"]:
+        for crit in ("dynamic", "settled"):
+            rows = [r for r in acc["rows"] if r["criterion"] == crit]
+            costs = [r["seconds_per_simulated_second"] for r in rows
+                     if r["step"] is not None and r["method"].startswith("qbond")]
+            best = min(costs) if costs else None
+            for r in sorted(rows, key=lambda r: (r["step"] is None, r["seconds_per_simulated_second"] or 0)):
+                if r["step"] is None:
+                    lines.append(f"| {acc['n']} | {crit} | {r['method']} | {r['damping']} | "
+                                 f"never at h ≥ {min(t['h'] for t in r['tried']):.0e} | – | – | – | – |")
+                    continue
+                c = r["seconds_per_simulated_second"]
+                lines.append(f"| {acc['n']} | {crit} | {r['method']} | {r['damping']} | {r['step']:.3g} | "
+                             f"{r['error']:.2g} | {sig(r['seconds_per_step'])} | {sig(c)} | "
+                             f"{sig(c / best) if best else '–'} |")
+    return lines
+
+
+def peers_frequencies(name, data, machine):
+    """The lattices' lowest and highest natural frequencies beside the steps the criteria allowed."""
+    lines = [provenance(name, data, machine, peers_command(name, data)), "",
+             "| n | ω₁ [rad/s] | ω_max [rad/s] | ω_max / ω₁ | explicit limit 2/ω_max [s] | "
+             "reference step [s] (Richardson error) | static sag [mm] |", "|---|---|---|---|---|---|---|"]
+    for acc in data["accuracy"]:
+        sag = math.dist(acc["static"], acc["start"]) * 1e3
+        ref = acc["reference"]
+        lines.append(f"| {acc['n']} | {sig(acc['omega1'])} | {sig(acc['omega_max'])} | "
+                     f"{sig(acc['omega_max'] / acc['omega1'])} | {2 / acc['omega_max']:.3g} | "
+                     f"{ref['h']:.0e} ({ref['richardson_error']:.1e}) | {sig(sag)} |")
     return lines
 
 
@@ -364,13 +394,37 @@ def targets(bench_dir, machines):
                  + f" at n = {' / '.join(str(p['n']) for p in peers['per_step'])} (medians of alternating rounds)",
                  all(m < 1 for m in meds), pname))
 
-    ps = peers["per_simulated_second"]
-    q = ps["qbond hybrid_frozen"]["seconds_per_simulated_second"]
-    lam = next(v for k, v in ps.items() if k.startswith("LAMMPS"))["seconds_per_simulated_second"]
-    bul = next(v for k, v in ps.items() if k.startswith("Bullet"))["seconds_per_simulated_second"]
-    rows.append(("a simulated second ≥ 10× cheaper than LAMMPS and Bullet, each at its largest stable step",
-                 f"hybrid_frozen {lam / q:.0f}× cheaper than LAMMPS, {bul / q:.0f}× than Bullet",
-                 lam / q >= 10 and bul / q >= 10, pname))
+    acc = max(peers["accuracy"], key=lambda a: a["n"])
+    n = acc["n"]
+
+    def cost(crit, pick):
+        rows = [r for r in acc["rows"] if r["criterion"] == crit and pick(r["method"]) and r["step"] is not None]
+        return min(rows, key=lambda r: r["seconds_per_simulated_second"]) if rows else None
+
+    def versus(q, peer):
+        row = cost(crit, lambda m: m.startswith(peer))
+        if row is None:
+            return f"{peer} never meets it", math.inf
+        x = row["seconds_per_simulated_second"] / q["seconds_per_simulated_second"]
+        return f"{sig(x)}× cheaper than {peer}", x
+
+    for crit, need, why in (("settled", 10, "≥ 10× cheaper than LAMMPS and Bullet"),
+                            ("dynamic", 1, "cheaper than LAMMPS")):
+        q = cost(crit, lambda m: m.startswith("qbond"))
+        if q is None:
+            rows.append((f"{crit} criterion, n = {n}: qbond's best method {why}", "qbond never meets it", False, pname))
+            continue
+        peers_text = [versus(q, p) for p in (("LAMMPS", "Bullet") if crit == "settled" else ("LAMMPS",))]
+        rows.append((f"{crit} criterion, n = {n}: a simulated second with qbond's best method {why}",
+                     f"{q['method'].removeprefix('qbond ')} at h = {q['step']:.3g} s: " +
+                     ", ".join(t for t, _ in peers_text), all(x >= need for _, x in peers_text), pname))
+    vv = cost("dynamic", lambda m: m == "qbond velocity_verlet")
+    im = cost("dynamic", lambda m: m.startswith("qbond") and m != "qbond velocity_verlet")
+    if vv and im:
+        rows.append((f"dynamic criterion, n = {n}: an implicit qbond integrator cheaper than qbond's velocity Verlet",
+                     f"{im['method'].removeprefix('qbond ')} {sig(im['seconds_per_simulated_second'])} s, velocity Verlet "
+                     f"{sig(vv['seconds_per_simulated_second'])} s per simulated second",
+                     im["seconds_per_simulated_second"] < vv["seconds_per_simulated_second"], pname))
 
     sl = slopes(step)
     three = ["velocity_verlet", "hybrid_frozen", "default"]
@@ -460,7 +514,8 @@ def render(kind, machine, bench_dir):
             "multigrid": lambda: multigrid_table(name, data, machine),
             "peers": lambda: peers_table(name, data, machine),
             "peers_rounds": lambda: peers_rounds(name, data, machine),
-            "peers_seconds": lambda: peers_seconds(name, data, machine),
+            "peers_accuracy": lambda: peers_accuracy(name, data, machine),
+            "peers_frequencies": lambda: peers_frequencies(name, data, machine),
             "memory": lambda: memory_table(name, data, machine),
             "runmemory": lambda: runmemory_table(name, data, machine),
             "fuzz": lambda: fuzz_table(name, data, machine),

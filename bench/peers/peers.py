@@ -1,13 +1,16 @@
 #!/usr/bin/python3
 """qbond, LAMMPS and Bullet side by side on the canonical workload (docs/performance.md).
 
-Usage: bench/peers/peers.py BUILD_DIR BULLET_EXE [--n 10,20,40] [--steps 200] [--rounds 3] [--json FILE]
+Usage: bench/peers/peers.py BUILD_DIR BULLET_EXE [--n 10,20,40] [--steps 200] [--rounds 3]
+                            [--accuracy-n 10,20] [--iterations 7] [--quick] [--json FILE]
 Run by bench/peers/run, which installs LAMMPS and Bullet (Debian packages) and builds
 BULLET_EXE. Prints, for each n, ns per bond per step of each engine measured in this run; then
 qbond's velocity Verlet against LAMMPS's in `rounds` alternating runs (the shared host's load
 moves both by 20% and more within minutes: each round's ratio sets two runs a few seconds apart
-side by side); then each method's largest stable timestep (bisection on the 10^3 lattice) and
-its cost per simulated second at that step on the largest n.
+side by side); then, on each of the accuracy-n lattices, each method's largest step that meets
+the dynamic and the settled accuracy criteria and its cost per simulated second there
+(bench/peers/accuracy.py). --quick runs it all on the 4^3 lattice with a shorter search (the
+ctest test peers.accuracy_quick), so the machinery cannot rot.
 
 The workload: n^3 simple-cubic lattice, spacing 0.01 m, 1 g quanta, bonds to nearest and
 face-diagonal neighbours (k = 1000 N/m), the x = 0 face anchored, gravity -9.81 m/s^2 along z.
@@ -15,9 +18,10 @@ LAMMPS: bond_style harmonic with K = k/2 (its energy is K (r - r0)^2), fix nve (
 fix setforce/zero velocity on the anchored face; no bond damping (harmonic has none).
 Bullet: btSoftBody links (position constraints, kLST = 1, one iteration): same topology, masses,
 anchors and step, Bullet's own material law. qbond: `qbond bench` (its default integrator, the
-paper's hybrid and velocity Verlet), and `qbond run` for the stability search.
+paper's hybrid and velocity Verlet), and `qbond run` (one thread) for the accuracy search.
 """
 import argparse
+import concurrent.futures
 import json
 import math
 import os
@@ -26,59 +30,15 @@ import subprocess
 import sys
 import tempfile
 
-A, MASS, K = 0.01, 1e-3, 1000.0
-
-
-def lattice(n):
-    """Sites, bonds (i, j, type 1 = axis, 2 = diagonal) of the canonical lattice, 0-based."""
-    def idx(i, j, k):
-        return (k * n + j) * n + i
-    sites = [(i * A, j * A, k * A) for k in range(n) for j in range(n) for i in range(n)]
-    bonds = []
-    for k in range(n):
-        for j in range(n):
-            for i in range(n):
-                p = idx(i, j, k)
-                if i + 1 < n: bonds.append((p, idx(i + 1, j, k), 1))
-                if j + 1 < n: bonds.append((p, idx(i, j + 1, k), 1))
-                if k + 1 < n: bonds.append((p, idx(i, j, k + 1), 1))
-                if i + 1 < n and j + 1 < n:
-                    bonds += [(p, idx(i + 1, j + 1, k), 2), (idx(i + 1, j, k), idx(i, j + 1, k), 2)]
-                if i + 1 < n and k + 1 < n:
-                    bonds += [(p, idx(i + 1, j, k + 1), 2), (idx(i + 1, j, k), idx(i, j, k + 1), 2)]
-                if j + 1 < n and k + 1 < n:
-                    bonds += [(p, idx(i, j + 1, k + 1), 2), (idx(i, j + 1, k), idx(i, j, k + 1), 2)]
-    return sites, bonds
+import accuracy
+from workload import MASS, bond_count, lammps_header
 
 
 def lammps(n, h, steps, work):
     """(seconds per step, stable) of LAMMPS's velocity-Verlet run of the workload."""
-    data = os.path.join(work, f"canonical_{n}.data")
-    if not os.path.exists(data):
-        sites, bonds = lattice(n)
-        hi = (n - 1) * A
-        with open(data, "w") as f:
-            f.write(f"canonical lattice n = {n}\n\n{len(sites)} atoms\n{len(bonds)} bonds\n1 atom types\n2 bond types\n\n")
-            f.write(f"-0.005 {hi + 0.005} xlo xhi\n-0.005 {hi + 0.005} ylo yhi\n-0.005 {hi + 0.005} zlo zhi\n\n")
-            f.write(f"Masses\n\n1 {MASS}\n\nAtoms # bond\n\n")
-            f.writelines(f"{q + 1} 1 1 {x} {y} {z}\n" for q, (x, y, z) in enumerate(sites))
-            f.write("\nBonds\n\n")
-            f.writelines(f"{b + 1} {t} {i + 1} {j + 1}\n" for b, (i, j, t) in enumerate(bonds))
     script = os.path.join(work, "in.canonical")
     with open(script, "w") as f:
-        f.write(f"""units si
-atom_style bond
-boundary s s s
-read_data {data}
-pair_style none
-bond_style harmonic
-bond_coeff 1 {K / 2} {A}
-bond_coeff 2 {K / 2} {A * math.sqrt(2)}
-comm_modify cutoff {3 * A}
-region face block INF {0.5 * A} INF INF INF INF
-group face region face
-group free subtract all face
-fix move free nve
+        f.write(lammps_header(n, work) + f"""fix move free nve
 fix pull free gravity 9.81 vector 0 0 -1
 timestep {h}
 thermo_style custom step ke
@@ -128,36 +88,17 @@ def verlet_against_lammps(build, n, rounds, steps, work):
     return pairs
 
 
-def qbond_stable(build, integrator_args, h, work):
-    """Whether `qbond run` of the 10^3 workload at step h finishes 0.05 s without a blow-up."""
-    scene = {
-        "name": "canonical_10", "timestep": h, "duration": max(0.05, 20 * h), "gravity": [0, 0, -9.81],
-        "materials": {"bond": {"law": "linear", "stiffness": K, "damping": 0.01, "damping_model": "axial"}},
-        "bodies": [{"name": "lattice", "type": "lattice", "cell": "cubic", "neighbors": "face_diagonal",
-                    "size": [10, 10, 10], "spacing": A, "quanta_mass": MASS, "material": "bond"}],
-        "anchors": [{"select": {"box": [[-1e-9, -1, -1], [1e-9, 1e3, 1e3]]}}],
-    }
-    path = os.path.join(work, "canonical_10.json")
-    with open(path, "w") as f:
-        json.dump(scene, f)
-    r = subprocess.run([os.path.join(build, "qbond"), "run", path, "-q", "--no-vtk", "--every", "1000000", "--out",
-                        os.path.join(work, "qrun"), *integrator_args], capture_output=True, text=True)
-    if r.returncode not in (0, 3):
-        sys.exit(f"peers: qbond run failed ({r.returncode}): {r.stderr}")
-    return r.returncode == 0
-
-
-def largest_stable(stable, lo=1e-6, hi=0.1):
-    """Bisection (in log h) for the largest stable step in [lo, hi]; hi itself when stable there."""
-    if stable(hi):
-        return hi
-    for _ in range(12):
-        mid = math.sqrt(lo * hi)
-        if stable(mid):
-            lo = mid
-        else:
-            hi = mid
-    return lo
+def accuracy_of(a, n, cached):
+    """(JSON record, printed lines) of the accuracy searches on the n^3 lattice, in a work folder of its own."""
+    lines = [f"\nlargest step meeting each accuracy criterion, n = {n} (bisection in log h, one thread)"]
+    work = tempfile.mkdtemp(prefix=f"qbond_peers_{n}_")
+    # The reference's step: 1e-6 s up to n = 10; larger lattices' slowest modes are slower, and the
+    # recorded Richardson estimate shows the step's own error. The floor: 1e-5 s up to n = 10,
+    # 1e-4 s above (a search that reaches it costs 2e5 steps of the larger lattice at 1e-5).
+    h_ref, floor = (1e-6, 1e-5) if n <= 10 else (5e-6, 1e-4)
+    rec = accuracy.measure(a.build, a.bullet, work, n, h_ref, floor, a.iterations,
+                           ["LAMMPS", "Bullet", *accuracy.QBOND_METHODS], cached, log=lines.append)
+    return rec, "\n".join(lines) + "\n"
 
 
 def main():
@@ -167,17 +108,28 @@ def main():
     ap.add_argument("--n", default="10,20,40")
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--accuracy-n", default="10,20")
+    ap.add_argument("--iterations", type=int, default=7, help="bisection steps of each accuracy search")
+    ap.add_argument("--quick", action="store_true", help="the 4^3 lattice only, a short search (a test)")
+    ap.add_argument("--reference", help="an earlier run's JSON whose accuracy references to reuse")
     ap.add_argument("--json")
     a = ap.parse_args()
+    cached = {}
+    if a.reference:
+        with open(a.reference) as f:
+            cached = {r["n"]: r["reference"] for r in json.load(f).get("accuracy", [])}
+    if a.quick:
+        a.n, a.accuracy_n, a.steps, a.rounds, a.iterations = "4", "4", 20, 1, 3
     n_list = [int(x) for x in a.n.split(",")]
     work = tempfile.mkdtemp(prefix="qbond_peers_")
+    load_start = os.getloadavg()[0]
     integrators = ["default", "hybrid_frozen", "hybrid_sweep", "velocity_verlet"]
     q, qdoc = qbond_bench(a.build, n_list, integrators)
     rows = []
     print("ns per bond per step, h = 1e-4 s, one thread, measured in this run")
     print(f"{'n':>4} {'bonds':>8} {'LAMMPS':>9} {'Bullet':>9} " + " ".join(f"{'qbond ' + i:>22}" for i in integrators))
     for n in n_list:
-        nb = 3 * n * n * (n - 1) + 6 * n * (n - 1) ** 2
+        nb = bond_count(n)
         steps = max(20, a.steps * 1000 // n ** 3) if n > 10 else a.steps
         t_l, _ = lammps(n, 1e-4, steps, work)
         t_b, links, _ = bullet(a.bullet, n, 1e-4, steps)
@@ -201,45 +153,22 @@ def main():
               "  ".join(f"{q_t / l_t:.2f} ({q_t / row['bonds'] * 1e9:.2f} / {l_t / row['bonds'] * 1e9:.2f} ns)"
                         for l_t, q_t in pairs))
 
-    print("\nlargest stable step (10^3 lattice, bisection), and cost per simulated second on n =", n_list[-1])
-    n = n_list[-1]
-    nb = rows[-1]["bonds"]
-    steps_big = max(20, a.steps * 1000 // n ** 3)
-    stability = {
-        "LAMMPS (velocity Verlet)": largest_stable(lambda h: lammps(10, h, max(50, int(0.02 / h)), work)[1]),
-        "Bullet (btSoftBody, 1 iteration)": largest_stable(lambda h: bullet(a.bullet, 10, h, max(50, int(0.02 / h)))[2]),
-        "qbond default": largest_stable(lambda h: qbond_stable(a.build, [], h, work)),
-        "qbond hybrid_frozen": largest_stable(
-            lambda h: qbond_stable(a.build, ["--integrator", "hybrid_implicit", "--neighbours", "frozen"], h, work)),
-        "qbond velocity_verlet": largest_stable(
-            lambda h: qbond_stable(a.build, ["--integrator", "velocity_verlet"], h, work)),
-    }
-    cost = {}
-    for name, h in stability.items():
-        if name.startswith("LAMMPS"):
-            t = lammps(n, h, steps_big, work)[0]
-        elif name.startswith("Bullet"):
-            t = bullet(a.bullet, n, h, steps_big)[0]
-        else:
-            # The step found on 10^3 can be just past the limit on the larger lattice (its highest
-            # frequency is a little higher), where qbond's blow-up check stops the benchmark, while
-            # LAMMPS would go on computing a diverging run at full speed: back off by 5% until it runs.
-            integ = name.split()[-1]
-            for _ in range(10):
-                try:
-                    t = qbond_bench(a.build, [n], [integ], dt=h)[0][(integ, n)]
-                    break
-                except subprocess.CalledProcessError:
-                    print(f"  ({name}: blew up at h = {h:.3g} on n = {n}; trying {0.95 * h:.3g})")
-                    h *= 0.95
-            else:
-                sys.exit(f"peers: {name} blew up on n = {n} at every step tried")
-        cost[name] = {"largest_stable_step": h, "seconds_per_step": t, "seconds_per_simulated_second": t / h}
-        print(f"  {name:<34} h = {h:<10.3g} {t * 1e3:9.3f} ms/step  {t / h:10.3f} s per simulated second")
+    # Each lattice's searches in a process of its own (two at most: the machine's cores).
+    acc_n = [int(x) for x in a.accuracy_n.split(",")]
+    with concurrent.futures.ProcessPoolExecutor(max_workers=min(2, len(acc_n))) as pool:
+        jobs = [pool.submit(accuracy_of, a, n, cached.get(n)) for n in acc_n]
+        accuracy_rows = []
+        for job in jobs:
+            rec, text = job.result()
+            print(text, end="")
+            accuracy_rows.append(rec)
+    load_end = os.getloadavg()[0]
     if a.json:
         with open(a.json + ".tmp", "w") as f:
             json.dump({"bandwidth": qdoc["triad_bytes_per_second"], "machine": qdoc["machine"], "date": qdoc["date"],
-                       "per_step": rows, "per_simulated_second": cost}, f, indent=1)
+                       "per_step": rows, "quick": a.quick, "accuracy": accuracy_rows, "nice": os.nice(0),
+                       "load_average": [load_start, load_end],
+                       "command": "bench/peers/run " + " ".join(sys.argv[3:])}, f, indent=1)
         os.replace(a.json + ".tmp", a.json)
 
 
