@@ -185,7 +185,7 @@ def multigrid_table(name, data, machine):
 
 def peers_command(name, data):
     if "command" in data:
-        return data["command"]
+        return "`; then `".join([data["command"]] + [x["command"] for x in data.get("appended", [])])
     return f"bench/peers/run --n {','.join(str(p['n']) for p in data['per_step'])} --json docs/bench/{name}"
 
 
@@ -258,7 +258,7 @@ def peers_accuracy(name, data, machine):
                     continue
                 c = r["seconds_per_simulated_second"]
                 lines.append(f"| {acc['n']} | {crit} | {r['method']} | {r['damping']} | {r['step']:.3g} | "
-                             f"{r['error']:.2g} | {sig(r['seconds_per_step'])} | {sig(c)} | "
+                             f"{r['error']:.2g} | {r['seconds_per_step']:.3g} | {c:.3g} | "
                              f"{sig(c / best) if best else '–'} |")
     return lines
 
@@ -267,13 +267,24 @@ def peers_frequencies(name, data, machine):
     """The lattices' lowest and highest natural frequencies beside the steps the criteria allowed."""
     lines = [provenance(name, data, machine, peers_command(name, data)), "",
              "| n | ω₁ [rad/s] | ω_max [rad/s] | ω_max / ω₁ | explicit limit 2/ω_max [s] | "
-             "reference step [s] (Richardson error) | static sag [mm] |", "|---|---|---|---|---|---|---|"]
+             "reference step [s] (Richardson error) | static sag [mm] | dynamic: velocity Verlet's step [s] | "
+             "dynamic: best implicit step [s] (integrator, ω₁h) | its cost / velocity Verlet's |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for acc in data["accuracy"]:
         sag = math.dist(acc["static"], acc["start"]) * 1e3
         ref = acc["reference"]
+        dyn = {r["method"]: r for r in acc["rows"] if r["criterion"] == "dynamic" and r["step"] is not None}
+        vv = dyn.get("qbond velocity_verlet")
+        imp = [r for m, r in dyn.items() if m.startswith("qbond") and m != "qbond velocity_verlet"]
+        im = max(imp, key=lambda r: r["step"]) if imp else None
+        vv_text = f"{vv['step']:.3g}" if vv else "never"
+        im_text = (f"{im['step']:.3g} ({im['method'].removeprefix('qbond ')}, {acc['omega1'] * im['step']:.2g})"
+                   if im else "never")
+        ratio = (sig(im["seconds_per_simulated_second"] / vv["seconds_per_simulated_second"])
+                 if im and vv else "–")
         lines.append(f"| {acc['n']} | {sig(acc['omega1'])} | {sig(acc['omega_max'])} | "
                      f"{sig(acc['omega_max'] / acc['omega1'])} | {2 / acc['omega_max']:.3g} | "
-                     f"{ref['h']:.0e} ({ref['richardson_error']:.1e}) | {sig(sag)} |")
+                     f"{ref['h']:.0e} ({ref['richardson_error']:.1e}) | {sig(sag)} | {vv_text} | {im_text} | {ratio} |")
     return lines
 
 
@@ -406,7 +417,7 @@ def targets(bench_dir, machines):
         if row is None:
             return f"{peer} never meets it", math.inf
         x = row["seconds_per_simulated_second"] / q["seconds_per_simulated_second"]
-        return f"{sig(x)}× cheaper than {peer}", x
+        return f"{peer} costs {sig(x)}× as much", x
 
     for crit, need, why in (("settled", 10, "≥ 10× cheaper than LAMMPS and Bullet"),
                             ("dynamic", 1, "cheaper than LAMMPS")):

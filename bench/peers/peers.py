@@ -2,7 +2,8 @@
 """qbond, LAMMPS and Bullet side by side on the canonical workload (docs/performance.md).
 
 Usage: bench/peers/peers.py BUILD_DIR BULLET_EXE [--n 10,20,40] [--steps 200] [--rounds 3]
-                            [--accuracy-n 10,20] [--iterations 7] [--quick] [--json FILE]
+                            [--accuracy-n 10,20] [--iterations 7] [--methods LAMMPS,Bullet,default,...]
+                            [--reference FILE] [--append FILE] [--quick] [--json FILE]
 Run by bench/peers/run, which installs LAMMPS and Bullet (Debian packages) and builds
 BULLET_EXE. Prints, for each n, ns per bond per step of each engine measured in this run; then
 qbond's velocity Verlet against LAMMPS's in `rounds` alternating runs (the shared host's load
@@ -10,7 +11,8 @@ moves both by 20% and more within minutes: each round's ratio sets two runs a fe
 side by side); then, on each of the accuracy-n lattices, each method's largest step that meets
 the dynamic and the settled accuracy criteria and its cost per simulated second there
 (bench/peers/accuracy.py). --quick runs it all on the 4^3 lattice with a shorter search (the
-ctest test peers.accuracy_quick), so the machinery cannot rot.
+ctest test peers.accuracy_quick), so the machinery cannot rot. --append FILE runs only the accuracy
+searches (e.g. of a larger lattice, for fewer methods) and adds them to an earlier run's JSON.
 
 The workload: n^3 simple-cubic lattice, spacing 0.01 m, 1 g quanta, bonds to nearest and
 face-diagonal neighbours (k = 1000 N/m), the x = 0 face anchored, gravity -9.81 m/s^2 along z.
@@ -96,9 +98,26 @@ def accuracy_of(a, n, cached):
     # recorded Richardson estimate shows the step's own error. The floor: 1e-5 s up to n = 10,
     # 1e-4 s above (a search that reaches it costs 2e5 steps of the larger lattice at 1e-5).
     h_ref, floor = (1e-6, 1e-5) if n <= 10 else (5e-6, 1e-4)
-    rec = accuracy.measure(a.build, a.bullet, work, n, h_ref, floor, a.iterations,
-                           ["LAMMPS", "Bullet", *accuracy.QBOND_METHODS], cached, log=lines.append)
+    methods = [m if m in ("LAMMPS", "Bullet") else "qbond " + m for m in a.methods.split(",")]
+    unknown = [m for m in methods if m not in ("LAMMPS", "Bullet", *accuracy.QBOND_METHODS)]
+    if unknown:
+        sys.exit(f"peers: unknown --methods {unknown}")
+    rec = accuracy.measure(a.build, a.bullet, work, n, h_ref, floor, a.iterations, methods, cached, log=lines.append)
     return rec, "\n".join(lines) + "\n"
+
+
+def accuracy_all(a, cached):
+    """The accuracy records of every --accuracy-n, each lattice's searches in a process of its own
+    (two at most: the machine's cores)."""
+    acc_n = [int(x) for x in a.accuracy_n.split(",")]
+    with concurrent.futures.ProcessPoolExecutor(max_workers=min(2, len(acc_n))) as pool:
+        jobs = [pool.submit(accuracy_of, a, n, cached.get(n)) for n in acc_n]
+        records = []
+        for job in jobs:
+            rec, text = job.result()
+            print(text, end="", flush=True)
+            records.append(rec)
+    return records
 
 
 def main():
@@ -112,6 +131,9 @@ def main():
     ap.add_argument("--iterations", type=int, default=7, help="bisection steps of each accuracy search")
     ap.add_argument("--quick", action="store_true", help="the 4^3 lattice only, a short search (a test)")
     ap.add_argument("--reference", help="an earlier run's JSON whose accuracy references to reuse")
+    ap.add_argument("--methods", default="LAMMPS,Bullet," + ",".join(m.removeprefix("qbond ") for m in accuracy.QBOND_METHODS),
+                    help="the accuracy searches' methods: LAMMPS, Bullet and qbond's integrators")
+    ap.add_argument("--append", help="only the accuracy searches, their records added to this earlier run's JSON")
     ap.add_argument("--json")
     a = ap.parse_args()
     cached = {}
@@ -120,6 +142,18 @@ def main():
             cached = {r["n"]: r["reference"] for r in json.load(f).get("accuracy", [])}
     if a.quick:
         a.n, a.accuracy_n, a.steps, a.rounds, a.iterations = "4", "4", 20, 1, 3
+    if a.append:
+        accuracy_rows = accuracy_all(a, cached)
+        with open(a.append) as f:
+            doc = json.load(f)
+        doc["accuracy"] = sorted([r for r in doc["accuracy"] if r["n"] not in {x["n"] for x in accuracy_rows}]
+                                 + accuracy_rows, key=lambda r: r["n"])
+        doc.setdefault("appended", []).append({"command": "bench/peers/run " + " ".join(sys.argv[3:]),
+                                               "load_average": os.getloadavg()[0]})
+        with open(a.append + ".tmp", "w") as f:
+            json.dump(doc, f, indent=1)
+        os.replace(a.append + ".tmp", a.append)
+        return
     n_list = [int(x) for x in a.n.split(",")]
     work = tempfile.mkdtemp(prefix="qbond_peers_")
     load_start = os.getloadavg()[0]
@@ -153,15 +187,7 @@ def main():
               "  ".join(f"{q_t / l_t:.2f} ({q_t / row['bonds'] * 1e9:.2f} / {l_t / row['bonds'] * 1e9:.2f} ns)"
                         for l_t, q_t in pairs))
 
-    # Each lattice's searches in a process of its own (two at most: the machine's cores).
-    acc_n = [int(x) for x in a.accuracy_n.split(",")]
-    with concurrent.futures.ProcessPoolExecutor(max_workers=min(2, len(acc_n))) as pool:
-        jobs = [pool.submit(accuracy_of, a, n, cached.get(n)) for n in acc_n]
-        accuracy_rows = []
-        for job in jobs:
-            rec, text = job.result()
-            print(text, end="")
-            accuracy_rows.append(rec)
+    accuracy_rows = accuracy_all(a, cached)
     load_end = os.getloadavg()[0]
     if a.json:
         with open(a.json + ".tmp", "w") as f:
