@@ -189,8 +189,16 @@ def peers_command(name, data):
     return f"bench/peers/run --n {','.join(str(p['n']) for p in data['per_step'])} --json docs/bench/{name}"
 
 
+def peers_load(data):
+    """The host's load during a peers run, when it recorded it."""
+    if "load_average" not in data:
+        return ""
+    return (f" Host load average {data['load_average'][0]:.1f} at the start, {data['load_average'][1]:.1f} at the end "
+            "(runnable processes on the machine's cores): single timings move with it, read the rounds' ratios.")
+
+
 def peers_table(name, data, machine):
-    lines = [provenance(name, data, machine, peers_command(name, data)), "",
+    lines = [provenance(name, data, machine, peers_command(name, data)) + peers_load(data), "",
              "| n | bonds | LAMMPS | Bullet | qbond velocity_verlet | qbond hybrid_frozen | qbond hybrid_sweep "
              "| qbond default |", "|---|---|---|---|---|---|---|---|"]
     keys = ["lammps", "bullet", "qbond_velocity_verlet", "qbond_hybrid_frozen", "qbond_hybrid_sweep", "qbond_default"]
@@ -229,7 +237,8 @@ def median(xs):
 def peers_rounds(name, data, machine):
     rounds = max(len(p["verlet_against_lammps"]) for p in data["per_step"])
     head = "| n | " + " | ".join(f"round {i + 1}" for i in range(rounds)) + " | median |"
-    lines = [provenance(name, data, machine, peers_command(name, data)), "", head, "|---" * (rounds + 2) + "|"]
+    lines = [provenance(name, data, machine, peers_command(name, data)) + peers_load(data), "", head,
+             "|---" * (rounds + 2) + "|"]
     for p in data["per_step"]:
         cells = []
         for r in p["verlet_against_lammps"]:
@@ -242,7 +251,13 @@ def peers_rounds(name, data, machine):
 
 def peers_accuracy(name, data, machine):
     """Each method's largest step meeting each accuracy criterion and its cost per simulated second there."""
-    lines = [provenance(name, data, machine, peers_command(name, data)), "",
+    note = ""
+    if "load_average" in data:
+        note += (f" Host load average {data['load_average'][0]:.1f} at the start, {data['load_average'][1]:.1f} at "
+                 "the end (runnable processes on the machine's cores; the searches ran two at a time).")
+    if not data.get("finished", True):
+        note += " The run was cut short: these are the searches it finished."
+    lines = [provenance(name, data, machine, peers_command(name, data)) + note, "",
              "| n | criterion | method | damping | largest step meeting it [s] | error there | s per step | "
              "s per simulated second | × qbond's best |", "|---|---|---|---|---|---|---|---|---|"]
     for acc in data["accuracy"]:

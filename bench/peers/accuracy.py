@@ -272,9 +272,10 @@ def search(evaluate, lo, hi, iterations):
             "error": best["error"] if best else None, "tried": tried}
 
 
-def measure(build, bullet_exe, work, n, h_ref, floor, iterations, methods, cached=None, log=print):
-    """Every method's search for both criteria on the n^3 lattice; returns the JSON record. `cached`:
-    a reference of an earlier run (its JSON record) to reuse when it is of this n and h_ref."""
+def lattice_record(build, work, n, h_ref, floor, iterations, cached=None, log=print):
+    """What every method's search on the n^3 lattice is measured against: the reference trajectory
+    (`cached`, an earlier run's, when it is of this n and h_ref), the static equilibrium, the first
+    and highest frequencies; the JSON record the methods' rows are added to."""
     if cached and cached["n"] == n and cached["h"] == h_ref and cached["sample"] == SAMPLE:
         ref = cached
         log(f"n = {n}: the reference of an earlier run reused")
@@ -286,6 +287,15 @@ def measure(build, bullet_exe, work, n, h_ref, floor, iterations, methods, cache
     log(f"n = {n}: reference h = {h_ref:g} s (Richardson error {ref['richardson_error']:.1e} of the largest "
         f"displacement {ref['largest_displacement'] * 1e3:.4f} mm); static sag {math.dist(static, r0) * 1e3:.4f} mm; "
         f"w1 = {w1:.1f} rad/s, w_max = {wmax:.0f} rad/s")
+    return {"n": n, "bonds": bond_count(n), "reference": ref, "static": list(static), "start": list(r0),
+            "omega1": w1, "omega_max": wmax, "floor": floor, "iterations": iterations, "rows": []}
+
+
+def method_rows(build, bullet_exe, work, lat, method, log=print):
+    """One method's searches for both criteria on the lattice of `lat` (lattice_record's): its
+    dynamic row and its settled row (the damping that allowed the largest step)."""
+    n, ref, floor, iterations, w1 = lat["n"], lat["reference"], lat["floor"], lat["iterations"], lat["omega1"]
+    static, r0 = tuple(lat["static"]), tuple(lat["start"])
 
     def judge(run, crit):
         s, sec = run
@@ -294,46 +304,40 @@ def measure(build, bullet_exe, work, n, h_ref, floor, iterations, methods, cache
         err = dynamic_error(s, ref, r0) if crit == "dynamic" else settled_error(s, static, r0)
         return err <= (DYNAMIC_TOL if crit == "dynamic" else SETTLED_TOL), err, sec
 
-    runners = {}
-    if "LAMMPS" in methods:
-        runners["LAMMPS (velocity Verlet)"] = {
-            "dynamic": lambda h, sampled=True: lammps_run(work, n, h, T_DYNAMIC, 0.0, sampled),
-            "settled": [(f"fix viscous, gamma = 2 m w1 = {2 * MASS * w1:.3g} kg/s",
-                         lambda h: lammps_run(work, n, h, T_SETTLED, 2 * MASS * w1, False))]}
-    if "Bullet" in methods:
-        runners["Bullet (btSoftBody, 1 iteration)"] = {
-            "dynamic": lambda h, sampled=True: bullet_run(bullet_exe, n, h, T_DYNAMIC, 0.0, sampled),
-            "settled": [("kDP = 1 - exp(-2 w1 h)",
-                         lambda h: bullet_run(bullet_exe, n, h, T_SETTLED, 1 - math.exp(-2 * w1 * h), False))]}
-    for name, args in QBOND_METHODS.items():
-        if name not in methods:
-            continue
-        runners[name] = {
-            "dynamic": lambda h, sampled=True, a=args: qbond_run(build, work, n, h, T_DYNAMIC, 0.0, a, sampled),
-            "settled": [(f"bonds' c = 2 ζ k / ω₁, ζ = {z:g} (c = {2 * z * K / w1:.3g} N s/m)",
-                         lambda h, a=args, c=2 * z * K / w1: qbond_run(build, work, n, h, T_SETTLED, c, a, False))
-                        for z in ZETAS]}
+    if method == "LAMMPS":
+        name = "LAMMPS (velocity Verlet)"
+        dynamic = lambda h, sampled=True: lammps_run(work, n, h, T_DYNAMIC, 0.0, sampled)  # noqa: E731
+        settled = [(f"fix viscous, gamma = 2 m w1 = {2 * MASS * w1:.3g} kg/s",
+                    lambda h: lammps_run(work, n, h, T_SETTLED, 2 * MASS * w1, False))]
+    elif method == "Bullet":
+        name = "Bullet (btSoftBody, 1 iteration)"
+        dynamic = lambda h, sampled=True: bullet_run(bullet_exe, n, h, T_DYNAMIC, 0.0, sampled)  # noqa: E731
+        settled = [("kDP = 1 - exp(-2 w1 h)",
+                    lambda h: bullet_run(bullet_exe, n, h, T_SETTLED, 1 - math.exp(-2 * w1 * h), False))]
+    else:
+        name, args = method, QBOND_METHODS[method]
+        dynamic = lambda h, sampled=True: qbond_run(build, work, n, h, T_DYNAMIC, 0.0, args, sampled)  # noqa: E731
+        settled = [(f"bonds' c = 2 ζ k / ω₁, ζ = {z:g} (c = {2 * z * K / w1:.3g} N s/m)",
+                    lambda h, c=2 * z * K / w1: qbond_run(build, work, n, h, T_SETTLED, c, args, False))
+                   for z in ZETAS]
     rows = []
-    for name, r in runners.items():
-        res = search(lambda h: judge(r["dynamic"](h), "dynamic"), floor, T_DYNAMIC, iterations)
-        if res["step"] is not None:
-            # The search's runs wrote a sample every SAMPLE seconds; the cost is timed without them.
-            sec = r["dynamic"](res["step"], False)[1]
-            res.update(seconds_per_step=sec, seconds_per_simulated_second=sec / res["step"])
-        rows.append({"method": name, "criterion": "dynamic", "damping": "none", **res})
-        log(f"  {name:<34} dynamic  {describe(res, floor)}")
-        best = None
-        for label, run in r["settled"]:
-            res = search(lambda h: judge(run(h), "settled"), floor, T_SETTLED, iterations)
-            cand = {"method": name, "criterion": "settled", "damping": label, **res}
-            if best is None or (res["step"] or 0, -(res["seconds_per_simulated_second"] or 0)) > \
-                    (best["step"] or 0, -(best["seconds_per_simulated_second"] or 0)):
-                best = cand
-            log(f"  {name:<34} settled  {describe(res, floor)}  [{label}]")
-        rows.append(best)
-    return {"n": n, "bonds": bond_count(n), "reference": ref,
-            "static": list(static), "start": list(r0), "omega1": w1, "omega_max": wmax, "floor": floor,
-            "iterations": iterations, "rows": rows}
+    res = search(lambda h: judge(dynamic(h), "dynamic"), floor, T_DYNAMIC, iterations)
+    if res["step"] is not None:
+        # The search's runs wrote a sample every SAMPLE seconds; the cost is timed without them.
+        sec = dynamic(res["step"], False)[1]
+        res.update(seconds_per_step=sec, seconds_per_simulated_second=sec / res["step"])
+    rows.append({"method": name, "criterion": "dynamic", "damping": "none", **res})
+    log(f"  n = {n} {name:<34} dynamic  {describe(res, floor)}")
+    best = None
+    for label, run in settled:
+        res = search(lambda h: judge(run(h), "settled"), floor, T_SETTLED, iterations)
+        cand = {"method": name, "criterion": "settled", "damping": label, **res}
+        if best is None or (res["step"] or 0, -(res["seconds_per_simulated_second"] or 0)) > \
+                (best["step"] or 0, -(best["seconds_per_simulated_second"] or 0)):
+            best = cand
+        log(f"  n = {n} {name:<34} settled  {describe(res, floor)}  [{label}]")
+    rows.append(best)
+    return rows
 
 
 def describe(res, floor):

@@ -90,33 +90,51 @@ def verlet_against_lammps(build, n, rounds, steps, work):
     return pairs
 
 
-def accuracy_of(a, n, cached):
-    """(JSON record, printed lines) of the accuracy searches on the n^3 lattice, in a work folder of its own."""
-    lines = [f"\nlargest step meeting each accuracy criterion, n = {n} (bisection in log h, one thread)"]
+def accuracy_setup(a, n, cached):
+    """(lattice record, printed lines): what the n^3 lattice's searches are measured against."""
+    lines = []
     work = tempfile.mkdtemp(prefix=f"qbond_peers_{n}_")
     # The reference's step: 1e-6 s up to n = 10; larger lattices' slowest modes are slower, and the
     # recorded Richardson estimate shows the step's own error. The floor: 1e-5 s up to n = 10,
     # 1e-4 s above (a search that reaches it costs 2e5 steps of the larger lattice at 1e-5).
-    h_ref, floor = (1e-6, 1e-5) if n <= 10 else (5e-6, 1e-4)
+    h_ref, floor = (1e-6, 1e-5) if n <= 10 else (1e-5, 1e-4)
+    return accuracy.lattice_record(a.build, work, n, h_ref, floor, a.iterations, cached, log=lines.append), lines
+
+
+def accuracy_method(a, lat, method):
+    """(rows, printed lines) of one method's searches, in a work folder of its own."""
+    lines = []
+    work = tempfile.mkdtemp(prefix=f"qbond_peers_{lat['n']}_")
+    return accuracy.method_rows(a.build, a.bullet, work, lat, method, log=lines.append), lines
+
+
+def accuracy_methods(a):
     methods = [m if m in ("LAMMPS", "Bullet") else "qbond " + m for m in a.methods.split(",")]
     unknown = [m for m in methods if m not in ("LAMMPS", "Bullet", *accuracy.QBOND_METHODS)]
     if unknown:
         sys.exit(f"peers: unknown --methods {unknown}")
-    rec = accuracy.measure(a.build, a.bullet, work, n, h_ref, floor, a.iterations, methods, cached, log=lines.append)
-    return rec, "\n".join(lines) + "\n"
+    return methods
 
 
-def accuracy_all(a, cached):
-    """The accuracy records of every --accuracy-n, each lattice's searches in a process of its own
-    (two at most: the machine's cores)."""
-    acc_n = [int(x) for x in a.accuracy_n.split(",")]
-    with concurrent.futures.ProcessPoolExecutor(max_workers=min(2, len(acc_n))) as pool:
-        jobs = [pool.submit(accuracy_of, a, n, cached.get(n)) for n in acc_n]
-        records = []
-        for job in jobs:
-            rec, text = job.result()
-            print(text, end="", flush=True)
-            records.append(rec)
+def accuracy_all(a, pool, setups, save):
+    """The accuracy records of every --accuracy-n: each method's searches a job of the pool (two
+    processes: the machine's cores), `save(records)` called as each finishes, so that a run cut
+    short keeps what it measured."""
+    records = []
+    for job in setups:
+        lat, lines = job.result()
+        print("\n".join(lines), flush=True)
+        records.append(lat)
+    jobs = [(lat, pool.submit(accuracy_method, a, lat, m)) for lat in records for m in accuracy_methods(a)]
+    order = {id(job): i for i, (_, job) in enumerate(jobs)}
+    done = []
+    for job in concurrent.futures.as_completed([j for _, j in jobs]):
+        rows, lines = job.result()
+        print("\n".join(lines), flush=True)
+        done.append((order[id(job)], rows))
+        for lat in records:
+            lat["rows"] = [r for i, rows_i in sorted(done) if jobs[i][0] is lat for r in rows_i]
+        save(records)
     return records
 
 
@@ -142,17 +160,23 @@ def main():
             cached = {r["n"]: r["reference"] for r in json.load(f).get("accuracy", [])}
     if a.quick:
         a.n, a.accuracy_n, a.steps, a.rounds, a.iterations = "4", "4", 20, 1, 3
+    command = "bench/peers/run " + " ".join(sys.argv[3:])
+    pool = concurrent.futures.ProcessPoolExecutor(max_workers=2)
+    # The lattices' references first, in the pool, while this process times the steps.
+    setups = [pool.submit(accuracy_setup, a, int(n), cached.get(int(n))) for n in a.accuracy_n.split(",")]
+
     if a.append:
-        accuracy_rows = accuracy_all(a, cached)
         with open(a.append) as f:
             doc = json.load(f)
-        doc["accuracy"] = sorted([r for r in doc["accuracy"] if r["n"] not in {x["n"] for x in accuracy_rows}]
-                                 + accuracy_rows, key=lambda r: r["n"])
-        doc.setdefault("appended", []).append({"command": "bench/peers/run " + " ".join(sys.argv[3:]),
-                                               "load_average": os.getloadavg()[0]})
-        with open(a.append + ".tmp", "w") as f:
-            json.dump(doc, f, indent=1)
-        os.replace(a.append + ".tmp", a.append)
+        ns = {int(n) for n in a.accuracy_n.split(",")}
+        kept = [r for r in doc["accuracy"] if r["n"] not in ns]
+        doc.setdefault("appended", []).append({"command": command, "load_average": os.getloadavg()[0]})
+
+        def save_appended(records):
+            doc["accuracy"] = sorted(kept + records, key=lambda r: r["n"])
+            write_json(a.append, doc)
+        accuracy_all(a, pool, setups, save_appended)
+        pool.shutdown()
         return
     n_list = [int(x) for x in a.n.split(",")]
     work = tempfile.mkdtemp(prefix="qbond_peers_")
@@ -172,7 +196,7 @@ def main():
         row = {"n": n, "bonds": nb, "lammps": t_l, "bullet": t_b, **{f"qbond_{i}": q[(i, n)] for i in integrators}}
         rows.append(row)
         print(f"{n:>4} {nb:>8} {t_l / nb * 1e9:>9.2f} {t_b / nb * 1e9:>9.2f} " +
-              " ".join(f"{q[(i, n)] / nb * 1e9:>22.2f}" for i in integrators))
+              " ".join(f"{q[(i, n)] / nb * 1e9:>22.2f}" for i in integrators), flush=True)
 
     print(f"\nqbond's velocity Verlet / LAMMPS, per step, {a.rounds} alternating rounds (h = 1e-4 s, one thread)")
     for row in rows:
@@ -185,17 +209,23 @@ def main():
         row["verlet_over_lammps_median"] = ratios[len(ratios) // 2]
         print(f"{n:>4}  median {row['verlet_over_lammps_median']:.2f}  rounds " +
               "  ".join(f"{q_t / l_t:.2f} ({q_t / row['bonds'] * 1e9:.2f} / {l_t / row['bonds'] * 1e9:.2f} ns)"
-                        for l_t, q_t in pairs))
+                        for l_t, q_t in pairs), flush=True)
 
-    accuracy_rows = accuracy_all(a, cached)
-    load_end = os.getloadavg()[0]
-    if a.json:
-        with open(a.json + ".tmp", "w") as f:
-            json.dump({"bandwidth": qdoc["triad_bytes_per_second"], "machine": qdoc["machine"], "date": qdoc["date"],
-                       "per_step": rows, "quick": a.quick, "accuracy": accuracy_rows, "nice": os.nice(0),
-                       "load_average": [load_start, load_end],
-                       "command": "bench/peers/run " + " ".join(sys.argv[3:])}, f, indent=1)
-        os.replace(a.json + ".tmp", a.json)
+    def save(records, finished=False):
+        if a.json:
+            write_json(a.json, {"bandwidth": qdoc["triad_bytes_per_second"], "machine": qdoc["machine"],
+                                "date": qdoc["date"], "per_step": rows, "quick": a.quick, "accuracy": records,
+                                "finished": finished, "nice": os.nice(0),
+                                "load_average": [load_start, os.getloadavg()[0]], "command": command})
+    save([])
+    save(accuracy_all(a, pool, setups, save), finished=True)
+    pool.shutdown()
+
+
+def write_json(path, doc):
+    with open(path + ".tmp", "w") as f:
+        json.dump(doc, f, indent=1)
+    os.replace(path + ".tmp", path)
 
 
 if __name__ == "__main__":
