@@ -7,9 +7,9 @@ Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
 docs/performance.md, docs/integrators.md or docs/running.md; the opening marker may carry
 `machine="..."`, which the provenance line quotes. KIND is one of step, asrun, solve, multigrid,
-peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, soak, killresume, ab, realtime,
-damping, targets, python (docs/api.md: bench/python_overhead.py's), contact (docs/heuristics.md:
-`qbond bench --contact`'s);
+peers, peers_rounds, peers_accuracy, peers_frequencies, memory, runmemory, fuzz, soak, killresume, ab,
+realtime, damping, targets, python (docs/api.md: bench/python_overhead.py's), contact
+(docs/heuristics.md: `qbond bench --contact`'s);
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -26,7 +26,8 @@ from collections import defaultdict
 NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z]*)(?:-(?P<run>\d+))?\.json$")
 
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "multigrid", "peers": "peers",
-          "peers_rounds": "peers", "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory",
+          "peers_rounds": "peers", "peers_accuracy": "peers",
+          "peers_frequencies": "peers", "memory": "memory", "runmemory": "runmemory",
           "fuzz": "fuzz", "soak": "soak", "killresume": "killresume", "ab": "ab", "realtime": "realtime",
           "damping": "damping", "python": "python", "contact": "contact"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
@@ -193,11 +194,21 @@ def multigrid_table(name, data, machine):
 
 
 def peers_command(name, data):
+    if "command" in data:
+        return "`; then `".join([data["command"]] + [x["command"] for x in data.get("appended", [])])
     return f"bench/peers/run --n {','.join(str(p['n']) for p in data['per_step'])} --json docs/bench/{name}"
 
 
+def peers_load(data):
+    """The host's load during a peers run, when it recorded it."""
+    if "load_average" not in data:
+        return ""
+    return (f" Host load average {data['load_average'][0]:.1f} at the start, {data['load_average'][1]:.1f} at the end "
+            "(runnable processes on the machine's cores): single timings move with it, read the rounds' ratios.")
+
+
 def peers_table(name, data, machine):
-    lines = [provenance(name, data, machine, peers_command(name, data)), "",
+    lines = [provenance(name, data, machine, peers_command(name, data)) + peers_load(data), "",
              "| n | bonds | LAMMPS | Bullet | qbond velocity_verlet | qbond hybrid_frozen | qbond hybrid_sweep "
              "| qbond default |", "|---|---|---|---|---|---|---|---|"]
     keys = ["lammps", "bullet", "qbond_velocity_verlet", "qbond_hybrid_frozen", "qbond_hybrid_sweep", "qbond_default"]
@@ -236,7 +247,8 @@ def median(xs):
 def peers_rounds(name, data, machine):
     rounds = max(len(p["verlet_against_lammps"]) for p in data["per_step"])
     head = "| n | " + " | ".join(f"round {i + 1}" for i in range(rounds)) + " | median |"
-    lines = [provenance(name, data, machine, peers_command(name, data)), "", head, "|---" * (rounds + 2) + "|"]
+    lines = [provenance(name, data, machine, peers_command(name, data)) + peers_load(data), "", head,
+             "|---" * (rounds + 2) + "|"]
     for p in data["per_step"]:
         cells = []
         for r in p["verlet_against_lammps"]:
@@ -247,13 +259,57 @@ def peers_rounds(name, data, machine):
     return lines
 
 
-def peers_seconds(name, data, machine):
-    n = max(p["n"] for p in data["per_step"])
-    lines = [provenance(name, data, machine, peers_command(name, data)) + f" n = {n}.", "",
-             "| method | largest stable step [s] | s per step | s per simulated second |", "|---|---|---|---|"]
-    for k, v in sorted(data["per_simulated_second"].items(), key=lambda kv: kv[1]["seconds_per_simulated_second"]):
-        lines.append(f"| {k} | {sig(v['largest_stable_step'])} | {sig(v['seconds_per_step'])} | "
-                     f"{sig(v['seconds_per_simulated_second'])} |")
+def peers_accuracy(name, data, machine):
+    """Each method's largest step meeting each accuracy criterion and its cost per simulated second there."""
+    note = ""
+    if "load_average" in data:
+        note += (f" Host load average {data['load_average'][0]:.1f} at the start, {data['load_average'][1]:.1f} at "
+                 "the end (runnable processes on the machine's cores; the searches ran two at a time).")
+    if not data.get("finished", True):
+        note += " The run was cut short: these are the searches it finished."
+    lines = [provenance(name, data, machine, peers_command(name, data)) + note, "",
+             "| n | criterion | method | damping | largest step meeting it [s] | error there | s per step | "
+             "s per simulated second | × qbond's best |", "|---|---|---|---|---|---|---|---|---|"]
+    for acc in data["accuracy"]:
+        for crit in ("dynamic", "settled"):
+            rows = [r for r in acc["rows"] if r["criterion"] == crit]
+            costs = [r["seconds_per_simulated_second"] for r in rows
+                     if r["step"] is not None and r["method"].startswith("qbond")]
+            best = min(costs) if costs else None
+            for r in sorted(rows, key=lambda r: (r["step"] is None, r["seconds_per_simulated_second"] or 0)):
+                if r["step"] is None:
+                    lines.append(f"| {acc['n']} | {crit} | {r['method']} | {r['damping']} | "
+                                 f"never at h ≥ {min(t['h'] for t in r['tried']):.0e} | – | – | – | – |")
+                    continue
+                c = r["seconds_per_simulated_second"]
+                lines.append(f"| {acc['n']} | {crit} | {r['method']} | {r['damping']} | {r['step']:.3g} | "
+                             f"{r['error']:.2g} | {r['seconds_per_step']:.3g} | {c:.3g} | "
+                             f"{sig(c / best) if best else '–'} |")
+    return lines
+
+
+def peers_frequencies(name, data, machine):
+    """The lattices' lowest and highest natural frequencies beside the steps the criteria allowed."""
+    lines = [provenance(name, data, machine, peers_command(name, data)), "",
+             "| n | ω₁ [rad/s] | ω_max [rad/s] | ω_max / ω₁ | explicit limit 2/ω_max [s] | "
+             "reference step [s] (Richardson error) | static sag [mm] | dynamic: velocity Verlet's step [s] | "
+             "dynamic: best implicit step [s] (integrator, ω₁h) | its cost / velocity Verlet's |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for acc in data["accuracy"]:
+        sag = math.dist(acc["static"], acc["start"]) * 1e3
+        ref = acc["reference"]
+        dyn = {r["method"]: r for r in acc["rows"] if r["criterion"] == "dynamic" and r["step"] is not None}
+        vv = dyn.get("qbond velocity_verlet")
+        imp = [r for m, r in dyn.items() if m.startswith("qbond") and m != "qbond velocity_verlet"]
+        im = max(imp, key=lambda r: r["step"]) if imp else None
+        vv_text = f"{vv['step']:.3g}" if vv else "never"
+        im_text = (f"{im['step']:.3g} ({im['method'].removeprefix('qbond ')}, {acc['omega1'] * im['step']:.2g})"
+                   if im else "never")
+        ratio = (sig(im["seconds_per_simulated_second"] / vv["seconds_per_simulated_second"])
+                 if im and vv else "–")
+        lines.append(f"| {acc['n']} | {sig(acc['omega1'])} | {sig(acc['omega_max'])} | "
+                     f"{sig(acc['omega_max'] / acc['omega1'])} | {2 / acc['omega_max']:.3g} | "
+                     f"{ref['h']:.0e} ({ref['richardson_error']:.1e}) | {sig(sag)} | {vv_text} | {im_text} | {ratio} |")
     return lines
 
 
@@ -374,13 +430,37 @@ def targets(bench_dir, machines):
                  + f" at n = {' / '.join(str(p['n']) for p in peers['per_step'])} (medians of alternating rounds)",
                  all(m < 1 for m in meds), pname))
 
-    ps = peers["per_simulated_second"]
-    q = ps["qbond hybrid_frozen"]["seconds_per_simulated_second"]
-    lam = next(v for k, v in ps.items() if k.startswith("LAMMPS"))["seconds_per_simulated_second"]
-    bul = next(v for k, v in ps.items() if k.startswith("Bullet"))["seconds_per_simulated_second"]
-    rows.append(("a simulated second ≥ 10× cheaper than LAMMPS and Bullet, each at its largest stable step",
-                 f"hybrid_frozen {lam / q:.0f}× cheaper than LAMMPS, {bul / q:.0f}× than Bullet",
-                 lam / q >= 10 and bul / q >= 10, pname))
+    acc = max(peers["accuracy"], key=lambda a: a["n"])
+    n = acc["n"]
+
+    def cost(crit, pick):
+        rows = [r for r in acc["rows"] if r["criterion"] == crit and pick(r["method"]) and r["step"] is not None]
+        return min(rows, key=lambda r: r["seconds_per_simulated_second"]) if rows else None
+
+    def versus(q, peer):
+        row = cost(crit, lambda m: m.startswith(peer))
+        if row is None:
+            return f"{peer} never meets it", math.inf
+        x = row["seconds_per_simulated_second"] / q["seconds_per_simulated_second"]
+        return f"{peer} costs {sig(x)}× as much", x
+
+    for crit, need, why in (("settled", 10, "≥ 10× cheaper than LAMMPS and Bullet"),
+                            ("dynamic", 1, "cheaper than LAMMPS")):
+        q = cost(crit, lambda m: m.startswith("qbond"))
+        if q is None:
+            rows.append((f"{crit} criterion, n = {n}: qbond's best method {why}", "qbond never meets it", False, pname))
+            continue
+        peers_text = [versus(q, p) for p in (("LAMMPS", "Bullet") if crit == "settled" else ("LAMMPS",))]
+        rows.append((f"{crit} criterion, n = {n}: a simulated second with qbond's best method {why}",
+                     f"{q['method'].removeprefix('qbond ')} at h = {q['step']:.3g} s: " +
+                     ", ".join(t for t, _ in peers_text), all(x >= need for _, x in peers_text), pname))
+    vv = cost("dynamic", lambda m: m == "qbond velocity_verlet")
+    im = cost("dynamic", lambda m: m.startswith("qbond") and m != "qbond velocity_verlet")
+    if vv and im:
+        rows.append((f"dynamic criterion, n = {n}: an implicit qbond integrator cheaper than qbond's velocity Verlet",
+                     f"{im['method'].removeprefix('qbond ')} {sig(im['seconds_per_simulated_second'])} s, velocity Verlet "
+                     f"{sig(vv['seconds_per_simulated_second'])} s per simulated second",
+                     im["seconds_per_simulated_second"] < vv["seconds_per_simulated_second"], pname))
 
     sl = slopes(step)
     three = ["velocity_verlet", "hybrid_frozen", "default"]
@@ -498,7 +578,8 @@ def render(kind, machine, bench_dir):
             "multigrid": lambda: multigrid_table(name, data, machine),
             "peers": lambda: peers_table(name, data, machine),
             "peers_rounds": lambda: peers_rounds(name, data, machine),
-            "peers_seconds": lambda: peers_seconds(name, data, machine),
+            "peers_accuracy": lambda: peers_accuracy(name, data, machine),
+            "peers_frequencies": lambda: peers_frequencies(name, data, machine),
             "memory": lambda: memory_table(name, data, machine),
             "runmemory": lambda: runmemory_table(name, data, machine),
             "fuzz": lambda: fuzz_table(name, data, machine),
