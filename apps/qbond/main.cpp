@@ -421,8 +421,11 @@ int run(const Options& o) {
   const bool speak = mpi_rank() == 0, quiet = o.quiet || !speak;
   if (!o.resume.empty()) {
     if (!o.scene.empty()) throw std::invalid_argument("--resume continues a checkpoint's own scene; give no SCENE");
-    if (mpi_ranks() > 1) throw std::invalid_argument("--resume runs on one rank: run it without mpirun");
-    runner.emplace(Runner::resume(o.resume, [&](Scene& s, RunSettings& rs) { apply(o, s, rs); }, o.max_memory));
+    const auto adjust = [&](Scene& s, RunSettings& rs) { apply(o, s, rs); };
+    if (mpi_ranks() > 1)
+      ranks.emplace(o.resume, adjust, o.max_memory);
+    else
+      runner.emplace(Runner::resume(o.resume, adjust, o.max_memory));
   } else {
     Scene scene = load_any(o.scene, o.max_memory);
     RunSettings rs = settings_of(scene);

@@ -223,6 +223,7 @@ struct Runner::Impl {
   double end_time() const { return static_cast<double>(settings.steps) * scene.timestep; }
 
   std::function<StepReport()> stepper;  ///< set_stepper's, else the simulation's own step
+  std::function<const std::vector<BondEvent>&()> event_source;  ///< set_event_source's, else the simulation's
 
   StepReport step() {
     if (stepper) return stepper();
@@ -359,16 +360,25 @@ Runner::Runner(Scene scene, RunSettings settings)
   }
 }
 
-Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
-                      std::uint64_t max_memory) {
+namespace {
+// What a checkpoint resumes: its scene with the checkpoint's state, its run's settings (adjusted)
+// and, for adaptive steps, the next and last step.
+struct Resumed {
+  Scene scene;
+  RunSettings settings;
+  std::optional<std::pair<double, double>> adaptive_state;  // next step, last step
+};
+
+Resumed read_resumed(const fs::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
+                     std::uint64_t max_memory) {
   const std::uint64_t limit = max_memory > 0 ? max_memory : default_memory_limit();
   Checkpoint ck = load_checkpoint(checkpoint, limit);
   const std::string name = checkpoint.string();
   // The metadata is checked like a scene: the checksum only says the bytes are the ones written,
   // not that whoever wrote them wrote sense.
   json meta;
-  RunSettings settings;
-  std::optional<std::pair<double, double>> adaptive_state;  // next step, last step
+  Resumed out;
+  RunSettings& settings = out.settings;
   try {
     using namespace scene_detail;
     meta = parse_json_strict(ck.metadata);
@@ -378,24 +388,41 @@ Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene
     settings = settings_from_json(top.required("run"));
     if (top.has("adaptive")) {
       Obj a(top["adaptive"], "adaptive", {"next_step", "last_step"});
-      adaptive_state.emplace(positive(a.required("next_step"), a.at("next_step")),
-                             positive(a.required("last_step"), a.at("last_step")));
+      out.adaptive_state.emplace(positive(a.required("next_step"), a.at("next_step")),
+                                 positive(a.required("last_step"), a.at("last_step")));
     }
   } catch (const JsonTextError& e) {
     throw CheckpointError(name + ": metadata: " + e.what());
   } catch (const scene_detail::Bad& b) {
     throw CheckpointError(name + ": metadata: " + (b.path.empty() ? "" : b.path + ": ") + b.rule);
   }
-  Scene scene = parse_scene(meta["scene"].dump(), name + ", its scene", {.max_memory = max_memory});
+  out.scene = parse_scene(meta["scene"].dump(), name + ", its scene", {.max_memory = max_memory});
   settings.out_dir = fs::absolute(checkpoint).parent_path();
-  if (adjust) adjust(scene, settings);
+  if (adjust) adjust(out.scene, settings);
   try {
-    adopt_scene_bonds(ck, scene.world);
+    adopt_scene_bonds(ck, out.scene.world);
   } catch (const CheckpointError& e) {
     throw CheckpointError(name + ": " + e.what());
   }
-  scene.world.state = std::move(ck.state);
-  refuse_nothing_to_run(name, scene, settings);
+  out.scene.world.state = std::move(ck.state);
+  refuse_nothing_to_run(name, out.scene, settings);
+  return out;
+}
+}  // namespace
+
+std::pair<Scene, RunSettings> Runner::read_checkpoint(const fs::path& checkpoint,
+                                                      const std::function<void(Scene&, RunSettings&)>& adjust,
+                                                      std::uint64_t max_memory) {
+  Resumed r = read_resumed(checkpoint, adjust, max_memory);
+  return {std::move(r.scene), std::move(r.settings)};
+}
+
+Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
+                      std::uint64_t max_memory) {
+  Resumed resumed = read_resumed(checkpoint, adjust, max_memory);
+  Scene& scene = resumed.scene;
+  RunSettings& settings = resumed.settings;
+  const auto& adaptive_state = resumed.adaptive_state;
   auto impl = std::make_unique<Impl>(std::move(scene), std::move(settings));
   Impl& r = *impl;
   r.resumed_from = fs::absolute(checkpoint).string();
@@ -472,7 +499,8 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
       result.message = rep.message;
       break;
     }
-    for (const BondEvent& e : r.sim.events()) r.events->write_line(event_row(e, r.sim.world()));
+    for (const BondEvent& e : r.event_source ? r.event_source() : r.sim.events())
+      r.events->write_line(event_row(e, r.sim.world()));
     if (r.sim.energy_gain().exceeded && !gain_reported) {
       r.events->write_line(gain_row(r.sim.energy_gain()));
       gain_reported = true;
@@ -518,5 +546,8 @@ const Scene& Runner::scene() const { return impl_->scene; }
 const RunSettings& Runner::settings() const { return impl_->settings; }
 Simulation& Runner::simulation() { return impl_->sim; }
 void Runner::set_stepper(std::function<StepReport()> step) { impl_->stepper = std::move(step); }
+void Runner::set_event_source(std::function<const std::vector<BondEvent>&()> events) {
+  impl_->event_source = std::move(events);
+}
 
 }  // namespace qbond

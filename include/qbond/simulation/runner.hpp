@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "qbond/io/scene.hpp"
 #include "qbond/simulation/simulation.hpp"
@@ -76,6 +77,12 @@ class Runner {
   /// thrown before anything is written.
   static Runner resume(const std::filesystem::path& checkpoint,
                        const std::function<void(Scene&, RunSettings&)>& adjust = {}, std::uint64_t max_memory = 0);
+  /// What resume() would run, without touching the checkpoint's directory: the checkpoint's scene
+  /// with its state in scene.world, and its run's settings, after `adjust` (the same checks and
+  /// errors). Every rank of a run over ranks reads it (RanksRun).
+  static std::pair<Scene, RunSettings> read_checkpoint(const std::filesystem::path& checkpoint,
+                                                       const std::function<void(Scene&, RunSettings&)>& adjust = {},
+                                                       std::uint64_t max_memory = 0);
   ~Runner();
   Runner(Runner&&) noexcept;
   Runner& operator=(Runner&&) = delete;
@@ -92,6 +99,9 @@ class Runner {
   /// Replaces how each step is taken: `step` advances simulation().world() by one step and
   /// reports it (a run over MPI ranks steps its pieces and gathers the state here, RanksRun).
   void set_stepper(std::function<StepReport()> step);
+  /// Replaces where each step's bond events come from (events.csv): with set_stepper, the
+  /// stepper's own events, the bonds of simulation().world() already broken or formed.
+  void set_event_source(std::function<const std::vector<BondEvent>&()> events);
 
  private:
   struct Impl;
