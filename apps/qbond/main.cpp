@@ -121,6 +121,7 @@ struct Options {
   long long every = -1;
   long long checkpoint_every = -1;
   bool no_vtk = false;
+  bool frame_pieces = false;
   std::string integrator, neighbours, solver, preconditioner;
   int iterations = -1;
   int threads = -1;
@@ -329,6 +330,7 @@ void apply(const Options& o, qbond::Scene& scene, qbond::RunSettings& rs) {
   if (o.every > 0) rs.every = static_cast<std::uint64_t>(o.every);
   if (o.checkpoint_every >= 0) rs.checkpoint_every = static_cast<std::uint64_t>(o.checkpoint_every);
   if (o.no_vtk) rs.vtk = false;
+  if (o.frame_pieces) rs.frame_pieces = true;
   j["output"]["dir"] = rs.out_dir.string();
   j["output"]["every"] = rs.every;
   j["output"]["checkpoint_every"] = rs.checkpoint_every;
@@ -604,6 +606,8 @@ int main(int argc, char** argv) {
       ->add_option("--checkpoint-every", o.checkpoint_every, "steps between checkpoints (0: at the end only)")
       ->check(kNonNegative);
   run_cmd->add_flag("--no-vtk", o.no_vtk, "write no ParaView frames");
+  run_cmd->add_flag("--frame-pieces", o.frame_pieces,
+                    "over MPI ranks, write each frame as a .pvtp with one .vtp piece per rank");
   run_cmd->add_option("--integrator", o.integrator, integrator_help());
   run_cmd->add_option("--neighbours", o.neighbours, option_help(qbond::IntegratorOption::neighbours));
   run_cmd->add_option("--solver", o.solver, option_help(qbond::IntegratorOption::solver));

@@ -12,6 +12,7 @@
 #include "distributed/collectives.hpp"
 #include "distributed/distributed_step.hpp"
 #include "qbond/distributed/distributed.hpp"
+#include "qbond/io/vtk.hpp"
 
 namespace qbond {
 
@@ -58,6 +59,24 @@ struct RanksRun::Impl {
   std::optional<Runner> runner;  // rank 0
   std::function<bool()> stop;
   RanksStats stats;
+  bool pieces = false;  // frames as .pvtp files, one piece per rank
+
+  // A frame's piece of this rank: frames/frame_<step>_<rank>.vtp.
+  static std::string piece_name(std::uint64_t step, int rank) {
+    const std::string f = frame_file(step, "vtp");
+    return f.substr(0, f.size() - 4) + "_" + std::to_string(rank) + ".vtp";
+  }
+  // This rank's piece of the current state's frame (the other ranks' ranks; rank 0 writes its own
+  // with the .pvtp, from its Runner's outputs, at the same steps).
+  void write_piece() const { dist->write_piece(settings.out_dir / piece_name(dist->step_count(), mpi_rank())); }
+  // Rank 0's frame: its piece and the .pvtp that lists every rank's.
+  void write_frame(const std::filesystem::path& file) const {
+    std::vector<std::string> names;
+    for (int k = 0; k < mpi_ranks(); ++k)
+      names.push_back(std::filesystem::path(piece_name(dist->step_count(), k)).filename().string());
+    dist->write_piece(file.parent_path() / names[0]);
+    write_pvtp(file, names);
+  }
 
   // The ranks' counts into `stats` on rank 0 (collective).
   void gather_stats() {
@@ -88,13 +107,19 @@ struct RanksRun::Impl {
   }
 
   // Splits `scene` over the ranks (refusing what is not distributed) and, on rank 0, starts the
-  // outputs with make_runner (a new run or a resumed one).
-  void start(Scene scene, RunSettings run_settings, const std::function<Runner(Scene, RunSettings)>& make_runner);
+  // outputs with make_runner (a new run or a resumed one), giving it the frame writer when the
+  // ranks write pieces.
+  using FrameWriter = std::function<void(const std::filesystem::path&)>;
+  void start(Scene scene, RunSettings run_settings, bool resumed,
+             const std::function<Runner(Scene, RunSettings, const FrameWriter&)>& make_runner);
 
   // One step, and the gather when it is due, into `world` (rank 0's outputs read it).
   StepReport step(World& world) {
     StepReport r = dist->step(stop && stop());
     dist->apply_events(world);  // before its time moves on: a broken bond records the step's start
+    // The other ranks' pieces of the frames rank 0's Runner writes on its schedule.
+    if (pieces && !runner && r.status == StepReport::Status::ok && dist->step_count() % settings.every == 0)
+      write_piece();
     if (due(r)) {
       dist->gather(world);
     } else {
@@ -106,8 +131,10 @@ struct RanksRun::Impl {
 };
 
 RanksRun::RanksRun(Scene scene, RunSettings settings) : impl_(std::make_unique<Impl>()) {
-  impl_->start(std::move(scene), std::move(settings),
-               [](Scene s, RunSettings rs) { return Runner(std::move(s), std::move(rs)); });
+  impl_->start(std::move(scene), std::move(settings), false, [](Scene s, RunSettings rs, const Impl::FrameWriter& w) {
+    rs.write_frame = w;
+    return Runner(std::move(s), std::move(rs));
+  });
 }
 
 RanksRun::RanksRun(const std::filesystem::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
@@ -116,14 +143,24 @@ RanksRun::RanksRun(const std::filesystem::path& checkpoint, const std::function<
   // Every rank reads the checkpoint (the whole state, whatever the rank count that wrote it);
   // rank 0 resumes its outputs in its directory.
   auto [scene, settings] = Runner::read_checkpoint(checkpoint, adjust, max_memory);
-  impl_->start(std::move(scene), std::move(settings),
-               [&](Scene, RunSettings) { return Runner::resume(checkpoint, adjust, max_memory); });
+  impl_->start(std::move(scene), std::move(settings), true, [&](Scene, RunSettings, const Impl::FrameWriter& w) {
+    return Runner::resume(
+        checkpoint,
+        [&](Scene& s, RunSettings& rs) {
+          if (adjust) adjust(s, rs);
+          rs.write_frame = w;
+        },
+        max_memory);
+  });
 }
 
-void RanksRun::Impl::start(Scene scene, RunSettings run_settings,
-                           const std::function<Runner(Scene, RunSettings)>& make_runner) {
+void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
+                           const std::function<Runner(Scene, RunSettings, const FrameWriter&)>& make_runner) {
   Impl& r = *this;
   const int ranks = mpi_ranks();
+  r.pieces = ranks > 1 && run_settings.frame_pieces && run_settings.vtk;
+  FrameWriter writer;
+  if (r.pieces) writer = [&r](const std::filesystem::path& file) { r.write_frame(file); };
   if (ranks > 1) {
     check_distributable(scene, ranks);
     if (run_settings.every == 0) throw std::invalid_argument("output interval must be >= 1 step");
@@ -142,7 +179,7 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings,
   int failed[1] = {0};
   if (mpi_rank() == 0) {
     try {
-      r.runner.emplace(make_runner(std::move(scene), std::move(run_settings)));
+      r.runner.emplace(make_runner(std::move(scene), std::move(run_settings), writer));
     } catch (const std::exception&) {
       failed[0] = 1;
       if (ranks > 1) distributed::max_over_ranks(failed);
@@ -155,6 +192,8 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings,
     distributed::max_over_ranks(failed);
     if (failed[0]) throw std::runtime_error("rank 0 could not start the run's outputs");
   }
+  // A new run's first frame, which rank 0's Runner has written (after it cleared the directory).
+  if (r.pieces && !r.runner && !resumed) r.write_piece();
   if (r.runner && r.dist) {
     r.runner->set_stepper([&r] { return r.step(r.runner->simulation().world()); });
     r.runner->set_event_source([&r]() -> const std::vector<BondEvent>& { return r.dist->events(); });
@@ -188,6 +227,8 @@ RunResult RanksRun::run(const std::function<bool()>& stop, const std::function<v
         break;
       }
     }
+    // The frame rank 0 writes at the run's end, when not on the schedule.
+    if (r.pieces && r.dist->step_count() % r.settings.every != 0) r.write_piece();
     result.steps_taken = r.dist->step_count() - start;
     result.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     r.gather_stats();

@@ -15,6 +15,7 @@
 #include "ledger/step_work.hpp"
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/distributed/distributed.hpp"
+#include "qbond/io/vtk.hpp"
 
 namespace qbond::distributed {
 
@@ -384,6 +385,20 @@ void DistributedStep::migrate(bool moved, bool broke) {
   }
   // After a break the carried forces were the old topology's: evaluated afresh, as on one rank.
   build(verlet_ && !broke ? &f : nullptr);
+}
+
+void DistributedStep::write_piece(const std::filesystem::path& file) const {
+  if (!sim_) {
+    write_vtp_piece(file, Model{}, State{}, {}, {});
+    return;
+  }
+  const World& w = sim_->world();
+  std::vector<std::uint8_t> owned(global_.size(), 0);
+  for (Index q : owned_) owned[q] = 1;
+  const Bonds& b = w.state.bonds;
+  std::vector<std::uint8_t> shown(b.size());
+  for (std::size_t k = 0; k < b.size(); ++k) shown[k] = owned[b.i[k]];  // the ledger's rule: the first end's rank
+  write_vtp_piece(file, w.model, w.state, owned, shown);
 }
 
 void DistributedStep::set_break_rules(std::vector<BreakRule> rules) {

@@ -3,6 +3,7 @@
 // the ordinary step, then the ranks exchange their ghosts' new state (halo.hpp), charge the energy
 // ledger for the bonds each owns, and move quanta that left their rank's box to their new owner.
 // Every rank calls every member at the same point of the run (they are collective).
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -48,6 +49,10 @@ class DistributedStep {
   // Breaks the last step's bonds in `w` (a world of the same quanta and bonds), called before its
   // time moves on to the step's end (a broken bond records the step's start, as on one rank).
   void apply_events(World& w) const;
+
+  // Writes this rank's piece of a frame (write_vtp_piece): the quanta it owns and the bonds whose
+  // first end it owns, each quanta and bond in exactly one rank's piece, at the current state.
+  void write_piece(const std::filesystem::path& file) const;
 
   // The step count and time every rank agrees on.
   std::uint64_t step_count() const { return whole_.state.step; }

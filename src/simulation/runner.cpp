@@ -81,11 +81,8 @@ std::vector<std::string> kept_lines(const std::string& text, const std::string& 
 
 std::uint64_t leading_step(const std::string& line) { return std::stoull(line.substr(0, line.find(','))); }
 
-std::string frame_name(std::uint64_t step) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "frames/frame_%010llu.vtp", static_cast<unsigned long long>(step));
-  return buf;
-}
+// The frame of a step: its whole-world .vtp, or its .pvtp when the ranks write pieces.
+std::string frame_name(std::uint64_t step, bool pieces = false) { return frame_file(step, pieces ? "pvtp" : "vtp"); }
 
 std::string utc_now() {
   const std::time_t t = std::time(nullptr);
@@ -275,8 +272,11 @@ struct Runner::Impl {
     csv->write_line(diagnostics.row(w.model, w.state, sim.integrator().stats(), last_h));
     last_row = step;
     if (!settings.vtk) return;
-    const std::string name = frame_name(step);
-    write_vtp(out(name), w.model, w.state);
+    const std::string name = frame_name(step, static_cast<bool>(settings.write_frame));
+    if (settings.write_frame)
+      settings.write_frame(out(name));
+    else
+      write_vtp(out(name), w.model, w.state);
     series.add(w.state.time, name);
     // Rewritten whole, so only once it has grown by a sixteenth: rewritten every frame, its bytes
     // would grow with the square of the frames. The run's end writes the rest (write_series).
@@ -345,7 +345,9 @@ Runner::Runner(Scene scene, RunSettings settings)
   r.claim_output_dir();
   // Stale frames of an earlier run would show up in a file browser beside the new series.
   for (const auto& e : fs::directory_iterator(r.settings.out_dir / "frames"))
-    if (e.path().extension() == ".vtp" && e.path().filename().string().starts_with("frame_")) fs::remove(e.path());
+    if ((e.path().extension() == ".vtp" || e.path().extension() == ".pvtp") &&
+        e.path().filename().string().starts_with("frame_"))
+      fs::remove(e.path());
   fs::remove(r.out(kPvd));
   r.write_run_json("running", nullptr);
   try {
@@ -448,11 +450,19 @@ Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene
     const std::uint64_t step = leading_step(line);
     const bool keep = step <= at && (step % r.settings.every == 0);
     if (keep) {
-      if (r.settings.vtk && fs::exists(r.out(frame_name(step))))
-        r.series.add(std::strtod(line.c_str() + line.find(',') + 1, nullptr), frame_name(step));
+      // The frame the run wrote: whole, or in pieces (a .pvtp).
+      for (bool pieces : {false, true})
+        if (r.settings.vtk && fs::exists(r.out(frame_name(step, pieces))))
+          r.series.add(std::strtod(line.c_str() + line.find(',') + 1, nullptr), frame_name(step, pieces));
       r.last_row = step;
     } else if (r.settings.vtk) {
       fs::remove(r.out(frame_name(step)));
+      if (fs::remove(r.out(frame_name(step, true)))) {
+        // and its pieces, frame_<step>_<rank>.vtp
+        const std::string piece = fs::path(frame_name(step)).stem().string() + "_";
+        for (const auto& e : fs::directory_iterator(r.settings.out_dir / "frames"))
+          if (e.path().extension() == ".vtp" && e.path().filename().string().starts_with(piece)) fs::remove(e.path());
+      }
     }
     return keep;
   });
@@ -545,6 +555,12 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
 const Scene& Runner::scene() const { return impl_->scene; }
 const RunSettings& Runner::settings() const { return impl_->settings; }
 Simulation& Runner::simulation() { return impl_->sim; }
+std::string frame_file(std::uint64_t step, std::string_view extension) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "frames/frame_%010llu.", static_cast<unsigned long long>(step));
+  return buf + std::string(extension);
+}
+
 void Runner::set_stepper(std::function<StepReport()> step) { impl_->stepper = std::move(step); }
 void Runner::set_event_source(std::function<const std::vector<BondEvent>&()> events) {
   impl_->event_source = std::move(events);

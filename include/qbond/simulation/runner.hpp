@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 
 #include "qbond/io/scene.hpp"
@@ -22,7 +23,17 @@ struct RunSettings {
   std::uint64_t every = 1;                ///< steps between diagnostics rows and frames
   std::uint64_t checkpoint_every = 0;     ///< steps between checkpoints; 0: at the end and on stops only
   bool vtk = true;                        ///< write .vtp frames and the .pvd series
+  /// Over MPI ranks: each frame a .pvtp with one .vtp piece per rank (RanksRun); alone, no effect.
+  /// Not kept in checkpoints: a resumed run takes it from its command line.
+  bool frame_pieces = false;
+  /// When set, writes each frame, to the file it is given (frames/frame_<step>.pvtp), instead of
+  /// a whole-world .vtp: RanksRun's, whose ranks write a piece each.
+  std::function<void(const std::filesystem::path&)> write_frame;
 };
+
+/// The file of a step's frame, relative to the output directory: frames/frame_<step, 10
+/// digits>.<extension>.
+std::string frame_file(std::uint64_t step, std::string_view extension);
 
 /// The settings a scene asks for (its `steps` and `output` section).
 RunSettings settings_of(const Scene& scene);
