@@ -30,9 +30,13 @@ import sys
 
 # Files that use a registered rule for their own purpose: the `liquid` scene type makes a break
 # rule beside its form rule, and the Python module offers it as a method; the gas builder's doc
-# names the contact its quanta need; the viewer draws quanta at the contact radius.
+# names the contact its quanta need; the viewer draws quanta at the contact radius. A run over MPI
+# ranks tests the break rule on the bonds each rank owns and draws in the whole world's order
+# (its criteria apart from the heuristic's draws, in break_criteria.hpp).
 CONSUMERS = {
-    "BreakRule": {"src/heuristics/formation.cpp", "python/simulation.cpp"},
+    "BreakRule": {"src/heuristics/formation.cpp", "python/simulation.cpp", "src/heuristics/break_criteria.hpp",
+                  "src/distributed/distributed_run.cpp", "src/distributed/distributed_step.cpp",
+                  "src/distributed/distributed_step.hpp"},
     "QuantaContactRule": {"include/qbond/builders/gas.hpp", "apps/viewer/viewer_draw.cpp"},
 }
 # Files that use a law for their own purpose: the linear law is the default bond's and has the

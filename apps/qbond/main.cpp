@@ -122,6 +122,7 @@ struct Options {
   long long every = -1;
   long long checkpoint_every = -1;
   bool no_vtk = false;
+  bool frame_pieces = false;
   std::string integrator, neighbours, solver, preconditioner;
   int iterations = -1;
   int threads = -1;
@@ -330,6 +331,7 @@ void apply(const Options& o, qbond::Scene& scene, qbond::RunSettings& rs) {
   if (o.every > 0) rs.every = static_cast<std::uint64_t>(o.every);
   if (o.checkpoint_every >= 0) rs.checkpoint_every = static_cast<std::uint64_t>(o.checkpoint_every);
   if (o.no_vtk) rs.vtk = false;
+  if (o.frame_pieces) rs.frame_pieces = true;
   j["output"]["dir"] = rs.out_dir.string();
   j["output"]["every"] = rs.every;
   j["output"]["checkpoint_every"] = rs.checkpoint_every;
@@ -422,8 +424,11 @@ int run(const Options& o) {
   const bool speak = mpi_rank() == 0, quiet = o.quiet || !speak;
   if (!o.resume.empty()) {
     if (!o.scene.empty()) throw std::invalid_argument("--resume continues a checkpoint's own scene; give no SCENE");
-    if (mpi_ranks() > 1) throw std::invalid_argument("--resume runs on one rank: run it without mpirun");
-    runner.emplace(Runner::resume(o.resume, [&](Scene& s, RunSettings& rs) { apply(o, s, rs); }, o.max_memory));
+    const auto adjust = [&](Scene& s, RunSettings& rs) { apply(o, s, rs); };
+    if (mpi_ranks() > 1)
+      ranks.emplace(o.resume, adjust, o.max_memory);
+    else
+      runner.emplace(Runner::resume(o.resume, adjust, o.max_memory));
   } else {
     Scene scene = load_any(o.scene, o.max_memory);
     RunSettings rs = settings_of(scene);
@@ -602,6 +607,8 @@ int main(int argc, char** argv) {
       ->add_option("--checkpoint-every", o.checkpoint_every, "steps between checkpoints (0: at the end only)")
       ->check(kNonNegative);
   run_cmd->add_flag("--no-vtk", o.no_vtk, "write no ParaView frames");
+  run_cmd->add_flag("--frame-pieces", o.frame_pieces,
+                    "over MPI ranks, write each frame as a .pvtp with one .vtp piece per rank");
   run_cmd->add_option("--integrator", o.integrator, integrator_help());
   run_cmd->add_option("--neighbours", o.neighbours, option_help(qbond::IntegratorOption::neighbours));
   run_cmd->add_option("--solver", o.solver, option_help(qbond::IntegratorOption::solver));
