@@ -1,13 +1,15 @@
 #!/usr/bin/python3
-"""Renders the measured tables of docs/performance.md, docs/integrators.md and docs/running.md from docs/bench/.
+"""Renders the measured tables of docs/performance.md, docs/integrators.md, docs/running.md, docs/api.md
+and docs/heuristics.md from docs/bench/.
 
 Usage: scripts/bench_tables.py [--check] [ROOT]   (ROOT: the repository, default: this script's parent)
 
 Each table sits between `<!-- bench:KIND ... -->` and `<!-- /bench:KIND -->` in
 docs/performance.md, docs/integrators.md or docs/running.md; the opening marker may carry
 `machine="..."`, which the provenance line quotes. KIND is one of step, asrun, solve, multigrid,
-peers, peers_rounds, peers_seconds, memory, runmemory, fuzz, soak, killresume, ab, realtime,
-damping, targets, python (docs/api.md: bench/python_overhead.py's);
+peers, peers_rounds, peers_accuracy, peers_frequencies, memory, runmemory, fuzz, soak, killresume, ab,
+realtime, damping, targets, python (docs/api.md: bench/python_overhead.py's), contact
+(docs/heuristics.md: `qbond bench --contact`'s);
 each reads the latest docs/bench/PREFIX-DATE[SUFFIX][-N].json of its kind. The script rewrites
 the text between the markers; with --check it rewrites nothing and exits 1 when the file differs
 from what the results give (a ctest test), so the tables cannot drift from the results.
@@ -24,9 +26,10 @@ from collections import defaultdict
 NAME = re.compile(r"^(?P<prefix>[a-z]+)-(?P<date>\d{4}-\d\d-\d\d)(?P<suffix>[a-z]*)(?:-(?P<run>\d+))?\.json$")
 
 PREFIX = {"step": "qbond", "asrun": "asrun", "solve": "solve", "multigrid": "multigrid", "peers": "peers",
-          "peers_rounds": "peers", "peers_seconds": "peers", "memory": "memory", "runmemory": "runmemory",
+          "peers_rounds": "peers", "peers_accuracy": "peers",
+          "peers_frequencies": "peers", "memory": "memory", "runmemory": "runmemory",
           "fuzz": "fuzz", "soak": "soak", "killresume": "killresume", "ab": "ab", "realtime": "realtime",
-          "damping": "damping", "python": "python"}
+          "damping": "damping", "python": "python", "contact": "contact"}
 INTEGRATORS = ["velocity_verlet", "hybrid_frozen", "hybrid_sweep", "default"]
 # The work below this many quanta runs on one thread whatever -j asks (kParallelMin).
 PARALLEL_MIN = 4096
@@ -164,9 +167,14 @@ def multigrid_table(name, data, machine):
     """docs/integrators.md's: block-Jacobi and multigrid CG side by side, from the solve results."""
     # A run of the two CG rows alone (the benchmark binary filtered) records its command.
     cmd = data.get("command") or f"build/qbond bench --solve -n {','.join(map(str, sizes(data['rows'])))} --json docs/bench/{name}"
+    # With the timing thread's CPU times (a shared host: wall time also counts the other tenants'
+    # time slices), the times and ratios are those; otherwise wall times.
+    cpu = all("cpu_seconds" in r for r in data["rows"]) and \
+        all("setup_cpu_seconds" in r for r in data["rows"] if r["solver"] == "qbond_mg")
+    unit = "CPU ms" if cpu else "ms"
     lines = [provenance(name, data, machine, cmd), "",
-             "| n | quanta | block Jacobi: iterations | ms | multigrid: iterations | levels | set-up ms | CG ms | "
-             "true residual | multigrid CG / block-Jacobi time | set-up / block-Jacobi time |",
+             f"| n | quanta | block Jacobi: iterations | {unit} | multigrid: iterations | levels | set-up {unit} | "
+             f"CG {unit} | true residual | multigrid CG / block-Jacobi time | set-up / block-Jacobi time |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     by = defaultdict(dict)
     for r in data["rows"]:
@@ -175,19 +183,32 @@ def multigrid_table(name, data, machine):
         bj, mg = by[n].get("qbond_cg"), by[n].get("qbond_mg")
         if not bj or not mg:
             continue
-        lines.append(f"| {n} | {mg['quanta']} | {bj['iterations']:.0f} | {sig(bj['seconds'] * 1e3)} | "
-                     f"{mg['iterations']:.0f} | {mg['levels']} | {sig(mg['setup_seconds'] * 1e3)} | "
-                     f"{sig(mg['solve_seconds'] * 1e3)} | {mg['relative_residual']:.1e} | "
-                     f"{sig(mg['solve_seconds'] / bj['seconds'])} | {sig(mg['setup_seconds'] / bj['seconds'])} |")
+        t_bj = bj["cpu_seconds"] if cpu else bj["seconds"]
+        t_setup = mg["setup_cpu_seconds"] if cpu else mg["setup_seconds"]
+        t_cg = mg["solve_cpu_seconds"] if cpu else mg["solve_seconds"]
+        lines.append(f"| {n} | {mg['quanta']} | {bj['iterations']:.0f} | {sig(t_bj * 1e3)} | "
+                     f"{mg['iterations']:.0f} | {mg['levels']} | {sig(t_setup * 1e3)} | "
+                     f"{sig(t_cg * 1e3)} | {mg['relative_residual']:.1e} | "
+                     f"{sig(t_cg / t_bj)} | {sig(t_setup / t_bj)} |")
     return lines
 
 
 def peers_command(name, data):
+    if "command" in data:
+        return "`; then `".join([data["command"]] + [x["command"] for x in data.get("appended", [])])
     return f"bench/peers/run --n {','.join(str(p['n']) for p in data['per_step'])} --json docs/bench/{name}"
 
 
+def peers_load(data):
+    """The host's load during a peers run, when it recorded it."""
+    if "load_average" not in data:
+        return ""
+    return (f" Host load average {data['load_average'][0]:.1f} at the start, {data['load_average'][1]:.1f} at the end "
+            "(runnable processes on the machine's cores): single timings move with it, read the rounds' ratios.")
+
+
 def peers_table(name, data, machine):
-    lines = [provenance(name, data, machine, peers_command(name, data)), "",
+    lines = [provenance(name, data, machine, peers_command(name, data)) + peers_load(data), "",
              "| n | bonds | LAMMPS | Bullet | qbond velocity_verlet | qbond hybrid_frozen | qbond hybrid_sweep "
              "| qbond default |", "|---|---|---|---|---|---|---|---|"]
     keys = ["lammps", "bullet", "qbond_velocity_verlet", "qbond_hybrid_frozen", "qbond_hybrid_sweep", "qbond_default"]
@@ -226,7 +247,8 @@ def median(xs):
 def peers_rounds(name, data, machine):
     rounds = max(len(p["verlet_against_lammps"]) for p in data["per_step"])
     head = "| n | " + " | ".join(f"round {i + 1}" for i in range(rounds)) + " | median |"
-    lines = [provenance(name, data, machine, peers_command(name, data)), "", head, "|---" * (rounds + 2) + "|"]
+    lines = [provenance(name, data, machine, peers_command(name, data)) + peers_load(data), "", head,
+             "|---" * (rounds + 2) + "|"]
     for p in data["per_step"]:
         cells = []
         for r in p["verlet_against_lammps"]:
@@ -237,13 +259,57 @@ def peers_rounds(name, data, machine):
     return lines
 
 
-def peers_seconds(name, data, machine):
-    n = max(p["n"] for p in data["per_step"])
-    lines = [provenance(name, data, machine, peers_command(name, data)) + f" n = {n}.", "",
-             "| method | largest stable step [s] | s per step | s per simulated second |", "|---|---|---|---|"]
-    for k, v in sorted(data["per_simulated_second"].items(), key=lambda kv: kv[1]["seconds_per_simulated_second"]):
-        lines.append(f"| {k} | {sig(v['largest_stable_step'])} | {sig(v['seconds_per_step'])} | "
-                     f"{sig(v['seconds_per_simulated_second'])} |")
+def peers_accuracy(name, data, machine):
+    """Each method's largest step meeting each accuracy criterion and its cost per simulated second there."""
+    note = ""
+    if "load_average" in data:
+        note += (f" Host load average {data['load_average'][0]:.1f} at the start, {data['load_average'][1]:.1f} at "
+                 "the end (runnable processes on the machine's cores; the searches ran two at a time).")
+    if not data.get("finished", True):
+        note += " The run was cut short: these are the searches it finished."
+    lines = [provenance(name, data, machine, peers_command(name, data)) + note, "",
+             "| n | criterion | method | damping | largest step meeting it [s] | error there | s per step | "
+             "s per simulated second | × qbond's best |", "|---|---|---|---|---|---|---|---|---|"]
+    for acc in data["accuracy"]:
+        for crit in ("dynamic", "settled"):
+            rows = [r for r in acc["rows"] if r["criterion"] == crit]
+            costs = [r["seconds_per_simulated_second"] for r in rows
+                     if r["step"] is not None and r["method"].startswith("qbond")]
+            best = min(costs) if costs else None
+            for r in sorted(rows, key=lambda r: (r["step"] is None, r["seconds_per_simulated_second"] or 0)):
+                if r["step"] is None:
+                    lines.append(f"| {acc['n']} | {crit} | {r['method']} | {r['damping']} | "
+                                 f"never at h ≥ {min(t['h'] for t in r['tried']):.0e} | – | – | – | – |")
+                    continue
+                c = r["seconds_per_simulated_second"]
+                lines.append(f"| {acc['n']} | {crit} | {r['method']} | {r['damping']} | {r['step']:.3g} | "
+                             f"{r['error']:.2g} | {r['seconds_per_step']:.3g} | {c:.3g} | "
+                             f"{sig(c / best) if best else '–'} |")
+    return lines
+
+
+def peers_frequencies(name, data, machine):
+    """The lattices' lowest and highest natural frequencies beside the steps the criteria allowed."""
+    lines = [provenance(name, data, machine, peers_command(name, data)), "",
+             "| n | ω₁ [rad/s] | ω_max [rad/s] | ω_max / ω₁ | explicit limit 2/ω_max [s] | "
+             "reference step [s] (Richardson error) | static sag [mm] | dynamic: velocity Verlet's step [s] | "
+             "dynamic: best implicit step [s] (integrator, ω₁h) | its cost / velocity Verlet's |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for acc in data["accuracy"]:
+        sag = math.dist(acc["static"], acc["start"]) * 1e3
+        ref = acc["reference"]
+        dyn = {r["method"]: r for r in acc["rows"] if r["criterion"] == "dynamic" and r["step"] is not None}
+        vv = dyn.get("qbond velocity_verlet")
+        imp = [r for m, r in dyn.items() if m.startswith("qbond") and m != "qbond velocity_verlet"]
+        im = max(imp, key=lambda r: r["step"]) if imp else None
+        vv_text = f"{vv['step']:.3g}" if vv else "never"
+        im_text = (f"{im['step']:.3g} ({im['method'].removeprefix('qbond ')}, {acc['omega1'] * im['step']:.2g})"
+                   if im else "never")
+        ratio = (sig(im["seconds_per_simulated_second"] / vv["seconds_per_simulated_second"])
+                 if im and vv else "–")
+        lines.append(f"| {acc['n']} | {sig(acc['omega1'])} | {sig(acc['omega_max'])} | "
+                     f"{sig(acc['omega_max'] / acc['omega1'])} | {2 / acc['omega_max']:.3g} | "
+                     f"{ref['h']:.0e} ({ref['richardson_error']:.1e}) | {sig(sag)} | {vv_text} | {im_text} | {ratio} |")
     return lines
 
 
@@ -364,13 +430,37 @@ def targets(bench_dir, machines):
                  + f" at n = {' / '.join(str(p['n']) for p in peers['per_step'])} (medians of alternating rounds)",
                  all(m < 1 for m in meds), pname))
 
-    ps = peers["per_simulated_second"]
-    q = ps["qbond hybrid_frozen"]["seconds_per_simulated_second"]
-    lam = next(v for k, v in ps.items() if k.startswith("LAMMPS"))["seconds_per_simulated_second"]
-    bul = next(v for k, v in ps.items() if k.startswith("Bullet"))["seconds_per_simulated_second"]
-    rows.append(("a simulated second ≥ 10× cheaper than LAMMPS and Bullet, each at its largest stable step",
-                 f"hybrid_frozen {lam / q:.0f}× cheaper than LAMMPS, {bul / q:.0f}× than Bullet",
-                 lam / q >= 10 and bul / q >= 10, pname))
+    acc = max(peers["accuracy"], key=lambda a: a["n"])
+    n = acc["n"]
+
+    def cost(crit, pick):
+        rows = [r for r in acc["rows"] if r["criterion"] == crit and pick(r["method"]) and r["step"] is not None]
+        return min(rows, key=lambda r: r["seconds_per_simulated_second"]) if rows else None
+
+    def versus(q, peer):
+        row = cost(crit, lambda m: m.startswith(peer))
+        if row is None:
+            return f"{peer} never meets it", math.inf
+        x = row["seconds_per_simulated_second"] / q["seconds_per_simulated_second"]
+        return f"{peer} costs {sig(x)}× as much", x
+
+    for crit, need, why in (("settled", 10, "≥ 10× cheaper than LAMMPS and Bullet"),
+                            ("dynamic", 1, "cheaper than LAMMPS")):
+        q = cost(crit, lambda m: m.startswith("qbond"))
+        if q is None:
+            rows.append((f"{crit} criterion, n = {n}: qbond's best method {why}", "qbond never meets it", False, pname))
+            continue
+        peers_text = [versus(q, p) for p in (("LAMMPS", "Bullet") if crit == "settled" else ("LAMMPS",))]
+        rows.append((f"{crit} criterion, n = {n}: a simulated second with qbond's best method {why}",
+                     f"{q['method'].removeprefix('qbond ')} at h = {q['step']:.3g} s: " +
+                     ", ".join(t for t, _ in peers_text), all(x >= need for _, x in peers_text), pname))
+    vv = cost("dynamic", lambda m: m == "qbond velocity_verlet")
+    im = cost("dynamic", lambda m: m.startswith("qbond") and m != "qbond velocity_verlet")
+    if vv and im:
+        rows.append((f"dynamic criterion, n = {n}: an implicit qbond integrator cheaper than qbond's velocity Verlet",
+                     f"{im['method'].removeprefix('qbond ')} {sig(im['seconds_per_simulated_second'])} s, velocity Verlet "
+                     f"{sig(vv['seconds_per_simulated_second'])} s per simulated second",
+                     im["seconds_per_simulated_second"] < vv["seconds_per_simulated_second"], pname))
 
     sl = slopes(step)
     three = ["velocity_verlet", "hybrid_frozen", "default"]
@@ -450,6 +540,34 @@ def damping_table(name, data, machine):
     return lines
 
 
+def contact_table(name, data, machine):
+    """`qbond bench --contact`: a step with contact inside the implicit step, by projection and without."""
+    lines = [provenance(name, data, machine, data["command"]) +
+             f" One thread; each scene stepped {data['warmup_seconds']:g} s of simulated time first, then "
+             f"{data['rounds']} interleaved rounds of {data['steps']} steps a variant; a variant's time is the "
+             "median of its steps, a ratio the median of the rounds' ratios.", "",
+             "| scene | quanta | bonds | h [s] | implicit ms | projection ms | no contact ms | implicit / no contact | "
+             "implicit / projection | note |", "|---|---|---|---|---|---|---|---|---|---|"]
+
+    def ms(v):
+        return sig(v["median_ms"]) if v["median_ms"] is not None else "–"
+
+    def ratio(x):
+        return f"{x:.2f}" if x is not None else "–"
+
+    for r in data["rows"]:
+        note = "; ".join(f"{v} blew up: {r[v]['failure']}" for v in ("implicit", "projection", "none") if r[v]["failure"])
+        lines.append(f"| {r['scene']} | {r['quanta']} | {r['bonds']} | {r['timestep']:.3g} | {ms(r['implicit'])} | "
+                     f"{ms(r['projection'])} | {ms(r['none'])} | {ratio(r['implicit_over_none'])} | "
+                     f"{ratio(r['implicit_over_projection'])} | {note} |")
+    mesh = [r for r in data["rows"] if r["scene"] == "mesh_drop" and r["implicit_over_none"] is not None]
+    if mesh:
+        extra = mesh[0]["implicit_over_none"] - 1
+        lines += ["", f"mesh_drop at h = {mesh[0]['timestep']:.3g} s: contact inside the step adds {extra:.0%} to its step "
+                  f"without contact ({'within' if extra <= 0.3 else 'beyond'} the target of at most 30 %)."]
+    return lines
+
+
 def render(kind, machine, bench_dir):
     if kind == "targets":
         return targets(bench_dir, machine)
@@ -460,7 +578,8 @@ def render(kind, machine, bench_dir):
             "multigrid": lambda: multigrid_table(name, data, machine),
             "peers": lambda: peers_table(name, data, machine),
             "peers_rounds": lambda: peers_rounds(name, data, machine),
-            "peers_seconds": lambda: peers_seconds(name, data, machine),
+            "peers_accuracy": lambda: peers_accuracy(name, data, machine),
+            "peers_frequencies": lambda: peers_frequencies(name, data, machine),
             "memory": lambda: memory_table(name, data, machine),
             "runmemory": lambda: runmemory_table(name, data, machine),
             "fuzz": lambda: fuzz_table(name, data, machine),
@@ -469,7 +588,8 @@ def render(kind, machine, bench_dir):
             "ab": lambda: ab_table(name, data, machine),
             "realtime": lambda: realtime_table(name, data, machine),
             "damping": lambda: damping_table(name, data, machine),
-            "python": lambda: python_table(name, data, machine)}[kind]()
+            "python": lambda: python_table(name, data, machine),
+            "contact": lambda: contact_table(name, data, machine)}[kind]()
 
 
 BLOCK = re.compile(r"(<!-- bench:(?P<kind>\w+)(?P<attrs>[^>]*)-->\n)(?P<body>.*?)(<!-- /bench:(?P=kind) -->)", re.S)
@@ -487,7 +607,7 @@ def main(argv):
         return m.group(1) + body + m.group(5)
 
     total, stale = 0, []
-    for page in ("performance.md", "integrators.md", "running.md", "api.md"):
+    for page in ("performance.md", "integrators.md", "running.md", "api.md", "heuristics.md"):
         doc = os.path.join(root, "docs", page)
         with open(doc) as f:
             text = f.read()

@@ -480,6 +480,38 @@ def test_bench_realtime():
         fail(f"not cut off: {rows}")
 
 
+def test_bench_contact():
+    """`qbond bench --contact` (heuristics.md): a row a scene, its implicit and contact-free
+    variants timed in every round; the projection variant timed too, or its blow-up named (the
+    projection rule is not stable at frame-sized steps); bad requests are refused."""
+    path = os.path.join(fresh("bench_contact"), "contact.json")
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    r = qbond("bench", "--contact", "--scenes", "block_rest,gap", "--rounds", "2", "--json", path, check_code=0)
+    if "implicit/none" not in r.stdout:
+        fail(f"no table printed:\n{r.stdout}")
+    doc = json.load(open(path))
+    if [row["scene"] for row in doc["rows"]] != ["block_rest", "gap"] or doc["rounds"] != 2:
+        fail(f"rows {[row['scene'] for row in doc['rows']]}, rounds {doc['rounds']}")
+    for row in doc["rows"]:
+        for v in ("implicit", "none"):
+            if row[v]["failure"] or len(row[v]["rounds_ms"]) != 2 or not row[v]["median_ms"] > 0:
+                fail(f"{row['scene']} {v}: {row[v]}")
+        p = row["projection"]
+        timed = not p["failure"] and len(p["rounds_ms"]) == 2 and p["median_ms"] > 0
+        if not (timed or "blow-up" in p["failure"]):
+            fail(f"{row['scene']} projection: {p}")
+        if not (row["implicit_over_none"] > 0 and (row["implicit_over_projection"] is None) == (not timed)):
+            fail(f"ratios {row}")
+    if "--contact" not in doc["command"]:
+        fail(f"provenance {doc['command']}")
+    r = qbond("bench", "--contact", "--scenes", "pendulum_that_is_not_there")
+    if r.returncode == 0:
+        fail("an unknown scene was accepted")
+    r = qbond("bench", "--contact", "--realtime")
+    if r.returncode == 0 or "give one" not in r.stderr:
+        fail(f"--contact with --realtime: {r.returncode} {r.stderr}")
+
+
 def test_bench_ab():
     """bench/ab.py (two builds' benchmark rows timed in interleaved rounds, performance.md):
     one row a benchmark, both builds' times and the two ratios finite and positive (no bound on

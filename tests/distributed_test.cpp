@@ -100,6 +100,15 @@ TEST_P(Pieces, HoldEveryQuantaAndBondOnceWithTheWholeWorldsForces) {
       EXPECT_EQ(owned_by[p.global[q]], -1) << "quanta " << p.global[q] << " owned twice";
       owned_by[p.global[q]] = r;
     }
+    // Each local bond names its whole bond: the same ends and id, in the whole world's order.
+    ASSERT_EQ(p.whole_bond.size(), w.state.bonds.size());
+    EXPECT_TRUE(std::is_sorted(p.whole_bond.begin(), p.whole_bond.end()));
+    for (std::size_t b = 0; b < p.whole_bond.size(); ++b) {
+      const Index wb = p.whole_bond[b];
+      EXPECT_EQ(p.global[w.state.bonds.i[b]], whole.state.bonds.i[wb]);
+      EXPECT_EQ(p.global[w.state.bonds.j[b]], whole.state.bonds.j[wb]);
+      EXPECT_EQ(w.state.bonds.id[b], whole.state.bonds.id[wb]);
+    }
     for (std::size_t q = 0; q < p.global.size(); ++q) {
       EXPECT_EQ(w.state.x[q], whole.state.x[p.global[q]]);
       EXPECT_EQ(w.model.inv_mass[q], whole.model.inv_mass[p.global[q]]);

@@ -409,6 +409,62 @@ TEST(Vtk, FrameDeclaresItsCountsAndSeriesListsFrames) {
             std::string::npos);
 }
 
+// A frame in pieces (a run over ranks): each piece holds its owned quanta and the bonds whose
+// first end it owns, with the other ends as extra points; the pieces together hold every quanta
+// once and every alive bond once, between the right positions, with the whole frame's strain.
+TEST(Vtk, PiecesHoldEveryQuantaAndBondOnce) {
+  World w = test::lattice(4, 3, 2, 100, 1e-3, 0.01, true);
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) w.state.x[i] += Vec3(1e-4 * static_cast<double>(i % 3), 0, 0);
+  w.break_bond(3);
+  const std::size_t n = w.num_quanta();
+  const Bonds& b = w.state.bonds;
+  std::vector<double> tension, strain;
+  bond_tension_strain(w.model, w.state, tension, strain);
+  const fs::path dir = temp_dir("vtp_pieces");
+  std::size_t owned_total = 0, lines = 0, ends = 0;  // ends: points of other pieces' quanta
+  for (int piece = 0; piece < 2; ++piece) {
+    std::vector<std::uint8_t> owned(n), shown(b.size()), point(n);
+    for (std::size_t q = 0; q < n; ++q) point[q] = owned[q] = (w.state.x[q].x() < 0.015) == (piece == 0);
+    for (std::size_t k = 0; k < b.size(); ++k) {
+      shown[k] = owned[b.i[k]];
+      if (shown[k] && b.alive[k]) point[b.i[k]] = point[b.j[k]] = 1;
+    }
+    const fs::path file = dir / ("piece_" + std::to_string(piece) + ".vtp");
+    write_vtp_piece(file, w.model, w.state, owned, shown);
+    const VtpFrame f = read_vtp(file);
+    // The points: the selected quanta in ascending user id (the lattice's ids are its indices).
+    std::vector<Index> at;
+    for (std::size_t q = 0; q < n; ++q)
+      if (point[q]) at.push_back(static_cast<Index>(q));
+    ASSERT_EQ(f.x.size(), at.size());
+    for (std::size_t k = 0; k < at.size(); ++k) EXPECT_EQ(f.x[k], w.state.x[at[k]]);
+    const auto mine = static_cast<std::size_t>(std::count(owned.begin(), owned.end(), 1));
+    EXPECT_GT(mine, 0u);
+    EXPECT_LT(mine, n);
+    ends += at.size() - mine;
+    owned_total += mine;
+    std::size_t line = 0;
+    for (std::size_t k = 0; k < b.size(); ++k) {
+      if (!shown[k] || !b.alive[k]) continue;
+      ASSERT_LT(line, f.lines.size());
+      EXPECT_EQ(f.x[f.lines[line].first], w.state.x[b.i[k]]);
+      EXPECT_EQ(f.x[f.lines[line].second], w.state.x[b.j[k]]);
+      EXPECT_EQ(f.strain[line], strain[k]);
+      ++line;
+    }
+    EXPECT_EQ(line, f.lines.size());
+    lines += line;
+  }
+  EXPECT_EQ(owned_total, n);
+  EXPECT_GT(ends, 0u);  // bonds cross the split
+  EXPECT_EQ(lines, w.num_alive_bonds());
+  const std::vector<std::string> names{"piece_0.vtp", "piece_1.vtp"};
+  write_pvtp(dir / "frame.pvtp", names);
+  const std::string text = read_file(dir / "frame.pvtp");
+  EXPECT_NE(text.find("<VTKFile type=\"PPolyData\""), std::string::npos);
+  EXPECT_NE(text.find("<Piece Source=\"piece_1.vtp\"/>"), std::string::npos);
+}
+
 // The reader gets back what the writer wrote: points by user id, lines by bond id with their
 // strain and tension (the vertex cells' entries dropped), the point arrays; and a series sorted
 // by time with its files resolved against the .pvd's directory.

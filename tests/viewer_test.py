@@ -346,6 +346,55 @@ def test_camera():
     print(f"camera: {len(bad) + 3} bad cameras and 2 bad replays refused with exit 2")
 
 
+def test_implicit_obstacles():
+    """Obstacles held inside the implicit step (ground, sphere, box) are drawn as the same
+    obstacles held by projection are, live and replayed; each of them is in the picture."""
+    with open(os.path.join(SOURCE, "tests", "scenes", "viewer_obstacles.json")) as f:
+        scene = json.load(f)
+
+    def variant(name, keep):
+        """The scene with its obstacles filtered and edited by keep (None: left out)."""
+        s = dict(scene, heuristics=[h for h in (keep(dict(h)) for h in scene["heuristics"]) if h is not None])
+        path = os.path.join(WORK, name + ".json")
+        os.makedirs(WORK, exist_ok=True)
+        with open(path, "w") as f:
+            json.dump(s, f)
+        return path
+
+    def differ(a, b):
+        """Fraction of the 3D view's pixels that differ."""
+        return (np.abs(viewport(*a) - viewport(*b)).max(axis=2) > 0.02).mean()
+
+    def projection(h):
+        h.pop("method")
+        return h
+
+    implicit = view("obstacles_implicit", variant("obstacles_implicit", lambda h: h), "--frames", "2")
+    projected = view("obstacles_projection", variant("obstacles_projection", projection), "--frames", "2")
+    d = differ(implicit, projected)
+    print(f"implicit obstacles: {d:.3%} of the view differs from the same obstacles by projection")
+    if d > 1e-3:
+        fail(f"implicit obstacles are drawn unlike projection ones: {d:.2%} of the view differs")
+    # Each obstacle is in the picture: leaving it out changes a part of the view.
+    for shape in ("ground", "sphere", "box"):
+        without = view(f"obstacles_no_{shape}", variant(f"obstacles_no_{shape}", lambda h: None if h["type"] == shape else h),
+                       "--frames", "2")
+        d = differ(implicit, without)
+        print(f"implicit obstacles: leaving out the {shape} changes {d:.1%} of the view")
+        if d < 0.01:
+            fail(f"the implicit {shape} is not drawn: leaving it out changes {d:.3%} of the view")
+    # Replayed: the run's scene gives the obstacles back.
+    run = os.path.join(WORK, "obstacles_run")
+    shutil.rmtree(run, ignore_errors=True)
+    subprocess.run([QBOND, "run", variant("obstacles_implicit", lambda h: h), "--steps", "10", "--every", "5", "-q",
+                    "--out", run], check=True, timeout=300, capture_output=True)
+    replayed = view("obstacles_replay", run, "--frames", "1")
+    d = differ(implicit, replayed)
+    print(f"implicit obstacles replayed: {d:.3%} of the view differs from the live view")
+    if d > 0.01:
+        fail(f"a replay draws the implicit obstacles unlike the live view: {d:.2%} of the view differs")
+
+
 tests = {name[5:]: f for name, f in globals().items() if name.startswith("test_")}
 if TEST not in tests:
     fail(f"no such test; known: {', '.join(tests)}")

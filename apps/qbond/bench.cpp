@@ -179,6 +179,10 @@ json solve_table(const json& report, const Wanted& wanted) {
     if (mg) {
       row["setup_seconds"] = b.at("setup_seconds").get<double>();
       row["solve_seconds"] = b.at("solve_seconds").get<double>();
+      if (b.contains("setup_cpu_seconds")) {
+        row["setup_cpu_seconds"] = b.at("setup_cpu_seconds").get<double>();
+        row["solve_cpu_seconds"] = b.at("solve_cpu_seconds").get<double>();
+      }
       if (b.contains("levels")) row["levels"] = std::llround(b.at("levels").get<double>());
     }
     rows.push_back(row);

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "bench.hpp"
+#include "contact_cost.hpp"
 #include "realtime.hpp"
 #include "experiment.hpp"
 #include "qbond/analysis/analysis.hpp"
@@ -121,6 +122,7 @@ struct Options {
   long long every = -1;
   long long checkpoint_every = -1;
   bool no_vtk = false;
+  bool frame_pieces = false;
   std::string integrator, neighbours, solver, preconditioner;
   int iterations = -1;
   int threads = -1;
@@ -329,6 +331,7 @@ void apply(const Options& o, qbond::Scene& scene, qbond::RunSettings& rs) {
   if (o.every > 0) rs.every = static_cast<std::uint64_t>(o.every);
   if (o.checkpoint_every >= 0) rs.checkpoint_every = static_cast<std::uint64_t>(o.checkpoint_every);
   if (o.no_vtk) rs.vtk = false;
+  if (o.frame_pieces) rs.frame_pieces = true;
   j["output"]["dir"] = rs.out_dir.string();
   j["output"]["every"] = rs.every;
   j["output"]["checkpoint_every"] = rs.checkpoint_every;
@@ -421,8 +424,11 @@ int run(const Options& o) {
   const bool speak = mpi_rank() == 0, quiet = o.quiet || !speak;
   if (!o.resume.empty()) {
     if (!o.scene.empty()) throw std::invalid_argument("--resume continues a checkpoint's own scene; give no SCENE");
-    if (mpi_ranks() > 1) throw std::invalid_argument("--resume runs on one rank: run it without mpirun");
-    runner.emplace(Runner::resume(o.resume, [&](Scene& s, RunSettings& rs) { apply(o, s, rs); }, o.max_memory));
+    const auto adjust = [&](Scene& s, RunSettings& rs) { apply(o, s, rs); };
+    if (mpi_ranks() > 1)
+      ranks.emplace(o.resume, adjust, o.max_memory);
+    else
+      runner.emplace(Runner::resume(o.resume, adjust, o.max_memory));
   } else {
     Scene scene = load_any(o.scene, o.max_memory);
     RunSettings rs = settings_of(scene);
@@ -601,6 +607,8 @@ int main(int argc, char** argv) {
       ->add_option("--checkpoint-every", o.checkpoint_every, "steps between checkpoints (0: at the end only)")
       ->check(kNonNegative);
   run_cmd->add_flag("--no-vtk", o.no_vtk, "write no ParaView frames");
+  run_cmd->add_flag("--frame-pieces", o.frame_pieces,
+                    "over MPI ranks, write each frame as a .pvtp with one .vtp piece per rank");
   run_cmd->add_option("--integrator", o.integrator, integrator_help());
   run_cmd->add_option("--neighbours", o.neighbours, option_help(qbond::IntegratorOption::neighbours));
   run_cmd->add_option("--solver", o.solver, option_help(qbond::IntegratorOption::solver));
@@ -691,9 +699,15 @@ int main(int argc, char** argv) {
   bench_cmd->add_flag("--realtime", realtime,
                       "the wall time of a 1/60 s frame instead, for the canonical lattice (default integrator, one step "
                       "a frame) and every built-in scene (its own settings), on 1 and 2 threads unless -j says");
-  bench_cmd->add_option("--scenes", ra.scenes, "with --realtime: built-in scenes, comma-separated (default: every one)");
+  bench_cmd->add_option("--scenes", ra.scenes, "with --realtime or --contact: built-in scenes, comma-separated (default: every one; --contact: the contact scenes)");
   bench_cmd->add_option("--budget", ra.budget, "with --realtime: wall seconds measured per row at most (default: 8)")
       ->check(kPositive);
+  bool contact_cost = false;
+  qbond::cli::ContactCostArgs ca;
+  bench_cmd->add_flag("--contact", contact_cost,
+                      "what contact costs a step instead: each scene's step (one thread) with its obstacles and quanta "
+                      "contact inside the implicit step, by projection and without contact, in interleaved rounds");
+  bench_cmd->add_option("--rounds", ca.rounds, "with --contact: interleaved rounds (default: 5)")->check(kPositive);
   std::string view_scene;
   qbond::view::ViewOptions vo;
   CLI::App* view_cmd = app.add_subcommand("view", "the real-time viewer: watch a scene and pull on it with the mouse "
@@ -760,12 +774,21 @@ int main(int argc, char** argv) {
     }
     if (bench_cmd->parsed()) {
       require_directory_of("--json", ba.json);
+      if (realtime && contact_cost)
+        throw std::invalid_argument("qbond bench: --realtime and --contact are two benchmarks: give one of them");
       if (realtime) {
         if (!ba.sizes.empty()) ra.sizes = ba.sizes;
         if (bench_cmd->count("--threads") > 0) ra.threads = ba.threads;
         ra.json = ba.json;
         for (int k = 0; k < argc; ++k) ra.command += (k ? " " : "") + std::string(k ? argv[k] : "build/qbond");
         return qbond::cli::bench_realtime(ra);
+      }
+      if (contact_cost) {
+        if (bench_cmd->count("--scenes") > 0) ca.scenes = ra.scenes;
+        ca.dt = ba.dt;
+        ca.json = ba.json;
+        for (int k = 0; k < argc; ++k) ca.command += (k ? " " : "") + std::string(k ? argv[k] : "build/qbond");
+        return qbond::cli::bench_contact(ca);
       }
       return qbond::cli::bench(ba);
     }

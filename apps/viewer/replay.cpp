@@ -67,7 +67,12 @@ Scene replay_scene(const Replay& replay, std::string& note) {
   }
   if (scene.name.empty()) scene.name = fs::absolute(dir).filename().string();
   scene.name += " (replay)";
-  scene.world = replay.world();
+  // The frames hold no model: the scene's obstacles and contact radius held inside the step's
+  // solve are kept for drawing.
+  World world = replay.world();
+  world.model.obstacles = scene.world.model.obstacles;
+  world.model.quanta_contact = scene.world.model.quanta_contact;
+  scene.world = std::move(world);
   return scene;
 }
 

@@ -67,8 +67,11 @@ Viewer::Viewer(Scene scene, std::unique_ptr<Replay> replay, std::vector<ScriptEv
                int fb_w, int fb_h)
     : scene_(std::move(scene)), replay_(std::move(replay)), opt_(o), fb_w_(fb_w), fb_h_(fb_h), initial_(scene_.world),
       config_(scene_.integrator), h_(scene_.timestep), script_(std::move(script)) {
+  // Every obstacle is drawn, whichever way it is held: heuristics (projection) and the model's
+  // (implicit, inside the step's solve).
   for (const HeuristicSpec& hs : scene_.heuristics)
     if (const auto* ob = std::get_if<Obstacle>(&hs)) obstacles_.push_back(*ob);
+  for (const Obstacle& ob : initial_.model.obstacles) obstacles_.push_back(ob);
   bounds(initial_.state.x, lo_, hi_);
   size_ = std::max((hi_ - lo_).norm(), 1e-3);
   radius_ = draw_radius(scene_, size_);

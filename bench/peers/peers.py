@@ -1,13 +1,18 @@
 #!/usr/bin/python3
 """qbond, LAMMPS and Bullet side by side on the canonical workload (docs/performance.md).
 
-Usage: bench/peers/peers.py BUILD_DIR BULLET_EXE [--n 10,20,40] [--steps 200] [--rounds 3] [--json FILE]
+Usage: bench/peers/peers.py BUILD_DIR BULLET_EXE [--n 10,20,40] [--steps 200] [--rounds 3]
+                            [--accuracy-n 10,20] [--iterations 7] [--methods LAMMPS,Bullet,default,...]
+                            [--reference FILE] [--append FILE] [--quick] [--json FILE]
 Run by bench/peers/run, which installs LAMMPS and Bullet (Debian packages) and builds
 BULLET_EXE. Prints, for each n, ns per bond per step of each engine measured in this run; then
 qbond's velocity Verlet against LAMMPS's in `rounds` alternating runs (the shared host's load
 moves both by 20% and more within minutes: each round's ratio sets two runs a few seconds apart
-side by side); then each method's largest stable timestep (bisection on the 10^3 lattice) and
-its cost per simulated second at that step on the largest n.
+side by side); then, on each of the accuracy-n lattices, each method's largest step that meets
+the dynamic and the settled accuracy criteria and its cost per simulated second there
+(bench/peers/accuracy.py). --quick runs it all on the 4^3 lattice with a shorter search (the
+ctest test peers.accuracy_quick), so the machinery cannot rot. --append FILE runs only the accuracy
+searches (e.g. of a larger lattice, for fewer methods) and adds them to an earlier run's JSON.
 
 The workload: n^3 simple-cubic lattice, spacing 0.01 m, 1 g quanta, bonds to nearest and
 face-diagonal neighbours (k = 1000 N/m), the x = 0 face anchored, gravity -9.81 m/s^2 along z.
@@ -15,9 +20,10 @@ LAMMPS: bond_style harmonic with K = k/2 (its energy is K (r - r0)^2), fix nve (
 fix setforce/zero velocity on the anchored face; no bond damping (harmonic has none).
 Bullet: btSoftBody links (position constraints, kLST = 1, one iteration): same topology, masses,
 anchors and step, Bullet's own material law. qbond: `qbond bench` (its default integrator, the
-paper's hybrid and velocity Verlet), and `qbond run` for the stability search.
+paper's hybrid and velocity Verlet), and `qbond run` (one thread) for the accuracy search.
 """
 import argparse
+import concurrent.futures
 import json
 import math
 import os
@@ -26,59 +32,15 @@ import subprocess
 import sys
 import tempfile
 
-A, MASS, K = 0.01, 1e-3, 1000.0
-
-
-def lattice(n):
-    """Sites, bonds (i, j, type 1 = axis, 2 = diagonal) of the canonical lattice, 0-based."""
-    def idx(i, j, k):
-        return (k * n + j) * n + i
-    sites = [(i * A, j * A, k * A) for k in range(n) for j in range(n) for i in range(n)]
-    bonds = []
-    for k in range(n):
-        for j in range(n):
-            for i in range(n):
-                p = idx(i, j, k)
-                if i + 1 < n: bonds.append((p, idx(i + 1, j, k), 1))
-                if j + 1 < n: bonds.append((p, idx(i, j + 1, k), 1))
-                if k + 1 < n: bonds.append((p, idx(i, j, k + 1), 1))
-                if i + 1 < n and j + 1 < n:
-                    bonds += [(p, idx(i + 1, j + 1, k), 2), (idx(i + 1, j, k), idx(i, j + 1, k), 2)]
-                if i + 1 < n and k + 1 < n:
-                    bonds += [(p, idx(i + 1, j, k + 1), 2), (idx(i + 1, j, k), idx(i, j, k + 1), 2)]
-                if j + 1 < n and k + 1 < n:
-                    bonds += [(p, idx(i, j + 1, k + 1), 2), (idx(i, j + 1, k), idx(i, j, k + 1), 2)]
-    return sites, bonds
+import accuracy
+from workload import MASS, bond_count, lammps_header
 
 
 def lammps(n, h, steps, work):
     """(seconds per step, stable) of LAMMPS's velocity-Verlet run of the workload."""
-    data = os.path.join(work, f"canonical_{n}.data")
-    if not os.path.exists(data):
-        sites, bonds = lattice(n)
-        hi = (n - 1) * A
-        with open(data, "w") as f:
-            f.write(f"canonical lattice n = {n}\n\n{len(sites)} atoms\n{len(bonds)} bonds\n1 atom types\n2 bond types\n\n")
-            f.write(f"-0.005 {hi + 0.005} xlo xhi\n-0.005 {hi + 0.005} ylo yhi\n-0.005 {hi + 0.005} zlo zhi\n\n")
-            f.write(f"Masses\n\n1 {MASS}\n\nAtoms # bond\n\n")
-            f.writelines(f"{q + 1} 1 1 {x} {y} {z}\n" for q, (x, y, z) in enumerate(sites))
-            f.write("\nBonds\n\n")
-            f.writelines(f"{b + 1} {t} {i + 1} {j + 1}\n" for b, (i, j, t) in enumerate(bonds))
     script = os.path.join(work, "in.canonical")
     with open(script, "w") as f:
-        f.write(f"""units si
-atom_style bond
-boundary s s s
-read_data {data}
-pair_style none
-bond_style harmonic
-bond_coeff 1 {K / 2} {A}
-bond_coeff 2 {K / 2} {A * math.sqrt(2)}
-comm_modify cutoff {3 * A}
-region face block INF {0.5 * A} INF INF INF INF
-group face region face
-group free subtract all face
-fix move free nve
+        f.write(lammps_header(n, work) + f"""fix move free nve
 fix pull free gravity 9.81 vector 0 0 -1
 timestep {h}
 thermo_style custom step ke
@@ -128,36 +90,52 @@ def verlet_against_lammps(build, n, rounds, steps, work):
     return pairs
 
 
-def qbond_stable(build, integrator_args, h, work):
-    """Whether `qbond run` of the 10^3 workload at step h finishes 0.05 s without a blow-up."""
-    scene = {
-        "name": "canonical_10", "timestep": h, "duration": max(0.05, 20 * h), "gravity": [0, 0, -9.81],
-        "materials": {"bond": {"law": "linear", "stiffness": K, "damping": 0.01, "damping_model": "axial"}},
-        "bodies": [{"name": "lattice", "type": "lattice", "cell": "cubic", "neighbors": "face_diagonal",
-                    "size": [10, 10, 10], "spacing": A, "quanta_mass": MASS, "material": "bond"}],
-        "anchors": [{"select": {"box": [[-1e-9, -1, -1], [1e-9, 1e3, 1e3]]}}],
-    }
-    path = os.path.join(work, "canonical_10.json")
-    with open(path, "w") as f:
-        json.dump(scene, f)
-    r = subprocess.run([os.path.join(build, "qbond"), "run", path, "-q", "--no-vtk", "--every", "1000000", "--out",
-                        os.path.join(work, "qrun"), *integrator_args], capture_output=True, text=True)
-    if r.returncode not in (0, 3):
-        sys.exit(f"peers: qbond run failed ({r.returncode}): {r.stderr}")
-    return r.returncode == 0
+def accuracy_setup(a, n, cached):
+    """(lattice record, printed lines): what the n^3 lattice's searches are measured against."""
+    lines = []
+    work = tempfile.mkdtemp(prefix=f"qbond_peers_{n}_")
+    # The reference's step: 1e-6 s up to n = 10; larger lattices' slowest modes are slower, and the
+    # recorded Richardson estimate shows the step's own error. The floor: 1e-5 s up to n = 10,
+    # 1e-4 s above (a search that reaches it costs 2e5 steps of the larger lattice at 1e-5).
+    h_ref, floor = (1e-6, 1e-5) if n <= 10 else (1e-5, 1e-4)
+    return accuracy.lattice_record(a.build, work, n, h_ref, floor, a.iterations, cached, log=lines.append), lines
 
 
-def largest_stable(stable, lo=1e-6, hi=0.1):
-    """Bisection (in log h) for the largest stable step in [lo, hi]; hi itself when stable there."""
-    if stable(hi):
-        return hi
-    for _ in range(12):
-        mid = math.sqrt(lo * hi)
-        if stable(mid):
-            lo = mid
-        else:
-            hi = mid
-    return lo
+def accuracy_method(a, lat, method):
+    """(rows, printed lines) of one method's searches, in a work folder of its own."""
+    lines = []
+    work = tempfile.mkdtemp(prefix=f"qbond_peers_{lat['n']}_")
+    return accuracy.method_rows(a.build, a.bullet, work, lat, method, log=lines.append), lines
+
+
+def accuracy_methods(a):
+    methods = [m if m in ("LAMMPS", "Bullet") else "qbond " + m for m in a.methods.split(",")]
+    unknown = [m for m in methods if m not in ("LAMMPS", "Bullet", *accuracy.QBOND_METHODS)]
+    if unknown:
+        sys.exit(f"peers: unknown --methods {unknown}")
+    return methods
+
+
+def accuracy_all(a, pool, setups, save):
+    """The accuracy records of every --accuracy-n: each method's searches a job of the pool (two
+    processes: the machine's cores), `save(records)` called as each finishes, so that a run cut
+    short keeps what it measured."""
+    records = []
+    for job in setups:
+        lat, lines = job.result()
+        print("\n".join(lines), flush=True)
+        records.append(lat)
+    jobs = [(lat, pool.submit(accuracy_method, a, lat, m)) for lat in records for m in accuracy_methods(a)]
+    order = {id(job): i for i, (_, job) in enumerate(jobs)}
+    done = []
+    for job in concurrent.futures.as_completed([j for _, j in jobs]):
+        rows, lines = job.result()
+        print("\n".join(lines), flush=True)
+        done.append((order[id(job)], rows))
+        for lat in records:
+            lat["rows"] = [r for i, rows_i in sorted(done) if jobs[i][0] is lat for r in rows_i]
+        save(records)
+    return records
 
 
 def main():
@@ -167,17 +145,49 @@ def main():
     ap.add_argument("--n", default="10,20,40")
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--accuracy-n", default="10,20")
+    ap.add_argument("--iterations", type=int, default=7, help="bisection steps of each accuracy search")
+    ap.add_argument("--quick", action="store_true", help="the 4^3 lattice only, a short search (a test)")
+    ap.add_argument("--reference", help="an earlier run's JSON whose accuracy references to reuse")
+    ap.add_argument("--methods", default="LAMMPS,Bullet," + ",".join(m.removeprefix("qbond ") for m in accuracy.QBOND_METHODS),
+                    help="the accuracy searches' methods: LAMMPS, Bullet and qbond's integrators")
+    ap.add_argument("--append", help="only the accuracy searches, their records added to this earlier run's JSON")
     ap.add_argument("--json")
     a = ap.parse_args()
+    cached = {}
+    if a.reference:
+        with open(a.reference) as f:
+            cached = {r["n"]: r["reference"] for r in json.load(f).get("accuracy", [])}
+    if a.quick:
+        a.n, a.accuracy_n, a.steps, a.rounds, a.iterations = "4", "4", 20, 1, 3
+    command = "bench/peers/run " + " ".join(sys.argv[3:])
+    pool = concurrent.futures.ProcessPoolExecutor(max_workers=2)
+    # The lattices' references first, in the pool, while this process times the steps.
+    setups = [pool.submit(accuracy_setup, a, int(n), cached.get(int(n))) for n in a.accuracy_n.split(",")]
+
+    if a.append:
+        with open(a.append) as f:
+            doc = json.load(f)
+        ns = {int(n) for n in a.accuracy_n.split(",")}
+        kept = [r for r in doc["accuracy"] if r["n"] not in ns]
+        doc.setdefault("appended", []).append({"command": command, "load_average": os.getloadavg()[0]})
+
+        def save_appended(records):
+            doc["accuracy"] = sorted(kept + records, key=lambda r: r["n"])
+            write_json(a.append, doc)
+        accuracy_all(a, pool, setups, save_appended)
+        pool.shutdown()
+        return
     n_list = [int(x) for x in a.n.split(",")]
     work = tempfile.mkdtemp(prefix="qbond_peers_")
+    load_start = os.getloadavg()[0]
     integrators = ["default", "hybrid_frozen", "hybrid_sweep", "velocity_verlet"]
     q, qdoc = qbond_bench(a.build, n_list, integrators)
     rows = []
     print("ns per bond per step, h = 1e-4 s, one thread, measured in this run")
     print(f"{'n':>4} {'bonds':>8} {'LAMMPS':>9} {'Bullet':>9} " + " ".join(f"{'qbond ' + i:>22}" for i in integrators))
     for n in n_list:
-        nb = 3 * n * n * (n - 1) + 6 * n * (n - 1) ** 2
+        nb = bond_count(n)
         steps = max(20, a.steps * 1000 // n ** 3) if n > 10 else a.steps
         t_l, _ = lammps(n, 1e-4, steps, work)
         t_b, links, _ = bullet(a.bullet, n, 1e-4, steps)
@@ -186,7 +196,7 @@ def main():
         row = {"n": n, "bonds": nb, "lammps": t_l, "bullet": t_b, **{f"qbond_{i}": q[(i, n)] for i in integrators}}
         rows.append(row)
         print(f"{n:>4} {nb:>8} {t_l / nb * 1e9:>9.2f} {t_b / nb * 1e9:>9.2f} " +
-              " ".join(f"{q[(i, n)] / nb * 1e9:>22.2f}" for i in integrators))
+              " ".join(f"{q[(i, n)] / nb * 1e9:>22.2f}" for i in integrators), flush=True)
 
     print(f"\nqbond's velocity Verlet / LAMMPS, per step, {a.rounds} alternating rounds (h = 1e-4 s, one thread)")
     for row in rows:
@@ -199,48 +209,23 @@ def main():
         row["verlet_over_lammps_median"] = ratios[len(ratios) // 2]
         print(f"{n:>4}  median {row['verlet_over_lammps_median']:.2f}  rounds " +
               "  ".join(f"{q_t / l_t:.2f} ({q_t / row['bonds'] * 1e9:.2f} / {l_t / row['bonds'] * 1e9:.2f} ns)"
-                        for l_t, q_t in pairs))
+                        for l_t, q_t in pairs), flush=True)
 
-    print("\nlargest stable step (10^3 lattice, bisection), and cost per simulated second on n =", n_list[-1])
-    n = n_list[-1]
-    nb = rows[-1]["bonds"]
-    steps_big = max(20, a.steps * 1000 // n ** 3)
-    stability = {
-        "LAMMPS (velocity Verlet)": largest_stable(lambda h: lammps(10, h, max(50, int(0.02 / h)), work)[1]),
-        "Bullet (btSoftBody, 1 iteration)": largest_stable(lambda h: bullet(a.bullet, 10, h, max(50, int(0.02 / h)))[2]),
-        "qbond default": largest_stable(lambda h: qbond_stable(a.build, [], h, work)),
-        "qbond hybrid_frozen": largest_stable(
-            lambda h: qbond_stable(a.build, ["--integrator", "hybrid_implicit", "--neighbours", "frozen"], h, work)),
-        "qbond velocity_verlet": largest_stable(
-            lambda h: qbond_stable(a.build, ["--integrator", "velocity_verlet"], h, work)),
-    }
-    cost = {}
-    for name, h in stability.items():
-        if name.startswith("LAMMPS"):
-            t = lammps(n, h, steps_big, work)[0]
-        elif name.startswith("Bullet"):
-            t = bullet(a.bullet, n, h, steps_big)[0]
-        else:
-            # The step found on 10^3 can be just past the limit on the larger lattice (its highest
-            # frequency is a little higher), where qbond's blow-up check stops the benchmark, while
-            # LAMMPS would go on computing a diverging run at full speed: back off by 5% until it runs.
-            integ = name.split()[-1]
-            for _ in range(10):
-                try:
-                    t = qbond_bench(a.build, [n], [integ], dt=h)[0][(integ, n)]
-                    break
-                except subprocess.CalledProcessError:
-                    print(f"  ({name}: blew up at h = {h:.3g} on n = {n}; trying {0.95 * h:.3g})")
-                    h *= 0.95
-            else:
-                sys.exit(f"peers: {name} blew up on n = {n} at every step tried")
-        cost[name] = {"largest_stable_step": h, "seconds_per_step": t, "seconds_per_simulated_second": t / h}
-        print(f"  {name:<34} h = {h:<10.3g} {t * 1e3:9.3f} ms/step  {t / h:10.3f} s per simulated second")
-    if a.json:
-        with open(a.json + ".tmp", "w") as f:
-            json.dump({"bandwidth": qdoc["triad_bytes_per_second"], "machine": qdoc["machine"], "date": qdoc["date"],
-                       "per_step": rows, "per_simulated_second": cost}, f, indent=1)
-        os.replace(a.json + ".tmp", a.json)
+    def save(records, finished=False):
+        if a.json:
+            write_json(a.json, {"bandwidth": qdoc["triad_bytes_per_second"], "machine": qdoc["machine"],
+                                "date": qdoc["date"], "per_step": rows, "quick": a.quick, "accuracy": records,
+                                "finished": finished, "nice": os.nice(0),
+                                "load_average": [load_start, os.getloadavg()[0]], "command": command})
+    save([])
+    save(accuracy_all(a, pool, setups, save), finished=True)
+    pool.shutdown()
+
+
+def write_json(path, doc):
+    with open(path + ".tmp", "w") as f:
+        json.dump(doc, f, indent=1)
+    os.replace(path + ".tmp", path)
 
 
 if __name__ == "__main__":

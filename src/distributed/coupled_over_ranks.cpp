@@ -96,8 +96,8 @@ class RanksSystem {
       // A's 3 × 3 diagonal blocks inverted, as qbond's own CG.
       check(PCSetType(pc, PCPBJACOBI), "PCSetType(PCPBJACOBI)");
     } else {
-      // hypre's BoomerAMG: the same bits on every run over the same ranks. (GAMG's parallel
-      // Galerkin products add other ranks' contributions in the order they arrive.)
+      // hypre's BoomerAMG: the same bits on every run over the same ranks (GAMG, measured, not
+      // over three ranks).
       check(PCSetType(pc, PCHYPRE), "PCSetType(PCHYPRE)");
       check(PCHYPRESetType(pc, "boomeramg"), "PCHYPRESetType(boomeramg)");
     }

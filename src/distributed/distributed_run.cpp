@@ -1,6 +1,7 @@
 // RanksRun over MPI: rank 0 runs the ordinary Runner, whose steps are the distributed step and
 // whose outputs read the state gathered at each output step; the other ranks take the same steps.
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
@@ -11,6 +12,7 @@
 #include "distributed/collectives.hpp"
 #include "distributed/distributed_step.hpp"
 #include "qbond/distributed/distributed.hpp"
+#include "qbond/io/vtk.hpp"
 
 namespace qbond {
 
@@ -38,7 +40,19 @@ void check_distributable(const Scene& scene, int ranks) {
                                 std::string(to_string(scene.integrator.solver)) + one);
   if (implicit && scene.world.model.solves_contact())
     throw std::invalid_argument(over + "does not distribute obstacles and quanta contact yet" + one);
-  if (!scene.heuristics.empty()) throw std::invalid_argument(over + "does not distribute heuristics yet" + one);
+  if (implicit && !scene.heuristics.empty())
+    throw std::invalid_argument(over + "does not distribute heuristics with coupled_implicit yet" + one);
+  // Fracture by strain, compression and tension (each bond tested by one rank at the step's end
+  // positions); the stress limits need the ghosts' neighbours, the other heuristics are not distributed.
+  for (const HeuristicSpec& spec : scene.heuristics) {
+    const auto* rule = std::get_if<BreakRule>(&spec);
+    if (!rule)
+      throw std::invalid_argument(over + "does not distribute heuristics yet other than 'break' (not '" +
+                                  std::string(make_heuristic(spec)->name()) + "')" + one);
+    if (std::isfinite(rule->max_stress) || std::isfinite(rule->max_von_mises))
+      throw std::invalid_argument(over + "does not distribute the break heuristic's stress limits (max_stress, "
+                                  "max_von_mises) yet, only its strain, compression and tension ones" + one);
+  }
   // A bond failing on one rank must fail on the ranks that hold it as a ghost's: not exchanged yet.
   const Bonds& b = scene.world.state.bonds;
   for (std::size_t k = 0; k < b.size(); ++k)
@@ -60,6 +74,24 @@ struct RanksRun::Impl {
   std::optional<Runner> runner;  // rank 0
   std::function<bool()> stop;
   RanksStats stats;
+  bool pieces = false;  // frames as .pvtp files, one piece per rank
+
+  // A frame's piece of this rank: frames/frame_<step>_<rank>.vtp.
+  static std::string piece_name(std::uint64_t step, int rank) {
+    const std::string f = frame_file(step, "vtp");
+    return f.substr(0, f.size() - 4) + "_" + std::to_string(rank) + ".vtp";
+  }
+  // This rank's piece of the current state's frame (the other ranks' ranks; rank 0 writes its own
+  // with the .pvtp, from its Runner's outputs, at the same steps).
+  void write_piece() const { dist->write_piece(settings.out_dir / piece_name(dist->step_count(), mpi_rank())); }
+  // Rank 0's frame: its piece and the .pvtp that lists every rank's.
+  void write_frame(const std::filesystem::path& file) const {
+    std::vector<std::string> names;
+    for (int k = 0; k < mpi_ranks(); ++k)
+      names.push_back(std::filesystem::path(piece_name(dist->step_count(), k)).filename().string());
+    dist->write_piece(file.parent_path() / names[0]);
+    write_pvtp(file, names);
+  }
 
   // The ranks' counts into `stats` on rank 0 (collective).
   void gather_stats() {
@@ -89,9 +121,20 @@ struct RanksRun::Impl {
            (settings.checkpoint_every && s % settings.checkpoint_every == 0) || s >= settings.steps;
   }
 
+  // Splits `scene` over the ranks (refusing what is not distributed) and, on rank 0, starts the
+  // outputs with make_runner (a new run or a resumed one), giving it the frame writer when the
+  // ranks write pieces.
+  using FrameWriter = std::function<void(const std::filesystem::path&)>;
+  void start(Scene scene, RunSettings run_settings, bool resumed,
+             const std::function<Runner(Scene, RunSettings, const FrameWriter&)>& make_runner);
+
   // One step, and the gather when it is due, into `world` (rank 0's outputs read it).
   StepReport step(World& world) {
     StepReport r = dist->step(stop && stop());
+    dist->apply_events(world);  // before its time moves on: a broken bond records the step's start
+    // The other ranks' pieces of the frames rank 0's Runner writes on its schedule.
+    if (pieces && !runner && r.status == StepReport::Status::ok && dist->step_count() % settings.every == 0)
+      write_piece();
     if (due(r)) {
       dist->gather(world);
     } else {
@@ -103,24 +146,55 @@ struct RanksRun::Impl {
 };
 
 RanksRun::RanksRun(Scene scene, RunSettings settings) : impl_(std::make_unique<Impl>()) {
-  Impl& r = *impl_;
+  impl_->start(std::move(scene), std::move(settings), false, [](Scene s, RunSettings rs, const Impl::FrameWriter& w) {
+    rs.write_frame = w;
+    return Runner(std::move(s), std::move(rs));
+  });
+}
+
+RanksRun::RanksRun(const std::filesystem::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
+                   std::uint64_t max_memory)
+    : impl_(std::make_unique<Impl>()) {
+  // Every rank reads the checkpoint (the whole state, whatever the rank count that wrote it);
+  // rank 0 resumes its outputs in its directory.
+  auto [scene, settings] = Runner::read_checkpoint(checkpoint, adjust, max_memory);
+  impl_->start(std::move(scene), std::move(settings), true, [&](Scene, RunSettings, const Impl::FrameWriter& w) {
+    return Runner::resume(
+        checkpoint,
+        [&](Scene& s, RunSettings& rs) {
+          if (adjust) adjust(s, rs);
+          rs.write_frame = w;
+        },
+        max_memory);
+  });
+}
+
+void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
+                           const std::function<Runner(Scene, RunSettings, const FrameWriter&)>& make_runner) {
+  Impl& r = *this;
   const int ranks = mpi_ranks();
+  r.pieces = ranks > 1 && run_settings.frame_pieces && run_settings.vtk;
+  FrameWriter writer;
+  if (r.pieces) writer = [&r](const std::filesystem::path& file) { r.write_frame(file); };
   if (ranks > 1) {
     check_distributable(scene, ranks);
-    if (settings.every == 0) throw std::invalid_argument("output interval must be >= 1 step");
+    if (run_settings.every == 0) throw std::invalid_argument("output interval must be >= 1 step");
     // Ranks on one machine share its cores: each takes its share unless told (OMP_NUM_THREADS).
     const int on_node = distributed::ranks_on_this_node();
     if (scene.integrator.threads == 0 && !std::getenv("OMP_NUM_THREADS"))
       scene.integrator.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / on_node);
     r.dist = std::make_unique<distributed::DistributedStep>(scene.world, scene.integrator, scene.timestep,
                                                             scene.limits);
+    std::vector<BreakRule> rules;
+    for (const HeuristicSpec& spec : scene.heuristics) rules.push_back(std::get<BreakRule>(spec));
+    if (!rules.empty()) r.dist->set_break_rules(std::move(rules));
   }
-  r.settings = settings;
+  r.settings = run_settings;
   // Rank 0 claims the output directory; should that fail, every rank stops with it.
   int failed[1] = {0};
   if (mpi_rank() == 0) {
     try {
-      r.runner.emplace(std::move(scene), std::move(settings));
+      r.runner.emplace(make_runner(std::move(scene), std::move(run_settings), writer));
     } catch (const std::exception&) {
       failed[0] = 1;
       if (ranks > 1) distributed::max_over_ranks(failed);
@@ -133,7 +207,12 @@ RanksRun::RanksRun(Scene scene, RunSettings settings) : impl_(std::make_unique<I
     distributed::max_over_ranks(failed);
     if (failed[0]) throw std::runtime_error("rank 0 could not start the run's outputs");
   }
-  if (r.runner && r.dist) r.runner->set_stepper([&r] { return r.step(r.runner->simulation().world()); });
+  // A new run's first frame, which rank 0's Runner has written (after it cleared the directory).
+  if (r.pieces && !r.runner && !resumed) r.write_piece();
+  if (r.runner && r.dist) {
+    r.runner->set_stepper([&r] { return r.step(r.runner->simulation().world()); });
+    r.runner->set_event_source([&r]() -> const std::vector<BondEvent>& { return r.dist->events(); });
+  }
 }
 
 RanksRun::~RanksRun() = default;
@@ -163,6 +242,8 @@ RunResult RanksRun::run(const std::function<bool()>& stop, const std::function<v
         break;
       }
     }
+    // The frame rank 0 writes at the run's end, when not on the schedule.
+    if (r.pieces && r.dist->step_count() % r.settings.every != 0) r.write_piece();
     result.steps_taken = r.dist->step_count() - start;
     result.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     r.gather_stats();

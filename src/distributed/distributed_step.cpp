@@ -9,11 +9,13 @@
 #include <string>
 
 #include "distributed/collectives.hpp"
+#include "heuristics/breaking.hpp"
 #include "integrators/bond_forces.hpp"
 #include "integrators/bond_partition.hpp"
 #include "ledger/step_work.hpp"
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/distributed/distributed.hpp"
+#include "qbond/io/vtk.hpp"
 
 namespace qbond::distributed {
 
@@ -92,9 +94,15 @@ void DistributedStep::build(const std::vector<double>* forces) {
   ledger_ = State{};
   Bonds& lb = ledger_.edit_bonds();
   const Bonds& pb = w.state.bonds;
-  for (Index b : piece.owned_bonds) append_bond(pb, b, pb.i[b], pb.j[b], lb);
+  ledger_whole_.clear();
+  for (Index b : piece.owned_bonds) {
+    append_bond(pb, b, pb.i[b], pb.j[b], lb);
+    ledger_whole_.push_back(piece.whole_bond[b]);
+  }
   lb.first_formed = lb.size();
   build_adjacency(w.model, ledger_, ledger_adj_);
+  still_.resize(n);
+  localise_rules();
   gravity_.resize(n);
   for (std::size_t q = 0; q < n; ++q) gravity_[q] = w.model.mass[q] * w.model.gravity;
   moved_.resize(n);
@@ -222,18 +230,27 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0) {
   // A piece that refused its step sends its state before it: the step is then undone everywhere.
   exchange_ghosts();
   const double cpu1 = cpu_seconds();
+  // The break rules, on the state after the step (the run alone's projected state), before the
+  // ledger: a bond broken in the step is not charged for it, as on one rank.
+  const Rng rng0 = whole_.state.rng;
+  // (A piece that refused its step tests it too: the draws are collective; the step is undone.)
+  const double fractured = rules_.empty() ? 0.0 : decide_breaks();
   const StepWork work = charge_ledger();
   times_.bookkeeping += cpu_seconds() - cpu1;
   const Verdict v = agree(report, left, stop, work.bonds_after);
   if (v.report.status != StepReport::Status::ok) {
     if (sim_) roll_back(work);
+    fracture_ -= fractured;
+    whole_.state.rng = rng0;
+    events_.clear();
     rebuild_after_roll_back();
     return v.report;
   }
   stop_agreed_ = v.stop;
+  if (!rules_.empty()) share_breaks();  // at the step's start time, as the run alone breaks them
   whole_.state.time = t0 + h_;  // as every piece's step sets it
   whole_.state.step += 1;
-  if (v.migrate) migrate();
+  if (v.migrate || !events_.empty()) migrate(v.migrate, !events_.empty());
   return {};
 }
 
@@ -402,10 +419,14 @@ void unpack_rows(const std::vector<double>& rows, std::size_t n, std::vector<Vec
 }
 }  // namespace
 
-void DistributedStep::migrate() {
-  ++migrations_;
+void DistributedStep::migrate(bool moved, bool broke) {
   std::vector<double> f;
   unpack_rows(all_gather(owned_rows()), whole_.num_quanta(), whole_.state.x, whole_.state.v, f);
+  if (!moved) {
+    build(verlet_ && !broke ? &f : nullptr);
+    return;
+  }
+  ++migrations_;
   owner_ = parts_of(cuts_, whole_.state.x);
   std::vector<std::size_t> load(static_cast<std::size_t>(ranks_), 0);
   for (int o : owner_) ++load[static_cast<std::size_t>(o)];
@@ -415,12 +436,132 @@ void DistributedStep::migrate() {
     owner_ = parts_of(cuts_, whole_.state.x);
     ++recuts_;
   }
-  build(verlet_ ? &f : nullptr);
+  // After a break the carried forces were the old topology's: evaluated afresh, as on one rank.
+  build(verlet_ && !broke ? &f : nullptr);
+}
+
+void DistributedStep::write_piece(const std::filesystem::path& file) const {
+  if (!sim_) {
+    write_vtp_piece(file, Model{}, State{}, {}, {});
+    return;
+  }
+  const World& w = sim_->world();
+  std::vector<std::uint8_t> owned(global_.size(), 0);
+  for (Index q : owned_) owned[q] = 1;
+  const Bonds& b = w.state.bonds;
+  std::vector<std::uint8_t> shown(b.size());
+  for (std::size_t k = 0; k < b.size(); ++k) shown[k] = owned[b.i[k]];  // the ledger's rule: the first end's rank
+  write_vtp_piece(file, w.model, w.state, owned, shown);
+}
+
+void DistributedStep::set_break_rules(std::vector<BreakRule> rules) {
+  rules_ = std::move(rules);
+  localise_rules();
+}
+
+void DistributedStep::localise_rules() {
+  local_rules_ = rules_;
+  for (BreakRule& r : local_rules_) {
+    if (r.quanta.empty()) continue;
+    std::vector<std::uint8_t> mask(global_.size());
+    for (std::size_t q = 0; q < global_.size(); ++q) mask[q] = r.quanta[global_[q]];
+    r.quanta = std::move(mask);
+  }
+}
+
+void DistributedStep::break_owned(std::size_t rule, std::size_t b, std::uint8_t why) {
+  const Model& m = sim_->world().model;
+  std::vector<BondEvent> one;
+  break_now(m, ledger_, break_ctx_, one, b, stretch(m, ledger_, still_, b), static_cast<BondEvent::Reason>(why));
+  const BondEvent& e = one.front();
+  broken_.insert(broken_.end(), {static_cast<double>(rule), static_cast<double>(ledger_whole_[b]),
+                                 static_cast<double>(global_[e.i]), static_cast<double>(global_[e.j]),
+                                 static_cast<double>(why), e.strain, e.tension});
+}
+
+double DistributedStep::decide_breaks() {
+  broken_.clear();
+  break_ctx_ = {.h = h_, .t = whole_.state.time, .step = whole_.state.step};
+  // The rules read ledger_ (the owned bonds) with the positions after the step, exchanged for
+  // the ghosts: the state a run on one rank projects, to the bit.
+  if (sim_) {
+    after_ = sim_->world().state.x;
+    ledger_.x.swap(after_);
+    ledger_.time = whole_.state.time;
+    ledger_.energy.dissipated_heuristics = 0;
+  }
+  for (std::size_t k = 0; k < rules_.size(); ++k) {
+    const BreakRule& rule = local_rules_[k];
+    const bool draws = rule.probability < 1;
+    std::vector<double> over;  // [whole bond, rank, ledger bond, reason] of the owned bonds over a threshold
+    if (sim_) {
+      const std::vector<std::uint8_t>& why =
+          criteria_.evaluate(rule, sim_->world().model, ledger_, still_, config_.threads);
+      for (std::size_t b = 0; b < why.size(); ++b) {
+        if (why[b] == BreakCriteria::kNone) continue;
+        if (!draws) {
+          break_owned(k, b, why[b]);
+          continue;
+        }
+        over.insert(over.end(), {static_cast<double>(ledger_whole_[b]), static_cast<double>(rank_),
+                                 static_cast<double>(b), static_cast<double>(why[b])});
+      }
+    }
+    if (!draws) continue;
+    // One draw per bond over a threshold, in the whole world's bond order: the run alone's draws.
+    const std::vector<double> all = all_gather(over);
+    std::vector<std::size_t> rows(all.size() / 4);
+    for (std::size_t r = 0; r < rows.size(); ++r) rows[r] = 4 * r;
+    std::sort(rows.begin(), rows.end(), [&](std::size_t a, std::size_t b) { return all[a] < all[b]; });
+    for (std::size_t r : rows) {
+      if (!(whole_.state.rng.uniform() < rule.probability)) continue;
+      if (static_cast<int>(all[r + 1]) == rank_)
+        break_owned(k, static_cast<std::size_t>(all[r + 2]), static_cast<std::uint8_t>(all[r + 3]));
+    }
+  }
+  if (!sim_) return 0.0;
+  ledger_.x.swap(after_);
+  if (!broken_.empty()) build_adjacency(sim_->world().model, ledger_, ledger_adj_);
+  fracture_ += ledger_.energy.dissipated_heuristics;
+  return ledger_.energy.dissipated_heuristics;
+}
+
+void DistributedStep::share_breaks() {
+  constexpr std::size_t kWidth = 7;
+  const std::vector<double> all = all_gather(broken_);
+  std::vector<std::size_t> rows(all.size() / kWidth);
+  for (std::size_t r = 0; r < rows.size(); ++r) rows[r] = kWidth * r;
+  // A run on one rank records its rules' breaks rule by rule, each in bond order.
+  std::sort(rows.begin(), rows.end(), [&](std::size_t a, std::size_t b) {
+    return std::pair(all[a], all[a + 1]) < std::pair(all[b], all[b + 1]);
+  });
+  events_.clear();
+  for (std::size_t r : rows) {
+    BondEvent e;
+    e.kind = BondEvent::Kind::broken;
+    e.reason = static_cast<BondEvent::Reason>(static_cast<int>(all[r + 4]));
+    e.step = whole_.state.step;
+    e.time = whole_.state.time + h_;
+    e.bond = static_cast<Index>(all[r + 1]);
+    e.i = static_cast<Index>(all[r + 2]);
+    e.j = static_cast<Index>(all[r + 3]);
+    e.strain = all[r + 5];
+    e.tension = all[r + 6];
+    events_.push_back(e);
+  }
+  apply_events(whole_);
+}
+
+void DistributedStep::apply_events(World& w) const {
+  for (const BondEvent& e : events_) {
+    if (!w.state.bonds.alive[e.bond]) throw std::logic_error("bond " + std::to_string(e.bond) + " broke twice");
+    w.state.break_bond(e.bond);
+  }
 }
 
 void DistributedStep::gather(World& into) {
   const std::vector<double> rows = gather_to_root(owned_rows());
-  const double mine[2] = {anchors_, damping_};
+  const double mine[3] = {anchors_, damping_, fracture_};
   const std::vector<double> books = gather_to_root(mine);
   if (rank_ != 0) return;
   State& s = into.state;
@@ -430,13 +571,16 @@ void DistributedStep::gather(World& into) {
   s.step = whole_.state.step;
   // The carried forces (after a blow-up, evaluated afresh at the state before it).
   s.carry = verlet_ ? Carry(carried(s, f)) : Carry(std::monostate{});
-  double anchors = 0, damping = 0;
-  for (std::size_t r = 0; r + 2 <= books.size(); r += 2) {
+  double anchors = 0, damping = 0, fracture = 0;
+  for (std::size_t r = 0; r + 3 <= books.size(); r += 3) {
     anchors += books[r];
     damping += books[r + 1];
+    fracture += books[r + 2];
   }
   s.energy.work_anchors = start_books_.work_anchors + anchors;
   s.energy.dissipated_damping = start_books_.dissipated_damping + damping;
+  s.energy.dissipated_heuristics = start_books_.dissipated_heuristics + fracture;
+  s.rng = whole_.state.rng;  // the break rules' draws
 }
 
 }  // namespace qbond::distributed

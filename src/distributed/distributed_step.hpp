@@ -3,6 +3,7 @@
 // the ordinary step, then the ranks exchange their ghosts' new state (halo.hpp), charge the energy
 // ledger for the bonds each owns, and move quanta that left their rank's box to their new owner.
 // Every rank calls every member at the same point of the run (they are collective).
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -11,6 +12,7 @@
 #include "distributed/halo.hpp"
 #include "distributed/local_world.hpp"
 #include "distributed/partition.hpp"
+#include "heuristics/break_criteria.hpp"
 #include "ledger/step_work.hpp"
 #include "qbond/simulation/simulation.hpp"
 #include "solvers/coloring.hpp"
@@ -37,6 +39,23 @@ class DistributedStep {
   // velocities, time, step, velocity Verlet's carried forces, and the ledger's work of anchors
   // and dampers. Throws when a quanta is missing or held twice.
   void gather(World& into);
+
+  // Fracture over ranks: break rules (strain, compression and tension limits; the caller refuses
+  // the stress ones), in the scene's order. After each step every rank tests the bonds it owns
+  // (those whose first end it owns) at the step's end positions, each bond once over the ranks;
+  // rules with a probability below 1 gather the bonds over a threshold and every rank draws for
+  // them in the whole world's bond order from the same generator, as a run on one rank draws.
+  // The breaks are then shared, so that every rank's topology stays the same.
+  void set_break_rules(std::vector<BreakRule> rules);
+  // The bonds the last step broke (whole-world indices), in the order a run on one rank records them.
+  const std::vector<BondEvent>& events() const { return events_; }
+  // Breaks the last step's bonds in `w` (a world of the same quanta and bonds), called before its
+  // time moves on to the step's end (a broken bond records the step's start, as on one rank).
+  void apply_events(World& w) const;
+
+  // Writes this rank's piece of a frame (write_vtp_piece): the quanta it owns and the bonds whose
+  // first end it owns, each quanta and bond in exactly one rank's piece, at the current state.
+  void write_piece(const std::filesystem::path& file) const;
 
   // The step count and time every rank agrees on.
   std::uint64_t step_count() const { return whole_.state.step; }
@@ -84,9 +103,19 @@ class DistributedStep {
   void roll_back(const StepWork& work);
   // Every piece rebuilt from the state the ranks hold (after roll_back), with fresh carried forces.
   void rebuild_after_roll_back();
-  // Quanta to the ranks whose boxes hold them (every rank learns every owned quanta's state), the
-  // boxes cut anew when the ranks' loads drifted apart.
-  void migrate();
+  // Every piece rebuilt from every owned quanta's state (one all-gather): with `moved`, quanta go
+  // to the ranks whose boxes hold them, the boxes cut anew when the ranks' loads drifted apart;
+  // with `broke` (the topology changed), velocity Verlet's forces are evaluated afresh.
+  void migrate(bool moved = true, bool broke = false);
+  // This rank's breaks of the step: the rules on its owned bonds (ledger_) at the step's end
+  // positions, the draws in the whole world's order. Returns the energy they charged [J].
+  double decide_breaks();
+  // Breaks bond b of ledger_ by rule `rule` (reason `why`), recorded in whole indices.
+  void break_owned(std::size_t rule, std::size_t b, std::uint8_t why);
+  // Every rank's breaks of the step into events_ (in a run on one rank's order) and whole_'s topology.
+  void share_breaks();
+  // The rules with their selections in this piece's local indices.
+  void localise_rules();
   // The owned quanta's [index, x, v, f] rows, 10 doubles each.
   std::vector<double> owned_rows() const;
 
@@ -111,6 +140,16 @@ class DistributedStep {
   Projection moved_;
   std::vector<Vec3> gravity_;   // m g per local quanta
   double anchors_ = 0, damping_ = 0;  // this rank's share since the run started [J]
+  double fracture_ = 0;               // the energy of the bonds this rank broke since the run started [J]
+  std::vector<BreakRule> rules_;        // selections by whole index
+  std::vector<BreakRule> local_rules_;  // selections by local index
+  BreakCriteria criteria_;
+  std::vector<Index> ledger_whole_;     // each ledger_ bond's whole index
+  std::vector<Vec3> after_;             // the piece's positions after the step (the rules read them)
+  Projection still_;                    // no change: the rules test the state after the step
+  StepContext break_ctx_;               // the step the rules test
+  std::vector<double> broken_;          // this rank's breaks of the step: [rule, bond, i, j, reason, strain, tension]
+  std::vector<BondEvent> events_;
   EnergyLedger start_books_;          // the whole ledger when the run started (opened if it was not)
   // coupled_implicit: the whole world's free components (its topology does not change in a run over
   // ranks).

@@ -89,6 +89,7 @@ Piece make_piece(const World& whole, std::span<const int> owner, int rank) {
     const Index i = wb.i[b], j = wb.j[b];
     if (owner[i] != rank && owner[j] != rank) continue;
     if (owner[i] == rank) p.owned_bonds.push_back(static_cast<Index>(lb.size()));
+    p.whole_bond.push_back(static_cast<Index>(b));
     append_bond(wb, b, local[i], local[j], lb);
   }
   lb.first_formed = lb.size();

@@ -18,6 +18,7 @@ struct Piece {
   std::vector<std::uint8_t> owned;    // 1 for the quanta this rank owns, 0 for ghosts (local)
   std::vector<Index> owned_quanta;    // the local indices of the owned quanta (ascending)
   std::vector<Index> owned_bonds;     // local bonds this rank accounts for: those whose first end it owns
+  std::vector<Index> whole_bond;      // each local bond's index in the whole world
   std::size_t whole_alive_bonds = 0;  // alive bonds of the whole world (each rank owns a share)
 };
 

@@ -38,6 +38,14 @@ RanksRun::RanksRun(Scene scene, RunSettings settings) : impl_(std::make_unique<I
                                 std::to_string(mpi_ranks()) + " ranks; run it without mpirun");
   impl_->runner.emplace(std::move(scene), std::move(settings));
 }
+RanksRun::RanksRun(const std::filesystem::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
+                   std::uint64_t max_memory)
+    : impl_(std::make_unique<Impl>()) {
+  if (mpi_ranks() > 1)
+    throw std::invalid_argument("this qbond was built without MPI (QBOND_MPI off) and cannot run over " +
+                                std::to_string(mpi_ranks()) + " ranks; run it without mpirun");
+  impl_->runner.emplace(Runner::resume(checkpoint, adjust, max_memory));
+}
 RanksRun::~RanksRun() = default;
 
 RunResult RanksRun::run(const std::function<bool()>& stop, const std::function<void(const RunProgress&)>& progress) {

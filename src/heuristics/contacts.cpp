@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <stdexcept>
 #include <unordered_set>
+#include <vector>
 
 #include "heuristics/spatial_hash.hpp"
 #include "io/scene/heuristic_entry.hpp"
@@ -447,7 +449,17 @@ void read_obstacle(const HeuristicEntry& e) {
 void check_contact_radius(const QuantaContactRule& r, const Obj& o, const World& w) {
   std::unordered_set<std::uint64_t> bonded;
   for (std::size_t b = 0; b < w.num_bonds(); ++b) bonded.insert(pair_key(w.state.bonds.i[b], w.state.bonds.j[b]));
-  for (const auto& [a, b] : pairs_within_radius(w.state.x, 2 * r.radius)) {
+  // Touching neighbours are a few dozen a quanta at most; far more means a radius of another
+  // scale, refused before a quadratic number of pairs is listed.
+  const std::size_t most = w.num_bonds() + 64 * w.num_quanta();
+  std::vector<std::pair<Index, Index>> pairs;
+  try {
+    pairs = pairs_within_radius(w.state.x, 2 * r.radius, most);
+  } catch (const std::length_error&) {
+    bad(o.at("radius"), "more than " + std::to_string(most) + " pairs of quanta lie within 2 x radius = " +
+                            num_str(2 * r.radius) + " m: the radius is far larger than the quanta's spacing");
+  }
+  for (const auto& [a, b] : pairs) {
     if (bonded.count(pair_key(a, b))) continue;
     if (!r.same_body && w.model.body[a] == w.model.body[b]) continue;
     if (w.model.is_kinematic(a) && w.model.is_kinematic(b)) continue;

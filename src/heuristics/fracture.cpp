@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/parallel.hpp"
+#include "heuristics/break_criteria.hpp"
 #include "heuristics/breaking.hpp"
 #include "io/scene/heuristic_entry.hpp"
 #include "qbond/analysis/stress.hpp"
@@ -22,57 +23,19 @@ class BreakHeuristic final : public Heuristic {
   std::string_view name() const override { return "break"; }
 
   void apply(const Model& m, State& s, Projection& p, const HeuristicContext& ctx) override {
-    const Bonds& bonds = s.bonds;
-    const std::size_t nb = bonds.size();
     // Which bonds are over a threshold is independent per bond (parallel); the draws and breaks
     // then go in bond order, so the outcome depends on the seed only.
-    why_.resize(nb);
-    const bool by_stress = std::isfinite(rule_.max_stress) || std::isfinite(rule_.max_von_mises);
-    if (by_stress) {
-      const std::size_t n = m.num_quanta();
-      x_.resize(n);
-      v_.resize(n);
-      for (std::size_t i = 0; i < n; ++i) {
-        x_[i] = s.x[i] + p.dx[i];
-        v_[i] = s.v[i] + p.dv[i];
-      }
-      virial_stress(m, s, x_, v_, sigma_);
-    }
-    parallel_for(nb, bond_pass_threads(m.num_quanta(), ctx.threads), [&](std::size_t b) {
-      why_[b] = kNone;
-      if (!bonds.alive[b]) return;
-      if (!applies(rule_.quanta, bonds, b)) return;
-      const Stretch st = stretch(m, s, p, b);
-      // A bond past its law's failure stretch fails (the break_failed_bonds stage), whatever the rule.
-      if (law_breaks(bonds.law[b]) && past_failure(m, s, b, st)) return;
-      if (st.strain > rule_.max_strain)
-        why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::strain);
-      else if (-st.strain > rule_.max_compression)
-        why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::compression);
-      else if (st.tension > rule_.max_tension)
-        why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::tension);
-      else if (by_stress) {
-        const Index i = bonds.i[b], j = bonds.j[b];
-        const Vec3 n = (x_[j] - x_[i]).normalized();
-        if (0.5 * n.dot((sigma_[i] + sigma_[j]) * n) > rule_.max_stress)
-          why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::stress);
-        else if (0.5 * (von_mises(sigma_[i]) + von_mises(sigma_[j])) > rule_.max_von_mises)
-          why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::von_mises);
-      }
-    });
-    for (std::size_t b = 0; b < nb; ++b) {
-      if (why_[b] == kNone) continue;
+    const std::vector<std::uint8_t>& why = criteria_.evaluate(rule_, m, s, p, ctx.threads);
+    for (std::size_t b = 0; b < why.size(); ++b) {
+      if (why[b] == BreakCriteria::kNone) continue;
       if (rule_.probability < 1 && !(s.rng.uniform() < rule_.probability)) continue;
-      break_now(m, s, ctx.step, ctx.events, b, stretch(m, s, p, b), static_cast<BondEvent::Reason>(why_[b]));
+      break_now(m, s, ctx.step, ctx.events, b, stretch(m, s, p, b), static_cast<BondEvent::Reason>(why[b]));
     }
   }
 
  private:
-  static constexpr std::uint8_t kNone = 0xff;
   BreakRule rule_;
-  std::vector<std::uint8_t> why_;  // per bond: the reason it is over a threshold, or kNone
-  std::vector<Vec3> x_, v_;        // projected state, for the stress criteria
-  std::vector<Mat3> sigma_;
+  BreakCriteria criteria_;
 };
 
 class PlasticHeuristic final : public Heuristic {
@@ -111,6 +74,47 @@ class PlasticHeuristic final : public Heuristic {
 };
 
 }  // namespace
+
+const std::vector<std::uint8_t>& BreakCriteria::evaluate(const BreakRule& rule, const Model& m, const State& s,
+                                                         const Projection& p, int threads) {
+  const Bonds& bonds = s.bonds;
+  const std::size_t nb = bonds.size();
+  why_.resize(nb);
+  const bool by_stress = std::isfinite(rule.max_stress) || std::isfinite(rule.max_von_mises);
+  if (by_stress) {
+    const std::size_t n = m.num_quanta();
+    x_.resize(n);
+    v_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      x_[i] = s.x[i] + p.dx[i];
+      v_[i] = s.v[i] + p.dv[i];
+    }
+    virial_stress(m, s, x_, v_, sigma_);
+  }
+  parallel_for(nb, bond_pass_threads(m.num_quanta(), threads), [&](std::size_t b) {
+    why_[b] = kNone;
+    if (!bonds.alive[b]) return;
+    if (!applies(rule.quanta, bonds, b)) return;
+    const Stretch st = stretch(m, s, p, b);
+    // A bond past its law's failure stretch fails (the break_failed_bonds stage), whatever the rule.
+    if (law_breaks(bonds.law[b]) && past_failure(m, s, b, st)) return;
+    if (st.strain > rule.max_strain)
+      why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::strain);
+    else if (-st.strain > rule.max_compression)
+      why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::compression);
+    else if (st.tension > rule.max_tension)
+      why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::tension);
+    else if (by_stress) {
+      const Index i = bonds.i[b], j = bonds.j[b];
+      const Vec3 n = (x_[j] - x_[i]).normalized();
+      if (0.5 * n.dot((sigma_[i] + sigma_[j]) * n) > rule.max_stress)
+        why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::stress);
+      else if (0.5 * (von_mises(sigma_[i]) + von_mises(sigma_[j])) > rule.max_von_mises)
+        why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::von_mises);
+    }
+  });
+  return why_;
+}
 
 double plastic_rest_length(const PlasticRule& rule, double r, double L, double L0) {
   if (!(L0 > 0)) return L;

@@ -19,13 +19,22 @@ constexpr double kSlideSpeed = 0.5;
 // quanta under a tangential load F creeps F / k_t a step: 100 k keeps that to 1/100 of its
 // normal spring's deflection under the same force.
 constexpr double kStickStiffness = 100;
-// A sliding contact's f_n and direction are settled when a solve changes them by less than this
-// fraction: its friction force is then right to that fraction.
+// A sliding contact's damping is settled when a solve changes it by less than this fraction: its
+// friction force is then μ_k f_n to that fraction.
 constexpr double kSlideSettled = 1e-3;
 
 bool has_friction(const ContactMaterial& m) { return m.friction > 0 || m.static_coefficient() > 0; }
 
 Mat3 tangential(const Vec3& n) { return Mat3::Identity() - n * n.transpose(); }
+
+// A sticking contact's damping h k_t: its force −h k_t P w₁ is the stick spring's −k_t P (x₁ − x₀).
+double stick_drag(double k, double h) { return kStickStiffness * k * h; }
+
+// The damping of a contact that slides at tangential speed `speed` under the normal force fn:
+// μ_k fn / speed, Coulomb's force at that speed, at most the stick's.
+double slide_drag(const ContactMaterial& m, double fn, double speed, double stick) {
+  return m.friction * fn < stick * speed ? m.friction * fn / speed : stick;
+}
 
 }  // namespace
 
@@ -65,11 +74,11 @@ bool ContactSolve::make(const Model& model, const State& state, double h, Index 
   const ContactMaterial& mat = ob.material;
   const Vec3 vt = tangential(n) * state.v[i];
   const double speed = vt.norm();
+  c.drag = stick_drag(c.k, h);
   if (has_friction(mat) && speed > kSlideSpeed * h * model.gravity.norm() && speed > 0) {
     c.slide = true;
-    c.slide_dir = vt / speed;
-    c.slide_fn = std::max(c.k * std::max(0.0, -c.gap_ref), model.mass[i] * c.v_in / h);
-    c.fn = c.slide_fn;
+    c.fn = std::max(c.k * std::max(0.0, -c.gap_ref), model.mass[i] * c.v_in / h);
+    c.drag = slide_drag(mat, c.fn, speed, c.drag);
   }
   return true;
 }
@@ -84,8 +93,8 @@ Vec3 ContactSolve::contact_force(const Model& model, const State& s, double h, c
   const ContactMaterial& mat = model.obstacles[c.obstacle].material;
   Vec3 f = normal_force(s, h, c, y) * c.n;
   if (!has_friction(mat)) return f;
-  if (c.slide) return f - mat.friction * c.slide_fn * c.slide_dir;
-  return f - kStickStiffness * c.k * h * (tangential(c.n) * (s.v[c.i] + y));
+  if (c.push) return f - c.push_force * c.push_dir;
+  return f - c.drag * (tangential(c.n) * (s.v[c.i] + y));
 }
 
 double ContactSolve::pair_normal_force(const State& s, double h, const PairContact& p,
@@ -99,9 +108,9 @@ Vec3 ContactSolve::pair_force(const Model& model, const State& s, double h, cons
   const ContactMaterial& mat = model.quanta_contact.material;
   Vec3 f = pair_normal_force(s, h, p, y) * p.n;
   if (!has_friction(mat)) return f;
-  if (p.slide) return f - mat.friction * p.slide_fn * p.slide_dir;
+  if (p.push) return f - p.push_force * p.push_dir;
   const Vec3 w1 = s.v[p.j] + y[p.j] - s.v[p.i] - y[p.i];
-  return f - kStickStiffness * p.k * h * (tangential(p.n) * w1);
+  return f - p.drag * (tangential(p.n) * w1);
 }
 
 bool ContactSolve::make_pair(const Model& model, const State& state, double h, std::uint32_t c,
@@ -146,11 +155,11 @@ bool ContactSolve::make_pair(const Model& model, const State& state, double h, s
   const ContactMaterial& mat = model.quanta_contact.material;
   const Vec3 wt = tangential(p.n) * w;
   const double speed = wt.norm();
+  p.drag = stick_drag(p.k, h);
   if (has_friction(mat) && speed > kSlideSpeed * h * model.gravity.norm() && speed > 0) {
     p.slide = true;
-    p.slide_dir = wt / speed;
-    p.slide_fn = std::max(p.k * std::max(0.0, -p.gap_ref), mu * p.v_in / h);
-    p.fn = p.slide_fn;
+    p.fn = std::max(p.k * std::max(0.0, -p.gap_ref), mu * p.v_in / h);
+    p.drag = slide_drag(mat, p.fn, speed, p.drag);
   }
   return true;
 }
@@ -214,13 +223,13 @@ void ContactSolve::write(const Model& model, const State& state, double h, int t
     sys.rhs[i] += (h * c.k * c0) * n;
     const ContactMaterial& mat = model.obstacles[c.obstacle].material;
     if (!has_friction(mat)) continue;
-    if (c.slide) {
-      sys.rhs[i] -= (h * mat.friction * c.slide_fn) * c.slide_dir;
-    } else {
-      const Mat3 P = tangential(n);
-      sys.diag[i] += (h2 * kStickStiffness * c.k) * P;
-      sys.rhs[i] -= (h2 * kStickStiffness * c.k) * (P * v);
+    if (c.push) {
+      sys.rhs[i] -= (h * c.push_force) * c.push_dir;
+      continue;
     }
+    const Mat3 P = tangential(n);
+    sys.diag[i] += (h * c.drag) * P;
+    sys.rhs[i] -= (h * c.drag) * (P * v);
   }
   sys.couplings.clear();
   const ContactMaterial& pmat = model.quanta_contact.material;
@@ -229,13 +238,12 @@ void ContactSolve::write(const Model& model, const State& state, double h, int t
     const bool free_i = !model.is_kinematic(i), free_j = !model.is_kinematic(j);
     const Vec3 w = state.v[j] - state.v[i];
     const double c0 = p.target - p.gap_ref - p.n.dot(state.x[j] - state.x[i] - p.d_ref) - h * p.n.dot(w);
-    // B = a n nᵀ + b I: the normal spring h² k n nᵀ, and a sticking contact's h² k_t (I − n nᵀ).
-    const bool stick = has_friction(pmat) && !p.slide;
-    const double kt = stick ? h2 * kStickStiffness * p.k : 0.0;
-    const double a = h2 * p.k - kt, b = kt;
+    // B = a n nᵀ + b I: the normal spring h² k n nᵀ, and the friction's damper h c (I − n nᵀ).
+    const double ht = has_friction(pmat) && !p.push ? h * p.drag : 0.0;
+    const double a = h2 * p.k - ht, b = ht;
     Vec3 f = (h * p.k * c0) * p.n;  // h × the force on j the step's start gives
     if (has_friction(pmat))
-      f -= p.slide ? Vec3((h * pmat.friction * p.slide_fn) * p.slide_dir) : Vec3(kt * (tangential(p.n) * w));
+      f -= p.push ? Vec3((h * p.push_force) * p.push_dir) : Vec3(ht * (tangential(p.n) * w));
     const Mat3 B = block_matrix(p.n, a, b);
     if (free_i) {
       save_row(i, sys);
@@ -299,40 +307,80 @@ bool ContactSolve::begin(const Model& model, const State& state, const Adjacency
 
 namespace {
 
-// Checks a contact's friction against the solve: a sticking one whose stick force `ft` passes
-// μ_s f_n slides (along −ft); a sliding one whose tangential velocity `vt` turned against its
-// direction sticks; otherwise its f_n and direction follow the solve. True when it changed
-// beyond kSlideSettled.
+// Checks a contact's friction against the solve, whose tangential velocity is `vt`. True when it
+// changed (the step is solved again).
+// - A sticking contact whose force h k_t |vt| passes μ_s f_n starts sliding under the constant
+//   force −μ_k f_n vt/|vt|, f_n and the direction taken again from each solve until they settle
+//   (a damper started from the stick's creep speed would need many solves to let a body's
+//   contacts slide together; a constant force gives their speed at once). It sticks again if its
+//   sliding reverses; settled, it becomes the damper c = μ_k f_n / |vt|, which gives the same
+//   solution, solved once more. Before the last solve (`last`) every sliding contact becomes a
+//   damper, so the step's friction is always one.
+// - A sliding damper is settled when its force c |vt| is μ_k f_n to kSlideSettled, sticks when
+//   μ_k f_n / |vt| reaches h k_t, else takes a new c: a contact moved by an effective mass m and
+//   momentum S answers c with |vt| = S / (m + h c), so the last two solves' (c, |vt|) give m and S
+//   and Coulomb's c |vt| = μ_k f_n gives c = μ_k f_n m / (S − h μ_k f_n) (exact for a lone
+//   quanta); when that fit is not a positive m and S > h μ_k f_n, c = μ_k f_n / |vt|.
 template <class C>
-bool update_friction(const ContactMaterial& mat, double stick_k, double h, const Vec3& vt, C& c) {
+bool update_friction(const ContactMaterial& mat, double stick, double h, bool last, const Vec3& vt, C& c) {
+  const double speed = vt.norm();
+  const double coulomb = mat.friction * c.fn;
   if (!c.slide) {
-    const Vec3 ft = -stick_k * h * vt;
-    if (ft.norm() > mat.static_coefficient() * c.fn) {
-      // Past static friction: it slides where the spring held it.
+    if (stick * speed <= mat.static_coefficient() * c.fn) return false;
+    if (last) {  // the last solve: a damper, whatever its force
       c.slide = true;
-      c.slide_dir = -ft.normalized();
-      c.slide_fn = c.fn;
+      c.drag = coulomb / speed;
+      c.last_drag = stick;
+      c.last_speed = speed;
       return true;
     }
-    return false;
-  }
-  if (vt.dot(c.slide_dir) < 0) {  // friction reversed the sliding: it sticks
-    c.slide = false;
+    c.slide = c.push = true;
+    c.push_force = coulomb;
+    c.push_dir = vt / speed;
     return true;
   }
-  const double speed = vt.norm();
-  const Vec3 dir = speed > 0 ? Vec3(vt / speed) : c.slide_dir;
-  // The sliding force takes f_n and the direction of the last solve until they settle.
-  const bool changed =
-      std::abs(c.fn - c.slide_fn) > kSlideSettled * c.fn || (dir - c.slide_dir).norm() > kSlideSettled;
-  c.slide_fn = c.fn;
-  c.slide_dir = dir;
-  return changed;
+  if (c.push) {
+    if (!(vt.dot(c.push_dir) > 0)) {  // the force reversed the sliding: it sticks
+      c.slide = c.push = false;
+      c.drag = stick;
+      return true;
+    }
+    const Vec3 dir = vt / speed;
+    if (!last && (std::abs(coulomb - c.push_force) > kSlideSettled * coulomb ||
+                  (dir - c.push_dir).norm() > kSlideSettled)) {
+      c.push_force = coulomb;
+      c.push_dir = dir;
+      return true;
+    }
+    // Settled: the damper that gives this force at this speed, solved once more.
+    c.push = false;
+    c.drag = slide_drag(mat, c.fn, speed, stick);
+    c.slide = c.drag < stick;
+    c.last_drag = c.push_force / speed;
+    c.last_speed = speed;
+    return true;
+  }
+  if (std::abs(c.drag * speed - coulomb) <= kSlideSettled * coulomb) return false;
+  double drag = slide_drag(mat, c.fn, speed, stick);
+  if (drag >= stick) {  // friction stopped the sliding: it sticks
+    c.slide = false;
+    c.drag = stick;
+    return true;
+  }
+  if (c.last_speed != speed) {
+    const double m = h * (c.drag * speed - c.last_drag * c.last_speed) / (c.last_speed - speed);
+    const double S = speed * (m + h * c.drag);
+    if (m > 0 && S > h * coulomb) drag = std::min(stick, coulomb * m / (S - h * coulomb));
+  }
+  c.last_drag = c.drag;
+  c.last_speed = speed;
+  c.drag = drag;
+  return true;
 }
 
 }  // namespace
 
-bool ContactSolve::update(const Model& model, const State& state, double h, int threads,
+bool ContactSolve::update(const Model& model, const State& state, double h, int threads, bool last,
                           const std::vector<Vec3>& y, ImplicitSystem& sys) {
   bool changed = false;
   std::vector<Contact>& next = next_;
@@ -357,7 +405,7 @@ bool ContactSolve::update(const Model& model, const State& state, double h, int 
           continue;
         }
         const ContactMaterial& mat = model.obstacles[o].material;
-        if (has_friction(mat) && update_friction(mat, kStickStiffness * c.k, h, tangential(c.n) * v1, c))
+        if (has_friction(mat) && update_friction(mat, stick_drag(c.k, h), h, last, tangential(c.n) * v1, c))
           changed = true;
         next.push_back(c);
         continue;
@@ -387,7 +435,7 @@ bool ContactSolve::update(const Model& model, const State& state, double h, int 
         changed = true;
         continue;
       }
-      if (has_friction(pmat) && update_friction(pmat, kStickStiffness * p.k, h, tangential(p.n) * w1, p))
+      if (has_friction(pmat) && update_friction(pmat, stick_drag(p.k, h), h, last, tangential(p.n) * w1, p))
         changed = true;
       next_pairs.push_back(p);
       continue;

@@ -11,16 +11,23 @@
 // g* is 0, or for an impact (a quanta on the free side at the start, approaching at v_in) with
 // restitution e the gap at which it would end after bouncing, e (h v_in − φ(x))⁺; its end
 // normal velocity is then set to e v_in.
-// Coulomb friction: a sticking contact is a tangential spring k_t = 100 k to the start position,
-// A_ii += h² k_t P, b_i −= h² k_t P v (P = I − n nᵀ); it slides when that force passes μ_s f_n,
-// and a sliding contact feels the constant −μ_k f_n t (t the sliding direction) in b_i.
+// Coulomb friction is a tangential damper in the same system: the force −c P w₁ (P = I − n nᵀ,
+// w₁ the end-of-step tangential velocity, relative for a pair) adds A_ii += h c P,
+// b_i −= h c P v. A sticking contact has c = h k_t, k_t = 100 k (a spring to the start position);
+// it slides once c |P w₁| passes μ_s f_n, and a sliding contact has c = μ_k f_n / |P w₁| from the
+// last solve, re-solved until c settles (the fixed point is Coulomb's −μ_k f_n t with the solve's
+// own f_n and direction), back to sticking when that c reaches h k_t. A contact that starts
+// sliding within the step first feels the constant −μ_k f_n t while f_n and t settle (the damper's
+// speed then starts right), and the step's last solve has dampers only. A damper's power at the
+// end velocity is −c |P w₁|² ≤ 0 at any c: unsettled friction takes energy out, never puts it in,
+// and cannot reverse a sliding.
 // The active set (which quanta touch which obstacle, stick or slide, f_n) is found by solving,
 // checking every contact against the solution, and solving again while it changes.
 //
 // Quanta–quanta contact (Model::quanta_contact) is the same spring on the gap of a pair,
 // φ = |x_j − x_i| − 2R, linearised about the pair's reference separation d_r (its start, or where
 // the relative path enters 2R) along n = d_r/|d_r|: φ ≈ φ(d_r) + n·(x_j − x_i − d_r), k = κ μ / h²
-// (μ the reduced mass). Its block B = h² k n nᵀ (plus the stick spring's h² k_t P) enters A_ii and
+// (μ the reduced mass). Its block B = h² k n nᵀ (plus the friction's h c P) enters A_ii and
 // A_jj, and −B the off-diagonal A_ij, A_ji (ImplicitSystem::couplings, which CG's product, the
 // multigrid's fine level and the direct solvers' assembly read); b_j gains h k c n and b_i loses
 // it. Candidates are the unbonded pairs whose relative path predicted for the step comes within
@@ -37,13 +44,14 @@ class ContactSolve {
  public:
   // Finds the contacts of the step predicted from x + h v + h² f_ext/m and adds their terms to
   // sys. False (sys untouched) when the model has no such obstacle.
-  bool begin(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext, double h,
-             int threads, ImplicitSystem& sys);
+  bool begin(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
+             double h, int threads, ImplicitSystem& sys);
   // Checks the contacts against the solve's Δv (y): drops those pulling, switches stick and
   // slide, adds those whose path now enters an obstacle. True (and sys updated) when the set
-  // changed and the step must be solved again.
-  bool update(const Model& model, const State& state, double h, int threads, const std::vector<Vec3>& y,
-              ImplicitSystem& sys);
+  // changed and the step must be solved again. `last`: the solve it prepares is the step's last
+  // (every sliding contact's friction is then a damper).
+  bool update(const Model& model, const State& state, double h, int threads, bool last,
+              const std::vector<Vec3>& y, ImplicitSystem& sys);
   // Quanta with a contact (1), for the momentum restoration to leave their components alone:
   // the obstacle's impulse is part of their momentum change. Empty when there is none.
   const std::vector<std::uint8_t>& touching() const { return touching_; }
@@ -63,19 +71,25 @@ class ContactSolve {
     double k = 0;       // κ m / h²
     double fn = 0;      // normal force of the last solve [N]
     bool slide = false;
-    Vec3 slide_dir = Vec3::Zero();  // unit, the friction pushes along −slide_dir
-    double slide_fn = 0;            // f_n the sliding force used
+    double drag = 0;                       // c, the friction's tangential damping [N s/m]
+    double last_drag = 0, last_speed = 0;  // a sliding contact's c and |P w₁| of the solve before
+    bool push = false;                     // this solve: the constant force −push_force push_dir
+    double push_force = 0;
+    Vec3 push_dir = Vec3::Zero();
   };
   // A contact of quanta i and j (i < j): what Contact holds, for their relative motion.
   struct PairContact {
     std::uint32_t candidate = 0;  // its index in candidates_
     Index i = 0, j = 0;
-    Vec3 n = Vec3::UnitZ();      // unit, from i to j
-    Vec3 d_ref = Vec3::Zero();   // reference separation x_j − x_i, gap there `gap_ref`
+    Vec3 n = Vec3::UnitZ();     // unit, from i to j
+    Vec3 d_ref = Vec3::Zero();  // reference separation x_j − x_i, gap there `gap_ref`
     double gap_ref = 0, target = 0, v_in = 0, k = 0, fn = 0;
     bool slide = false;
-    Vec3 slide_dir = Vec3::Zero();  // unit, j's motion relative to i along the surface
-    double slide_fn = 0;
+    double drag = 0;  // c, on j's motion relative to i along the surface
+    double last_drag = 0, last_speed = 0;
+    bool push = false;
+    double push_force = 0;
+    Vec3 push_dir = Vec3::Zero();
   };
   // The contact of the pair of candidate c given that its relative path from the start to the end
   // separation d1 enters 2R (or ends inside it); false when it does not.
@@ -83,10 +97,12 @@ class ContactSolve {
                  PairContact& p) const;
   // The pair's normal force on j at Δv = y (negative: pulls), and all the force the solve applied on j.
   double pair_normal_force(const State& s, double h, const PairContact& p, const std::vector<Vec3>& y) const;
-  Vec3 pair_force(const Model& model, const State& s, double h, const PairContact& p, const std::vector<Vec3>& y) const;
+  Vec3 pair_force(const Model& model, const State& s, double h, const PairContact& p,
+                  const std::vector<Vec3>& y) const;
   // candidates_: the unbonded pairs (rule permitting) whose relative path predicted from x1 comes
   // within 2R plus one radius, in increasing i then j.
-  void find_candidates(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& x1);
+  void find_candidates(const Model& model, const State& state, const Adjacency& adj,
+                       const std::vector<Vec3>& x1);
   // The row of quanta i saved before the contacts were first written.
   void save_row(Index i, const ImplicitSystem& sys);
   // The contact of quanta i with obstacle o, given that its path x → x1 enters it; false when it does not.
@@ -94,14 +110,14 @@ class ContactSolve {
             Contact& c) const;
   // The normal force k (g* − φ(x₁)) at Δv = y (negative: the spring pulls).
   double normal_force(const State& s, double h, const Contact& c, const Vec3& y) const;
-  // The force the solve applied at Δv = y: normal, and the stick spring's or the sliding friction.
+  // The force the solve applied at Δv = y: normal, and the friction's damper.
   Vec3 contact_force(const Model& model, const State& s, double h, const Contact& c, const Vec3& y) const;
   void write(const Model& model, const State& state, double h, int threads, ImplicitSystem& sys);
   // The springs' energy at positions x: Σ ½ k φ² over the obstacles' and the candidates' overlaps.
   double stored(const Model& model, const std::vector<Vec3>& x, double h) const;
 
   std::vector<Contact> contacts_;       // by quanta, then obstacle
-  std::vector<Contact> next_;  // update's new set (scratch)
+  std::vector<Contact> next_;           // update's new set (scratch)
   std::vector<std::uint8_t> released_;  // per quanta and obstacle: times its contact was dropped this step
   std::vector<std::uint8_t> touching_;
   std::vector<Index> saved_;  // quanta whose diagonal block and rhs are saved

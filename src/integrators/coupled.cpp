@@ -74,7 +74,9 @@ class CoupledIntegrator final : public StepIntegrator {
     linear_solve(model, state, adj, f_ext, ctx, whole, /*warm=*/false, step);
     // Contacts: solved again, from the last solution, while the active set changes.
     for (int pass = 1;
-         contacts && pass < kContactPasses && contact_.update(model, state, ctx.h, config_.threads, y_, sys_); ++pass)
+         contacts && pass < kContactPasses &&
+         contact_.update(model, state, ctx.h, config_.threads, pass + 1 == kContactPasses, y_, sys_);
+         ++pass)
       linear_solve(model, state, adj, f_ext, ctx, whole, /*warm=*/true, step);
     if (config_.solver == CoupledSolver::cg) {
       if (config_.restore_momentum)

@@ -25,13 +25,9 @@ int max_threads() {
   return static_cast<int>(std::max(64u, 4 * std::min(hardware, 1u << 20)));
 }
 
-namespace {
-std::string thread_bound();
-}  // namespace
-
 int checked_thread_count(int threads) {
   const int limit = max_threads();
-  const std::string bound = thread_bound();
+  const std::string bound = max_threads_text();
   if (threads < 0) throw std::invalid_argument("threads: must be >= 0, got " + std::to_string(threads));
   if (threads > limit)
     throw std::invalid_argument("threads: must be <= " + bound + ", got " + std::to_string(threads));
@@ -46,74 +42,14 @@ int checked_thread_count(int threads) {
   return t;
 }
 
-namespace {
-
-using O = IntegratorOption;
-constexpr std::uint16_t bits(std::initializer_list<IntegratorOption> options) {
-  std::uint16_t b = 0;
-  for (IntegratorOption o : options) b = static_cast<std::uint16_t>(b | static_cast<std::uint16_t>(o));
-  return b;
-}
-
-template <class List>
-std::vector<std::string_view> keys_of(const List& list) {
-  std::vector<std::string_view> keys;
-  for (const auto& v : list) keys.push_back(v.key);
-  return keys;
-}
-
-std::string thread_bound() {
+std::string max_threads_text() {
   return std::to_string(max_threads()) + " (4 x this machine's " + std::to_string(std::thread::hardware_concurrency()) +
          " hardware threads, at least 64)";
 }
 
-using H = IntegratorOptionInfo::Holds;
-using C = IntegratorConfig;
-// Every option, one row each: its key, one line, and its field with the values it takes.
-const IntegratorOptionInfo kOptions[] = {
-    {.option = O::neighbours, .key = "neighbours", .description = "how the hybrid solve treats a quanta's neighbours",
-     .holds = H::name,
-     .name_of = [](const C& c) { return to_string(c.neighbours); },
-     .set_name = [](C& c, std::string_view s) { c.neighbours = parse_neighbour_model(s); },
-     .names = [] { return keys_of(neighbour_models()); }},
-    {.option = O::solver, .key = "solver", .description = "the linear solver", .holds = H::name,
-     .name_of = [](const C& c) { return to_string(c.solver); },
-     .set_name = [](C& c, std::string_view s) { c.solver = parse_coupled_solver(s); },
-     .names = [] { return keys_of(coupled_solvers()); }},
-    {.option = O::iterations, .key = "iterations",
-     .description = "sweeps per step (hybrid) or per Newton iteration (solver sweep), >= 1", .holds = H::integer,
-     .integer = &C::iterations, .least = 1},
-    {.option = O::max_iterations, .key = "max_iterations",
-     .description = "CG's iteration cap (0: three times the free unknowns)", .holds = H::integer,
-     .integer = &C::max_iterations},
-    {.option = O::tolerance, .key = "tolerance", .description = "relative residual at which sweeps, CG and Newton stop",
-     .holds = H::number, .number = &C::tolerance, .positive = true},
-    {.option = O::chebyshev_rho, .key = "chebyshev_rho",
-     .description = "sweeps: spectral radius for Chebyshev acceleration, [0, 1) (0: off)", .holds = H::number,
-     .number = &C::chebyshev_rho, .below = 1},
-    {.option = O::warm_start, .key = "warm_start", .description = "the iterative solvers' initial guess",
-     .holds = H::name,
-     .name_of = [](const C& c) { return to_string(c.warm_start); },
-     .set_name = [](C& c, std::string_view s) { c.warm_start = parse_warm_start(s); },
-     .names = [] { return keys_of(warm_starts()); }},
-    {.option = O::restore_momentum, .key = "restore_momentum",
-     .description = "give each free component its exact momentum change", .holds = H::boolean,
-     .boolean = &C::restore_momentum},
-    {.option = O::newton_iterations, .key = "newton_iterations", .description = "Newton iterations per step at most, >= 1",
-     .holds = H::integer, .integer = &C::newton_iterations, .least = 1},
-    {.option = O::newton_polish, .key = "newton_polish",
-     .description = "exact-Newton corrections to round-off once the tolerance is met", .holds = H::boolean,
-     .boolean = &C::newton_polish},
-    {.option = O::threads, .key = "threads", .description = "OpenMP threads (0: all cores); the same bits for any count",
-     .holds = H::integer, .integer = &C::threads, .most = max_threads, .most_text = thread_bound},
-    {.option = O::restore_energy, .key = "restore_energy",
-     .description = "give back the energy the integrator removed (or take back what it made)", .holds = H::boolean,
-     .boolean = &C::restore_energy},
-    {.option = O::preconditioner, .key = "preconditioner", .description = "CG's preconditioner", .holds = H::name,
-     .name_of = [](const C& c) { return to_string(c.preconditioner); },
-     .set_name = [](C& c, std::string_view s) { c.preconditioner = parse_preconditioner(s); },
-     .names = [] { return keys_of(preconditioners()); }},
-};
+namespace {
+
+using O = IntegratorOption;
 
 constexpr NamedValue<NeighbourModel> kNeighbourModels[] = {
     {NeighbourModel::frozen, "frozen", "neighbours held at their start positions and at rest (the paper)"},
@@ -139,13 +75,6 @@ constexpr NamedValue<WarmStart> kWarmStarts[] = {
     {WarmStart::extrapolated, "extrapolated", "2 dv(-1) - dv(-2) from the last two steps"},
 };
 
-// What the integrators share: threads and restore_energy concern every one.
-constexpr std::uint16_t kEvery = bits({O::threads, O::restore_energy});
-constexpr std::uint16_t kLinearSolve =
-    kEvery | bits({O::tolerance, O::warm_start, O::restore_momentum});
-constexpr std::uint16_t kNewton =
-    kLinearSolve | bits({O::solver, O::iterations, O::max_iterations, O::chebyshev_rho, O::newton_iterations});
-
 constexpr CoupledSolver kCoupledSolvers[] = {CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg};
 constexpr CoupledSolver kNewtonSolvers[] = {CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg,
                                             CoupledSolver::sweep};
@@ -159,27 +88,26 @@ constexpr WarmStart kBdf2Starts[] = {WarmStart::zero, WarmStart::external, WarmS
 
 // The integrators: a new one is one row here (with its enumerator and its constructor).
 const IntegratorInfo kIntegrators[] = {
-    {IntegratorType::explicit_euler, "explicit_euler", "the particle method: x += h v, v += h a(x, v)", kEvery, {},
-     {}, make_explicit_integrator},
-    {IntegratorType::symplectic_euler, "symplectic_euler", "v += h a(x, v), then x += h v_new", kEvery, {}, {},
+    {IntegratorType::explicit_euler, "explicit_euler", "the particle method: x += h v, v += h a(x, v)", {}, {},
+     make_explicit_integrator},
+    {IntegratorType::symplectic_euler, "symplectic_euler", "v += h a(x, v), then x += h v_new", {}, {},
      make_explicit_integrator},
     {IntegratorType::velocity_verlet, "velocity_verlet",
-     "second order, symplectic when undamped; one force pass a step", kEvery, {}, {}, make_explicit_integrator},
-    {IntegratorType::rk4, "rk4", "classical fourth-order Runge-Kutta", kEvery, {}, {}, make_explicit_integrator},
-    {IntegratorType::hybrid_implicit, "hybrid_implicit", "Eqs. 11-12: one 3x3 solve per quanta (see neighbours)",
-     kLinearSolve | bits({O::neighbours, O::iterations, O::chebyshev_rho}), {}, kEveryStart, make_hybrid_integrator},
+     "second order, symplectic when undamped; one force pass a step", {}, {}, make_explicit_integrator},
+    {IntegratorType::rk4, "rk4", "classical fourth-order Runge-Kutta", {}, {}, make_explicit_integrator},
+    {IntegratorType::hybrid_implicit, "hybrid_implicit", "Eqs. 11-12: one 3x3 solve per quanta (see neighbours)", {},
+     kEveryStart, make_hybrid_integrator},
     {IntegratorType::coupled_implicit, "coupled_implicit",
      "Eq. 13 linearised (Baraff-Witkin): one global linear solve (sweeps: hybrid_implicit, neighbours sweep)",
-     kLinearSolve | bits({O::solver, O::max_iterations, O::preconditioner}), kCoupledSolvers, kEveryStart,
-     make_coupled_implicit_integrator},
+     kCoupledSolvers, kEveryStart, make_coupled_implicit_integrator},
     {IntegratorType::energy_momentum, "energy_momentum",
-     "discrete gradient: keeps energy and both momenta at any step; Newton-solved", kNewton | bits({O::newton_polish}),
-     kNewtonSolvers, kNewtonStarts, make_newton_integrator},
+     "discrete gradient: keeps energy and both momenta at any step; Newton-solved", kNewtonSolvers, kNewtonStarts,
+     make_newton_integrator},
     {IntegratorType::implicit_midpoint, "implicit_midpoint",
-     "forces at the step's midpoint; Newton-solved, second order", kNewton | bits({O::newton_polish}), kNewtonSolvers,
-     kNewtonStarts, make_newton_integrator},
+     "forces at the step's midpoint; Newton-solved, second order", kNewtonSolvers, kNewtonStarts,
+     make_newton_integrator},
     {IntegratorType::bdf2, "bdf2", "second-order backward differentiation; Newton-solved, first step backward Euler",
-     kNewton, kNewtonSolvers, kBdf2Starts, make_newton_integrator},
+     kNewtonSolvers, kBdf2Starts, make_newton_integrator},
 };
 
 template <class E>
@@ -215,11 +143,17 @@ auto parse_key(std::span<const Row> rows, std::string_view s, const char* what) 
 }  // namespace
 
 std::span<const IntegratorInfo> integrator_table() { return kIntegrators; }
-std::span<const IntegratorOptionInfo> integrator_options() { return kOptions; }
+std::span<const IntegratorOptionInfo> integrator_options() { return kIntegratorOptions; }
 std::span<const NamedValue<NeighbourModel>> neighbour_models() { return kNeighbourModels; }
 std::span<const NamedValue<CoupledSolver>> coupled_solvers() { return kSolvers; }
 std::span<const NamedValue<WarmStart>> warm_starts() { return kWarmStarts; }
 std::span<const NamedValue<Preconditioner>> preconditioners() { return kPreconditioners; }
+
+bool IntegratorInfo::reads(IntegratorOption o) const {
+  for (const IntegratorOptionInfo& row : kIntegratorOptions)
+    if (row.option == o) return (row.read_by >> static_cast<int>(type)) & 1;
+  return false;
+}
 
 const IntegratorInfo& integrator_info(IntegratorType t) {
   for (const IntegratorInfo& i : kIntegrators)
@@ -268,7 +202,7 @@ std::string_view to_string(CoupledSolver s) { return key_of<NamedValue<CoupledSo
 std::string_view to_string(WarmStart w) { return key_of<NamedValue<WarmStart>>(kWarmStarts, w); }
 std::string_view to_string(Preconditioner p) { return key_of<NamedValue<Preconditioner>>(kPreconditioners, p); }
 std::string_view to_string(IntegratorOption o) {
-  for (const IntegratorOptionInfo& i : kOptions)
+  for (const IntegratorOptionInfo& i : kIntegratorOptions)
     if (i.option == o) return i.key;
   return "?";
 }

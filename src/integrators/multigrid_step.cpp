@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 
 #include "core/parallel.hpp"
 
@@ -10,7 +11,13 @@ namespace qbond {
 
 namespace {
 constexpr Index kNone = ~Index{0};
+
+double thread_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
+}  // namespace
 
 void MultigridStep::assemble_pattern(const Model& model, const Adjacency& adj) {
   const std::size_t n = model.num_quanta();
@@ -116,6 +123,7 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
   }
   updated_since_check = update;
   const auto t0 = std::chrono::steady_clock::now();
+  const double c0 = thread_cpu_seconds();
   // A's values: the diagonal blocks, then −B_b for each bond to a free quanta, in adjacency order.
   auto fill_values = [&] {
     parallel_for(A.rows, threads, [&](std::size_t r) {
@@ -147,13 +155,15 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     built_h = h;
   }
   const auto t1 = std::chrono::steady_clock::now();
+  const double c1 = thread_cpu_seconds();
   // A kept hierarchy can stop fitting within one step (an impact stiffens contacts, bonds turn
   // far): its solve is cut off at a few times the iterations it took when made, then the
   // hierarchy's values are refreshed and the solve goes on from where it stopped.
   const int kept_cap = build || update || base_iterations < 0 ? cap : std::min(cap, 4 * base_iterations + 20);
   mg.solve(fine, b, tolerance, kept_cap, threads, x, y_zero, stats);
   const auto t2 = std::chrono::steady_clock::now();
-  double refresh_seconds = 0;
+  const double c2 = thread_cpu_seconds();
+  double refresh_seconds = 0, refresh_cpu_seconds = 0;
   if (stats.residual > tolerance && kept_cap < cap) {
     fill_values();
     mg.update(A, threads);
@@ -162,6 +172,7 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     updated_since_check = true;
     const auto t3 = std::chrono::steady_clock::now();
     refresh_seconds = std::chrono::duration<double>(t3 - t2).count();
+    refresh_cpu_seconds = thread_cpu_seconds() - c2;
     SolveStats more;
     mg.solve(fine, b, tolerance, cap - stats.iterations, threads, x, false, more);
     stats.iterations += more.iterations;
@@ -169,6 +180,8 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
   }
   setup_seconds = std::chrono::duration<double>(t1 - t0).count() + refresh_seconds;
   solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count() - refresh_seconds;
+  setup_cpu_seconds = c1 - c0 + refresh_cpu_seconds;
+  solve_cpu_seconds = thread_cpu_seconds() - c1 - refresh_cpu_seconds;
   last_iterations = stats.iterations;
   if (base_iterations < 0) base_iterations = stats.iterations;
   y.assign(n, Vec3::Zero());

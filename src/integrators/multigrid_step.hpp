@@ -29,6 +29,9 @@ struct MultigridStep {
   int builds = 0, updates = 0;  ///< hierarchy builds and numeric updates so far
   double setup_seconds = 0;     ///< the last solve's time in building or updating the hierarchy
   double solve_seconds = 0;     ///< the last solve's time in CG
+  /// The same two as the calling thread's CPU time (on a shared host, what the work cost; with
+  /// one thread, all of it).
+  double setup_cpu_seconds = 0, solve_cpu_seconds = 0;
 
  private:
   void assemble_pattern(const Model& model, const Adjacency& adj);

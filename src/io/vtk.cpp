@@ -1,5 +1,6 @@
 #include "qbond/io/vtk.hpp"
 
+#include <algorithm>
 #include <cassert>
 #include <cstdio>
 #include <cstring>
@@ -137,6 +138,126 @@ void write_vtp(const std::filesystem::path& path, const Model& model, const Stat
   xml += "</Lines>\n</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">\n_";
   xml += a.block;
   xml += "\n</AppendedData>\n</VTKFile>\n";
+  write_file_atomic(path, xml, Durability::atomic);
+}
+
+void write_vtp_piece(const std::filesystem::path& path, const Model& model, const State& state,
+                     std::span<const std::uint8_t> owned, std::span<const std::uint8_t> shown) {
+  const std::size_t n = model.num_quanta();
+  const Bonds& bonds = state.bonds;
+  assert(owned.size() == n && shown.size() == bonds.size());
+  // The points: the owned quanta and the other ends of the shown bonds, in ascending user id.
+  std::vector<std::uint8_t> point(n, 0);
+  for (std::size_t q = 0; q < n; ++q) point[q] = owned[q];
+  std::vector<Index> lines;  // shown alive bonds, in bond-id order
+  for (std::size_t b = 0; b < bonds.size(); ++b) {
+    if (!shown[b] || !bonds.alive[b]) continue;
+    lines.push_back(static_cast<Index>(b));
+    point[bonds.i[b]] = point[bonds.j[b]] = 1;
+  }
+  std::sort(lines.begin(), lines.end(), [&](Index a, Index b) { return bonds.id[a] < bonds.id[b]; });
+  std::vector<Index> at;  // file point → local quanta
+  for (std::size_t q = 0; q < n; ++q)
+    if (point[q]) at.push_back(static_cast<Index>(q));
+  std::sort(at.begin(), at.end(), [&](Index a, Index b) { return model.quanta_id[a] < model.quanta_id[b]; });
+  const std::size_t m = at.size();
+  std::vector<std::int64_t> point_of(n, -1);
+  for (std::size_t k = 0; k < m; ++k) point_of[at[k]] = static_cast<std::int64_t>(k);
+
+  std::vector<double> tension, strain;
+  bond_tension_strain(model, state, tension, strain);
+  std::vector<Mat3> sigma;
+  virial_stress(model, state, sigma);
+  std::vector<double> x(3 * m), v(3 * m), mass(m), mises(m), stress(9 * m);
+  std::vector<std::int64_t> id(m), vert_conn, vert_off, line_conn, line_off;
+  std::vector<std::int32_t> body(m);
+  std::vector<std::uint8_t> kinematic(m), ghost(m);
+  std::vector<double> cell_strain, cell_tension;
+  std::vector<std::int64_t> cell_bond;
+  for (std::size_t k = 0; k < m; ++k) {
+    const Index q = at[k];
+    for (int c = 0; c < 3; ++c) {
+      x[3 * k + c] = state.x[q][c];
+      v[3 * k + c] = state.v[q][c];
+    }
+    for (int c = 0; c < 9; ++c) stress[9 * k + c] = sigma[q].data()[c];
+    mass[k] = model.mass[q];
+    mises[k] = von_mises(sigma[q]);
+    id[k] = static_cast<std::int64_t>(model.quanta_id[q]);
+    body[k] = static_cast<std::int32_t>(model.body[q]);
+    kinematic[k] = model.is_kinematic(q);
+    ghost[k] = owned[q] ? 0 : 1;  // vtkGhostType's DUPLICATEPOINT
+    if (!owned[q]) continue;
+    vert_conn.push_back(static_cast<std::int64_t>(k));
+    vert_off.push_back(static_cast<std::int64_t>(vert_conn.size()));
+    cell_strain.push_back(0);
+    cell_tension.push_back(0);
+    cell_bond.push_back(-1);
+  }
+  for (Index b : lines) {
+    line_conn.push_back(point_of[bonds.i[b]]);
+    line_conn.push_back(point_of[bonds.j[b]]);
+    line_off.push_back(static_cast<std::int64_t>(line_conn.size()));
+    cell_strain.push_back(strain[b]);
+    cell_tension.push_back(tension[b]);
+    cell_bond.push_back(bonds.id[b]);
+  }
+  Appended a;
+  std::string xml =
+      "<?xml version=\"1.0\"?>\n"
+      "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
+      "<PolyData>\n<Piece NumberOfPoints=\"" +
+      std::to_string(m) + "\" NumberOfVerts=\"" + std::to_string(vert_off.size()) + "\" NumberOfLines=\"" +
+      std::to_string(line_off.size()) + "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
+  xml += "<PointData Scalars=\"mass\" Vectors=\"velocity\">\n";
+  a.array(xml, "Float64", "velocity", 3, v.data(), 3 * m);
+  a.array(xml, "Float64", "mass", 1, mass.data(), m);
+  a.array(xml, "Int64", "id", 1, id.data(), m);
+  a.array(xml, "Int32", "body", 1, body.data(), m);
+  a.array(xml, "UInt8", "kinematic", 1, kinematic.data(), m);
+  a.array(xml, "Float64", "von_mises", 1, mises.data(), m);
+  a.array(xml, "Float64", "stress", 9, stress.data(), 9 * m);
+  a.array(xml, "UInt8", "vtkGhostType", 1, ghost.data(), m);
+  xml += "</PointData>\n<CellData Scalars=\"tension\">\n";
+  a.array(xml, "Float64", "strain", 1, cell_strain.data(), cell_strain.size());
+  a.array(xml, "Float64", "tension", 1, cell_tension.data(), cell_tension.size());
+  a.array(xml, "Int64", "bond", 1, cell_bond.data(), cell_bond.size());
+  xml += "</CellData>\n<Points>\n";
+  a.array(xml, "Float64", "", 3, x.data(), 3 * m);
+  xml += "</Points>\n<Verts>\n";
+  a.array(xml, "Int64", "connectivity", 1, vert_conn.data(), vert_conn.size());
+  a.array(xml, "Int64", "offsets", 1, vert_off.data(), vert_off.size());
+  xml += "</Verts>\n<Lines>\n";
+  a.array(xml, "Int64", "connectivity", 1, line_conn.data(), line_conn.size());
+  a.array(xml, "Int64", "offsets", 1, line_off.data(), line_off.size());
+  xml += "</Lines>\n</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">\n_";
+  xml += a.block;
+  xml += "\n</AppendedData>\n</VTKFile>\n";
+  write_file_atomic(path, xml, Durability::atomic);
+}
+
+void write_pvtp(const std::filesystem::path& path, std::span<const std::string> pieces) {
+  // The arrays write_vtp_piece writes, declared once for all pieces.
+  std::string xml =
+      "<?xml version=\"1.0\"?>\n"
+      "<VTKFile type=\"PPolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
+      "<PPolyData GhostLevel=\"0\">\n"
+      "<PPointData Scalars=\"mass\" Vectors=\"velocity\">\n"
+      "<PDataArray type=\"Float64\" Name=\"velocity\" NumberOfComponents=\"3\"/>\n"
+      "<PDataArray type=\"Float64\" Name=\"mass\" NumberOfComponents=\"1\"/>\n"
+      "<PDataArray type=\"Int64\" Name=\"id\" NumberOfComponents=\"1\"/>\n"
+      "<PDataArray type=\"Int32\" Name=\"body\" NumberOfComponents=\"1\"/>\n"
+      "<PDataArray type=\"UInt8\" Name=\"kinematic\" NumberOfComponents=\"1\"/>\n"
+      "<PDataArray type=\"Float64\" Name=\"von_mises\" NumberOfComponents=\"1\"/>\n"
+      "<PDataArray type=\"Float64\" Name=\"stress\" NumberOfComponents=\"9\"/>\n"
+      "<PDataArray type=\"UInt8\" Name=\"vtkGhostType\" NumberOfComponents=\"1\"/>\n"
+      "</PPointData>\n<PCellData Scalars=\"tension\">\n"
+      "<PDataArray type=\"Float64\" Name=\"strain\" NumberOfComponents=\"1\"/>\n"
+      "<PDataArray type=\"Float64\" Name=\"tension\" NumberOfComponents=\"1\"/>\n"
+      "<PDataArray type=\"Int64\" Name=\"bond\" NumberOfComponents=\"1\"/>\n"
+      "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
+  for (const std::string& p : pieces) xml += "<Piece Source=\"" + escape(p) + "\"/>\n";
+  xml += "</PPolyData>\n</VTKFile>\n";
   write_file_atomic(path, xml, Durability::atomic);
 }
 

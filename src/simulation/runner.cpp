@@ -81,11 +81,8 @@ std::vector<std::string> kept_lines(const std::string& text, const std::string& 
 
 std::uint64_t leading_step(const std::string& line) { return std::stoull(line.substr(0, line.find(','))); }
 
-std::string frame_name(std::uint64_t step) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "frames/frame_%010llu.vtp", static_cast<unsigned long long>(step));
-  return buf;
-}
+// The frame of a step: its whole-world .vtp, or its .pvtp when the ranks write pieces.
+std::string frame_name(std::uint64_t step, bool pieces = false) { return frame_file(step, pieces ? "pvtp" : "vtp"); }
 
 std::string utc_now() {
   const std::time_t t = std::time(nullptr);
@@ -223,6 +220,7 @@ struct Runner::Impl {
   double end_time() const { return static_cast<double>(settings.steps) * scene.timestep; }
 
   std::function<StepReport()> stepper;  ///< set_stepper's, else the simulation's own step
+  std::function<const std::vector<BondEvent>&()> event_source;  ///< set_event_source's, else the simulation's
 
   StepReport step() {
     if (stepper) return stepper();
@@ -274,8 +272,11 @@ struct Runner::Impl {
     csv->write_line(diagnostics.row(w.model, w.state, sim.integrator().stats(), last_h));
     last_row = step;
     if (!settings.vtk) return;
-    const std::string name = frame_name(step);
-    write_vtp(out(name), w.model, w.state);
+    const std::string name = frame_name(step, static_cast<bool>(settings.write_frame));
+    if (settings.write_frame)
+      settings.write_frame(out(name));
+    else
+      write_vtp(out(name), w.model, w.state);
     series.add(w.state.time, name);
     // Rewritten whole, so only once it has grown by a sixteenth: rewritten every frame, its bytes
     // would grow with the square of the frames. The run's end writes the rest (write_series).
@@ -344,7 +345,9 @@ Runner::Runner(Scene scene, RunSettings settings)
   r.claim_output_dir();
   // Stale frames of an earlier run would show up in a file browser beside the new series.
   for (const auto& e : fs::directory_iterator(r.settings.out_dir / "frames"))
-    if (e.path().extension() == ".vtp" && e.path().filename().string().starts_with("frame_")) fs::remove(e.path());
+    if ((e.path().extension() == ".vtp" || e.path().extension() == ".pvtp") &&
+        e.path().filename().string().starts_with("frame_"))
+      fs::remove(e.path());
   fs::remove(r.out(kPvd));
   r.write_run_json("running", nullptr);
   try {
@@ -359,16 +362,25 @@ Runner::Runner(Scene scene, RunSettings settings)
   }
 }
 
-Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
-                      std::uint64_t max_memory) {
+namespace {
+// What a checkpoint resumes: its scene with the checkpoint's state, its run's settings (adjusted)
+// and, for adaptive steps, the next and last step.
+struct Resumed {
+  Scene scene;
+  RunSettings settings;
+  std::optional<std::pair<double, double>> adaptive_state;  // next step, last step
+};
+
+Resumed read_resumed(const fs::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
+                     std::uint64_t max_memory) {
   const std::uint64_t limit = max_memory > 0 ? max_memory : default_memory_limit();
   Checkpoint ck = load_checkpoint(checkpoint, limit);
   const std::string name = checkpoint.string();
   // The metadata is checked like a scene: the checksum only says the bytes are the ones written,
   // not that whoever wrote them wrote sense.
   json meta;
-  RunSettings settings;
-  std::optional<std::pair<double, double>> adaptive_state;  // next step, last step
+  Resumed out;
+  RunSettings& settings = out.settings;
   try {
     using namespace scene_detail;
     meta = parse_json_strict(ck.metadata);
@@ -378,24 +390,41 @@ Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene
     settings = settings_from_json(top.required("run"));
     if (top.has("adaptive")) {
       Obj a(top["adaptive"], "adaptive", {"next_step", "last_step"});
-      adaptive_state.emplace(positive(a.required("next_step"), a.at("next_step")),
-                             positive(a.required("last_step"), a.at("last_step")));
+      out.adaptive_state.emplace(positive(a.required("next_step"), a.at("next_step")),
+                                 positive(a.required("last_step"), a.at("last_step")));
     }
   } catch (const JsonTextError& e) {
     throw CheckpointError(name + ": metadata: " + e.what());
   } catch (const scene_detail::Bad& b) {
     throw CheckpointError(name + ": metadata: " + (b.path.empty() ? "" : b.path + ": ") + b.rule);
   }
-  Scene scene = parse_scene(meta["scene"].dump(), name + ", its scene", {.max_memory = max_memory});
+  out.scene = parse_scene(meta["scene"].dump(), name + ", its scene", {.max_memory = max_memory});
   settings.out_dir = fs::absolute(checkpoint).parent_path();
-  if (adjust) adjust(scene, settings);
+  if (adjust) adjust(out.scene, settings);
   try {
-    adopt_scene_bonds(ck, scene.world);
+    adopt_scene_bonds(ck, out.scene.world);
   } catch (const CheckpointError& e) {
     throw CheckpointError(name + ": " + e.what());
   }
-  scene.world.state = std::move(ck.state);
-  refuse_nothing_to_run(name, scene, settings);
+  out.scene.world.state = std::move(ck.state);
+  refuse_nothing_to_run(name, out.scene, settings);
+  return out;
+}
+}  // namespace
+
+std::pair<Scene, RunSettings> Runner::read_checkpoint(const fs::path& checkpoint,
+                                                      const std::function<void(Scene&, RunSettings&)>& adjust,
+                                                      std::uint64_t max_memory) {
+  Resumed r = read_resumed(checkpoint, adjust, max_memory);
+  return {std::move(r.scene), std::move(r.settings)};
+}
+
+Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
+                      std::uint64_t max_memory) {
+  Resumed resumed = read_resumed(checkpoint, adjust, max_memory);
+  Scene& scene = resumed.scene;
+  RunSettings& settings = resumed.settings;
+  const auto& adaptive_state = resumed.adaptive_state;
   auto impl = std::make_unique<Impl>(std::move(scene), std::move(settings));
   Impl& r = *impl;
   r.resumed_from = fs::absolute(checkpoint).string();
@@ -421,11 +450,19 @@ Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene
     const std::uint64_t step = leading_step(line);
     const bool keep = step <= at && (step % r.settings.every == 0);
     if (keep) {
-      if (r.settings.vtk && fs::exists(r.out(frame_name(step))))
-        r.series.add(std::strtod(line.c_str() + line.find(',') + 1, nullptr), frame_name(step));
+      // The frame the run wrote: whole, or in pieces (a .pvtp).
+      for (bool pieces : {false, true})
+        if (r.settings.vtk && fs::exists(r.out(frame_name(step, pieces))))
+          r.series.add(std::strtod(line.c_str() + line.find(',') + 1, nullptr), frame_name(step, pieces));
       r.last_row = step;
     } else if (r.settings.vtk) {
       fs::remove(r.out(frame_name(step)));
+      if (fs::remove(r.out(frame_name(step, true)))) {
+        // and its pieces, frame_<step>_<rank>.vtp
+        const std::string piece = fs::path(frame_name(step)).stem().string() + "_";
+        for (const auto& e : fs::directory_iterator(r.settings.out_dir / "frames"))
+          if (e.path().extension() == ".vtp" && e.path().filename().string().starts_with(piece)) fs::remove(e.path());
+      }
     }
     return keep;
   });
@@ -472,7 +509,8 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
       result.message = rep.message;
       break;
     }
-    for (const BondEvent& e : r.sim.events()) r.events->write_line(event_row(e, r.sim.world()));
+    for (const BondEvent& e : r.event_source ? r.event_source() : r.sim.events())
+      r.events->write_line(event_row(e, r.sim.world()));
     if (r.sim.energy_gain().exceeded && !gain_reported) {
       r.events->write_line(gain_row(r.sim.energy_gain()));
       gain_reported = true;
@@ -517,6 +555,15 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
 const Scene& Runner::scene() const { return impl_->scene; }
 const RunSettings& Runner::settings() const { return impl_->settings; }
 Simulation& Runner::simulation() { return impl_->sim; }
+std::string frame_file(std::uint64_t step, std::string_view extension) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "frames/frame_%010llu.", static_cast<unsigned long long>(step));
+  return buf + std::string(extension);
+}
+
 void Runner::set_stepper(std::function<StepReport()> step) { impl_->stepper = std::move(step); }
+void Runner::set_event_source(std::function<const std::vector<BondEvent>&()> events) {
+  impl_->event_source = std::move(events);
+}
 
 }  // namespace qbond

@@ -21,7 +21,7 @@ Mat3 cross_matrix(const Vec3& e) {
 
 }  // namespace
 
-Index aggregate(const BlockMatrix& A, std::vector<Index>& agg) {
+Index aggregate(const BlockMatrix& A, std::vector<Index>& agg, int radius) {
   const Index n = A.rows;
   agg.assign(n, kNone);
   Index count = 0;
@@ -37,6 +37,12 @@ Index aggregate(const BlockMatrix& A, std::vector<Index>& agg) {
     if (!free) continue;
     agg[i] = count;
     neighbours(i, [&](Index j) { agg[j] = count; });
+    if (radius > 1)
+      neighbours(i, [&](Index j) {
+        neighbours(j, [&](Index k) {
+          if (agg[k] == kNone) agg[k] = count;
+        });
+      });
     ++count;
   }
   // Left-over points join their first neighbour's aggregate from the first pass.

@@ -9,10 +9,12 @@
 namespace qbond {
 
 /// Groups the block rows of A (graph: its off-diagonal blocks) into aggregates, in index order:
-/// a point whose neighbours are all free starts an aggregate with them; a point left over joins
-/// the aggregate of its first aggregated neighbour; what remains groups with its free neighbours.
-/// agg[i] is point i's aggregate; returns their count. The same aggregates for the same pattern.
-Index aggregate(const BlockMatrix& A, std::vector<Index>& agg);
+/// a point whose neighbours are all free starts an aggregate with them (radius 1; with 2 also with
+/// its neighbours' free neighbours: about half as many aggregates); a point left over
+/// joins the aggregate of its first aggregated neighbour; what remains groups with its free
+/// neighbours. agg[i] is point i's aggregate; returns their count. The same aggregates for the
+/// same pattern.
+Index aggregate(const BlockMatrix& A, std::vector<Index>& agg, int radius = 1);
 
 /// The near-null space of a level: for each of its points, a bs × 6 block (row-major) whose
 /// columns are the rigid modes (translations, rotations about `origin` with lengths in units of

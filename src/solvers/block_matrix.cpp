@@ -154,9 +154,10 @@ void numeric_product(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
 }
 
 // Rows [lo, hi) of y = A x (or of r = b − A x) for a packed matrix: E stored entries a block,
-// column-major when it has six rows, so that its product is a vector loop over them; each
-// entry's sum runs over the row's blocks, then their columns, in order (the same bits in every
-// clone).
+// column-major when it has six rows. A general block's product keeps one partial sum per block
+// entry, a_e x_c(e) added over the row's blocks in order, then sums each row's partials over the
+// columns in order: a vector loop whose additions chain only from block to block, not through a
+// block's columns (the same bits in every clone).
 template <class T, int R, int C, bool kSym, bool kResidual>
 QBOND_VECTOR_INLINE void packed_range(const PackedMatrix<T>& A, const double* x, const double* b, double* y,
                                       std::size_t lo, std::size_t hi) {
@@ -164,22 +165,30 @@ QBOND_VECTOR_INLINE void packed_range(const PackedMatrix<T>& A, const double* x,
   for (std::size_t i = lo; i < hi; ++i) {
     double s[R] = {};
     const T* a = A.val.data() + static_cast<std::size_t>(A.offset[i]) * E;
-    for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k, a += E) {
-      const double* xj = x + static_cast<std::size_t>(A.col[k]) * C;
-      if constexpr (kSym) {
+    if constexpr (kSym) {
+      for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k, a += E) {
+        const double* xj = x + static_cast<std::size_t>(A.col[k]) * C;
         const double a0 = a[0], a1 = a[1], a2 = a[2], a3 = a[3], a4 = a[4], a5 = a[5];
         s[0] += a0 * xj[0] + a3 * xj[1] + a4 * xj[2];
         s[1] += a3 * xj[0] + a1 * xj[1] + a5 * xj[2];
         s[2] += a4 * xj[0] + a5 * xj[1] + a2 * xj[2];
-      } else if constexpr (R == 6) {  // column-major
-        for (int c = 0; c < C; ++c) {
-          const double xc = xj[c];
-          QBOND_SIMD for (int r = 0; r < R; ++r) s[r] += static_cast<double>(a[c * R + r]) * xc;
-        }
-      } else {
-        for (int r = 0; r < R; ++r)
-          for (int c = 0; c < C; ++c) s[r] += static_cast<double>(a[r * C + c]) * xj[c];
       }
+    } else {
+      double part[E] = {};
+      for (Index k = A.offset[i]; k < A.offset[i + 1]; ++k, a += E) {
+        const double* xj = x + static_cast<std::size_t>(A.col[k]) * C;
+        if constexpr (R == 6) {  // column-major
+          for (int c = 0; c < C; ++c) {
+            const double xc = xj[c];
+            QBOND_SIMD for (int r = 0; r < R; ++r) part[c * R + r] += static_cast<double>(a[c * R + r]) * xc;
+          }
+        } else {
+          for (int r = 0; r < R; ++r)
+            QBOND_SIMD for (int c = 0; c < C; ++c) part[r * C + c] += static_cast<double>(a[r * C + c]) * xj[c];
+        }
+      }
+      for (int r = 0; r < R; ++r)
+        for (int c = 0; c < C; ++c) s[r] += R == 6 ? part[c * R + r] : part[r * C + c];
     }
     for (int r = 0; r < R; ++r) y[i * R + r] = kResidual ? b[i * R + r] - s[r] : s[r];
   }

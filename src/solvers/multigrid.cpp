@@ -50,6 +50,45 @@ void block_scale(const std::vector<double>& Dinv, int bs, Index rows, const doub
       1);
 }
 
+// One Chebyshev step on block rows [lo, hi) in one pass: r_i = r0_i − t_i (r0 may be r),
+// d_i = c1 d_i + c2 Dinv_i r_i, x_i += d_i.
+template <int B>
+QBOND_TEMPLATE_CLONES void chebyshev_step_range(const double* Dinv, const double* r0, const double* t, double c1,
+                                              double c2, double* r, double* d, double* x, std::size_t lo,
+                                              std::size_t hi) {
+  for (std::size_t i = lo; i < hi; ++i) {
+    const double* D = Dinv + i * B * B;
+    double ri[B], u[B] = {};
+    QBOND_SIMD for (int k = 0; k < B; ++k) {
+      ri[k] = r0[i * B + k] - t[i * B + k];
+      r[i * B + k] = ri[k];
+    }
+    for (int c = 0; c < B; ++c) {
+      const double rc = ri[c];
+      QBOND_SIMD for (int k = 0; k < B; ++k) u[k] += D[c * B + k] * rc;
+    }
+    QBOND_SIMD for (int k = 0; k < B; ++k) {
+      d[i * B + k] = c1 * d[i * B + k] + c2 * u[k];
+      x[i * B + k] += d[i * B + k];
+    }
+  }
+}
+
+void chebyshev_step(const std::vector<double>& Dinv, int bs, Index rows, const double* r0, const double* t,
+                    double c1, double c2, double* r, double* d, double* x, int threads) {
+  constexpr std::size_t kRange = 256;
+  parallel_for(
+      (rows + kRange - 1) / kRange, threads,
+      [&](std::size_t g) {
+        const std::size_t lo = g * kRange, hi = std::min<std::size_t>(rows, lo + kRange);
+        if (bs == 3)
+          chebyshev_step_range<3>(Dinv.data(), r0, t, c1, c2, r, d, x, lo, hi);
+        else
+          chebyshev_step_range<6>(Dinv.data(), r0, t, c1, c2, r, d, x, lo, hi);
+      },
+      1);
+}
+
 template <int N>
 void invert_block(const double* a, double* out) {
   using M = Eigen::Matrix<double, N, N, Eigen::RowMajor>;
@@ -158,7 +197,7 @@ void Multigrid::build(const BlockMatrix& A, const std::vector<Vec3>& x, int thre
     const std::size_t n =
         static_cast<std::size_t>(levels_[l].A.rows) * static_cast<std::size_t>(levels_[l].A.br);
     if (n <= coarsest || l + 1 >= kMaxLevels) break;
-    const Index count = aggregate(levels_[l].A, agg);
+    const Index count = aggregate(levels_[l].A, agg, l == 0 ? fine_aggregate_radius : 1);
     if (static_cast<double>(count) * 6 > 0.8 * static_cast<double>(n)) break;  // not coarsening
     BlockMatrix P0;
     NearNullSpace next;
@@ -236,11 +275,13 @@ void Multigrid::chebyshev(Level& L, bool zero_start, int threads) {
   const double hi = 1.1 * L.lambda, lo = hi / 5;
   const double theta = (hi + lo) / 2, delta = (hi - lo) / 2, sigma = theta / delta;
   double rho = 1 / sigma;
-  if (zero_start)
-    L.r = L.b;
-  else
+  // From zero the residual is b itself: the first step reads it there, without a copy.
+  const double* r0 = L.b.data();
+  if (!zero_start) {
     level_residual(l, L.b.data(), L.x.data(), L.r.data(), threads);
-  block_scale(L.Dinv, bs, L.A.rows, L.r.data(), 1 / theta, L.d.data(), threads);
+    r0 = L.r.data();
+  }
+  block_scale(L.Dinv, bs, L.A.rows, r0, 1 / theta, L.d.data(), threads);
   if (zero_start)
     L.x = L.d;
   else
@@ -248,13 +289,9 @@ void Multigrid::chebyshev(Level& L, bool zero_start, int threads) {
   for (int it = 1; it < smoothing_degree; ++it) {
     level_multiply(l, L.d.data(), L.t.data(), threads);
     const double rho_next = 1 / (2 * sigma - rho);
-    const double c1 = rho_next * rho, c2 = 2 * rho_next / delta;
-    parallel_for(n, threads, [&](std::size_t k) { L.r[k] -= L.t[k]; });
-    block_scale(L.Dinv, bs, L.A.rows, L.r.data(), c2, L.t.data(), threads);
-    parallel_for(n, threads, [&](std::size_t k) {
-      L.d[k] = c1 * L.d[k] + L.t[k];
-      L.x[k] += L.d[k];
-    });
+    chebyshev_step(L.Dinv, bs, L.A.rows, r0, L.t.data(), rho_next * rho, 2 * rho_next / delta, L.r.data(),
+                   L.d.data(), L.x.data(), threads);
+    r0 = L.r.data();
     rho = rho_next;
   }
 }

@@ -1,14 +1,16 @@
 #!/usr/bin/python3
-"""A run over ranks stops half way; its checkpoint resumes on one rank as if the run alone had
-never stopped.
+"""A run over ranks stops half way; its checkpoint resumes on any number of ranks as if the run
+alone had never stopped.
 
 Usage: mpi_resume_test.py QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC [--mpiexec-flag F ...]
+                          [--resume-ranks R ...] [--stop-at K]
 
-Runs SCENE alone to its end, and over N ranks to half its steps, then resumes that run's
-checkpoint alone to the end: every frame of the resumed run must hold the bytes of the run
+Runs SCENE alone to its end, and over N ranks to half its steps (or to step K), then resumes a copy of that
+run's directory from its checkpoint to the end for each R (0, the default: alone, without the
+launcher; else over R ranks): every frame of each resumed run must hold the bytes of the run
 alone's (the state, velocity Verlet's carried forces included, travels whole through the
 checkpoint), and its diagnostics match to 1e-12 of the energy's scale (the ledger's sums,
-added rank by rank before the stop, differ in the last digits).
+added rank by rank, differ in the last digits).
 """
 import argparse
 import csv
@@ -25,7 +27,10 @@ p.add_argument("work")
 p.add_argument("--ranks", type=int, required=True)
 p.add_argument("--mpiexec", required=True)
 p.add_argument("--mpiexec-flag", action="append", default=[])
+p.add_argument("--resume-ranks", type=int, action="append", default=[])
+p.add_argument("--stop-at", type=int)
 a = p.parse_args()
+a.resume_ranks = a.resume_ranks or [0]
 
 
 def run(cmd):
@@ -39,22 +44,26 @@ alone, split = os.path.join(a.work, "alone"), os.path.join(a.work, "split")
 steps = json.load(open(a.scene))["steps"]
 run([a.qbond, "run", a.scene, "-o", alone, "--quiet"])
 run([a.mpiexec] + a.mpiexec_flag + ["-n", str(a.ranks), a.qbond, "run", a.scene, "-o", split, "--quiet",
-                                     "--steps", str(steps // 2)])
-run([a.qbond, "run", "--resume", os.path.join(split, "checkpoint.qbc"), "--steps", str(steps), "--quiet"])
-
+                                     "--steps", str(a.stop_at or steps // 2)])
 frames = sorted(os.listdir(os.path.join(alone, "frames")))
-if frames != sorted(os.listdir(os.path.join(split, "frames"))):
-    sys.exit("the resumed run wrote other frames than the run alone")
-for f in frames:
-    if open(os.path.join(alone, "frames", f), "rb").read() != open(os.path.join(split, "frames", f), "rb").read():
-        sys.exit(f"frames/{f}: the run stopped over {a.ranks} ranks and resumed alone differs from the run alone")
 one = list(csv.reader(open(os.path.join(alone, "diagnostics.csv"))))
-two = list(csv.reader(open(os.path.join(split, "diagnostics.csv"))))
-if one[0] != two[0] or len(one) != len(two):
-    sys.exit("the diagnostics' columns or rows differ")
 scale = max(abs(float(r[one[0].index("total")])) for r in one[1:])
-for r1, r2 in zip(one[1:], two[1:]):
-    for h, x, y in zip(one[0], r1, r2):
-        if abs(float(x) - float(y)) > 1e-12 * max(scale, abs(float(x))):
-            sys.exit(f"diagnostics step {r1[0]}, {h}: {x} alone, {y} stopped over {a.ranks} ranks and resumed")
-print(f"{len(frames)} frames the same bytes; diagnostics within 1e-12 of the energy's scale")
+for ranks in a.resume_ranks:
+    where = "alone" if ranks == 0 else f"over {ranks} ranks"
+    resumed = os.path.join(a.work, f"resumed_{ranks}")
+    shutil.copytree(split, resumed)
+    cmd = [a.qbond, "run", "--resume", os.path.join(resumed, "checkpoint.qbc"), "--steps", str(steps), "--quiet"]
+    run(cmd if ranks == 0 else [a.mpiexec] + a.mpiexec_flag + ["-n", str(ranks)] + cmd)
+    if frames != sorted(os.listdir(os.path.join(resumed, "frames"))):
+        sys.exit(f"the run resumed {where} wrote other frames than the run alone")
+    for f in frames:
+        if open(os.path.join(alone, "frames", f), "rb").read() != open(os.path.join(resumed, "frames", f), "rb").read():
+            sys.exit(f"frames/{f}: the run stopped over {a.ranks} ranks and resumed {where} differs from the run alone")
+    two = list(csv.reader(open(os.path.join(resumed, "diagnostics.csv"))))
+    if one[0] != two[0] or len(one) != len(two):
+        sys.exit(f"the diagnostics' columns or rows differ (resumed {where})")
+    for r1, r2 in zip(one[1:], two[1:]):
+        for h, x, y in zip(one[0], r1, r2):
+            if abs(float(x) - float(y)) > 1e-12 * max(scale, abs(float(x))):
+                sys.exit(f"diagnostics step {r1[0]}, {h}: {x} alone, {y} stopped over {a.ranks} ranks and resumed {where}")
+    print(f"resumed {where}: {len(frames)} frames the same bytes; diagnostics within 1e-12 of the energy's scale")

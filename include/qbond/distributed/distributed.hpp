@@ -7,6 +7,7 @@
 /// one rank and a run is the ordinary one.
 #include <functional>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <vector>
 
@@ -51,11 +52,16 @@ struct RanksStats {
 /// A run of a scene over the job's ranks: every rank constructs it with the same scene and
 /// settings, and rank 0 writes the run's outputs (Runner: the same files and columns as a run on
 /// one rank, from the state gathered at each output step). What is not distributed yet is refused
-/// with std::invalid_argument: heuristics, loads, adaptive steps, integrators other than
-/// velocity_verlet, explicit_euler and symplectic_euler.
+/// with std::invalid_argument: heuristics other than fracture by strain, compression and tension
+/// (`break`), loads, adaptive steps, integrators other than velocity_verlet, explicit_euler and
+/// symplectic_euler.
 class RanksRun {
  public:
   RanksRun(Scene scene, RunSettings settings);
+  /// Resumes a checkpoint over the job's ranks (Runner::resume's arguments and guarantees): every
+  /// rank reads it, whatever the number of ranks that wrote it, and rank 0 continues its outputs.
+  RanksRun(const std::filesystem::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
+           std::uint64_t max_memory);
   ~RanksRun();
   RanksRun(const RanksRun&) = delete;
   RanksRun& operator=(const RanksRun&) = delete;

@@ -5,15 +5,19 @@
 /// the scene reader's heuristic types, their keys in the JSON Schema, heuristic_types() and the
 /// docs test all derive from this list.
 ///
-/// Adding a heuristic touches only: its files (the rule and its factory in a header here; its
-/// step, its factory and its scene types — `scene_readers(std::type_identity<Rule>)`, see
-/// src/io/scene/heuristic_entry.hpp — in src/heuristics/), its tests, and one line of
-/// QBOND_HEURISTICS (beside its #include). Its row in docs/scene-format.md's `heuristics` key
-/// table follows (tests/scene_test.cpp fails until it exists).
+/// Adding a heuristic touches three files: its header here, which holds the whole rule (its
+/// parameters, its step, its factory, and its scene type: `scene_type`, `scene_doc`,
+/// `scene_keys` and `from_scene(entry)`, as damping_zone.hpp does), its tests, and this file (its
+/// #include and its line of QBOND_HEURISTICS). A rule whose step needs the library's private
+/// helpers (the spatial hash of contacts and formation) puts its step, its factory and its scene
+/// types — `scene_readers(std::type_identity<Rule>)`, src/io/scene/heuristic_entry.hpp — in a
+/// source of src/heuristics/ instead: one file more. Its row in docs/scene-format.md's
+/// `heuristics` key table follows (tests/scene_test.cpp fails until it exists).
 #include <memory>
 #include <variant>
 
 #include "qbond/heuristics/contacts.hpp"
+#include "qbond/heuristics/damping_zone.hpp"
 #include "qbond/heuristics/formation.hpp"
 #include "qbond/heuristics/fracture.hpp"
 #include "qbond/model/obstacle.hpp"
@@ -26,7 +30,8 @@ namespace qbond {
   X(PlasticRule)            \
   X(Obstacle)               \
   X(QuantaContactRule)      \
-  X(FormRule)
+  X(FormRule)               \
+  X(DampingZone)
 
 namespace heuristics_detail {
 struct First {};  // leads the list below so that every rule can follow a comma

@@ -3,6 +3,7 @@
 /// returns the change of position and velocity of every quanta without moving anything, so that
 /// heuristics can edit the projection before the step applies it (simulation.hpp).
 #include <cstdint>
+#include <initializer_list>
 #include <limits>
 #include <memory>
 #include <span>
@@ -180,6 +181,8 @@ int max_threads();
 /// The threads `threads` stands for (0: OpenMP's default, from OMP_NUM_THREADS or the cores).
 /// Throws std::invalid_argument, saying where the count came from, above max_threads().
 int checked_thread_count(int threads);
+/// max_threads() and where it comes from, for messages.
+std::string max_threads_text();
 
 /// The defaults qbond ships (chosen from the measurements in docs/integrators.md).
 IntegratorConfig default_integrator();
@@ -250,6 +253,7 @@ struct IntegratorOptionInfo {
   IntegratorOption option;
   std::string_view key;
   std::string_view description;
+  std::uint16_t read_by = 0;  ///< the integrators that read it: bits 1 << IntegratorType (integrator_bits)
   Holds holds;
   int IntegratorConfig::*integer = nullptr;    ///< integer: the field, at least `least`
   double IntegratorConfig::*number = nullptr;  ///< number: the field, > 0 when `positive`, else ≥ 0
@@ -277,26 +281,26 @@ struct NamedValue {
   std::string_view description;
 };
 
-/// One integrator: its scene-file key, one line on it, the options it reads and the values of
-/// `solver` and `warm_start` it takes. The one list of integrators: scene files, the command
+/// One integrator: its scene-file key, one line on it, and the values of `solver` and
+/// `warm_start` it takes (the options it reads: their rows' read_by). The one list of integrators: scene files, the command
 /// line, the viewer's menu and the docs all take their integrators and options from it.
 struct IntegratorInfo {
   IntegratorType type;
   std::string_view key;
   std::string_view description;
-  std::uint16_t options;                   ///< IntegratorOption bits
   std::span<const CoupledSolver> solvers;  ///< the `solver` values it takes (empty: it reads none)
   std::span<const WarmStart> warm_starts;  ///< the `warm_start` values it takes (empty: it reads none)
   /// Its constructor, options checked (the library's: make_integrator is the public way).
   std::unique_ptr<StepIntegrator> (*make)(const IntegratorConfig&);
-  bool reads(IntegratorOption o) const { return (options & static_cast<std::uint16_t>(o)) != 0; }
+  /// Whether it reads an option (the option's row of kIntegratorOptions says).
+  bool reads(IntegratorOption o) const;
 };
 
 /// Every integrator, in the order of IntegratorType.
 std::span<const IntegratorInfo> integrator_table();
 /// The row of integrator_table() for `t`.
 const IntegratorInfo& integrator_info(IntegratorType t);
-/// Every option an integrator may read, in the order scene files list them.
+/// Every option an integrator may read, in the order scene files list them (kIntegratorOptions).
 std::span<const IntegratorOptionInfo> integrator_options();
 /// Every neighbour model, coupled solver and warm start, in enumeration order.
 std::span<const NamedValue<NeighbourModel>> neighbour_models();
@@ -317,6 +321,136 @@ NeighbourModel parse_neighbour_model(std::string_view s);
 CoupledSolver parse_coupled_solver(std::string_view s);
 WarmStart parse_warm_start(std::string_view s);
 Preconditioner parse_preconditioner(std::string_view s);
+
+/// The integrators an option's row says read it, as bits 1 << IntegratorType.
+constexpr std::uint16_t integrator_bits(std::initializer_list<IntegratorType> types) {
+  std::uint16_t b = 0;
+  for (IntegratorType t : types) b = static_cast<std::uint16_t>(b | (1u << static_cast<int>(t)));
+  return b;
+}
+/// Every integrator, present and to come.
+inline constexpr std::uint16_t kEveryIntegrator = 0xFFFF;
+/// The Newton-solved integrators.
+inline constexpr std::uint16_t kNewtonIntegrators =
+    integrator_bits({IntegratorType::energy_momentum, IntegratorType::implicit_midpoint, IntegratorType::bdf2});
+/// The integrators that solve for the step (a tolerance, a warm start, momentum restoration).
+inline constexpr std::uint16_t kSolvingIntegrators =
+    kNewtonIntegrators | integrator_bits({IntegratorType::hybrid_implicit, IntegratorType::coupled_implicit});
+
+/// The scene-file names of an enumeration's values.
+template <class E>
+std::vector<std::string_view> names_of(std::span<const NamedValue<E>> values) {
+  std::vector<std::string_view> names;
+  for (const NamedValue<E>& v : values) names.push_back(v.key);
+  return names;
+}
+
+/// Every option an integrator may read, one row each: its key, one line, the integrators that
+/// read it, and its field of IntegratorConfig with the values it takes. The scene reader, the
+/// resolved scene, the JSON Schema, the Python module, the command line and the viewer read and
+/// write every option through its row alone; a new option is its field above, its row here and
+/// the code that reads it in its integrators' files.
+namespace integrator_options_detail {
+using O = IntegratorOption;
+using H = IntegratorOptionInfo::Holds;
+using C = IntegratorConfig;
+using T = IntegratorType;
+inline constexpr IntegratorOptionInfo rows[] = {
+    {.option = O::neighbours,
+     .key = "neighbours",
+     .description = "how the hybrid solve treats a quanta's neighbours",
+     .read_by = integrator_bits({T::hybrid_implicit}),
+     .holds = H::name,
+     .name_of = [](const C& c) { return to_string(c.neighbours); },
+     .set_name = [](C& c, std::string_view s) { c.neighbours = parse_neighbour_model(s); },
+     .names = [] { return names_of(neighbour_models()); }},
+    {.option = O::solver,
+     .key = "solver",
+     .description = "the linear solver",
+     .read_by = kNewtonIntegrators | integrator_bits({T::coupled_implicit}),
+     .holds = H::name,
+     .name_of = [](const C& c) { return to_string(c.solver); },
+     .set_name = [](C& c, std::string_view s) { c.solver = parse_coupled_solver(s); },
+     .names = [] { return names_of(coupled_solvers()); }},
+    {.option = O::iterations,
+     .key = "iterations",
+     .description = "sweeps per step (hybrid) or per Newton iteration (solver sweep), >= 1",
+     .read_by = kNewtonIntegrators | integrator_bits({T::hybrid_implicit}),
+     .holds = H::integer,
+     .integer = &C::iterations,
+     .least = 1},
+    {.option = O::max_iterations,
+     .key = "max_iterations",
+     .description = "CG's iteration cap (0: three times the free unknowns)",
+     .read_by = kNewtonIntegrators | integrator_bits({T::coupled_implicit}),
+     .holds = H::integer,
+     .integer = &C::max_iterations},
+    {.option = O::tolerance,
+     .key = "tolerance",
+     .description = "relative residual at which sweeps, CG and Newton stop",
+     .read_by = kSolvingIntegrators,
+     .holds = H::number,
+     .number = &C::tolerance,
+     .positive = true},
+    {.option = O::chebyshev_rho,
+     .key = "chebyshev_rho",
+     .description = "sweeps: spectral radius for Chebyshev acceleration, [0, 1) (0: off)",
+     .read_by = kNewtonIntegrators | integrator_bits({T::hybrid_implicit}),
+     .holds = H::number,
+     .number = &C::chebyshev_rho,
+     .below = 1},
+    {.option = O::warm_start,
+     .key = "warm_start",
+     .description = "the iterative solvers' initial guess",
+     .read_by = kSolvingIntegrators,
+     .holds = H::name,
+     .name_of = [](const C& c) { return to_string(c.warm_start); },
+     .set_name = [](C& c, std::string_view s) { c.warm_start = parse_warm_start(s); },
+     .names = [] { return names_of(warm_starts()); }},
+    {.option = O::restore_momentum,
+     .key = "restore_momentum",
+     .description = "give each free component its exact momentum change",
+     .read_by = kSolvingIntegrators,
+     .holds = H::boolean,
+     .boolean = &C::restore_momentum},
+    {.option = O::newton_iterations,
+     .key = "newton_iterations",
+     .description = "Newton iterations per step at most, >= 1",
+     .read_by = kNewtonIntegrators,
+     .holds = H::integer,
+     .integer = &C::newton_iterations,
+     .least = 1},
+    {.option = O::newton_polish,
+     .key = "newton_polish",
+     .description = "exact-Newton corrections to round-off once the tolerance is met",
+     .read_by = integrator_bits({T::energy_momentum, T::implicit_midpoint}),
+     .holds = H::boolean,
+     .boolean = &C::newton_polish},
+    {.option = O::threads,
+     .key = "threads",
+     .description = "OpenMP threads (0: all cores); the same bits for any count",
+     .read_by = kEveryIntegrator,
+     .holds = H::integer,
+     .integer = &C::threads,
+     .most = max_threads,
+     .most_text = max_threads_text},
+    {.option = O::restore_energy,
+     .key = "restore_energy",
+     .description = "give back the energy the integrator removed (or take back what it made)",
+     .read_by = kEveryIntegrator,
+     .holds = H::boolean,
+     .boolean = &C::restore_energy},
+    {.option = O::preconditioner,
+     .key = "preconditioner",
+     .description = "CG's preconditioner",
+     .read_by = integrator_bits({T::coupled_implicit}),
+     .holds = H::name,
+     .name_of = [](const C& c) { return to_string(c.preconditioner); },
+     .set_name = [](C& c, std::string_view s) { c.preconditioner = parse_preconditioner(s); },
+     .names = [] { return names_of(preconditioners()); }},
+};
+}  // namespace integrator_options_detail
+inline constexpr std::span<const IntegratorOptionInfo> kIntegratorOptions = integrator_options_detail::rows;
 
 /// Fills the kinematic quanta's rows of a projection with their prescribed motion over
 /// [ctx.t, ctx.t + h] (free rows untouched). Every integrator calls it first.

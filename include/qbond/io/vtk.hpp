@@ -1,5 +1,6 @@
 #pragma once
 /// ParaView output (docs/running.md): VTK XML PolyData frames and a .pvd time series.
+#include <cstdint>
 #include <filesystem>
 #include <span>
 #include <string>
@@ -24,6 +25,20 @@ struct PointArray {
 /// vertex cells first (0, 0, -1), then the lines, as VTK orders cells.
 void write_vtp(const std::filesystem::path& path, const Model& model, const State& state,
                std::span<const PointArray> extra = {});
+
+/// Writes one piece of a frame split over MPI ranks (a VTK XML PolyData file a .pvtp lists): the
+/// quanta with `owned` set, as vertex cells, and the alive bonds with `shown` set, as lines; the
+/// other ends of those bonds are points too, with vtkGhostType 1 (a duplicate point, which
+/// ParaView shows once) and no vertex cell. The arrays are write_vtp's, computed over the whole
+/// of `model` and `state` (a rank's piece, which holds every bond of the quanta it owns), and the
+/// point array vtkGhostType (UInt8: 0 for owned quanta, 1 for the other ends). Points come in
+/// ascending user id, lines in bond-id order.
+void write_vtp_piece(const std::filesystem::path& path, const Model& model, const State& state,
+                     std::span<const std::uint8_t> owned, std::span<const std::uint8_t> shown);
+
+/// Writes a ParaView parallel PolyData file (.pvtp) whose pieces are `pieces` (file names relative
+/// to its directory, each written by write_vtp_piece), declaring their arrays.
+void write_pvtp(const std::filesystem::path& path, std::span<const std::string> pieces);
 
 /// A ParaView collection (.pvd) of frames over time.
 class PvdSeries {

@@ -8,6 +8,8 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include "qbond/io/scene.hpp"
 #include "qbond/simulation/simulation.hpp"
@@ -21,7 +23,17 @@ struct RunSettings {
   std::uint64_t every = 1;                ///< steps between diagnostics rows and frames
   std::uint64_t checkpoint_every = 0;     ///< steps between checkpoints; 0: at the end and on stops only
   bool vtk = true;                        ///< write .vtp frames and the .pvd series
+  /// Over MPI ranks: each frame a .pvtp with one .vtp piece per rank (RanksRun); alone, no effect.
+  /// Not kept in checkpoints: a resumed run takes it from its command line.
+  bool frame_pieces = false;
+  /// When set, writes each frame, to the file it is given (frames/frame_<step>.pvtp), instead of
+  /// a whole-world .vtp: RanksRun's, whose ranks write a piece each.
+  std::function<void(const std::filesystem::path&)> write_frame;
 };
+
+/// The file of a step's frame, relative to the output directory: frames/frame_<step, 10
+/// digits>.<extension>.
+std::string frame_file(std::uint64_t step, std::string_view extension);
 
 /// The settings a scene asks for (its `steps` and `output` section).
 RunSettings settings_of(const Scene& scene);
@@ -76,6 +88,12 @@ class Runner {
   /// thrown before anything is written.
   static Runner resume(const std::filesystem::path& checkpoint,
                        const std::function<void(Scene&, RunSettings&)>& adjust = {}, std::uint64_t max_memory = 0);
+  /// What resume() would run, without touching the checkpoint's directory: the checkpoint's scene
+  /// with its state in scene.world, and its run's settings, after `adjust` (the same checks and
+  /// errors). Every rank of a run over ranks reads it (RanksRun).
+  static std::pair<Scene, RunSettings> read_checkpoint(const std::filesystem::path& checkpoint,
+                                                       const std::function<void(Scene&, RunSettings&)>& adjust = {},
+                                                       std::uint64_t max_memory = 0);
   ~Runner();
   Runner(Runner&&) noexcept;
   Runner& operator=(Runner&&) = delete;
@@ -92,6 +110,9 @@ class Runner {
   /// Replaces how each step is taken: `step` advances simulation().world() by one step and
   /// reports it (a run over MPI ranks steps its pieces and gathers the state here, RanksRun).
   void set_stepper(std::function<StepReport()> step);
+  /// Replaces where each step's bond events come from (events.csv): with set_stepper, the
+  /// stepper's own events, the bonds of simulation().world() already broken or formed.
+  void set_event_source(std::function<const std::vector<BondEvent>&()> events);
 
  private:
   struct Impl;

@@ -150,7 +150,7 @@ class Builder {
   void loads(const json& j, World& w);
 
   // heuristics.cpp: the `heuristics` section, each entry read by its type's reader (the rule's
-  // own file, src/heuristics/); obstacles solved inside the step join the model instead.
+  // own file); obstacles solved inside the step join the model instead.
   std::vector<HeuristicSpec> heuristics(const json& j, World& w);
 
   // output.cpp: the `output` section
