@@ -24,9 +24,7 @@ is over every step. Checks:
 Exits non-zero with a message naming the file, the column or quanta and the difference.
 """
 import argparse
-import csv
 import json
-import math
 import os
 import re
 import shutil
@@ -34,8 +32,9 @@ import subprocess
 import sys
 
 import numpy as np
-import vtk
 from vtk.util.numpy_support import vtk_to_numpy
+
+from run_outputs import frames, poly, read, rows
 
 p = argparse.ArgumentParser()
 p.add_argument("qbond")
@@ -81,27 +80,6 @@ def run(out, ranks):
     if r.returncode != 0:
         sys.exit(f"{' '.join(cmd)}: exit {r.returncode}\n{r.stdout}\n{r.stderr}")
     return r.stdout
-
-
-def read(path):
-    with open(path, "rb") as f:
-        return f.read()
-
-
-def frames(out):
-    return sorted(os.listdir(os.path.join(out, "frames")))
-
-
-def rows(out):
-    with open(os.path.join(out, "diagnostics.csv")) as f:
-        return list(csv.reader(f))
-
-
-def poly(path):
-    r = vtk.vtkXMLPolyDataReader()
-    r.SetFileName(path)
-    r.Update()
-    return r.GetOutput()
 
 
 os.makedirs(a.work, exist_ok=True)

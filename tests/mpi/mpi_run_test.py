@@ -28,8 +28,9 @@ import shutil
 import subprocess
 import sys
 
-import vtk
 from vtk.util.numpy_support import vtk_to_numpy
+
+from run_outputs import frames, poly, read, rows
 
 p = argparse.ArgumentParser()
 p.add_argument("qbond")
@@ -64,27 +65,6 @@ def run(out, ranks):
 
 
 blowups = []
-
-
-def read(path):
-    with open(path, "rb") as f:
-        return f.read()
-
-
-def frames(out):
-    return sorted(os.listdir(os.path.join(out, "frames")))
-
-
-def rows(out):
-    with open(os.path.join(out, "diagnostics.csv")) as f:
-        return list(csv.reader(f))
-
-
-def poly(path):
-    r = vtk.vtkXMLPolyDataReader()
-    r.SetFileName(path)
-    r.Update()
-    return r.GetOutput()
 
 
 os.makedirs(a.work, exist_ok=True)
