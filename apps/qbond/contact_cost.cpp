@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "realtime.hpp"
 #include "qbond/builders/samples.hpp"
 #include "qbond/io/files.hpp"
 #include "qbond/simulation/simulation.hpp"
@@ -89,20 +90,6 @@ bool advance(Run& r, int steps, bool timed) {
   return r.failure.empty();
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
-}
-
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream in(s);
-  for (std::string item; std::getline(in, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
 
 std::string machine() {
   char host[256] = "unknown";

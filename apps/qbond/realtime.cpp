@@ -29,14 +29,6 @@ using Clock = std::chrono::steady_clock;
 constexpr double kFrame = 1.0 / 60;  // [s] of simulated time a frame
 constexpr int kWarmupFrames = 2;     // buffers grown, hierarchies built, caches warm
 
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream in(s);
-  for (std::string item; std::getline(in, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 std::vector<int> split_ints(const std::string& s, const char* what) {
   std::vector<int> out;
   for (const std::string& t : split(s)) {
@@ -133,12 +125,6 @@ Measured run_frames(const Scene& scene, int threads, const RealtimeArgs& a) {
   return m;
 }
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n == 0 ? NAN : n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
-}
-
 }  // namespace
 
 int bench_realtime(const RealtimeArgs& a) {
@@ -229,6 +215,20 @@ int bench_realtime(const RealtimeArgs& a) {
     write_file_atomic(a.json, doc.dump(1) + "\n");
   }
   return 0;
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n == 0 ? NAN : n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
 }
 
 }  // namespace qbond::cli

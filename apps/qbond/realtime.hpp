@@ -3,6 +3,7 @@
 // canonical workload and every built-in scene, and whether it keeps up with 60 Hz
 // (docs/performance.md).
 #include <string>
+#include <vector>
 
 namespace qbond::cli {
 
@@ -18,5 +19,11 @@ struct RealtimeArgs {
 
 /// Runs every workload on every thread count and prints the table; returns the exit code.
 int bench_realtime(const RealtimeArgs& args);
+
+/// The non-empty items of a comma-separated list.
+std::vector<std::string> split(const std::string& s);
+
+/// The median of `v` (NaN when empty).
+double median(std::vector<double> v);
 
 }  // namespace qbond::cli
