@@ -269,7 +269,8 @@ def peers_accuracy(name, data, machine):
         if "accuracy_n" in x:
             note += (f" The searches of n = {', '.join(map(str, x['accuracy_n']))} were run {x['date'][:10]} "
                      f"at nice {x['nice']}, host load average {x['load_average'][0]:.1f} at the start, "
-                     f"{x['load_average'][1]:.1f} at the end.")
+                     f"{x['load_average'][1]:.1f} at the end" +
+                     ("." if x.get("finished", True) else "; that run was cut short: these are the searches it finished."))
     if not data.get("finished", True):
         note += " The run was cut short: these are the searches it finished."
     lines = [provenance(name, data, machine, peers_command(name, data)) + note, "",
@@ -450,6 +451,8 @@ def targets(bench_dir, machines):
 
     def versus(q, peer):
         row = cost(crit, lambda m: m.startswith(peer))
+        if row is None and not any(r["criterion"] == crit and r["method"].startswith(peer) for r in acc["rows"]):
+            return f"{peer} not measured", math.nan
         if row is None:
             return f"{peer} never meets it", math.inf
         x = row["seconds_per_simulated_second"] / q["seconds_per_simulated_second"]
@@ -497,7 +500,8 @@ def realtime_table(name, data, machine):
     if viewer:
         viewer_note = (f" The viewer's column: `{viewer['command']}`, {viewer['date'][:10]}, {viewer['frames']} headless "
                        f"frames of 1/60 s a scene with its panel (Xvfb, {viewer['gl_renderer']}), "
-                       f"{viewer['threads']} threads, host load average {viewer['load_average'][0]:.1f} at the start, "
+                       f"{viewer['threads']} threads" + (f", at nice {viewer['nice']}" if viewer.get("nice") else "") +
+                       f", host load average {viewer['load_average'][0]:.1f} at the start, "
                        f"{viewer['load_average'][1]:.1f} at the end: simulated over wall seconds, drawing included.")
     lines = [provenance(name, data, machine, data["command"]) +
              f" Median of up to {data['max_frames']} frames after {data['warmup_frames']} warm-up frames, "

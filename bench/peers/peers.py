@@ -174,14 +174,17 @@ def main():
         ns = {int(n) for n in a.accuracy_n.split(",")}
         kept = [r for r in doc["accuracy"] if r["n"] not in ns]
         appended = {"command": command, "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-                    "nice": os.nice(0), "load_average": [os.getloadavg()[0]] * 2, "accuracy_n": sorted(ns)}
+                    "nice": os.nice(0), "load_average": [os.getloadavg()[0]] * 2, "accuracy_n": sorted(ns),
+                    "finished": False}
         doc.setdefault("appended", []).append(appended)
 
         def save_appended(records):
             doc["accuracy"] = sorted(kept + records, key=lambda r: r["n"])
             appended["load_average"][1] = os.getloadavg()[0]
             write_json(a.append, doc)
-        accuracy_all(a, pool, setups, save_appended)
+        records = accuracy_all(a, pool, setups, save_appended)
+        appended["finished"] = True
+        save_appended(records)
         pool.shutdown()
         return
     n_list = [int(x) for x in a.n.split(",")]
