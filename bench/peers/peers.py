@@ -151,7 +151,8 @@ def main():
                     help="CPU seconds an accuracy evaluation's run may take: a longer one is stopped and its step "
                          "reported as over the cap (default: 600)")
     ap.add_argument("--quick", action="store_true", help="the 4^3 lattice only, a short search (a test)")
-    ap.add_argument("--reference", help="an earlier run's JSON whose accuracy references to reuse")
+    ap.add_argument("--reference", help="an earlier run's JSON whose accuracy references (trajectory, static "
+                                        "solution) to reuse where they meet this run's tolerances")
     ap.add_argument("--methods", default="LAMMPS,Bullet," + ",".join(m.removeprefix("qbond ") for m in accuracy.QBOND_METHODS),
                     help="the accuracy searches' methods: LAMMPS, Bullet and qbond's integrators")
     ap.add_argument("--append", help="only the accuracy searches, their records added to this earlier run's JSON")
@@ -160,7 +161,7 @@ def main():
     cached = {}
     if a.reference:
         with open(a.reference) as f:
-            cached = {r["n"]: r["reference"] for r in json.load(f).get("accuracy", [])}
+            cached = {r["n"]: r for r in json.load(f).get("accuracy", [])}
     if a.quick:
         a.n, a.accuracy_n, a.steps, a.rounds, a.iterations = "4", "4", 20, 1, 3
     command = "bench/peers/run " + " ".join(sys.argv[3:])
