@@ -296,6 +296,12 @@ def peers_accuracy(name, data, machine):
     return lines
 
 
+def accuracy_finished(data, n):
+    """Whether the accuracy searches of the n^3 lattice in a peers result all finished."""
+    runs = [x for x in data.get("appended", []) if n in x.get("accuracy_n", [])]
+    return runs[-1].get("finished", True) if runs else data.get("finished", True)
+
+
 def peers_frequencies(name, data, machine):
     """The lattices' lowest and highest natural frequencies beside the steps the criteria allowed."""
     lines = [provenance(name, data, machine, peers_command(name, data)), "",
@@ -306,13 +312,15 @@ def peers_frequencies(name, data, machine):
     for acc in data["accuracy"]:
         sag = math.dist(acc["static"], acc["start"]) * 1e3
         ref = acc["reference"]
+        tried = {r["method"] for r in acc["rows"] if r["criterion"] == "dynamic"}
         dyn = {r["method"]: r for r in acc["rows"] if r["criterion"] == "dynamic" and r["step"] is not None}
         vv = dyn.get("qbond velocity_verlet")
         imp = [r for m, r in dyn.items() if m.startswith("qbond") and m != "qbond velocity_verlet"]
         im = max(imp, key=lambda r: r["step"]) if imp else None
-        vv_text = f"{vv['step']:.3g}" if vv else "never"
+        vv_text = f"{vv['step']:.3g}" if vv else "never" if "qbond velocity_verlet" in tried else "not measured"
+        implicit_tried = any(m.startswith("qbond") and m != "qbond velocity_verlet" for m in tried)
         im_text = (f"{im['step']:.3g} ({im['method'].removeprefix('qbond ')}, {acc['omega1'] * im['step']:.2g})"
-                   if im else "never")
+                   if im else "never" if implicit_tried else "not measured")
         ratio = (sig(im["seconds_per_simulated_second"] / vv["seconds_per_simulated_second"])
                  if im and vv else "–")
         # The halving that chose the reference's step: the estimate at twice the step beside it
@@ -442,7 +450,9 @@ def targets(bench_dir, machines):
                  + f" at n = {' / '.join(str(p['n']) for p in peers['per_step'])} (medians of alternating rounds)",
                  all(m < 1 for m in meds), pname))
 
-    acc = max(peers["accuracy"], key=lambda a: a["n"])
+    # The largest lattice whose searches all finished: a run cut short lacks methods, and "qbond's
+    # best" must be over all of them.
+    acc = max((a for a in peers["accuracy"] if accuracy_finished(peers, a["n"])), key=lambda a: a["n"])
     n = acc["n"]
 
     def cost(crit, pick):
