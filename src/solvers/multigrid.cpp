@@ -308,8 +308,7 @@ void Multigrid::cycle(std::size_t l, int threads) {
   level_residual(l, L.b.data(), L.x.data(), L.r.data(), threads);
   multiply(L.Rf, L.r.data(), C.b.data(), threads);
   cycle(l + 1, threads);
-  multiply(L.Pf, C.x.data(), L.t.data(), threads);
-  parallel_for(L.x.size(), threads, [&](std::size_t k) { L.x[k] += L.t[k]; });
+  multiply_add(L.Pf, C.x.data(), L.x.data(), threads);
   chebyshev(L, false, threads);
 }
 
@@ -318,6 +317,16 @@ void Multigrid::apply(const double* r, double* z, int threads) {
   std::copy(r, r + L.b.size(), L.b.begin());
   cycle(0, threads);
   std::copy(L.x.begin(), L.x.end(), z);
+}
+
+void Multigrid::apply_swapping(std::vector<double>& r, std::vector<double>& z, int threads) {
+  // The cycle only reads the fine level's b and writes all of its x before reading it: r lends
+  // its storage as b, and z takes x's (x then z's old storage), instead of two copies.
+  Level& L = levels_[0];
+  std::swap(r, L.b);
+  cycle(0, threads);
+  std::swap(r, L.b);
+  std::swap(z, L.x);
 }
 
 void Multigrid::solve(const Operator& A, const std::vector<double>& b, double tolerance, int cap, int threads,
@@ -344,7 +353,7 @@ void Multigrid::solve(const Operator& A, const std::vector<double>& b, double to
   int it = 0;
   double rz = 0;
   while (it < cap && stats.residual > tolerance) {
-    apply(r_.data(), z_.data(), threads);
+    apply_swapping(r_, z_, threads);
     const double rz_next = dot(n, r_.data(), z_.data(), threads);
     const double beta = it == 0 ? 0.0 : rz_next / rz;
     rz = rz_next;
@@ -353,12 +362,21 @@ void Multigrid::solve(const Operator& A, const std::vector<double>& b, double to
     const double pq = dot(n, p_.data(), q_.data(), threads);
     if (!(pq > 0)) break;  // exact solution reached (p = 0) or loss of positivity
     const double alpha = rz / pq;
-    parallel_for(n, threads, [&](std::size_t k) {
-      y[k] += alpha * p_[k];
-      r_[k] -= alpha * q_[k];
-    });
+    // The update and rᵀr in one pass, summed in dot's chunks and order: the same bits.
+    const double rr = reduce_chunks(
+        n, threads, 0.0,
+        [&](std::size_t lo, std::size_t hi) {
+          double s = 0.0;
+          for (std::size_t k = lo; k < hi; ++k) {
+            y[k] += alpha * p_[k];
+            r_[k] -= alpha * q_[k];
+            s = s + r_[k] * r_[k];
+          }
+          return s;
+        },
+        [](double u, double v) { return u + v; });
     ++it;
-    stats.residual = rel(dot(n, r_.data(), r_.data(), threads));
+    stats.residual = rel(rr);
   }
   stats.iterations = it;
 }
