@@ -700,6 +700,9 @@ int main(int argc, char** argv) {
                       "the wall time of a 1/60 s frame instead, for the canonical lattice (default integrator, one step "
                       "a frame) and every built-in scene (its own settings), on 1 and 2 threads unless -j says");
   bench_cmd->add_option("--scenes", ra.scenes, "with --realtime or --contact: built-in scenes, comma-separated (default: every one; --contact: the contact scenes)");
+  bench_cmd->add_option("--preconditioner", ra.preconditioner,
+                        "with --realtime: the canonical lattice's CG preconditioner (block_jacobi, multigrid, automatic; "
+                        "default: the default integrator's)");
   bench_cmd->add_option("--budget", ra.budget, "with --realtime: wall seconds measured per row at most (default: 8)")
       ->check(kPositive);
   bool contact_cost = false;

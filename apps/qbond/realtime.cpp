@@ -140,6 +140,7 @@ int bench_realtime(const RealtimeArgs& a) {
     Scene s = canonical_lattice(n);
     s.timestep = kFrame;  // the default integrator at one step a frame
     s.integrator = default_integrator();
+    if (!a.preconditioner.empty()) s.integrator.preconditioner = parse_preconditioner(a.preconditioner);
     work.push_back({"lattice n=" + std::to_string(n), "canonical", std::move(s)});
   }
   // The host's load (runnable processes, 1-minute average) at the start and the end: on a shared
@@ -182,6 +183,7 @@ int bench_realtime(const RealtimeArgs& a) {
                       {"bonds", w.scene.world.num_bonds()},
                       {"threads", t},
                       {"integrator", std::string(to_string(w.scene.integrator.type))},
+                      {"preconditioner", std::string(to_string(w.scene.integrator.preconditioner))},
                       {"timestep", w.scene.timestep},
                       {"adaptive", w.scene.adaptive.enabled},
                       {"steps_per_frame", steps},

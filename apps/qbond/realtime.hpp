@@ -11,6 +11,7 @@ struct RealtimeArgs {
   std::string sizes = "10,20,40";  ///< canonical lattice sizes n
   std::string threads = "1,2";     ///< thread counts
   std::string scenes;              ///< built-in scene names, comma-separated (empty: every one)
+  std::string preconditioner;      ///< the canonical lattice's CG preconditioner (empty: the default)
   double budget = 8;               ///< wall seconds measured per workload and thread count at most
   int frames = 30;                 ///< frames measured at most (after the warm-up)
   std::string json;                ///< also write the table as JSON here (atomically)

@@ -153,12 +153,15 @@ void numeric_product(const BlockMatrix& A, const BlockMatrix& B, BlockMatrix& C,
   });
 }
 
-// Rows [lo, hi) of y = A x (or of r = b − A x) for a packed matrix: E stored entries a block,
-// column-major when it has six rows. A general block's product keeps one partial sum per block
+// What a packed product does with A x.
+constexpr int kStore = 0, kSubtract = 1, kAdd = 2;
+
+// Rows [lo, hi) of y = A x (kStore), r = b − A x (kSubtract) or y += A x (kAdd) for a packed
+// matrix: E stored entries a block, column-major when it has six rows. A general block's product keeps one partial sum per block
 // entry, a_e x_c(e) added over the row's blocks in order, then sums each row's partials over the
 // columns in order: a vector loop whose additions chain only from block to block, not through a
 // block's columns (the same bits in every clone).
-template <class T, int R, int C, bool kSym, bool kResidual>
+template <class T, int R, int C, bool kSym, int kMode>
 QBOND_VECTOR_INLINE void packed_range(const PackedMatrix<T>& A, const double* x, const double* b, double* y,
                                       std::size_t lo, std::size_t hi) {
   constexpr int E = kSym ? 6 : R * C;
@@ -190,44 +193,51 @@ QBOND_VECTOR_INLINE void packed_range(const PackedMatrix<T>& A, const double* x,
       for (int r = 0; r < R; ++r)
         for (int c = 0; c < C; ++c) s[r] += R == 6 ? part[c * R + r] : part[r * C + c];
     }
-    for (int r = 0; r < R; ++r) y[i * R + r] = kResidual ? b[i * R + r] - s[r] : s[r];
+    for (int r = 0; r < R; ++r) {
+      if constexpr (kMode == kSubtract)
+        y[i * R + r] = b[i * R + r] - s[r];
+      else if constexpr (kMode == kAdd)
+        y[i * R + r] += s[r];
+      else
+        y[i * R + r] = s[r];
+    }
   }
 }
 
 // The hierarchy's float products, compiled for the wide vector units (simd.hpp).
-template <int R, int C, bool kResidual>
+template <int R, int C, int kMode>
 QBOND_TEMPLATE_CLONES void float_range(const PackedMatrix<float>& A, const double* x, const double* b, double* y,
                                      std::size_t lo, std::size_t hi) {
-  packed_range<float, R, C, false, kResidual>(A, x, b, y, lo, hi);
+  packed_range<float, R, C, false, kMode>(A, x, b, y, lo, hi);
 }
 
-template <class T, int R, int C, bool kSym, bool kResidual>
+template <class T, int R, int C, bool kSym, int kMode>
 void packed_rows(const PackedMatrix<T>& A, const double* x, const double* b, double* y, int threads) {
   parallel_for(
       (A.rows + kRowRange - 1) / kRowRange, threads,
       [&](std::size_t g) {
         const std::size_t lo = g * kRowRange, hi = std::min<std::size_t>(A.rows, lo + kRowRange);
         if constexpr (std::is_same_v<T, float> && !kSym)
-          float_range<R, C, kResidual>(A, x, b, y, lo, hi);
+          float_range<R, C, kMode>(A, x, b, y, lo, hi);
         else
-          packed_range<T, R, C, kSym, kResidual>(A, x, b, y, lo, hi);
+          packed_range<T, R, C, kSym, kMode>(A, x, b, y, lo, hi);
       },
       1);
 }
 
-template <class T, bool kResidual>
+template <class T, int kMode>
 void packed_times(const PackedMatrix<T>& A, const double* x, const double* b, double* y, int threads) {
   if (A.symmetric)
-    packed_rows<T, 3, 3, true, kResidual>(A, x, b, y, threads);
+    packed_rows<T, 3, 3, true, kMode>(A, x, b, y, threads);
   else if (A.br == 3 && A.bc == 3)
-    packed_rows<T, 3, 3, false, kResidual>(A, x, b, y, threads);
+    packed_rows<T, 3, 3, false, kMode>(A, x, b, y, threads);
   else if (A.br == 6 && A.bc == 6)
-    packed_rows<T, 6, 6, false, kResidual>(A, x, b, y, threads);
+    packed_rows<T, 6, 6, false, kMode>(A, x, b, y, threads);
   else if (A.br == 3 && A.bc == 6)
-    packed_rows<T, 3, 6, false, kResidual>(A, x, b, y, threads);
+    packed_rows<T, 3, 6, false, kMode>(A, x, b, y, threads);
   else {
     assert(A.br == 6 && A.bc == 3);
-    packed_rows<T, 6, 3, false, kResidual>(A, x, b, y, threads);
+    packed_rows<T, 6, 3, false, kMode>(A, x, b, y, threads);
   }
 }
 
@@ -263,11 +273,15 @@ void pack(const BlockMatrix& A, bool symmetric, PackedMatrix<T>& out, int thread
 
 template <class T>
 void multiply(const PackedMatrix<T>& A, const double* x, double* y, int threads) {
-  packed_times<T, false>(A, x, nullptr, y, threads);
+  packed_times<T, kStore>(A, x, nullptr, y, threads);
 }
 template <class T>
 void residual(const PackedMatrix<T>& A, const double* b, const double* x, double* r, int threads) {
-  packed_times<T, true>(A, x, b, r, threads);
+  packed_times<T, kSubtract>(A, x, b, r, threads);
+}
+template <class T>
+void multiply_add(const PackedMatrix<T>& A, const double* x, double* y, int threads) {
+  packed_times<T, kAdd>(A, x, nullptr, y, threads);
 }
 
 template void pack(const BlockMatrix&, bool, PackedMatrix<float>&, int);
@@ -276,6 +290,8 @@ template void multiply(const PackedMatrix<float>&, const double*, double*, int);
 template void multiply(const PackedMatrix<double>&, const double*, double*, int);
 template void residual(const PackedMatrix<float>&, const double*, const double*, double*, int);
 template void residual(const PackedMatrix<double>&, const double*, const double*, double*, int);
+template void multiply_add(const PackedMatrix<float>&, const double*, double*, int);
+template void multiply_add(const PackedMatrix<double>&, const double*, double*, int);
 
 std::size_t BlockMatrix::find(Index i, Index j) const {
   const auto first = col.begin() + offset[i], last = col.begin() + offset[i + 1];

@@ -51,6 +51,9 @@ template <class T>
 void multiply(const PackedMatrix<T>& A, const double* x, double* y, int threads);
 template <class T>
 void residual(const PackedMatrix<T>& A, const double* b, const double* x, double* r, int threads);
+/// y += A x for a packed matrix (each entry y_k + (A x)_k: the bits of y = y + t, t = A x).
+template <class T>
+void multiply_add(const PackedMatrix<T>& A, const double* x, double* y, int threads);
 
 /// y = A x (x of A.cols·bc entries, y of A.rows·br).
 void multiply(const BlockMatrix& A, const double* x, double* y, int threads);

@@ -17,10 +17,13 @@ double dot(std::size_t n, const double* a, const double* b, int threads) {
   return deterministic_sum(n, threads, [&](std::size_t k) { return a[k] * b[k]; });
 }
 
+// What block_scale also does with out: nothing, x = out, or x += out.
+enum class AlsoX { none, set, add };
+
 // out_i = s · Dinv_i v_i for block rows [lo, hi) (B × B blocks, symmetric: read by columns, a
-// vector loop over the block's rows).
-template <int B>
-QBOND_TEMPLATE_CLONES void block_scale_range(const double* Dinv, const double* v, double s, double* out,
+// vector loop over the block's rows), and x_i set to it or added to it in the same pass.
+template <int B, AlsoX kX>
+QBOND_TEMPLATE_CLONES void block_scale_range(const double* Dinv, const double* v, double s, double* out, double* x,
                                            std::size_t lo, std::size_t hi) {
   for (std::size_t i = lo; i < hi; ++i) {
     const double* D = Dinv + i * B * B;
@@ -30,22 +33,28 @@ QBOND_TEMPLATE_CLONES void block_scale_range(const double* Dinv, const double* v
       const double vc = vi[c];
       QBOND_SIMD for (int r = 0; r < B; ++r) t[r] += D[c * B + r] * vc;
     }
-    QBOND_SIMD for (int r = 0; r < B; ++r) out[i * B + r] = s * t[r];
+    QBOND_SIMD for (int r = 0; r < B; ++r) {
+      const double o = s * t[r];
+      out[i * B + r] = o;
+      if constexpr (kX == AlsoX::set) x[i * B + r] = o;
+      if constexpr (kX == AlsoX::add) x[i * B + r] += o;
+    }
   }
 }
 
-// out_i = s · Dinv_i v_i for every block row i (bs × bs blocks).
+// out_i = s · Dinv_i v_i for every block row i (bs × bs blocks), x as kX says.
+template <AlsoX kX = AlsoX::none>
 void block_scale(const std::vector<double>& Dinv, int bs, Index rows, const double* v, double s, double* out,
-                 int threads) {
+                 int threads, double* x = nullptr) {
   constexpr std::size_t kRange = 256;
   parallel_for(
       (rows + kRange - 1) / kRange, threads,
       [&](std::size_t g) {
         const std::size_t lo = g * kRange, hi = std::min<std::size_t>(rows, lo + kRange);
         if (bs == 3)
-          block_scale_range<3>(Dinv.data(), v, s, out, lo, hi);
+          block_scale_range<3, kX>(Dinv.data(), v, s, out, x, lo, hi);
         else
-          block_scale_range<6>(Dinv.data(), v, s, out, lo, hi);
+          block_scale_range<6, kX>(Dinv.data(), v, s, out, x, lo, hi);
       },
       1);
 }
@@ -271,7 +280,6 @@ void Multigrid::level_residual(std::size_t l, const double* b, const double* x, 
 void Multigrid::chebyshev(Level& L, bool zero_start, int threads) {
   const std::size_t l = static_cast<std::size_t>(&L - levels_.data());
   const int bs = L.A.br;
-  const std::size_t n = L.x.size();
   const double hi = 1.1 * L.lambda, lo = hi / 5;
   const double theta = (hi + lo) / 2, delta = (hi - lo) / 2, sigma = theta / delta;
   double rho = 1 / sigma;
@@ -281,11 +289,11 @@ void Multigrid::chebyshev(Level& L, bool zero_start, int threads) {
     level_residual(l, L.b.data(), L.x.data(), L.r.data(), threads);
     r0 = L.r.data();
   }
-  block_scale(L.Dinv, bs, L.A.rows, r0, 1 / theta, L.d.data(), threads);
+  // d = D⁻¹ r0 / θ, and x = d from zero or x += d, in one pass.
   if (zero_start)
-    L.x = L.d;
+    block_scale<AlsoX::set>(L.Dinv, bs, L.A.rows, r0, 1 / theta, L.d.data(), threads, L.x.data());
   else
-    parallel_for(n, threads, [&](std::size_t k) { L.x[k] += L.d[k]; });
+    block_scale<AlsoX::add>(L.Dinv, bs, L.A.rows, r0, 1 / theta, L.d.data(), threads, L.x.data());
   for (int it = 1; it < smoothing_degree; ++it) {
     level_multiply(l, L.d.data(), L.t.data(), threads);
     const double rho_next = 1 / (2 * sigma - rho);
@@ -308,8 +316,7 @@ void Multigrid::cycle(std::size_t l, int threads) {
   level_residual(l, L.b.data(), L.x.data(), L.r.data(), threads);
   multiply(L.Rf, L.r.data(), C.b.data(), threads);
   cycle(l + 1, threads);
-  multiply(L.Pf, C.x.data(), L.t.data(), threads);
-  parallel_for(L.x.size(), threads, [&](std::size_t k) { L.x[k] += L.t[k]; });
+  multiply_add(L.Pf, C.x.data(), L.x.data(), threads);
   chebyshev(L, false, threads);
 }
 
@@ -318,6 +325,16 @@ void Multigrid::apply(const double* r, double* z, int threads) {
   std::copy(r, r + L.b.size(), L.b.begin());
   cycle(0, threads);
   std::copy(L.x.begin(), L.x.end(), z);
+}
+
+void Multigrid::apply_swapping(std::vector<double>& r, std::vector<double>& z, int threads) {
+  // The cycle only reads the fine level's b and writes all of its x before reading it: r lends
+  // its storage as b, and z takes x's (x then z's old storage), instead of two copies.
+  Level& L = levels_[0];
+  std::swap(r, L.b);
+  cycle(0, threads);
+  std::swap(r, L.b);
+  std::swap(z, L.x);
 }
 
 void Multigrid::solve(const Operator& A, const std::vector<double>& b, double tolerance, int cap, int threads,
@@ -344,7 +361,7 @@ void Multigrid::solve(const Operator& A, const std::vector<double>& b, double to
   int it = 0;
   double rz = 0;
   while (it < cap && stats.residual > tolerance) {
-    apply(r_.data(), z_.data(), threads);
+    apply_swapping(r_, z_, threads);
     const double rz_next = dot(n, r_.data(), z_.data(), threads);
     const double beta = it == 0 ? 0.0 : rz_next / rz;
     rz = rz_next;
@@ -353,12 +370,21 @@ void Multigrid::solve(const Operator& A, const std::vector<double>& b, double to
     const double pq = dot(n, p_.data(), q_.data(), threads);
     if (!(pq > 0)) break;  // exact solution reached (p = 0) or loss of positivity
     const double alpha = rz / pq;
-    parallel_for(n, threads, [&](std::size_t k) {
-      y[k] += alpha * p_[k];
-      r_[k] -= alpha * q_[k];
-    });
+    // The update and rᵀr in one pass, summed in dot's chunks and order: the same bits.
+    const double rr = reduce_chunks(
+        n, threads, 0.0,
+        [&](std::size_t lo, std::size_t hi) {
+          double s = 0.0;
+          for (std::size_t k = lo; k < hi; ++k) {
+            y[k] += alpha * p_[k];
+            r_[k] -= alpha * q_[k];
+            s = s + r_[k] * r_[k];
+          }
+          return s;
+        },
+        [](double u, double v) { return u + v; });
     ++it;
-    stats.residual = rel(dot(n, r_.data(), r_.data(), threads));
+    stats.residual = rel(rr);
   }
   stats.iterations = it;
 }

@@ -75,6 +75,7 @@ class Multigrid {
     PackedMatrix<float> Af, Pf, Rf;  // A (not the fine level's, with a fine operator), P, R as the cycle reads them
     std::vector<double> x, b, r, d, t;
   };
+  void apply_swapping(std::vector<double>& r, std::vector<double>& z, int threads);  // apply, r and z sized
   void smoother(Level& L, bool symmetric, int threads);  // symmetric: A's blocks each are
   void galerkin(std::size_t l, int threads);
   void factor_coarsest();
