@@ -265,6 +265,12 @@ def peers_accuracy(name, data, machine):
     if "load_average" in data:
         note += (f" Host load average {data['load_average'][0]:.1f} at the start, {data['load_average'][1]:.1f} at "
                  "the end (runnable processes on the machine's cores; the searches ran two at a time).")
+    for x in data.get("appended", []):
+        if "accuracy_n" in x:
+            note += (f" The searches of n = {', '.join(map(str, x['accuracy_n']))} were run {x['date'][:10]} "
+                     f"at nice {x['nice']}, host load average {x['load_average'][0]:.1f} at the start, "
+                     f"{x['load_average'][1]:.1f} at the end" +
+                     ("." if x.get("finished", True) else "; that run was cut short: these are the searches it finished."))
     if not data.get("finished", True):
         note += " The run was cut short: these are the searches it finished."
     lines = [provenance(name, data, machine, peers_command(name, data)) + note, "",
@@ -278,8 +284,10 @@ def peers_accuracy(name, data, machine):
             best = min(costs) if costs else None
             for r in sorted(rows, key=lambda r: (r["step"] is None, r["seconds_per_simulated_second"] or 0)):
                 if r["step"] is None:
-                    lines.append(f"| {acc['n']} | {crit} | {r['method']} | {r['damping']} | "
-                                 f"never at h ≥ {min(t['h'] for t in r['tried']):.0e} | – | – | – | – |")
+                    never = (f"never at h > {r['over_cap_below']:.2g}; a smaller step's run takes over the "
+                             f"cap of {acc['cap_seconds']:g} CPU seconds" if r.get("over_cap_below")
+                             else f"never at h ≥ {min(t['h'] for t in r['tried']):.0e}")
+                    lines.append(f"| {acc['n']} | {crit} | {r['method']} | {r['damping']} | {never} | – | – | – | – |")
                     continue
                 c = r["seconds_per_simulated_second"]
                 lines.append(f"| {acc['n']} | {crit} | {r['method']} | {r['damping']} | {r['step']:.3g} | "
@@ -288,28 +296,40 @@ def peers_accuracy(name, data, machine):
     return lines
 
 
+def accuracy_finished(data, n):
+    """Whether the accuracy searches of the n^3 lattice in a peers result all finished."""
+    runs = [x for x in data.get("appended", []) if n in x.get("accuracy_n", [])]
+    return runs[-1].get("finished", True) if runs else data.get("finished", True)
+
+
 def peers_frequencies(name, data, machine):
     """The lattices' lowest and highest natural frequencies beside the steps the criteria allowed."""
     lines = [provenance(name, data, machine, peers_command(name, data)), "",
              "| n | ω₁ [rad/s] | ω_max [rad/s] | ω_max / ω₁ | explicit limit 2/ω_max [s] | "
-             "reference step [s] (Richardson error) | static sag [mm] | dynamic: velocity Verlet's step [s] | "
+             "reference step [s] (Richardson error; the same at twice the step) | static sag [mm] | dynamic: velocity Verlet's step [s] | "
              "dynamic: best implicit step [s] (integrator, ω₁h) | its cost / velocity Verlet's |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for acc in data["accuracy"]:
         sag = math.dist(acc["static"], acc["start"]) * 1e3
         ref = acc["reference"]
+        tried = {r["method"] for r in acc["rows"] if r["criterion"] == "dynamic"}
         dyn = {r["method"]: r for r in acc["rows"] if r["criterion"] == "dynamic" and r["step"] is not None}
         vv = dyn.get("qbond velocity_verlet")
         imp = [r for m, r in dyn.items() if m.startswith("qbond") and m != "qbond velocity_verlet"]
         im = max(imp, key=lambda r: r["step"]) if imp else None
-        vv_text = f"{vv['step']:.3g}" if vv else "never"
+        vv_text = f"{vv['step']:.3g}" if vv else "never" if "qbond velocity_verlet" in tried else "not measured"
+        implicit_tried = any(m.startswith("qbond") and m != "qbond velocity_verlet" for m in tried)
         im_text = (f"{im['step']:.3g} ({im['method'].removeprefix('qbond ')}, {acc['omega1'] * im['step']:.2g})"
-                   if im else "never")
+                   if im else "never" if implicit_tried else "not measured")
         ratio = (sig(im["seconds_per_simulated_second"] / vv["seconds_per_simulated_second"])
                  if im and vv else "–")
+        # The halving that chose the reference's step: the estimate at twice the step beside it
+        # (a fall of 4x a halving is velocity Verlet's second order, which the estimate relies on).
+        halving = ref.get("halving", [])
+        before = f"; at {halving[-2]['h']:.3g}: {halving[-2]['richardson_error']:.1e}" if len(halving) > 1 else ""
         lines.append(f"| {acc['n']} | {sig(acc['omega1'])} | {sig(acc['omega_max'])} | "
                      f"{sig(acc['omega_max'] / acc['omega1'])} | {2 / acc['omega_max']:.3g} | "
-                     f"{ref['h']:.0e} ({ref['richardson_error']:.1e}) | {sig(sag)} | {vv_text} | {im_text} | {ratio} |")
+                     f"{ref['h']:.3g} ({ref['richardson_error']:.1e}{before}) | {sig(sag)} | {vv_text} | {im_text} | {ratio} |")
     return lines
 
 
@@ -430,7 +450,9 @@ def targets(bench_dir, machines):
                  + f" at n = {' / '.join(str(p['n']) for p in peers['per_step'])} (medians of alternating rounds)",
                  all(m < 1 for m in meds), pname))
 
-    acc = max(peers["accuracy"], key=lambda a: a["n"])
+    # The largest lattice whose searches all finished: a run cut short lacks methods, and "qbond's
+    # best" must be over all of them.
+    acc = max((a for a in peers["accuracy"] if accuracy_finished(peers, a["n"])), key=lambda a: a["n"])
     n = acc["n"]
 
     def cost(crit, pick):
@@ -439,6 +461,8 @@ def targets(bench_dir, machines):
 
     def versus(q, peer):
         row = cost(crit, lambda m: m.startswith(peer))
+        if row is None and not any(r["criterion"] == crit and r["method"].startswith(peer) for r in acc["rows"]):
+            return f"{peer} not measured", math.nan
         if row is None:
             return f"{peer} never meets it", math.inf
         x = row["seconds_per_simulated_second"] / q["seconds_per_simulated_second"]
@@ -479,15 +503,25 @@ def targets(bench_dir, machines):
 
 
 def realtime_table(name, data, machine):
-    """`qbond bench --realtime`: a 1/60 s frame's wall time per workload and thread count."""
+    """`qbond bench --realtime`: a 1/60 s frame's wall time per workload and thread count, and the
+    viewer's own real-time factor where bench/viewer_realtime.py measured it."""
+    viewer = data.get("viewer")
+    viewer_note = ""
+    if viewer:
+        viewer_note = (f" The viewer's column: `{viewer['command']}`, {viewer['date'][:10]}, {viewer['frames']} headless "
+                       f"frames of 1/60 s a scene with its panel (Xvfb, {viewer['gl_renderer']}), "
+                       f"{viewer['threads']} threads" + (f", at nice {viewer['nice']}" if viewer.get("nice") else "") +
+                       f", host load average {viewer['load_average'][0]:.1f} at the start, "
+                       f"{viewer['load_average'][1]:.1f} at the end: simulated over wall seconds, drawing included.")
     lines = [provenance(name, data, machine, data["command"]) +
              f" Median of up to {data['max_frames']} frames after {data['warmup_frames']} warm-up frames, "
              f"at most {data['budget_seconds']:g} s measured a row." +
              (f" Host load average {data['load_average'][0]:.1f} at the start, {data['load_average'][1]:.1f} at the end "
               "(runnable processes; the machine's cores are in its name): wall time over CPU time shows what the "
-              "other work took." if "load_average" in data else ""), "",
+              "other work took." if "load_average" in data else "") + viewer_note, "",
              "| workload | quanta | bonds | integrator | h [s] | steps a frame | threads | frame ms (median) | "
-             "CPU ms a frame | × real time | keeps up with 60 Hz | note |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "CPU ms a frame | × real time | keeps up with 60 Hz |" + (" viewer × real time |" if viewer else "") +
+             " note |", "|---|---|---|---|---|---|---|---|---|---|---|" + ("---|" if viewer else "") + "---|"]
     for r in data["rows"]:
         note = []
         if r["failure"]:
@@ -503,9 +537,13 @@ def realtime_table(name, data, machine):
         frame = sig(r["median_frame_seconds"] * 1e3) if r["median_frame_seconds"] is not None else "–"
         factor = sig(r["real_time_factor"]) if r["real_time_factor"] is not None else "–"
         cpu = sig(r["median_frame_cpu_seconds"] * 1e3) if r["median_frame_cpu_seconds"] is not None else "–"
+        seen = ""
+        if viewer:
+            v = r.get("viewer")
+            seen = (" " + sig(v["real_time_factor"]) + (" (blew up)" if v["blowup"] else "") if v else " –") + " |"
         lines.append(f"| {r['workload']} | {r['quanta']} | {r['bonds']} | {r['integrator']} | {r['timestep']:.3g} | "
                      f"{r['steps_per_frame']} | {r['threads']} | {frame} | {cpu} | {factor} | "
-                     f"{'yes' if r['keeps_up'] else 'no'} | {'; '.join(note)} |")
+                     f"{'yes' if r['keeps_up'] else 'no'} |{seen} {'; '.join(note)} |")
     keep = [r for r in data["rows"] if r["kind"] == "scene" and r["quanta"] <= 10000 and r["threads"] == 2]
     ok = sum(r["keeps_up"] for r in keep)
     one = [r for r in data["rows"] if r["kind"] == "scene" and r["quanta"] <= 10000 and r["threads"] == 1]

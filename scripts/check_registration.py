@@ -44,7 +44,7 @@ CONSUMERS = {
 LAW_CONSUMERS = {
     "LinearLaw": {"include/qbond/io/checkpoint.hpp", "include/qbond/model/bonds.hpp", "include/qbond/model/world.hpp",
                   "src/integrators/affine_run_terms.hpp", "src/integrators/hybrid_frozen_kernel.cpp",
-                  "src/ledger/energy_sums.cpp"},
+                  "src/integrators/newton.cpp", "src/ledger/energy_sums.cpp"},
     "InverseLaw": {"src/io/checkpoint.cpp"},
 }
 # Files that name an integrator option for another purpose: the scene reader checks the values of

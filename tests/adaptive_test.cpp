@@ -1,6 +1,7 @@
 // The adaptive timestep (adaptive.hpp): the embedded error estimate against the exact local error,
 // and the controller on a system that blows up at a fixed step.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -105,7 +106,7 @@ TEST(Adaptive, UndoneStepsRestoreTheCarryOver) {
 // (their timestep column included) and the end state are those of the uninterrupted run.
 TEST(Adaptive, ResumedRunsContinueBitForBit) {
   namespace fs = std::filesystem;
-  const fs::path root = fs::temp_directory_path() / "qbond_adaptive_resume";
+  const fs::path root = fs::temp_directory_path() / ("qbond_adaptive_resume_" + std::to_string(::getpid()));
   fs::remove_all(root);
   auto run = [&](const std::string& name, const std::function<bool()>& stop) {
     Scene scene = builtin_scene("adaptive_pendulum");

@@ -860,7 +860,8 @@ def test_failed_runs_end_run_json():
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (100000, 100000))
     out = fresh("failed")
-    r = subprocess.run([QBOND, "run", "cantilever", "--steps", "100000", "--no-vtk", "--out", out, "-q"],
+    # The pendulum writes a diagnostics row every step: the limit is reached in a fraction of a second.
+    r = subprocess.run([QBOND, "run", "pendulum", "--steps", "1000000", "--every", "1", "--no-vtk", "--out", out, "-q"],
                        capture_output=True, text=True, preexec_fn=limit, timeout=300)
     if r.returncode != 1 or "diagnostics.csv" not in r.stderr:
         fail(f"exit {r.returncode}, stderr {r.stderr!r}")

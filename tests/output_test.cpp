@@ -1,5 +1,6 @@
 // Checkpoints, probes, diagnostics rows and VTK frames.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <sys/stat.h>
 
@@ -27,7 +28,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("qbond_output_test_" + name);
+  const fs::path d = fs::temp_directory_path() / ("qbond_output_test_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(d);
   fs::create_directories(d);
   return d;

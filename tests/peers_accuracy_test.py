@@ -6,7 +6,9 @@ Usage: peers_accuracy_test.py QBOND_EXE SOURCE_DIR WORK_DIR
 
 Checks what the search must give whatever the machine: every step reported meets its criterion
 and a step just above it (one bisection interval) was tried and failed, unless it is the ceiling;
-the reference's Richardson error is far below the dynamic tolerance; LAMMPS and qbond, both
+the reference's Richardson error is far below the dynamic tolerance, at the largest step of its
+halving that is; the search's cost cap, on a criterion of known answer: a step below the cap's
+reach is reported as over the cap, never as failing; LAMMPS and qbond, both
 velocity Verlet on the same harmonic bonds, make the same dynamic errors at every step both
 tried below their stability limit; backward Euler (qbond's default) settles to the static
 solution in steps far beyond any explicit method's limit.
@@ -17,6 +19,25 @@ import os
 import shutil
 import subprocess
 import sys
+
+
+def search_with_a_cap(accuracy, check):
+    """accuracy.search on a criterion met at h <= 1e-3 whose runs take over the cap below 1e-4 and
+    2e-3: the first finds 1e-3 within a bisection interval; the second reports over the cap."""
+    for cap_below, want in ((1e-4, 1e-3), (2e-3, None)):
+        res = accuracy.search(lambda h: (None, None, None) if h < cap_below else (h <= 1e-3, 0.0, 1.0),
+                              1e-6, 1.0, 8)
+        ratio = (1.0 / 1e-6) ** (0.5 ** 8)
+        if want is None:
+            check(res["step"] is None and res["over_cap_below"] is not None and
+                  1e-3 < res["over_cap_below"] < cap_below and
+                  all(t["meets"] is False for t in res["tried"] if t["h"] >= cap_below),
+                  f"search over the cap below {cap_below}: {res}")
+        else:
+            check(res["step"] is not None and want / ratio <= res["step"] <= want and res["over_cap_below"] is None,
+                  f"search with runs over the cap below {cap_below}: {res}")
+        check(all(t["meets"] is None for t in res["tried"] if t["h"] < cap_below),
+              f"a run below the cap's reach counted as met or failed: {res['tried']}")
 
 
 def main():
@@ -47,13 +68,20 @@ def main():
         if not ok:
             failures.append(what)
 
+    search_with_a_cap(accuracy, check)
     for p in doc["per_step"]:
         for k in ("lammps", "bullet", "qbond_velocity_verlet", "qbond_default"):
             check(math.isfinite(p[k]) and p[k] > 0, f"per step n = {p['n']}: {k} = {p[k]}")
     (acc,) = doc["accuracy"]
     iterations, floor = acc["iterations"], acc["floor"]
-    check(acc["reference"]["richardson_error"] < 1e-3 * accuracy.DYNAMIC_TOL,
-          f"reference's Richardson error {acc['reference']['richardson_error']}")
+    ref = acc["reference"]
+    check(ref["richardson_error"] < 1e-3 * accuracy.DYNAMIC_TOL, f"reference's Richardson error {ref['richardson_error']}")
+    halving = ref["halving"]
+    check(halving[-1]["h"] == ref["h"] and halving[-1]["richardson_error"] == ref["richardson_error"] and
+          all(x["richardson_error"] > accuracy.REFERENCE_TOL for x in halving[:-1]) and
+          all(y["h"] == x["h"] / 2 for x, y in zip(halving, halving[1:])) and halving[0]["h"] == accuracy.SAMPLE / 2,
+          f"the reference's step is not the largest of its halving below the tolerance: {halving}")
+    check(acc["static_solve"]["residual"] <= accuracy.STATIC_TOL, f"static solve {acc['static_solve']}")
     rows = {(r["method"], r["criterion"]): r for r in acc["rows"]}
     check(len(rows) == 2 * (2 + len(accuracy.QBOND_METHODS)), f"rows: {sorted(rows)}")
     for (m, c), r in rows.items():
@@ -61,7 +89,9 @@ def main():
         ceiling = accuracy.T_DYNAMIC if c == "dynamic" else accuracy.T_SETTLED
         ratio = (ceiling / floor) ** (0.5 ** iterations)
         if r["step"] is None:
-            check(any(t["h"] == floor and not t["meets"] for t in r["tried"]), f"{m} {c}: never, the floor untried")
+            check(any(t["h"] == floor and t["meets"] is False for t in r["tried"]) or
+                  any(t["h"] == r["over_cap_below"] and t["meets"] is None for t in r["tried"]),
+                  f"{m} {c}: never, neither the floor tried nor a run over the cap")
             continue
         check(r["error"] <= tol, f"{m} {c}: error {r['error']} at the step found, tolerance {tol}")
         check(r["step"] == ceiling or any(r["step"] < t["h"] <= r["step"] * ratio * 1.000001 and not t["meets"]

@@ -2,6 +2,7 @@
 // ones) and flow plastically during a run come back whole from a rollback (a copy of the State)
 // and from a checkpoint, and the Model stays what the scene built.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <string>
@@ -117,7 +118,7 @@ TEST(Topology, EditsSurviveACheckpointResumeBitForBit) {
   run(whole, 100, edits);
   ASSERT_GT(edits.reused, 0);
   ASSERT_TRUE(flowed(whole.world().state.bonds));
-  const fs::path file = fs::temp_directory_path() / "qbond_topology_test.qbc";
+  const fs::path file = fs::temp_directory_path() / ("qbond_topology_test_" + std::to_string(::getpid()) + ".qbc");
   save_checkpoint(file, "{}", whole.world().state);
 
   Scene again = splash();  // the world as the scene builds it, before any step

@@ -395,6 +395,49 @@ def test_implicit_obstacles():
         fail(f"a replay draws the implicit obstacles unlike the live view: {d:.2%} of the view differs")
 
 
+def test_realtime_column():
+    """bench/viewer_realtime.py adds the viewer's measured real-time factor to `qbond bench
+    --realtime`'s scene row on 2 threads (and to no other row), as simulated over wall seconds of
+    the frames asked, each of 1/60 s as the bench's; the realtime table shows it as a column."""
+    d = os.path.join(WORK, "realtime_column")
+    shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d)
+    path = os.path.join(d, "realtime.json")
+    subprocess.run([QBOND, "bench", "--realtime", "-n", "4", "-j", "1,2", "--scenes", "two_quanta", "--budget", "0.5",
+                    "--json", path], check=True, capture_output=True, timeout=300)
+    frames = 5
+    display_prefix()  # skips without a display
+    r = subprocess.run([sys.executable, os.path.join(SOURCE, "bench", "viewer_realtime.py"), QBOND, path, "--frames",
+                        str(frames)], capture_output=True, text=True, timeout=300)
+    if r.returncode != 0:
+        fail(f"viewer_realtime.py exited {r.returncode}:\n{r.stdout}\n{r.stderr}")
+    with open(path) as f:
+        doc = json.load(f)
+    seen = [(row["workload"], row["threads"]) for row in doc["rows"] if "viewer" in row]
+    if seen != [("two_quanta", 2)]:
+        fail(f"the viewer's column is on rows {seen}, want the 2-thread two_quanta row only")
+    (row,) = [row for row in doc["rows"] if "viewer" in row]
+    v = row["viewer"]
+    h = row["timestep"]
+    if v["frames"] != frames or v["steps"] != frames * row["steps_per_frame"] or v["blowup"]:
+        fail(f"viewer {v}: want {frames} frames of {row['steps_per_frame']} steps, no blow-up")
+    if abs(v["simulated_seconds"] - v["steps"] * h) > 1e-9 or not v["real_time_factor"] > 0:
+        fail(f"viewer {v}: simulated seconds or real-time factor")
+    if doc["viewer"]["threads"] != 2 or "viewer_realtime.py" not in doc["viewer"]["command"]:
+        fail(f"provenance {doc['viewer']}")
+    sys.path.insert(0, os.path.join(SOURCE, "scripts"))
+    import bench_tables
+    table = bench_tables.realtime_table("realtime.json", doc, "")
+    header = [c.strip() for c in table[2].split("|")]
+    lines = [[c.strip() for c in line.split("|")] for line in table[4:] if line.startswith("| two_quanta")]
+    col = header.index("viewer × real time")
+    cells = [(line[header.index("threads")], line[col]) for line in lines]
+    if cells != [("1", "–"), ("2", bench_tables.sig(v["real_time_factor"]))]:
+        fail(f"the table's viewer column: {cells}")
+    print(f"realtime column: two_quanta's viewer {v['real_time_factor']:.3g}x real time, the bench's frames "
+          f"{row['real_time_factor']:.3g}x")
+
+
 tests = {name[5:]: f for name, f in globals().items() if name.startswith("test_")}
 if TEST not in tests:
     fail(f"no such test; known: {', '.join(tests)}")

@@ -8,16 +8,17 @@ Usage: bench/mpi/ranks.py [--qbond PATH] [--integrator velocity_verlet] [--n 40]
 
 Measures `qbond run` of the canonical n³ lattice (samples.hpp's canonical_lattice(n)) stepped by
 the integrator (velocity Verlet unless told), without frames: alone on 1 and 2 threads, and over
-2 ranks of 1 thread each. The
+1 and 2 ranks of 1 thread each (one rank under the launcher is the program alone). The
 runs alternate, `repeats` times each, and each configuration's median step time (run.json's
 wall_seconds over its steps) is kept with every repeat; for the runs over ranks also each rank's
 CPU time per step stepping its piece and charging its ledger, its wall time per step and the
 bytes it sent per step (the lines the run prints); and the machine and its load average (one
-minute) before and after. Results go to docs/bench/ranks-DATE.json for velocity Verlet and
-docs/bench/ranks-INTEGRATOR-DATE.json for another integrator; each integrator's table sits between
-`<!-- ranks:step -->` and `<!-- /ranks:step -->` (velocity Verlet) or `<!-- ranks:step:INTEGRATOR -->`
-and `<!-- /ranks:step:INTEGRATOR -->` in docs/distributed.md; --check exits 1 when one is not what
-the newest results of its integrator give.
+minute) before and after. Results go to docs/bench/ranks-DATE.json for velocity Verlet at n = 40,
+docs/bench/ranks-INTEGRATOR-DATE.json for coupled_implicit at n = 20, and
+docs/bench/ranks-INTEGRATOR-nN-DATE.json for the other tables of TABLES; each table sits between
+`<!-- ranks:step -->` and `<!-- /ranks:step -->` (velocity Verlet), `<!-- ranks:step:INTEGRATOR -->`
+and `<!-- /ranks:step:INTEGRATOR -->`, or `<!-- ranks:step:INTEGRATOR:nN -->` and its end, in
+docs/distributed.md; --check exits 1 when one is not what the newest results of its table give.
 """
 import argparse
 import datetime
@@ -33,17 +34,28 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 VERLET = "velocity_verlet"
-# The integrators with a table in docs/distributed.md.
-TABLES = [VERLET, "coupled_implicit"]
+# The tables in docs/distributed.md: (integrator, lattice size); the first of each integrator's
+# is named by the integrator alone.
+TABLES = [(VERLET, 40), ("coupled_implicit", 20), ("coupled_implicit", 40)]
+PLAIN = {VERLET: 40, "coupled_implicit": 20}
 
 
-def markers(integrator):
-    tag = "ranks:step" if integrator == VERLET else f"ranks:step:{integrator}"
+def name_part(integrator, n):
+    """What names a table's results and markers besides `ranks`: '', 'INTEGRATOR' or 'INTEGRATOR-nN'."""
+    if integrator == VERLET and n == PLAIN[VERLET]:
+        return ""
+    return integrator if PLAIN.get(integrator) == n else f"{integrator}-n{n}"
+
+
+def markers(integrator, n):
+    part = name_part(integrator, n).replace("-", ":")
+    tag = "ranks:step" + (f":{part}" if part else "")
     return f"<!-- {tag} -->", f"<!-- /{tag} -->"
 
 
-def name_pattern(integrator):
-    mid = "" if integrator == VERLET else re.escape(integrator) + "-"
+def name_pattern(integrator, n):
+    part = name_part(integrator, n)
+    mid = re.escape(part) + "-" if part else ""
     return re.compile(rf"^ranks-{mid}(\d{{4}}-\d\d-\d\d)([a-z]*)\.json$")
 
 
@@ -66,7 +78,7 @@ def measure(a):
     path = os.path.join(work, "lattice.json")
     with open(path, "w") as f:
         json.dump(scene(a.n, a.steps, a.integrator), f)
-    configs = [("alone", 1, 1), ("alone", 1, 2), ("ranks", 2, 1)]
+    configs = [("alone", 1, 1), ("alone", 1, 2), ("ranks", 1, 1), ("ranks", 2, 1)]
     runs = {f"{kind}:{ranks}x{threads}": [] for kind, ranks, threads in configs}
     ranks_seen = {f"{kind}:{ranks}x{threads}": [] for kind, ranks, threads in configs}
     for _ in range(a.repeats):
@@ -103,18 +115,20 @@ def measure(a):
     return {"workload": f"canonical lattice n={a.n}, {a.integrator}, {a.steps} steps, no frames",
             "integrator": a.integrator,
             "date": datetime.date.today().isoformat(),
+            "command": " ".join(["bench/mpi/ranks.py", "--integrator", a.integrator, "--n", str(a.n), "--steps",
+                                 str(a.steps), "--repeats", str(a.repeats)]),
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} hardware threads, "
                        "shared with other jobs",
             "load_average": [round(load_before, 2), round(os.getloadavg()[0], 2)],
             "rows": rows}
 
 
-def latest(root, integrator):
+def latest(root, integrator, n):
     bench = os.path.join(root, "docs", "bench")
-    pattern = name_pattern(integrator)
+    pattern = name_pattern(integrator, n)
     found = sorted((m[1], len(m[2]), m[2], name) for name in os.listdir(bench) if (m := pattern.match(name)))
     if not found:
-        sys.exit(f"ranks.py: no docs/bench/ranks-*.json of {integrator}")
+        sys.exit(f"ranks.py: no docs/bench/ranks-*.json of {integrator} at n={n}")
     name = found[-1][3]
     with open(os.path.join(bench, name)) as f:
         return name, json.load(f)
@@ -123,7 +137,9 @@ def latest(root, integrator):
 def table(name, res):
     base = res["rows"][0]["ms_per_step"]
     load = res["load_average"]
-    lines = [f"Measured by `bench/mpi/ranks.py` ({res['workload']}; {res['machine']}, load average "
+    command = f"`{res['command']}`" if "command" in res else "`bench/mpi/ranks.py`"
+    on = f" on {res['date']}" if "command" in res else ""
+    lines = [f"Measured{on} by {command} ({res['workload']}; {res['machine']}, load average "
              f"{load[0]:g} before and {load[1]:g} after; [docs/bench/{name}](bench/{name})), "
              f"median of {len(res['rows'][0]['repeats_ms'])} runs each:", "",
              "| run | ranks × threads | ms per step | speed-up | per rank: stepping, ledger (CPU ms per step) | "
@@ -143,13 +159,13 @@ def render(root, check):
     with open(doc) as f:
         text = f.read()
     new = text
-    for integrator in TABLES:
-        begin, end = markers(integrator)
+    for integrator, n in TABLES:
+        begin, end = markers(integrator, n)
         if begin not in new or end not in new:
             sys.exit(f"{doc}: no {begin} ... {end}")
         head, rest = new.split(begin, 1)
         _, tail = rest.split(end, 1)
-        new = head + begin + "\n" + table(*latest(root, integrator)) + "\n" + end + tail
+        new = head + begin + "\n" + table(*latest(root, integrator, n)) + "\n" + end + tail
     if check:
         if new != text:
             sys.exit(f"{doc}: the ranks table is not what the newest docs/bench/ranks-*.json gives "
@@ -175,7 +191,8 @@ def main():
     if a.check or a.write:
         return render(a.check or a.write, check=bool(a.check))
     res = measure(a)
-    mid = "" if a.integrator == VERLET else f"{a.integrator}-"
+    part = name_part(a.integrator, a.n)
+    mid = f"{part}-" if part else ""
     out = a.out or os.path.join(ROOT, "docs", "bench", f"ranks-{mid}{res['date']}.json")
     with open(out, "w") as f:
         json.dump(res, f, indent=1)

@@ -3,7 +3,7 @@
 
 Usage: bench/peers/peers.py BUILD_DIR BULLET_EXE [--n 10,20,40] [--steps 200] [--rounds 3]
                             [--accuracy-n 10,20] [--iterations 7] [--methods LAMMPS,Bullet,default,...]
-                            [--reference FILE] [--append FILE] [--quick] [--json FILE]
+                            [--cap 600] [--reference FILE] [--append FILE] [--quick] [--json FILE]
 Run by bench/peers/run, which installs LAMMPS and Bullet (Debian packages) and builds
 BULLET_EXE. Prints, for each n, ns per bond per step of each engine measured in this run; then
 qbond's velocity Verlet against LAMMPS's in `rounds` alternating runs (the shared host's load
@@ -31,6 +31,7 @@ import re
 import subprocess
 import sys
 import tempfile
+import time
 
 import accuracy
 from workload import MASS, bond_count, lammps_header
@@ -94,11 +95,10 @@ def accuracy_setup(a, n, cached):
     """(lattice record, printed lines): what the n^3 lattice's searches are measured against."""
     lines = []
     work = tempfile.mkdtemp(prefix=f"qbond_peers_{n}_")
-    # The reference's step: 1e-6 s up to n = 10; larger lattices' slowest modes are slower, and the
-    # recorded Richardson estimate shows the step's own error. The floor: 1e-5 s up to n = 10,
-    # 1e-4 s above (a search that reaches it costs 2e5 steps of the larger lattice at 1e-5).
-    h_ref, floor = (1e-6, 1e-5) if n <= 10 else (1e-5, 1e-4)
-    return accuracy.lattice_record(a.build, work, n, h_ref, floor, a.iterations, cached, log=lines.append), lines
+    # The reference's step is the largest whose own error estimate is far below the tolerance
+    # (accuracy.reference); the floor is 1e-5 s on every lattice, the cap on an evaluation's CPU
+    # seconds saying when a step that small costs too much.
+    return accuracy.lattice_record(a.build, work, n, 1e-5, a.iterations, a.cap, cached, log=lines.append), lines
 
 
 def accuracy_method(a, lat, method):
@@ -147,8 +147,12 @@ def main():
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--accuracy-n", default="10,20")
     ap.add_argument("--iterations", type=int, default=7, help="bisection steps of each accuracy search")
+    ap.add_argument("--cap", type=float, default=600,
+                    help="CPU seconds an accuracy evaluation's run may take: a longer one is stopped and its step "
+                         "reported as over the cap (default: 600)")
     ap.add_argument("--quick", action="store_true", help="the 4^3 lattice only, a short search (a test)")
-    ap.add_argument("--reference", help="an earlier run's JSON whose accuracy references to reuse")
+    ap.add_argument("--reference", help="an earlier run's JSON whose accuracy references (trajectory, static "
+                                        "solution) to reuse where they meet this run's tolerances")
     ap.add_argument("--methods", default="LAMMPS,Bullet," + ",".join(m.removeprefix("qbond ") for m in accuracy.QBOND_METHODS),
                     help="the accuracy searches' methods: LAMMPS, Bullet and qbond's integrators")
     ap.add_argument("--append", help="only the accuracy searches, their records added to this earlier run's JSON")
@@ -157,7 +161,7 @@ def main():
     cached = {}
     if a.reference:
         with open(a.reference) as f:
-            cached = {r["n"]: r["reference"] for r in json.load(f).get("accuracy", [])}
+            cached = {r["n"]: r for r in json.load(f).get("accuracy", [])}
     if a.quick:
         a.n, a.accuracy_n, a.steps, a.rounds, a.iterations = "4", "4", 20, 1, 3
     command = "bench/peers/run " + " ".join(sys.argv[3:])
@@ -170,12 +174,18 @@ def main():
             doc = json.load(f)
         ns = {int(n) for n in a.accuracy_n.split(",")}
         kept = [r for r in doc["accuracy"] if r["n"] not in ns]
-        doc.setdefault("appended", []).append({"command": command, "load_average": os.getloadavg()[0]})
+        appended = {"command": command, "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                    "nice": os.nice(0), "load_average": [os.getloadavg()[0]] * 2, "accuracy_n": sorted(ns),
+                    "finished": False}
+        doc.setdefault("appended", []).append(appended)
 
         def save_appended(records):
             doc["accuracy"] = sorted(kept + records, key=lambda r: r["n"])
+            appended["load_average"][1] = os.getloadavg()[0]
             write_json(a.append, doc)
-        accuracy_all(a, pool, setups, save_appended)
+        records = accuracy_all(a, pool, setups, save_appended)
+        appended["finished"] = True
+        save_appended(records)
         pool.shutdown()
         return
     n_list = [int(x) for x in a.n.split(",")]

@@ -32,56 +32,33 @@ void start_petsc() {
   g_petsc_started = true;
 }
 
-// The whole system's rows a rank owns, as a PETSc matrix in 3×3 blocks with its vectors and
-// its CG solver, built for one piece and its bonds (the pattern holds while they do).
+// Whether PETSC_OPTIONS names a preconditioner (-pc_type): it then gets the assembled matrix.
+bool preconditioner_from_options() {
+  PetscBool set = PETSC_FALSE;
+  check(PetscOptionsHasName(nullptr, nullptr, "-pc_type", &set), "PetscOptionsHasName");
+  return set == PETSC_TRUE;
+}
+
+// The whole system's rows a rank owns as a PETSc operator in 3×3 blocks, with its vectors and its
+// CG solver, built for one piece and its bonds (the pattern holds while they do). `assembled`:
+// A as PETSc's matrix, filled from the system's blocks every step (hypre's multigrid, or a
+// preconditioner PETSC_OPTIONS names); else a shell whose product is qbond's own bond pass over
+// the piece (SystemProduct), the ghosts' rows of its argument scattered from their owners, and
+// CG preconditioned by the owned rows' inverted diagonal blocks.
 class RanksSystem {
  public:
-  RanksSystem(const SolveLayout& layout, const State& state, const Adjacency& adj, const IntegratorConfig& config) {
+  RanksSystem(const SolveLayout& layout, const State& state, const Adjacency& adj, const IntegratorConfig& config,
+              bool assembled)
+      : assembled_(assembled), threads_(config.threads) {
     start_petsc();
     const auto own = static_cast<PetscInt>(layout.owned_free.size());
     const auto total = static_cast<PetscInt>(layout.rows);
-    const std::int64_t first = layout.first_row, last = first + own;
-    // Preallocation by block row: the blocks in this rank's columns and in the others'.
-    std::vector<PetscInt> d(static_cast<std::size_t>(own), 1), o(static_cast<std::size_t>(own), 0);
-    for (PetscInt k = 0; k < own; ++k) {
-      const Index i = layout.owned_free[static_cast<std::size_t>(k)];
-      for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
-        const std::int64_t r = layout.row[adj.other[e]];
-        if (r < 0) continue;
-        ++((r >= first && r < last) ? d : o)[static_cast<std::size_t>(k)];
-      }
-      d[static_cast<std::size_t>(k)] = std::min(d[static_cast<std::size_t>(k)], own);
-      o[static_cast<std::size_t>(k)] = std::min(o[static_cast<std::size_t>(k)], total - own);
-    }
-    check(MatCreate(PETSC_COMM_WORLD, &A_), "MatCreate");
-    check(MatSetSizes(A_, 3 * own, 3 * own, 3 * total, 3 * total), "MatSetSizes");
-    check(MatSetBlockSize(A_, 3), "MatSetBlockSize");
-    // Block rows (BAIJ) for the block-Jacobi solve, a product half the memory traffic of AIJ's;
-    // AIJ for hypre, which takes that.
-    const bool blocks = config.preconditioner == Preconditioner::block_jacobi;
-    check(MatSetType(A_, blocks ? MATBAIJ : MATAIJ), "MatSetType");
-    check(MatXAIJSetPreallocation(A_, 3, d.data(), o.data(), nullptr, nullptr), "MatXAIJSetPreallocation");
-    if (!blocks) {  // (BAIJ takes neither option)
-      check(MatSetOption(A_, MAT_SPD, PETSC_TRUE), "MatSetOption(MAT_SPD)");
-      check(MatSetOption(A_, MAT_SPD_ETERNAL, PETSC_TRUE), "MatSetOption(MAT_SPD_ETERNAL)");
-    }
+    if (assembled_)
+      create_matrix(layout, adj, config);
+    else
+      create_shell(layout, own, total);
     check(MatCreateVecs(A_, &x_, &b_), "MatCreateVecs");
-    // The rigid-body modes of the owned free quanta's positions at the start: the near-null space
-    // a smoothed-aggregation preconditioner takes (PETSC_OPTIONS="-pc_type gamg").
-    Vec coords;
-    check(VecDuplicate(x_, &coords), "VecDuplicate");
-    {
-      PetscScalar* c = nullptr;
-      check(VecGetArray(coords, &c), "VecGetArray");
-      for (PetscInt k = 0; k < own; ++k)
-        for (int j = 0; j < 3; ++j) c[3 * k + j] = state.x[layout.owned_free[static_cast<std::size_t>(k)]][j];
-      check(VecRestoreArray(coords, &c), "VecRestoreArray");
-    }
-    MatNullSpace rigid;
-    check(MatNullSpaceCreateRigidBody(coords, &rigid), "MatNullSpaceCreateRigidBody");
-    check(MatSetNearNullSpace(A_, rigid), "MatSetNearNullSpace");
-    check(MatNullSpaceDestroy(&rigid), "MatNullSpaceDestroy");
-    check(VecDestroy(&coords), "VecDestroy");
+    if (assembled_) set_rigid_modes(layout, state, own);
 
     check(KSPCreate(PETSC_COMM_WORLD, &ksp_), "KSPCreate");
     check(KSPSetOperators(ksp_, A_, A_), "KSPSetOperators");
@@ -92,8 +69,13 @@ class RanksSystem {
     check(KSPSetTolerances(ksp_, config.tolerance, 0.0, PETSC_DEFAULT, cap), "KSPSetTolerances");
     PC pc;
     check(KSPGetPC(ksp_, &pc), "KSPGetPC");
-    if (config.preconditioner == Preconditioner::block_jacobi) {
+    if (!assembled_) {
       // A's 3 × 3 diagonal blocks inverted, as qbond's own CG.
+      check(PCSetType(pc, PCSHELL), "PCSetType(PCSHELL)");
+      check(PCShellSetContext(pc, this), "PCShellSetContext");
+      check(PCShellSetApply(pc, &RanksSystem::shell_precondition), "PCShellSetApply");
+      check(PCShellSetName(pc, "qbond: inverted 3x3 diagonal blocks"), "PCShellSetName");
+    } else if (config.preconditioner == Preconditioner::block_jacobi) {
       check(PCSetType(pc, PCPBJACOBI), "PCSetType(PCPBJACOBI)");
     } else {
       // hypre's BoomerAMG: the same bits on every run over the same ranks (GAMG, measured, not
@@ -107,15 +89,23 @@ class RanksSystem {
   RanksSystem& operator=(const RanksSystem&) = delete;
   ~RanksSystem() {
     (void)KSPDestroy(&ksp_);
+    (void)VecScatterDestroy(&scatter_);
+    (void)VecDestroy(&local_);
     (void)VecDestroy(&x_);
     (void)VecDestroy(&b_);
     (void)MatDestroy(&A_);
   }
 
-  // Solves the step's system (sys, built on the piece) for the owned free quanta's rows of y,
-  // from y's rows when `guessed`, else from zero (collective).
-  void solve(const SolveLayout& layout, const Adjacency& adj, const ImplicitSystem& sys, bool guessed,
-             std::vector<Vec3>& y, SolveStats& stats) {
+  // Makes the operator the step's system (sys, built on the piece: model, bonds, adj): assembles
+  // PETSc's matrix, or points the shell at sys (which must outlive the step's solve).
+  void load(const SolveLayout& layout, const Model& model, const Bonds& bonds, const Adjacency& adj,
+            const ImplicitSystem& sys) {
+    if (!assembled_) {
+      product_.prepare(model, bonds, sys, quanta_, threads_);
+      sys_ = &sys;
+      owned_free_ = &layout.owned_free;
+      return;
+    }
     check(MatZeroEntries(A_), "MatZeroEntries");
     const std::size_t own = layout.owned_free.size();
     // One block row at a time: its diagonal block, then −B_b towards each free neighbour in the
@@ -141,6 +131,13 @@ class RanksSystem {
     }
     check(MatAssemblyBegin(A_, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
     check(MatAssemblyEnd(A_, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  }
+
+  // Solves the loaded system for the owned free quanta's rows of y (right-hand side sys.rhs),
+  // from y's rows when `guessed`, else from zero (collective).
+  void solve(const SolveLayout& layout, const ImplicitSystem& sys, bool guessed, std::vector<Vec3>& y,
+             SolveStats& stats) {
+    const std::size_t own = layout.owned_free.size();
     {
       PetscScalar *pb = nullptr, *px = nullptr;
       check(VecGetArray(b_, &pb), "VecGetArray");
@@ -170,14 +167,174 @@ class RanksSystem {
     check(VecRestoreArrayRead(x_, &px), "VecRestoreArrayRead");
   }
 
+  // out = A y for this rank's rows (3 per owned free quanta; collective).
+  void apply(const std::vector<double>& y, std::vector<double>& out) {
+    {
+      PetscScalar* px = nullptr;
+      check(VecGetArray(x_, &px), "VecGetArray");
+      std::copy(y.begin(), y.end(), px);
+      check(VecRestoreArray(x_, &px), "VecRestoreArray");
+    }
+    check(MatMult(A_, x_, b_), "MatMult");
+    const PetscScalar* pb = nullptr;
+    PetscInt n = 0;
+    check(VecGetLocalSize(b_, &n), "VecGetLocalSize");
+    check(VecGetArrayRead(b_, &pb), "VecGetArrayRead");
+    out.assign(pb, pb + n);
+    check(VecRestoreArrayRead(b_, &pb), "VecRestoreArrayRead");
+  }
+
  private:
+  // The assembled matrix, its pattern preallocated by block row from the piece's bonds.
+  void create_matrix(const SolveLayout& layout, const Adjacency& adj, const IntegratorConfig& config) {
+    const auto own = static_cast<PetscInt>(layout.owned_free.size());
+    const auto total = static_cast<PetscInt>(layout.rows);
+    const std::int64_t first = layout.first_row, last = first + own;
+    // Preallocation by block row: the blocks in this rank's columns and in the others'.
+    std::vector<PetscInt> d(static_cast<std::size_t>(own), 1), o(static_cast<std::size_t>(own), 0);
+    for (PetscInt k = 0; k < own; ++k) {
+      const Index i = layout.owned_free[static_cast<std::size_t>(k)];
+      for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e) {
+        const std::int64_t r = layout.row[adj.other[e]];
+        if (r < 0) continue;
+        ++((r >= first && r < last) ? d : o)[static_cast<std::size_t>(k)];
+      }
+      d[static_cast<std::size_t>(k)] = std::min(d[static_cast<std::size_t>(k)], own);
+      o[static_cast<std::size_t>(k)] = std::min(o[static_cast<std::size_t>(k)], total - own);
+    }
+    check(MatCreate(PETSC_COMM_WORLD, &A_), "MatCreate");
+    check(MatSetSizes(A_, 3 * own, 3 * own, 3 * total, 3 * total), "MatSetSizes");
+    check(MatSetBlockSize(A_, 3), "MatSetBlockSize");
+    // Block rows (BAIJ) for a point-block Jacobi solve, a product half the memory traffic of AIJ's;
+    // AIJ for hypre, which takes that.
+    const bool blocks = config.preconditioner == Preconditioner::block_jacobi;
+    check(MatSetType(A_, blocks ? MATBAIJ : MATAIJ), "MatSetType");
+    check(MatXAIJSetPreallocation(A_, 3, d.data(), o.data(), nullptr, nullptr), "MatXAIJSetPreallocation");
+    if (!blocks) {  // (BAIJ takes neither option)
+      check(MatSetOption(A_, MAT_SPD, PETSC_TRUE), "MatSetOption(MAT_SPD)");
+      check(MatSetOption(A_, MAT_SPD_ETERNAL, PETSC_TRUE), "MatSetOption(MAT_SPD_ETERNAL)");
+    }
+  }
+
+  // The rigid-body modes of the owned free quanta's positions at the start: the near-null space
+  // a smoothed-aggregation preconditioner takes (PETSC_OPTIONS="-pc_type gamg").
+  void set_rigid_modes(const SolveLayout& layout, const State& state, PetscInt own) {
+    Vec coords;
+    check(VecDuplicate(x_, &coords), "VecDuplicate");
+    {
+      PetscScalar* c = nullptr;
+      check(VecGetArray(coords, &c), "VecGetArray");
+      for (PetscInt k = 0; k < own; ++k)
+        for (int j = 0; j < 3; ++j) c[3 * k + j] = state.x[layout.owned_free[static_cast<std::size_t>(k)]][j];
+      check(VecRestoreArray(coords, &c), "VecRestoreArray");
+    }
+    MatNullSpace rigid;
+    check(MatNullSpaceCreateRigidBody(coords, &rigid), "MatNullSpaceCreateRigidBody");
+    check(MatSetNearNullSpace(A_, rigid), "MatSetNearNullSpace");
+    check(MatNullSpaceDestroy(&rigid), "MatNullSpaceDestroy");
+    check(VecDestroy(&coords), "VecDestroy");
+  }
+
+  // The shell and what its product reads: the piece's free quanta, owned ones first (this rank's
+  // rows, in order) then the ghosts (in local order), and the scatter that brings their rows of
+  // a PETSc vector into one local vector in that order.
+  void create_shell(const SolveLayout& layout, PetscInt own, PetscInt total) {
+    const std::int64_t first = layout.first_row, last = first + own;
+    quanta_ = layout.owned_free;
+    for (std::size_t l = 0; l < layout.row.size(); ++l)
+      if (layout.row[l] >= 0 && (layout.row[l] < first || layout.row[l] >= last)) quanta_.push_back(static_cast<Index>(l));
+    std::vector<PetscInt> rows(quanta_.size());
+    for (std::size_t k = 0; k < quanta_.size(); ++k) rows[k] = static_cast<PetscInt>(layout.row[quanta_[k]]);
+    const auto n = static_cast<PetscInt>(quanta_.size());
+    product_out_.resize(3 * quanta_.size());
+
+    check(MatCreate(PETSC_COMM_WORLD, &A_), "MatCreate");
+    check(MatSetSizes(A_, 3 * own, 3 * own, 3 * total, 3 * total), "MatSetSizes");
+    check(MatSetBlockSize(A_, 3), "MatSetBlockSize");
+    check(MatSetType(A_, MATSHELL), "MatSetType(MATSHELL)");
+    check(MatShellSetContext(A_, this), "MatShellSetContext");
+    check(MatShellSetOperation(A_, MATOP_MULT, reinterpret_cast<void (*)(void)>(&RanksSystem::shell_multiply)),
+          "MatShellSetOperation(MATOP_MULT)");
+    check(MatSetOption(A_, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption(MAT_SYMMETRIC)");
+    check(MatSetUp(A_), "MatSetUp");
+
+    Vec global;
+    check(MatCreateVecs(A_, &global, nullptr), "MatCreateVecs");
+    check(VecCreateSeq(PETSC_COMM_SELF, 3 * n, &local_), "VecCreateSeq");
+    IS from, to;
+    check(ISCreateBlock(PETSC_COMM_SELF, 3, n, rows.data(), PETSC_COPY_VALUES, &from), "ISCreateBlock");
+    check(ISCreateStride(PETSC_COMM_SELF, 3 * n, 0, 1, &to), "ISCreateStride");
+    check(VecScatterCreate(global, from, local_, to, &scatter_), "VecScatterCreate");
+    check(ISDestroy(&from), "ISDestroy");
+    check(ISDestroy(&to), "ISDestroy");
+    check(VecDestroy(&global), "VecDestroy");
+  }
+
+  // y = A x by the shell: x's rows of the piece's free quanta gathered (the ghosts' from their
+  // owners), qbond's bond pass over the piece, and its owned rows kept.
+  static PetscErrorCode shell_multiply(Mat A, Vec x, Vec y) {
+    PetscFunctionBeginUser;
+    RanksSystem* self = nullptr;
+    PetscCall(MatShellGetContext(A, &self));
+    PetscCall(VecScatterBegin(self->scatter_, x, self->local_, INSERT_VALUES, SCATTER_FORWARD));
+    PetscCall(VecScatterEnd(self->scatter_, x, self->local_, INSERT_VALUES, SCATTER_FORWARD));
+    const PetscScalar* in = nullptr;
+    PetscCall(VecGetArrayRead(self->local_, &in));
+    self->product_.apply(in, self->product_out_.data(), self->threads_);
+    PetscCall(VecRestoreArrayRead(self->local_, &in));
+    PetscScalar* out = nullptr;
+    PetscInt n = 0;
+    PetscCall(VecGetLocalSize(y, &n));
+    PetscCall(VecGetArray(y, &out));
+    std::copy_n(self->product_out_.data(), n, out);
+    PetscCall(VecRestoreArray(y, &out));
+    PetscFunctionReturn(0);
+  }
+
+  // z = blockdiag(A_ii)⁻¹ r over this rank's rows (qbond's inverted diagonal blocks).
+  static PetscErrorCode shell_precondition(PC pc, Vec r, Vec z) {
+    PetscFunctionBeginUser;
+    RanksSystem* self = nullptr;
+    PetscCall(PCShellGetContext(pc, &self));
+    const PetscScalar* in = nullptr;
+    PetscScalar* out = nullptr;
+    PetscCall(VecGetArrayRead(r, &in));
+    PetscCall(VecGetArray(z, &out));
+    const std::vector<Index>& owned = *self->owned_free_;
+    for (std::size_t k = 0; k < owned.size(); ++k) {
+      const Vec3 zk = self->sys_->diag_inv[owned[k]] * Vec3(in[3 * k], in[3 * k + 1], in[3 * k + 2]);
+      for (int j = 0; j < 3; ++j) out[3 * k + static_cast<std::size_t>(j)] = zk[j];
+    }
+    PetscCall(VecRestoreArray(z, &out));
+    PetscCall(VecRestoreArrayRead(r, &in));
+    PetscFunctionReturn(0);
+  }
+
+  bool assembled_;
+  int threads_;
   Mat A_ = nullptr;
   Vec x_ = nullptr, b_ = nullptr;
   KSP ksp_ = nullptr;
+  // The assembled matrix's row being set.
   std::vector<PetscInt> cols_;
   std::vector<Mat3> blocks_;
   std::vector<PetscScalar> values_;
+  // The shell's.
+  std::vector<Index> quanta_;
+  Vec local_ = nullptr;
+  VecScatter scatter_ = nullptr;
+  SystemProduct product_;
+  std::vector<double> product_out_;
+  const ImplicitSystem* sys_ = nullptr;
+  const std::vector<Index>* owned_free_ = nullptr;
 };
+
+// Whether the solve takes PETSc's assembled matrix: for hypre's multigrid, or a preconditioner
+// PETSC_OPTIONS names; the block-Jacobi solve multiplies without it.
+bool takes_matrix(const IntegratorConfig& config) {
+  start_petsc();
+  return config.preconditioner != Preconditioner::block_jacobi || preconditioner_from_options();
+}
 
 class CoupledOverRanks final : public StepIntegrator {
  public:
@@ -194,8 +351,9 @@ class CoupledOverRanks final : public StepIntegrator {
     begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/false, threads, out, sys_);
     const bool guessed = initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, threads, y_);
     if (!guessed) y_.assign(model.num_quanta(), Vec3::Zero());
-    if (!system_) system_ = std::make_unique<RanksSystem>(layout_, state, adj, config_);
-    system_->solve(layout_, adj, sys_, guessed, y_, stats_);
+    if (!system_) system_ = std::make_unique<RanksSystem>(layout_, state, adj, config_, takes_matrix(config_));
+    system_->load(layout_, model, state.bonds, adj, sys_);
+    system_->solve(layout_, sys_, guessed, y_, stats_);
     if (config_.restore_momentum) restore_momentum(model, f_ext, ctx.h);
     keep_guess(config_.warm_start, y_, ctx.h, state.carry, threads, out);
     // The ghosts' rows are their owners' to write: the exchange after the step brings them.
@@ -241,6 +399,16 @@ class CoupledOverRanks final : public StepIntegrator {
 
 std::unique_ptr<StepIntegrator> make_coupled_over_ranks(const IntegratorConfig& config, SolveLayout layout) {
   return std::make_unique<CoupledOverRanks>(config, std::move(layout));
+}
+
+void apply_both_operators(const SolveLayout& layout, const Model& model, const State& state, const Adjacency& adj,
+                          const ImplicitSystem& sys, const IntegratorConfig& config, const std::vector<double>& y,
+                          std::vector<double>& matrix_free, std::vector<double>& assembled) {
+  RanksSystem shell(layout, state, adj, config, false), matrix(layout, state, adj, config, true);
+  shell.load(layout, model, state.bonds, adj, sys);
+  matrix.load(layout, model, state.bonds, adj, sys);
+  shell.apply(y, matrix_free);
+  matrix.apply(y, assembled);
 }
 
 void end_petsc() {

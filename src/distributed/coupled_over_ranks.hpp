@@ -2,15 +2,23 @@
 // The coupled implicit step (backward Euler, backward_euler.hpp) of a run over ranks: each rank
 // builds the system's rows of the free quanta it owns from its piece (local_world.hpp: an owned
 // quanta's bonds are all in its piece), and the ranks solve (M + h C + h² K) Δv = b together with
-// PETSc's CG preconditioned by A's 3 × 3 diagonal blocks (preconditioner block_jacobi) or by
-// hypre's algebraic multigrid (BoomerAMG: multigrid, automatic), to qbond's CG stopping rule
-// ‖b − A Δv‖ ≤ tolerance ‖b‖.
+// PETSc's CG, to qbond's CG stopping rule ‖b − A Δv‖ ≤ tolerance ‖b‖. Preconditioned by A's 3 × 3
+// diagonal blocks (preconditioner block_jacobi), CG multiplies by A without forming it: qbond's
+// own bond pass over the piece, the ghosts' rows of the vector brought from their owners. hypre's
+// algebraic multigrid (BoomerAMG: multigrid, automatic) needs the matrix, which is then assembled
+// into PETSc's format every step.
 // Built with MPI and PETSc (QBOND_DISTRIBUTED_IMPLICIT).
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "integrators/advance.hpp"
+#include "solvers/coloring.hpp"
+
+namespace qbond {
+struct ImplicitSystem;
+}
 
 namespace qbond::distributed {
 
@@ -29,9 +37,25 @@ struct SolveLayout {
   std::vector<double> component_mass;
 };
 
+// Rank `rank`'s layout (of `ranks`) given every quanta's owner, its piece's quanta (`global`: each
+// local quanta's whole index; `owned`: the local indices it owns) and the whole world's free
+// components.
+SolveLayout solve_layout(const World& whole, std::span<const int> owner, int rank, int ranks,
+                         std::span<const Index> global, std::span<const Index> owned,
+                         const FreeComponents& components);
+
 // The coupled implicit integrator of one rank's piece, every rank taking each step together (its
 // projection is collective). `config`: coupled_implicit with the cg solver.
 std::unique_ptr<StepIntegrator> make_coupled_over_ranks(const IntegratorConfig& config, SolveLayout layout);
+
+// A y for this rank's rows (3 per owned free quanta, in layout.owned_free's order) by both of the
+// solve's operators, to check one against the other: `matrix_free` by the block-Jacobi solve's
+// (qbond's bond pass over the piece: model, state.bonds, adj and sys, the system begin_implicit_step
+// built on it), `assembled` by PETSc's matrix, which the multigrid solve takes. y holds this
+// rank's rows too. Collective.
+void apply_both_operators(const SolveLayout& layout, const Model& model, const State& state, const Adjacency& adj,
+                          const ImplicitSystem& sys, const IntegratorConfig& config, const std::vector<double>& y,
+                          std::vector<double>& matrix_free, std::vector<double>& assembled);
 
 // Ends PETSc when a run over ranks started it (before MPI ends); nothing otherwise.
 void end_petsc();

@@ -156,37 +156,41 @@ void DistributedStep::build(const std::vector<double>* forces) {
   sim_->limits() = limits_;
   sim_->set_track_energy(false);  // the ledger is charged here, over the owned bonds
 #ifdef QBOND_DISTRIBUTED_IMPLICIT
-  if (implicit_) replace_step_integrator(*sim_, make_coupled_over_ranks(config_, solve_layout()));
+  if (implicit_)
+    replace_step_integrator(
+        *sim_, make_coupled_over_ranks(config_, solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_)));
 #endif
 }
 
-SolveLayout DistributedStep::solve_layout() {
+SolveLayout solve_layout(const World& whole, std::span<const int> owner, int rank, int ranks,
+                         std::span<const Index> global, std::span<const Index> owned,
+                         const FreeComponents& components) {
   // The whole system's block rows: each rank's owned free quanta in whole-world order, rank after
   // rank (the same numbering on every rank, from the owners alone).
-  const std::size_t n = whole_.num_quanta();
-  std::vector<std::int64_t> next(static_cast<std::size_t>(ranks_) + 1, 0);
+  const std::size_t n = whole.num_quanta();
+  std::vector<std::int64_t> next(static_cast<std::size_t>(ranks) + 1, 0);
   for (std::size_t q = 0; q < n; ++q)
-    if (!whole_.model.is_kinematic(static_cast<Index>(q))) ++next[static_cast<std::size_t>(owner_[q]) + 1];
+    if (!whole.model.is_kinematic(static_cast<Index>(q))) ++next[static_cast<std::size_t>(owner[q]) + 1];
   for (std::size_t r = 1; r < next.size(); ++r) next[r] += next[r - 1];
   SolveLayout layout;
-  layout.first_row = next[static_cast<std::size_t>(rank_)];
+  layout.first_row = next[static_cast<std::size_t>(rank)];
   layout.rows = next.back();
   std::vector<std::int64_t> rows(n, -1);
   for (std::size_t q = 0; q < n; ++q)
-    if (!whole_.model.is_kinematic(static_cast<Index>(q))) rows[q] = next[static_cast<std::size_t>(owner_[q])]++;
+    if (!whole.model.is_kinematic(static_cast<Index>(q))) rows[q] = next[static_cast<std::size_t>(owner[q])]++;
   std::vector<Index> local(n, ~Index{0});
-  layout.row.resize(global_.size());
-  for (std::size_t l = 0; l < global_.size(); ++l) {
-    local[global_[l]] = static_cast<Index>(l);
-    layout.row[l] = rows[global_[l]];
+  layout.row.resize(global.size());
+  for (std::size_t l = 0; l < global.size(); ++l) {
+    local[global[l]] = static_cast<Index>(l);
+    layout.row[l] = rows[global[l]];
   }
-  for (Index l : owned_)
+  for (Index l : owned)
     if (layout.row[l] >= 0) layout.owned_free.push_back(l);
-  const FreeComponents& c = components_;
+  const FreeComponents& c = components;
   layout.component_offset.push_back(0);
   for (std::size_t k = 0; k + 1 < c.offset.size(); ++k) {
     for (Index m = c.offset[k]; m < c.offset[k + 1]; ++m)
-      if (owner_[c.quanta[m]] == rank_) layout.component_owned.push_back(local[c.quanta[m]]);
+      if (owner[c.quanta[m]] == rank) layout.component_owned.push_back(local[c.quanta[m]]);
     layout.component_offset.push_back(static_cast<Index>(layout.component_owned.size()));
   }
   layout.component_mass = c.mass;

@@ -83,8 +83,6 @@ class DistributedStep {
   // Builds this rank's piece from whole_ and owner_, with the whole world's carried forces
   // (3 per quanta, by whole index) or, when null, with forces evaluated here and exchanged.
   void build(const std::vector<double>* forces);
-  // This rank's place in the whole implicit system, from owner_ and the built piece.
-  SolveLayout solve_layout();
   // The ghosts' positions and velocities (and carried forces) from their owners.
   void exchange_ghosts();
   // The anchors' and dampers' work over the owned bonds, from the state before the step; returns

@@ -51,10 +51,12 @@ bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& 
 void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const Carry& carry, int threads,
                 Projection& out);
 
-// Caches what depends only on topology (colours, free components), rebuilt when it changes.
+// Caches what depends only on the topology and the free quanta (colours, free components), rebuilt
+// when either changes.
 struct TopologyCache {
   std::uint64_t version = ~0ull;
   std::size_t num_quanta = 0;
+  std::size_t motions = 0;  // World::prescribe during a run adds one: the free quanta changed
   Coloring coloring;
   FreeComponents components;
   void update(const Model& model, const Adjacency& adj);

@@ -356,11 +356,12 @@ void keep_guess(WarmStart mode, const std::vector<Vec3>& y, double h, const Carr
 }
 
 void TopologyCache::update(const Model& model, const Adjacency& adj) {
-  if (adj.version == version && model.num_quanta() == num_quanta) return;
+  if (adj.version == version && model.num_quanta() == num_quanta && model.motions.size() == motions) return;
   color_free_quanta(model, adj, coloring);
   free_components(model, adj, components);
   version = adj.version;
   num_quanta = model.num_quanta();
+  motions = model.motions.size();
 }
 
 void restore_component_momentum(const Model& model, const FreeComponents& comps,

@@ -15,6 +15,20 @@
 namespace qbond {
 
 namespace {
+// One bond's force on its first quanta and its Newton block.
+struct BondStep {
+  Vec3 f = Vec3::Zero();  // force on bond_i [N] (bond_j gets −f)
+  Vec3 u = Vec3::Zero();  // direction of the blocks (the bond where the force is taken)
+  double ka = 0, kb = 0;  // K̃ = ka u uᵀ + kb I ≈ ∂f/∂Δd, clamped positive semi-definite [N/m]
+  double ca = 0, cb = 0;  // ∂f/∂w = ca u uᵀ + cb I [N·s/m]
+};
+
+// The exact derivatives of a bond's force on bond_i: unclamped, non-symmetric.
+struct BondJacobian {
+  Mat3 K = Mat3::Zero();  // ∂f/∂Δd [N/m]
+  Mat3 C = Mat3::Zero();  // ∂f/∂w [N·s/m]
+};
+
 // The damper's force on bond_i for relative velocity w along unit u, and the symmetric part of
 // its derivative with respect to the bond's separation (the axial damper turns with the bond:
 // ∂(D (w·u) u)/∂d = D (w·u)/r (I − u uᵀ) + D u wᵀ(I − u uᵀ)/r; the second, non-symmetric term
@@ -53,10 +67,27 @@ void clamp_into(double axial, double transverse, bool clamp, BondStep& s) {
   s.ka = k.ka();
   s.kb = k.kb();
 }
-}  // namespace
 
-BondStep bond_step(const Model& model, const Bonds& bonds, std::size_t b, double L, NewtonScheme scheme,
-                   const Vec3& d0, const Vec3& dd, const Vec3& w, bool clamp, BondJacobian* exact) {
+// The laws other than linear, out of line: inlined, their calls (exp, log1p, ...) made the
+// compiler keep bond_step's working values in memory on the linear bonds' path too.
+[[gnu::noinline]] MeanTension curved_mean_tension(const Bonds& bonds, const std::vector<LawShape>& shapes,
+                                                  std::size_t b, double r0, double r1, double L) {
+  return mean_tension(bonds.law[b], r0, r1, L, bonds.law_args(shapes, b));
+}
+[[gnu::noinline]] LawValue curved_law_value(const Bonds& bonds, const std::vector<LawShape>& shapes,
+                                            std::size_t b, double r, double L) {
+  return evaluate_law(bonds.law[b], r, L, bonds.law_args(shapes, b));
+}
+
+// Bond b (rest length L) whose separation d = x_j − x_i starts at d0 and changes by dd over the
+// step, its dampers seeing the relative velocity w (at the scheme's θ); `clamp` as NewtonStep's.
+// With `exact`, also the full derivatives (zero for a bond through zero length, like f).
+// Always inlined into newton_bonds' loop: called, it took d0, dd, w and its result through
+// memory and spilled its working values, a few percent of energy_momentum's whole step.
+[[gnu::always_inline]] inline BondStep bond_step(const Model& model, const Bonds& bonds, std::size_t b,
+                                                 double L, NewtonScheme scheme, const Vec3& d0,
+                                                 const Vec3& dd, const Vec3& w, bool clamp,
+                                                 BondJacobian* exact) {
   BondStep s;
   if (exact) *exact = {};
   const bool axial_damper = bonds.damping_model[b] == DampingModel::axial;
@@ -71,7 +102,9 @@ BondStep bond_step(const Model& model, const Bonds& bonds, std::size_t b, double
     const double r0 = d0.norm(), r1 = d1.norm(), rm = dm.norm(), rbar = 0.5 * (r0 + r1);
     if (!(rm > 0 && rbar > 0)) return s;  // a bond through zero length has no direction
     s.u = dm / rm;
-    const MeanTension mt = bonds.mean_tension_at(model.shapes, b, r0, r1, L);
+    const MeanTension mt = bonds.law[b] == Law::linear
+                               ? LinearLaw::mean(r0, r1, L, {.strength = bonds.strength[b]})
+                               : curved_mean_tension(bonds, model.shapes, b, r0, r1, L);
     const double phi = mt.T / rbar;
     const Damper dmp = damper(bonds, b, s.u, rm, w);
     s.f = phi * dm + dmp.f;
@@ -93,7 +126,8 @@ BondStep bond_step(const Model& model, const Bonds& bonds, std::size_t b, double
   const double r = d.norm();
   if (!(r > 0)) return s;
   s.u = d / r;
-  const LawValue lv = bonds.law_at(model.shapes, b, r, L);
+  const LawValue lv = bonds.law[b] == Law::linear ? LinearLaw::eval(r, L, {.strength = bonds.strength[b]})
+                                                  : curved_law_value(bonds, model.shapes, b, r, L);
   const Damper dmp = damper(bonds, b, s.u, r, w);
   s.f = lv.T * s.u + dmp.f;
   // ∂f/∂d = T' u uᵀ + (T/r)(I − u uᵀ) + the damper's turning (K_b: laws.hpp, stiffness_block).
@@ -106,6 +140,7 @@ BondStep bond_step(const Model& model, const Bonds& bonds, std::size_t b, double
   }
   return s;
 }
+}  // namespace
 
 void setup_newton_step(NewtonScheme scheme, const Model& model, const State& state, const Projection& kin, double h,
                        const std::vector<Vec3>* x_prev, const std::vector<Vec3>* v_prev, NewtonStep& st) {

@@ -6,8 +6,8 @@
 // somewhere in the step, and solves
 //     R_i(y) = m_i (y_i − e_i) − s h (f_ext,i + Σ_b ±f_b(y)) = 0      (free quanta):
 //   energy_momentum:   a = h v, c = h/2, s = 1, e = 0 (x₁ − x = h (v + v₁)/2); f_b the discrete
-//                      gradient T̄ d_mid / r̄ (bond_step) and the damper at the midpoint velocity
-//                      v + y/2 along the midpoint bond d_mid = (d + d₁)/2;
+//                      gradient T̄ d_mid / r̄ (newton.cpp, bond_step) and the damper at the midpoint
+//                      velocity v + y/2 along the midpoint bond d_mid = (d + d₁)/2;
 //   implicit_midpoint: a = h v, c = h/2, s = 1, e = 0; f_b(x + Δx/2, v + y/2);
 //   bdf2:              x₁ = 4/3 x − 1/3 x₋₁ + 2/3 h v₁, v₁ = 4/3 v − 1/3 v₋₁ + 2/3 h a(x₁, v₁),
 //                      i.e. a = (x − x₋₁)/3 + 2/3 h v, c = 2h/3, s = 2/3, e = (v − v₋₁)/3;
@@ -50,26 +50,6 @@
 namespace qbond {
 
 enum class NewtonScheme : std::uint8_t { energy_momentum, implicit_midpoint, bdf2, backward_euler };
-
-// One bond's force on its first quanta and its Newton block.
-struct BondStep {
-  Vec3 f = Vec3::Zero();  // force on bond_i [N] (bond_j gets −f)
-  Vec3 u = Vec3::Zero();  // direction of the blocks (the bond where the force is taken)
-  double ka = 0, kb = 0;  // K̃ = ka u uᵀ + kb I ≈ ∂f/∂Δd, clamped positive semi-definite [N/m]
-  double ca = 0, cb = 0;  // ∂f/∂w = ca u uᵀ + cb I [N·s/m]
-};
-
-// The exact derivatives of a bond's force on bond_i: unclamped, non-symmetric.
-struct BondJacobian {
-  Mat3 K = Mat3::Zero();  // ∂f/∂Δd [N/m]
-  Mat3 C = Mat3::Zero();  // ∂f/∂w [N·s/m]
-};
-
-// Bond b (rest length L) whose separation d = x_j − x_i starts at d0 and changes by dd over the
-// step, its dampers seeing the relative velocity w (at the scheme's θ); `clamp` as NewtonStep's.
-// With `exact`, also the full derivatives (zero for a bond through zero length, like f).
-BondStep bond_step(const Model& model, const Bonds& bonds, std::size_t b, double L, NewtonScheme scheme,
-                   const Vec3& d0, const Vec3& dd, const Vec3& w, bool clamp, BondJacobian* exact = nullptr);
 
 // The map from y to the step (see the header comment).
 struct NewtonStep {

@@ -46,6 +46,56 @@ std::string escape(const std::string& s) {
   return out;
 }
 
+// One frame's arrays in file order: per point (x, v: 3 components, stress: 9), then per cell,
+// the verts before the lines; write_vtp and write_vtp_piece fill it, write_frame writes it.
+struct Frame {
+  std::vector<double> x, v, mass, mises, stress;
+  std::vector<std::int64_t> id;
+  std::vector<std::int32_t> body;
+  std::vector<std::uint8_t> kinematic;
+  std::vector<double> cell_strain, cell_tension;
+  std::vector<std::int64_t> cell_bond, vert_conn, vert_off, line_conn, line_off;
+};
+
+// Writes `f` as a .vtp file; `more_point_data(a, xml)` adds the point arrays that follow stress
+// (the caller's extra arrays, a piece's ghost flags).
+template <class MorePointData>
+void write_frame(const std::filesystem::path& path, const Frame& f, MorePointData&& more_point_data) {
+  const std::size_t m = f.mass.size();
+  Appended a;
+  std::string xml =
+      "<?xml version=\"1.0\"?>\n"
+      "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
+      "<PolyData>\n<Piece NumberOfPoints=\"" +
+      std::to_string(m) + "\" NumberOfVerts=\"" + std::to_string(f.vert_off.size()) + "\" NumberOfLines=\"" +
+      std::to_string(f.line_off.size()) + "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
+  xml += "<PointData Scalars=\"mass\" Vectors=\"velocity\">\n";
+  a.array(xml, "Float64", "velocity", 3, f.v.data(), 3 * m);
+  a.array(xml, "Float64", "mass", 1, f.mass.data(), m);
+  a.array(xml, "Int64", "id", 1, f.id.data(), m);
+  a.array(xml, "Int32", "body", 1, f.body.data(), m);
+  a.array(xml, "UInt8", "kinematic", 1, f.kinematic.data(), m);
+  a.array(xml, "Float64", "von_mises", 1, f.mises.data(), m);
+  a.array(xml, "Float64", "stress", 9, f.stress.data(), 9 * m);
+  more_point_data(a, xml);
+  xml += "</PointData>\n<CellData Scalars=\"tension\">\n";
+  a.array(xml, "Float64", "strain", 1, f.cell_strain.data(), f.cell_strain.size());
+  a.array(xml, "Float64", "tension", 1, f.cell_tension.data(), f.cell_tension.size());
+  a.array(xml, "Int64", "bond", 1, f.cell_bond.data(), f.cell_bond.size());
+  xml += "</CellData>\n<Points>\n";
+  a.array(xml, "Float64", "", 3, f.x.data(), 3 * m);
+  xml += "</Points>\n<Verts>\n";
+  a.array(xml, "Int64", "connectivity", 1, f.vert_conn.data(), f.vert_conn.size());
+  a.array(xml, "Int64", "offsets", 1, f.vert_off.data(), f.vert_off.size());
+  xml += "</Verts>\n<Lines>\n";
+  a.array(xml, "Int64", "connectivity", 1, f.line_conn.data(), f.line_conn.size());
+  a.array(xml, "Int64", "offsets", 1, f.line_off.data(), f.line_off.size());
+  xml += "</Lines>\n</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">\n_";
+  xml += a.block;
+  xml += "\n</AppendedData>\n</VTKFile>\n";
+  write_file_atomic(path, xml, Durability::atomic);
+}
+
 }  // namespace
 
 void write_vtp(const std::filesystem::path& path, const Model& model, const State& state,
@@ -66,79 +116,52 @@ void write_vtp(const std::filesystem::path& path, const Model& model, const Stat
   static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 must be three packed doubles");
   static_assert(sizeof(Mat3) == 9 * sizeof(double), "Mat3 must be nine packed doubles");
 
+  Frame f;
   std::vector<double> tension, strain;
   bond_tension_strain(model, state, tension, strain);
-  std::vector<std::int64_t> line_conn, line_off, vert_conn(n), vert_off(n);
-  std::vector<double> cell_strain(n, 0.0), cell_tension(n, 0.0);
-  std::vector<std::int64_t> cell_bond(n, -1);
+  f.vert_conn.resize(n);
+  f.vert_off.resize(n);
+  f.cell_strain.assign(n, 0.0);
+  f.cell_tension.assign(n, 0.0);
+  f.cell_bond.assign(n, -1);
   for (std::size_t i = 0; i < n; ++i) {
-    vert_conn[i] = static_cast<std::int64_t>(i);
-    vert_off[i] = static_cast<std::int64_t>(i + 1);
+    f.vert_conn[i] = static_cast<std::int64_t>(i);
+    f.vert_off[i] = static_cast<std::int64_t>(i + 1);
   }
   for (Index b : bond_at) {
     if (!state.bonds.alive[b]) continue;
-    line_conn.push_back(model.quanta_id[state.bonds.i[b]]);
-    line_conn.push_back(model.quanta_id[state.bonds.j[b]]);
-    line_off.push_back(static_cast<std::int64_t>(line_conn.size()));
-    cell_strain.push_back(strain[b]);
-    cell_tension.push_back(tension[b]);
-    cell_bond.push_back(state.bonds.id[b]);
+    f.line_conn.push_back(model.quanta_id[state.bonds.i[b]]);
+    f.line_conn.push_back(model.quanta_id[state.bonds.j[b]]);
+    f.line_off.push_back(static_cast<std::int64_t>(f.line_conn.size()));
+    f.cell_strain.push_back(strain[b]);
+    f.cell_tension.push_back(tension[b]);
+    f.cell_bond.push_back(state.bonds.id[b]);
   }
-  std::vector<std::int64_t> id(n);
-  std::vector<std::int32_t> body(n);
-  std::vector<std::uint8_t> kinematic(n);
+  f.id.resize(n);
+  f.body.resize(n);
+  f.kinematic.resize(n);
   for (std::size_t k = 0; k < n; ++k) {
     const Index i = quanta_at[k];
-    id[k] = static_cast<std::int64_t>(k);
-    body[k] = static_cast<std::int32_t>(model.body[i]);
-    kinematic[k] = model.is_kinematic(i);
+    f.id[k] = static_cast<std::int64_t>(k);
+    f.body[k] = static_cast<std::int32_t>(model.body[i]);
+    f.kinematic[k] = model.is_kinematic(i);
   }
   // Stress where volumes are known (stress.hpp); 0 elsewhere.
   std::vector<Mat3> sigma;
   virial_stress(model, state, sigma);
-  std::vector<double> mises(n);
-  for (std::size_t k = 0; k < n; ++k) mises[k] = von_mises(sigma[quanta_at[k]]);
-  const auto x = gather(reinterpret_cast<const double*>(state.x.data()), 3);
-  const auto v = gather(reinterpret_cast<const double*>(state.v.data()), 3);
-  const auto mass = gather(model.mass.data(), 1);
-  const auto stress = gather(reinterpret_cast<const double*>(sigma.data()), 9);
-
-  Appended a;
-  std::string xml =
-      "<?xml version=\"1.0\"?>\n"
-      "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
-      "<PolyData>\n<Piece NumberOfPoints=\"" +
-      std::to_string(n) + "\" NumberOfVerts=\"" + std::to_string(n) + "\" NumberOfLines=\"" +
-      std::to_string(line_off.size()) + "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
-  xml += "<PointData Scalars=\"mass\" Vectors=\"velocity\">\n";
-  a.array(xml, "Float64", "velocity", 3, v.data(), 3 * n);
-  a.array(xml, "Float64", "mass", 1, mass.data(), n);
-  a.array(xml, "Int64", "id", 1, id.data(), n);
-  a.array(xml, "Int32", "body", 1, body.data(), n);
-  a.array(xml, "UInt8", "kinematic", 1, kinematic.data(), n);
-  a.array(xml, "Float64", "von_mises", 1, mises.data(), n);
-  a.array(xml, "Float64", "stress", 9, stress.data(), 9 * n);
-  for (const PointArray& p : extra) {
-    assert(p.values.size() == n * static_cast<std::size_t>(p.components));
-    a.array(xml, "Float64", escape(p.name), p.components, gather(p.values.data(), p.components).data(),
-            p.values.size());
-  }
-  xml += "</PointData>\n<CellData Scalars=\"tension\">\n";
-  a.array(xml, "Float64", "strain", 1, cell_strain.data(), cell_strain.size());
-  a.array(xml, "Float64", "tension", 1, cell_tension.data(), cell_tension.size());
-  a.array(xml, "Int64", "bond", 1, cell_bond.data(), cell_bond.size());
-  xml += "</CellData>\n<Points>\n";
-  a.array(xml, "Float64", "", 3, x.data(), 3 * n);
-  xml += "</Points>\n<Verts>\n";
-  a.array(xml, "Int64", "connectivity", 1, vert_conn.data(), n);
-  a.array(xml, "Int64", "offsets", 1, vert_off.data(), n);
-  xml += "</Verts>\n<Lines>\n";
-  a.array(xml, "Int64", "connectivity", 1, line_conn.data(), line_conn.size());
-  a.array(xml, "Int64", "offsets", 1, line_off.data(), line_off.size());
-  xml += "</Lines>\n</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">\n_";
-  xml += a.block;
-  xml += "\n</AppendedData>\n</VTKFile>\n";
-  write_file_atomic(path, xml, Durability::atomic);
+  f.mises.resize(n);
+  for (std::size_t k = 0; k < n; ++k) f.mises[k] = von_mises(sigma[quanta_at[k]]);
+  f.x = gather(reinterpret_cast<const double*>(state.x.data()), 3);
+  f.v = gather(reinterpret_cast<const double*>(state.v.data()), 3);
+  f.mass = gather(model.mass.data(), 1);
+  f.stress = gather(reinterpret_cast<const double*>(sigma.data()), 9);
+  write_frame(path, f, [&](Appended& a, std::string& xml) {
+    for (const PointArray& p : extra) {
+      assert(p.values.size() == n * static_cast<std::size_t>(p.components));
+      a.array(xml, "Float64", escape(p.name), p.components, gather(p.values.data(), p.components).data(),
+              p.values.size());
+    }
+  });
 }
 
 void write_vtp_piece(const std::filesystem::path& path, const Model& model, const State& state,
@@ -168,72 +191,47 @@ void write_vtp_piece(const std::filesystem::path& path, const Model& model, cons
   bond_tension_strain(model, state, tension, strain);
   std::vector<Mat3> sigma;
   virial_stress(model, state, sigma);
-  std::vector<double> x(3 * m), v(3 * m), mass(m), mises(m), stress(9 * m);
-  std::vector<std::int64_t> id(m), vert_conn, vert_off, line_conn, line_off;
-  std::vector<std::int32_t> body(m);
-  std::vector<std::uint8_t> kinematic(m), ghost(m);
-  std::vector<double> cell_strain, cell_tension;
-  std::vector<std::int64_t> cell_bond;
+  Frame f;
+  f.x.resize(3 * m);
+  f.v.resize(3 * m);
+  f.mass.resize(m);
+  f.mises.resize(m);
+  f.stress.resize(9 * m);
+  f.id.resize(m);
+  f.body.resize(m);
+  f.kinematic.resize(m);
+  std::vector<std::uint8_t> ghost(m);
   for (std::size_t k = 0; k < m; ++k) {
     const Index q = at[k];
     for (int c = 0; c < 3; ++c) {
-      x[3 * k + c] = state.x[q][c];
-      v[3 * k + c] = state.v[q][c];
+      f.x[3 * k + c] = state.x[q][c];
+      f.v[3 * k + c] = state.v[q][c];
     }
-    for (int c = 0; c < 9; ++c) stress[9 * k + c] = sigma[q].data()[c];
-    mass[k] = model.mass[q];
-    mises[k] = von_mises(sigma[q]);
-    id[k] = static_cast<std::int64_t>(model.quanta_id[q]);
-    body[k] = static_cast<std::int32_t>(model.body[q]);
-    kinematic[k] = model.is_kinematic(q);
+    for (int c = 0; c < 9; ++c) f.stress[9 * k + c] = sigma[q].data()[c];
+    f.mass[k] = model.mass[q];
+    f.mises[k] = von_mises(sigma[q]);
+    f.id[k] = static_cast<std::int64_t>(model.quanta_id[q]);
+    f.body[k] = static_cast<std::int32_t>(model.body[q]);
+    f.kinematic[k] = model.is_kinematic(q);
     ghost[k] = owned[q] ? 0 : 1;  // vtkGhostType's DUPLICATEPOINT
     if (!owned[q]) continue;
-    vert_conn.push_back(static_cast<std::int64_t>(k));
-    vert_off.push_back(static_cast<std::int64_t>(vert_conn.size()));
-    cell_strain.push_back(0);
-    cell_tension.push_back(0);
-    cell_bond.push_back(-1);
+    f.vert_conn.push_back(static_cast<std::int64_t>(k));
+    f.vert_off.push_back(static_cast<std::int64_t>(f.vert_conn.size()));
+    f.cell_strain.push_back(0);
+    f.cell_tension.push_back(0);
+    f.cell_bond.push_back(-1);
   }
   for (Index b : lines) {
-    line_conn.push_back(point_of[bonds.i[b]]);
-    line_conn.push_back(point_of[bonds.j[b]]);
-    line_off.push_back(static_cast<std::int64_t>(line_conn.size()));
-    cell_strain.push_back(strain[b]);
-    cell_tension.push_back(tension[b]);
-    cell_bond.push_back(bonds.id[b]);
+    f.line_conn.push_back(point_of[bonds.i[b]]);
+    f.line_conn.push_back(point_of[bonds.j[b]]);
+    f.line_off.push_back(static_cast<std::int64_t>(f.line_conn.size()));
+    f.cell_strain.push_back(strain[b]);
+    f.cell_tension.push_back(tension[b]);
+    f.cell_bond.push_back(bonds.id[b]);
   }
-  Appended a;
-  std::string xml =
-      "<?xml version=\"1.0\"?>\n"
-      "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
-      "<PolyData>\n<Piece NumberOfPoints=\"" +
-      std::to_string(m) + "\" NumberOfVerts=\"" + std::to_string(vert_off.size()) + "\" NumberOfLines=\"" +
-      std::to_string(line_off.size()) + "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
-  xml += "<PointData Scalars=\"mass\" Vectors=\"velocity\">\n";
-  a.array(xml, "Float64", "velocity", 3, v.data(), 3 * m);
-  a.array(xml, "Float64", "mass", 1, mass.data(), m);
-  a.array(xml, "Int64", "id", 1, id.data(), m);
-  a.array(xml, "Int32", "body", 1, body.data(), m);
-  a.array(xml, "UInt8", "kinematic", 1, kinematic.data(), m);
-  a.array(xml, "Float64", "von_mises", 1, mises.data(), m);
-  a.array(xml, "Float64", "stress", 9, stress.data(), 9 * m);
-  a.array(xml, "UInt8", "vtkGhostType", 1, ghost.data(), m);
-  xml += "</PointData>\n<CellData Scalars=\"tension\">\n";
-  a.array(xml, "Float64", "strain", 1, cell_strain.data(), cell_strain.size());
-  a.array(xml, "Float64", "tension", 1, cell_tension.data(), cell_tension.size());
-  a.array(xml, "Int64", "bond", 1, cell_bond.data(), cell_bond.size());
-  xml += "</CellData>\n<Points>\n";
-  a.array(xml, "Float64", "", 3, x.data(), 3 * m);
-  xml += "</Points>\n<Verts>\n";
-  a.array(xml, "Int64", "connectivity", 1, vert_conn.data(), vert_conn.size());
-  a.array(xml, "Int64", "offsets", 1, vert_off.data(), vert_off.size());
-  xml += "</Verts>\n<Lines>\n";
-  a.array(xml, "Int64", "connectivity", 1, line_conn.data(), line_conn.size());
-  a.array(xml, "Int64", "offsets", 1, line_off.data(), line_off.size());
-  xml += "</Lines>\n</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">\n_";
-  xml += a.block;
-  xml += "\n</AppendedData>\n</VTKFile>\n";
-  write_file_atomic(path, xml, Durability::atomic);
+  write_frame(path, f, [&](Appended& a, std::string& xml) {
+    a.array(xml, "UInt8", "vtkGhostType", 1, ghost.data(), m);
+  });
 }
 
 void write_pvtp(const std::filesystem::path& path, std::span<const std::string> pieces) {
