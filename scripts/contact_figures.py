@@ -38,7 +38,7 @@ SCENES = [
     ("ball_bounce", [], None, "ball_bounce: restitution 0.5"),
     ("stack", [(0.0, "set 0.5 mm apart"), (10.0, "at rest after 10 s")],
      ((0.12, -0.16, 0.12), (0.015, 0.015, 0.055)), "stack: three 4×4×4 blocks on the ground"),
-    ("trampoline", [(0.0, "released 5 mm above the sheet"), (10.0, "at rest on the sagging sheet")],
+    ("trampoline", [(0.2, "dropped 20 cm: meeting the sheet at 2 m/s"), (10.0, "at rest on the sagging sheet")],
      ((0.03, -0.2, 0.135), (0.0, 0.0, 0.105)), "trampoline: a 4×4×4 block on a 15×15 sheet held on its edges"),
     ("gap", [(0.2, "falling"), (3.0, "at rest wedged across the gap, not through it")],
      ((0.04, -0.18, 0.19), (0.0, 0.0, 0.155)), "gap: a 3×3×3 block onto ledges 1.5 cm apart"),

@@ -66,7 +66,7 @@ def main():
     stack = run("stack")
     table.append(rest_row("stack", "three 4×4×4 blocks stacked on the ground", stack, ["bottom", "middle", "top"], 2.0))
     trampoline = run("trampoline")
-    table.append(rest_row("trampoline", "a 4×4×4 block released 5 mm above a 15×15 sheet held on its edges, pair friction 0.5", trampoline,
+    table.append(rest_row("trampoline", "a 4×4×4 block dropped 20 cm onto a 15×15 sheet held on its edges, pair friction 0.5", trampoline,
                           ["block", "sheet"], 4.0))
     gap = run("gap")
     d, n = ledger(gap)
@@ -99,20 +99,20 @@ def flight(rows):
 
 
 def convergence():
-    """The trampoline's block and sheet mean heights after 2 s at h = 1/60 ... 1/480 s without pair
-    friction, and the change from the step before."""
+    """The trampoline's block and sheet mean heights after 4 s (at rest) at h = 1/60 ... 1/480 s
+    without pair friction, the change from the step before, and `numerical` then."""
     with open(os.path.join(ROOT, "scenes", "trampoline.json")) as f:
         scene = json.load(f)
     # Without pair friction: a stuck contact's rest state depends on its history (static friction
     # holds any tangential load below μ_s f_n), so the state with it need not converge.
+    # The ground's too: steps of contacts with friction are not retaken by the energy guard.
     for rule in scene["heuristics"]:
-        if rule["type"] == "contact":
-            rule.pop("friction", None)
-    rows = ["| h [s] | block's mean height after 2 s [m] | change from the h before | sheet's [m] | change |",
-            "|---|---|---|---|---|"]
+        rule.pop("friction", None)
+    rows = ["| h [s] | block's mean height after 4 s [m] | change from the h before | sheet's [m] | change | `numerical` [J] |",
+            "|---|---|---|---|---|---|"]
     last = None
     for n in (60, 120, 240, 480):
-        s = dict(scene, timestep=1.0 / n, duration=2.0)
+        s = dict(scene, timestep=1.0 / n, duration=4.0)
         s["output"] = dict(scene["output"], every=n // 6)
         path = os.path.join(RUNS, f"trampoline_{n}.json")
         os.makedirs(RUNS, exist_ok=True)
@@ -125,7 +125,7 @@ def convergence():
             r = list(csv.DictReader(f))[-1]
         b, sh = float(r["block_z"]), float(r["sheet_z"])
         change = ("", "") if last is None else (f"{b - last[0]:.2e}", f"{sh - last[1]:.2e}")
-        rows.append(f"| 1/{n} | {b:.7f} | {change[0]} | {sh:.7f} | {change[1]} |")
+        rows.append(f"| 1/{n} | {b:.7f} | {change[0]} | {sh:.7f} | {change[1]} | {float(r['numerical']):.4f} |")
         last = (b, sh)
     return "\n".join(rows)
 

@@ -67,7 +67,7 @@ bool ContactSolve::make(const Model& model, const State& state, double h, Index 
     }
   }
   c.n = n;
-  c.k = ob.penalty * model.mass[i] / (h * h);
+  c.k = ob.penalty * model.mass[i] / (spring_h_ * spring_h_);
   // A quanta already sliding along the surface starts sliding, with the force its spring holds
   // now (or that stops its approach within the step): a stick trial would hold it for a solve
   // and tip the body it belongs to.
@@ -151,7 +151,7 @@ bool ContactSolve::make_pair(const Model& model, const State& state, double h, s
   }
   const double wi = model.inv_mass[i], wj = model.inv_mass[j];
   const double mu = 1 / (wi + wj);  // the reduced mass (the free one's with a kinematic end)
-  p.k = model.quanta_contact.penalty * mu / (h * h);
+  p.k = model.quanta_contact.penalty * mu / (spring_h_ * spring_h_);
   const ContactMaterial& mat = model.quanta_contact.material;
   const Vec3 wt = tangential(p.n) * w;
   const double speed = wt.norm();
@@ -267,7 +267,9 @@ void ContactSolve::write(const Model& model, const State& state, double h, int t
 }
 
 bool ContactSolve::begin(const Model& model, const State& state, const Adjacency& adj,
-                         const std::vector<Vec3>& f_ext, double h, int threads, ImplicitSystem& sys) {
+                         const std::vector<Vec3>& f_ext, double h, double spring_h, int threads,
+                         ImplicitSystem& sys) {
+  spring_h_ = spring_h;
   contacts_.clear();
   pairs_.clear();
   candidates_.clear();
@@ -452,20 +454,20 @@ bool ContactSolve::update(const Model& model, const State& state, double h, int 
   return changed;
 }
 
-double ContactSolve::stored(const Model& model, const std::vector<Vec3>& x, double h) const {
+double ContactSolve::stored(const Model& model, const std::vector<Vec3>& x) const {
   double u = 0;
   for (std::size_t q = 0; q < model.num_quanta() && !model.obstacles.empty(); ++q) {
     if (model.is_kinematic(static_cast<Index>(q))) continue;
     for (const Obstacle& ob : model.obstacles) {
       Vec3 n;
       const double g = ob.distance(x[q], n) - ob.margin;
-      if (g < 0) u += 0.5 * (ob.penalty * model.mass[q] / (h * h)) * g * g;
+      if (g < 0) u += 0.5 * (ob.penalty * model.mass[q] / (spring_h_ * spring_h_)) * g * g;
     }
   }
   const QuantaContactRule& rule = model.quanta_contact;
   for (const auto& [i, j] : candidates_) {
     const double g = (x[j] - x[i]).norm() - 2 * rule.radius;
-    if (g < 0) u += 0.5 * (rule.penalty / ((model.inv_mass[i] + model.inv_mass[j]) * h * h)) * g * g;
+    if (g < 0) u += 0.5 * (rule.penalty / ((model.inv_mass[i] + model.inv_mass[j]) * spring_h_ * spring_h_)) * g * g;
   }
   return u;
 }
@@ -515,11 +517,12 @@ void ContactSolve::finish(const Model& model, const State& state, double h, cons
     if (touching_.size() == n && touching_[q] && !model.is_kinematic(static_cast<Index>(q)))
       work += impulse_[q].dot(state.v[q] + 0.5 * out.dv[q]);
   for (std::size_t q = 0; q < n; ++q) x1_[q] = state.x[q] + out.dx[q];
-  const double u0 = stored(model, state.x, h), u1 = stored(model, x1_, h);
+  const double u0 = stored(model, state.x), u1 = stored(model, x1_);
   // A step whose balance comes out negative (the linearised springs gave energy back, as when a
   // stick spring lets go) charges nothing: that energy is the integrator's, left to `numerical`.
   out.contact.dissipated = std::max(0.0, -work - (u1 - u0));
   out.contact.stored = u1;
+  out.contact.work = work;
   out.contact.charged = true;
 }
 

@@ -43,9 +43,11 @@ namespace qbond {
 class ContactSolve {
  public:
   // Finds the contacts of the step predicted from x + h v + h² f_ext/m and adds their terms to
-  // sys. False (sys untouched) when the model has no such obstacle.
+  // sys. False (sys untouched) when the model has no such obstacle. The springs' stiffness is
+  // κ m / spring_h²: spring_h is the whole step's length, so that a substep of it (energy guard)
+  // holds its contacts with the springs the step holds them with.
   bool begin(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
-             double h, int threads, ImplicitSystem& sys);
+             double h, double spring_h, int threads, ImplicitSystem& sys);
   // Checks the contacts against the solve's Δv (y): drops those pulling, switches stick and
   // slide, adds those whose path now enters an obstacle. True (and sys updated) when the set
   // changed and the step must be solved again. `last`: the solve it prepares is the step's last
@@ -114,7 +116,7 @@ class ContactSolve {
   Vec3 contact_force(const Model& model, const State& s, double h, const Contact& c, const Vec3& y) const;
   void write(const Model& model, const State& state, double h, int threads, ImplicitSystem& sys);
   // The springs' energy at positions x: Σ ½ k φ² over the obstacles' and the candidates' overlaps.
-  double stored(const Model& model, const std::vector<Vec3>& x, double h) const;
+  double stored(const Model& model, const std::vector<Vec3>& x) const;
 
   std::vector<Contact> contacts_;       // by quanta, then obstacle
   std::vector<Contact> next_;           // update's new set (scratch)
@@ -131,6 +133,7 @@ class ContactSolve {
   std::vector<Vec3> mid_;                        // the predicted paths' midpoints (scratch)
   std::vector<double> reach_;                    // half the predicted paths' lengths (scratch)
   std::vector<Vec3> impulse_;                    // per quanta: the contacts' impulse this step (finish)
+  double spring_h_ = 0;                          // the step length that sets the springs' stiffness
   SpatialHash grid_;
 };
 

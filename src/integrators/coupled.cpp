@@ -7,6 +7,7 @@
 // in halves, each checked by energy_guard.hpp.
 #include <algorithm>
 #include <cassert>
+#include <cmath>
 
 #include "integrators/backward_euler.hpp"
 #include "integrators/contact_solve.hpp"
@@ -47,6 +48,8 @@ class CoupledIntegrator final : public StepIntegrator {
     out.resize(n);
     project_kinematic(model, state, ctx, out);
     sub_ = state;
+    split_contact_ = {};
+    whole_h_ = ctx.h;
     const double t0 = ctx.t, t1 = ctx.t + ctx.h, tm = t0 + 0.5 * ctx.h;
     substep(model, adj, f_ext, t0, tm, ctx.step, 1);
     substep(model, adj, f_ext, tm, t1, ctx.step, 1);
@@ -55,6 +58,7 @@ class CoupledIntegrator final : public StepIntegrator {
       out.dx[i] = sub_.x[i] - state.x[i];
       out.dv[i] = sub_.v[i] - state.v[i];
     }
+    out.contact = split_contact_;  // the substeps' contacts: what they took, the springs' energy at the end
     if (config_.solver == CoupledSolver::cg) keep_guess(config_.warm_start, out.dv, ctx.h, state.carry, config_.threads, out);
   }
 
@@ -69,7 +73,8 @@ class CoupledIntegrator final : public StepIntegrator {
   void solve(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
              const StepContext& ctx, bool whole, Projection& out) {
     begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/false, config_.threads, out, sys_);
-    const bool contacts = contact_.begin(model, state, adj, f_ext, ctx.h, config_.threads, sys_);
+    const bool contacts =
+        contact_.begin(model, state, adj, f_ext, ctx.h, whole ? ctx.h : whole_h_, config_.threads, sys_);
     SolveStats step{};
     linear_solve(model, state, adj, f_ext, ctx, whole, /*warm=*/false, step);
     // Contacts: solved again, from the last solution, while the active set changes.
@@ -136,8 +141,15 @@ class CoupledIntegrator final : public StepIntegrator {
     const double H = t1 - t0;
     const StepContext ctx{H, t0, step};
     solve(model, sub_, adj, f_ext, ctx, /*whole=*/false, sub_out_);
-    const bool gains =
-        guard_.balance(model, sub_, adj, f_ext, sub_out_, H, ledger_hints(), config_.threads).gains(kGainTolerance);
+    StepEnergyBalance balance = guard_.balance(model, sub_, adj, f_ext, sub_out_, H, ledger_hints(), config_.threads);
+    const Projection::ContactEnergy& c = sub_out_.contact;
+    if (c.charged) {
+      // The contacts' impulses did work on the quanta: the rest of the balance is the bonds' and
+      // gravity's (the contacts' own springs and dampers are the ledger's contact columns).
+      balance.gain -= c.work;
+      balance.scale += std::abs(c.work);
+    }
+    const bool gains = balance.gains(kGainTolerance);
     if (gains && depth < kMaxDepth) {
       const double tm = t0 + 0.5 * H;
       substep(model, adj, f_ext, t0, tm, step, depth + 1);
@@ -146,6 +158,12 @@ class CoupledIntegrator final : public StepIntegrator {
     }
     ++stats_.substeps;
     if (gains) ++stats_.unconverged;
+    if (c.charged) {
+      split_contact_.dissipated += c.dissipated;
+      split_contact_.work += c.work;
+      split_contact_.stored = c.stored;
+      split_contact_.charged = true;
+    }
     apply_substep(model, adj, f_ext, H, t1, sub_out_, sub_, sub_x1_, sub_v1_);
   }
 
@@ -169,6 +187,8 @@ class CoupledIntegrator final : public StepIntegrator {
   bool split_ = false;                 // split_next_step: the next projection in substeps
   State sub_;                          // substepping: the state the substeps have reached
   Projection sub_out_;                 // substepping: one substep's projection
+  Projection::ContactEnergy split_contact_;  // substepping: the contacts' energy over the substeps taken
+  double whole_h_ = 0;                       // substepping: the whole step's length (the contacts' springs)
   std::vector<Vec3> sub_x1_, sub_v1_;  // substepping: the state a substep applies
 };
 

@@ -12,13 +12,17 @@ namespace {
 // tolerance) and round-off.
 constexpr double kStepGainTolerance = 1e-9;
 
-// Whether contacts solved in the step held energy at its start or end or took some out: their
-// restitution and penalty springs exchange energy the balance does not hold yet, so such steps
-// are not retaken (docs/integrators.md). A step of a contact scene that touched nothing is.
-bool contact_in_step(const State& s, const StepScratch& k) {
+// Whether contacts solved in the step held energy at its start or end or took some out, in a
+// scene whose solved contacts have friction: such steps are not retaken. A sticking contact's
+// spring is anchored at its (sub)step's start, so halves would let it creep twice as far.
+bool friction_in_step(const Model& m, const State& s, const StepScratch& k) {
+  auto rubs = [](const ContactMaterial& c) { return c.friction > 0 || c.static_coefficient() > 0; };
+  bool friction = m.quanta_contact.radius > 0 && rubs(m.quanta_contact.material);
+  for (const Obstacle& o : m.obstacles) friction = friction || rubs(o.material);
   const auto& c = k.projection.contact;
-  return c.charged && (c.stored > 0 || c.dissipated > 0 || s.energy.contact_stored > 0);
+  return friction && c.charged && (c.stored > 0 || c.dissipated > 0 || s.energy.contact_stored > 0);
 }
+
 }  // namespace
 
 bool retake_gaining_step(const Model& m, State& s, StepIntegrator& integrator, double h, const BlowupLimits& limits,
@@ -36,7 +40,7 @@ bool retake_gaining_step(const Model& m, State& s, StepIntegrator& integrator, d
       [](const Pair& a, const Pair& b) { return Pair{a[0] + b[0], a[1] + b[1]}; });
   k.quanta_after = {.kinetic = kg[0], .bonds = 0, .gravity = kg[1]};
   k.quanta_after_valid = true;
-  if (!integrator.splits_gaining_steps() || contact_in_step(s, k)) return false;
+  if (!integrator.splits_gaining_steps() || friction_in_step(m, s, k)) return false;
   if (k.guard_step != s.step || k.guard_time != s.time) {
     k.guard_start = energies(m, s, threads);  // the first step, or the state was replaced
     k.guard_step = s.step;
@@ -48,9 +52,12 @@ bool retake_gaining_step(const Model& m, State& s, StepIntegrator& integrator, d
   const double work = (l.work_loads - b.work_loads) + (l.work_anchors - b.work_anchors);
   const double lost = l.dissipated_damping - b.dissipated_damping;
   const double e1 = kg[0] + k.bonds_after + kg[1];
-  const double gain = e1 - e0.total() - work + lost;
+  // Contacts solved in the step: their impulses' work is theirs (their springs and dampers are
+  // the ledger's contact columns), what is left is the bonds' and gravity's balance.
+  const double contact = k.projection.contact.charged ? k.projection.contact.work : 0.0;
+  const double gain = e1 - e0.total() - work - contact + lost;
   const double scale = e0.kinetic + e0.bonds + kg[0] + k.bonds_after + std::abs(kg[1] - e0.gravity) + std::abs(work) +
-                       std::abs(lost);
+                       std::abs(contact) + std::abs(lost);
   if (!(gain > kStepGainTolerance * scale + limits.energy_floor)) return false;
   s.energy = b;
   k.quanta_after_valid = false;
@@ -61,9 +68,13 @@ bool retake_gaining_step(const Model& m, State& s, StepIntegrator& integrator, d
 
 void retake_gaining_projection(const Model& m, const State& s, StepIntegrator& integrator, double h, double max_speed,
                                StepScratch& k) {
-  if (!integrator.splits_gaining_steps() || contact_in_step(s, k)) return;  // as retake_gaining_step
-  const StepEnergyBalance b = k.guard.balance(m, s, k.adjacency(m, s), k.f_ext, k.projection, h,
-                                              integrator.ledger_hints(), integrator.config().threads);
+  if (!integrator.splits_gaining_steps() || friction_in_step(m, s, k)) return;
+  StepEnergyBalance b = k.guard.balance(m, s, k.adjacency(m, s), k.f_ext, k.projection, h,
+                                        integrator.ledger_hints(), integrator.config().threads);
+  if (const Projection::ContactEnergy& c = k.projection.contact; c.charged) {  // as retake_gaining_step
+    b.gain -= c.work;
+    b.scale += std::abs(c.work);
+  }
   if (!b.gains(kStepGainTolerance)) return;
   integrator.split_next_step();
   integrate(m, s, integrator, h, max_speed, true, false, k);

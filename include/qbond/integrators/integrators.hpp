@@ -50,6 +50,7 @@ struct Projection {
   struct ContactEnergy {
     double dissipated = 0;
     double stored = 0;
+    double work = 0;  ///< the contact impulses' work Σ J·(v + v₁)/2 [J] (the energy guard's balance)
     bool charged = false;  ///< set by an integrator that solved contacts this step
   } contact;
   /// Sizes for n quanta and clears the rest; dx and dv zeroed unless `zero` is false (for an
