@@ -7,7 +7,6 @@
 // in halves, each checked by energy_guard.hpp.
 #include <algorithm>
 #include <cassert>
-#include <cmath>
 
 #include "integrators/backward_euler.hpp"
 #include "integrators/contact_solve.hpp"
@@ -143,12 +142,7 @@ class CoupledIntegrator final : public StepIntegrator {
     solve(model, sub_, adj, f_ext, ctx, /*whole=*/false, sub_out_);
     StepEnergyBalance balance = guard_.balance(model, sub_, adj, f_ext, sub_out_, H, ledger_hints(), config_.threads);
     const Projection::ContactEnergy& c = sub_out_.contact;
-    if (c.charged) {
-      // The contacts' impulses did work on the quanta: the rest of the balance is the bonds' and
-      // gravity's (the contacts' own springs and dampers are the ledger's contact columns).
-      balance.gain -= c.work;
-      balance.scale += std::abs(c.work);
-    }
+    balance.credit_contacts(c);
     const bool gains = balance.gains(kGainTolerance);
     if (gains && depth < kMaxDepth) {
       const double tm = t0 + 0.5 * H;

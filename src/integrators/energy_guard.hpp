@@ -10,6 +10,7 @@
 // prescribed quanta do through their bonds (the energy ledger's trapezoid rule, step_work.hpp).
 // Each term is formed as a difference per quanta or bond, so that round-off is relative to the
 // energies that move, not to a large total.
+#include <cmath>
 #include <vector>
 
 #include "qbond/integrators/integrators.hpp"
@@ -22,6 +23,13 @@ struct StepEnergyBalance {
   double scale = 0;  // Σ of the magnitudes of its terms, the size of its round-off [J]
   // Whether the step creates energy beyond `relative` times its terms' size.
   bool gains(double relative) const { return gain > relative * scale; }
+  // Counts the work of the contacts solved in the step as done on it: their springs and dampers
+  // are the ledger's contact columns, what is left is the bonds' and gravity's balance.
+  void credit_contacts(const Projection::ContactEnergy& c) {
+    if (!c.charged) return;
+    gain -= c.work;
+    scale += std::abs(c.work);
+  }
 };
 
 class EnergyGuard {

@@ -71,10 +71,7 @@ void retake_gaining_projection(const Model& m, const State& s, StepIntegrator& i
   if (!integrator.splits_gaining_steps() || friction_in_step(m, s, k)) return;
   StepEnergyBalance b = k.guard.balance(m, s, k.adjacency(m, s), k.f_ext, k.projection, h,
                                         integrator.ledger_hints(), integrator.config().threads);
-  if (const Projection::ContactEnergy& c = k.projection.contact; c.charged) {  // as retake_gaining_step
-    b.gain -= c.work;
-    b.scale += std::abs(c.work);
-  }
+  b.credit_contacts(k.projection.contact);  // as retake_gaining_step
   if (!b.gains(kStepGainTolerance)) return;
   integrator.split_next_step();
   integrate(m, s, integrator, h, max_speed, true, false, k);
