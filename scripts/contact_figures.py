@@ -28,14 +28,18 @@ RUNS = os.path.join(BUILD, "contact_figure_runs")
 
 # scene, moments to show [s] with what they show (a function of the run's diagnostics rows and
 # the time, or text), camera (eye, target) or None (the viewer's framing of that frame), title.
-# ball_bounce has no picture: a lone quanta gives the viewer no scale to frame (its ledger is drawn).
+H = 1 / 60  # ball_bounce's step: a row a step
 SCENES = [
     ("block_rest", [(0.0, "set on the ground"), (10.0, "at rest after 10 s")],
      ((0.09, -0.12, 0.07), (0.015, 0.015, 0.015)), "block_rest: a 4×4×4 block on the ground"),
     ("block_incline", [(0.0, "set on the incline"),
                        (1.0, lambda rows, t: f"slid {at(rows, t, 'block_x') - rows[0]['block_x']:.2f} m down it")],
      None, "block_incline: sliding with friction (gravity tilted 35°, the view follows the block)"),
-    ("ball_bounce", [], None, "ball_bounce: restitution 0.5"),
+    ("ball_bounce", [(25 * H, lambda rows, t: f"{gap_cm(rows, t):.1f} cm up, falling {-speed(rows, t):.2f} m/s"),
+                     (26 * H, lambda rows, t: f"{gap_cm(rows, t):.1f} cm up: {-speed(rows, t) * H / 5e-3:.0f} radii a step"),
+                     (27 * H, lambda rows, t: f"{gap_cm(rows, t):.1f} cm up after its contact step, leaving at "
+                                              f"{speed(rows, t + H) + 9.81 * H:.2f} m/s (e × {-speed(rows, t - H):.2f})")],
+     ((0.2, -0.3, 0.07), (0.0, 0.0, 0.05)), "ball_bounce: restitution 0.5, a 5 mm quanta dropped 1 m"),
     ("stack", [(0.0, "set 0.5 mm apart"), (10.0, "at rest after 10 s")],
      ((0.12, -0.16, 0.12), (0.015, 0.015, 0.055)), "stack: three 4×4×4 blocks on the ground"),
     ("trampoline", [(0.2, "dropped 20 cm: meeting the sheet at 2 m/s"), (10.0, "at rest on the sagging sheet")],
@@ -48,6 +52,17 @@ SCENES = [
 def at(rows, t, col):
     """The column's value on the last diagnostics row at or before t."""
     return [r[col] for r in rows if r["time"] <= t + 1e-6][-1]
+
+
+def gap_cm(rows, t):
+    """ball_bounce: the quanta's height above the ground less its 5 mm margin, in cm."""
+    return 100 * (at(rows, t, "ball_z") - 5e-3)
+
+
+def speed(rows, t):
+    """ball_bounce: the quanta's vertical speed at t in free flight (backward Euler's positions
+    advance with the step's end velocity)."""
+    return (at(rows, t, "ball_z") - at(rows, t - H, "ball_z")) / H
 
 
 LEDGER = [  # column, label, style
@@ -91,7 +106,7 @@ def pictures(scene, run, rows, moments, camera, title):
             what = what(rows, t)
         ax.imshow(img)
         ax.set_axis_off()
-        ax.set_title(f"t = {t:g} s: {what}", fontsize=9)
+        ax.set_title(f"t = {t:.4g} s: {what}", fontsize=9)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     path = os.path.join(OUT, f"contact_{scene}.png")

@@ -75,6 +75,7 @@ Viewer::Viewer(Scene scene, std::unique_ptr<Replay> replay, std::vector<ScriptEv
   bounds(initial_.state.x, lo_, hi_);
   size_ = std::max((hi_ - lo_).norm(), 1e-3);
   radius_ = draw_radius(scene_, size_);
+  size_ = std::max(size_, 20 * radius_);  // a lone quanta still gets a ground to stand over
   gravity_ = initial_.model.gravity;
   if (replay_) show_frame(replay_->at_time(opt_.replay_time));
   else reset();

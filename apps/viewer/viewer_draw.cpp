@@ -18,7 +18,8 @@ namespace qbond::view {
 
 /// Radius to draw quanta with: the scene's contact radius when it has one, else 0.15 of a short
 /// bond's length (the 10th percentile: nearest neighbours, so that bonds stay visible between
-/// the spheres), else a fiftieth of the scene's size.
+/// the spheres), else the obstacles' largest margin (unbonded quanta touch them at it), else a
+/// fiftieth of the scene's size.
 double draw_radius(const Scene& scene, double size) {
   for (const HeuristicSpec& h : scene.heuristics)
     if (const auto* c = std::get_if<QuantaContactRule>(&h)) return c->radius;
@@ -32,6 +33,11 @@ double draw_radius(const Scene& scene, double size) {
     std::nth_element(r.begin(), r.begin() + k, r.end());
     if (r[static_cast<std::size_t>(k)] > 0) return 0.15 * r[static_cast<std::size_t>(k)];
   }
+  double margin = 0;
+  for (const Obstacle& ob : w.model.obstacles) margin = std::max(margin, ob.margin);
+  for (const HeuristicSpec& h : scene.heuristics)
+    if (const auto* ob = std::get_if<Obstacle>(&h)) margin = std::max(margin, ob->margin);
+  if (margin > 0) return margin;
   return std::max(0.02 * size, 1e-3);
 }
 
