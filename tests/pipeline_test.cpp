@@ -137,10 +137,13 @@ TEST(Pipeline, DirectStepsGiveTheSameBitsAndReportsAsStepsThroughDxDv) {
     const StepReport r = sim.step();
     return std::pair{r, sim.world().state};
   };
-  IntegratorConfig frozen = test::config(IntegratorType::hybrid_implicit);
+  IntegratorConfig frozen = test::config(IntegratorType::hybrid_implicit), sweep = frozen, jacobi = frozen;
   frozen.neighbours = NeighbourModel::frozen;
-  for (const IntegratorConfig& c : {test::config(IntegratorType::velocity_verlet), frozen,
-                                    default_integrator(), test::config(IntegratorType::rk4)})
+  sweep.neighbours = NeighbourModel::sweep;
+  jacobi.neighbours = NeighbourModel::jacobi;
+  for (const IntegratorConfig& c : {test::config(IntegratorType::velocity_verlet), frozen, sweep, jacobi,
+                                    default_integrator(), test::config(IntegratorType::rk4),
+                                    test::config(IntegratorType::explicit_euler)})
     for (Last last_step : {Last::ok, Last::too_fast, Last::not_finite}) {
       const auto [r0, s0] = run(c, false, 1, last_step);
       EXPECT_EQ(r0.status == StepReport::Status::ok, last_step == Last::ok);
@@ -177,14 +180,17 @@ TEST(Pipeline, AdvanceInPlaceGivesTheBitsOfProjectAndApply) {
   std::vector<Vec3> gravity(n);
   for (std::size_t i = 0; i < n; ++i) gravity[i] = m.mass[i] * m.gravity;
   const std::vector<Vec3> none;
-  IntegratorConfig frozen = test::config(IntegratorType::hybrid_implicit), sweep = frozen;
+  IntegratorConfig frozen = test::config(IntegratorType::hybrid_implicit), sweep = frozen, jacobi = frozen;
   frozen.neighbours = NeighbourModel::frozen;
   sweep.neighbours = NeighbourModel::sweep;
+  jacobi.neighbours = NeighbourModel::jacobi;
   const IntegratorConfig configs[] = {test::config(IntegratorType::explicit_euler),
+                                      test::config(IntegratorType::symplectic_euler),
                                       test::config(IntegratorType::velocity_verlet),
                                       test::config(IntegratorType::rk4),
                                       frozen,
                                       sweep,
+                                      jacobi,
                                       default_integrator(),
                                       test::config(IntegratorType::energy_momentum),
                                       test::config(IntegratorType::bdf2)};

@@ -28,7 +28,60 @@ QBOND_VECTOR_CLONES bool add_checked(const double* x, const double* v, const dou
   return bad == 0;
 }
 
+// xn = x + dx and vn = v + dv for quanta [lo, hi) with a solve's dv = y and dx = h (v + dv)
+// (write_free_rows' rows, added as add_checked adds them), formed here instead of read; whether
+// every free quanta keeps the blow-up rule. The kinematic quanta's rows are not theirs: the
+// caller writes and checks them after.
+QBOND_VECTOR_CLONES bool add_solved(const double* x, const double* v, const double* y, const double* inv_mass,
+                                    double h, double limit2, double* xn, double* vn, std::size_t lo,
+                                    std::size_t hi) {
+  std::uint64_t bad = 0;
+  QBOND_SIMD_OR(bad) for (std::size_t q = lo; q < hi; ++q) {
+    QuantaCheck check;
+    QBOND_UNROLL(3) for (std::size_t c = 0; c < 3; ++c) {
+      const std::size_t e = 3 * q + c;
+      const double dv = y[e], dx = h * (v[e] + dv);
+      const double x1 = x[e] + dx, v1 = v[e] + dv;
+      xn[e] = x1;
+      vn[e] = v1;
+      check.add(x1, v1);
+    }
+    bad |= check.bad(limit2, true) & static_cast<std::uint64_t>(inv_mass[q] != 0);
+  }
+  return bad == 0;
+}
+
 }  // namespace
+
+void apply_solved(const Model& model, const State& state, const Projection& kin, const std::vector<Vec3>& y,
+                  double h, double t1, int threads, PrescribedAt& prescribed, Advanced& to) {
+  const std::size_t n = model.num_quanta();
+  to.x.resize(n);
+  to.v.resize(n);
+  const double* inv_mass = model.inv_mass.data();
+  const double limit2 = to.max_speed * to.max_speed;
+  prescribed.update(model, t1);
+  auto range = [&](std::size_t lo, std::size_t hi) {
+    bool ok = add_solved(state.x.data()->data(), state.v.data()->data(), y.data()->data(), inv_mass, h, limit2,
+                         to.x.data()->data(), to.v.data()->data(), lo, hi);
+    // The kinematic rows after the vector loop, not a select in it (which would stream kin's
+    // rows of every quanta).
+    for (std::size_t q = lo; q < hi; ++q) {
+      if (inv_mass[q] != 0) continue;
+      QuantaCheck check;
+      for (int c = 0; c < 3; ++c) {
+        const double x1 = state.x[q][c] + kin.dx[q][c], v1 = state.v[q][c] + kin.dv[q][c];
+        to.x[q][c] = x1;
+        to.v[q][c] = v1;
+        check.add(x1, v1);
+      }
+      ok = ok && check.bad(limit2, false) == 0;
+    }
+    prescribed.place(lo, hi, to.x.data(), to.v.data());
+    return ok;
+  };
+  to.ok = reduce_chunks(n, threads, true, range, std::logical_and<>{});
+}
 
 void apply_checked(const Model& model, const State& state, const Projection& p, double t1, int threads,
                    PrescribedAt& prescribed, Advanced& to) {

@@ -5,8 +5,9 @@
 // no energy ledger), an integrator that owns a fused kernel (the frozen hybrid step, velocity
 // Verlet) writes the state the step applies, x + dx and v + dv with the prescribed quanta placed,
 // in the passes that form the step, and checks it there against the blow-up rule: one pass over
-// the quanta fewer, and no dx, dv streamed out and back. The others project and apply
-// (apply_checked), as the check stage does after heuristics; the bits are the same either way.
+// the quanta fewer, and no dx, dv streamed out and back. The hybrid step's sweeps add their
+// solution to the state in the pass that forms dx and dv (apply_solved). The others project and
+// apply (apply_checked), as the check stage does after heuristics; the bits are the same either way.
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -116,5 +117,11 @@ void replace_step_integrator(Simulation& sim, std::unique_ptr<StepIntegrator> in
 // to.ok: one branch-free pass over the quanta that vectorises.
 void apply_checked(const Model& model, const State& state, const Projection& p, double t1, int threads,
                    PrescribedAt& prescribed, Advanced& to);
+
+// apply_checked for a solve's step, whose free rows are dv = y and dx = h (v + dv)
+// (write_free_rows) and whose kinematic rows `kin` holds: the same state and verdict, the free
+// rows formed in the pass that adds them instead of written out and read back.
+void apply_solved(const Model& model, const State& state, const Projection& kin, const std::vector<Vec3>& y,
+                  double h, double t1, int threads, PrescribedAt& prescribed, Advanced& to);
 
 }  // namespace qbond

@@ -158,15 +158,17 @@ class ExplicitIntegrator final : public StepIntegrator {
     part_.update(model, state.bonds, adj, config_.threads);
     const bool verlet_step = config_.type == IntegratorType::velocity_verlet;
     if (verlet_step) return verlet(model, state, f_ext, ctx, out, nullptr);
-    out.resize(n);
-    project_kinematic(model, state, ctx, out);
+    // The Euler steps write every row (euler_rows): dx and dv are not zeroed first.
+    const bool rk4 = config_.type == IntegratorType::rk4;
+    out.resize(n, /*zero=*/rk4);
+    if (rk4) project_kinematic(model, state, ctx, out);  // its stages read the kinematic rows
     accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, forces_, a1_);
     switch (config_.type) {
       case IntegratorType::explicit_euler:
-        for_free(model, [&](std::size_t i) { set_free(out, i, h * state.v[i], h * a1_[i]); });
+        euler_rows(model, state, ctx, out, [&](std::size_t i) { set_free(out, i, h * state.v[i], h * a1_[i]); });
         break;
       case IntegratorType::symplectic_euler:
-        for_free(model, [&](std::size_t i) {
+        euler_rows(model, state, ctx, out, [&](std::size_t i) {
           const Vec3 dv = h * a1_[i];
           set_free(out, i, h * (state.v[i] + dv), dv);
         });
@@ -291,6 +293,30 @@ class ExplicitIntegrator final : public StepIntegrator {
   static void set_free(Projection& out, std::size_t i, const Vec3& dx, const Vec3& dv) {
     out.dx[i] = dx;
     out.dv[i] = dv;
+  }
+
+  // Every row of the projection in one pass: body(i) for each free quanta and zeros for each
+  // kinematic one, then the prescribed motion of the kinematic ones (project_kinematic's rows). The
+  // same rows as zeroing dx and dv, projecting the kinematic quanta and writing the free ones,
+  // without the pass that zeroes (a write of 2 × 24 B per quanta).
+  template <class Body>
+  void euler_rows(const Model& model, const State& state, const StepContext& ctx, Projection& out,
+                  Body&& body) const {
+    parallel_for(model.num_quanta(), config_.threads, [&](std::size_t i) {
+      if (!model.is_kinematic(static_cast<Index>(i)))
+        body(i);
+      else
+        out.dx[i] = out.dv[i] = Vec3::Zero();
+    });
+    for (const Motion& m : model.motions)
+      for (std::size_t k = 0; k < m.quanta.size(); ++k) {
+        const Index i = m.quanta[k];
+        if (!model.is_kinematic(i)) continue;  // a free quanta keeps body's row
+        Vec3 x1, v1;
+        m.at(k, ctx.t + ctx.h, x1, v1);
+        out.dx[i] = x1 - state.x[i];
+        out.dv[i] = v1 - state.v[i];
+      }
   }
 
   // body(i) for every free quanta, on the integrator's threads.

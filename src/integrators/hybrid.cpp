@@ -19,12 +19,16 @@ class HybridIntegrator final : public StepIntegrator {
 
   bool forms_gravity() const override { return config_.neighbours == NeighbourModel::frozen; }
 
-  // The frozen step's fused kernel writes the state the step applies in its solve pass.
+  // The frozen step's fused kernel writes the state the step applies in its solve pass; the
+  // sweeps' step adds its solution to the state in the pass that forms its rows (apply_solved).
   void advance(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
                const StepContext& ctx, Projection& out, Advanced& to) override {
-    if (config_.neighbours != NeighbourModel::frozen)
-      return StepIntegrator::advance(model, state, adj, f_ext, ctx, out, to);
     stats_ = {};
+    if (config_.neighbours != NeighbourModel::frozen) {
+      solve(model, state, adj, f_ext, ctx, out);
+      apply_solved(model, state, out, y_, ctx.h, ctx.t + ctx.h, config_.threads, placed_, to);
+      return;
+    }
     frozen_.project(model, state, adj, f_ext, ctx, config_.threads, out, &to);
     stats_.iterations = 1;
   }
@@ -38,6 +42,16 @@ class HybridIntegrator final : public StepIntegrator {
       stats_.iterations = 1;
       return;
     }
+    solve(model, state, adj, f_ext, ctx, out);
+    write_free_rows(model, state, ctx.h, y_, threads, out);
+  }
+
+ private:
+  // The coupled system's step by sweeps or Jacobi: its solution Δv into y_, the kinematic rows
+  // and the carry-over into `out` (the free rows are the caller's to write).
+  void solve(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
+             const StepContext& ctx, Projection& out) {
+    const int threads = config_.threads;
     begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/true, threads, out, sys_);
     topo_.update(model, adj);
     initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, threads, y_);
@@ -48,10 +62,8 @@ class HybridIntegrator final : public StepIntegrator {
       jacobi(adj);
     if (config_.restore_momentum) restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
     keep_guess(config_.warm_start, y_, ctx.h, state.carry, threads, out);
-    write_free_rows(model, state, ctx.h, y_, threads, out);
   }
 
- private:
   // b_i + Σ_b B_b y_j over i's bonds to free quanta (kinematic unknowns are eliminated).
   Vec3 gathered_rhs(const Adjacency& adj, Index i, const std::vector<Vec3>& y) const {
     return sys_.rhs[i] + neighbours_times(adj, sys_, i, y);
@@ -90,6 +102,7 @@ class HybridIntegrator final : public StepIntegrator {
   GaussSeidel gs_;
   std::vector<Vec3> y_, next_;
   std::vector<double> res_;  // jacobi: residual² of each free quanta's block
+  PrescribedAt placed_;      // apply_solved's
 };
 
 }  // namespace
