@@ -472,8 +472,8 @@ double ContactSolve::stored(const Model& model, const std::vector<Vec3>& x) cons
   return u;
 }
 
-void ContactSolve::finish(const Model& model, const State& state, double h, const std::vector<Vec3>& y,
-                          Projection& out) {
+void ContactSolve::finish(const Model& model, const State& state, const Adjacency& adj, double h,
+                          const std::vector<Vec3>& y, Projection& out) {
   if (!model.solves_contact()) return;
   const std::size_t n = model.num_quanta();
   // Each quanta's contact impulse over the step, J = h f (+ an impact's restitution impulse).
@@ -481,8 +481,11 @@ void ContactSolve::finish(const Model& model, const State& state, double h, cons
   for (const Contact& c : contacts_) {
     const Index i = c.i;
     impulse_[i] += h * contact_force(model, state, h, c, y[i]);
-    if (c.v_in > 0 && normal_force(state, h, c, y[i]) > 0) {
-      // An impact leaves with e times the normal speed it arrived with.
+    if (c.v_in > 0 && adj.offset[i] == adj.offset[i + 1] && normal_force(state, h, c, y[i]) > 0) {
+      // An impact leaves with e times the normal speed it arrived with. Only a lone quanta: a
+      // velocity set after the solve would differ from the one its bonds' dampers were solved
+      // with (the ledger would charge them for motion the step never had); a bonded quanta's
+      // bounce is its spring's rest gap, solved with its body.
       const double want = model.obstacles[c.obstacle].material.restitution * c.v_in;
       const double vn = c.n.dot(state.v[i] + out.dv[i]);
       if (want > vn) {
