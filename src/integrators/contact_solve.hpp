@@ -80,6 +80,7 @@ class ContactSolve {
     bool push = false;                     // this solve: the constant force −push_force push_dir
     double push_force = 0;
     Vec3 push_dir = Vec3::Zero();
+    std::uint8_t reversals = 0;  // times this step it stuck again after sliding
   };
   // A contact of quanta i and j (i < j): what Contact holds, for their relative motion.
   struct PairContact {
@@ -94,6 +95,7 @@ class ContactSolve {
     bool push = false;
     double push_force = 0;
     Vec3 push_dir = Vec3::Zero();
+    std::uint8_t reversals = 0;
   };
   // The contact of the pair of candidate c given that its relative path from the start to the end
   // separation d1 enters 2R (or ends inside it); false when it does not.
