@@ -317,7 +317,9 @@ namespace {
 //   contacts slide together; a constant force gives their speed at once). It sticks again if its
 //   sliding reverses; settled, it becomes the damper c = μ_k f_n / |vt|, which gives the same
 //   solution, solved once more. Before the last solve (`last`) every sliding contact becomes a
-//   damper, so the step's friction is always one.
+//   damper, so the step's friction is always one. A contact that stuck again within the step
+//   slides again only as a damper: a constant force would flip it between sticking and sliding
+//   solve after solve.
 // - A sliding damper is settled when its force c |vt| is μ_k f_n to kSlideSettled, sticks when
 //   μ_k f_n / |vt| reaches h k_t, else takes a new c: a contact moved by an effective mass m and
 //   momentum S answers c with |vt| = S / (m + h c), so the last two solves' (c, |vt|) give m and S
@@ -329,7 +331,9 @@ bool update_friction(const ContactMaterial& mat, double stick, double h, bool la
   const double coulomb = mat.friction * c.fn;
   if (!c.slide) {
     if (stick * speed <= mat.static_coefficient() * c.fn) return false;
-    if (last) {  // the last solve: a damper, whatever its force
+    // The last solve, or a contact that already stuck again this step: a damper, whatever its
+    // force (a constant force would let it flip between sticking and sliding solve after solve).
+    if (last || c.reversals > 0) {
       c.slide = true;
       c.drag = coulomb / speed;
       c.last_drag = stick;
@@ -343,6 +347,7 @@ bool update_friction(const ContactMaterial& mat, double stick, double h, bool la
   }
   if (c.push) {
     if (!(vt.dot(c.push_dir) > 0)) {  // the force reversed the sliding: it sticks
+      ++c.reversals;
       c.slide = c.push = false;
       c.drag = stick;
       return true;
@@ -365,6 +370,7 @@ bool update_friction(const ContactMaterial& mat, double stick, double h, bool la
   if (std::abs(c.drag * speed - coulomb) <= kSlideSettled * coulomb) return false;
   double drag = slide_drag(mat, c.fn, speed, stick);
   if (drag >= stick) {  // friction stopped the sliding: it sticks
+    ++c.reversals;
     c.slide = false;
     c.drag = stick;
     return true;
@@ -472,8 +478,8 @@ double ContactSolve::stored(const Model& model, const std::vector<Vec3>& x) cons
   return u;
 }
 
-void ContactSolve::finish(const Model& model, const State& state, double h, const std::vector<Vec3>& y,
-                          Projection& out) {
+void ContactSolve::finish(const Model& model, const State& state, const Adjacency& adj, double h,
+                          const std::vector<Vec3>& y, Projection& out) {
   if (!model.solves_contact()) return;
   const std::size_t n = model.num_quanta();
   // Each quanta's contact impulse over the step, J = h f (+ an impact's restitution impulse).
@@ -481,8 +487,11 @@ void ContactSolve::finish(const Model& model, const State& state, double h, cons
   for (const Contact& c : contacts_) {
     const Index i = c.i;
     impulse_[i] += h * contact_force(model, state, h, c, y[i]);
-    if (c.v_in > 0 && normal_force(state, h, c, y[i]) > 0) {
-      // An impact leaves with e times the normal speed it arrived with.
+    if (c.v_in > 0 && adj.offset[i] == adj.offset[i + 1] && normal_force(state, h, c, y[i]) > 0) {
+      // An impact leaves with e times the normal speed it arrived with. Only a lone quanta: a
+      // velocity set after the solve would differ from the one its bonds' dampers were solved
+      // with (the ledger would charge them for motion the step never had); a bonded quanta's
+      // bounce is its spring's rest gap, solved with its body.
       const double want = model.obstacles[c.obstacle].material.restitution * c.v_in;
       const double vn = c.n.dot(state.v[i] + out.dv[i]);
       if (want > vn) {

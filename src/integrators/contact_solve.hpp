@@ -9,8 +9,8 @@
 //     A_ii += h² k n nᵀ,   b_i += h k c n,   c = g* − φ(r) − n·(x − r) − h n·v,
 // a diagonal 3×3 block, so CG, multigrid and the direct solvers take it as they take the mass.
 // g* is 0, or for an impact (a quanta on the free side at the start, approaching at v_in) with
-// restitution e the gap at which it would end after bouncing, e (h v_in − φ(x))⁺; its end
-// normal velocity is then set to e v_in.
+// restitution e the gap at which it would end after bouncing, e (h v_in − φ(x))⁺; a lone quanta's
+// end normal velocity is then set to e v_in (a bonded one's is its body's solve).
 // Coulomb friction is a tangential damper in the same system: the force −c P w₁ (P = I − n nᵀ,
 // w₁ the end-of-step tangential velocity, relative for a pair) adds A_ii += h c P,
 // b_i −= h c P v. A sticking contact has c = h k_t, k_t = 100 k (a spring to the start position);
@@ -57,9 +57,11 @@ class ContactSolve {
   // Quanta with a contact (1), for the momentum restoration to leave their components alone:
   // the obstacle's impulse is part of their momentum change. Empty when there is none.
   const std::vector<std::uint8_t>& touching() const { return touching_; }
-  // After the last solve and write_free_rows: impacts' end normal velocity e v_in in out.dv, and
-  // out.contact's energies (the contact impulses' work at the mean velocity, the springs' energy).
-  void finish(const Model& model, const State& state, double h, const std::vector<Vec3>& y, Projection& out);
+  // After the last solve and write_free_rows: the end normal velocity e v_in of a lone quanta's
+  // impact (no bonds) in out.dv, and out.contact's energies (the contact impulses' work at the
+  // mean velocity, the springs' energy).
+  void finish(const Model& model, const State& state, const Adjacency& adj, double h, const std::vector<Vec3>& y,
+              Projection& out);
 
  private:
   struct Contact {
@@ -78,6 +80,7 @@ class ContactSolve {
     bool push = false;                     // this solve: the constant force −push_force push_dir
     double push_force = 0;
     Vec3 push_dir = Vec3::Zero();
+    std::uint8_t reversals = 0;  // times this step it stuck again after sliding
   };
   // A contact of quanta i and j (i < j): what Contact holds, for their relative motion.
   struct PairContact {
@@ -92,6 +95,7 @@ class ContactSolve {
     bool push = false;
     double push_force = 0;
     Vec3 push_dir = Vec3::Zero();
+    std::uint8_t reversals = 0;
   };
   // The contact of the pair of candidate c given that its relative path from the start to the end
   // separation d1 enters 2R (or ends inside it); false when it does not.
