@@ -1,9 +1,13 @@
 #pragma once
-// A uniform grid whose rows are hashed into a table of about 2n buckets, filled by counting sort:
+// A uniform grid whose rows (cells of one y and z, along x) are buckets filled by counting sort:
 // finding the pairs of points closer than the cell size costs time linear in the points (bounded
 // density; a binary search in a row's points), with no allocation once the buffers have grown.
-// Used by contacts and bond formation. Below it, pairs_within: the one-shot search between two
-// subsets, inclusive of the radius (scene building, packings).
+// A row's bucket is its place in the table of the rows the points span, with an empty row around
+// them, when that table is small for the points (a gas in its box, a liquid's body): the nine
+// rows around a point are then found by arithmetic and hold their own points alone. Otherwise
+// (points scattered far apart) the rows are hashed into a table of about 2n buckets. Used by
+// contacts and bond formation. Below it, pairs_within: the one-shot search between two subsets,
+// inclusive of the radius (scene building, packings).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -17,28 +21,42 @@ namespace qbond {
 
 class SpatialHash {
  public:
-  // Bins `pos` into cells of side `cell` (> 0): the grid's rows along x (cells of one y and z)
-  // hashed into the table, each bucket's points sorted by cell (y, z, then x), in increasing index
-  // within a cell, so that a row's three cells around a point are one contiguous range.
+  // Bins `pos` into cells of side `cell` (> 0): each row's points in one bucket, each bucket's
+  // points sorted by cell (y, z, then x), in increasing index within a cell, so that a row's three
+  // cells around a point are one contiguous range.
   void build(const std::vector<Vec3>& pos, double cell) {
     const std::size_t n = pos.size();
     cell_ = cell;
-    table_ = 1;
-    while (table_ < 2 * n) table_ <<= 1;
     cells_.resize(n);
-    start_.assign(table_ + 1, 0);
+    std::uint64_t y_lo = kMask, y_hi = 0, z_lo = kMask, z_hi = 0;
     for (std::size_t i = 0; i < n; ++i) {
       const Vec3& p = pos[i];
-      cells_[i] =
-          coordinate(p.y(), cell) << 2 * kBits | coordinate(p.z(), cell) << kBits | coordinate(p.x(), cell);
-      ++start_[row_hash(cells_[i]) + 1];
+      const std::uint64_t y = coordinate(p.y(), cell), z = coordinate(p.z(), cell);
+      cells_[i] = y << 2 * kBits | z << kBits | coordinate(p.x(), cell);
+      y_lo = std::min(y_lo, y);
+      y_hi = std::max(y_hi, y);
+      z_lo = std::min(z_lo, z);
+      z_hi = std::max(z_hi, z);
     }
+    // The table of rows: y from y_lo − 1 to y_hi + 1 and z from z_lo − 1 to z_hi + 1, when it has
+    // at most kDenseRows buckets a point (besides a few); else the hash of about 2n buckets.
+    dense_ = n > 0 && (y_hi - y_lo + 3) * (z_hi - z_lo + 3) <= kDenseRows * n + 64;
+    if (dense_) {
+      width_ = y_hi - y_lo + 3;
+      origin_ = (z_lo - 1) * width_ + (y_lo - 1);
+      table_ = width_ * (z_hi - z_lo + 3);
+    } else {
+      table_ = 1;
+      while (table_ < 2 * n) table_ <<= 1;
+    }
+    start_.assign(table_ + 1, 0);
+    for (std::size_t i = 0; i < n; ++i) ++start_[bucket(cells_[i]) + 1];
     for (std::size_t b = 0; b < table_; ++b) start_[b + 1] += start_[b];
     bucket_.resize(n);
     keys_.resize(n);
     fill_.assign(start_.begin(), start_.end() - 1);
     for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t k = fill_[row_hash(cells_[i])]++;
+      const std::size_t k = fill_[bucket(cells_[i])]++;
       bucket_[k] = static_cast<Index>(i);
       keys_[k] = cells_[i];
     }
@@ -56,16 +74,32 @@ class SpatialHash {
   // index (deterministic for given points).
   template <class F>
   void pairs(const std::vector<Vec3>& pos, F&& visit) const {
+    if (dense_)
+      scan<true>(pos, visit);
+    else
+      scan<false>(pos, visit);
+  }
+
+ private:
+  // pairs: the rows around each point found in the dense table (kDense) or by their hash.
+  template <bool kDense, class F>
+  void scan(const std::vector<Vec3>& pos, F& visit) const {
+    constexpr std::uint64_t kY = std::uint64_t{1} << 2 * kBits, kZ = std::uint64_t{1} << kBits;
     for (std::size_t q = 0; q < cells_.size(); ++q) {
       const auto i = static_cast<Index>(q);
-      const std::uint64_t c = cells_[i], x = c & kMask;
-      for (std::uint64_t z = (c >> kBits & kMask) - 1, z1 = z + 2; z <= z1; ++z)
-        for (std::uint64_t y = (c >> 2 * kBits) - 1, y1 = y + 2; y <= y1; ++y) {
-          // Row (y, z)'s points with x from x − 1 to x + 1, the three cells in scan order.
-          const std::uint64_t row = y << 2 * kBits | z << kBits, lo = row | (x - 1), hi = row | (x + 1);
-          const std::size_t h = row_hash(row);
+      const std::uint64_t c = cells_[i];
+      // Dense: the bucket of row (y − 1, z − 1); the others are width_ apart in z, 1 in y.
+      const std::size_t corner = kDense ? bucket(c) - width_ - 1 : 0;
+      for (std::uint64_t dz = 0; dz < 3; ++dz)
+        for (std::uint64_t dy = 0; dy < 3; ++dy) {
+          // Row (y − 1 + dy, z − 1 + dz)'s points with x from x − 1 to x + 1, the three cells in
+          // scan order (coordinates are at least 2: no borrow).
+          const std::uint64_t at = c + dy * kY + dz * kZ - kY - kZ;
+          const std::size_t h = kDense ? corner + dz * width_ + dy : bucket(at);
+          std::size_t k = start_[h];
           const std::size_t last = start_[h + 1];
-          for (std::size_t k = first_not_below(start_[h], last, lo); k != last && keys_[k] <= hi; ++k) {
+          if (k == last) continue;
+          for (k = first_not_below(k, last, at - 1); k != last && keys_[k] <= at + 1; ++k) {
             const Index j = bucket_[k];
             if (j <= i) continue;
             if ((pos[j] - pos[i]).squaredNorm() >= cell_ * cell_) continue;
@@ -75,17 +109,23 @@ class SpatialHash {
     }
   }
 
- private:
   // A cell is three coordinates of kBits bits packed as y, z, x (y highest): keys in increasing
   // order are cells by y, then z, then x. Each is floor(p / cell) clamped to ±(2^20 − 2) (cells
   // a point apart stay neighbours; NaN goes to the low end, and no cast overflows) plus 2^20, so
   // that it and its neighbours ±1 are in [0, 2^21).
   static constexpr int kBits = 21;
   static constexpr std::uint64_t kMask = (std::uint64_t{1} << kBits) - 1;
+  // The dense table of rows is used up to this many buckets a point.
+  static constexpr std::uint64_t kDenseRows = 4;
   static std::uint64_t coordinate(double p, double cell) {
     constexpr double kBias = double(std::uint64_t{1} << (kBits - 1)), kMax = kBias - 2;
-    const double c = std::floor(p / cell);
-    return static_cast<std::uint64_t>((c >= -kMax ? (c <= kMax ? c : kMax) : -kMax) + kBias);
+    // The quotient clamped first (NaN to the low end), then floored by truncation: within the
+    // clamp, an integer's floor is the truncation less one where that lies above the quotient.
+    const double v = p / cell;
+    if (!(v >= -kMax)) return static_cast<std::uint64_t>(kBias - kMax);
+    if (v >= kMax) return static_cast<std::uint64_t>(kBias + kMax);
+    const auto t = static_cast<std::int64_t>(v);
+    return static_cast<std::uint64_t>(t - (static_cast<double>(t) > v) + static_cast<std::int64_t>(kBias));
   }
   // The first k in [first, last) with keys_[k] >= key (last if none): a binary search whose
   // halving is a conditional move, not a branch (std::lower_bound's mispredict on a liquid's
@@ -100,14 +140,16 @@ class SpatialHash {
     }
     return first;
   }
-  // The bucket of a cell's row (its y and z).
-  std::size_t row_hash(std::uint64_t cell) const {
-    return static_cast<std::size_t>(((cell >> 2 * kBits) * 19349663u) ^
-                                    ((cell >> kBits & kMask) * 83492791u)) &
-           (table_ - 1);
+  // The bucket of a cell's row (its y and z): its place in the dense table, or its hash.
+  std::size_t bucket(std::uint64_t cell) const {
+    const std::uint64_t y = cell >> 2 * kBits, z = cell >> kBits & kMask;
+    if (dense_) return static_cast<std::size_t>(z * width_ + y - origin_);
+    return static_cast<std::size_t>((y * 19349663u) ^ (z * 83492791u)) & (table_ - 1);
   }
 
   double cell_ = 1;
+  bool dense_ = false;
+  std::uint64_t width_ = 0, origin_ = 0;  // dense: rows a z holds, and the first row's place z · width + y
   std::size_t table_ = 1;
   std::vector<std::uint64_t> cells_;  // by point
   std::vector<std::uint64_t> keys_;   // cells_[bucket_[k]]
