@@ -189,8 +189,9 @@ TEST(PairsWithinRadius, ExactlyThePairsBruteForceFinds) {
 // SpatialHash::pairs (contacts, bond formation) against its documented order, by brute force:
 // for each i, the 27 cells around its cell by z, y, x, each cell's points j > i by index, those
 // closer than the cell size. The order matters: contacts are resolved and bonds formed in it.
-// Points close together fill a table of the rows they span; two more points 50 m away make the
-// grid hash its rows instead.
+// Each of the grid's layouts: the points close together fill a table of the cells they span at
+// 2 cm and of the rows at 5.5 mm (more cells than the table takes); two more points 50 m away
+// make it hash the rows.
 TEST(SpatialHash, FindsThePairsCloserThanACellInScanOrder) {
   Rng rng{11};
   std::vector<Vec3> x;
