@@ -183,11 +183,14 @@ bool clear_of(const Obstacle& o, ClearTest test, const Vec3& x0, const Vec3& x1)
     return o.normal.dot(x0 - o.center) >= o.margin ? !(d1 < 0) : d1 >= 0;
   }
   if (test != ClearTest::axis_box_container) return false;
-  const Vec3 q = x0 - o.center, d = x1 - x0;
-  if (!(q.array().abs() < INFINITY).all() || !(d.array().abs() < INFINITY).all()) return false;
-  // Starts inside: solid_distance's d = |q| - half_extents all <= 0, and -max d >= margin.
-  const Vec3 in = q.cwiseAbs() - o.half_extents;
-  if (!(in.x() <= 0 && in.y() <= 0 && in.z() <= 0) || !(-in.maxCoeff() >= o.margin)) return false;
+  double q[3], d[3];
+  for (int k = 0; k < 3; ++k) {
+    q[k] = x0[k] - o.center[k];
+    d[k] = x1[k] - x0[k];
+    // Starts inside: solid_distance's |q| − half_extents all <= 0, and its largest, negated, >= margin.
+    const double in = std::abs(q[k]) - o.half_extents[k];
+    if (!(std::abs(d[k]) < INFINITY) || !(in <= 0) || !(-in >= o.margin)) return false;  // q finite too
+  }
   double t = INFINITY;
   for (int k = 0; k < 3; ++k) {
     if (d[k] == 0) continue;
