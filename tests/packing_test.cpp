@@ -189,6 +189,9 @@ TEST(PairsWithinRadius, ExactlyThePairsBruteForceFinds) {
 // SpatialHash::pairs (contacts, bond formation) against its documented order, by brute force:
 // for each i, the 27 cells around its cell by z, y, x, each cell's points j > i by index, those
 // closer than the cell size. The order matters: contacts are resolved and bonds formed in it.
+// Each of the grid's layouts: the points close together fill a table of the cells they span at
+// 2 cm and of the rows at 5.5 mm (more cells than the table takes); two more points 50 m away
+// make it hash the rows.
 TEST(SpatialHash, FindsThePairsCloserThanACellInScanOrder) {
   Rng rng{11};
   std::vector<Vec3> x;
@@ -197,24 +200,29 @@ TEST(SpatialHash, FindsThePairsCloserThanACellInScanOrder) {
   for (int k = 0; k < 6; ++k)  // a dense lattice, rows of many points, in scrambled order
     for (int j = 0; j < 6; ++j)
       for (int i = 0; i < 12; ++i) x.emplace_back(0.3 + 0.005 * ((7 * i) % 12), 0.005 * j, 0.005 * k);
-  for (double cell : {0.0055, 0.02}) {
-    auto at = [&](const Vec3& p, int a) { return static_cast<std::int64_t>(std::floor(p[a] / cell)); };
-    std::vector<std::pair<Index, Index>> brute;
-    for (std::size_t i = 0; i < x.size(); ++i)
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx)
-            for (std::size_t j = i + 1; j < x.size(); ++j)
-              if (at(x[j], 0) == at(x[i], 0) + dx && at(x[j], 1) == at(x[i], 1) + dy &&
-                  at(x[j], 2) == at(x[i], 2) + dz && (x[j] - x[i]).squaredNorm() < cell * cell)
-                brute.emplace_back(static_cast<Index>(i), static_cast<Index>(j));
-    SpatialHash grid;
-    grid.build(x, cell);
-    std::vector<std::pair<Index, Index>> fast;
-    grid.pairs(x, [&](Index i, Index j) { fast.emplace_back(i, j); });
-    ASSERT_GT(brute.size(), 100u) << cell;
-    EXPECT_EQ(fast, brute) << cell;
-  }
+  std::vector<Vec3> scattered = x;
+  scattered.emplace_back(0.1, 25.0, -25.0);
+  scattered.emplace_back(0.1, -25.0, 25.0);
+  for (const std::vector<Vec3>* points : {&x, &scattered})
+    for (double cell : {0.0055, 0.02}) {
+      const std::vector<Vec3>& p = *points;
+      auto at = [&](const Vec3& q, int a) { return static_cast<std::int64_t>(std::floor(q[a] / cell)); };
+      std::vector<std::pair<Index, Index>> brute;
+      for (std::size_t i = 0; i < p.size(); ++i)
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx)
+              for (std::size_t j = i + 1; j < p.size(); ++j)
+                if (at(p[j], 0) == at(p[i], 0) + dx && at(p[j], 1) == at(p[i], 1) + dy &&
+                    at(p[j], 2) == at(p[i], 2) + dz && (p[j] - p[i]).squaredNorm() < cell * cell)
+                  brute.emplace_back(static_cast<Index>(i), static_cast<Index>(j));
+      SpatialHash grid;
+      grid.build(p, cell);
+      std::vector<std::pair<Index, Index>> fast;
+      grid.pairs(p, [&](Index i, Index j) { fast.emplace_back(i, j); });
+      ASSERT_GT(brute.size(), 100u) << cell;
+      EXPECT_EQ(fast, brute) << cell << " m cells, " << p.size() << " points";
+    }
 }
 
 TEST(PointPacking, BondsEveryPairWithinTheRadiusAtItsDistance) {

@@ -162,9 +162,49 @@ double entry(const Obstacle& o, const Vec3& a, const Vec3& b) {
   return -1.0;
 }
 
+// Which obstacles clear_of can decide.
+enum class ClearTest : std::uint8_t { none, plane, axis_box_container };
+
+ClearTest clear_test(const Obstacle& o) {
+  if (o.shape == Obstacle::Shape::plane && !o.inside) return ClearTest::plane;
+  if (o.shape == Obstacle::Shape::box && o.inside && o.rotation == Mat3::Identity()) return ClearTest::axis_box_container;
+  return ClearTest::none;
+}
+
+// True when ObstacleHeuristic::apply's general test of the path x0 → x1 finds no contact with o
+// (most quanta, most steps), decided with the same arithmetic; false when it may find one. A
+// plane: its distances at both ends. An axis-aligned container box: a start inside it shrunk by
+// the margin and container_exit's exit time, its rotation left out (the identity's products
+// give the same coordinates up to the sign of a zero, which neither test reads, for finite
+// positions; others go the general way).
+bool clear_of(const Obstacle& o, ClearTest test, const Vec3& x0, const Vec3& x1) {
+  if (test == ClearTest::plane) {
+    const double d1 = o.normal.dot(x1 - o.center) - o.margin;
+    return o.normal.dot(x0 - o.center) >= o.margin ? !(d1 < 0) : d1 >= 0;
+  }
+  if (test != ClearTest::axis_box_container) return false;
+  double q[3], d[3];
+  for (int k = 0; k < 3; ++k) {
+    q[k] = x0[k] - o.center[k];
+    d[k] = x1[k] - x0[k];
+    // Starts inside: solid_distance's |q| − half_extents all <= 0, and its largest, negated, >= margin.
+    const double in = std::abs(q[k]) - o.half_extents[k];
+    if (!(std::abs(d[k]) < INFINITY) || !(in <= 0) || !(-in >= o.margin)) return false;  // q finite too
+  }
+  double t = INFINITY;
+  for (int k = 0; k < 3; ++k) {
+    if (d[k] == 0) continue;
+    const double face = (d[k] > 0 ? 1.0 : -1.0) * (o.half_extents[k] - o.margin);
+    t = std::min(t, std::max(0.0, (face - q[k]) / d[k]));
+  }
+  return !(t <= 1);
+}
+
 class ObstacleHeuristic final : public Heuristic {
  public:
-  explicit ObstacleHeuristic(std::vector<Obstacle> o) : obstacles_(std::move(o)) {}
+  explicit ObstacleHeuristic(std::vector<Obstacle> o) : obstacles_(std::move(o)) {
+    for (const Obstacle& ob : obstacles_) tests_.push_back(clear_test(ob));
+  }
   std::string_view name() const override { return "obstacles"; }
 
   void apply(const Model& m, State& state, Projection& p, const HeuristicContext& ctx) override {
@@ -173,9 +213,11 @@ class ObstacleHeuristic final : public Heuristic {
     for (std::size_t q = 0; q < m.num_quanta(); ++q) {
       const auto i = static_cast<Index>(q);
       if (m.is_kinematic(i)) continue;
-      for (const Obstacle& o : obstacles_) {
+      for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+        const Obstacle& o = obstacles_[k];
         Vec3 n;
         const Vec3 x1 = s.x[i] + p.dx[i];
+        if (clear_of(o, tests_[k], s.x[i], x1)) continue;
         const bool start_outside = o.distance(s.x[i], n) >= o.margin;
         Vec3 target;
         if (start_outside) {
@@ -216,6 +258,7 @@ class ObstacleHeuristic final : public Heuristic {
 
  private:
   std::vector<Obstacle> obstacles_;
+  std::vector<ClearTest> tests_;  // by obstacle
   EditLedger ledger_;
 };
 

@@ -22,6 +22,9 @@ QBOND_VECTOR_INLINE int affine_prefix(const State& s, std::size_t b) {
   const Index* bi = s.bonds.i.data() + b;
   const Index* bj = s.bonds.j.data() + b;
   const std::uint8_t* alive = s.bonds.alive.data() + b;
+  // Bond b + 1 does not continue bond b (bonds listed by quanta, as a small body's): at most one,
+  // told before the eight lanes' compares.
+  if (!((alive[1] != 0) & (bi[1] == bi[0] + 1) & (bj[1] == bj[0] + 1))) return alive[0] != 0;
   unsigned good = 0;  // bit k: bond b + k continues (compares, no branch per bond)
   for (Index k = 0; k < kLanes; ++k)
     good |= static_cast<unsigned>((alive[k] != 0) & (bi[k] == bi[0] + k) & (bj[k] == bj[0] + k)) << k;

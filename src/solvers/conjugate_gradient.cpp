@@ -136,10 +136,11 @@ void run_product(const Model& model, const Bonds& bonds, const BondRun& run, con
     const Vec3 u = blocks.u(b);
     const Vec3 yi(y[0][i], y[1][i], y[2][i]), yj(y[0][j], y[1][j], y[2][j]);
     const Vec3 fi = block_times(u, blocks.Ba[b], blocks.Bb[b], yj), fj = block_times(u, blocks.Ba[b], blocks.Bb[b], yi);
-    for (int c = 0; c < 3; ++c) {
-      if (run.owns(i)) out[c][i] -= fi[c];
-      if (run.owns(j)) out[c][j] -= fj[c];
-    }
+    // Each entry receives its terms in the same order as row by row.
+    if (run.owns(i))
+      for (int c = 0; c < 3; ++c) out[c][i] -= fi[c];
+    if (run.owns(j))
+      for (int c = 0; c < 3; ++c) out[c][j] -= fj[c];
   }
 }
 
