@@ -404,7 +404,7 @@ void print_ranks(const qbond::RanksStats& s) {
               static_cast<unsigned long long>(s.migrations), static_cast<unsigned long long>(s.recuts));
   const double steps = s.steps ? static_cast<double>(s.steps) : 1.0;
   for (std::size_t k = 0; k < s.owned.size(); ++k)
-    std::printf("  rank %zu: %zu quanta, %zu ghosts, %.4g bytes sent per step; per step %.3g ms stepping and %.3g ms "
+    std::printf("  rank %zu: %zu quanta, %zu ghosts, %.0f bytes sent per step; per step %.3g ms stepping and %.3g ms "
                 "ledger (CPU), %.3g ms in all (wall)\n",
                 k, s.owned[k], s.ghosts[k], s.bytes_sent[k] / steps, 1e3 * s.stepping[k] / steps,
                 1e3 * s.bookkeeping[k] / steps, 1e3 * s.wall[k] / steps);

@@ -2,17 +2,17 @@
 """Step time of a run over MPI ranks against the run alone, on the canonical lattice.
 
 Usage: bench/mpi/ranks.py [--qbond PATH] [--integrator velocity_verlet] [--n 40] [--steps 200]
-                          [--repeats 3] [--mpiexec PATH] [--mpiexec-flag F ...] [--out FILE]
+                          [--repeats 3] [--most-ranks 2] [--mpiexec PATH] [--mpiexec-flag F ...] [--out FILE]
        bench/mpi/ranks.py --check [ROOT]     (the tables of docs/distributed.md against the results)
        bench/mpi/ranks.py --write [ROOT]     (rewrites those tables from the newest results)
 
 Measures `qbond run` of the canonical n³ lattice (samples.hpp's canonical_lattice(n)) stepped by
 the integrator (velocity Verlet unless told), without frames: alone on 1 and 2 threads, and over
-1 and 2 ranks of 1 thread each (one rank under the launcher is the program alone). The
+1 to --most-ranks ranks of 1 thread each (one rank under the launcher is the program alone). The
 runs alternate, `repeats` times each, and each configuration's median step time (run.json's
 wall_seconds over its steps) is kept with every repeat; for the runs over ranks also each rank's
-CPU time per step stepping its piece and charging its ledger, its wall time per step and the
-bytes it sent per step (the lines the run prints); and the machine and its load average (one
+quanta and ghosts, its CPU time per step stepping its piece and charging its ledger, its wall time
+per step and the bytes it sent per step (the lines the run prints); and the machine and its load average (one
 minute) before and after. Results go to docs/bench/ranks-DATE.json for velocity Verlet at n = 40,
 docs/bench/ranks-INTEGRATOR-DATE.json for coupled_implicit at n = 20, and
 docs/bench/ranks-INTEGRATOR-nN-DATE.json for the other tables of TABLES; each table sits between
@@ -78,7 +78,7 @@ def measure(a):
     path = os.path.join(work, "lattice.json")
     with open(path, "w") as f:
         json.dump(scene(a.n, a.steps, a.integrator), f)
-    configs = [("alone", 1, 1), ("alone", 1, 2), ("ranks", 1, 1), ("ranks", 2, 1)]
+    configs = [("alone", 1, 1), ("alone", 1, 2)] + [("ranks", k, 1) for k in range(1, a.most_ranks + 1)]
     runs = {f"{kind}:{ranks}x{threads}": [] for kind, ranks, threads in configs}
     ranks_seen = {f"{kind}:{ranks}x{threads}": [] for kind, ranks, threads in configs}
     for _ in range(a.repeats):
@@ -95,8 +95,8 @@ def measure(a):
                 j = json.load(f)
             key = f"{kind}:{ranks}x{threads}"
             runs[key].append(1e3 * j["wall_seconds"] / j["steps_taken"])
-            # Each rank's line: bytes sent, CPU ms stepping and ledger, wall ms, per step.
-            per_rank = re.findall(r"rank \d+: \d+ quanta, \d+ ghosts, ([0-9.e+]+) bytes sent per step; per step "
+            # Each rank's line: quanta, ghosts, bytes sent, CPU ms stepping and ledger, wall ms, per step.
+            per_rank = re.findall(r"rank \d+: (\d+) quanta, (\d+) ghosts, ([0-9.e+]+) bytes sent per step; per step "
                                   r"([0-9.e+]+) ms stepping and ([0-9.e+]+) ms ledger \(CPU\), ([0-9.e+]+) ms", r.stdout)
             if per_rank:
                 ranks_seen[key].append([[float(x) for x in rank] for rank in per_rank])
@@ -108,15 +108,15 @@ def measure(a):
                "repeats_ms": runs[key]}
         if ranks_seen[key]:
             # Per rank, the median over the repeats of each figure.
-            per = [[statistics.median(rep[r][k] for rep in ranks_seen[key]) for k in range(4)] for r in range(ranks)]
-            row["per_rank"] = [{"bytes_sent_per_step": p[0], "stepping_cpu_ms": p[1], "ledger_cpu_ms": p[2],
-                                "wall_ms": p[3]} for p in per]
+            per = [[statistics.median(rep[r][k] for rep in ranks_seen[key]) for k in range(6)] for r in range(ranks)]
+            row["per_rank"] = [{"quanta": int(p[0]), "ghosts": int(p[1]), "bytes_sent_per_step": p[2],
+                                "stepping_cpu_ms": p[3], "ledger_cpu_ms": p[4], "wall_ms": p[5]} for p in per]
         rows.append(row)
     return {"workload": f"canonical lattice n={a.n}, {a.integrator}, {a.steps} steps, no frames",
             "integrator": a.integrator,
             "date": datetime.date.today().isoformat(),
             "command": " ".join(["bench/mpi/ranks.py", "--integrator", a.integrator, "--n", str(a.n), "--steps",
-                                 str(a.steps), "--repeats", str(a.repeats)]),
+                                 str(a.steps), "--repeats", str(a.repeats), "--most-ranks", str(a.most_ranks)]),
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} hardware threads, "
                        "shared with other jobs",
             "load_average": [round(load_before, 2), round(os.getloadavg()[0], 2)],
@@ -184,6 +184,7 @@ def main():
     p.add_argument("--n", type=int, default=40)
     p.add_argument("--steps", type=int, default=200)
     p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--most-ranks", type=int, default=2, help="runs over 1 to this many ranks (default: 2)")
     p.add_argument("--mpiexec", default="mpiexec")
     p.add_argument("--mpiexec-flag", action="append", default=[])
     p.add_argument("--out")

@@ -12,7 +12,8 @@ side by side); then, on each of the accuracy-n lattices, each method's largest s
 the dynamic and the settled accuracy criteria and its cost per simulated second there
 (bench/peers/accuracy.py). --quick runs it all on the 4^3 lattice with a shorter search (the
 ctest test peers.accuracy_quick), so the machinery cannot rot. --append FILE runs only the accuracy
-searches (e.g. of a larger lattice, for fewer methods) and adds them to an earlier run's JSON.
+searches (e.g. of a larger lattice, for fewer methods) and adds them to an earlier run's JSON; a
+lattice it already holds keeps its rows of the methods not searched again.
 
 The workload: n^3 simple-cubic lattice, spacing 0.01 m, 1 g quanta, bonds to nearest and
 face-diagonal neighbours (k = 1000 N/m), the x = 0 face anchored, gravity -9.81 m/s^2 along z.
@@ -155,7 +156,8 @@ def main():
                                         "solution) to reuse where they meet this run's tolerances")
     ap.add_argument("--methods", default="LAMMPS,Bullet," + ",".join(m.removeprefix("qbond ") for m in accuracy.QBOND_METHODS),
                     help="the accuracy searches' methods: LAMMPS, Bullet and qbond's integrators")
-    ap.add_argument("--append", help="only the accuracy searches, their records added to this earlier run's JSON")
+    ap.add_argument("--append", help="only the accuracy searches, their records added to this earlier run's JSON "
+                                     "(a lattice searched again keeps its rows of the methods not in --methods)")
     ap.add_argument("--json")
     a = ap.parse_args()
     cached = {}
@@ -174,13 +176,21 @@ def main():
             doc = json.load(f)
         ns = {int(n) for n in a.accuracy_n.split(",")}
         kept = [r for r in doc["accuracy"] if r["n"] not in ns]
+        # A lattice searched again keeps its earlier rows of the methods not run this time.
+        earlier = {r["n"]: r for r in doc["accuracy"] if r["n"] in ns}
+        rerun = accuracy_methods(a)
+
+        def merged(rec):
+            old = [r for r in earlier.get(rec["n"], {}).get("rows", [])
+                   if not any(r["method"].startswith(m) for m in rerun)]
+            return {**rec, "rows": old + rec["rows"]}
         appended = {"command": command, "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
                     "nice": os.nice(0), "load_average": [os.getloadavg()[0]] * 2, "accuracy_n": sorted(ns),
                     "finished": False}
         doc.setdefault("appended", []).append(appended)
 
         def save_appended(records):
-            doc["accuracy"] = sorted(kept + records, key=lambda r: r["n"])
+            doc["accuracy"] = sorted(kept + [merged(r) for r in records], key=lambda r: r["n"])
             appended["load_average"][1] = os.getloadavg()[0]
             write_json(a.append, doc)
         records = accuracy_all(a, pool, setups, save_appended)
