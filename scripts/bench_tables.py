@@ -551,6 +551,9 @@ def realtime_table(name, data, machine):
                  for r in one)
     lines += ["", f"Scenes of at most 10 000 quanta keeping up with 60 Hz on 2 threads: {ok} of {len(keep)}; "
               f"whose frame's CPU time on one thread is within 1/60 s: {cpu_ok} of {len(one)}."]
+    seen = [r["viewer"]["real_time_factor"] for r in keep if r.get("viewer")]
+    if seen:
+        lines[-1] += f" In the viewer, drawing included: {sum(f >= 1 for f in seen)} of {len(seen)}."
     return lines
 
 
