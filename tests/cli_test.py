@@ -1528,6 +1528,35 @@ def test_tet_bar_statics():
         fail(f"reaction {reaction} does not balance the load {load}")
 
 
+
+def test_key_tables_match_the_declarations():
+    """`qbond key-tables --check` passes on the committed docs; on a copy with a stale table it
+    fails naming the command, and `qbond key-tables` writes the committed text back."""
+    docs = [os.path.join(SOURCE, "docs", f) for f in ("scene-format.md", "heuristics.md")]
+    r = qbond("key-tables", "--check", *docs)
+    if r.returncode != 0:
+        fail(f"the docs' key tables differ from the declarations: run build/qbond key-tables "
+             f"docs/scene-format.md docs/heuristics.md\n{r.stderr}")
+    d = fresh("key_tables")
+    os.makedirs(d)
+    copy = os.path.join(d, "scene-format.md")
+    committed = open(docs[0]).read()
+    stale = committed.replace("| `damping_zone` |", "| `damping_zone_old` |")
+    if stale == committed:
+        fail("docs/scene-format.md has no `damping_zone` row to make stale")
+    open(copy, "w").write(stale)
+    r = qbond("key-tables", "--check", copy, check_code=1)
+    if "regenerate: qbond key-tables" not in r.stderr or open(copy).read() != stale:
+        fail(f"--check on a stale table: {r.stderr!r}, or it wrote the file")
+    qbond("key-tables", copy, check_code=0)
+    if open(copy).read() != committed:
+        fail("qbond key-tables did not write the committed tables back")
+    open(copy, "w").write("no tables\n")
+    r = qbond("key-tables", copy, check_code=2)
+    if "no <!-- keys:NAME --> table" not in r.stderr:
+        fail(f"a file without tables: {r.stderr!r}")
+
+
 if __name__ == "__main__":
     os.makedirs(WORK, exist_ok=True)
     globals()["test_" + sys.argv[4]]()
