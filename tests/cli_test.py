@@ -1038,7 +1038,7 @@ def test_help_shows_no_parser_internals():
     """Every command's --help is the program's words: no default values in braces, no enumeration
     maps, no validator names (CLI11's '{false}', 'ENUM:value in {plain->2,...}', 'INT:POSITIVE',
     'Needs:')."""
-    for cmd in ([], ["run"], ["validate"], ["statics"], ["export"], ["schema"], ["experiment"], ["bench"], ["view"]):
+    for cmd in ([], ["run"], ["validate"], ["statics"], ["export"], ["schema"], ["key-tables"], ["experiment"], ["bench"], ["view"]):
         r = qbond(*cmd, "--help", check_code=0)
         for internal in ("{false}", "{true}", "ENUM", "->", "value in {", "INT:", "FLOAT:", "TEXT:", "Needs:",
                          "Excludes:", " in ["):

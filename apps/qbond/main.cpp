@@ -698,8 +698,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> key_table_files;
   bool key_tables_check = false;
   CLI::App* key_tables_cmd = app.add_subcommand(
-      "key-tables", "write the key tables of Markdown files (between <!-- keys:NAME --> markers) from the laws', "
-                    "heuristics' and body types' declarations (docs/architecture.md)");
+      "key-tables", "write the docs' key tables (each between its keys:NAME markers) from the declarations of the "
+                    "laws, heuristics and body types (docs/architecture.md)");
   key_tables_cmd->add_option("files", key_table_files, "Markdown files, rewritten in place")->required();
   key_tables_cmd->add_flag("--check", key_tables_check, "write nothing; exit 1 when a file's tables differ");
   ExperimentArgs ea;
