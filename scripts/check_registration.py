@@ -1,12 +1,14 @@
 #!/usr/bin/env python3
 """Checks that a new law, integrator option or heuristic touches three files: its own file, its
-tests, and its registration; and that the existing ones keep to their files.
+tests, and its registration; and that the existing ones keep to their files. The docs' key tables
+and the JSON Schema are generated from the same declarations (`qbond key-tables`, `qbond schema`).
 
 Heuristics, QBOND_HEURISTICS (include/qbond/heuristics/registry.hpp): a rule is either whole in
 its header of include/qbond/heuristics/ (the struct, make_heuristic(Rule) defined there, and its
 scene type: `from_scene`), so that it is that header, its tests and the registry; or its factory
 is declared in that header and defined, with its scene types (scene_readers(std::type_identity<
-Rule>)), in one source of src/heuristics/, one file more. No other file of the library, the
+Rule>)), in one source of src/heuristics/, one file more: its struct is public (HeuristicSpec,
+the Python module) and the helpers its step needs (the spatial hash) are not. No other file of the library, the
 programs or the Python module names the rule, except the consumers listed below, which use a rule
 for their own purpose (drawing, diagnostics), not to make it work. A rule declared outside
 include/qbond/heuristics/ (Obstacle and QuantaContactRule: also the model's, for contacts inside

@@ -1038,7 +1038,7 @@ def test_help_shows_no_parser_internals():
     """Every command's --help is the program's words: no default values in braces, no enumeration
     maps, no validator names (CLI11's '{false}', 'ENUM:value in {plain->2,...}', 'INT:POSITIVE',
     'Needs:')."""
-    for cmd in ([], ["run"], ["validate"], ["statics"], ["export"], ["schema"], ["experiment"], ["bench"], ["view"]):
+    for cmd in ([], ["run"], ["validate"], ["statics"], ["export"], ["schema"], ["key-tables"], ["experiment"], ["bench"], ["view"]):
         r = qbond(*cmd, "--help", check_code=0)
         for internal in ("{false}", "{true}", "ENUM", "->", "value in {", "INT:", "FLOAT:", "TEXT:", "Needs:",
                          "Excludes:", " in ["):
@@ -1526,6 +1526,35 @@ def test_tet_bar_statics():
         fail(f"load {load}, expected [0, 0, {expected}]")
     if any(abs(load[k] + reaction[k]) > 1e-8 * abs(expected) for k in range(3)):
         fail(f"reaction {reaction} does not balance the load {load}")
+
+
+
+def test_key_tables_match_the_declarations():
+    """`qbond key-tables --check` passes on the committed docs; on a copy with a stale table it
+    fails naming the command, and `qbond key-tables` writes the committed text back."""
+    docs = [os.path.join(SOURCE, "docs", f) for f in ("scene-format.md", "heuristics.md")]
+    r = qbond("key-tables", "--check", *docs)
+    if r.returncode != 0:
+        fail(f"the docs' key tables differ from the declarations: run build/qbond key-tables "
+             f"docs/scene-format.md docs/heuristics.md\n{r.stderr}")
+    d = fresh("key_tables")
+    os.makedirs(d)
+    copy = os.path.join(d, "scene-format.md")
+    committed = open(docs[0]).read()
+    stale = committed.replace("| `damping_zone` |", "| `damping_zone_old` |")
+    if stale == committed:
+        fail("docs/scene-format.md has no `damping_zone` row to make stale")
+    open(copy, "w").write(stale)
+    r = qbond("key-tables", "--check", copy, check_code=1)
+    if "regenerate: qbond key-tables" not in r.stderr or open(copy).read() != stale:
+        fail(f"--check on a stale table: {r.stderr!r}, or it wrote the file")
+    qbond("key-tables", copy, check_code=0)
+    if open(copy).read() != committed:
+        fail("qbond key-tables did not write the committed tables back")
+    open(copy, "w").write("no tables\n")
+    r = qbond("key-tables", copy, check_code=2)
+    if "no <!-- keys:NAME --> table" not in r.stderr:
+        fail(f"a file without tables: {r.stderr!r}")
 
 
 if __name__ == "__main__":

@@ -251,7 +251,8 @@ TEST(Laws, SceneFormatDocsListEveryLawAndItsKeys) {
     for (const LawParam& p : l.shape) keys.push_back(p.key);
     for (std::string_view k : keys) {
       const std::string row = "| `" + std::string(l.name) + "` | `" + std::string(k) + "` |";
-      EXPECT_NE(doc.find(row), std::string::npos) << "docs/scene-format.md lacks the row " << row;
+      EXPECT_NE(doc.find(row), std::string::npos)
+          << "docs/scene-format.md lacks the row " << row << "; regenerate: build/qbond key-tables docs/scene-format.md docs/heuristics.md";
     }
   }
 }

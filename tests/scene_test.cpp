@@ -15,6 +15,8 @@
 #include "qbond/builders/packing.hpp"
 #include "qbond/io/files.hpp"
 #include "qbond/io/json_text.hpp"
+#include "qbond/io/scene_docs.hpp"
+#include "qbond/laws/registry.hpp"
 #include "qbond/model/ordering.hpp"
 #include "qbond/model/selection.hpp"
 
@@ -296,6 +298,48 @@ TEST(Scenes, HeuristicAndBodyTypesAreOneTableTheReaderAndDocsFollow) {
   }
   const std::string unknown_body = scene_error(R"({"timestep": 0.001, "steps": 1, "bodies": [{"name": "b", "type": "no_such_type"}]})");
   EXPECT_NE(unknown_body.find("(accepted: " + joined(body_names) + ")"), std::string::npos) << unknown_body;
+}
+
+// The docs' key tables are written from the declarations (`qbond key-tables`), as the schema is:
+// the committed docs hold each table between its markers exactly as the registries give it.
+TEST(Scenes, DocsKeyTablesAreTheDeclarations) {
+  const std::map<std::string, std::vector<std::string>> tables = {
+      {"docs/scene-format.md", {"laws", "heuristics", "bodies"}}, {"docs/heuristics.md", {"heuristic_types"}}};
+  for (const auto& [file, names] : tables) {
+    const std::string text = source_text(file);
+    for (const std::string& name : names) {
+      const std::size_t open = text.find("<!-- keys:" + name + " -->\n");
+      ASSERT_NE(open, std::string::npos) << file << " has no key table " << name;
+      EXPECT_NE(text.find(scene_doc_table(name) + "<!-- /keys:" + name + " -->", open), std::string::npos)
+          << file << "'s key table " << name << " differs from the declarations; regenerate: "
+          << "build/qbond key-tables docs/scene-format.md docs/heuristics.md";
+    }
+    EXPECT_EQ(with_scene_doc_tables(text, file), text)
+        << file << ": regenerate: build/qbond key-tables docs/scene-format.md docs/heuristics.md";
+  }
+  // A stale table is rewritten whole, the text around it kept; a wrong marker is refused.
+  const std::string table = scene_doc_table("heuristics");
+  EXPECT_EQ(with_scene_doc_tables("a\n<!-- keys:heuristics -->\n| old |\n<!-- /keys:heuristics -->\nb\n", "x.md"),
+            "a\n<!-- keys:heuristics -->\n" + table + "<!-- /keys:heuristics -->\nb\n");
+  for (const SceneType& t : heuristic_types())
+    EXPECT_NE(table.find("| `" + std::string(t.type) + "` |"), std::string::npos) << t.type;
+  for (const LawInfo& l : all_laws())
+    EXPECT_NE(scene_doc_table("laws").find("| `" + std::string(l.name) + "` | `" + std::string(l.strength.key) + "` |"),
+              std::string::npos)
+        << l.name;
+  EXPECT_THROW(scene_doc_table("no_such_table"), std::invalid_argument);
+  try {
+    with_scene_doc_tables("a\n\n<!-- keys:bodies -->\n| old |\n", "x.md");
+    ADD_FAILURE() << "an unclosed table was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "x.md:3: key table 'bodies' has no <!-- /keys:bodies -->");
+  }
+  try {
+    with_scene_doc_tables("<!-- keys:nope -->\n<!-- /keys:nope -->\n", "x.md");
+    ADD_FAILURE() << "an unknown table was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "x.md:1: unknown key table 'nope' (known: laws, heuristics, heuristic_types, bodies)");
+  }
 }
 
 TEST(Scenes, ResolvedSceneRebuildsTheSameWorld) {

@@ -1,5 +1,5 @@
 // The `qbond` program: `run` a scene with its outputs, `statics` (its equilibrium), `validate` scene
-// files, `export` (the built world for LAMMPS), `schema` (theirs), `experiment` (the paper's experiments), `bench` (the performance
+// files, `export` (the built world for LAMMPS), `schema` (theirs), `key-tables` (the docs' tables of their keys), `experiment` (the paper's experiments), `bench` (the performance
 // suite), `view` (the viewer).
 // The work is done by the library (scene.hpp, runner.hpp); this file holds what only a program
 // has: options, the progress display, signals and exit codes.
@@ -27,6 +27,8 @@
 #include "qbond/io/checkpoint.hpp"
 #include "qbond/io/lammps_data.hpp"
 #include "qbond/io/memory.hpp"
+#include "qbond/io/files.hpp"
+#include "qbond/io/scene_docs.hpp"
 #include "qbond/io/scene_schema.hpp"
 #include "qbond/simulation/runner.hpp"
 #include "qbond/distributed/distributed.hpp"
@@ -561,6 +563,37 @@ int export_scene(const ExportArgs& a, std::uint64_t max_memory) {
   return 0;
 }
 
+// `qbond key-tables`: rewrites the tables between `<!-- keys:NAME -->` markers from the
+// declarations (scene_docs.hpp); with `check`, writes nothing and exits 1 when one differs.
+int key_tables(const std::vector<std::string>& files, bool check) {
+  int stale = 0;
+  std::string all;
+  for (const std::string& f : files) all += " " + f;
+  for (const std::string& f : files) {
+    const std::string text = qbond::read_file(f);
+    const std::string written = qbond::with_scene_doc_tables(text, f);
+    if (text.find("<!-- keys:") == std::string::npos)
+      throw std::invalid_argument(f + ": no <!-- keys:NAME --> table (tables: " + [] {
+        std::string n;
+        for (std::string_view s : qbond::scene_doc_table_names()) n += (n.empty() ? "" : ", ") + std::string(s);
+        return n;
+      }() + ")");
+    if (written == text) continue;
+    ++stale;
+    if (check) {
+      std::fprintf(stderr, "qbond: %s: its key tables differ from the declarations; regenerate: qbond key-tables%s\n",
+                   f.c_str(), all.c_str());
+      continue;
+    }
+    std::ofstream out(f, std::ios::binary | std::ios::trunc);
+    out << written;
+    out.close();
+    if (!out) throw std::runtime_error("cannot write " + f);
+    std::printf("wrote %s\n", f.c_str());
+  }
+  return check && stale ? kExitFailure : 0;
+}
+
 // `qbond experiment`: runs the paper's experiments (experiments/), writes their CSVs,
 // summaries and results.json, draws their plots with plot.py; exit 1 when a claim fails.
 struct ExperimentArgs {
@@ -662,6 +695,13 @@ int main(int argc, char** argv) {
   CLI::App* schema_cmd = app.add_subcommand("schema",
                                             "print the JSON Schema of scene files, for editors "
                                             "(docs/scene-format.md)");
+  std::vector<std::string> key_table_files;
+  bool key_tables_check = false;
+  CLI::App* key_tables_cmd = app.add_subcommand(
+      "key-tables", "write the docs' key tables (each between its keys:NAME markers) from the declarations of the "
+                    "laws, heuristics and body types (docs/architecture.md)");
+  key_tables_cmd->add_option("files", key_table_files, "Markdown files, rewritten in place")->required();
+  key_tables_cmd->add_flag("--check", key_tables_check, "write nothing; exit 1 when a file's tables differ");
   ExperimentArgs ea;
   CLI::App* experiment_cmd = app.add_subcommand("experiment", "reproduce the paper's experiments (docs/experiments.md)");
   experiment_cmd->add_option("names", ea.names, "experiments to run, or 'all'");
@@ -775,6 +815,7 @@ int main(int argc, char** argv) {
       std::printf("%s\n", qbond::scene_schema().dump(2).c_str());
       return 0;
     }
+    if (key_tables_cmd->parsed()) return key_tables(key_table_files, key_tables_check);
     if (bench_cmd->parsed()) {
       require_directory_of("--json", ba.json);
       if (realtime && contact_cost)

@@ -529,9 +529,9 @@ std::span<const HeuristicReader> scene_readers(std::type_identity<Obstacle>) {
   static const HeuristicReader rows[] = {
       {"ground", "an obstacle: the plane z = height", with(obstacle_keys, {{"height", "number"}}), read_obstacle},
       {"plane", "an obstacle: a plane through a point", with(obstacle_keys, {{"point", "vec3"}, {"normal", "vec3"}}), read_obstacle},
-      {"sphere", "an obstacle, or a container with inside: true",
+      {"sphere", "an obstacle: a sphere, or a spherical container with inside: true",
        with(obstacle_keys, {{"center", "vec3"}, {"radius", "number"}, {"inside", "boolean"}}), read_obstacle},
-      {"box", "an obstacle, or a container with inside: true",
+      {"box", "an obstacle: a box, turned by rotation, or a box container with inside: true",
        with(obstacle_keys, {{"center", "vec3"}, {"size", "vec3"}, {"rotation", "@rotation"}, {"inside", "boolean"}}),
        read_obstacle},
   };
@@ -540,7 +540,7 @@ std::span<const HeuristicReader> scene_readers(std::type_identity<Obstacle>) {
 
 std::span<const HeuristicReader> scene_readers(std::type_identity<QuantaContactRule>) {
   static const HeuristicReader rows[] = {
-      {"contact", "quanta-quanta collisions between quanta that share no bond",
+      {"contact", "quanta–quanta collisions between quanta that share no bond",
        {{"type", "string"},
         {"radius", "number"},
         {"restitution", "number"},

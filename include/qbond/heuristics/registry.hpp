@@ -11,8 +11,8 @@
 /// #include and its line of QBOND_HEURISTICS). A rule whose step needs the library's private
 /// helpers (the spatial hash of contacts and formation) puts its step, its factory and its scene
 /// types — `scene_readers(std::type_identity<Rule>)`, src/io/scene/heuristic_entry.hpp — in a
-/// source of src/heuristics/ instead: one file more. Its row in docs/scene-format.md's
-/// `heuristics` key table follows (tests/scene_test.cpp fails until it exists).
+/// source of src/heuristics/ instead: one file more, as its struct is public and those helpers
+/// are not. Its rows of the docs' tables are written from its scene types by `qbond key-tables`.
 #include <memory>
 #include <variant>
 

@@ -17,12 +17,14 @@ namespace qbond {
 struct CohesiveLaw {
   static constexpr std::string_view name = "cohesive";
   static constexpr std::string_view doc =
-      "bilinear cohesive: T = k s up to s_p = peak_strain L, then linear softening to 0 at s_f = failure_strain L, "
-      "where the bond breaks";
-  static constexpr LawParam strength{"stiffness", "N/m", "k, the stiffness before the peak"};
+      "T = k s up to s_p, then linear softening to 0 at s_f, 0 beyond; T = k s in compression";
+  static constexpr LawParam strength{"stiffness", "N/m", "k, before the peak"};
   static constexpr std::array<LawParam, 2> shape{
-      LawParam{"peak_strain", "1", "strain (r - L)/L of the largest tension k peak_strain L"},
-      LawParam{"failure_strain", "1", "strain at which the tension reaches 0 and the bond breaks (> peak_strain)"}};
+      LawParam{"peak_strain", "1", "ε_p: s_p = ε_p L, the largest tension k s_p"},
+      LawParam{"failure_strain", "1", "ε_f, > `peak_strain`: s_f = ε_f L", {},
+               "A bond that reaches s_f breaks (events reason `failure`) and its fracture energy G = k s_p s_f / 2 is "
+               "charged as dissipated, by the step itself: no `break` rule is needed. The softening is elastic: a bond "
+               "unloaded before s_f goes back along T(s), without damage"}};
   static constexpr bool calibrated_by_modulus = true;
 
   struct Branches {

@@ -13,10 +13,14 @@ namespace qbond {
 struct FeneLaw {
   static constexpr std::string_view name = "fene";
   static constexpr std::string_view doc =
-      "FENE about the rest length: U = -K R0^2/2 ln(1 - (s/R0)^2), T = K s / (1 - (s/R0)^2), s = r - L; "
-      "continued along its tangent past |s| = 0.95 R0";
-  static constexpr LawParam strength{"stiffness", "N/m", "K, the stiffness at rest"};
-  static constexpr std::array<LawParam, 1> shape{LawParam{"R0", "m", "the largest extension |r - L|"}};
+      "U = −½ K R0² ln(1 − (s/R0)²), T = K s/(1 − (s/R0)²) (LAMMPS `fene/expand` without its LJ term); "
+      "stiffness K at rest";
+  static constexpr LawParam strength{"stiffness", "N/m", "K"};
+  static constexpr std::array<LawParam, 1> shape{LawParam{
+      "R0", "m", "the largest extension |s|", {},
+      "From |s| = 0.95 R0 on the tension continues along its tangent there (T, T′ continuous, 200 K stiff), so a "
+      "step never meets the infinite U at R0; a bond that must not pass R0 needs a `break` rule (`max_strain`) or a "
+      "smaller step"}};
   static constexpr bool calibrated_by_modulus = true;
   /// Fraction of R0 past which the tension is continued linearly.
   static constexpr double kFeneLinearFrom = 0.95;

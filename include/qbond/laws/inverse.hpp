@@ -11,10 +11,10 @@ inline constexpr double kDefaultInverseEpsFraction = 0.05;
 struct InverseLaw {
   static constexpr std::string_view name = "inverse";
   static constexpr std::string_view doc =
-      "Eq. 3 regularised: T = F s / (s^2 + eps^2), s = r - L, U = F/2 ln(1 + s^2/eps^2)";
-  static constexpr LawParam strength{"stiffness", "N", "F, the strength (the slope at rest is F/eps^2)"};
+      "T = F s/(s² + ε²), U = F/2 ln(1 + s²/ε²); slope F/ε² at rest, peak F/(2ε) at |s| = ε";
+  static constexpr LawParam strength{"stiffness", "N", "F of Eq. 3 regularised"};
   static constexpr std::array<LawParam, 1> shape{
-      LawParam{"eps", "m", "regularisation length (the tension peaks at |s| = eps)", "0.05 L0"}};
+      LawParam{"eps", "m", "ε, the regularisation length", "0.05 × the rest length the bond was made with"}};
   static constexpr bool calibrated_by_modulus = false;
 
   /// ε: the material's, or kDefaultInverseEpsFraction of the rest length the bond was made with.

@@ -43,10 +43,12 @@ struct LawArgs {
 struct LawParam {
   std::string_view key;   ///< its key in a scene's material
   std::string_view unit;  ///< SI unit, as docs write it ("1" for a ratio)
-  std::string_view doc;   ///< what it is, one line
+  std::string_view doc;   ///< what it is, one line (the scene reader's errors quote it)
   /// Default as docs write it; empty: the parameter is required. A defaulted parameter is stored
   /// as 0 and resolved by the law (its default may depend on the rest length).
   std::string_view fallback = {};
+  /// What the docs' table says of it after `doc`: its behaviour at its bounds, what it implies.
+  std::string_view note = {};
 };
 
 /// ∂T̄/∂r1 = (T(r1) − T̄)/dr where that quotient keeps its digits, else its limit T'(r̄)/2 (the

@@ -7,8 +7,8 @@ namespace qbond {
 /// Eq. 2. The bond kernels' vector paths hard-code this law for runs of linear bonds.
 struct LinearLaw {
   static constexpr std::string_view name = "linear";
-  static constexpr std::string_view doc = "Hooke's law, Eq. 2: T = k (r - L), U = k (r - L)^2 / 2";
-  static constexpr LawParam strength{"stiffness", "N/m", "k, the stiffness"};
+  static constexpr std::string_view doc = "T = k s, U = k s²/2";
+  static constexpr LawParam strength{"stiffness", "N/m", "k of Eq. 2"};
   static constexpr std::array<LawParam, 0> shape{};
   /// Its strength is its stiffness at rest, so a Young's modulus can calibrate it.
   static constexpr bool calibrated_by_modulus = true;

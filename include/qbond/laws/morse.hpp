@@ -9,9 +9,11 @@ namespace qbond {
 /// well's depth, the energy to pull the bond apart) as s → ∞. Compression stiffens exponentially.
 struct MorseLaw {
   static constexpr std::string_view name = "morse";
-  static constexpr std::string_view doc = "Morse: U = D0 (1 - exp(-alpha s))^2, s = r - L";
-  static constexpr LawParam strength{"D0", "J", "the well's depth (stiffness at rest 2 D0 alpha^2)"};
-  static constexpr std::array<LawParam, 1> shape{LawParam{"alpha", "1/m", "the well's inverse width"}};
+  static constexpr std::string_view doc =
+      "U = D0 (1 − e^(−α s))², T = 2 D0 α e^(−α s)(1 − e^(−α s)); stiffness 2 D0 α² at rest, largest tension "
+      "D0 α/2 at s = ln 2/α, U → D0 as s → ∞ (LAMMPS `bond_style morse`)";
+  static constexpr LawParam strength{"D0", "J", "the well's depth"};
+  static constexpr std::array<LawParam, 1> shape{LawParam{"alpha", "1/m", "α, the well's inverse width"}};
   static constexpr bool calibrated_by_modulus = false;
 
   [[gnu::always_inline]] static LawValue eval(double r, double L, const LawArgs& a) {

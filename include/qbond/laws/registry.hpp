@@ -6,8 +6,8 @@
 ///
 /// Adding a law touches only: its header (name, parameters, T, T', U, the mean tension, its
 /// failure stretch), its tests (tests/laws_test.cpp: add it to law_cases()), and one line of
-/// QBOND_LAWS (appended last: the enum's values are saved in checkpoints). Its rows in
-/// docs/scene-format.md's "Force laws" table follow (tests/laws_test.cpp fails until they exist).
+/// QBOND_LAWS (appended last: the enum's values are saved in checkpoints). Its rows of
+/// docs/scene-format.md's "Force laws" table are written from its header by `qbond key-tables`.
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -111,7 +111,7 @@ inline double rest_stiffness(Law law, const LawArgs& a) {
 struct LawInfo {
   Law law;
   std::string_view name;               ///< as written in scene files
-  std::string_view doc;                ///< its formula, one line
+  std::string_view doc;                ///< its formula in s = r − L (docs: after its strength's doc)
   LawParam strength;                   ///< the per-bond parameter (Bonds::strength)
   std::span<const LawParam> shape;     ///< the material's shape parameters (Model::shapes)
   bool calibrated_by_modulus;          ///< its strength is its stiffness at rest [N/m]
