@@ -235,7 +235,7 @@ void Renderer::begin(int x, int y, int w, int h, const OrbitCamera& camera) {
   glViewport(x, y, w, h);
   glEnable(GL_SCISSOR_TEST);
   glScissor(x, y, w, h);
-  glClearColor(0.16f, 0.17f, 0.19f, 1);
+  glClearColor(kClearColor[0], kClearColor[1], kClearColor[2], 1);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glDisable(GL_SCISSOR_TEST);
   glEnable(GL_DEPTH_TEST);
