@@ -35,8 +35,16 @@ flat out float v_radius;
 flat out vec3 v_color;
 void main() {
   vec3 c = (view * vec4(center, 1.0)).xyz;
-  // The quad sits in front of the sphere and is wide enough for its perspective silhouette.
-  vec3 p = c + vec3(corner * radius * 1.6, radius);
+  // A square facing the eye and touching the sphere's near side, at distance d - r: the
+  // silhouette's cone (half-angle asin(r/d)) crosses it in a circle of radius
+  // r sqrt((d - r)/(d + r)), which the square just holds (2% more for rounding). An eye inside
+  // the sphere gets an empty square.
+  float d = length(c);
+  vec3 w = c / d;
+  vec3 u = normalize(cross(abs(w.y) < 0.9 ? vec3(0, 1, 0) : vec3(1, 0, 0), w));
+  vec3 v = cross(w, u);
+  float half_side = 1.02 * radius * sqrt(max(d - radius, 0.0) / (d + radius));
+  vec3 p = (d - radius) * w + half_side * (corner.x * u + corner.y * v);
   v_pos = p;
   v_center = c;
   v_radius = radius;
