@@ -1,13 +1,15 @@
 #pragma once
-/// The ImGui panel kept as a picture: its windows are rasterised into an offscreen framebuffer and
-/// copied to the window each frame, and rasterised again only when their draw lists changed. With
-/// software OpenGL the panel's blended, textured pixels cost as much as the whole 3D view.
+// The viewer's ImGui panel kept as a picture between redraws.
 #include <vector>
 
 struct ImDrawData;
 
 namespace qbond::view {
 
+/// The ImGui panel kept as a picture: its windows are rasterised into an offscreen framebuffer and
+/// copied to the window each frame, and rasterised again only when their draw lists changed. With
+/// software OpenGL (llvmpipe) the panel's blended, textured pixels take milliseconds a frame, more
+/// than a small scene's 3D view; the copy takes a fraction of that. Needs a current context.
 class PanelCache {
  public:
   PanelCache() = default;
@@ -15,6 +17,7 @@ class PanelCache {
   PanelCache(const PanelCache&) = delete;
   PanelCache& operator=(const PanelCache&) = delete;
 
+  /// What draw_cached did: nothing, copied the kept picture, or rasterised it anew and copied it.
   enum class Drawn { no, copied, rasterised };
   /// Draws `d` into the panel, columns from x0 on [px] of the fb_w × fb_h default framebuffer,
   /// first filled with `background`: the cached picture is copied, redrawn first when the draw
