@@ -32,6 +32,10 @@ void start_petsc() {
   g_petsc_started = true;
 }
 
+// Whether the scene asks for hypre's multigrid over ranks (`automatic` stays block Jacobi there:
+// its switch is qbond's own multigrid's, which a run over ranks does not have).
+bool boomeramg(const IntegratorConfig& config) { return config.preconditioner == Preconditioner::multigrid; }
+
 // Whether PETSC_OPTIONS names a preconditioner (-pc_type): it then gets the assembled matrix.
 bool preconditioner_from_options() {
   PetscBool set = PETSC_FALSE;
@@ -75,7 +79,7 @@ class RanksSystem {
       check(PCShellSetContext(pc, this), "PCShellSetContext");
       check(PCShellSetApply(pc, &RanksSystem::shell_precondition), "PCShellSetApply");
       check(PCShellSetName(pc, "qbond: inverted 3x3 diagonal blocks"), "PCShellSetName");
-    } else if (config.preconditioner == Preconditioner::block_jacobi) {
+    } else if (!boomeramg(config)) {
       check(PCSetType(pc, PCPBJACOBI), "PCSetType(PCPBJACOBI)");
     } else {
       // hypre's BoomerAMG: the same bits on every run over the same ranks (GAMG, measured, not
@@ -207,7 +211,7 @@ class RanksSystem {
     check(MatSetBlockSize(A_, 3), "MatSetBlockSize");
     // Block rows (BAIJ) for a point-block Jacobi solve, a product half the memory traffic of AIJ's;
     // AIJ for hypre, which takes that.
-    const bool blocks = config.preconditioner == Preconditioner::block_jacobi;
+    const bool blocks = !boomeramg(config);
     check(MatSetType(A_, blocks ? MATBAIJ : MATAIJ), "MatSetType");
     check(MatXAIJSetPreallocation(A_, 3, d.data(), o.data(), nullptr, nullptr), "MatXAIJSetPreallocation");
     if (!blocks) {  // (BAIJ takes neither option)
@@ -333,7 +337,7 @@ class RanksSystem {
 // PETSC_OPTIONS names; the block-Jacobi solve multiplies without it.
 bool takes_matrix(const IntegratorConfig& config) {
   start_petsc();
-  return config.preconditioner != Preconditioner::block_jacobi || preconditioner_from_options();
+  return boomeramg(config) || preconditioner_from_options();
 }
 
 class CoupledOverRanks final : public StepIntegrator {

@@ -131,7 +131,7 @@ enum class Preconditioner : std::uint8_t {
 
 /// The block-Jacobi iterations above which `automatic` turns to multigrid: where a multigrid
 /// solve's dozen iterations cost less (docs/integrators.md, "Multigrid").
-inline constexpr int kMultigridAfter = 150;
+inline constexpr int kMultigridAfter = 100;
 
 /// Initial guess of the iterative solvers (sweep, jacobi, cg). CG scales a guess by the factor
 /// that minimises its error in A's norm, so that no guess starts it worse than zero.
