@@ -74,12 +74,10 @@ def main():
             r["viewer"] = {"real_time_factor": s["real_time_factor"], "frames": s["frames"], "steps": s["steps"],
                            "simulated_seconds": s["simulated_seconds"], "median_frame_seconds": s["frame_ms"]["median"] / 1e3,
                            "physics_ms_per_frame": s["physics_ms_per_frame"],
-                           "render_ms_per_frame": s["render_ms_per_frame"],
-                           "present_ms_per_frame": s["present_ms_per_frame"], "blowup": s["blowup"]}
+                           "render_ms_per_frame": s["render_ms_per_frame"], "blowup": s["blowup"]}
             bench = f"{r['real_time_factor']:.3g}x" if r["real_time_factor"] is not None else "-"
             print(f"{r['workload']:<20} viewer {s['real_time_factor']:9.3g}x real time "
-                  f"(physics {s['physics_ms_per_frame']:.2f} ms, drawing {s['render_ms_per_frame']:.2f} ms, "
-                  f"presenting {s['present_ms_per_frame']:.2f} ms a frame); "
+                  f"(physics {s['physics_ms_per_frame']:.2f} ms, drawing {s['render_ms_per_frame']:.2f} ms a frame); "
                   f"the bench's frames {bench}", flush=True)
     doc["viewer"] = {"command": "bench/viewer_realtime.py " + " ".join(sys.argv[1:]),
                      "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "frames": a.frames,

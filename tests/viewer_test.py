@@ -104,12 +104,6 @@ def test_pendulum_drag():
     """The pendulum is drawn where it is, and a scripted drag moves it on screen."""
     still, s0 = view("pendulum_still", "--frames", "60")
     check_structure(still, s0, "pendulum")
-    # Physics, drawing and the buffer swap are disjoint parts of each frame's wall time.
-    parts = s0["physics_ms_per_frame"] + s0["render_ms_per_frame"] + s0["present_ms_per_frame"]
-    if min(s0["physics_ms_per_frame"], s0["render_ms_per_frame"], s0["present_ms_per_frame"]) < 0 or \
-            parts > s0["frame_ms"]["mean"] * (1 + 1e-9):
-        fail(f"the stats' physics, drawing and presenting times ({parts:.3f} ms together) do not fit in "
-             f"the mean frame ({s0['frame_ms']['mean']:.3f} ms)")
     drag = script("pendulum_drag", [{"frame": 10, "drag": {"quanta": PUSHED, "by": [0.6, 0.0, 0.3]}}])
     pulled, s1 = view("pendulum_drag", "--frames", "60", "--script", drag)
     check_structure(pulled, s1, "pendulum dragged")

@@ -13,18 +13,12 @@ namespace {
 
 // Lighting shared by spheres and solids: a key light from the upper left of the eye plus a
 // headlight, so that shapes read on any side the camera orbits to.
-// The light depends on the normal only (lights and viewer at infinity): a flat face is lit alike
-// all over, so solids are lit per face in their vertex shader. light(n) = (diffuse, specular).
 constexpr const char* kLighting = R"(
-vec2 light(vec3 n) {
+vec3 shade(vec3 n, vec3 base) {
   vec3 key = normalize(vec3(-0.4, 0.7, 0.6));
   float d = max(dot(n, key), 0.0) * 0.65 + max(n.z, 0.0) * 0.25;
   float s = pow(max(dot(reflect(-key, n), vec3(0, 0, 1)), 0.0), 32.0) * 0.25;
-  return vec2(0.28 + d, s);
-}
-vec3 shade(vec3 n, vec3 base) {
-  vec2 l = light(n);
-  return base * l.x + vec3(l.y);
+  return base * (0.28 + d) + vec3(s);
 }
 )";
 
@@ -41,16 +35,8 @@ flat out float v_radius;
 flat out vec3 v_color;
 void main() {
   vec3 c = (view * vec4(center, 1.0)).xyz;
-  // A square facing the eye and touching the sphere's near side, at distance d - r: the
-  // silhouette's cone (half-angle asin(r/d)) crosses it in a circle of radius
-  // r sqrt((d - r)/(d + r)), which the square just holds (2% more for rounding). An eye inside
-  // the sphere gets an empty square.
-  float d = length(c);
-  vec3 w = c / d;
-  vec3 u = normalize(cross(abs(w.y) < 0.9 ? vec3(0, 1, 0) : vec3(1, 0, 0), w));
-  vec3 v = cross(w, u);
-  float half_side = 1.02 * radius * sqrt(max(d - radius, 0.0) / (d + radius));
-  vec3 p = (d - radius) * w + half_side * (corner.x * u + corner.y * v);
+  // The quad sits in front of the sphere and is wide enough for its perspective silhouette.
+  vec3 p = c + vec3(corner * radius * 1.6, radius);
   v_pos = p;
   v_center = c;
   v_radius = radius;
@@ -97,43 +83,40 @@ out vec4 frag;
 void main() { frag = vec4(v_color, 1.0); }
 )";
 
-constexpr const char* kSolidVsHead = R"(#version 330 core
+constexpr const char* kSolidVs = R"(#version 330 core
 layout(location = 0) in vec3 p;
 layout(location = 1) in vec3 n;
 uniform mat4 model;
 uniform mat4 view;
 uniform mat4 proj;
-flat out vec2 v_front;
-flat out vec2 v_back;
+out vec3 v_n;
 out vec3 v_world;
-)";
-
-constexpr const char* kSolidVsMain = R"(
 void main() {
   vec4 w = model * vec4(p, 1.0);
   v_world = w.xyz;
-  vec3 nv = normalize(mat3(view) * normalize(transpose(inverse(mat3(model))) * n));
-  v_front = light(nv);  // every vertex of a face has its normal
-  v_back = light(-nv);
+  v_n = mat3(view) * normalize(transpose(inverse(mat3(model))) * n);
   gl_Position = proj * view * w;
 }
 )";
 
-constexpr const char* kSolidFs = R"(#version 330 core
-flat in vec2 v_front;
-flat in vec2 v_back;
+constexpr const char* kSolidFsHead = R"(#version 330 core
+in vec3 v_n;
 in vec3 v_world;
 uniform vec3 color;
 uniform float cell;
 out vec4 frag;
+)";
+
+constexpr const char* kSolidFsMain = R"(
 void main() {
   vec3 base = color;
   if (cell > 0.0) {
     ivec3 k = ivec3(floor(v_world / cell));
     if (((k.x + k.y + k.z) & 1) == 1) base *= 0.88;
   }
-  vec2 l = gl_FrontFacing ? v_front : v_back;
-  frag = vec4(base * l.x + vec3(l.y), 1.0);
+  vec3 n = normalize(v_n);
+  if (!gl_FrontFacing) n = -n;
+  frag = vec4(shade(n, base), 1.0);
 }
 )";
 
@@ -199,7 +182,7 @@ std::vector<float> solid_vertices() {
 Renderer::Renderer() {
   sphere_prog_ = program(kSphereVs, std::string(kSphereFsHead) + kLighting + kSphereFsMain);
   line_prog_ = program(kLineVs, kLineFs);
-  solid_prog_ = program(std::string(kSolidVsHead) + kLighting + kSolidVsMain, kSolidFs);
+  solid_prog_ = program(kSolidVs, std::string(kSolidFsHead) + kLighting + kSolidFsMain);
 
   const float corners[8] = {-1, -1, 1, -1, -1, 1, 1, 1};
   glGenVertexArrays(1, &quad_vao_);
@@ -252,7 +235,7 @@ void Renderer::begin(int x, int y, int w, int h, const OrbitCamera& camera) {
   glViewport(x, y, w, h);
   glEnable(GL_SCISSOR_TEST);
   glScissor(x, y, w, h);
-  glClearColor(kClearColor[0], kClearColor[1], kClearColor[2], 1);
+  glClearColor(0.16f, 0.17f, 0.19f, 1);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glDisable(GL_SCISSOR_TEST);
   glEnable(GL_DEPTH_TEST);

@@ -8,9 +8,6 @@
 
 namespace qbond::view {
 
-/// The background of the 3D view (RGB).
-inline constexpr float kClearColor[3] = {0.16f, 0.17f, 0.19f};
-
 struct SphereInstance {
   Vec3f center;
   float radius;

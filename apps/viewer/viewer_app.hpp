@@ -18,7 +18,6 @@
 #include "camera.hpp"
 #include "colors.hpp"
 #include "menus.hpp"
-#include "panel_cache.hpp"
 #include "qbond/io/scene.hpp"
 #include "qbond/simulation/interaction.hpp"
 #include "qbond/simulation/simulation.hpp"
@@ -37,14 +36,13 @@ inline constexpr int kPanelWidth = 330;       // [px] the ImGui panel on the rig
 inline constexpr double kFrameRate = 60;      // frames per second the viewer aims at
 inline constexpr double kPhysicsBudget = 0.7; // share of a frame the physics may take before it falls behind
 inline constexpr std::size_t kHistory = 300;  // samples kept for the panel's plots
-inline constexpr double kPanelRate = 10;      // [Hz] redraws of the panel's changing numbers and plots
 
 /// Wall time since t0 [s].
 inline double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-/// The measured frame, physics, drawing and presenting times of a run, and what it simulated.
+/// The measured frame, physics and drawing times of a run, and what it simulated.
 struct Timing {
-  std::vector<double> frame_ms, physics_ms, render_ms, present_ms;  ///< present: the buffer swap
+  std::vector<double> frame_ms, physics_ms, render_ms;
   std::uint64_t steps = 0;
   double simulated = 0;  ///< [s]
 };
@@ -202,10 +200,7 @@ class Viewer {
   std::vector<double> tension_, strain_, mises_, magnitudes_;
   std::vector<Mat3> sigma_;
   std::vector<SphereInstance> spheres_;
-  PanelCache panel_cache_;
-  Clock::time_point panel_drawn_;  ///< when the panel was last rasterised
-  bool panel_exact_ = false;       ///< this frame's panel is rasterised even if drawn a moment ago
-  std::vector<LineVertex> lines_, bond_lines_, force_lines_;  ///< ground and containers, bonds, the user's forces
+  std::vector<LineVertex> lines_;
 
   const Menu<IntegratorType> integrator_menu_ = integrator_menu();
   const Menu<NeighbourModel> neighbour_menu_ = neighbour_menu();

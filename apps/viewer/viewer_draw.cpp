@@ -1,5 +1,5 @@
-// Drawing the scene: bonds, quanta, obstacles, the ground, and the user's forces; and the
-// ImGui windows (the panel from its cache, panel_cache.hpp).
+// Drawing the scene: bonds, quanta, obstacles, the ground, and the user's forces; then the
+// ImGui windows over it.
 #include "gl.hpp"
 #include <imgui.h>
 #include <imgui_impl_glfw.h>
@@ -56,13 +56,13 @@ void Viewer::draw() {
       cam_.keep_in_view(centre, static_cast<float>(vw) / static_cast<float>(std::max(fb_h_, 1)), 0.6f);
     last_centre_ = centre;
   }
+  renderer_.begin(0, 0, vw, fb_h_, cam_);
   const Model& m = world().model;
   const State& s = world().state;
+  draw_ground();
 
-  // What the scene shows is gathered first, the panel (which shows the colour ranges) is drawn,
-  // then the scene.
   // Bonds.
-  bond_lines_.clear();
+  lines_.clear();
   if (replay_) {  // the run's own values: a replayed world's bonds hold only the frame's ends, in its order
     const VtpFrame& f = replay_->frame();
     tension_ = f.tension.size() == s.bonds.size() ? f.tension : std::vector<double>(s.bonds.size(), 0.0);
@@ -80,9 +80,10 @@ void Viewer::draw() {
     if (!s.bonds.alive[b]) continue;
     const Vec3f c = bond_color_ == BondColor::none || bond_range_.hi <= 0 ? Vec3f(0.75f, 0.75f, 0.75f)
                                                                            : diverging(value[b] / bond_range_.hi);
-    bond_lines_.push_back({s.x[s.bonds.i[b]].cast<float>(), c});
-    bond_lines_.push_back({s.x[s.bonds.j[b]].cast<float>(), c});
+    lines_.push_back({s.x[s.bonds.i[b]].cast<float>(), c});
+    lines_.push_back({s.x[s.bonds.j[b]].cast<float>(), c});
   }
+  renderer_.lines(lines_, 2);
 
   // Quanta.
   spheres_.clear();
@@ -113,19 +114,22 @@ void Viewer::draw() {
       spheres_.push_back({ob.center.cast<float>(), static_cast<float>(ob.radius), Vec3f(0.5f, 0.5f, 0.52f)});
 
   // The user's forces: the mouse spring and scripted pushes, as lines from the quanta.
-  force_lines_.clear();
+  lines_.clear();
   if (drag_) {
     const Vec3f a = s.x[drag_->quanta].cast<float>(), b = drag_->target.cast<float>();
-    force_lines_.push_back({a, Vec3f(1, 0.9f, 0.1f)});
-    force_lines_.push_back({b, Vec3f(1, 0.9f, 0.1f)});
+    lines_.push_back({a, Vec3f(1, 0.9f, 0.1f)});
+    lines_.push_back({b, Vec3f(1, 0.9f, 0.1f)});
     spheres_.push_back({b, static_cast<float>(std::max(radius_, 0.01 * size_)), Vec3f(1, 0.9f, 0.1f)});
   }
   if (push_ && push_->second.norm() > 0) {
     const Vec3f a = s.x[push_->first].cast<float>();
     const Vec3f b = a + (0.25 * size_ * push_->second.normalized()).cast<float>();
-    force_lines_.push_back({a, Vec3f(1, 0.3f, 0.9f)});
-    force_lines_.push_back({b, Vec3f(1, 0.3f, 0.9f)});
+    lines_.push_back({a, Vec3f(1, 0.3f, 0.9f)});
+    lines_.push_back({b, Vec3f(1, 0.3f, 0.9f)});
   }
+  renderer_.spheres(spheres_);
+  renderer_.lines(lines_, 3);
+
   glViewport(0, 0, fb_w_, fb_h_);
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
@@ -134,32 +138,7 @@ void Viewer::draw() {
   else legend();
   if (help_) help();
   ImGui::Render();
-  // The panel's numbers and plots change every frame but are read at a glance: they are redrawn
-  // at kPanelRate, and at once whenever the user points, clicks or types into it.
-  const ImGuiIO& io = ImGui::GetIO();
-  bool pointed = io.WantCaptureMouse && (io.MouseDelta.x != 0 || io.MouseDelta.y != 0 || io.MouseWheel != 0);
-  for (int b = 0; b < IM_ARRAYSIZE(io.MouseDown); ++b) pointed = pointed || (io.WantCaptureMouse && (io.MouseDown[b] || io.MouseReleased[b]));
-  const bool refresh = panel_exact_ || pointed || io.WantCaptureKeyboard || seconds_since(panel_drawn_) >= 1 / kPanelRate;
-  const ImVec4 bg = ImGui::GetStyleColorVec4(ImGuiCol_WindowBg);
-  const float back[3] = {bg.x * bg.w + kClearColor[0] * (1 - bg.w), bg.y * bg.w + kClearColor[1] * (1 - bg.w),
-                         bg.z * bg.w + kClearColor[2] * (1 - bg.w)};
-  // The panel goes first, while the window's picture has no drawing pending: copying into it
-  // then does not wait for the scene's rasterisation (software OpenGL).
-  ImDrawData* const ui = ImGui::GetDrawData();
-  const int x0 = opt_.ui ? vw : fb_w_;
-  const PanelCache::Drawn drawn = panel_cache_.draw_cached(ui, x0, fb_w_, fb_h_, back, refresh);
-  if (drawn == PanelCache::Drawn::rasterised) panel_drawn_ = Clock::now();
-
-  renderer_.begin(0, 0, vw, fb_h_, cam_);
-  draw_ground();
-  renderer_.lines(bond_lines_, 2);
-  renderer_.spheres(spheres_);
-  renderer_.lines(force_lines_, 3);
-  if (drawn == PanelCache::Drawn::no) {  // windows over the 3D view: drawn over it
-    glViewport(0, 0, fb_w_, fb_h_);
-    PanelCache::draw_direct(ui, x0, fb_w_, fb_h_, back);
-    panel_drawn_ = Clock::now();
-  }
+  ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
 }
 
 void Viewer::draw_ground() {

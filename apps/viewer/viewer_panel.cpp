@@ -30,9 +30,7 @@ void push_history(std::deque<float>& d, double x) {
 void Viewer::panel() {
   ImGui::SetNextWindowPos(ImVec2(static_cast<float>(fb_w_ - kPanelWidth), 0));
   ImGui::SetNextWindowSize(ImVec2(kPanelWidth, static_cast<float>(fb_h_)));
-  // The panel's background is a clear of its columns (panel_cache.hpp), cheaper than a blended quad.
-  ImGui::Begin("qbond", nullptr,
-               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse | ImGuiWindowFlags_NoBackground);
+  ImGui::Begin("qbond", nullptr, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
   const World& w = world();
   ImGui::Text("%s", scene_.name.c_str());
   if (replay_) ImGui::Text("t = %.4g s   frame %zu of %zu", w.state.time, replay_->index() + 1, replay_->size());
