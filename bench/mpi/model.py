@@ -156,7 +156,9 @@ def comm(rank, parts, bytes_a_ghost):
 
 def predict(n, parts, c, bytes_a_ghost):
     rows = halo(n, parts) if parts <= 64 else None
-    if rows is None:  # a cube of k³ equal boxes: the interior rank, the slowest
+    # Beyond 64 ranks, a grid of k³ equal cubes (the bisection's boxes differ a little in shape):
+    # the interior rank, with the most neighbours, is the slowest.
+    if rows is None:
         k = round(parts ** (1 / 3))
         side = n // k
         rows = [{"quanta": side ** 3, "ghosts": 6 * side ** 2 + 12 * side, "sent": 6 * side ** 2 + 12 * side,
