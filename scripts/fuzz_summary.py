@@ -2,7 +2,7 @@
 """Collects the final statistics of long libFuzzer runs into docs/bench/fuzz-DATE.json.
 
 Usage: scripts/fuzz_summary.py OUT_JSON TARGET=LOG...
-Each LOG is the output of `build-fuzz/TARGET_fuzzer -runs=N -print_final_stats=1 CORPUS`
+Each LOG is the output of `build-asan/TARGET_fuzzer -runs=N -print_final_stats=1 CORPUS`
 followed by a line "rc CODE" (its exit status); docs/running.md ("Fuzzing") renders the table.
 """
 import datetime
@@ -24,5 +24,5 @@ for arg in sys.argv[2:]:
                  else "an input over the 10 s timeout" if "ERROR: libFuzzer: timeout" in text
                  else f"failed (exit {rc})"})
 json.dump({"date": datetime.datetime.utcnow().strftime("%Y-%m-%dT%H:%M:%SZ"), "machine": f"{os.cpu_count()} cores",
-           "command": "build-fuzz/TARGET_fuzzer -runs=1000000 build-fuzz/corpus/TARGET (after scripts/fuzz)",
+           "command": "build-asan/TARGET_fuzzer -runs=1000000 build-asan/corpus/TARGET (after scripts/fuzz)",
            "rows": rows}, open(sys.argv[1], "w"), indent=1)

@@ -1,6 +1,6 @@
 # Shared by scripts/bootstrap and scripts/test; source it, don't run it.
 # Provides: QBOND_ROOT (the repository's top directory), qbond_log, qbond_run,
-# qbond_install_deps and qbond_build.
+# qbond_install_deps, qbond_configure_sanitized and qbond_build.
 
 QBOND_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 QBOND_PACKAGES_FILE="$QBOND_ROOT/scripts/packages.txt"
@@ -50,6 +50,19 @@ qbond_install_deps() {
   qbond_run "${sudo[@]}" apt-get update
   qbond_run "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive \
     apt-get install -y --no-install-recommends "${missing[@]}"
+}
+
+# qbond_configure_sanitized: configures build-asan/ as the CMake preset `asan` says (clang,
+# AddressSanitizer and UBSan, the readers instrumented for the fuzzers of fuzz/ too, so that the
+# sanitized tests and scripts/fuzz share one build of the library), the bond kernels built for
+# AVX2 alone when the CPU has it (the Release run tests the clone the CPU picks, AVX-512 where it
+# exists; this one the AVX2 code, src/core/simd.hpp).
+qbond_configure_sanitized() {
+  local arch=()
+  if grep -qw avx2 /proc/cpuinfo 2>/dev/null && grep -qw fma /proc/cpuinfo && grep -qw bmi2 /proc/cpuinfo; then
+    arch=(-DQBOND_ARCH=x86-64-v3)
+  fi
+  (cd "$QBOND_ROOT" && qbond_run cmake --preset asan "${arch[@]}")
 }
 
 # qbond_build DIR [CMAKE ARGS...]: configures DIR from the repository and builds it on every core.

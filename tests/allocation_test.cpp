@@ -12,7 +12,12 @@
 
 #include "test_util.hpp"
 
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(__has_feature)  // clang says it so
+#if __has_feature(address_sanitizer)
+#define QBOND_ASAN 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(QBOND_ASAN)
 #define QBOND_COUNTS_ALLOCATIONS 0
 #else
 #define QBOND_COUNTS_ALLOCATIONS 1

@@ -123,9 +123,11 @@ void Viewer::physics_controls() {
     h_ = h;
     sim_->set_timestep(h_);
   }
-  if (ImGui::SliderFloat("stiffness x", &stiffness_scale_, 0.01f, 100, "%.2f", ImGuiSliderFlags_Logarithmic) |
-      ImGui::SliderFloat("damping x", &damping_scale_, 0.0f, 100, "%.2f", ImGuiSliderFlags_Logarithmic))
-    rescale();
+  // Both sliders drawn every frame, so no short-circuit between them.
+  const bool stiffness = ImGui::SliderFloat("stiffness x", &stiffness_scale_, 0.01f, 100, "%.2f",
+                                            ImGuiSliderFlags_Logarithmic);
+  const bool damping = ImGui::SliderFloat("damping x", &damping_scale_, 0.0f, 100, "%.2f", ImGuiSliderFlags_Logarithmic);
+  if (stiffness || damping) rescale();
   ImGui::SliderFloat("pull [Hz]", &pull_hz_, 0.5f, 20, "%.1f", ImGuiSliderFlags_Logarithmic);
   Vec3f g = gravity_.cast<float>();
   if (ImGui::InputFloat3("gravity", g.data(), "%.2f")) sim_->world().model.gravity = gravity_ = g.cast<double>();
