@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Checks that a new law, integrator option or heuristic touches three files: its own file, its
+"""Checks that a new law, integrator, integrator option or heuristic touches three files: its own file, its
 tests, and its registration; and that the existing ones keep to their files. The docs' key tables
 and the JSON Schema are generated from the same declarations (`qbond key-tables`, `qbond schema`).
 
@@ -23,6 +23,11 @@ that an option is that header (its field and its row), the code that reads it (s
 and its tests. Outside the header no file names the option (IntegratorOption::key), except the
 consumers listed below; the scene reader, the resolved scene, the JSON Schema and the Python
 module never name its key or its field.
+
+Integrators, QBOND_INTEGRATORS (include/qbond/integrators/integrators.hpp): each one's row
+(`const IntegratorInfo NAME_integrator`) is defined in one file of src/integrators/, so that an
+integrator is that file, its tests and its line of the list (the options it reads name it in
+their read_by, in the same header).
 
 Prints, per item, the files that name it (tests included). Usage: check_registration.py ROOT
 """
@@ -197,6 +202,18 @@ def main():
             failures.append(f"integrator option {key}: no test of tests/ names it")
         print(f"integrator option {key}: {OPTIONS_HEADER} (field and row), read in {readers}, tests {tested}"
               + (f"; consumers {sorted(bit_files)}" if bit_files else ""))
+
+    # Integrators: each line of QBOND_INTEGRATORS has its row defined in one file of src/integrators/.
+    for name in (n.strip() for n in macro_list(header, "QBOND_INTEGRATORS")):
+        row = re.compile(r"\bconst IntegratorInfo " + name + r"_integrator\s*=")
+        defined = sorted(f for f, t in files.items() if row.search(t))
+        if len(defined) != 1 or not defined[0].startswith("src/integrators/"):
+            failures.append(f"integrator {name}: its row defined in {defined}, not in one file of src/integrators/")
+        tested = tested_in(re.compile(r"\bIntegratorType::" + name + r"\b|\"" + name + r"\""))
+        if not tested:
+            failures.append(f"integrator {name}: no test of tests/ names it")
+        print(f"integrator {name}: its row in {defined}, its line of QBOND_INTEGRATORS in {OPTIONS_HEADER}, "
+              f"tests {tested}")
 
     for f in failures:
         print("FAIL:", f)

@@ -304,7 +304,8 @@ TEST(Scenes, HeuristicAndBodyTypesAreOneTableTheReaderAndDocsFollow) {
 // the committed docs hold each table between its markers exactly as the registries give it.
 TEST(Scenes, DocsKeyTablesAreTheDeclarations) {
   const std::map<std::string, std::vector<std::string>> tables = {
-      {"docs/scene-format.md", {"laws", "heuristics", "bodies"}}, {"docs/heuristics.md", {"heuristic_types"}}};
+      {"docs/scene-format.md", {"laws", "heuristics", "bodies", "integrator"}},
+      {"docs/heuristics.md", {"heuristic_types"}}};
   for (const auto& [file, names] : tables) {
     const std::string text = source_text(file);
     for (const std::string& name : names) {
@@ -338,8 +339,22 @@ TEST(Scenes, DocsKeyTablesAreTheDeclarations) {
     with_scene_doc_tables("<!-- keys:nope -->\n<!-- /keys:nope -->\n", "x.md");
     ADD_FAILURE() << "an unknown table was accepted";
   } catch (const std::invalid_argument& e) {
-    EXPECT_EQ(std::string(e.what()), "x.md:1: unknown key table 'nope' (known: laws, heuristics, heuristic_types, bodies)");
+    EXPECT_EQ(std::string(e.what()),
+              "x.md:1: unknown key table 'nope' (known: laws, heuristics, heuristic_types, bodies, integrator)");
   }
+  // The integrator table: every integrator in the `type` row, every option a row with its values
+  // and the shipped default, and who reads it when not every integrator does.
+  const std::string integrator = scene_doc_table("integrator");
+  for (const IntegratorInfo& i : integrator_table())
+    EXPECT_NE(integrator.find("`" + std::string(i.key) + "`"), std::string::npos) << i.key;
+  for (const IntegratorOptionInfo& o : integrator_options())
+    EXPECT_NE(integrator.find("| `" + std::string(o.key) + "` | "), std::string::npos) << o.key;
+  EXPECT_NE(integrator.find("| `type` | `explicit_euler`, "), std::string::npos);
+  EXPECT_NE(integrator.find(" | `coupled_implicit` |\n"), std::string::npos);
+  EXPECT_NE(integrator.find("| `tolerance` | number > 0: "), std::string::npos);
+  EXPECT_NE(integrator.find(" | 1e-6 |\n"), std::string::npos);
+  EXPECT_NE(integrator.find("| `chebyshev_rho` | number ≥ 0, below 1: "), std::string::npos);
+  EXPECT_NE(integrator.find(". Read by `hybrid_implicit` | `sweep` |\n"), std::string::npos);
 }
 
 TEST(Scenes, ResolvedSceneRebuildsTheSameWorld) {

@@ -186,10 +186,17 @@ class CoupledIntegrator final : public StepIntegrator {
   std::vector<Vec3> sub_x1_, sub_v1_;  // substepping: the state a substep applies
 };
 
-}  // namespace
-
-std::unique_ptr<StepIntegrator> make_coupled_implicit_integrator(const IntegratorConfig& config) {
+std::unique_ptr<StepIntegrator> make_coupled(const IntegratorConfig& config) {
   return std::make_unique<CoupledIntegrator>(config);
 }
+
+constexpr CoupledSolver kCoupledSolvers[] = {CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg};
+
+}  // namespace
+
+const IntegratorInfo coupled_implicit_integrator = {
+    IntegratorType::coupled_implicit, "coupled_implicit",
+    "Eq. 13 linearised (Baraff-Witkin): one global linear solve (sweeps: hybrid_implicit, neighbours sweep)",
+    kCoupledSolvers, kEveryWarmStart, make_coupled};
 
 }  // namespace qbond

@@ -353,10 +353,21 @@ class ExplicitIntegrator final : public StepIntegrator {
   PrescribedAt prescribed_;  // Verlet's
 };
 
-}  // namespace
-
-std::unique_ptr<StepIntegrator> make_explicit_integrator(const IntegratorConfig& config) {
+std::unique_ptr<StepIntegrator> make_explicit(const IntegratorConfig& config) {
   return std::make_unique<ExplicitIntegrator>(config);
 }
+
+}  // namespace
+
+const IntegratorInfo explicit_euler_integrator = {
+    IntegratorType::explicit_euler, "explicit_euler", "the particle method: x += h v, v += h a(x, v)", {}, {},
+    make_explicit};
+const IntegratorInfo symplectic_euler_integrator = {
+    IntegratorType::symplectic_euler, "symplectic_euler", "v += h a(x, v), then x += h v_new", {}, {}, make_explicit};
+const IntegratorInfo velocity_verlet_integrator = {IntegratorType::velocity_verlet, "velocity_verlet",
+                                                   "second order, symplectic when undamped; one force pass a step",
+                                                   {}, {}, make_explicit};
+const IntegratorInfo rk4_integrator = {
+    IntegratorType::rk4, "rk4", "classical fourth-order Runge-Kutta", {}, {}, make_explicit};
 
 }  // namespace qbond

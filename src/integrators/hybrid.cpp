@@ -105,10 +105,14 @@ class HybridIntegrator final : public StepIntegrator {
   PrescribedAt placed_;      // apply_solved's
 };
 
-}  // namespace
-
-std::unique_ptr<StepIntegrator> make_hybrid_integrator(const IntegratorConfig& config) {
+std::unique_ptr<StepIntegrator> make_hybrid(const IntegratorConfig& config) {
   return std::make_unique<HybridIntegrator>(config);
 }
+
+}  // namespace
+
+const IntegratorInfo hybrid_implicit_integrator = {
+    IntegratorType::hybrid_implicit, "hybrid_implicit", "Eqs. 11-12: one 3x3 solve per quanta (see neighbours)", {},
+    kEveryWarmStart, make_hybrid};
 
 }  // namespace qbond

@@ -10,10 +10,14 @@
 
 namespace qbond {
 
-std::unique_ptr<StepIntegrator> make_explicit_integrator(const IntegratorConfig& config);
-std::unique_ptr<StepIntegrator> make_hybrid_integrator(const IntegratorConfig& config);
-std::unique_ptr<StepIntegrator> make_coupled_implicit_integrator(const IntegratorConfig& config);
-std::unique_ptr<StepIntegrator> make_newton_integrator(const IntegratorConfig& config);
+// Each integrator's row, defined in its own file (QBOND_INTEGRATORS lists them).
+#define QBOND_INTEGRATOR_ROW(name) extern const IntegratorInfo name##_integrator;
+QBOND_INTEGRATORS(QBOND_INTEGRATOR_ROW)
+#undef QBOND_INTEGRATOR_ROW
+
+// Every warm start: what hybrid_implicit and coupled_implicit take.
+inline constexpr WarmStart kEveryWarmStart[] = {WarmStart::zero, WarmStart::external, WarmStart::previous,
+                                                WarmStart::automatic, WarmStart::extrapolated};
 
 // The external force on quanta i: f_ext's, or m_i g for gravity alone (an empty f_ext:
 // StepIntegrator::forms_gravity), with the bits of Simulation's.

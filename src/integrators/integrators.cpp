@@ -75,41 +75,6 @@ constexpr NamedValue<WarmStart> kWarmStarts[] = {
     {WarmStart::extrapolated, "extrapolated", "2 dv(-1) - dv(-2) from the last two steps"},
 };
 
-constexpr CoupledSolver kCoupledSolvers[] = {CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg};
-constexpr CoupledSolver kNewtonSolvers[] = {CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg,
-                                            CoupledSolver::sweep};
-constexpr WarmStart kEveryStart[] = {WarmStart::zero, WarmStart::external, WarmStart::previous,
-                                     WarmStart::automatic, WarmStart::extrapolated};
-// A Newton integrator's substeps have no previous steps of their length to extrapolate from...
-constexpr WarmStart kNewtonStarts[] = {WarmStart::zero, WarmStart::external, WarmStart::previous,
-                                       WarmStart::automatic};
-// ... and bdf2's carry-over is the previous state, not a previous Δv.
-constexpr WarmStart kBdf2Starts[] = {WarmStart::zero, WarmStart::external, WarmStart::automatic};
-
-// The integrators: a new one is one row here (with its enumerator and its constructor).
-const IntegratorInfo kIntegrators[] = {
-    {IntegratorType::explicit_euler, "explicit_euler", "the particle method: x += h v, v += h a(x, v)", {}, {},
-     make_explicit_integrator},
-    {IntegratorType::symplectic_euler, "symplectic_euler", "v += h a(x, v), then x += h v_new", {}, {},
-     make_explicit_integrator},
-    {IntegratorType::velocity_verlet, "velocity_verlet",
-     "second order, symplectic when undamped; one force pass a step", {}, {}, make_explicit_integrator},
-    {IntegratorType::rk4, "rk4", "classical fourth-order Runge-Kutta", {}, {}, make_explicit_integrator},
-    {IntegratorType::hybrid_implicit, "hybrid_implicit", "Eqs. 11-12: one 3x3 solve per quanta (see neighbours)", {},
-     kEveryStart, make_hybrid_integrator},
-    {IntegratorType::coupled_implicit, "coupled_implicit",
-     "Eq. 13 linearised (Baraff-Witkin): one global linear solve (sweeps: hybrid_implicit, neighbours sweep)",
-     kCoupledSolvers, kEveryStart, make_coupled_implicit_integrator},
-    {IntegratorType::energy_momentum, "energy_momentum",
-     "discrete gradient: keeps energy and both momenta at any step; Newton-solved", kNewtonSolvers, kNewtonStarts,
-     make_newton_integrator},
-    {IntegratorType::implicit_midpoint, "implicit_midpoint",
-     "forces at the step's midpoint; Newton-solved, second order", kNewtonSolvers, kNewtonStarts,
-     make_newton_integrator},
-    {IntegratorType::bdf2, "bdf2", "second-order backward differentiation; Newton-solved, first step backward Euler",
-     kNewtonSolvers, kBdf2Starts, make_newton_integrator},
-};
-
 template <class E>
 bool contains(std::span<const E> list, E e) {
   return std::find(list.begin(), list.end(), e) != list.end();
@@ -142,7 +107,15 @@ auto parse_key(std::span<const Row> rows, std::string_view s, const char* what) 
 
 }  // namespace
 
-std::span<const IntegratorInfo> integrator_table() { return kIntegrators; }
+std::span<const IntegratorInfo> integrator_table() {
+  // The rows the integrators' files define, copied on first use (after every file's constants).
+  static const IntegratorInfo table[] = {
+#define QBOND_INTEGRATOR_ROW(name) name##_integrator,
+      QBOND_INTEGRATORS(QBOND_INTEGRATOR_ROW)
+#undef QBOND_INTEGRATOR_ROW
+  };
+  return table;
+}
 std::span<const IntegratorOptionInfo> integrator_options() { return kIntegratorOptions; }
 std::span<const NamedValue<NeighbourModel>> neighbour_models() { return kNeighbourModels; }
 std::span<const NamedValue<CoupledSolver>> coupled_solvers() { return kSolvers; }
@@ -156,7 +129,7 @@ bool IntegratorInfo::reads(IntegratorOption o) const {
 }
 
 const IntegratorInfo& integrator_info(IntegratorType t) {
-  for (const IntegratorInfo& i : kIntegrators)
+  for (const IntegratorInfo& i : integrator_table())
     if (i.type == t) return i;
   throw std::invalid_argument("unknown integrator type " + std::to_string(static_cast<int>(t)));
 }
@@ -193,7 +166,7 @@ std::unique_ptr<StepIntegrator> make_step_integrator(const IntegratorConfig& con
 }
 
 std::string_view to_string(IntegratorType t) {
-  for (const IntegratorInfo& i : kIntegrators)
+  for (const IntegratorInfo& i : integrator_table())
     if (i.type == t) return i.key;
   return "?";
 }
@@ -209,7 +182,7 @@ std::string_view to_string(IntegratorOption o) {
 
 IntegratorType parse_integrator_type(std::string_view s) {
   std::string all;
-  for (const IntegratorInfo& i : kIntegrators) {
+  for (const IntegratorInfo& i : integrator_table()) {
     if (i.key == s) return i.type;
     all += (all.empty() ? "" : ", ") + std::string(i.key);
   }

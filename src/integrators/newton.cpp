@@ -559,10 +559,29 @@ class NewtonIntegrator final : public StepIntegrator {
   GaussSeidel gs_;
 };
 
-}  // namespace
-
-std::unique_ptr<StepIntegrator> make_newton_integrator(const IntegratorConfig& config) {
+std::unique_ptr<StepIntegrator> make_newton(const IntegratorConfig& config) {
   return std::make_unique<NewtonIntegrator>(config);
 }
+
+constexpr CoupledSolver kNewtonSolvers[] = {CoupledSolver::dense, CoupledSolver::ldlt, CoupledSolver::cg,
+                                            CoupledSolver::sweep};
+// A Newton integrator's substeps have no previous steps of their length to extrapolate from...
+constexpr WarmStart kNewtonStarts[] = {WarmStart::zero, WarmStart::external, WarmStart::previous,
+                                       WarmStart::automatic};
+// ... and bdf2's carry-over is the previous state, not a previous Δv.
+constexpr WarmStart kBdf2Starts[] = {WarmStart::zero, WarmStart::external, WarmStart::automatic};
+
+}  // namespace
+
+const IntegratorInfo energy_momentum_integrator = {
+    IntegratorType::energy_momentum, "energy_momentum",
+    "discrete gradient: keeps energy and both momenta at any step; Newton-solved", kNewtonSolvers, kNewtonStarts,
+    make_newton};
+const IntegratorInfo implicit_midpoint_integrator = {IntegratorType::implicit_midpoint, "implicit_midpoint",
+                                                     "forces at the step's midpoint; Newton-solved, second order",
+                                                     kNewtonSolvers, kNewtonStarts, make_newton};
+const IntegratorInfo bdf2_integrator = {
+    IntegratorType::bdf2, "bdf2", "second-order backward differentiation; Newton-solved, first step backward Euler",
+    kNewtonSolvers, kBdf2Starts, make_newton};
 
 }  // namespace qbond

@@ -88,20 +88,27 @@ struct LedgerHints {
   bool discrete_gradient = false;
 };
 
-/// Which integrator.
+/// The integrators, one line each: X(name). An integrator is this line, its file of
+/// src/integrators/ (which defines its row, `const IntegratorInfo <name>_integrator`: key, one
+/// line on it, the solvers and warm starts it takes, its constructor) and its tests; the options
+/// it reads say so in their `read_by` below (kSolvingIntegrators, kNewtonIntegrators name groups).
+/// Append new integrators last: IntegratorType's values follow this order.
+#define QBOND_INTEGRATORS(X)                                                                     \
+  X(explicit_euler)    /* the particle method: x += h v, v += h a(x, v) */                       \
+  X(symplectic_euler)  /* v += h a(x, v), then x += h v_new */                                   \
+  X(velocity_verlet)   /* second order, symplectic when undamped; one force pass a step */      \
+  X(rk4)               /* classical fourth-order Runge–Kutta */                                  \
+  X(hybrid_implicit)   /* Eqs. 11–12: one 3×3 solve per quanta (see NeighbourModel) */          \
+  X(coupled_implicit)  /* Eq. 13 linearised (Baraff–Witkin): one global linear solve */         \
+  X(energy_momentum)   /* discrete gradient: keeps energy and both momenta at any step */       \
+  X(implicit_midpoint) /* forces at the step's midpoint; Newton-solved, second order */          \
+  X(bdf2)              /* second-order backward differentiation; Newton-solved */
+
+/// Which integrator (QBOND_INTEGRATORS; each one's row says what it is).
 enum class IntegratorType : std::uint8_t {
-  explicit_euler,    ///< the particle method: x += h v, v += h a(x, v)
-  symplectic_euler,  ///< v += h a(x, v), then x += h v_new
-  velocity_verlet,   ///< second order, symplectic when undamped; one force pass a step
-                     ///< (Groot–Warren's form with damping, docs/integrators.md)
-  rk4,               ///< classical fourth-order Runge–Kutta
-  hybrid_implicit,   ///< Eqs. 11–12: one 3×3 solve per quanta (see NeighbourModel)
-  coupled_implicit,  ///< Eq. 13 linearised (Baraff–Witkin): one global linear solve
-  energy_momentum,   ///< discrete gradient (Simo–Tarnow, Gonzalez): conserves energy and both
-                     ///< momenta at any step; Newton-solved (see docs/integrators.md)
-  implicit_midpoint, ///< forces at the step's midpoint; Newton-solved, second order
-  bdf2,              ///< second-order backward differentiation; Newton-solved, first step
-                     ///< (and every restart) by backward Euler
+#define QBOND_INTEGRATOR_ENUM(name) name,
+  QBOND_INTEGRATORS(QBOND_INTEGRATOR_ENUM)
+#undef QBOND_INTEGRATOR_ENUM
 };
 
 /// How the hybrid integrator treats a quanta's neighbours while solving for it.
@@ -254,6 +261,8 @@ struct IntegratorOptionInfo {
   IntegratorOption option;
   std::string_view key;
   std::string_view description;
+  /// The docs' text on it, after the values it takes (`qbond key-tables`).
+  std::string_view doc;
   std::uint16_t read_by = 0;  ///< the integrators that read it: bits 1 << IntegratorType (integrator_bits)
   Holds holds;
   int IntegratorConfig::*integer = nullptr;    ///< integer: the field, at least `least`
@@ -282,9 +291,10 @@ struct NamedValue {
   std::string_view description;
 };
 
-/// One integrator: its scene-file key, one line on it, and the values of `solver` and
-/// `warm_start` it takes (the options it reads: their rows' read_by). The one list of integrators: scene files, the command
-/// line, the viewer's menu and the docs all take their integrators and options from it.
+/// One integrator's row, defined in its own file: its scene-file key, one line on it, and the
+/// values of `solver` and `warm_start` it takes (the options it reads: their rows' read_by).
+/// Scene files, the command line, the viewer's menu and the docs take their integrators from the
+/// rows (integrator_table()).
 struct IntegratorInfo {
   IntegratorType type;
   std::string_view key;
@@ -297,7 +307,7 @@ struct IntegratorInfo {
   bool reads(IntegratorOption o) const;
 };
 
-/// Every integrator, in the order of IntegratorType.
+/// Every integrator's row, in the order of IntegratorType (QBOND_INTEGRATORS).
 std::span<const IntegratorInfo> integrator_table();
 /// The row of integrator_table() for `t`.
 const IntegratorInfo& integrator_info(IntegratorType t);
@@ -360,6 +370,9 @@ inline constexpr IntegratorOptionInfo rows[] = {
     {.option = O::neighbours,
      .key = "neighbours",
      .description = "how the hybrid solve treats a quanta's neighbours",
+     .doc = "how a step treats a quanta's neighbours (`frozen`: the paper's, held at their start positions "
+            "and at rest), spelled as the command line's `--neighbours`. Not the bodies' `neighbors` (which "
+            "bonds a lattice makes): each key has one spelling, and the other is refused as an unknown key",
      .read_by = integrator_bits({T::hybrid_implicit}),
      .holds = H::name,
      .name_of = [](const C& c) { return to_string(c.neighbours); },
@@ -368,6 +381,9 @@ inline constexpr IntegratorOptionInfo rows[] = {
     {.option = O::solver,
      .key = "solver",
      .description = "the linear solver",
+     .doc = "`sweep`, for the Newton integrators only, is `iterations` colour-ordered Gauss–Seidel sweeps per "
+            "Newton iteration (the coupled integrator's sweeps are `hybrid_implicit` with `neighbours` "
+            "`sweep`)",
      .read_by = kNewtonIntegrators | integrator_bits({T::coupled_implicit}),
      .holds = H::name,
      .name_of = [](const C& c) { return to_string(c.solver); },
@@ -376,6 +392,7 @@ inline constexpr IntegratorOptionInfo rows[] = {
     {.option = O::iterations,
      .key = "iterations",
      .description = "sweeps per step (hybrid) or per Newton iteration (solver sweep), >= 1",
+     .doc = "sweeps per step (per Newton iteration with `solver` `sweep`)",
      .read_by = kNewtonIntegrators | integrator_bits({T::hybrid_implicit}),
      .holds = H::integer,
      .integer = &C::iterations,
@@ -383,12 +400,14 @@ inline constexpr IntegratorOptionInfo rows[] = {
     {.option = O::max_iterations,
      .key = "max_iterations",
      .description = "CG's iteration cap (0: three times the free unknowns)",
+     .doc = "CG's cap (0: three times the unknowns)",
      .read_by = kNewtonIntegrators | integrator_bits({T::coupled_implicit}),
      .holds = H::integer,
      .integer = &C::max_iterations},
     {.option = O::tolerance,
      .key = "tolerance",
      .description = "relative residual at which sweeps, CG and Newton stop",
+     .doc = "relative residual at which sweeps and CG stop; for the Newton integrators, of the nonlinear step",
      .read_by = kSolvingIntegrators,
      .holds = H::number,
      .number = &C::tolerance,
@@ -396,6 +415,7 @@ inline constexpr IntegratorOptionInfo rows[] = {
     {.option = O::chebyshev_rho,
      .key = "chebyshev_rho",
      .description = "sweeps: spectral radius for Chebyshev acceleration, [0, 1) (0: off)",
+     .doc = "Chebyshev acceleration of sweeps: the sweeps' spectral radius (0: off)",
      .read_by = kNewtonIntegrators | integrator_bits({T::hybrid_implicit}),
      .holds = H::number,
      .number = &C::chebyshev_rho,
@@ -403,6 +423,10 @@ inline constexpr IntegratorOptionInfo rows[] = {
     {.option = O::warm_start,
      .key = "warm_start",
      .description = "the iterative solvers' initial guess",
+     .doc = "the iterative solvers' first guess; `external` is `h f_ext / m`, `previous` the last step's `Δv` "
+            "(not with `bdf2`, whose carry-over is the previous state), `extrapolated` the line through the "
+            "last two steps' `Δv` when they had this step's length (`hybrid_implicit` and `coupled_implicit` "
+            "only), `auto` `extrapolated` for `coupled_implicit` with `cg`, else `zero`",
      .read_by = kSolvingIntegrators,
      .holds = H::name,
      .name_of = [](const C& c) { return to_string(c.warm_start); },
@@ -411,12 +435,15 @@ inline constexpr IntegratorOptionInfo rows[] = {
     {.option = O::restore_momentum,
      .key = "restore_momentum",
      .description = "give each free component its exact momentum change",
+     .doc = "give each free component its exact momentum change `h Σ f_ext`, which an iterative solve stopped "
+            "at its tolerance misses slightly ([integrators.md](integrators.md))",
      .read_by = kSolvingIntegrators,
      .holds = H::boolean,
      .boolean = &C::restore_momentum},
     {.option = O::newton_iterations,
      .key = "newton_iterations",
      .description = "Newton iterations per step at most, >= 1",
+     .doc = "Newton iterations per step at most",
      .read_by = kNewtonIntegrators,
      .holds = H::integer,
      .integer = &C::newton_iterations,
@@ -424,12 +451,18 @@ inline constexpr IntegratorOptionInfo rows[] = {
     {.option = O::newton_polish,
      .key = "newton_polish",
      .description = "exact-Newton corrections to round-off once the tolerance is met",
+     .doc = "after Newton meets `tolerance`, exact-Newton corrections until the residual stops decreasing, so "
+            "that both momenta (and `energy_momentum`'s energy) are kept to round-off; one or two sparse LU "
+            "solves per step ([integrators.md](integrators.md), \"Polishing\")",
      .read_by = integrator_bits({T::energy_momentum, T::implicit_midpoint}),
      .holds = H::boolean,
      .boolean = &C::newton_polish},
     {.option = O::threads,
      .key = "threads",
      .description = "OpenMP threads (0: all cores); the same bits for any count",
+     .doc = "OpenMP threads (0: `OMP_NUM_THREADS` or every core); results are the same bits for any count. A "
+            "world of fewer than 4 096 quanta steps on one thread whatever the count: threads would gain it "
+            "nothing and keep the other cores busy waiting",
      .read_by = kEveryIntegrator,
      .holds = H::integer,
      .integer = &C::threads,
@@ -438,12 +471,18 @@ inline constexpr IntegratorOptionInfo rows[] = {
     {.option = O::restore_energy,
      .key = "restore_energy",
      .description = "give back the energy the integrator removed (or take back what it made)",
+     .doc = "after each step, give back the energy the integrator removed by scaling internal velocities "
+            "(momenta kept; [integrators.md](integrators.md), \"Energy restoration\")",
      .read_by = kEveryIntegrator,
      .holds = H::boolean,
      .boolean = &C::restore_energy},
     {.option = O::preconditioner,
      .key = "preconditioner",
      .description = "CG's preconditioner",
+     .doc = "CG's preconditioner; `block_jacobi` inverts A's 3×3 diagonal blocks (matrix-free), `multigrid` "
+            "is smoothed aggregation with the rigid-body modes, its hierarchy kept across steps, `automatic` "
+            "block Jacobi until one of its solves needs many iterations, multigrid from then on "
+            "([integrators.md](integrators.md), \"Multigrid\")",
      .read_by = integrator_bits({T::coupled_implicit}),
      .holds = H::name,
      .name_of = [](const C& c) { return to_string(c.preconditioner); },

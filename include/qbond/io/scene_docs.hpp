@@ -1,7 +1,7 @@
 #pragma once
 /// The key tables of the scene docs, written from the declarations the scene reader reads by:
-/// the force laws' parameters (laws/registry.hpp), the heuristic types (heuristics/registry.hpp)
-/// and the body types (the reader's table). In a Markdown file each table sits between
+/// the force laws' parameters (laws/registry.hpp), the heuristic types (heuristics/registry.hpp),
+/// the body types (the reader's table) and the integrators with their options (integrators.hpp). In a Markdown file each table sits between
 /// `<!-- keys:NAME -->` and `<!-- /keys:NAME -->`; `qbond key-tables FILE…` rewrites them, as
 /// `qbond schema` writes docs/scene.schema.json.
 #include <string>

@@ -1,8 +1,12 @@
 // The docs' key tables (scene_docs.hpp): each written from the declaration the scene reader reads
-// by, so that a new law, heuristic or body type reaches the docs by `qbond key-tables`, not by hand.
+// by, so that a new law, heuristic, body type, integrator or integrator option reaches the docs by
+// `qbond key-tables`, not by hand.
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
+#include "qbond/integrators/integrators.hpp"
 #include "qbond/io/scene.hpp"
 #include "qbond/io/scene_docs.hpp"
 #include "qbond/laws/registry.hpp"
@@ -85,15 +89,71 @@ std::string heuristic_type_table() {
   return t;
 }
 
+// A number as the docs write it: 1e-6, 0.5, 20.
+std::string number(double x) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%g", x);
+  std::string s = buffer;
+  for (const char* zeros : {"e-0", "e+0"})
+    if (const std::size_t at = s.find(zeros); at != std::string::npos) s.erase(at + 2, 1);
+  return s;
+}
+
+// The `integrator` section: `type`, then every option with the values it takes, what it does, the
+// integrators that read it (when not all) and its default.
+std::string integrator_key_table() {
+  using H = IntegratorOptionInfo::Holds;
+  const IntegratorConfig d = default_integrator();
+  std::string t = row({"key", "values", "default"}) + "|---|---|---|\n";
+  std::vector<std::string> types;
+  for (const IntegratorInfo& i : integrator_table()) types.push_back(code(i.key));
+  t += row({code("type"), listed(types), code(to_string(d.type))});
+  for (const IntegratorOptionInfo& o : integrator_options()) {
+    std::string values, fallback;
+    switch (o.holds) {
+      case H::integer:
+        values = "integer ≥ " + std::to_string(o.least);
+        fallback = std::to_string(d.*o.integer);
+        break;
+      case H::number:
+        values = o.positive ? "number > 0" : "number ≥ 0";
+        if (std::isfinite(o.below)) values += ", below " + number(o.below);
+        fallback = number(d.*o.number);
+        break;
+      case H::boolean:
+        values = "boolean";
+        fallback = d.*o.boolean ? "true" : "false";
+        break;
+      case H::name: {
+        std::vector<std::string> names;
+        for (std::string_view n : o.names()) names.push_back(code(n));
+        values = listed(names);
+        fallback = code(o.name_of(d));
+        break;
+      }
+    }
+    std::string text = values + ": " + std::string(o.doc);
+    std::vector<std::string> readers;
+    for (const IntegratorInfo& i : integrator_table())
+      if (i.reads(o.option)) readers.push_back(code(i.key));
+    if (readers.size() < integrator_table().size()) text += ". Read by " + listed(readers);
+    t += row({code(o.key), cell(text), fallback});
+  }
+  return t;
+}
+
 }  // namespace
 
-std::vector<std::string_view> scene_doc_table_names() { return {"laws", "heuristics", "heuristic_types", "bodies"}; }
+std::vector<std::string_view> scene_doc_table_names() {
+  return {"laws", "heuristics", "heuristic_types", "bodies", "integrator"};
+}
 
 std::string scene_doc_table(std::string_view name) {
   if (name == "laws") return law_table();
   if (name == "heuristics") return key_table(heuristic_types());
   if (name == "heuristic_types") return heuristic_type_table();
   if (name == "bodies") return key_table(body_types());
+  if (name == "integrator") return integrator_key_table();
   std::vector<std::string> known;
   for (std::string_view n : scene_doc_table_names()) known.emplace_back(n);
   throw std::invalid_argument(std::string("unknown key table '").append(name).append("' (known: ").append(listed(known)).append(")"));
