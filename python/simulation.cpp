@@ -226,8 +226,9 @@ py::dict adaptive_dict(const AdaptiveConfig& a) {
 
 /// Puts a saved state in the world after checking it is one of this world (its quanta and scene
 /// bonds); `where` prefixes the error. A copy assignment: the arrays keep their storage, and so
-/// the views of them stay valid.
-void put_state(World& w, const State& s, const std::string& where) {
+/// the views of them stay valid. The next step depends on the state alone (forget_history).
+void put_state(Simulation& sim, const State& s, const std::string& where) {
+  World& w = sim.world();
   const std::size_t bonds = w.state.bonds.first_formed, saved = s.bonds.first_formed;
   if (s.x.size() != w.num_quanta() || saved != bonds)
     throw CheckpointError(where + "the state holds " + std::to_string(s.x.size()) + " quanta and " + std::to_string(saved) +
@@ -236,6 +237,7 @@ void put_state(World& w, const State& s, const std::string& where) {
     if (row >= w.model.shapes.size())
       throw CheckpointError(where + "a bond's law parameters are not among the simulation's materials");
   w.state = s;
+  sim.forget_history();
 }
 
 }  // namespace
@@ -536,21 +538,26 @@ void bind_simulation(py::module_& m) {
           [](py::object self, const std::string& path) {
             save_checkpoint(path, std::string("{\"format\": \"qbond-python\", \"qbond_version\": \"") + QBOND_VERSION + "\"}",
                             of(self).sim->world().state);
+            of(self).sim->forget_history();  // as a run restored from it starts
           },
           py::arg("path"), "Writes the exact state to a checkpoint file; restore_checkpoint continues bit for bit.")
       .def(
           "restore_checkpoint",
           [](py::object self, const std::string& path) {
-            put_state(of(self).sim->world(), load_checkpoint(path).state, path + ": ");
+            put_state(*of(self).sim, load_checkpoint(path).state, path + ": ");
           },
           py::arg("path"), "Puts the simulation back in a checkpoint's state. Raises CheckpointError.")
       .def(
-          "state_bytes", [](py::object self) { return py::bytes(serialize_state(of(self).sim->world().state)); },
-          "The exact state as bytes (what a checkpoint holds).")
+          "state_bytes",
+          [](py::object self) {
+            of(self).sim->forget_history();  // as a run set from these bytes starts
+            return py::bytes(serialize_state(of(self).sim->world().state));
+          },
+          "The exact state as bytes (what a checkpoint holds); set_state_bytes continues bit for bit.")
       .def(
           "set_state_bytes",
           [](py::object self, const py::bytes& b) {
-            put_state(of(self).sim->world(), deserialize_state(std::string(b)), "");
+            put_state(*of(self).sim, deserialize_state(std::string(b)), "");
           },
           py::arg("state"), "Puts back a state state_bytes returned. Raises CheckpointError.")
       .def("__repr__", [](py::object self) {

@@ -7,6 +7,7 @@
 // in halves, each checked by energy_guard.hpp.
 #include <algorithm>
 #include <cassert>
+#include <optional>
 
 #include "integrators/backward_euler.hpp"
 #include "integrators/contact_solve.hpp"
@@ -31,6 +32,12 @@ class CoupledIntegrator final : public StepIntegrator {
   explicit CoupledIntegrator(const IntegratorConfig& c) : StepIntegrator(c, {.damping_theta = 1.0}) {}
 
   bool forms_gravity() const override { return true; }
+
+  void forget_history() override {
+    multigrid_.reset();
+    slow_jacobi_ = false;
+    jacobi_quanta_ = 0;
+  }
 
   bool splits_gaining_steps() const override { return true; }
   void split_next_step() override { split_ = true; }
@@ -109,7 +116,8 @@ class CoupledIntegrator final : public StepIntegrator {
                                                              config_.threads, y_));
         if (!guessed) y_.assign(model.num_quanta(), Vec3::Zero());
         if (whole && use_multigrid(model)) {
-          multigrid_.solve(model, state, adj, sys_, ctx.h, config_.tolerance, cg_cap(config_, topo_), config_.threads,
+          if (!multigrid_) multigrid_.emplace();
+          multigrid_->solve(model, state, adj, sys_, ctx.h, config_.tolerance, cg_cap(config_, topo_), config_.threads,
                            y_, !guessed, step);
           // Steps so small that block Jacobi would converge as fast: back to it (the hierarchy is kept).
           if (step.iterations <= 2) slow_jacobi_ = false;
@@ -176,7 +184,7 @@ class CoupledIntegrator final : public StepIntegrator {
   TopologyCache topo_;
   std::vector<Vec3> y_;
   DirectSolver direct_;
-  MultigridStep multigrid_;
+  std::optional<MultigridStep> multigrid_;  // made on the first multigrid solve
   EnergyGuard guard_;
   bool split_ = false;                 // split_next_step: the next projection in substeps
   State sub_;                          // substepping: the state the substeps have reached

@@ -293,6 +293,7 @@ struct Runner::Impl {
   void checkpoint() {
     flush_file_system(settings.out_dir);
     save_checkpoint(out(kCheckpoint), metadata(), sim.world().state);
+    sim.forget_history();  // as a run resumed from this checkpoint starts
   }
 
   void write_run_json(const std::string& status, const RunResult* r, bool in_place = false) const {

@@ -220,6 +220,11 @@ class Integrator {
   /// `f_ext` holds the external force on every quanta for this step [N].
   virtual void project(const Model& model, const State& state, const Adjacency& adj,
                        const std::vector<Vec3>& f_ext, const StepContext& ctx, Projection& out) = 0;
+  /// Drops what it keeps from step to step beyond State::carry (a multigrid hierarchy, the
+  /// automatic preconditioner's choice), so that its next step depends on the State alone, as a
+  /// new integrator's would: where a checkpoint is written or restored, a resumed run and the
+  /// uninterrupted one then go on with the same bits.
+  virtual void forget_history() {}
   /// Where this integrator evaluates damping and bond tensions, for the energy ledger.
   const LedgerHints& ledger_hints() const { return hints_; }
   const IntegratorConfig& config() const { return config_; }

@@ -86,6 +86,9 @@ class Simulation {
   void add_observer(Observer* o) { observers_.push_back(o); }
   /// Replaces the integrator (keeps the world, drops the old one's carry-over, State::carry).
   void set_integrator(const IntegratorConfig& config);
+  /// Makes the next step a function of the State alone (Integrator::forget_history): called
+  /// where a checkpoint is written or restored, so that a resumed run continues bit for bit.
+  void forget_history() { integrator_->forget_history(); }
   /// The library's own path to an integrator that make_integrator does not build (internal).
   friend void replace_step_integrator(Simulation& sim, std::unique_ptr<StepIntegrator> integrator);
 
