@@ -604,7 +604,8 @@ def contact_table(name, data, machine):
     mesh = [r for r in data["rows"] if r["scene"] == "mesh_drop" and r["implicit_over_none"] is not None]
     if mesh:
         extra = mesh[0]["implicit_over_none"] - 1
-        lines += ["", f"mesh_drop at h = {mesh[0]['timestep']:.3g} s: contact inside the step adds {extra:.0%} to its step "
+        cost = f"adds {extra:.0%} to" if extra >= 0 else f"costs {-extra:.0%} less than"
+        lines += ["", f"mesh_drop at h = {mesh[0]['timestep']:.3g} s: a step with contact inside it {cost} its step "
                   f"without contact ({'within' if extra <= 0.3 else 'beyond'} the target of at most 30 %)."]
     return lines
 

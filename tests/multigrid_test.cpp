@@ -296,18 +296,40 @@ TEST(Multigrid, AutomaticTurnsToMultigridWhenBlockJacobiIsSlow) {
   EXPECT_LE(sim.integrator().stats().residual, 1e-6);
 }
 
+// On a body of fewer than kMultigridQuanta quanta `automatic` keeps block Jacobi even where its
+// solves are slow: the same bits as `block_jacobi`.
+TEST(Multigrid, AutomaticKeepsBlockJacobiOnSmallBodies) {
+  const World w = test::lattice(60, 4, 4, 1000, 1e-3, 0.01, true, Vec3(0, 0, -9.81));  // a slender beam
+  ASSERT_LT(w.num_quanta(), kMultigridQuanta);
+  IntegratorConfig c = multigrid_config(1e-6);
+  c.preconditioner = Preconditioner::automatic;
+  c.warm_start = WarmStart::zero;  // each step's iterations from the same start
+  IntegratorConfig jacobi = c;
+  jacobi.preconditioner = Preconditioner::block_jacobi;
+  Simulation a(w, c, 0.5), b(w, jacobi, 0.5);
+  int most = 0;
+  for (int s = 0; s < 6; ++s) {
+    a.step();
+    b.step();
+    most = std::max(most, a.integrator().stats().iterations);
+  }
+  EXPECT_GT(most, kMultigridAfter);
+  EXPECT_EQ(a.world().state.x, b.world().state.x);
+  EXPECT_EQ(a.world().state.v, b.world().state.v);
+}
+
 // A run resumed from a checkpoint builds its hierarchy from the system of its first step (the
 // hierarchy is not in the checkpoint); the uninterrupted run drops its own where it writes the
 // checkpoint (Simulation::forget_history), so it builds the same one there and the two go on with
 // the same bits: with `multigrid`, and with `automatic`, whose choice starts again from block
 // Jacobi in both.
 TEST(Multigrid, AResumedRunContinuesBitForBit) {
-  const World start = canonical_lattice(12).world;
+  const World start = canonical_lattice(13).world;  // at least kMultigridQuanta: automatic may turn
   constexpr int kSteps = 12;
   struct Case {
     Preconditioner preconditioner;
     double h;
-    int resume_at;  // automatic: once it has turned to multigrid (its 8th step)
+    int resume_at;  // automatic: once it has turned to multigrid (from its 4th step)
   };
   for (const auto& [preconditioner, h, resume_at] :
        {Case{Preconditioner::multigrid, kH, 6}, Case{Preconditioner::automatic, 0.5, 9}}) {

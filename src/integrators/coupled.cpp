@@ -127,7 +127,7 @@ class CoupledIntegrator final : public StepIntegrator {
           conjugate_gradient(model, state.bonds, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
                              !guessed, step);
           if (whole) {
-            slow_jacobi_ = step.iterations > kMultigridAfter;
+            slow_jacobi_ = step.iterations > kMultigridAfter && model.num_quanta() >= kMultigridQuanta;
             jacobi_quanta_ = model.num_quanta();
           }
         }
@@ -179,7 +179,7 @@ class CoupledIntegrator final : public StepIntegrator {
 
   ImplicitSystem sys_;
   ContactSolve contact_;
-  bool slow_jacobi_ = false;        // the last block-Jacobi solve took more than kMultigridAfter iterations
+  bool slow_jacobi_ = false;        // the last block-Jacobi solve was slow on a large body
   std::size_t jacobi_quanta_ = 0;   // the quanta then
   TopologyCache topo_;
   std::vector<Vec3> y_;

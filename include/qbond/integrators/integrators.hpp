@@ -131,14 +131,19 @@ enum class CoupledSolver : std::uint8_t {
 enum class Preconditioner : std::uint8_t {
   block_jacobi,  ///< A's 3×3 diagonal blocks inverted; matrix-free
   multigrid,     ///< a V-cycle of smoothed aggregation with the rigid-body modes, kept across steps
-  /// block_jacobi until one of its solves needs more than kMultigridAfter iterations, multigrid
-  /// from the next step on (until the free quanta change)
+  /// block_jacobi until one of its solves needs more than kMultigridAfter iterations on a world
+  /// of at least kMultigridQuanta quanta, multigrid from the next step on (until the free
+  /// quanta change)
   automatic,
 };
 
 /// The block-Jacobi iterations above which `automatic` turns to multigrid: where a multigrid
 /// solve's dozen iterations cost less (docs/integrators.md, "Multigrid").
 inline constexpr int kMultigridAfter = 100;
+/// The fewest quanta for which `automatic` turns to multigrid: on smaller bodies a block-Jacobi
+/// solve costs about as much as a multigrid one, and a kept hierarchy's upkeep does not pay
+/// (docs/integrators.md, "Multigrid").
+inline constexpr std::size_t kMultigridQuanta = 2000;
 
 /// Initial guess of the iterative solvers (sweep, jacobi, cg). CG scales a guess by the factor
 /// that minimises its error in A's norm, so that no guess starts it worse than zero.
@@ -157,7 +162,7 @@ struct IntegratorConfig {
   IntegratorType type = IntegratorType::coupled_implicit;
   NeighbourModel neighbours = NeighbourModel::sweep;  ///< hybrid only
   CoupledSolver solver = CoupledSolver::cg;           ///< coupled and Newton integrators
-  Preconditioner preconditioner = Preconditioner::block_jacobi;  ///< coupled_implicit with cg
+  Preconditioner preconditioner = Preconditioner::automatic;  ///< coupled_implicit with cg
   int iterations = 1;        ///< sweep/jacobi: sweeps per step (≥ 1)
   int max_iterations = 0;    ///< cg: iteration cap (0: three times the free unknowns)
   double tolerance = 1e-6;   ///< relative residual ‖b - A dv‖/‖b‖ at which sweeps and cg stop;
