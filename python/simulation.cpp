@@ -540,7 +540,9 @@ void bind_simulation(py::module_& m) {
                             of(self).sim->world().state);
             of(self).sim->forget_history();  // as a run restored from it starts
           },
-          py::arg("path"), "Writes the exact state to a checkpoint file; restore_checkpoint continues bit for bit.")
+          py::arg("path"),
+          "Writes the exact state to a checkpoint file; restore_checkpoint continues bit for bit. Drops a kept "
+          "multigrid hierarchy (not in the file), built again on the next step as a restored run builds it.")
       .def(
           "restore_checkpoint",
           [](py::object self, const std::string& path) {
@@ -553,7 +555,8 @@ void bind_simulation(py::module_& m) {
             of(self).sim->forget_history();  // as a run set from these bytes starts
             return py::bytes(serialize_state(of(self).sim->world().state));
           },
-          "The exact state as bytes (what a checkpoint holds); set_state_bytes continues bit for bit.")
+          "The exact state as bytes (what a checkpoint holds); set_state_bytes continues bit for bit. Drops a kept "
+          "multigrid hierarchy, built again on the next step, as save_checkpoint does.")
       .def(
           "set_state_bytes",
           [](py::object self, const py::bytes& b) {

@@ -331,8 +331,10 @@ TEST(Multigrid, AResumedRunContinuesBitForBit) {
     double h;
     int resume_at;  // automatic: once it has turned to multigrid (from its 4th step)
   };
-  for (const auto& [preconditioner, h, resume_at] :
-       {Case{Preconditioner::multigrid, kH, 6}, Case{Preconditioner::automatic, 0.5, 9}}) {
+  for (const Case& k : {Case{Preconditioner::multigrid, kH, 6}, Case{Preconditioner::automatic, 0.5, 9}}) {
+    const Preconditioner preconditioner = k.preconditioner;
+    const double h = k.h;
+    const int resume_at = k.resume_at;  // not structured bindings: the lambda below captures them
     IntegratorConfig c = multigrid_config(1e-6);
     c.preconditioner = preconditioner;
     c.restore_momentum = true;
