@@ -332,22 +332,19 @@ TEST(Multigrid, AResumedRunContinuesBitForBit) {
     int resume_at;  // automatic: once it has turned to multigrid (from its 4th step)
   };
   for (const Case& k : {Case{Preconditioner::multigrid, kH, 6}, Case{Preconditioner::automatic, 0.5, 9}}) {
-    const Preconditioner preconditioner = k.preconditioner;
-    const double h = k.h;
-    const int resume_at = k.resume_at;  // not structured bindings: the lambda below captures them
     IntegratorConfig c = multigrid_config(1e-6);
-    c.preconditioner = preconditioner;
+    c.preconditioner = k.preconditioner;
     c.restore_momentum = true;
     std::vector<int> iterations;
     auto run = [&](const std::string* from, int steps, std::string* checkpoint) {
       World w = start;
       if (from) w.state = deserialize_state(*from);
-      Simulation sim(std::move(w), c, h);
+      Simulation sim(std::move(w), c, k.h);
       for (int s = 0; s < steps; ++s) {
         sim.step();
         EXPECT_LE(sim.integrator().stats().residual, 1e-6);
         iterations.push_back(sim.integrator().stats().iterations);
-        if (checkpoint && s + 1 == resume_at) {
+        if (checkpoint && s + 1 == k.resume_at) {
           *checkpoint = serialize_state(sim.world().state);
           sim.forget_history();  // as the runner does where it writes a checkpoint
         }
@@ -356,8 +353,8 @@ TEST(Multigrid, AResumedRunContinuesBitForBit) {
     };
     std::string checkpoint;
     const State whole = run(nullptr, kSteps, &checkpoint);
-    const State resumed = run(&checkpoint, kSteps - resume_at, nullptr);
-    SCOPED_TRACE(std::string(to_string(preconditioner)));
+    const State resumed = run(&checkpoint, kSteps - k.resume_at, nullptr);
+    SCOPED_TRACE(std::string(to_string(k.preconditioner)));
     ASSERT_EQ(resumed.step, whole.step);
     EXPECT_EQ(resumed.x, whole.x);
     EXPECT_EQ(resumed.v, whole.v);
@@ -365,7 +362,7 @@ TEST(Multigrid, AResumedRunContinuesBitForBit) {
     const auto after = std::vector<int>(iterations.begin() + kSteps, iterations.end());
     EXPECT_GE(*std::max_element(after.begin(), after.end()), 2);
     EXPECT_LE(*std::min_element(after.begin(), after.end()), 25);
-    if (preconditioner == Preconditioner::automatic) {  // block Jacobi was slow: multigrid came in
+    if (k.preconditioner == Preconditioner::automatic) {  // block Jacobi was slow: multigrid came in
       EXPECT_GT(*std::max_element(iterations.begin(), iterations.begin() + kSteps), kMultigridAfter);
     }
   }
