@@ -470,8 +470,20 @@ def test_bench_realtime():
         fail(f"no table printed:\n{r.stdout}")
     doc = json.load(open(path))
     got = [(row["workload"], row["threads"]) for row in doc["rows"]]
-    if got != [("lattice n=4", 1), ("lattice n=4", 2), ("two_quanta", 1), ("two_quanta", 2)]:
+    if got != [("lattice n=4", 1), ("lattice n=4", 2), ("lattice n=4 tol=1e-4", 1), ("lattice n=4 tol=1e-4", 2),
+               ("two_quanta", 1), ("two_quanta", 2)]:
         fail(f"rows {got}")
+    # The lattice rows: the default tolerance and the real-time one; every frame measured, the
+    # free face lifted by the pull after settling.
+    for row in doc["rows"][:4]:
+        want = 1e-4 if "tol=1e-4" in row["workload"] else 1e-6
+        if row["tolerance"] != want or row["frames"] != doc["lattice_frames"]:
+            fail(f"lattice row {row}")
+        face = row["pulled_face_z"]
+        if not face or not face["end"] > face["settled"]:
+            fail(f"the pull did not lift the face: {row}")
+    if doc["rows"][4]["pulled_face_z"] is not None:
+        fail(f"a scene row with a pull: {doc['rows'][4]}")
     for row in doc["rows"]:
         if not (row["frames"] >= 1 and row["median_frame_seconds"] > 0 and row["steps_per_frame"] >= 1):
             fail(f"row {row}")

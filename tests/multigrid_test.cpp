@@ -9,6 +9,7 @@
 
 #include "integrators/backward_euler.hpp"
 #include "integrators/multigrid_step.hpp"
+#include "integrators/preconditioner_choice.hpp"
 #include "qbond/builders/samples.hpp"
 #include "qbond/io/checkpoint.hpp"
 #include "qbond/io/scene.hpp"
@@ -294,6 +295,56 @@ TEST(Multigrid, AutomaticTurnsToMultigridWhenBlockJacobiIsSlow) {
   sim.step();
   EXPECT_LE(sim.integrator().stats().iterations, 25);  // multigrid's
   EXPECT_LE(sim.integrator().stats().residual, 1e-6);
+}
+
+// `automatic`'s choice from iteration counts: to multigrid after a slow block-Jacobi solve; a
+// multigrid solve of few iterations tries block Jacobi, which stays while it is cheaper; a
+// settled body whose block-Jacobi solves cost more tries again at doubling intervals, not every
+// other step; a new body starts from block Jacobi.
+TEST(Multigrid, AutomaticChoosesByCostWithoutAlternating) {
+  constexpr std::size_t kQuanta = kMultigridQuanta;
+  PreconditionerChoice choice;
+  ASSERT_FALSE(choice.multigrid(kQuanta));
+  choice.after_jacobi(kMultigridAfter);
+  ASSERT_FALSE(choice.multigrid(kQuanta));
+  choice.after_jacobi(kMultigridAfter + 1);
+  ASSERT_TRUE(choice.multigrid(kQuanta));
+  choice.after_multigrid(kJacobiTryBelow + 1);  // multigrid pays: kept
+  ASSERT_TRUE(choice.multigrid(kQuanta));
+
+  // Settled: multigrid takes 2 iterations, block Jacobi 50 (more than 2 · kMultigridIterationCost).
+  const int settled_jacobi = 2 * kMultigridIterationCost + 30;
+  int tries = 0, steps = 0;
+  std::vector<int> tried_at;
+  for (; steps < 200; ++steps) {
+    if (choice.multigrid(kQuanta)) {
+      choice.after_multigrid(2);
+    } else {
+      ++tries;
+      tried_at.push_back(steps);
+      choice.after_jacobi(settled_jacobi);
+      ASSERT_TRUE(choice.multigrid(kQuanta)) << "a dearer block-Jacobi try keeps multigrid";
+    }
+  }
+  // Waits 2, 4, ..., kJacobiTryWaitMost multigrid steps between tries, then kJacobiTryWaitMost.
+  EXPECT_LE(tries, 8) << "tries in 200 settled steps";
+  for (std::size_t k = 1; k < tried_at.size(); ++k)
+    EXPECT_GT(tried_at[k] - tried_at[k - 1], static_cast<int>(std::min<std::size_t>(2u << (k - 1), kJacobiTryWaitMost)))
+        << "try " << k;
+
+  // Small steps: block Jacobi now as cheap as multigrid's one iteration: it stays while it is.
+  while (choice.multigrid(kQuanta)) choice.after_multigrid(1);
+  choice.after_jacobi(kMultigridIterationCost);
+  EXPECT_FALSE(choice.multigrid(kQuanta));
+  choice.after_jacobi(kMultigridIterationCost + 1);
+  EXPECT_TRUE(choice.multigrid(kQuanta));
+  // Another body, or a small one: block Jacobi.
+  EXPECT_FALSE(choice.multigrid(kQuanta + 1));
+  choice.after_jacobi(10 * kMultigridAfter);
+  EXPECT_TRUE(choice.multigrid(kQuanta + 1));
+  EXPECT_FALSE(choice.multigrid(kQuanta - 1));
+  choice.after_jacobi(10 * kMultigridAfter);
+  EXPECT_FALSE(choice.multigrid(kQuanta - 1));
 }
 
 // On a body of fewer than kMultigridQuanta quanta `automatic` keeps block Jacobi even where its

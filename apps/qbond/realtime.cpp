@@ -28,6 +28,13 @@ using Clock = std::chrono::steady_clock;
 
 constexpr double kFrame = 1.0 / 60;  // [s] of simulated time a frame
 constexpr int kWarmupFrames = 2;     // buffers grown, hierarchies built, caches warm
+// The canonical lattice as a running simulation: it settles under gravity for kSettleFrames
+// frames, then its free face is pulled up by twice the body's weight for as many.
+constexpr int kSettleFrames = 60;
+constexpr int kLatticeFrames = 2 * kSettleFrames;
+constexpr double kPullWeights = 2;
+// The CG tolerance of the lattice's real-time rows (beside the default integrator's).
+constexpr double kRealtimeTolerance = 1e-4;
 
 std::vector<int> split_ints(const std::string& s, const char* what) {
   std::vector<int> out;
@@ -66,11 +73,34 @@ struct Measured {
   bool cut_off = false;        // the budget ended the measurement before `frames` frames
   bool warmup_only = false;    // the warm-up alone outlasted the budget: its frame is all there is
   std::string failure;         // a step that blew up, or empty
+  // The pulled face's mean height [m] when the pull starts and after the last frame (NaN: no pull,
+  // or not reached).
+  double face_z_settled = NAN, face_z_end = NAN;
 };
 
+// The force on each quanta of the canonical lattice's free face (largest x) that pulls it up by
+// kPullWeights times the body's weight, from frame kSettleFrames on (empty: no pull).
+struct Pull {
+  std::vector<Index> quanta;
+  Vec3 force = Vec3::Zero();
+};
+
+Pull lattice_pull(const World& w) {
+  Pull p;
+  double far = -INFINITY, mass = 0;
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) far = std::max(far, w.state.x[i].x());
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) {
+    mass += w.model.mass[i];
+    if (w.state.x[i].x() > far - 1e-9) p.quanta.push_back(static_cast<Index>(i));
+  }
+  p.force = -kPullWeights * mass * w.model.gravity / static_cast<double>(p.quanta.size());
+  return p;
+}
+
 // Frames of 1/60 s as the viewer's headless mode takes them: round(1/(60 h)) steps of the scene's
-// timestep (at least one), each an adaptive step to time + h when the scene is adaptive.
-Measured run_frames(const Scene& scene, int threads, const RealtimeArgs& a) {
+// timestep (at least one), each an adaptive step to time + h when the scene is adaptive; up to
+// `frames` measured after the warm-up, the pull (if any) on from frame kSettleFrames.
+Measured run_frames(const Scene& scene, const Pull& pull, int frames, int threads, const RealtimeArgs& a) {
   IntegratorConfig cfg = scene.integrator;
   cfg.threads = threads;
   Simulation sim(scene.world, cfg, scene.timestep);
@@ -79,8 +109,18 @@ Measured run_frames(const Scene& scene, int threads, const RealtimeArgs& a) {
   const double h = scene.timestep;
   const int steps = std::max(1, static_cast<int>(std::lround(kFrame / h)));
   Measured m;
+  int taken = 0;
+  auto face_z = [&] {
+    double z = 0;
+    for (Index i : pull.quanta) z += sim.world().state.x[i].z();
+    return pull.quanta.empty() ? NAN : z / static_cast<double>(pull.quanta.size());
+  };
   auto frame = [&]() -> bool {
+    if (taken == kSettleFrames) m.face_z_settled = face_z();
+    const bool pulled = !pull.quanta.empty() && taken++ >= kSettleFrames;
     for (int k = 0; k < steps; ++k) {
+      if (pulled)
+        for (Index i : pull.quanta) sim.add_force(i, pull.force);
       StepReport r;
       if (scene.adaptive.enabled) {
         const double t1 = sim.world().state.time + h;
@@ -111,7 +151,7 @@ Measured run_frames(const Scene& scene, int threads, const RealtimeArgs& a) {
     }
   }
   const auto measured_from = Clock::now();
-  while (static_cast<int>(m.frames.size()) < a.frames) {
+  while (static_cast<int>(m.frames.size()) < frames) {
     if (std::chrono::duration<double>(Clock::now() - measured_from).count() > a.budget) {
       m.cut_off = true;
       break;
@@ -122,6 +162,7 @@ Measured run_frames(const Scene& scene, int threads, const RealtimeArgs& a) {
     m.frames.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
     m.cpu.push_back(cpu_now() - c0);
   }
+  m.face_z_end = face_z();
   return m;
 }
 
@@ -134,15 +175,22 @@ int bench_realtime(const RealtimeArgs& a) {
   struct Workload {
     std::string name, kind;
     Scene scene;
+    Pull pull;
+    int frames;
   };
   std::vector<Workload> work;
-  for (int n : sizes) {
-    Scene s = canonical_lattice(n);
-    s.timestep = kFrame;  // the default integrator at one step a frame
-    s.integrator = default_integrator();
-    if (!a.preconditioner.empty()) s.integrator.preconditioner = parse_preconditioner(a.preconditioner);
-    work.push_back({"lattice n=" + std::to_string(n), "canonical", std::move(s)});
-  }
+  for (int n : sizes)
+    for (const bool realtime_tolerance : {false, true}) {
+      Scene s = canonical_lattice(n);
+      s.timestep = kFrame;  // the default integrator at one step a frame
+      s.integrator = default_integrator();
+      if (realtime_tolerance) s.integrator.tolerance = kRealtimeTolerance;
+      if (!a.preconditioner.empty()) s.integrator.preconditioner = parse_preconditioner(a.preconditioner);
+      Pull pull = lattice_pull(s.world);
+      std::string name = "lattice n=" + std::to_string(n);
+      if (realtime_tolerance) name += " tol=1e-4";
+      work.push_back({std::move(name), "canonical", std::move(s), std::move(pull), kLatticeFrames});
+    }
   // The host's load (runnable processes, 1-minute average) at the start and the end: on a shared
   // machine, wall time over CPU time follows it.
   double load_start = NAN, load_end = NAN;
@@ -150,20 +198,21 @@ int bench_realtime(const RealtimeArgs& a) {
   std::vector<std::string> names = split(a.scenes);
   if (names.empty())
     for (const BuiltinScene& b : builtin_scenes()) names.emplace_back(b.name);
-  for (const std::string& name : names) work.push_back({name, "scene", builtin_scene(name)});
+  for (const std::string& name : names) work.push_back({name, "scene", builtin_scene(name), {}, a.frames});
 
   std::printf(
       "qbond bench --realtime: wall time of a 1/60 s frame (the viewer's steps: round(1/(60 h)), at least "
       "1),\n"
-      "median of up to %d frames after %d warm-up frames, at most %g s measured per row; keeps up: median <= "
-      "1/60 s\n\n",
-      a.frames, kWarmupFrames, a.budget);
-  std::printf("%-22s %8s %8s %7s %11s %6s %10s %10s %10s %8s %9s %s\n", "workload", "quanta", "bonds",
+      "median of up to %d frames (the lattice: %d, settling under gravity, then its free face pulled up by %g "
+      "weights from frame %d;\ntol=1e-4: CG to a relative residual of 1e-4) after %d warm-up frames, at most %g s "
+      "measured per row; keeps up: median <= 1/60 s\n\n",
+      a.frames, kLatticeFrames, kPullWeights, kSettleFrames, kWarmupFrames, a.budget);
+  std::printf("%-26s %8s %8s %7s %11s %6s %10s %10s %10s %8s %9s %s\n", "workload", "quanta", "bonds",
               "threads", "h [s]", "steps", "frame ms", "max ms", "cpu ms", "x real", "keeps up", "note");
   json rows = json::array();
   for (const Workload& w : work)
     for (int t : threads) {
-      const Measured m = run_frames(w.scene, t, a);
+      const Measured m = run_frames(w.scene, w.pull, w.frames, t, a);
       const double med = median(m.frames), med_cpu = median(m.cpu);
       const double worst = m.frames.empty() ? NAN : *std::max_element(m.frames.begin(), m.frames.end());
       const int steps = std::max(1, static_cast<int>(std::lround(kFrame / w.scene.timestep)));
@@ -173,7 +222,7 @@ int bench_realtime(const RealtimeArgs& a) {
                          : m.cut_off
                              ? "cut off by the budget after " + std::to_string(m.frames.size()) + " frames"
                              : "";
-      std::printf("%-22s %8zu %8zu %7d %11.4g %6d %10.3f %10.3f %10.3f %8.2f %9s %s\n", w.name.c_str(),
+      std::printf("%-26s %8zu %8zu %7d %11.4g %6d %10.3f %10.3f %10.3f %8.2f %9s %s\n", w.name.c_str(),
                   w.scene.world.num_quanta(), w.scene.world.num_bonds(), t, w.scene.timestep, steps,
                   med * 1e3, worst * 1e3, med_cpu * 1e3, kFrame / med, keeps ? "yes" : "no", note.c_str());
       std::fflush(stdout);
@@ -184,6 +233,7 @@ int bench_realtime(const RealtimeArgs& a) {
                       {"threads", t},
                       {"integrator", std::string(to_string(w.scene.integrator.type))},
                       {"preconditioner", std::string(to_string(w.scene.integrator.preconditioner))},
+                      {"tolerance", w.scene.integrator.tolerance},
                       {"timestep", w.scene.timestep},
                       {"adaptive", w.scene.adaptive.enabled},
                       {"steps_per_frame", steps},
@@ -195,7 +245,10 @@ int bench_realtime(const RealtimeArgs& a) {
                       {"keeps_up", keeps},
                       {"cut_off", m.cut_off},
                       {"warmup_only", m.warmup_only},
-                      {"failure", m.failure}});
+                      {"failure", m.failure},
+                      {"pulled_face_z", std::isnan(m.face_z_settled)
+                                            ? json(nullptr)
+                                            : json({{"settled", m.face_z_settled}, {"end", m.face_z_end}})}});
     }
   getloadavg(&load_end, 1);
   std::printf("\nload average (1 min): %.2f at the start, %.2f at the end, on %ld cores\n", load_start,
@@ -211,6 +264,9 @@ int bench_realtime(const RealtimeArgs& a) {
                       {"frame_seconds", kFrame},
                       {"warmup_frames", kWarmupFrames},
                       {"max_frames", a.frames},
+                      {"lattice_frames", kLatticeFrames},
+                      {"lattice_settle_frames", kSettleFrames},
+                      {"lattice_pull_weights", kPullWeights},
                       {"budget_seconds", a.budget},
                       {"load_average", {load_start, load_end}},
                       {"rows", rows}};

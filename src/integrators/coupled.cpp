@@ -14,6 +14,7 @@
 #include "integrators/energy_guard.hpp"
 #include "integrators/integrator_common.hpp"
 #include "integrators/multigrid_step.hpp"
+#include "integrators/preconditioner_choice.hpp"
 
 namespace qbond {
 namespace {
@@ -35,8 +36,7 @@ class CoupledIntegrator final : public StepIntegrator {
 
   void forget_history() override {
     multigrid_.reset();
-    slow_jacobi_ = false;
-    jacobi_quanta_ = 0;
+    choice_ = {};
   }
 
   bool splits_gaining_steps() const override { return true; }
@@ -119,17 +119,11 @@ class CoupledIntegrator final : public StepIntegrator {
           if (!multigrid_) multigrid_.emplace();
           multigrid_->solve(model, state, adj, sys_, ctx.h, config_.tolerance, cg_cap(config_, topo_), config_.threads,
                            y_, !guessed, step);
-          // Steps so small that block Jacobi would converge as fast: back to it (the hierarchy is kept).
-          if (step.iterations <= 2) slow_jacobi_ = false;
-        }
-        else
-        {
+          choice_.after_multigrid(step.iterations);  // the hierarchy is kept if it turns to block Jacobi
+        } else {
           conjugate_gradient(model, state.bonds, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
                              !guessed, step);
-          if (whole) {
-            slow_jacobi_ = step.iterations > kMultigridAfter && model.num_quanta() >= kMultigridQuanta;
-            jacobi_quanta_ = model.num_quanta();
-          }
+          if (whole) choice_.after_jacobi(step.iterations);
         }
         break;
       }
@@ -169,18 +163,16 @@ class CoupledIntegrator final : public StepIntegrator {
     apply_substep(model, adj, f_ext, H, t1, sub_out_, sub_, sub_x1_, sub_v1_);
   }
 
-  // multigrid as asked, or (automatic) once block Jacobi was slow on this body: a hierarchy is
+  // multigrid as asked, or as `automatic` chooses (preconditioner_choice.hpp): a hierarchy is
   // then kept and pays for its set-up over the following steps.
   bool use_multigrid(const Model& model) {
     if (config_.preconditioner != Preconditioner::automatic) return config_.preconditioner == Preconditioner::multigrid;
-    if (model.num_quanta() != jacobi_quanta_) slow_jacobi_ = false;  // another body: block Jacobi first
-    return slow_jacobi_;
+    return choice_.multigrid(model.num_quanta());
   }
 
   ImplicitSystem sys_;
   ContactSolve contact_;
-  bool slow_jacobi_ = false;        // the last block-Jacobi solve was slow on a large body
-  std::size_t jacobi_quanta_ = 0;   // the quanta then
+  PreconditionerChoice choice_;
   TopologyCache topo_;
   std::vector<Vec3> y_;
   DirectSolver direct_;

@@ -132,8 +132,8 @@ enum class Preconditioner : std::uint8_t {
   block_jacobi,  ///< A's 3×3 diagonal blocks inverted; matrix-free
   multigrid,     ///< a V-cycle of smoothed aggregation with the rigid-body modes, kept across steps
   /// block_jacobi until one of its solves needs more than kMultigridAfter iterations on a world
-  /// of at least kMultigridQuanta quanta, multigrid from the next step on (until the free
-  /// quanta change)
+  /// of at least kMultigridQuanta quanta, multigrid from the next step on; back to block Jacobi
+  /// while it costs less than multigrid's last solve (docs/integrators.md, "Multigrid")
   automatic,
 };
 
