@@ -298,9 +298,9 @@ TEST(Multigrid, AutomaticTurnsToMultigridWhenBlockJacobiIsSlow) {
 }
 
 // `automatic`'s choice from iteration counts: to multigrid after a slow block-Jacobi solve; a
-// multigrid solve of few iterations tries block Jacobi, which stays while it is cheaper; a
-// settled body whose block-Jacobi solves cost more tries again at doubling intervals, not every
-// other step; a new body starts from block Jacobi.
+// multigrid solve of few iterations, or dearer than block Jacobi's last, tries block Jacobi,
+// which stays while it is cheaper; a settled body whose block-Jacobi solves cost more tries again
+// at doubling intervals, not every other step; a new body starts from block Jacobi.
 TEST(Multigrid, AutomaticChoosesByCostWithoutAlternating) {
   constexpr std::size_t kQuanta = kMultigridQuanta;
   PreconditionerChoice choice;
@@ -338,6 +338,23 @@ TEST(Multigrid, AutomaticChoosesByCostWithoutAlternating) {
   EXPECT_FALSE(choice.multigrid(kQuanta));
   choice.after_jacobi(kMultigridIterationCost + 1);
   EXPECT_TRUE(choice.multigrid(kQuanta));
+  // A hierarchy that fits the system badly: a multigrid solve dearer than block Jacobi's last
+  // tries block Jacobi, which stays while it is the cheaper.
+  PreconditionerChoice bad;
+  ASSERT_FALSE(bad.multigrid(kQuanta));
+  bad.after_jacobi(150);
+  ASSERT_TRUE(bad.multigrid(kQuanta));
+  bad.after_multigrid(14);  // 140 block-Jacobi iterations' worth: kept
+  ASSERT_TRUE(bad.multigrid(kQuanta));
+  bad.after_multigrid(100);
+  ASSERT_FALSE(bad.multigrid(kQuanta));
+  bad.after_jacobi(200);
+  EXPECT_FALSE(bad.multigrid(kQuanta));
+  bad.after_jacobi(100 * kMultigridIterationCost);
+  EXPECT_FALSE(bad.multigrid(kQuanta));
+  bad.after_jacobi(100 * kMultigridIterationCost + 1);
+  EXPECT_TRUE(bad.multigrid(kQuanta));
+
   // Another body, or a small one: block Jacobi.
   EXPECT_FALSE(choice.multigrid(kQuanta + 1));
   choice.after_jacobi(10 * kMultigridAfter);

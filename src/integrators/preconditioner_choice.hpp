@@ -19,12 +19,15 @@ inline constexpr int kJacobiTryBelow = 2;
 inline constexpr int kJacobiTryWaitMost = 64;
 
 /// Block Jacobi first; multigrid once a block-Jacobi solve needs more than kMultigridAfter
-/// iterations on a world of at least kMultigridQuanta quanta. A multigrid solve of at most
-/// kJacobiTryBelow iterations tries block Jacobi on the next step (the steps may have become
-/// small), which stays while its solves cost less than the last multigrid solve (at most
-/// kMultigridIterationCost times its iterations). Each return to multigrid doubles the multigrid
-/// solves before the next try (at most kJacobiTryWaitMost): a settled body whose multigrid solves
-/// take two iterations and block Jacobi's fifty does not alternate between the two.
+/// iterations on a world of at least kMultigridQuanta quanta. Then each compares its last solve
+/// with the other's last (a multigrid iteration counted as kMultigridIterationCost block-Jacobi
+/// ones): block Jacobi turns to multigrid when its solve cost more than multigrid's last; a
+/// multigrid solve that cost more than block Jacobi's last (a hierarchy that fits the system
+/// badly, as with many contacts changing from step to step), or took at most kJacobiTryBelow
+/// iterations (the steps may have become small), tries block Jacobi on the next step. Each
+/// return to multigrid after such a try doubles the multigrid solves before the next try (at most
+/// kJacobiTryWaitMost): a settled body whose multigrid solves take two iterations and block
+/// Jacobi's fifty does not alternate between the two.
 class PreconditionerChoice {
  public:
   /// Whether the next whole step's solve on a world of `quanta` quanta uses multigrid.
@@ -36,6 +39,7 @@ class PreconditionerChoice {
 
   /// A whole step's block-Jacobi solve took `iterations`.
   void after_jacobi(int iterations) {
+    jacobi_iterations_ = std::max(iterations, 1);
     if (quanta_ < kMultigridQuanta) return;
     const int most = multigrid_iterations_ > 0 ? kMultigridIterationCost * multigrid_iterations_ : kMultigridAfter;
     if (iterations <= most) return;
@@ -49,7 +53,7 @@ class PreconditionerChoice {
   /// A whole step's multigrid solve took `iterations`.
   void after_multigrid(int iterations) {
     multigrid_iterations_ = std::max(iterations, 1);
-    if (iterations > kJacobiTryBelow) return;
+    if (iterations > kJacobiTryBelow && kMultigridIterationCost * iterations <= jacobi_iterations_) return;
     if (wait_ > 0)
       --wait_;
     else
@@ -59,8 +63,9 @@ class PreconditionerChoice {
  private:
   std::size_t quanta_ = 0;        // the world the choice was made on
   bool multigrid_ = false;        // the next whole step's preconditioner
+  int jacobi_iterations_ = 0;     // the last block-Jacobi solve's
   int multigrid_iterations_ = 0;  // the last multigrid solve's (0: none yet on this world)
-  int wait_ = 0;                  // multigrid solves of few iterations before the next try
+  int wait_ = 0;                  // multigrid solves that would try block Jacobi before the next try
   int wait_most_ = 1;             // the last wait set: doubled by each return to multigrid
 };
 
