@@ -78,6 +78,8 @@ def main():
     print(flight(gap))
     print()
     print(convergence())
+    print()
+    print(mesh_convergence())
 
 
 def flight(rows):
@@ -98,35 +100,72 @@ def flight(rows):
             f"({rows[-1]['numerical'] / scale:.3g} of the largest energy)")
 
 
-def convergence():
-    """The trampoline's block and sheet mean heights after 4 s (at rest) at h = 1/60 ... 1/480 s
-    without pair friction, the change from the step before, and `numerical` then."""
-    with open(os.path.join(ROOT, "scenes", "trampoline.json")) as f:
+def converge(name, duration, edit):
+    """Runs scenes/NAME.json edited by `edit` at h = 1/60 ... 1/480 s for `duration` s and returns,
+    for each h, its last diagnostics row: the probed bodies' mean positions and the ledger."""
+    with open(os.path.join(ROOT, "scenes", name + ".json")) as f:
         scene = json.load(f)
-    # Without pair friction: a stuck contact's rest state depends on its history (static friction
-    # holds any tangential load below μ_s f_n), so the state with it need not converge.
-    # The ground's too: steps of contacts with friction are not retaken by the energy guard.
-    for rule in scene["heuristics"]:
-        rule.pop("friction", None)
-    rows = ["| h [s] | block's mean height after 4 s [m] | change from the h before | sheet's [m] | change | `numerical` [J] |",
-            "|---|---|---|---|---|---|"]
-    last = None
+    edit(scene)
+    for body in scene["bodies"]:  # the files it names (meshes), from where the run's copy is
+        if "file" in body:
+            body["file"] = os.path.join(ROOT, "scenes", body["file"])
+    last = []
     for n in (60, 120, 240, 480):
-        s = dict(scene, timestep=1.0 / n, duration=4.0)
+        s = dict(scene, timestep=1.0 / n, duration=duration)
         s["output"] = dict(scene["output"], every=n // 6)
-        path = os.path.join(RUNS, f"trampoline_{n}.json")
         os.makedirs(RUNS, exist_ok=True)
+        path = os.path.join(RUNS, f"{name}_{n}.json")
         with open(path, "w") as f:
             json.dump(s, f)
-        out = os.path.join(RUNS, f"trampoline_{n}")
+        out = os.path.join(RUNS, f"{name}_{n}")
         subprocess.run([os.path.join(BUILD, "qbond"), "run", path, "--out", out, "--quiet"], check=True,
                        stdout=subprocess.DEVNULL)
         with open(os.path.join(out, "diagnostics.csv")) as f:
-            r = list(csv.DictReader(f))[-1]
-        b, sh = float(r["block_z"]), float(r["sheet_z"])
-        change = ("", "") if last is None else (f"{b - last[0]:.2e}", f"{sh - last[1]:.2e}")
-        rows.append(f"| 1/{n} | {b:.7f} | {change[0]} | {sh:.7f} | {change[1]} | {float(r['numerical']):.4f} |")
-        last = (b, sh)
+            last.append({k: float(v) for k, v in list(csv.DictReader(f))[-1].items()})
+    return last
+
+
+def no_friction(scene):
+    # Without friction: a stuck contact's rest state depends on its history (static friction holds
+    # any tangential load below μ_s f_n), so the state with it need not converge. The ground's too:
+    # steps of contacts with friction are not retaken by the energy guard.
+    for rule in scene["heuristics"]:
+        rule.pop("friction", None)
+
+
+def convergence():
+    """The trampoline's block and sheet mean heights after 4 s (at rest) at h = 1/60 ... 1/480 s
+    without pair friction, the change from the step before, and `numerical` then."""
+    rows = ["| h [s] | block's mean height after 4 s [m] | change from the h before | sheet's [m] | change | `numerical` [J] |",
+            "|---|---|---|---|---|---|"]
+    prev = None
+    for n, r in zip((60, 120, 240, 480), converge("trampoline", 4.0, no_friction)):
+        b, sh = r["block_z"], r["sheet_z"]
+        change = ("", "") if prev is None else (f"{b - prev[0]:.2e}", f"{sh - prev[1]:.2e}")
+        rows.append(f"| 1/{n} | {b:.7f} | {change[0]} | {sh:.7f} | {change[1]} | {r['numerical']:.4f} |")
+        prev = (b, sh)
+    return "\n".join(rows)
+
+
+def mesh_convergence():
+    """mesh_drop with its ground in the step, without friction, after 1.5 s (both bodies resting,
+    the blob still gliding) at h = 1/60 ... 1/480 s: each body's mean height and its change, and
+    the largest change of a body's mean horizontal position (x or y) from the h before."""
+    def edit(scene):
+        no_friction(scene)
+        for rule in scene["heuristics"]:
+            rule["method"] = "implicit"
+    rows = ["| h [s] | torus's mean height [m] | change | blob's [m] | change | largest horizontal change [m] |",
+            "|---|---|---|---|---|---|"]
+    prev = None
+    for n, r in zip((60, 120, 240, 480), converge("mesh_drop", 1.5, edit)):
+        if prev is None:
+            rows.append(f"| 1/{n} | {r['torus_z']:.8f} |  | {r['blob_z']:.8f} |  |  |")
+        else:
+            side = max(abs(r[k] - prev[k]) for k in ("torus_x", "torus_y", "blob_x", "blob_y"))
+            rows.append(f"| 1/{n} | {r['torus_z']:.8f} | {r['torus_z'] - prev['torus_z']:.2e} | {r['blob_z']:.8f} | "
+                        f"{r['blob_z'] - prev['blob_z']:.2e} | {side:.2e} |")
+        prev = r
     return "\n".join(rows)
 
 

@@ -306,6 +306,37 @@ TEST(SolvedQuantaContact, TheTrampolinesStateAndImpactLossConvergeAsTheStepShrin
   EXPECT_LT(std::abs(block[3] - block[2]), 0.01 * kRadius);
 }
 
+TEST(SolvedQuantaContact, TheMeshDropsRestHeightsConvergeAsTheStepShrinks) {
+  // mesh_drop's torus and blob voxelised at 1 cm (a small size) with the ground in the step,
+  // without friction (as the trampoline's, above), after 1.5 s at h = 1/60 ... 1/480 s: each body's
+  // mean height, resting on the ground, changes less from one h to the next than from the one
+  // before (the penalty's depth F h² / (κ m) shrinks with h²), and the last change is far below
+  // a radius.
+  std::ifstream f(std::string(QBOND_SOURCE_DIR) + "/scenes/mesh_drop.json");
+  nlohmann::json j0 = nlohmann::json::parse(f);
+  j0["heuristics"][0]["method"] = "implicit";
+  j0["heuristics"][0].erase("friction");
+  for (nlohmann::json& b : j0["bodies"]) b["spacing"] = 0.01;
+  j0["duration"] = 1.5;
+  j0.erase("output");
+  std::vector<double> torus, blob;
+  for (int per_second : {60, 120, 240, 480}) {
+    nlohmann::json j = j0;
+    j["timestep"] = 1.0 / per_second;
+    Scene s = parse_scene(j.dump(), "mesh_drop", {.dir = std::string(QBOND_SOURCE_DIR) + "/scenes"});
+    Simulation sim(std::move(s.world), s.integrator, s.timestep);
+    for (std::uint64_t n = 0; n < s.steps; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
+    torus.push_back(mean_z(sim.world(), body_named(sim.world(), "torus")));
+    blob.push_back(mean_z(sim.world(), body_named(sim.world(), "blob")));
+  }
+  for (std::size_t n = 2; n < torus.size(); ++n) {
+    EXPECT_LT(std::abs(torus[n] - torus[n - 1]), std::abs(torus[n - 1] - torus[n - 2])) << n;
+    EXPECT_LT(std::abs(blob[n] - blob[n - 1]), std::abs(blob[n - 1] - blob[n - 2])) << n;
+  }
+  EXPECT_LT(std::abs(torus[3] - torus[2]), 0.01 * kRadius);
+  EXPECT_LT(std::abs(blob[3] - blob[2]), 0.01 * kRadius);
+}
+
 TEST(SolvedQuantaContact, ABodyDoesNotTunnelThroughAGapNarrowerThanItself) {
   // The block meets one-layer ledges (centres at z = 0.1) at 38 mm a step, nearly four times
   // their thickness: no quanta of it ever passes below the ledges' layer (its middle column may sag

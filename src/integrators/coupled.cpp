@@ -90,6 +90,14 @@ class CoupledIntegrator final : public StepIntegrator {
          ++pass)
       linear_solve(model, state, adj, f_ext, ctx, whole, /*warm=*/true, step);
     if (config_.solver == CoupledSolver::cg) {
+      // `automatic` compares whole steps, all their contact passes' solves together (the hierarchy
+      // is kept if it turns to block Jacobi).
+      if (whole && config_.preconditioner == Preconditioner::automatic) {
+        if (choice_.multigrid(model.num_quanta()))
+          choice_.after_multigrid(step.iterations);
+        else
+          choice_.after_jacobi(step.iterations);
+      }
       if (config_.restore_momentum)
         restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_, contact_.touching());
       if (whole) keep_guess(config_.warm_start, y_, ctx.h, state.carry, config_.threads, out);
@@ -119,11 +127,9 @@ class CoupledIntegrator final : public StepIntegrator {
           if (!multigrid_) multigrid_.emplace();
           multigrid_->solve(model, state, adj, sys_, ctx.h, config_.tolerance, cg_cap(config_, topo_), config_.threads,
                            y_, !guessed, step);
-          choice_.after_multigrid(step.iterations);  // the hierarchy is kept if it turns to block Jacobi
         } else {
           conjugate_gradient(model, state.bonds, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
                              !guessed, step);
-          if (whole) choice_.after_jacobi(step.iterations);
         }
         break;
       }
