@@ -47,7 +47,7 @@ VERLET = "velocity_verlet"
 STEP = 1e-4  # s, qbond's and LAMMPS's
 # The tables in docs/distributed.md: (integrator, lattice size); the first of each integrator's
 # is named by the integrator alone.
-TABLES = [(VERLET, 40), (VERLET, 100), ("coupled_implicit", 20), ("coupled_implicit", 40)]
+TABLES = [(VERLET, 40), (VERLET, 100), ("coupled_implicit", 20), ("coupled_implicit", 40), ("coupled_implicit", 100)]
 PLAIN = {VERLET: 40, "coupled_implicit": 20}
 
 

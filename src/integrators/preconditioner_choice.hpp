@@ -1,7 +1,7 @@
 #pragma once
 // `automatic`'s choice between block Jacobi and multigrid for the coupled integrator's CG, from
-// the iteration counts of the whole steps' solves alone (never their times): the same choices,
-// hence the same bits, on any machine and thread count.
+// the iteration counts of whole steps alone (never their times): the same choices, hence the
+// same bits, on any machine and thread count.
 #include <algorithm>
 #include <cstddef>
 
@@ -18,14 +18,15 @@ inline constexpr int kMultigridIterationCost = 10;
 inline constexpr int kJacobiTryBelow = 2;
 inline constexpr int kJacobiTryWaitMost = 64;
 
-/// Block Jacobi first; multigrid once a block-Jacobi solve needs more than kMultigridAfter
-/// iterations on a world of at least kMultigridQuanta quanta. Then each compares its last solve
-/// with the other's last (a multigrid iteration counted as kMultigridIterationCost block-Jacobi
-/// ones): block Jacobi turns to multigrid when its solve cost more than multigrid's last; a
-/// multigrid solve that cost more than block Jacobi's last (a hierarchy that fits the system
-/// badly, as with many contacts changing from step to step), or took at most kJacobiTryBelow
-/// iterations (the steps may have become small), tries block Jacobi on the next step. Each
-/// return to multigrid after such a try doubles the multigrid solves before the next try (at most
+/// Block Jacobi first; multigrid once a block-Jacobi step needs more than kMultigridAfter
+/// iterations on a world of at least kMultigridQuanta quanta. Then each step (its solves together:
+/// a step with contacts solves again while its active set changes) is compared with the other
+/// preconditioner's last step, a multigrid iteration counted as kMultigridIterationCost
+/// block-Jacobi ones: block Jacobi turns to multigrid when its step cost more than multigrid's
+/// last; a multigrid step that cost more than block Jacobi's last (a hierarchy that fits the
+/// system badly, as with many contacts changing from step to step), or took at most
+/// kJacobiTryBelow iterations (the steps may have become small), tries block Jacobi next. Each
+/// return to multigrid after such a try doubles the multigrid steps before the next try (at most
 /// kJacobiTryWaitMost): a settled body whose multigrid solves take two iterations and block
 /// Jacobi's fifty does not alternate between the two.
 class PreconditionerChoice {
@@ -37,7 +38,7 @@ class PreconditionerChoice {
     return multigrid_;
   }
 
-  /// A whole step's block-Jacobi solve took `iterations`.
+  /// A whole step's block-Jacobi solves took `iterations` together.
   void after_jacobi(int iterations) {
     jacobi_iterations_ = std::max(iterations, 1);
     if (quanta_ < kMultigridQuanta) return;
@@ -50,7 +51,7 @@ class PreconditionerChoice {
     }
   }
 
-  /// A whole step's multigrid solve took `iterations`.
+  /// A whole step's multigrid solves took `iterations` together.
   void after_multigrid(int iterations) {
     multigrid_iterations_ = std::max(iterations, 1);
     if (iterations > kJacobiTryBelow && kMultigridIterationCost * iterations <= jacobi_iterations_) return;
@@ -63,9 +64,9 @@ class PreconditionerChoice {
  private:
   std::size_t quanta_ = 0;        // the world the choice was made on
   bool multigrid_ = false;        // the next whole step's preconditioner
-  int jacobi_iterations_ = 0;     // the last block-Jacobi solve's
-  int multigrid_iterations_ = 0;  // the last multigrid solve's (0: none yet on this world)
-  int wait_ = 0;                  // multigrid solves that would try block Jacobi before the next try
+  int jacobi_iterations_ = 0;     // the last block-Jacobi step's
+  int multigrid_iterations_ = 0;  // the last multigrid step's (0: none yet on this world)
+  int wait_ = 0;                  // multigrid steps that would try block Jacobi before the next try
   int wait_most_ = 1;             // the last wait set: doubled by each return to multigrid
 };
 
