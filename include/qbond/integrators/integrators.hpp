@@ -491,7 +491,8 @@ inline constexpr IntegratorOptionInfo rows[] = {
      .description = "CG's preconditioner",
      .doc = "CG's preconditioner; `block_jacobi` inverts A's 3×3 diagonal blocks (matrix-free), `multigrid` "
             "is smoothed aggregation with the rigid-body modes, its hierarchy kept across steps, `automatic` "
-            "block Jacobi until one of its solves needs many iterations, multigrid from then on "
+            "block Jacobi until one of its steps needs many iterations, then whichever of the two cost less "
+            "on its last step "
             "([integrators.md](integrators.md), \"Multigrid\")",
      .read_by = integrator_bits({T::coupled_implicit}),
      .holds = H::name,
