@@ -297,9 +297,9 @@ TEST(Multigrid, AutomaticTurnsToMultigridWhenBlockJacobiIsSlow) {
   EXPECT_LE(sim.integrator().stats().residual, 1e-6);
 }
 
-// `automatic`'s choice from iteration counts: to multigrid after a slow block-Jacobi solve; a
-// multigrid solve of few iterations, or dearer than block Jacobi's last, tries block Jacobi,
-// which stays while it is cheaper; a settled body whose block-Jacobi solves cost more tries again
+// `automatic`'s choice from each step's iterations: to multigrid after a slow block-Jacobi step;
+// a multigrid step of few iterations, or dearer than block Jacobi's last, tries block Jacobi,
+// which stays while it is cheaper; a settled body whose block-Jacobi steps cost more tries again
 // at doubling intervals, not every other step; a new body starts from block Jacobi.
 TEST(Multigrid, AutomaticChoosesByCostWithoutAlternating) {
   constexpr std::size_t kQuanta = kMultigridQuanta;
@@ -314,9 +314,9 @@ TEST(Multigrid, AutomaticChoosesByCostWithoutAlternating) {
 
   // Settled: multigrid takes 2 iterations, block Jacobi 50 (more than 2 · kMultigridIterationCost).
   const int settled_jacobi = 2 * kMultigridIterationCost + 30;
-  int tries = 0, steps = 0;
+  int tries = 0;
   std::vector<int> tried_at;
-  for (; steps < 200; ++steps) {
+  for (int steps = 0; steps < 200; ++steps) {
     if (choice.multigrid(kQuanta)) {
       choice.after_multigrid(2);
     } else {
@@ -338,7 +338,7 @@ TEST(Multigrid, AutomaticChoosesByCostWithoutAlternating) {
   EXPECT_FALSE(choice.multigrid(kQuanta));
   choice.after_jacobi(kMultigridIterationCost + 1);
   EXPECT_TRUE(choice.multigrid(kQuanta));
-  // A hierarchy that fits the system badly: a multigrid solve dearer than block Jacobi's last
+  // A hierarchy that fits the system badly: a multigrid step dearer than block Jacobi's last
   // tries block Jacobi, which stays while it is the cheaper.
   PreconditionerChoice bad;
   ASSERT_FALSE(bad.multigrid(kQuanta));
