@@ -100,20 +100,23 @@ def flight(rows):
             f"({rows[-1]['numerical'] / scale:.3g} of the largest energy)")
 
 
+STEPS_PER_SECOND = (60, 120, 240, 480)  # the convergence tables' steps, h = 1/n
+
+
 def converge(name, duration, edit):
-    """Runs scenes/NAME.json edited by `edit` at h = 1/60 ... 1/480 s for `duration` s and returns,
-    for each h, its last diagnostics row: the probed bodies' mean positions and the ledger."""
+    """Runs scenes/NAME.json edited by `edit` at each h of STEPS_PER_SECOND for `duration` s and
+    returns (n, its last diagnostics row: the probed bodies' mean positions and the ledger)."""
     with open(os.path.join(ROOT, "scenes", name + ".json")) as f:
         scene = json.load(f)
     edit(scene)
     for body in scene["bodies"]:  # the files it names (meshes), from where the run's copy is
         if "file" in body:
             body["file"] = os.path.join(ROOT, "scenes", body["file"])
+    os.makedirs(RUNS, exist_ok=True)
     last = []
-    for n in (60, 120, 240, 480):
+    for n in STEPS_PER_SECOND:
         s = dict(scene, timestep=1.0 / n, duration=duration)
         s["output"] = dict(scene["output"], every=n // 6)
-        os.makedirs(RUNS, exist_ok=True)
         path = os.path.join(RUNS, f"{name}_{n}.json")
         with open(path, "w") as f:
             json.dump(s, f)
@@ -121,7 +124,7 @@ def converge(name, duration, edit):
         subprocess.run([os.path.join(BUILD, "qbond"), "run", path, "--out", out, "--quiet"], check=True,
                        stdout=subprocess.DEVNULL)
         with open(os.path.join(out, "diagnostics.csv")) as f:
-            last.append({k: float(v) for k, v in list(csv.DictReader(f))[-1].items()})
+            last.append((n, {k: float(v) for k, v in list(csv.DictReader(f))[-1].items()}))
     return last
 
 
@@ -133,13 +136,18 @@ def no_friction(scene):
         rule.pop("friction", None)
 
 
+def ground_in_step(scene):
+    for rule in scene["heuristics"]:
+        rule["method"] = "implicit"
+
+
 def convergence():
     """The trampoline's block and sheet mean heights after 4 s (at rest) at h = 1/60 ... 1/480 s
     without pair friction, the change from the step before, and `numerical` then."""
     rows = ["| h [s] | block's mean height after 4 s [m] | change from the h before | sheet's [m] | change | `numerical` [J] |",
             "|---|---|---|---|---|---|"]
     prev = None
-    for n, r in zip((60, 120, 240, 480), converge("trampoline", 4.0, no_friction)):
+    for n, r in converge("trampoline", 4.0, no_friction):
         b, sh = r["block_z"], r["sheet_z"]
         change = ("", "") if prev is None else (f"{b - prev[0]:.2e}", f"{sh - prev[1]:.2e}")
         rows.append(f"| 1/{n} | {b:.7f} | {change[0]} | {sh:.7f} | {change[1]} | {r['numerical']:.4f} |")
@@ -155,13 +163,12 @@ def mesh_convergence():
     one h to the next whatever h, the solver's error and not the step's."""
     def edit(scene):
         no_friction(scene)
-        for rule in scene["heuristics"]:
-            rule["method"] = "implicit"
+        ground_in_step(scene)
         scene["integrator"] = dict(scene.get("integrator", {}), tolerance=1e-9)
     rows = ["| h [s] | torus's mean height [m] | change | blob's [m] | change | largest horizontal change [m] |",
             "|---|---|---|---|---|---|"]
     prev = None
-    for n, r in zip((60, 120, 240, 480), converge("mesh_drop", 1.5, edit)):
+    for n, r in converge("mesh_drop", 1.5, edit):
         if prev is None:
             rows.append(f"| 1/{n} | {r['torus_z']:.8f} |  | {r['blob_z']:.8f} |  |  |")
         else:
@@ -169,11 +176,7 @@ def mesh_convergence():
             rows.append(f"| 1/{n} | {r['torus_z']:.8f} | {r['torus_z'] - prev['torus_z']:.2e} | {r['blob_z']:.8f} | "
                         f"{r['blob_z'] - prev['blob_z']:.2e} | {side:.2e} |")
         prev = r
-
-    def ground_in_step(scene):
-        for rule in scene["heuristics"]:
-            rule["method"] = "implicit"
-    ys = [r["torus_y"] for r in converge("mesh_drop", 1.5, ground_in_step)]
+    ys = [r["torus_y"] for _, r in converge("mesh_drop", 1.5, ground_in_step)]
     rows += ["", "With the scene's friction: the torus's mean y after 1.5 s at h = 1/60 ... 1/480 s: " +
              ", ".join(f"{y * 1000:.1f} mm" for y in ys)]
     return "\n".join(rows)
