@@ -38,7 +38,7 @@ void check_distributable(const Scene& scene, int ranks) {
   if (implicit && scene.integrator.solver != CoupledSolver::cg)
     throw std::invalid_argument(over + "solves coupled_implicit with PETSc's CG (solver cg), not solver " +
                                 std::string(to_string(scene.integrator.solver)) + one);
-  if (implicit && scene.world.model.solves_contact())
+  if (scene.world.model.solves_contact())
     throw std::invalid_argument(over + "does not distribute obstacles and quanta contact yet" + one);
   if (implicit && !scene.heuristics.empty())
     throw std::invalid_argument(over + "does not distribute heuristics with coupled_implicit yet" + one);

@@ -434,6 +434,41 @@ std::unique_ptr<Heuristic> make_heuristic(QuantaContactRule rule) {
 namespace qbond::scene_detail {
 namespace {
 
+ContactMethod contact_method(const Obj& o) {
+  return choice<ContactMethod>(
+      o["method"], o.at("method"),
+      {{"projection", ContactMethod::projection}, {"implicit", ContactMethod::implicit}, {"penalty", ContactMethod::penalty}});
+}
+
+// A contact held in the step (method implicit or penalty) against the scene's integrator and its
+// other such contacts; its κ from "penalty", or the method's default.
+void check_step_contact(const HeuristicEntry& e, ContactMethod method, double& penalty) {
+  const Obj& o = e.o;
+  const IntegratorType type = e.integrator().type;
+  const std::string integrator(to_string(type));
+  if (method == ContactMethod::implicit && type != IntegratorType::coupled_implicit)
+    bad(o.at("method"), "'implicit' contact is solved by the coupled_implicit integrator, not " + integrator +
+                            " (use \"penalty\" or \"projection\")");
+  const bool explicit_step = type == IntegratorType::explicit_euler || type == IntegratorType::symplectic_euler ||
+                             type == IntegratorType::velocity_verlet || type == IntegratorType::rk4;
+  if (method == ContactMethod::penalty && !explicit_step)
+    bad(o.at("method"), "'penalty' contact is a force of the explicit integrators, not of " + integrator +
+                            (type == IntegratorType::coupled_implicit ? " (use \"implicit\")" : " (use \"projection\")"));
+  const Model& m = e.w.model;
+  const bool other = std::any_of(m.obstacles.begin(), m.obstacles.end(), [&](const Obstacle& ob) { return ob.method != method; }) ||
+                     (m.quanta_contact.radius > 0 && m.quanta_contact.method != method);
+  if (other) bad(o.at("method"), "the contacts held in the step take one method, \"implicit\" or \"penalty\"");
+  if (method == ContactMethod::penalty) {
+    penalty = kPenaltyForceDefault;
+    if (o.has("static_friction"))
+      bad(o.at("static_friction"), "is a key of \"method\": \"implicit\": a penalty force has no memory of where a contact stuck");
+  }
+  if (o.has("penalty")) penalty = positive(o["penalty"], o.at("penalty"));
+  if (method == ContactMethod::penalty && penalty > kPenaltyForceMost)
+    bad(o.at("penalty"), "must be at most " + num_str(kPenaltyForceMost) +
+                             " for \"method\": \"penalty\" (the contact's ω h = √penalty; above 1 the explicit step is unstable)");
+}
+
 void read_obstacle(const HeuristicEntry& e) {
   const Obj& o = e.o;
   Obstacle ob;
@@ -468,20 +503,15 @@ void read_obstacle(const HeuristicEntry& e) {
       bad(o.at("margin"), "must be below the container's " + std::string(ob.shape == Obstacle::Shape::sphere ? "radius" : "half size") +
                               " " + num_str(room) + " m, or no quanta fits inside");
   }
-  if (o.has("method"))
-    ob.method = choice<ContactMethod>(o["method"], o.at("method"),
-                                      {{"projection", ContactMethod::projection}, {"implicit", ContactMethod::implicit}});
-  if (o.has("penalty")) ob.penalty = positive(o["penalty"], o.at("penalty"));
-  if (ob.method == ContactMethod::implicit) {
-    if (e.integrator().type != IntegratorType::coupled_implicit)
-      bad(o.at("method"), "'implicit' contact is solved by the coupled_implicit integrator, not " +
-                              std::string(to_string(e.integrator().type)) + " (use \"projection\")");
-    // Held by the step's solve: the model's, not a rule that edits the projection.
+  if (o.has("method")) ob.method = contact_method(o);
+  if (ob.method != ContactMethod::projection) {
+    check_step_contact(e, ob.method, ob.penalty);
+    // Held by the step: the model's, not a rule that edits the projection.
     e.w.model.obstacles.push_back(ob);
     return;
   }
   if (o.has("static_friction") || o.has("penalty"))
-    bad(o.path(), "static_friction and penalty are keys of \"method\": \"implicit\" obstacles");
+    bad(o.path(), "static_friction and penalty are keys of \"method\": \"implicit\" or \"penalty\" obstacles");
   // Every obstacle records the impulse it gives (diagnostics' obstacle<k>_ columns).
   ob.record = e.next_obstacle_record();
   e.out.emplace_back(ob);
@@ -520,7 +550,7 @@ std::span<const HeuristicReader> scene_readers(std::type_identity<Obstacle>) {
   using Keys = std::vector<SceneKey>;
   static const Keys obstacle_keys = {{"type", "string"},          {"restitution", "number"},
                                      {"friction", "number"},      {"margin", "number"},
-                                     {"static_friction", "number"}, {"method", "enum:projection|implicit"},
+                                     {"static_friction", "number"}, {"method", "enum:projection|implicit|penalty"},
                                      {"penalty", "number"}};
   auto with = [](Keys keys, std::initializer_list<SceneKey> more) {
     keys.insert(keys.end(), more);
@@ -548,7 +578,7 @@ std::span<const HeuristicReader> scene_readers(std::type_identity<QuantaContactR
         {"iterations", "integer"},
         {"same_body", "boolean"},
         {"static_friction", "number"},
-        {"method", "enum:projection|implicit"},
+        {"method", "enum:projection|implicit|penalty"},
         {"penalty", "number"}},
        [](const HeuristicEntry& e) {
          const Obj& o = e.o;
@@ -557,24 +587,19 @@ std::span<const HeuristicReader> scene_readers(std::type_identity<QuantaContactR
          r.material = e.contact_material();
          if (o.has("iterations")) r.iterations = static_cast<int>(integer(o["iterations"], o.at("iterations"), 1));
          if (o.has("same_body")) r.same_body = boolean(o["same_body"], o.at("same_body"));
-         if (o.has("method"))
-           r.method = choice<ContactMethod>(o["method"], o.at("method"),
-                                            {{"projection", ContactMethod::projection}, {"implicit", ContactMethod::implicit}});
-         if (o.has("penalty")) r.penalty = positive(o["penalty"], o.at("penalty"));
+         if (o.has("method")) r.method = contact_method(o);
          check_contact_radius(r, o, e.w);
-         if (r.method == ContactMethod::implicit) {
-           if (e.integrator().type != IntegratorType::coupled_implicit)
-             bad(o.at("method"), "'implicit' contact is solved by the coupled_implicit integrator, not " +
-                                     std::string(to_string(e.integrator().type)) + " (use \"projection\")");
+         if (r.method != ContactMethod::projection) {
+           check_step_contact(e, r.method, r.penalty);
            if (o.has("iterations")) bad(o.at("iterations"), "is a key of \"method\": \"projection\" contact");
            if (e.w.model.quanta_contact.radius > 0)
-             bad(o.path(), "one \"contact\" rule with \"method\": \"implicit\" at most");
-           // Held by the step's solve: the model's, not a rule that edits the projection.
+             bad(o.path(), "one \"contact\" rule held in the step (\"implicit\" or \"penalty\") at most");
+           // Held by the step: the model's, not a rule that edits the projection.
            e.w.model.quanta_contact = r;
            return;
          }
          if (o.has("static_friction") || o.has("penalty"))
-           bad(o.path(), "static_friction and penalty are keys of \"method\": \"implicit\" contact");
+           bad(o.path(), "static_friction and penalty are keys of \"method\": \"implicit\" or \"penalty\" contact");
          e.out.emplace_back(r);
        }},
   };

@@ -8,6 +8,7 @@
 #include "integrators/affine_run_terms.hpp"
 #include "integrators/bond_forces.hpp"
 #include "integrators/integrator_common.hpp"
+#include "integrators/penalty_contact.hpp"
 #include "core/parallel.hpp"
 #include "core/simd.hpp"
 
@@ -148,7 +149,7 @@ class ExplicitIntegrator final : public StepIntegrator {
     if (config_.type != IntegratorType::velocity_verlet)
       return StepIntegrator::advance(model, state, adj, f_ext, ctx, out, to);
     part_.update(model, state.bonds, adj, config_.threads);
-    verlet(model, state, f_ext, ctx, out, &to);
+    verlet(model, state, adj, f_ext, ctx, out, &to);
   }
 
   void project(const Model& model, const State& state, const Adjacency& adj,
@@ -157,12 +158,20 @@ class ExplicitIntegrator final : public StepIntegrator {
     const double h = ctx.h;
     part_.update(model, state.bonds, adj, config_.threads);
     const bool verlet_step = config_.type == IntegratorType::velocity_verlet;
-    if (verlet_step) return verlet(model, state, f_ext, ctx, out, nullptr);
+    if (verlet_step) return verlet(model, state, adj, f_ext, ctx, out, nullptr);
     // The Euler steps write every row (euler_rows): dx and dv are not zeroed first.
     const bool rk4 = config_.type == IntegratorType::rk4;
     out.resize(n, /*zero=*/rk4);
     if (rk4) project_kinematic(model, state, ctx, out);  // its stages read the kinematic rows
-    accelerations(model, state, part_, state.x, state.v, f_ext, config_.threads, forces_, a1_);
+    const bool contact = begin_contact(model);
+    // a(x, v), with the penalty contacts' forces taken over the fraction w of the step.
+    auto forces_at = [&](const std::vector<Vec3>& x, const std::vector<Vec3>& v, double w, std::vector<Vec3>& a) {
+      accelerations(model, state, part_, x, v, f_ext, config_.threads, forces_, a);
+      if (!contact) return;
+      contact_step(model, adj, h, w, PointsView::of(x.data(), v.data()));
+      for (const PenaltyContact::Force& c : contact_.forces()) a[c.i] += model.inv_mass[c.i] * c.f;
+    };
+    forces_at(state.x, state.v, rk4 ? 1.0 / 6 : 1.0, a1_);
     switch (config_.type) {
       case IntegratorType::explicit_euler:
         euler_rows(model, state, ctx, out, [&](std::size_t i) { set_free(out, i, h * state.v[i], h * a1_[i]); });
@@ -180,16 +189,16 @@ class ExplicitIntegrator final : public StepIntegrator {
           return std::pair{Vec3(0.5 * h * state.v[i]), Vec3(0.5 * h * a1_[i])};
         });
         v2_ = vs_;
-        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, forces_, a2_);
+        forces_at(xs_, vs_, 1.0 / 3, a2_);
         stage(model, state, out, 0.5, [&](std::size_t i) {
           return std::pair{Vec3(0.5 * h * v2_[i]), Vec3(0.5 * h * a2_[i])};
         });
         v3_ = vs_;
-        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, forces_, a3_);
+        forces_at(xs_, vs_, 1.0 / 3, a3_);
         stage(model, state, out, 1.0, [&](std::size_t i) {
           return std::pair{Vec3(h * v3_[i]), Vec3(h * a3_[i])};
         });
-        accelerations(model, state, part_, xs_, vs_, f_ext, config_.threads, forces_, a4_);
+        forces_at(xs_, vs_, 1.0 / 6, a4_);
         for_free(model, [&](std::size_t i) {
           set_free(out, i, (h / 6) * (state.v[i] + 2 * v2_[i] + 2 * v3_[i] + vs_[i]),
                    (h / 6) * (a1_[i] + 2 * a2_[i] + 2 * a3_[i] + a4_[i]));
@@ -199,6 +208,11 @@ class ExplicitIntegrator final : public StepIntegrator {
       default:
         break;
     }
+    if (!contact) return;
+    // The springs' energy at the step's end (x₁, v₁ into xs_, vs_).
+    stage(model, state, out, 1.0, [&](std::size_t i) { return std::pair{out.dx[i], out.dv[i]}; });
+    contact_.evaluate(model, adj, h, PointsView::of(xs_.data(), vs_.data()));
+    finish_contact(model, state.v, vs_.data(), out);
   }
 
  private:
@@ -210,8 +224,8 @@ class ExplicitIntegrator final : public StepIntegrator {
   // State::carry with the x₁, v₁ it left (VerletForces); when the state is not exactly that (a
   // heuristic, a contact, a rollback or the user changed it) a = a(x, v) is evaluated afresh.
   // With `to`, the step is advanced in place (advance.hpp): x₁ and v₁ go there, checked.
-  void verlet(const Model& model, const State& state, const std::vector<Vec3>& f_ext, const StepContext& ctx,
-              Projection& out, Advanced* to) {
+  void verlet(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
+              const StepContext& ctx, Projection& out, Advanced* to) {
     const std::size_t n = model.num_quanta();
     const double h = ctx.h;
     const int threads = config_.threads;
@@ -270,7 +284,27 @@ class ExplicitIntegrator final : public StepIntegrator {
       cv = v;
       reduce_chunks(n, threads, true, stage, std::logical_and<>{});
     }
+    // The penalty contacts at the start (x, v) and at the stage (x₁, ṽ), each for half the step's
+    // kick: the start's in x₁ and ṽ before the bond pass reads them.
+    const bool contact = begin_contact(model);
+    if (contact) {
+      contact_step(model, adj, h, 0.5, PointsView::of(state.x.data(), state.v.data()));
+      for (const PenaltyContact::Force& c : contact_.forces())
+        for (std::size_t k = 0; k < 3; ++k) {
+          const std::size_t e = 3 * static_cast<std::size_t>(c.i) + k;
+          const double a = model.inv_mass[c.i] * c.f[k];
+          if (dx) {
+            dx[e] += 0.5 * h * h * a;
+            rows.x[k][c.i] = x[e] + dx[e];  // as the step applies it
+          } else {
+            rows.x[k][c.i] += 0.5 * h * h * a;
+          }
+          rows.v[k][c.i] += h * a;
+        }
+    }
     add_bond_forces(model, state, part_, rows);
+    if (contact)
+      contact_step(model, adj, h, 0.5, PointsView{{rows.x[0], rows.x[1], rows.x[2]}, {rows.v[0], rows.v[1], rows.v[2]}, 1});
     // The prescribed quanta's v₁ as placed (verlet_finish wrote their v), and their rows of the
     // projection (project_kinematic), or of the applied state (place_kinematic: the stage put
     // their x₁ in the rows).
@@ -288,6 +322,54 @@ class ExplicitIntegrator final : public StepIntegrator {
     };
     const bool ok = reduce_chunks(n, threads, true, finish, std::logical_and<>{});
     if (to) to->ok = ok;
+    if (!contact) return;
+    // The contacts' kick m⁻¹ J, J = h/2 (f₀ + f₁), added to v₁ as the step applies it.
+    for (std::size_t q = 0; q < n; ++q) {
+      if (impulse_[q] == Vec3::Zero()) continue;
+      for (std::size_t k = 0; k < 3; ++k) {
+        const std::size_t e = 3 * q + k;
+        const double kick = model.inv_mass[q] * impulse_[q][k];
+        if (to) {
+          next.v[e] += kick;
+          to->v[q][k] = next.v[e];
+        } else {
+          out.dv[q][k] += kick;
+          next.v[e] = v[e] + out.dv[q][k];
+        }
+      }
+    }
+    finish_contact(model, state.v, kept.v.data(), out);
+  }
+
+  // Starts a step's contact books; whether the model has penalty contacts.
+  bool begin_contact(const Model& model) {
+    if (!PenaltyContact::used(model)) return false;
+    impulse_.assign(model.num_quanta(), Vec3::Zero());
+    stored_start_ = NAN;
+    return true;
+  }
+
+  // Evaluates the contacts at p, for the fraction w of the step the integrator gives their forces:
+  // their impulse w h f goes to the step's books. The step's first evaluation is at its start.
+  void contact_step(const Model& model, const Adjacency& adj, double h, double w, const PointsView& p) {
+    contact_.evaluate(model, adj, h, p);
+    if (std::isnan(stored_start_)) stored_start_ = contact_.stored();
+    for (const PenaltyContact::Force& c : contact_.forces()) impulse_[c.i] += (w * h) * c.f;
+  }
+
+  // out.contact from the step's books, the last evaluation being at the step's end: the impulses'
+  // work W = Σ J·(v + v₁)/2 (exactly the kinetic energy they change) and the springs' energy U;
+  // what the contacts took out, −W − ΔU, charged when positive (a negative balance is the
+  // integrator's error on the stiff spring, left in `numerical`).
+  void finish_contact(const Model& model, const std::vector<Vec3>& v, const Vec3* v1, Projection& out) const {
+    double work = 0;
+    for (std::size_t q = 0; q < model.num_quanta(); ++q)
+      if (impulse_[q] != Vec3::Zero()) work += impulse_[q].dot(0.5 * (v[q] + v1[q]));
+    const double stored = contact_.stored();
+    out.contact = {.dissipated = std::max(0.0, -work - (stored - stored_start_)),
+                   .stored = stored,
+                   .work = work,
+                   .charged = true};
   }
 
   static void set_free(Projection& out, std::size_t i, const Vec3& dx, const Vec3& dv) {
@@ -348,6 +430,9 @@ class ExplicitIntegrator final : public StepIntegrator {
   }
 
   std::vector<Vec3> a1_, a2_, a3_, a4_, xs_, vs_, v2_, v3_;
+  PenaltyContact contact_;
+  std::vector<Vec3> impulse_;  // per quanta: the contacts' impulse this step
+  double stored_start_ = 0;    // the contact springs' energy at the step's start [J]
   BondPartition part_;
   ForceArrays forces_;
   PrescribedAt prescribed_;  // Verlet's

@@ -13,6 +13,20 @@ namespace {
 StepIntegrator& stepper(const std::unique_ptr<Integrator>& integrator) {
   return static_cast<StepIntegrator&>(*integrator);
 }
+
+// The integrator holds the model's step contacts: coupled_implicit in its solve, an explicit one as
+// penalty forces.
+void check_step_contact(const Model& model, IntegratorType type) {
+  const ContactMethod method = model.step_contact_method();
+  const bool explicit_step = type == IntegratorType::explicit_euler || type == IntegratorType::symplectic_euler ||
+                             type == IntegratorType::velocity_verlet || type == IntegratorType::rk4;
+  if (method == ContactMethod::implicit && type != IntegratorType::coupled_implicit)
+    throw std::invalid_argument("the model's obstacles and quanta contact are held inside the coupled_implicit step's solve, not by " +
+                                std::string(to_string(type)) + " (make them penalty or projection rules)");
+  if (method == ContactMethod::penalty && !explicit_step)
+    throw std::invalid_argument("the model's obstacles and quanta contact are penalty forces of the explicit integrators, not of " +
+                                std::string(to_string(type)) + " (make them implicit or projection rules)");
+}
 }  // namespace
 
 // ---- The step: its stages in order (stages.hpp) -------------------------------------------------
@@ -84,9 +98,7 @@ StepReport Simulation::roll_back(StepReport r, bool applied) {
 Simulation::Simulation(World world, const IntegratorConfig& config, double h)
     : world_(std::move(world)), integrator_(make_step_integrator(config)), h_(h), scratch_(std::make_unique<StepScratch>()) {
   checked_thread_count(config.threads);  // before any parallel region: OpenMP crashes on absurd counts
-  if (world_.model.solves_contact() && config.type != IntegratorType::coupled_implicit)
-    throw std::invalid_argument("the model's obstacles and quanta contact are held inside the coupled_implicit step's solve, not by " +
-                                std::string(to_string(config.type)) + " (make them projection rules)");
+  check_step_contact(world_.model, config.type);
   const std::size_t n = world_.num_quanta();
   scratch_->f_ext.assign(n, Vec3::Zero());
   scratch_->f_user.assign(n, Vec3::Zero());
@@ -99,12 +111,14 @@ Simulation::~Simulation() = default;
 
 void Simulation::set_integrator(const IntegratorConfig& config) {
   checked_thread_count(config.threads);
+  check_step_contact(world_.model, config.type);
   integrator_ = make_step_integrator(config);
   world_.state.carry = std::monostate{};  // the carry-over was the old integrator's
 }
 
 void replace_step_integrator(Simulation& sim, std::unique_ptr<StepIntegrator> integrator) {
   checked_thread_count(integrator->config().threads);
+  check_step_contact(sim.world_.model, integrator->config().type);
   sim.integrator_ = std::move(integrator);
   sim.world_.state.carry = std::monostate{};
 }

@@ -28,7 +28,14 @@ struct ContactMaterial {
 enum class ContactMethod : std::uint8_t {
   projection,  ///< edits the projected step afterwards (the `contacts` heuristic)
   implicit,    ///< penalty springs inside the implicit step's linear solve (coupled_implicit)
+  penalty,     ///< penalty forces evaluated with the bond forces (the explicit integrators)
 };
+
+/// The penalty κ of a contact held by ContactMethod::penalty unless the scene gives one, and the
+/// largest it takes: the contact spring's ω h = √κ stays within every explicit integrator's
+/// stability limit.
+inline constexpr double kPenaltyForceDefault = 0.01;
+inline constexpr double kPenaltyForceMost = 1;
 
 /// A static obstacle. Quanta are kept `margin` away from its surface (their radius): outside a
 /// sphere or box, or, for a container (`inside`), inside it.
@@ -48,8 +55,9 @@ struct Obstacle {
   /// wall pressure); -1: not recorded. Scenes number their obstacles 0, 1, ... in order.
   std::int32_t record = -1;
   ContactMethod method = ContactMethod::projection;
-  /// implicit: the penalty spring's stiffness as κ in k = κ m / h² (m the quanta's mass, h the
-  /// step), so that the solve's contact block h² k = κ m outweighs the quanta's inertia.
+  /// implicit, penalty: the penalty spring's stiffness as κ in k = κ m / h² (m the quanta's mass,
+  /// h the step). implicit: the solve's contact block h² k = κ m outweighs the quanta's inertia;
+  /// penalty: κ ≤ kPenaltyForceMost keeps the explicit step stable.
   double penalty = 1000;
 
   /// Signed distance of p from the surface, positive on the free side (outside, or inside a
@@ -78,9 +86,10 @@ struct QuantaContactRule {
   int iterations = 4;      ///< Gauss–Seidel passes over the contacts (stacks need several)
   bool same_body = true;   ///< whether quanta of one body collide with each other
   /// projection: the heuristic edits the projected step; implicit: each touching pair is a penalty
-  /// spring inside coupled_implicit's solve (Model::quanta_contact).
+  /// spring inside coupled_implicit's solve (Model::quanta_contact); penalty: a penalty force of
+  /// the explicit integrators (Model::quanta_contact).
   ContactMethod method = ContactMethod::projection;
-  /// implicit: κ in the pair's spring k = κ μ / h² (μ the pair's reduced mass), as Obstacle::penalty.
+  /// implicit, penalty: κ in the pair's spring k = κ μ / h² (μ the pair's reduced mass), as Obstacle::penalty.
   double penalty = 1000;
 
   bool operator==(const QuantaContactRule&) const = default;

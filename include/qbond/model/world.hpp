@@ -88,15 +88,21 @@ struct Model {
   Vec3 gravity = Vec3::Zero();    ///< [m/s²]
   std::vector<Load> loads;
   std::vector<Motion> motions;
-  /// Obstacles the implicit step keeps the quanta out of inside its solve (ContactMethod::implicit;
-  /// coupled_implicit only). The post-projection ones are heuristics.
+  /// Obstacles the step keeps the quanta out of, all of one method: inside coupled_implicit's solve
+  /// (ContactMethod::implicit) or as penalty forces of the explicit integrators
+  /// (ContactMethod::penalty). The post-projection ones are heuristics.
   std::vector<Obstacle> obstacles;
-  /// Quanta–quanta contact the implicit step holds inside its solve (ContactMethod::implicit;
-  /// coupled_implicit only); radius 0: none. The post-projection rule is a heuristic.
+  /// Quanta–quanta contact the step holds, by the obstacles' method; radius 0: none. The
+  /// post-projection rule is a heuristic.
   QuantaContactRule quanta_contact;
 
-  /// Whether the step's solve holds contacts (obstacles or quanta–quanta).
+  /// Whether the step holds contacts (obstacles or quanta–quanta).
   bool solves_contact() const { return !obstacles.empty() || quanta_contact.radius > 0; }
+  /// How the step holds them (implicit or penalty); projection when it holds none.
+  ContactMethod step_contact_method() const {
+    if (!obstacles.empty()) return obstacles.front().method;
+    return quanta_contact.radius > 0 ? quanta_contact.method : ContactMethod::projection;
+  }
 
   std::size_t num_quanta() const { return mass.size(); }
   bool is_kinematic(Index i) const { return inv_mass[i] == 0.0; }
