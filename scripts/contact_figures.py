@@ -35,10 +35,11 @@ SCENES = [
     ("block_incline", [(0.0, "set on the incline"),
                        (1.0, lambda rows, t: f"slid {at(rows, t, 'block_x') - rows[0]['block_x']:.2f} m down it")],
      None, "block_incline: sliding with friction (gravity tilted 35°, the view follows the block)"),
-    ("ball_bounce", [(25 * H, lambda rows, t: f"{gap_cm(rows, t):.1f} cm up, falling {-speed(rows, t):.2f} m/s"),
-                     (26 * H, lambda rows, t: f"{gap_cm(rows, t):.1f} cm up: {-speed(rows, t) * H / 5e-3:.0f} radii a step"),
-                     (27 * H, lambda rows, t: f"{gap_cm(rows, t):.1f} cm up after its contact step, leaving at "
-                                              f"{speed(rows, t + H) + 9.81 * H:.2f} m/s (e × {-speed(rows, t - H):.2f})")],
+    ("ball_bounce", [(26 * H, lambda rows, t: f"{gap_cm(rows, t):.1f} cm up, falling {-speed(rows, t):.2f} m/s"),
+                     (27 * H, lambda rows, t: f"{gap_cm(rows, t):.1f} cm up: {-speed(rows, t) * H / 5e-3:.0f} radii a step"),
+                     (28 * H, lambda rows, t: f"{gap_cm(rows, t):.1f} cm up, after its contact step: left at "
+                                              f"{at_ground(rows, t, speed(rows, t + H) + 9.81 * H):.2f} = e × "
+                                              f"{at_ground(rows, t - H, speed(rows, t - H)):.2f} m/s")],
      ((0.2, -0.3, 0.07), (0.0, 0.0, 0.05)), "ball_bounce: restitution 0.5, a 5 mm quanta dropped 1 m"),
     ("stack", [(0.0, "set 0.5 mm apart"), (10.0, "at rest after 10 s")],
      ((0.12, -0.16, 0.12), (0.015, 0.015, 0.055)), "stack: three 4×4×4 blocks on the ground"),
@@ -60,9 +61,14 @@ def gap_cm(rows, t):
 
 
 def speed(rows, t):
-    """ball_bounce: the quanta's vertical speed at t in free flight (backward Euler's positions
-    advance with the step's end velocity)."""
-    return (at(rows, t, "ball_z") - at(rows, t - H, "ball_z")) / H
+    """ball_bounce: the quanta's vertical velocity at t after a step of free flight, which is exact:
+    the step's mean velocity less g h / 2."""
+    return (at(rows, t, "ball_z") - at(rows, t - H, "ball_z")) / H - 9.81 * H / 2
+
+
+def at_ground(rows, t, v):
+    """ball_bounce: the speed of its exact flight where it meets the ground, from velocity v at t."""
+    return (v * v + 2 * 9.81 * gap_cm(rows, t) / 100) ** 0.5
 
 
 LEDGER = [  # column, label, style

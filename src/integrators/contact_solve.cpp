@@ -60,10 +60,25 @@ bool ContactSolve::make(const Model& model, const State& state, double h, Index 
     const double v_in = -n.dot(state.v[i]);
     if (v_in > 0) {
       // An impact: the spring's rest gap is where the quanta would be after bouncing off the
-      // surface for the rest of the step, and finish() gives it the normal velocity e v_in.
+      // surface for the rest of the step, and finish() gives a lone quanta its normal velocity.
       c.v_in = v_in;
+      const double e = ob.material.restitution;
       const double gap_start = c.gap_ref + n.dot(x0 - c.ref);
-      c.target = ob.material.restitution * std::max(0.0, h * v_in - gap_start);
+      c.target = e * std::max(0.0, h * v_in - gap_start);
+      c.v_out = e * v_in;
+      if (adj_->offset[i] == adj_->offset[i + 1]) {
+        // A lone quanta's flight under its external force, exactly: when it meets the surface
+        // (gap_start = v_in t + ½ a t²), and where and how fast it leaves.
+        const double a = -n.dot(external_force(model, *f_ext_, i)) * model.inv_mass[i];
+        const double disc = v_in * v_in + 2 * a * std::max(0.0, gap_start);
+        const double t = disc >= 0 ? 2 * std::max(0.0, gap_start) / (v_in + std::sqrt(disc)) : HUGE_VAL;
+        if (t <= h) {
+          const double vc = v_in + a * t, tau = h - t;
+          const double up = e * vc * tau - 0.5 * a * tau * tau;
+          c.target = std::max(0.0, up);
+          c.v_out = up > 0 ? e * vc - a * tau : 0.0;
+        }
+      }
     }
   }
   c.n = n;
@@ -270,6 +285,8 @@ bool ContactSolve::begin(const Model& model, const State& state, const Adjacency
                          const std::vector<Vec3>& f_ext, double h, double spring_h, int threads,
                          ImplicitSystem& sys) {
   spring_h_ = spring_h;
+  adj_ = &adj;
+  f_ext_ = &f_ext;
   contacts_.clear();
   pairs_.clear();
   candidates_.clear();
@@ -492,7 +509,7 @@ void ContactSolve::finish(const Model& model, const State& state, const Adjacenc
       // velocity set after the solve would differ from the one its bonds' dampers were solved
       // with (the ledger would charge them for motion the step never had); a bonded quanta's
       // bounce is its spring's rest gap, solved with its body.
-      const double want = model.obstacles[c.obstacle].material.restitution * c.v_in;
+      const double want = c.v_out;
       const double vn = c.n.dot(state.v[i] + out.dv[i]);
       if (want > vn) {
         out.dv[i] += (want - vn) * c.n;
@@ -521,10 +538,19 @@ void ContactSolve::finish(const Model& model, const State& state, const Adjacenc
       }
     }
   }
-  double work = 0;  // Σ J·(v + v₁)/2 over the free quanta in contact
-  for (std::size_t q = 0; q < n; ++q)
-    if (touching_.size() == n && touching_[q] && !model.is_kinematic(static_cast<Index>(q)))
+  // Σ J·(v + v₁)/2 over the free quanta in contact: the kinetic energy the impulses change. A lone
+  // quanta's step is its flight and bounce, exactly: what its contact did is its kinetic energy's
+  // change less its external force's work along the step it took.
+  double work = 0;
+  for (std::size_t q = 0; q < n; ++q) {
+    const auto i = static_cast<Index>(q);
+    if (touching_.size() != n || !touching_[q] || model.is_kinematic(i)) continue;
+    if (adj.offset[i] == adj.offset[i + 1])
+      work += 0.5 * model.mass[q] * ((state.v[q] + out.dv[q]).squaredNorm() - state.v[q].squaredNorm()) -
+              external_force(model, *f_ext_, i).dot(out.dx[q]);
+    else
       work += impulse_[q].dot(state.v[q] + 0.5 * out.dv[q]);
+  }
   for (std::size_t q = 0; q < n; ++q) x1_[q] = state.x[q] + out.dx[q];
   const double u0 = stored(model, state.x), u1 = stored(model, x1_);
   // A step whose balance comes out negative (the linearised springs gave energy back, as when a

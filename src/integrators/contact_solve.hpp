@@ -9,8 +9,11 @@
 //     A_ii += h² k n nᵀ,   b_i += h k c n,   c = g* − φ(r) − n·(x − r) − h n·v,
 // a diagonal 3×3 block, so CG, multigrid and the direct solvers take it as they take the mass.
 // g* is 0, or for an impact (a quanta on the free side at the start, approaching at v_in) with
-// restitution e the gap at which it would end after bouncing, e (h v_in − φ(x))⁺; a lone quanta's
-// end normal velocity is then set to e v_in (a bonded one's is its body's solve).
+// restitution e the gap at which it would end after bouncing, e (h v_in − φ(x))⁺. A lone quanta
+// (no bonds) under its constant external force (normal part a toward the surface) is followed
+// exactly: it meets the surface at t with φ(x) = v_in t + ½ a t², at v_c = v_in + a t, and ends the
+// step e v_c τ − ½ a τ² above it (τ = h − t) at the normal velocity e v_c − a τ, set after the
+// solve (a bonded quanta's velocity is its body's solve).
 // Coulomb friction is a tangential damper in the same system: the force −c P w₁ (P = I − n nᵀ,
 // w₁ the end-of-step tangential velocity, relative for a pair) adds A_ii += h c P,
 // b_i −= h c P v. A sticking contact has c = h k_t, k_t = 100 k (a spring to the start position);
@@ -72,6 +75,7 @@ class ContactSolve {
     double gap_ref = 0;
     double target = 0;  // g*
     double v_in = 0;    // approach speed of an impact (0: none)
+    double v_out = 0;   // the normal speed a lone quanta's impact leaves with (finish)
     double k = 0;       // κ m / h²
     double fn = 0;      // normal force of the last solve [N]
     bool slide = false;
@@ -138,6 +142,8 @@ class ContactSolve {
   std::vector<double> reach_;                    // half the predicted paths' lengths (scratch)
   std::vector<Vec3> impulse_;                    // per quanta: the contacts' impulse this step (finish)
   double spring_h_ = 0;                          // the step length that sets the springs' stiffness
+  const Adjacency* adj_ = nullptr;               // the step's bonds and external forces (begin)
+  const std::vector<Vec3>* f_ext_ = nullptr;
   SpatialHash grid_;
 };
 

@@ -103,6 +103,8 @@ class CoupledIntegrator final : public StepIntegrator {
       if (whole) keep_guess(config_.warm_start, y_, ctx.h, state.carry, config_.threads, out);
     }
     write_free_rows(model, state, ctx.h, y_, config_.threads, out);
+    topo_.update(model, adj);
+    fall_freely(model, topo_.components, f_ext, ctx.h, contact_.touching(), out);
     if (contacts) contact_.finish(model, state, adj, ctx.h, y_, out);
     stats_.iterations += step.iterations;
     stats_.residual = std::max(stats_.residual, step.residual);

@@ -71,6 +71,14 @@ inline int cg_cap(const IntegratorConfig& c, const TopologyCache& topo) {
   return c.max_iterations > 0 ? c.max_iterations : static_cast<int>(3 * topo.coloring.quanta.size());
 }
 
+// Moves every lone quanta (no bonds) in free fall by −½ h² g: backward Euler's x + h v₁ puts it
+// ½ h² g ahead of the exact x + h v + ½ h² g each step (it loses ½ m g² h² of energy). In free
+// fall: its external force is m g and it is not `touching` a contact (one flag per quanta, or
+// empty: none); its impact steps are followed exactly by the contacts (contact_solve.hpp). Bodies
+// keep backward Euler's step, whose damping their contacts' active sets rely on.
+void fall_freely(const Model& model, const FreeComponents& comps, const std::vector<Vec3>& f_ext, double h,
+                 const std::vector<std::uint8_t>& touching, Projection& out);
+
 // Gives every free component (no bond to a kinematic quanta) its exact momentum change over the
 // step, h Σ f_ext, by a uniform velocity shift: an iterative solve stopped early leaves a small
 // momentum error that would otherwise accumulate (a free body creeping or falling too slowly).
