@@ -9,8 +9,9 @@
 // with the damping ratio ζ at which a lone quanta arriving at v leaves at e v (restitution_of in
 // the .cpp: the contact ends when f_n reaches zero), at most 1 / (2 √κ): c h / m = 2 ζ √κ ≤ 1 keeps
 // the damper stable, so a restitution below that ζ's (0.009 at κ = 0.01) gets that ζ's. With κ ≤ 1
-// the spring's ω h = √κ ≤ 1 keeps every explicit integrator stable (default κ = 0.01), and the depth
-// under a weight W is W h² / (κ m): the contact stiffens as the step shrinks.
+// the spring's ω h = √κ ≤ 1 keeps velocity Verlet, symplectic Euler and RK4 stable (default
+// κ = 0.01; explicit Euler gains energy on any spring), and the depth under a weight W is
+// W h² / (κ m): the contact stiffens as the step shrinks.
 // Friction is Coulomb's regularised by a damper: f_t = −min(μ_k f_n, c_t |v_t|) v_t/|v_t| with
 // c_t = m / h (one step stops a lone quanta's sliding when μ_k f_n allows it); a body held by
 // static friction creeps at |v_t| ≤ F_t h / m per quanta instead of sticking.

@@ -32,8 +32,8 @@ enum class ContactMethod : std::uint8_t {
 };
 
 /// The penalty κ of a contact held by ContactMethod::penalty unless the scene gives one, and the
-/// largest it takes: the contact spring's ω h = √κ stays within every explicit integrator's
-/// stability limit.
+/// largest it takes: the contact spring's ω h = √κ stays within the stability limits of velocity
+/// Verlet, symplectic Euler and RK4.
 inline constexpr double kPenaltyForceDefault = 0.01;
 inline constexpr double kPenaltyForceMost = 1;
 
