@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "heuristics/spatial_hash.hpp"
+#include "integrators/penalty_contact.hpp"
 #include "io/scene/heuristic_entry.hpp"
 
 namespace qbond {
@@ -449,9 +450,7 @@ void check_step_contact(const HeuristicEntry& e, ContactMethod method, double& p
   if (method == ContactMethod::implicit && type != IntegratorType::coupled_implicit)
     bad(o.at("method"), "'implicit' contact is solved by the coupled_implicit integrator, not " + integrator +
                             " (use \"penalty\" or \"projection\")");
-  const bool explicit_step = type == IntegratorType::explicit_euler || type == IntegratorType::symplectic_euler ||
-                             type == IntegratorType::velocity_verlet || type == IntegratorType::rk4;
-  if (method == ContactMethod::penalty && !explicit_step)
+  if (method == ContactMethod::penalty && !holds_penalty_contact(type))
     bad(o.at("method"), "'penalty' contact is a force of the explicit integrators, not of " + integrator +
                             (type == IntegratorType::coupled_implicit ? " (use \"implicit\")" : " (use \"projection\")"));
   const Model& m = e.w.model;

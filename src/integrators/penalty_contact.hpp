@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "heuristics/spatial_hash.hpp"
+#include "qbond/integrators/integrators.hpp"
 #include "qbond/model/world.hpp"
 
 namespace qbond {
@@ -41,6 +42,12 @@ struct PointsView {
     return {{x->data(), x->data() + 1, x->data() + 2}, {v->data(), v->data() + 1, v->data() + 2}, 3};
   }
 };
+
+// Whether integrator `type` holds penalty contacts: the explicit ones, which evaluate forces.
+inline bool holds_penalty_contact(IntegratorType type) {
+  return type == IntegratorType::explicit_euler || type == IntegratorType::symplectic_euler ||
+         type == IntegratorType::velocity_verlet || type == IntegratorType::rk4;
+}
 
 // The restitution a lone quanta gets from a contact of restitution e and penalty κ: e, or, below
 // what the most damping the step takes reaches, that.

@@ -3,6 +3,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "integrators/penalty_contact.hpp"
 #include "qbond/analysis/analysis.hpp"
 #include "simulation/stages.hpp"
 
@@ -18,12 +19,10 @@ StepIntegrator& stepper(const std::unique_ptr<Integrator>& integrator) {
 // penalty forces.
 void check_step_contact(const Model& model, IntegratorType type) {
   const ContactMethod method = model.step_contact_method();
-  const bool explicit_step = type == IntegratorType::explicit_euler || type == IntegratorType::symplectic_euler ||
-                             type == IntegratorType::velocity_verlet || type == IntegratorType::rk4;
   if (method == ContactMethod::implicit && type != IntegratorType::coupled_implicit)
     throw std::invalid_argument("the model's obstacles and quanta contact are held inside the coupled_implicit step's solve, not by " +
                                 std::string(to_string(type)) + " (make them penalty or projection rules)");
-  if (method == ContactMethod::penalty && !explicit_step)
+  if (method == ContactMethod::penalty && !holds_penalty_contact(type))
     throw std::invalid_argument("the model's obstacles and quanta contact are penalty forces of the explicit integrators, not of " +
                                 std::string(to_string(type)) + " (make them implicit or projection rules)");
 }
