@@ -53,7 +53,7 @@ TEST(Bisection, IsTheSameForTheSamePointsAndKeepsPointsThatCannotBeSplit) {
   EXPECT_EQ(*std::max_element(one.begin(), one.end()), 7u);
 }
 
-// A world with anchors, a prescribed motion, two bodies and a broken bond, cut into `ranks`.
+// A world with anchors, a prescribed motion, a load, two bodies and a broken bond, cut into `ranks`.
 World test_world() {
   Scene s = parse_scene(R"({
     "name": "pieces", "timestep": 1e-4, "steps": 1, "gravity": [0, 0, -9.81],
@@ -64,7 +64,8 @@ World test_world() {
       {"name": "b", "type": "lattice", "cell": "cubic", "size": [3, 3, 3], "spacing": 0.01,
        "quanta_mass": 0.002, "material": "m", "origin": [0.02, 0.06, 0]}],
     "anchors": [{"select": {"box": [[-0.001, -1, -1], [0.001, 1, 1]]}},
-                {"select": {"body": "b"}, "motion": {"translate": {"velocity": [0, 1, 0]}}}]
+                {"select": {"body": "b"}, "motion": {"translate": {"velocity": [0, 1, 0]}}}],
+    "loads": [{"select": {"box": [[0.005, -1, -1], [1, 0.035, 1]]}, "force": [0.3, -0.2, 0.1]}]
   })");
   World w = std::move(s.world);
   w.break_bond(3);
@@ -75,8 +76,9 @@ World test_world() {
 class Pieces : public ::testing::TestWithParam<int> {};
 
 // Every quanta owned once, every alive bond accounted for once, the halo lists each other's
-// mirror, and each owned quanta's bond force exactly the whole world's (its bonds all in its
-// piece, summed in the same order).
+// mirror, each owned quanta's bond force exactly the whole world's (its bonds all in its piece,
+// summed in the same order), and each local quanta of a load's selection pushed by the whole
+// load's share.
 TEST_P(Pieces, HoldEveryQuantaAndBondOnceWithTheWholeWorldsForces) {
   const int ranks = GetParam();
   const World whole = test_world();
@@ -88,7 +90,9 @@ TEST_P(Pieces, HoldEveryQuantaAndBondOnceWithTheWholeWorldsForces) {
   ForceArrays work;
   const ForceRows f = bond_force_rows(whole.model, whole.state, part, whole.state.x.data(), whole.state.v.data(), 1, work);
   std::vector<int> owned_by(whole.num_quanta(), -1);
-  std::size_t bonds = 0;
+  std::size_t bonds = 0, loaded = 0;
+  ASSERT_EQ(whole.model.loads.size(), 1u);
+  const Load& load = whole.model.loads[0];
   std::map<std::pair<int, int>, std::vector<Index>> sends, recvs;  // (from, to): whole indices
   for (int r = 0; r < ranks; ++r) {
     const distributed::Piece p = distributed::make_piece(whole, owner, r);
@@ -119,6 +123,18 @@ TEST_P(Pieces, HoldEveryQuantaAndBondOnceWithTheWholeWorldsForces) {
       prescribed += m.quanta.size();
     }
     EXPECT_EQ(prescribed, static_cast<std::size_t>(std::count(w.model.inv_mass.begin(), w.model.inv_mass.end(), 0.0)));
+    ASSERT_EQ(w.model.loads.size(), 1u);
+    const Load& mine = w.model.loads[0];
+    EXPECT_EQ(mine.share(), load.share());
+    std::vector<Index> selected;
+    for (Index q : load.quanta)
+      if (std::binary_search(p.global.begin(), p.global.end(), q)) selected.push_back(q);
+    std::vector<Index> held;
+    for (Index q : mine.quanta) {
+      held.push_back(p.global[q]);
+      loaded += p.owned[q];
+    }
+    EXPECT_EQ(held, selected) << "the local quanta of the selection, in its order";
     Adjacency padj;
     build_adjacency(w.model, w.state, padj);
     BondPartition ppart;
@@ -145,6 +161,7 @@ TEST_P(Pieces, HoldEveryQuantaAndBondOnceWithTheWholeWorldsForces) {
   }
   EXPECT_EQ(std::count(owned_by.begin(), owned_by.end(), -1), 0);
   EXPECT_EQ(bonds, whole.num_alive_bonds());
+  EXPECT_EQ(loaded, load.quanta.size()) << "each loaded quanta owned once";
   EXPECT_EQ(sends, recvs);
   if (ranks > 1) {
     EXPECT_FALSE(sends.empty());

@@ -59,7 +59,6 @@ void check_distributable(const Scene& scene, int ranks) {
     if (law_breaks(b.law[k]))
       throw std::invalid_argument(over + "does not distribute bonds that break at their law's failure stretch (" +
                                   std::string(to_string(b.law[k])) + ") yet" + one);
-  if (!scene.world.model.loads.empty()) throw std::invalid_argument(over + "does not distribute loads yet" + one);
   if (scene.adaptive.enabled) throw std::invalid_argument(over + "does not adapt its step yet" + one);
   if (scene.integrator.restore_energy)
     throw std::invalid_argument(over + "does not restore energy yet (restore_energy)" + one);

@@ -88,6 +88,7 @@ void DistributedStep::build(const std::vector<double>* forces) {
   plan_ = halo_plan(whole_, owner_, rank_, piece);
   global_ = std::move(piece.global);
   owned_ = std::move(piece.owned_quanta);
+  owned_mask_ = std::move(piece.owned);
   World& w = piece.world;
   const std::size_t n = global_.size();
   // The ledger's state: the piece's owned bonds alone.
@@ -266,6 +267,7 @@ void DistributedStep::roll_back(const StepWork& work) {
   s.step = whole_.state.step;
   anchors_ -= work.anchors;
   damping_ -= work.damping;
+  loads_ -= work.loads;
 }
 
 void DistributedStep::rebuild_after_roll_back() {
@@ -280,12 +282,12 @@ DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool l
                                                 double bonds_after) const {
   // Each rank's flags (its step refused, a quanta out of its box, a stop asked for) and its sums
   // over its owned quanta and bonds (kinetic energy, gravity's potential, the impulse allowance,
-  // the bonds' energy, the anchors' work, and its fastest free quanta's speed and index), then
-  // every rank's, added in rank order: the same on every rank.
-  constexpr std::size_t kFields = 10;
+  // the bonds' energy, the anchors' work, its fastest free quanta's speed and index, and the loads'
+  // work), then every rank's, added in rank order: the same on every rank.
+  constexpr std::size_t kFields = 11;
   const bool refused = report.status != StepReport::Status::ok;
   double mine[kFields] = {refused ? 1.0 : 0.0,  left ? 1.0 : 0.0, stop ? 1.0 : 0.0, 0, 0, 0, bonds_after,
-                          anchors_,            -1,                0};
+                          anchors_,            -1,                0, loads_};
   if (refused) mine[9] = static_cast<double>(global_[report.worst]);
   if (sim_ && !refused) {
     const World& w = sim_->world();
@@ -306,13 +308,14 @@ DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool l
   const std::vector<double> all = all_gather(mine);
   Verdict v;
   int first_refused = -1;
-  double sum[5] = {0, 0, 0, 0, 0}, speed = -1, who = 0;
+  double sum[5] = {0, 0, 0, 0, 0}, loads = 0, speed = -1, who = 0;
   for (std::size_t r = 0; r + kFields <= all.size(); r += kFields) {
     const double* a = &all[r];
     if (a[0] != 0 && first_refused < 0) first_refused = static_cast<int>(r / kFields);
     v.migrate = v.migrate || a[1] != 0;
     v.stop = v.stop || a[2] != 0;
     for (std::size_t k = 0; k < 5; ++k) sum[k] += a[3 + k];
+    loads += a[10];
     if (a[8] > speed) {
       speed = a[8];
       who = a[9];
@@ -330,7 +333,7 @@ DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool l
   const EnergyLedger& l = start_books_;
   const double work_anchors = l.work_anchors + sum[4];
   const double available = (l.initial_total - l.initial_gravity) + std::abs(sum[1] - l.initial_gravity) +
-                           std::abs(l.work_loads) + std::abs(work_anchors) + sum[2];
+                           std::abs(l.work_loads + loads) + std::abs(work_anchors) + sum[2];
   const double held = sum[0] + sum[3];
   if (held <= limits_.energy_growth * available + limits_.energy_floor) return v;
   const auto q = static_cast<Index>(who);
@@ -380,10 +383,19 @@ StepWork DistributedStep::charge_ledger() {
     moved_.dx[q] = w.state.x[q] - ledger_.x[q];
     moved_.dv[q] = w.state.v[q] - ledger_.v[q];
   }
-  const StepWork work = step_work(w.model, ledger_, ledger_adj_, moved_, {w.state.x, w.state.v}, gravity_, h_,
+  StepWork work = step_work(w.model, ledger_, ledger_adj_, moved_, {w.state.x, w.state.v}, gravity_, h_,
                                   sim_->integrator().ledger_hints(), config_.threads);
   anchors_ += work.anchors;
   damping_ += work.damping;
+  // The loads' work on the owned quanta, each load's share times the step's displacement, as
+  // step_work charges it on one rank.
+  for (const Load& load : w.model.loads) {
+    if (load.quanta.empty()) continue;
+    const Vec3 share = load.share();
+    for (Index q : load.quanta)
+      if (owned_mask_[q] && !w.model.is_kinematic(q)) work.loads += share.dot(moved_.dx[q]);
+  }
+  loads_ += work.loads;
   return work;
 }
 
@@ -565,7 +577,7 @@ void DistributedStep::apply_events(World& w) const {
 
 void DistributedStep::gather(World& into) {
   const std::vector<double> rows = gather_to_root(owned_rows());
-  const double mine[3] = {anchors_, damping_, fracture_};
+  const double mine[4] = {anchors_, damping_, fracture_, loads_};
   const std::vector<double> books = gather_to_root(mine);
   if (rank_ != 0) return;
   State& s = into.state;
@@ -575,13 +587,15 @@ void DistributedStep::gather(World& into) {
   s.step = whole_.state.step;
   // The carried forces (after a blow-up, evaluated afresh at the state before it).
   s.carry = verlet_ ? Carry(carried(s, f)) : Carry(std::monostate{});
-  double anchors = 0, damping = 0, fracture = 0;
-  for (std::size_t r = 0; r + 3 <= books.size(); r += 3) {
+  double anchors = 0, damping = 0, fracture = 0, loads = 0;
+  for (std::size_t r = 0; r + 4 <= books.size(); r += 4) {
     anchors += books[r];
     damping += books[r + 1];
     fracture += books[r + 2];
+    loads += books[r + 3];
   }
   s.energy.work_anchors = start_books_.work_anchors + anchors;
+  s.energy.work_loads = start_books_.work_loads + loads;
   s.energy.dissipated_damping = start_books_.dissipated_damping + damping;
   s.energy.dissipated_heuristics = start_books_.dissipated_heuristics + fracture;
   s.rng = whole_.state.rng;  // the break rules' draws

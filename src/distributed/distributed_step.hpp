@@ -36,8 +36,8 @@ class DistributedStep {
   // Whether some rank asked, during the last step, that the run stop.
   bool stop_agreed() const { return stop_agreed_; }
   // The whole state on rank 0, into `into` (a world of the same quanta and bonds): positions,
-  // velocities, time, step, velocity Verlet's carried forces, and the ledger's work of anchors
-  // and dampers. Throws when a quanta is missing or held twice.
+  // velocities, time, step, velocity Verlet's carried forces, and the ledger's work of anchors,
+  // dampers and loads. Throws when a quanta is missing or held twice.
   void gather(World& into);
 
   // Fracture over ranks: break rules (strain, compression and tension limits; the caller refuses
@@ -85,8 +85,8 @@ class DistributedStep {
   void build(const std::vector<double>* forces);
   // The ghosts' positions and velocities (and carried forces) from their owners.
   void exchange_ghosts();
-  // The anchors' and dampers' work over the owned bonds, from the state before the step; returns
-  // the step's work of the anchors and dampers and the owned bonds' energy after it [J].
+  // The anchors' and dampers' work over the owned bonds and the loads' on the owned quanta, from
+  // the state before the step; returns the step's work and the owned bonds' energy after it [J].
   StepWork charge_ledger();
   // What every rank decides after a step, from one all-gather: a blow-up (the first refusal of a
   // piece's own step check, by rank, else the energy runaway check of a run on one rank,
@@ -128,6 +128,7 @@ class DistributedStep {
   std::vector<int> owner_;
   std::vector<Index> global_;            // local quanta → whole index
   std::vector<Index> owned_;             // local indices of the owned quanta
+  std::vector<std::uint8_t> owned_mask_;  // 1 for each owned local quanta, 0 for ghosts
   std::unique_ptr<Simulation> sim_;      // null when this rank holds no quanta
   HaloPlan plan_;
   Halo halo_;
@@ -137,7 +138,7 @@ class DistributedStep {
   Adjacency ledger_adj_;
   Projection moved_;
   std::vector<Vec3> gravity_;   // m g per local quanta
-  double anchors_ = 0, damping_ = 0;  // this rank's share since the run started [J]
+  double anchors_ = 0, damping_ = 0, loads_ = 0;  // this rank's share since the run started [J]
   double fracture_ = 0;               // the energy of the bonds this rank broke since the run started [J]
   std::vector<BreakRule> rules_;        // selections by whole index
   std::vector<BreakRule> local_rules_;  // selections by local index

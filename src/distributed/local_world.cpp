@@ -81,6 +81,15 @@ Piece make_piece(const World& whole, std::span<const int> owner, int rank) {
     }
     if (!mine.quanta.empty()) lm.motions.push_back(std::move(mine));
   }
+  // Loads: the entries of the local quanta, each with the whole load's share; ghosts too, whose
+  // step here must be their owner's. Every load is kept, empty ones too, so that the piece forms
+  // its forces as the whole world does.
+  for (const Load& load : wm.loads) {
+    Load mine{.quanta = {}, .force = load.force, .entries = load.quanta.size()};
+    for (Index q : load.quanta)
+      if (local[q] != kNone) mine.quanta.push_back(local[q]);
+    lm.loads.push_back(std::move(mine));
+  }
   // The bonds with an owned end, in the whole world's order.
   Bonds& lb = ls.edit_bonds();
   for (std::size_t b = 0; b < wb.size(); ++b) {

@@ -24,7 +24,8 @@ struct Piece {
 
 // Rank `rank`'s piece of `whole` given every quanta's owner; its state is whole.state's for those
 // quanta and bonds, at the same time and step, with no carry-over (the caller gives it one).
-// Only alive bonds are taken. Loads are not distributed (the caller refuses them).
+// Only alive bonds are taken. A load acts on the local quanta of its selection, each with the
+// whole load's share.
 Piece make_piece(const World& whole, std::span<const int> owner, int rank);
 
 // Appends bond b of `from` to `to`, its ends renumbered i and j (every field of the bond).

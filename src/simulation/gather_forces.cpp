@@ -17,7 +17,7 @@ void gather_forces(const Model& m, const StepIntegrator& integrator, bool in_pla
   });
   for (const Load& load : m.loads) {
     if (load.quanta.empty()) continue;
-    const Vec3 share = load.force / static_cast<double>(load.quanta.size());
+    const Vec3 share = load.share();
     for (Index i : load.quanta) k.f_ext[i] += share;
   }
 }

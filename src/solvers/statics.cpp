@@ -88,7 +88,7 @@ StaticResult solve_static(World& world, double tolerance, int max_iterations) {
   std::vector<Vec3> f_ext(n), f, x0;
   for (std::size_t i = 0; i < n; ++i) f_ext[i] = model.mass[i] * model.gravity;
   for (const Load& load : model.loads)
-    for (Index i : load.quanta) f_ext[i] += load.force / static_cast<double>(load.quanta.size());
+    for (Index i : load.quanta) f_ext[i] += load.share();
   for (std::size_t i = 0; i < n; ++i)
     if (!model.is_kinematic(static_cast<Index>(i))) state.v[i].setZero();
 

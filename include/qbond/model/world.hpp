@@ -63,6 +63,12 @@ struct Motion {
 struct Load {
   std::vector<Index> quanta;
   Vec3 force = Vec3::Zero();  ///< total force [N]
+  /// The entries the force is shared among; 0: quanta.size(). A rank's piece of a load holds
+  /// only its own quanta of the selection, each with the whole load's share.
+  std::size_t entries = 0;
+
+  /// The force on each entry of `quanta`: force / entries.
+  Vec3 share() const { return force / static_cast<double>(entries > 0 ? entries : quanta.size()); }
 
   bool operator==(const Load&) const = default;
 };
