@@ -522,7 +522,10 @@ def realtime_table(name, data, machine):
               "the default 1e-6." if "lattice_frames" in data else "") +
              (f" Host load average {data['load_average'][0]:.1f} at the start, {data['load_average'][1]:.1f} at the end "
               "(runnable processes; the machine's cores are in its name): wall time over CPU time shows what the "
-              "other work took." if "load_average" in data else "") + viewer_note, "",
+              "other work took." if "load_average" in data else "") +
+             (" Before each row the bench times a fixed arithmetic loop on each core: a row on one thread runs "
+              "on the fastest, and a row whose slowest core ran below 0.9 of the fastest (a shared host's "
+              "neighbours) says so." if any("core_speeds" in r for r in data["rows"]) else "") + viewer_note, "",
              "| workload | quanta | bonds | integrator | h [s] | steps a frame | threads | frame ms (median) | "
              "CPU ms a frame | × real time | keeps up with 60 Hz |" + (" viewer × real time |" if viewer else "") +
              " note |", "|---|---|---|---|---|---|---|---|---|---|---|" + ("---|" if viewer else "") + "---|"]
@@ -538,6 +541,9 @@ def realtime_table(name, data, machine):
             note.append("adaptive steps")
         if r["kind"] == "scene" and r["quanta"] > 10000:
             note.append("over 10 000 quanta")
+        speeds = r.get("core_speeds", {}).get("speed") or [1]
+        if min(speeds) < 0.9:
+            note.append(f"slowest core at {min(speeds):.2f} of the fastest")
         frame = sig(r["median_frame_seconds"] * 1e3) if r["median_frame_seconds"] is not None else "–"
         factor = sig(r["real_time_factor"]) if r["real_time_factor"] is not None else "–"
         cpu = sig(r["median_frame_cpu_seconds"] * 1e3) if r["median_frame_cpu_seconds"] is not None else "–"

@@ -460,8 +460,8 @@ def test_bench_quick():
 
 def test_bench_realtime():
     """`qbond bench --realtime` (performance.md): a row for each workload and thread count, each
-    with frames measured, a positive frame time and keeps_up as the median says; a budget too
-    short for the frames asked cuts the row off and says so."""
+    with frames measured, a positive frame time, keeps_up as the median says and the speed of
+    every core; a budget too short for the frames asked cuts the row off and says so."""
     path = os.path.join(fresh("bench_realtime"), "realtime.json")
     os.makedirs(os.path.dirname(path), exist_ok=True)
     r = qbond("bench", "--realtime", "-n", "4", "-j", "1,2", "--scenes", "two_quanta", "--budget", "2",
@@ -489,6 +489,11 @@ def test_bench_realtime():
             fail(f"row {row}")
         if row["keeps_up"] != (row["median_frame_seconds"] <= 1 / 60) or row["failure"]:
             fail(f"keeps_up {row}")
+        # Every core the process may use timed before the row, the fastest at 1.
+        cores = row["core_speeds"]
+        if (sorted(cores["cpus"]) != sorted(os.sched_getaffinity(0)) or len(cores["speed"]) != len(cores["cpus"])
+                or max(cores["speed"]) != 1 or not all(0 < s <= 1 for s in cores["speed"])):
+            fail(f"core speeds {cores}")
     if "--realtime" not in doc["command"] or doc["budget_seconds"] != 2:
         fail(f"provenance {doc['command']} {doc['budget_seconds']}")
     # A budget shorter than the frames: cut off, and said.

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "machine.hpp"
 #include "qbond/io/files.hpp"
 
 namespace qbond::cli {
@@ -59,12 +60,6 @@ std::string nan_to_null(std::string s) {
 }
 
 bool is_triad(const json& b) { return b.at("run_name").get<std::string>().rfind("triad", 0) == 0; }
-
-std::string machine() {
-  char host[256] = "unknown";
-  gethostname(host, sizeof host - 1);
-  return std::string(host) + ", " + std::to_string(sysconf(_SC_NPROCESSORS_ONLN)) + " cores";
-}
 
 // The method and lattice size of a run named "KIND/METHOD/n:N[/...]" (as qbond_bench names them).
 struct RunName {

@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "machine.hpp"
 #include "realtime.hpp"
 #include "qbond/builders/samples.hpp"
 #include "qbond/io/files.hpp"
@@ -90,12 +91,6 @@ bool advance(Run& r, int steps, bool timed) {
   return r.failure.empty();
 }
 
-
-std::string machine() {
-  char host[256] = "unknown";
-  gethostname(host, sizeof host - 1);
-  return std::string(host) + ", " + std::to_string(sysconf(_SC_NPROCESSORS_ONLN)) + " cores";
-}
 
 }  // namespace
 

@@ -15,6 +15,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "machine.hpp"
 #include "qbond/builders/samples.hpp"
 #include "qbond/integrators/adaptive.hpp"
 #include "qbond/io/files.hpp"
@@ -35,6 +36,9 @@ constexpr int kLatticeFrames = 2 * kSettleFrames;
 constexpr double kPullWeights = 2;
 // The CG tolerance of the lattice's real-time rows (beside the default integrator's).
 constexpr double kRealtimeTolerance = 1e-4;
+// A core slower than this fraction of the fastest is named in the row's note: the rows on more
+// threads than one wait for it.
+constexpr double kEvenCores = 0.9;
 
 std::vector<int> split_ints(const std::string& s, const char* what) {
   std::vector<int> out;
@@ -52,12 +56,6 @@ std::vector<int> split_ints(const std::string& s, const char* what) {
     out.push_back(v);
   }
   return out;
-}
-
-std::string machine() {
-  char host[256] = "unknown";
-  gethostname(host, sizeof host - 1);
-  return std::string(host) + ", " + std::to_string(sysconf(_SC_NPROCESSORS_ONLN)) + " cores";
 }
 
 // The process's CPU time [s], all threads together.
@@ -212,6 +210,11 @@ int bench_realtime(const RealtimeArgs& a) {
   json rows = json::array();
   for (const Workload& w : work)
     for (int t : threads) {
+      // The cores' speeds just before the row: a shared host may slow one core for a while. A
+      // row on one thread runs on the fastest, so that its time does not depend on where the
+      // kernel happened to put the process; rows on more threads run where the kernel puts them.
+      const CoreSpeeds cores = core_speeds();
+      const PinToCore pin(t == 1 ? cores.fastest() : -1);
       const Measured m = run_frames(w.scene, w.pull, w.frames, t, a);
       const double med = median(m.frames), med_cpu = median(m.cpu);
       const double worst = m.frames.empty() ? NAN : *std::max_element(m.frames.begin(), m.frames.end());
@@ -222,6 +225,12 @@ int bench_realtime(const RealtimeArgs& a) {
                          : m.cut_off
                              ? "cut off by the budget after " + std::to_string(m.frames.size()) + " frames"
                              : "";
+      const double slowest = cores.speed.empty() ? 1 : *std::min_element(cores.speed.begin(), cores.speed.end());
+      if (slowest < kEvenCores) {
+        char speeds[64];
+        std::snprintf(speeds, sizeof speeds, "%sslowest core at %.2f of the fastest", note.empty() ? "" : "; ", slowest);
+        note += speeds;
+      }
       std::printf("%-26s %8zu %8zu %7d %11.4g %6d %10.3f %10.3f %10.3f %8.2f %9s %s\n", w.name.c_str(),
                   w.scene.world.num_quanta(), w.scene.world.num_bonds(), t, w.scene.timestep, steps,
                   med * 1e3, worst * 1e3, med_cpu * 1e3, kFrame / med, keeps ? "yes" : "no", note.c_str());
@@ -246,6 +255,7 @@ int bench_realtime(const RealtimeArgs& a) {
                       {"cut_off", m.cut_off},
                       {"warmup_only", m.warmup_only},
                       {"failure", m.failure},
+                      {"core_speeds", {{"cpus", cores.cpus}, {"speed", cores.speed}}},
                       {"pulled_face_z", std::isnan(m.face_z_settled)
                                             ? json(nullptr)
                                             : json({{"settled", m.face_z_settled}, {"end", m.face_z_end}})}});
