@@ -402,7 +402,9 @@ class CoupledOverRanks final : public StepIntegrator {
 }  // namespace
 
 std::unique_ptr<StepIntegrator> make_coupled_over_ranks(const IntegratorConfig& config, SolveLayout layout) {
-  return std::make_unique<CoupledOverRanks>(config, std::move(layout));
+  IntegratorConfig c = config;
+  c.warm_start = resolved_warm_start(c);  // as make_step_integrator does
+  return std::make_unique<CoupledOverRanks>(c, std::move(layout));
 }
 
 void apply_both_operators(const SolveLayout& layout, const Model& model, const State& state, const Adjacency& adj,

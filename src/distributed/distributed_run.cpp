@@ -40,8 +40,6 @@ void check_distributable(const Scene& scene, int ranks) {
                                 std::string(to_string(scene.integrator.solver)) + one);
   if (scene.world.model.solves_contact())
     throw std::invalid_argument(over + "does not distribute obstacles and quanta contact yet" + one);
-  if (implicit && !scene.heuristics.empty())
-    throw std::invalid_argument(over + "does not distribute heuristics with coupled_implicit yet" + one);
   // Fracture by strain, compression and tension (each bond tested by one rank at the step's end
   // positions); the stress limits need the ghosts' neighbours, the other heuristics are not distributed.
   for (const HeuristicSpec& spec : scene.heuristics) {

@@ -62,11 +62,7 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       ranks_(mpi_ranks()),
       start_books_(whole.state.energy) {
   open_ledger(whole_.model, whole_.state, start_books_);  // as a run on one rank's Simulation does
-  if (implicit_) {
-    Adjacency adj;
-    build_adjacency(whole_.model, whole_.state, adj);
-    free_components(whole_.model, adj, components_);
-  }
+  find_components();
   cuts_ = bisect(whole_.state.x, ranks_);
   owner_ = parts_of(cuts_, whole_.state.x);
   std::vector<double> f;
@@ -82,6 +78,13 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
 }
 
 DistributedStep::~DistributedStep() = default;
+
+void DistributedStep::find_components() {
+  if (!implicit_) return;
+  Adjacency adj;
+  build_adjacency(whole_.model, whole_.state, adj);
+  free_components(whole_.model, adj, components_);
+}
 
 void DistributedStep::build(const std::vector<double>* forces) {
   Piece piece = make_piece(whole_, owner_, rank_);
@@ -438,6 +441,7 @@ void unpack_rows(const std::vector<double>& rows, std::size_t n, std::vector<Vec
 void DistributedStep::migrate(bool moved, bool broke) {
   std::vector<double> f;
   unpack_rows(all_gather(owned_rows()), whole_.num_quanta(), whole_.state.x, whole_.state.v, f);
+  if (broke) find_components();  // a break may have split a free component
   if (!moved) {
     build(verlet_ && !broke ? &f : nullptr);
     return;

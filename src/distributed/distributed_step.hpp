@@ -114,6 +114,8 @@ class DistributedStep {
   void share_breaks();
   // The rules with their selections in this piece's local indices.
   void localise_rules();
+  // coupled_implicit: components_ from whole_'s topology.
+  void find_components();
   // The owned quanta's [index, x, v, f] rows, 10 doubles each.
   std::vector<double> owned_rows() const;
 
@@ -150,8 +152,7 @@ class DistributedStep {
   std::vector<double> broken_;          // this rank's breaks of the step: [rule, bond, i, j, reason, strain, tension]
   std::vector<BondEvent> events_;
   EnergyLedger start_books_;          // the whole ledger when the run started (opened if it was not)
-  // coupled_implicit: the whole world's free components (its topology does not change in a run over
-  // ranks).
+  // coupled_implicit: the whole world's free components, found anew when bonds break.
   FreeComponents components_;
   Times times_;
   bool stop_agreed_ = false;

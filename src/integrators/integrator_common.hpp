@@ -41,6 +41,11 @@ struct External {
   }
 };
 
+// The warm start `config` asks for, `automatic` resolved: extrapolated for coupled_implicit with
+// the cg solver, zero otherwise. Every maker of an integrator resolves it so (initial_guess
+// takes no `automatic`).
+WarmStart resolved_warm_start(const IntegratorConfig& config);
+
 // Initial guess of an iterative solve for the free quanta's Δv (kinematic rows 0) from
 // State::carry as keep_guess left it; false when it is zero (WarmStart::zero, or no previous step), which
 // spares CG its first product. On `threads` (parallel.hpp), as keep_guess and write_free_rows:

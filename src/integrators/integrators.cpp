@@ -141,13 +141,7 @@ std::unique_ptr<Integrator> make_integrator(const IntegratorConfig& config) {
 std::unique_ptr<StepIntegrator> make_step_integrator(const IntegratorConfig& config) {
   IntegratorConfig c = config;
   const IntegratorInfo& info = integrator_info(c.type);
-  // CG from the line through the last two steps' Δv: fewer iterations wherever Δv changes
-  // smoothly from step to step (cube_drop 14.5 a step from zero, 5.9 from the previous Δv, 3.2
-  // extrapolated), no more elsewhere; sweeps from such guesses blow up (docs/integrators.md).
-  if (c.warm_start == WarmStart::automatic) {
-    const bool cg = c.type == IntegratorType::coupled_implicit && c.solver == CoupledSolver::cg;
-    c.warm_start = cg ? WarmStart::extrapolated : WarmStart::zero;
-  }
+  c.warm_start = resolved_warm_start(c);
   if (c.iterations < 1) throw std::invalid_argument("integrator.iterations: must be >= 1");
   if (c.threads < 0) throw std::invalid_argument("integrator.threads: must be >= 0 (0: all cores)");
   if (c.max_iterations < 0) throw std::invalid_argument("integrator.max_iterations: must be >= 0");
@@ -275,8 +269,19 @@ const Vec3* previous_dv(const Carry& carry, std::size_t n) {
 
 }  // namespace
 
+WarmStart resolved_warm_start(const IntegratorConfig& config) {
+  if (config.warm_start != WarmStart::automatic) return config.warm_start;
+  // CG from the line through the last two steps' Δv: fewer iterations wherever Δv changes
+  // smoothly from step to step (cube_drop 14.5 a step from zero, 5.9 from the previous Δv, 3.2
+  // extrapolated), no more elsewhere; sweeps from such guesses blow up (docs/integrators.md).
+  const bool cg = config.type == IntegratorType::coupled_implicit && config.solver == CoupledSolver::cg;
+  return cg ? WarmStart::extrapolated : WarmStart::zero;
+}
+
 bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& f_ext, double h,
                    const Carry& carry, int threads, std::vector<Vec3>& y) {
+  // No guess fills y for `automatic`: a maker that did not resolve it would start CG from garbage.
+  if (mode == WarmStart::automatic) throw std::logic_error("initial_guess: the warm start was not resolved");
   const std::size_t n = model.num_quanta();
   y.resize(n);
   const bool from_previous = mode == WarmStart::previous || mode == WarmStart::extrapolated;
@@ -299,7 +304,7 @@ bool initial_guess(WarmStart mode, const Model& model, const std::vector<Vec3>& 
       case WarmStart::extrapolated:
         y[i] = before ? Vec3(2 * previous[i] - before[i]) : previous[i];
         break;
-      case WarmStart::automatic: assert(false && "make_integrator resolves it"); break;
+      case WarmStart::automatic: break;  // refused above
     }
   });
   return !zero;

@@ -3,6 +3,7 @@
 (docs/distributed.md).
 
 Usage: mpi_implicit_test.py QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC [--mpiexec-flag F ...]
+                            [--expect-breaks]
 
 The run alone solves each step's system with qbond's CG, the run over ranks with PETSc's CG; both
 stop at ‖b − A Δv‖ ≤ τ ‖b‖ (τ the scene's `tolerance`), so each step's Δv is within κ τ ‖Δv*‖ of
@@ -20,7 +21,13 @@ is over every step. Checks:
     twice the relative bound plus round-off, of its scale (the energy columns of the energy's, a
     vector's components of the vector's);
   - the ledger over ranks closes: total − total at the start = work − dissipated − numerical to
-    round-off.
+    round-off;
+  - with --expect-breaks, bonds broke, and events.csv lists the run alone's breaks in its order
+    (step, bond, ends and reason exactly); a bond's strain within 2 B_x / r₀ and its tension
+    within 2 k B_x + 2 c (B_v + 2 max‖v‖ B_x / r₀) (B_x, B_v the positions' and velocities'
+    bounds above, r₀ the lattice spacing, the shortest bond: the strain moves with its ends'
+    distance, the axial damper with their relative velocity and its direction); in every frame
+    the bonds shown plus those broken by then are every bond.
 Exits non-zero with a message naming the file, the column or quanta and the difference.
 """
 import argparse
@@ -34,7 +41,7 @@ import sys
 import numpy as np
 from vtk.util.numpy_support import vtk_to_numpy
 
-from run_outputs import frames, poly, read, rows
+from run_outputs import frames, poly, read, rows, same_breaks
 
 p = argparse.ArgumentParser()
 p.add_argument("qbond")
@@ -43,9 +50,11 @@ p.add_argument("work")
 p.add_argument("--ranks", type=int, required=True)
 p.add_argument("--mpiexec", required=True)
 p.add_argument("--mpiexec-flag", action="append", default=[])
+p.add_argument("--expect-breaks", action="store_true")
 a = p.parse_args()
 
 ROUND_OFF = 1e-12
+HUGE = float("inf")
 ENERGY = {"kinetic", "potential", "dissipated", "total", "work", "numerical"}
 SOLVER = {"iterations", "residual"}
 # Bonds a quanta of a cubic lattice has at most, by its `neighbors`.
@@ -61,12 +70,15 @@ if scene["integrator"].get("type", "coupled_implicit") != "coupled_implicit":
 if scene["output"].get("every") != 1:
     sys.exit(f"{a.scene}: the bound needs a frame every step")
 kappa = 1.0
+spacing, stiffness, damping = HUGE, 0.0, 0.0
 for body in scene["bodies"]:
     mat = scene["materials"][body["material"]]
     if body["type"] != "lattice" or body.get("cell") != "cubic" or mat["law"] != "linear":
         sys.exit(f"{a.scene}: the bound is for cubic lattices of linear bonds")
     z = BONDS_PER_QUANTA[body.get("neighbors", "face_diagonal")]
     kappa = max(kappa, 1 + 2 * z * (h * mat.get("damping", 0) + h * h * mat["stiffness"]) / body["quanta_mass"])
+    spacing = min(spacing, body["spacing"])
+    stiffness, damping = max(stiffness, mat["stiffness"]), max(damping, mat.get("damping", 0))
 REL_V = 4 * kappa * tau * steps
 
 
@@ -168,6 +180,15 @@ if total0 is not None:
             sys.exit(f"diagnostics step {rn[0]}: the ledger over {a.ranks} ranks does not close "
                      f"({got!r} vs {want!r})")
 
+broke = ""
+if a.expect_breaks:
+    b_x, b_v = h * steps * REL_V * vmax, REL_V * vmax
+    bound = {"time": lambda scale: ROUND_OFF * scale,
+             "strain": lambda scale: 2 * b_x / spacing + ROUND_OFF * scale,
+             "tension": lambda scale: 2 * stiffness * b_x + 2 * damping * (b_v + 2 * vmax * b_x / spacing)
+             + ROUND_OFF * scale}
+    broke = f"; {same_breaks(alone, first, a.ranks, lambda column, scale: bound[column](scale))} bonds broke, the same"
+
 print(f"{a.ranks} ranks: κ ≤ {kappa:.4g}, τ = {tau:g}, S = {steps}: velocities differ by {worst_v:.3g} of "
       f"max‖v‖ (bound {REL_V:.3g}), positions by {worst_x:.3g} of h S max‖v‖, diagnostics by {worst_d:.3g} "
-      "of their scale")
+      f"of their scale{broke}")

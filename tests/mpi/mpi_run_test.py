@@ -21,7 +21,6 @@ Runs the scene alone, then twice over N ranks, and checks:
 Exits non-zero with a message naming the file, the column or quanta and the difference.
 """
 import argparse
-import csv
 import os
 import re
 import shutil
@@ -30,7 +29,7 @@ import sys
 
 from vtk.util.numpy_support import vtk_to_numpy
 
-from run_outputs import frames, poly, read, rows
+from run_outputs import frames, poly, read, rows, same_breaks
 
 p = argparse.ArgumentParser()
 p.add_argument("qbond")
@@ -92,7 +91,7 @@ if one[0] != many[0]:
     sys.exit(f"diagnostics columns differ: {one[0]} vs {many[0]}")
 if len(one) != len(many):
     sys.exit(f"diagnostics: {len(one) - 1} rows alone, {len(many) - 1} over {a.ranks} ranks")
-header = header_diag = one[0]
+header = one[0]
 values = [[float(x) for x in r] for r in one[1:]]
 scale = {h: max(abs(r[k]) for r in values) for k, h in enumerate(header)}
 energy_scale = max(scale[h] for h in ENERGY if h in scale)
@@ -128,33 +127,8 @@ for name in frames(alone):
         sys.exit(f"{name}: the bonds' ends differ over {a.ranks} ranks")
 
 if a.expect_breaks:
-    def events(out):
-        with open(os.path.join(out, "events.csv")) as f:
-            return list(csv.reader(f))
-    e1, en = events(alone), events(first)
-    if len(e1) < 2:
-        sys.exit("no bond broke in the run alone")
-    if len(e1) != len(en) or e1[0] != en[0]:
-        sys.exit(f"events.csv: {len(e1) - 1} rows alone, {len(en) - 1} over {a.ranks} ranks")
-    header = e1[0]
-    exact = [h for h in header if h not in ("time", "strain", "tension")]
-    scale = {h: max(abs(float(r[header.index(h)])) for r in e1[1:]) for h in ("time", "strain", "tension")}
-    for r1, rn in zip(e1[1:], en[1:]):
-        for k, h in enumerate(header):
-            if h in exact and r1[k] != rn[k]:
-                sys.exit(f"events.csv: {h} {r1[k]} alone, {rn[k]} over {a.ranks} ranks ({r1})")
-            if h not in exact and abs(float(r1[k]) - float(rn[k])) > REL * scale[h]:
-                sys.exit(f"events.csv: {h} {r1[k]} alone, {rn[k]} over {a.ranks} ranks ({r1})")
-    # No bond lost or counted twice: shown plus broken is every bond, in every frame.
-    total = int(one[1][header_diag.index("bonds_alive")]) + int(one[1][header_diag.index("bonds_broken")])
-    steps = [int(r[0]) for r in en[1:]]
-    for name in frames(first):
-        step = int(re.search(r"(\d+)", name).group(1))
-        shown = poly(os.path.join(first, "frames", name)).GetNumberOfLines()
-        broken = sum(1 for s in steps if s < step)
-        if shown + broken != total:
-            sys.exit(f"{name}: {shown} bonds shown and {broken} broken before step {step}, of {total}")
-    print(f"{len(e1) - 1} bonds broke, the same over {a.ranks} ranks")
+    broke = same_breaks(alone, first, a.ranks, lambda column, scale: REL * scale)
+    print(f"{broke} bonds broke, the same over {a.ranks} ranks")
 
 if a.expect_blowup and not (len(blowups[0]) == 1 and blowups[0] == blowups[1] == blowups[2]):
     sys.exit(f"the blow-up messages differ: {blowups}")

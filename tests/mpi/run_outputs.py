@@ -1,7 +1,9 @@
 """Reading a qbond run's outputs, for the tests under mpiexec: raw files, frames, diagnostics rows
-and ParaView frames."""
+and ParaView frames, and the bond breaks of a run over ranks against the run alone's."""
 import csv
 import os
+import re
+import sys
 
 import vtk
 
@@ -25,3 +27,44 @@ def poly(path):
     r.SetFileName(path)
     r.Update()
     return r.GetOutput()
+
+
+def events(out):
+    with open(os.path.join(out, "events.csv")) as f:
+        return list(csv.reader(f))
+
+
+# The columns of events.csv that are measured, not counted: compared within a bound.
+MEASURED = ("time", "strain", "tension")
+
+
+def same_breaks(alone, many, ranks, bound):
+    """The breaks of the run over ranks in `many` against the run alone's in `alone`: events.csv
+    lists the same rows in the same order, every column but time, strain and tension exactly,
+    those within bound(column, scale) (scale: the column's largest magnitude alone); and in every
+    frame over ranks the bonds shown plus those broken before it are every bond of the scene, none
+    lost, none twice. Returns the breaks' count; exits with a message otherwise."""
+    e1, en = events(alone), events(many)
+    if len(e1) < 2:
+        sys.exit("no bond broke in the run alone")
+    if len(e1) != len(en) or e1[0] != en[0]:
+        sys.exit(f"events.csv: {len(e1) - 1} rows alone, {len(en) - 1} over {ranks} ranks")
+    header = e1[0]
+    scale = {h: max(abs(float(r[header.index(h)])) for r in e1[1:]) for h in MEASURED}
+    for r1, rn in zip(e1[1:], en[1:]):
+        for k, h in enumerate(header):
+            if h not in MEASURED and r1[k] != rn[k]:
+                sys.exit(f"events.csv: {h} {r1[k]} alone, {rn[k]} over {ranks} ranks ({r1})")
+            if h in MEASURED and abs(float(r1[k]) - float(rn[k])) > bound(h, scale[h]):
+                sys.exit(f"events.csv: {h} {r1[k]} alone, {rn[k]} over {ranks} ranks ({r1}; "
+                         f"bound {bound(h, scale[h]):g})")
+    diag = rows(alone)
+    total = int(diag[1][diag[0].index("bonds_alive")]) + int(diag[1][diag[0].index("bonds_broken")])
+    steps = [int(r[0]) for r in en[1:]]
+    for name in frames(many):
+        step = int(re.search(r"(\d+)", name).group(1))
+        shown = poly(os.path.join(many, "frames", name)).GetNumberOfLines()
+        broken = sum(1 for s in steps if s < step)
+        if shown + broken != total:
+            sys.exit(f"{name}: {shown} bonds shown and {broken} broken before step {step}, of {total}")
+    return len(e1) - 1
