@@ -496,6 +496,19 @@ def test_bench_realtime():
             fail(f"core speeds {cores}")
     if "--realtime" not in doc["command"] or doc["budget_seconds"] != 2:
         fail(f"provenance {doc['command']} {doc['budget_seconds']}")
+    # Huge pages (performance.md): asked for where the kernel gives them only when asked, unless
+    # the environment says otherwise.
+    try:
+        with open("/sys/kernel/mm/transparent_hugepage/enabled") as f:
+            madvise = "[madvise]" in f.read()
+    except OSError:
+        madvise = False
+    own = {k: v for k, v in os.environ.items() if k not in ("GLIBC_TUNABLES", "QBOND_NO_HUGE_PAGES")}
+    for extra, want in [({}, madvise), ({"QBOND_NO_HUGE_PAGES": "1"}, False)]:
+        qbond("bench", "--realtime", "-n", "4", "-j", "1", "--scenes", "two_quanta", "--budget", "0.2",
+              "--json", path, check_code=0, env={**own, **extra})
+        if json.load(open(path))["huge_pages"] != want:
+            fail(f"huge pages asked for {not want} with {extra or 'no setting'} (kernel's madvise mode: {madvise})")
     # A budget shorter than the frames: cut off, and said.
     qbond("bench", "--realtime", "-n", "6", "-j", "1", "--scenes", "pendulum", "--budget", "1e-6",
           "--json", path, check_code=0)

@@ -15,6 +15,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "huge_pages.hpp"
 #include "machine.hpp"
 #include "qbond/builders/samples.hpp"
 #include "qbond/integrators/adaptive.hpp"
@@ -271,6 +272,7 @@ int bench_realtime(const RealtimeArgs& a) {
                       {"machine", machine()},
                       {"command", a.command},
                       {"nice", getpriority(PRIO_PROCESS, 0)},
+                      {"huge_pages", huge_pages_asked()},
                       {"frame_seconds", kFrame},
                       {"warmup_frames", kWarmupFrames},
                       {"max_frames", a.frames},
