@@ -39,6 +39,10 @@ int CoreSpeeds::fastest() const {
   return best == speed.end() ? -1 : cpus[static_cast<std::size_t>(best - speed.begin())];
 }
 
+double CoreSpeeds::slowest() const {
+  return speed.empty() ? 1 : *std::min_element(speed.begin(), speed.end());
+}
+
 CoreSpeeds core_speeds() {
   CoreSpeeds s;
   cpu_set_t allowed;

@@ -15,7 +15,8 @@ std::string machine();
 struct CoreSpeeds {
   std::vector<int> cpus;
   std::vector<double> speed;
-  int fastest() const;  ///< the CPU of the fastest core (-1 when none was measured)
+  int fastest() const;     ///< the CPU of the fastest core (-1 when none was measured)
+  double slowest() const;  ///< the slowest core's speed (1 when none was measured)
 };
 CoreSpeeds core_speeds();
 

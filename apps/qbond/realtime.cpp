@@ -226,10 +226,10 @@ int bench_realtime(const RealtimeArgs& a) {
                          : m.cut_off
                              ? "cut off by the budget after " + std::to_string(m.frames.size()) + " frames"
                              : "";
-      const double slowest = cores.speed.empty() ? 1 : *std::min_element(cores.speed.begin(), cores.speed.end());
-      if (slowest < kEvenCores) {
+      if (cores.slowest() < kEvenCores) {
         char speeds[64];
-        std::snprintf(speeds, sizeof speeds, "%sslowest core at %.2f of the fastest", note.empty() ? "" : "; ", slowest);
+        std::snprintf(speeds, sizeof speeds, "%sslowest core at %.2f of the fastest", note.empty() ? "" : "; ",
+                      cores.slowest());
         note += speeds;
       }
       std::printf("%-26s %8zu %8zu %7d %11.4g %6d %10.3f %10.3f %10.3f %8.2f %9s %s\n", w.name.c_str(),

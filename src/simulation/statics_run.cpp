@@ -51,7 +51,7 @@ StaticsReport run_statics(Scene& scene, const StaticsSettings& settings) {
   report.result = solve_static(w, settings.tolerance, settings.max_iterations);
   for (const Load& l : m.loads)
     for (Index i : l.quanta)
-      ledger.work_loads += l.force.dot(s.x[i] - x_start[i]) / static_cast<double>(l.quanta.size());
+      ledger.work_loads += l.share().dot(s.x[i] - x_start[i]);
 
   // Reactions: what the supports apply to hold their quanta, −Σ bond forces on them (velocities
   // are 0 at equilibrium, so no damping).
