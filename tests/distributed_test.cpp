@@ -170,6 +170,63 @@ TEST_P(Pieces, HoldEveryQuantaAndBondOnceWithTheWholeWorldsForces) {
 
 INSTANTIATE_TEST_SUITE_P(Ranks, Pieces, ::testing::Values(1, 2, 3, 4));
 
+// With quanta contact a piece holds, besides its bonds' ghosts, every quanta within the reach of
+// an owned one (with two layers, of a local one), found here by testing every pair; every bond
+// whose ends are both local (a touching pair of local quanta is skipped when bonded); and the
+// halo lists mirror each other.
+TEST_P(Pieces, ContactHalosHoldEveryQuantaWithinReach) {
+  const int ranks = GetParam();
+  const World whole = test_world();
+  const std::vector<int> owner = parts_of(bisect(whole.state.x, ranks), whole.state.x);
+  const std::size_t n = whole.num_quanta();
+  const Bonds& wb = whole.state.bonds;
+  constexpr double kReach = 0.015;
+  for (int layers : {1, 2}) {
+    distributed::ContactHalo halo{.near = {}, .layers = layers};
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::size_t j = i + 1; j < n; ++j)
+        if ((whole.state.x[j] - whole.state.x[i]).norm() < kReach)
+          halo.near.emplace_back(static_cast<Index>(i), static_cast<Index>(j));
+    std::map<std::pair<int, int>, std::vector<Index>> sends, recvs;
+    for (int r = 0; r < ranks; ++r) {
+      // The local quanta by their definition: owned, bonded to an owned one, or within reach of
+      // an owned one (of one of those, with two layers).
+      std::vector<std::uint8_t> want(n, 0), first(n, 0);
+      for (std::size_t q = 0; q < n; ++q) {
+        if (owner[q] != r) continue;
+        want[q] = 1;
+        for (std::size_t o = 0; o < n; ++o)
+          if ((whole.state.x[o] - whole.state.x[q]).norm() < kReach) want[o] = 1;
+      }
+      for (std::size_t b = 0; b < wb.size(); ++b)
+        if (wb.alive[b] && (owner[wb.i[b]] == r || owner[wb.j[b]] == r)) want[wb.i[b]] = want[wb.j[b]] = 1;
+      if (layers == 2) {
+        first = want;
+        for (std::size_t q = 0; q < n; ++q)
+          for (std::size_t o = 0; o < n && first[q]; ++o)
+            if ((whole.state.x[o] - whole.state.x[q]).norm() < kReach) want[o] = 1;
+      }
+      const distributed::Piece p = distributed::make_piece(whole, owner, r, halo);
+      std::vector<Index> expected;
+      for (std::size_t q = 0; q < n; ++q)
+        if (want[q]) expected.push_back(static_cast<Index>(q));
+      EXPECT_EQ(p.global, expected) << layers << " layers, rank " << r;
+      std::size_t between = 0;
+      for (std::size_t b = 0; b < wb.size(); ++b) between += wb.alive[b] && want[wb.i[b]] && want[wb.j[b]];
+      EXPECT_EQ(p.world.state.bonds.size(), between) << "the bonds between local quanta";
+      const distributed::HaloPlan plan = distributed::halo_plan(whole, owner, r, p, halo);
+      std::size_t received = 0;
+      for (std::size_t k = 0; k < plan.peers.size(); ++k) {
+        for (Index q : plan.send[k]) sends[{r, plan.peers[k]}].push_back(p.global[q]);
+        for (Index q : plan.recv[k]) recvs[{plan.peers[k], r}].push_back(p.global[q]);
+        received += plan.recv[k].size();
+      }
+      EXPECT_EQ(received, p.global.size() - p.owned_quanta.size()) << "every ghost is received";
+    }
+    EXPECT_EQ(sends, recvs);
+  }
+}
+
 TEST(Ranks, AProgramStartedAloneIsOneRank) {
   EXPECT_EQ(mpi_ranks(), 1);
   EXPECT_EQ(mpi_rank(), 0);

@@ -403,8 +403,12 @@ class Progress {
 // A run over ranks: each rank's share of the quanta and of the ghost exchange, and where its time
 // went per step.
 void print_ranks(const qbond::RanksStats& s) {
-  std::printf("over %d ranks: quanta moved between ranks after %llu steps; boxes cut anew %llu times\n", s.ranks,
+  std::printf("over %d ranks: quanta moved between ranks after %llu steps; boxes cut anew %llu times", s.ranks,
               static_cast<unsigned long long>(s.migrations), static_cast<unsigned long long>(s.recuts));
+  if (s.halo_rebuilds || s.retakes)
+    std::printf("; contact halos built anew %llu times, steps taken again %llu times",
+                static_cast<unsigned long long>(s.halo_rebuilds), static_cast<unsigned long long>(s.retakes));
+  std::printf("\n");
   const double steps = s.steps ? static_cast<double>(s.steps) : 1.0;
   for (std::size_t k = 0; k < s.owned.size(); ++k)
     std::printf("  rank %zu: %zu quanta, %zu ghosts, %.0f bytes sent per step; per step %.3g ms stepping and %.3g ms "

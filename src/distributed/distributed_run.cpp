@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <variant>
 
 #include "distributed/collectives.hpp"
 #include "distributed/distributed_step.hpp"
@@ -38,15 +39,24 @@ void check_distributable(const Scene& scene, int ranks) {
   if (implicit && scene.integrator.solver != CoupledSolver::cg)
     throw std::invalid_argument(over + "solves coupled_implicit with PETSc's CG (solver cg), not solver " +
                                 std::string(to_string(scene.integrator.solver)) + one);
-  if (scene.world.model.solves_contact())
-    throw std::invalid_argument(over + "does not distribute obstacles and quanta contact yet" + one);
+  // Penalty contacts are forces of the explicit step; those inside the implicit solve and the
+  // projection heuristics (below) are not distributed.
+  if (scene.world.model.solves_contact() && scene.world.model.step_contact_method() != ContactMethod::penalty)
+    throw std::invalid_argument(over + "does not distribute contact inside the implicit solve yet (\"method\": "
+                                "\"implicit\"); over ranks, obstacles and quanta contact take \"method\": "
+                                "\"penalty\" with an explicit integrator" + one);
   // Fracture by strain, compression and tension (each bond tested by one rank at the step's end
   // positions); the stress limits need the ghosts' neighbours, the other heuristics are not distributed.
   for (const HeuristicSpec& spec : scene.heuristics) {
     const auto* rule = std::get_if<BreakRule>(&spec);
+    const bool contact = std::holds_alternative<Obstacle>(spec) || std::holds_alternative<QuantaContactRule>(spec);
     if (!rule)
       throw std::invalid_argument(over + "does not distribute heuristics yet other than 'break' (not '" +
-                                  std::string(make_heuristic(spec)->name()) + "')" + one);
+                                  std::string(make_heuristic(spec)->name()) + "')" +
+                                  (contact ? "; over ranks, obstacles and quanta contact take \"method\": "
+                                             "\"penalty\" with an explicit integrator"
+                                           : "") +
+                                  one);
     if (std::isfinite(rule->max_stress) || std::isfinite(rule->max_von_mises))
       throw std::invalid_argument(over + "does not distribute the break heuristic's stress limits (max_stress, "
                                   "max_von_mises) yet, only its strain, compression and tension ones" + one);
@@ -99,6 +109,8 @@ struct RanksRun::Impl {
     stats.ranks = mpi_ranks();
     stats.migrations = dist->migrations();
     stats.recuts = dist->recuts();
+    stats.halo_rebuilds = dist->halo_rebuilds();
+    stats.retakes = dist->retakes();
     stats.steps = t.steps;
     for (std::size_t k = 0; k + 6 <= all.size(); k += 6) {
       stats.owned.push_back(static_cast<std::size_t>(all[k]));

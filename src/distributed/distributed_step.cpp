@@ -10,6 +10,8 @@
 
 #include "distributed/collectives.hpp"
 #include "heuristics/breaking.hpp"
+#include "heuristics/spatial_hash.hpp"
+#include "integrators/advance.hpp"
 #include "integrators/bond_forces.hpp"
 #include "integrators/bond_partition.hpp"
 #include "ledger/step_work.hpp"
@@ -62,6 +64,13 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       ranks_(mpi_ranks()),
       start_books_(whole.state.energy) {
   open_ledger(whole_.model, whole_.state, start_books_);  // as a run on one rank's Simulation does
+  contacts_ = PenaltyContact::used(whole_.model);
+  contact_stored_ = start_books_.contact_stored;
+  if (const QuantaContactRule& rule = whole_.model.quanta_contact;
+      rule.radius > 0 && rule.method == ContactMethod::penalty) {
+    slack_ = rule.radius;
+    reach_ = 2 * rule.radius + 2 * slack_;
+  }
   find_components();
   cuts_ = bisect(whole_.state.x, ranks_);
   owner_ = parts_of(cuts_, whole_.state.x);
@@ -86,12 +95,30 @@ void DistributedStep::find_components() {
   free_components(whole_.model, adj, components_);
 }
 
+ContactHalo DistributedStep::contact_halo() const {
+  ContactHalo halo;
+  if (reach_ == 0) return halo;
+  halo.layers = verlet_ ? 2 : 1;
+  const std::vector<Vec3>& x = whole_.state.x;
+  SpatialHash grid;
+  grid.build(x, reach_);
+  grid.pairs(x, [&](Index i, Index j) {
+    if ((x[j] - x[i]).norm() < reach_) halo.near.emplace_back(i, j);
+  });
+  return halo;
+}
+
 void DistributedStep::build(const std::vector<double>* forces) {
-  Piece piece = make_piece(whole_, owner_, rank_);
-  plan_ = halo_plan(whole_, owner_, rank_, piece);
+  const ContactHalo halo = contact_halo();
+  Piece piece = make_piece(whole_, owner_, rank_, halo);
+  plan_ = halo_plan(whole_, owner_, rank_, piece, halo);
   global_ = std::move(piece.global);
   owned_ = std::move(piece.owned_quanta);
   owned_mask_ = std::move(piece.owned);
+  contact_after_ = PenaltyContact{};
+  built_at_.clear();
+  if (reach_ > 0)
+    for (Index q : owned_) built_at_.push_back(whole_.state.x[global_[q]]);
   World& w = piece.world;
   const std::size_t n = global_.size();
   // The ledger's state: the piece's owned bonds alone.
@@ -159,6 +186,14 @@ void DistributedStep::build(const std::vector<double>* forces) {
   sim_ = std::make_unique<Simulation>(std::move(w), config_, h_);
   sim_->limits() = limits_;
   sim_->set_track_energy(false);  // the ledger is charged here, over the owned bonds
+  if (contacts_) {
+    // The contacts' books of the owned quanta, added up over the ranks in agree().
+    std::unique_ptr<StepIntegrator> counting = make_step_integrator(config_);
+    counting->count_contact_books_of(owned_mask_);
+    Carry carry = std::move(sim_->world().state.carry);
+    replace_step_integrator(*sim_, std::move(counting));
+    sim_->world().state.carry = std::move(carry);
+  }
 #ifdef QBOND_DISTRIBUTED_IMPLICIT
   if (implicit_)
     replace_step_integrator(
@@ -218,7 +253,7 @@ StepReport DistributedStep::step(bool stop) {
   return r;
 }
 
-StepReport DistributedStep::step_timed(bool stop, double cpu0) {
+StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
   StepReport report;  // this rank's piece's
   bool left = false;  // an owned quanta left this rank's box
   const double t0 = whole_.state.time;
@@ -245,20 +280,49 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0) {
   const double fractured = rules_.empty() ? 0.0 : decide_breaks();
   const StepWork work = charge_ledger();
   times_.bookkeeping += cpu_seconds() - cpu1;
-  const Verdict v = agree(report, left, stop, work.bonds_after);
-  if (v.report.status != StepReport::Status::ok) {
+  Verdict v = agree(report, left, stop, work.bonds_after, contacts_ ? contact_stored_after() : 0.0);
+  auto undo = [&] {
     if (sim_) roll_back(work);
     fracture_ -= fractured;
     whole_.state.rng = rng0;
     events_.clear();
     rebuild_after_roll_back();
+  };
+  if (v.report.status == StepReport::Status::ok && v.moved > slack_ && reach_ > 0) {
+    // A contact of the step may have been missed: taken again from pieces built at its start,
+    // unless it was (a quanta then moved that far in this one step).
+    if (!retaken) {
+      undo();
+      ++retakes_;
+      return step_timed(stop, cpu_seconds(), true);
+    }
+    std::ostringstream msg;
+    msg.precision(6);
+    msg << "at step " << whole_.state.step + 1 << " (t = " << whole_.state.time + h_ << " s) quanta "
+        << whole_.model.quanta_id[v.report.worst] << " moved " << v.moved
+        << " m in one step, more than its contact radius: over ranks the contacts cannot follow it; take "
+           "smaller steps, or run it on one rank; the world keeps the state before this step";
+    v.report.status = StepReport::Status::blowup;
+    v.report.message = msg.str();
+  }
+  if (v.report.status != StepReport::Status::ok) {
+    undo();
     return v.report;
   }
   stop_agreed_ = v.stop;
+  if (contacts_) {
+    // As a run on one rank charges them (the explicit integrators' finish_contact).
+    const Projection::ContactEnergy& c = v.contact;
+    contact_dissipated_ += std::max(0.0, -c.work - (c.stored - c.stored_start));
+    contact_stored_ = c.stored;
+  }
   if (!rules_.empty()) share_breaks();  // at the step's start time, as the run alone breaks them
   whole_.state.time = t0 + h_;  // as every piece's step sets it
   whole_.state.step += 1;
-  if (v.migrate || !events_.empty()) migrate(v.migrate, !events_.empty());
+  // Pieces built anew before a quanta can move past their contact halos.
+  const bool refresh = reach_ > 0 && v.moved > 0.5 * slack_;
+  if (refresh) ++halo_rebuilds_;
+  if (v.migrate || !events_.empty() || refresh) migrate(v.migrate, !events_.empty());
   return {};
 }
 
@@ -281,19 +345,41 @@ void DistributedStep::rebuild_after_roll_back() {
   build(nullptr);
 }
 
+double DistributedStep::contact_stored_after() {
+  if (!sim_) return 0;
+  const State& s = sim_->world().state;
+  contact_after_.evaluate(sim_->world().model, sim_->adjacency(), h_, PointsView::of(s.x.data(), s.v.data()),
+                          owned_mask_);
+  return contact_after_.stored();
+}
+
 DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool left, bool stop,
-                                                double bonds_after) const {
+                                                double bonds_after, double contact_after) const {
   // Each rank's flags (its step refused, a quanta out of its box, a stop asked for) and its sums
   // over its owned quanta and bonds (kinetic energy, gravity's potential, the impulse allowance,
   // the bonds' energy, the anchors' work, its fastest free quanta's speed and index, and the loads'
-  // work), then every rank's, added in rank order: the same on every rank.
-  constexpr std::size_t kFields = 11;
+  // work; with penalty contacts, the farthest an owned quanta has moved since the pieces were
+  // built and its index, and the contacts' books of the step), then every rank's, added in rank
+  // order: the same on every rank.
+  constexpr std::size_t kFields = 16;
   const bool refused = report.status != StepReport::Status::ok;
   double mine[kFields] = {refused ? 1.0 : 0.0,  left ? 1.0 : 0.0, stop ? 1.0 : 0.0, 0, 0, 0, bonds_after,
-                          anchors_,            -1,                0, loads_};
+                          anchors_,            -1,                0, loads_,          0, 0, 0, 0, 0};
   if (refused) mine[9] = static_cast<double>(global_[report.worst]);
   if (sim_ && !refused) {
     const World& w = sim_->world();
+    for (std::size_t k = 0; k < built_at_.size(); ++k) {
+      const double d = (w.state.x[owned_[k]] - built_at_[k]).norm();
+      if (d > mine[11]) {
+        mine[11] = d;
+        mine[12] = static_cast<double>(global_[owned_[k]]);
+      }
+    }
+    if (const Projection::ContactEnergy& c = sim_->projection().contact; c.charged) {
+      mine[13] = c.work;
+      mine[15] = c.stored_start;
+    }
+    mine[14] = contact_after;
     const double t = whole_.state.time + h_ - start_books_.initial_time;
     for (Index q : owned_) {
       if (w.model.is_kinematic(q)) continue;
@@ -319,6 +405,13 @@ DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool l
     v.stop = v.stop || a[2] != 0;
     for (std::size_t k = 0; k < 5; ++k) sum[k] += a[3 + k];
     loads += a[10];
+    if (a[11] > v.moved) {
+      v.moved = a[11];
+      v.report.worst = static_cast<Index>(a[12]);  // named if the step is refused for it
+    }
+    v.contact.work += a[13];
+    v.contact.stored += a[14];
+    v.contact.stored_start += a[15];
     if (a[8] > speed) {
       speed = a[8];
       who = a[9];
@@ -602,6 +695,8 @@ void DistributedStep::gather(World& into) {
   s.energy.work_loads = start_books_.work_loads + loads;
   s.energy.dissipated_damping = start_books_.dissipated_damping + damping;
   s.energy.dissipated_heuristics = start_books_.dissipated_heuristics + fracture;
+  s.energy.dissipated_contact = start_books_.dissipated_contact + contact_dissipated_;
+  s.energy.contact_stored = contact_stored_;
   s.rng = whole_.state.rng;  // the break rules' draws
 }
 

@@ -13,6 +13,7 @@
 #include "distributed/local_world.hpp"
 #include "distributed/partition.hpp"
 #include "heuristics/break_criteria.hpp"
+#include "integrators/penalty_contact.hpp"
 #include "ledger/step_work.hpp"
 #include "qbond/simulation/simulation.hpp"
 #include "solvers/coloring.hpp"
@@ -23,8 +24,8 @@ class DistributedStep {
  public:
   // Splits `whole` (the same on every rank) over the job's ranks; config.type must be an explicit
   // integrator that takes one force evaluation per step (velocity_verlet, explicit_euler,
-  // symplectic_euler) or, built with PETSc, coupled_implicit with the cg solver (the caller
-  // checks). Velocity Verlet's carried forces come from whole.state.carry when it holds them,
+  // symplectic_euler), with the model's penalty contacts if any, or, built with PETSc,
+  // coupled_implicit with the cg solver and no contact (the caller checks). Velocity Verlet's carried forces come from whole.state.carry when it holds them,
   // else are evaluated once here. Throws when the implicit solve would leave a rank without quanta.
   DistributedStep(const World& whole, const IntegratorConfig& config, double h, const BlowupLimits& limits);
   ~DistributedStep();
@@ -66,6 +67,10 @@ class DistributedStep {
   std::uint64_t migrations() const { return migrations_; }
   // How often the boxes were cut anew because the ranks' loads drifted apart.
   std::uint64_t recuts() const { return recuts_; }
+  // With quanta contact: how often the pieces were built anew for their contact halos, and how
+  // often a step was taken again because a quanta had moved past its halo in it.
+  std::uint64_t halo_rebuilds() const { return halo_rebuilds_; }
+  std::uint64_t retakes() const { return retakes_; }
   // Doubles this rank has sent in ghost exchanges.
   std::size_t doubles_sent() const { return halo_.doubles_sent(); }
   // Where this rank's time went over the steps taken: the CPU time of its own step (the piece's
@@ -78,8 +83,11 @@ class DistributedStep {
   const Times& times() const { return times_; }
 
  private:
-  // step() but for its timing (cpu0: the CPU time when the step began).
-  StepReport step_timed(bool stop, double cpu0);
+  // step() but for its timing (cpu0: the CPU time when the step began); `retaken`: the step is
+  // taken again from pieces built anew, after a quanta moved past the contact halo in it.
+  StepReport step_timed(bool stop, double cpu0, bool retaken = false);
+  // The quanta pairs the pieces' contact halos hold, from the whole state (none without quanta contact).
+  ContactHalo contact_halo() const;
   // Builds this rank's piece from whole_ and owner_, with the whole world's carried forces
   // (3 per quanta, by whole index) or, when null, with forces evaluated here and exchanged.
   void build(const std::vector<double>* forces);
@@ -92,11 +100,18 @@ class DistributedStep {
   // piece's own step check, by rank, else the energy runaway check of a run on one rank,
   // Simulation's check_energy, over every rank's quanta and bonds), whether quanta left their
   // boxes, whether a stop was asked for.
+  // With penalty contacts, the step's contact books added over the ranks, and the farthest any
+  // quanta has moved since the pieces were built.
   struct Verdict {
     StepReport report;
     bool migrate = false, stop = false;
+    Projection::ContactEnergy contact;
+    double moved = 0;  // [m]
   };
-  Verdict agree(const StepReport& report, bool left, bool stop, double bonds_after) const;
+  Verdict agree(const StepReport& report, bool left, bool stop, double bonds_after, double contact_after) const;
+  // The counted springs' energy of the penalty contacts at the step's end, from the exchanged
+  // state (a ghost's end in the piece's own step lacks its bonds and contacts off the piece) [J].
+  double contact_stored_after();
   // This piece back to the state before the step, its ledger charges `work` taken back.
   void roll_back(const StepWork& work);
   // Every piece rebuilt from the state the ranks hold (after roll_back), with fresh carried forces.
@@ -142,6 +157,16 @@ class DistributedStep {
   std::vector<Vec3> gravity_;   // m g per local quanta
   double anchors_ = 0, damping_ = 0, loads_ = 0;  // this rank's share since the run started [J]
   double fracture_ = 0;               // the energy of the bonds this rank broke since the run started [J]
+  // Penalty contacts: whether the model has them, and the energy they took out since the run
+  // started and their springs' energy now, over every rank [J].
+  bool contacts_ = false;
+  double contact_dissipated_ = 0, contact_stored_ = 0;
+  PenaltyContact contact_after_;  // contact_stored_after's
+  // Quanta–quanta contact: the pieces hold as ghosts the quanta within reach_ = 2 radius + 2 slack_
+  // of their quanta (contact_halo); while no quanta has moved slack_ from where it was when they
+  // were built (built_at_, per owned quanta), every pair that touches is in the piece of each of its ends.
+  double reach_ = 0, slack_ = 0;  // [m]; 0 without quanta contact
+  std::vector<Vec3> built_at_;
   std::vector<BreakRule> rules_;        // selections by whole index
   std::vector<BreakRule> local_rules_;  // selections by local index
   BreakCriteria criteria_;
@@ -158,6 +183,8 @@ class DistributedStep {
   bool stop_agreed_ = false;
   std::uint64_t migrations_ = 0;
   std::uint64_t recuts_ = 0;
+  std::uint64_t halo_rebuilds_ = 0;
+  std::uint64_t retakes_ = 0;
 };
 
 }  // namespace qbond::distributed

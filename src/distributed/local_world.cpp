@@ -20,12 +20,10 @@ void append_bond(const Bonds& from, std::size_t b, Index i, Index j, Bonds& to) 
   to.time.push_back(from.time[b]);
 }
 
-Piece make_piece(const World& whole, std::span<const int> owner, int rank) {
-  const Model& wm = whole.model;
-  const State& ws = whole.state;
-  const Bonds& wb = ws.bonds;
-  const std::size_t n = wm.num_quanta();
-  // The local quanta: the owned ones and the other ends of their alive bonds.
+std::vector<std::uint8_t> local_quanta(const World& whole, std::span<const int> owner, int rank,
+                                       const ContactHalo& contact) {
+  const Bonds& wb = whole.state.bonds;
+  const std::size_t n = whole.model.num_quanta();
   std::vector<std::uint8_t> wanted(n, 0);
   for (std::size_t q = 0; q < n; ++q)
     if (owner[q] == rank) wanted[q] = 1;
@@ -35,6 +33,25 @@ Piece make_piece(const World& whole, std::span<const int> owner, int rank) {
     if (owner[i] == rank && owner[j] != rank) wanted[j] = 1;
     if (owner[j] == rank && owner[i] != rank) wanted[i] = 1;
   }
+  for (const auto& [i, j] : contact.near) {
+    if (owner[i] == rank) wanted[j] = 1;
+    if (owner[j] == rank) wanted[i] = 1;
+  }
+  if (contact.layers < 2) return wanted;
+  const std::vector<std::uint8_t> first = wanted;
+  for (const auto& [i, j] : contact.near) {
+    if (first[i]) wanted[j] = 1;
+    if (first[j]) wanted[i] = 1;
+  }
+  return wanted;
+}
+
+Piece make_piece(const World& whole, std::span<const int> owner, int rank, const ContactHalo& contact) {
+  const Model& wm = whole.model;
+  const State& ws = whole.state;
+  const Bonds& wb = ws.bonds;
+  const std::size_t n = wm.num_quanta();
+  const std::vector<std::uint8_t> wanted = local_quanta(whole, owner, rank, contact);
   Piece p;
   constexpr Index kNone = ~Index{0};
   std::vector<Index> local(n, kNone);
@@ -49,6 +66,8 @@ Piece make_piece(const World& whole, std::span<const int> owner, int rank) {
   lm.body_names = wm.body_names;
   lm.shapes = wm.shapes;
   lm.gravity = wm.gravity;
+  lm.obstacles = wm.obstacles;
+  lm.quanta_contact = wm.quanta_contact;
   lm.mass.resize(m);
   lm.inv_mass.resize(m);
   lm.body.resize(m);
@@ -90,13 +109,14 @@ Piece make_piece(const World& whole, std::span<const int> owner, int rank) {
       if (local[q] != kNone) mine.quanta.push_back(local[q]);
     lm.loads.push_back(std::move(mine));
   }
-  // The bonds with an owned end, in the whole world's order.
+  // The bonds with an owned end (with quanta contact, with both ends local), in the whole world's order.
   Bonds& lb = ls.edit_bonds();
   for (std::size_t b = 0; b < wb.size(); ++b) {
     if (!wb.alive[b]) continue;
     ++p.whole_alive_bonds;
     const Index i = wb.i[b], j = wb.j[b];
-    if (owner[i] != rank && owner[j] != rank) continue;
+    const bool held = owner[i] == rank || owner[j] == rank || (contact.layers > 0 && wanted[i] && wanted[j]);
+    if (!held) continue;
     if (owner[i] == rank) p.owned_bonds.push_back(static_cast<Index>(lb.size()));
     p.whole_bond.push_back(static_cast<Index>(b));
     append_bond(wb, b, local[i], local[j], lb);
@@ -108,33 +128,28 @@ Piece make_piece(const World& whole, std::span<const int> owner, int rank) {
   return p;
 }
 
-HaloPlan halo_plan(const World& whole, std::span<const int> owner, int rank, const Piece& piece) {
-  const Bonds& wb = whole.state.bonds;
-  std::map<int, std::pair<std::vector<Index>, std::vector<Index>>> lists;  // peer: send, recv (whole indices)
-  for (std::size_t b = 0; b < wb.size(); ++b) {
-    if (!wb.alive[b]) continue;
-    const Index i = wb.i[b], j = wb.j[b];
-    const int oi = owner[i], oj = owner[j];
-    if (oi == oj) continue;
-    if (oi == rank) {
-      lists[oj].first.push_back(i);
-      lists[oj].second.push_back(j);
-    } else if (oj == rank) {
-      lists[oi].first.push_back(j);
-      lists[oi].second.push_back(i);
-    }
+HaloPlan halo_plan(const World& whole, std::span<const int> owner, int rank, const Piece& piece,
+                   const ContactHalo& contact) {
+  // Each peer's ghosts owned here (send) and this piece's ghosts that peer owns (recv), in the
+  // whole world's order: a peer's recv list from this rank is this rank's send list to it.
+  std::map<int, std::pair<std::vector<Index>, std::vector<Index>>> lists;  // peer: send, recv (local indices)
+  for (std::size_t l = 0; l < piece.global.size(); ++l)
+    if (!piece.owned[l]) lists[owner[piece.global[l]]].second.push_back(static_cast<Index>(l));
+  const std::size_t n = whole.model.num_quanta();
+  int ranks = 0;
+  for (std::size_t q = 0; q < n; ++q) ranks = std::max(ranks, owner[q] + 1);
+  for (int peer = 0; peer < ranks; ++peer) {
+    if (peer == rank) continue;
+    const std::vector<std::uint8_t> theirs = local_quanta(whole, owner, peer, contact);
+    for (std::size_t l = 0; l < piece.global.size(); ++l)
+      if (piece.owned[l] && theirs[piece.global[l]]) lists[peer].first.push_back(static_cast<Index>(l));
   }
-  auto to_local = [&](std::vector<Index>& v) {
-    std::sort(v.begin(), v.end());
-    v.erase(std::unique(v.begin(), v.end()), v.end());
-    for (Index& q : v) q = static_cast<Index>(std::lower_bound(piece.global.begin(), piece.global.end(), q) - piece.global.begin());
-    return v;
-  };
   HaloPlan plan;
   for (auto& [peer, sr] : lists) {
+    if (sr.first.empty() && sr.second.empty()) continue;
     plan.peers.push_back(peer);
-    plan.send.push_back(to_local(sr.first));
-    plan.recv.push_back(to_local(sr.second));
+    plan.send.push_back(std::move(sr.first));
+    plan.recv.push_back(std::move(sr.second));
   }
   return plan;
 }

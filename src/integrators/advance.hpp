@@ -90,6 +90,10 @@ class StepIntegrator : public Integrator {
   // Asks that the next projection be taken in substeps, each split again while it would create
   // energy (Simulation's energy guard, after the whole step created some).
   virtual void split_next_step() {}
+  // The quanta whose share of the penalty contacts' books (Projection::contact) the step counts,
+  // 1 each, or empty for all: a run over ranks counts each rank's owned quanta (a pair's spring by
+  // its first end) and adds the ranks' books up.
+  void count_contact_books_of(std::vector<std::uint8_t> quanta) { counted_ = std::move(quanta); }
 
  protected:
   using Integrator::Integrator;
@@ -100,6 +104,7 @@ class StepIntegrator : public Integrator {
                      const Projection& p, State& sub, std::vector<Vec3>& x1, std::vector<Vec3>& v1);
 
   SubstepLedger* substeps_ = nullptr;
+  std::vector<std::uint8_t> counted_;  // count_contact_books_of's
 
  private:
   PrescribedAt placed_;  // the default advance's

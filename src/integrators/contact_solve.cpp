@@ -557,6 +557,7 @@ void ContactSolve::finish(const Model& model, const State& state, const Adjacenc
   // stick spring lets go) charges nothing: that energy is the integrator's, left to `numerical`.
   out.contact.dissipated = std::max(0.0, -work - (u1 - u0));
   out.contact.stored = u1;
+  out.contact.stored_start = u0;
   out.contact.work = work;
   out.contact.charged = true;
 }

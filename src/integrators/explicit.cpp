@@ -1,6 +1,7 @@
 // Explicit integrators: the particle method and its better-behaved relatives.
 #include <algorithm>
 #include <bit>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -143,10 +144,11 @@ class ExplicitIntegrator final : public StepIntegrator {
 
   bool forms_gravity() const override { return config_.type == IntegratorType::velocity_verlet; }
 
-  // Verlet's fused kernel writes the state the step applies in its last pass.
+  // Verlet's fused kernel writes the state the step applies in its last pass. With penalty
+  // contacts the step is projected and applied, as with the ledger on: the same bits either way.
   void advance(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
                const StepContext& ctx, Projection& out, Advanced& to) override {
-    if (config_.type != IntegratorType::velocity_verlet)
+    if (config_.type != IntegratorType::velocity_verlet || PenaltyContact::used(model))
       return StepIntegrator::advance(model, state, adj, f_ext, ctx, out, to);
     part_.update(model, state.bonds, adj, config_.threads);
     verlet(model, state, adj, f_ext, ctx, out, &to);
@@ -211,7 +213,7 @@ class ExplicitIntegrator final : public StepIntegrator {
     if (!contact) return;
     // The springs' energy at the step's end (x₁, v₁ into xs_, vs_).
     stage(model, state, out, 1.0, [&](std::size_t i) { return std::pair{out.dx[i], out.dv[i]}; });
-    contact_.evaluate(model, adj, h, PointsView::of(xs_.data(), vs_.data()));
+    contact_.evaluate(model, adj, h, PointsView::of(xs_.data(), vs_.data()), counted_);
     finish_contact(model, state.v, vs_.data(), out);
   }
 
@@ -285,20 +287,18 @@ class ExplicitIntegrator final : public StepIntegrator {
       reduce_chunks(n, threads, true, stage, std::logical_and<>{});
     }
     // The penalty contacts at the start (x, v) and at the stage (x₁, ṽ), each for half the step's
-    // kick: the start's in x₁ and ṽ before the bond pass reads them.
+    // kick: the start's in x₁ and ṽ before the bond pass reads them. (A step with contacts is
+    // projected, never advanced in place: advance().)
     const bool contact = begin_contact(model);
+    assert(!contact || !to);
     if (contact) {
       contact_step(model, adj, h, 0.5, PointsView::of(state.x.data(), state.v.data()));
       for (const PenaltyContact::Force& c : contact_.forces())
         for (std::size_t k = 0; k < 3; ++k) {
           const std::size_t e = 3 * static_cast<std::size_t>(c.i) + k;
           const double a = model.inv_mass[c.i] * c.f[k];
-          if (dx) {
-            dx[e] += 0.5 * h * h * a;
-            rows.x[k][c.i] = x[e] + dx[e];  // as the step applies it
-          } else {
-            rows.x[k][c.i] += 0.5 * h * h * a;
-          }
+          dx[e] += 0.5 * h * h * a;
+          rows.x[k][c.i] = x[e] + dx[e];  // as the step applies it
           rows.v[k][c.i] += h * a;
         }
     }
@@ -327,15 +327,8 @@ class ExplicitIntegrator final : public StepIntegrator {
     for (std::size_t q = 0; q < n; ++q) {
       if (impulse_[q] == Vec3::Zero()) continue;
       for (std::size_t k = 0; k < 3; ++k) {
-        const std::size_t e = 3 * q + k;
-        const double kick = model.inv_mass[q] * impulse_[q][k];
-        if (to) {
-          next.v[e] += kick;
-          to->v[q][k] = next.v[e];
-        } else {
-          out.dv[q][k] += kick;
-          next.v[e] = v[e] + out.dv[q][k];
-        }
+        out.dv[q][k] += model.inv_mass[q] * impulse_[q][k];
+        next.v[3 * q + k] = v[3 * q + k] + out.dv[q][k];
       }
     }
     finish_contact(model, state.v, kept.v.data(), out);
@@ -352,7 +345,7 @@ class ExplicitIntegrator final : public StepIntegrator {
   // Evaluates the contacts at p, for the fraction w of the step the integrator gives their forces:
   // their impulse w h f goes to the step's books. The step's first evaluation is at its start.
   void contact_step(const Model& model, const Adjacency& adj, double h, double w, const PointsView& p) {
-    contact_.evaluate(model, adj, h, p);
+    contact_.evaluate(model, adj, h, p, counted_);
     if (std::isnan(stored_start_)) stored_start_ = contact_.stored();
     for (const PenaltyContact::Force& c : contact_.forces()) impulse_[c.i] += (w * h) * c.f;
   }
@@ -364,10 +357,12 @@ class ExplicitIntegrator final : public StepIntegrator {
   void finish_contact(const Model& model, const std::vector<Vec3>& v, const Vec3* v1, Projection& out) const {
     double work = 0;
     for (std::size_t q = 0; q < model.num_quanta(); ++q)
-      if (impulse_[q] != Vec3::Zero()) work += impulse_[q].dot(0.5 * (v[q] + v1[q]));
+      if (impulse_[q] != Vec3::Zero() && (counted_.empty() || counted_[q]))
+        work += impulse_[q].dot(0.5 * (v[q] + v1[q]));
     const double stored = contact_.stored();
     out.contact = {.dissipated = std::max(0.0, -work - (stored - stored_start_)),
                    .stored = stored,
+                   .stored_start = stored_start_,
                    .work = work,
                    .charged = true};
   }

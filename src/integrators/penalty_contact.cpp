@@ -54,12 +54,12 @@ double PenaltyContact::damping_ratio(double e, double kappa) {
 }
 
 void PenaltyContact::add(const ContactMaterial& mat, double kappa, double m, double h, double depth, const Vec3& n,
-                         const Vec3& w, Vec3& f) {
+                         const Vec3& w, bool counted, Vec3& f) {
   const double k = kappa * m / (h * h);
   const double c = 2 * damping_ratio(mat.restitution, kappa) * std::sqrt(kappa) * m / h;  // 2 ζ √(k m)
   const double rate = -n.dot(w);  // δ̇: the approach speed
   const double fn = std::max(0.0, k * depth + c * rate);
-  stored_ += 0.5 * k * depth * depth;
+  if (counted) stored_ += 0.5 * k * depth * depth;
   const Vec3 wt = w + rate * n;  // the tangential part of w
   const double s = wt.norm();
   if (mat.friction > 0 && s > 0) f -= (std::min(mat.friction * fn, m / h * s) / s) * wt;
@@ -91,7 +91,9 @@ void PenaltyContact::update_pairs(const Model& model, const Adjacency& adj, cons
   std::sort(pairs_.begin(), pairs_.end());
 }
 
-void PenaltyContact::evaluate(const Model& model, const Adjacency& adj, double h, const PointsView& p) {
+void PenaltyContact::evaluate(const Model& model, const Adjacency& adj, double h, const PointsView& p,
+                              std::span<const std::uint8_t> counted) {
+  auto counts = [&](Index q) { return counted.empty() || counted[q] != 0; };
   forces_.clear();
   stored_ = 0;
   const std::size_t n = model.num_quanta();
@@ -107,7 +109,7 @@ void PenaltyContact::evaluate(const Model& model, const Adjacency& adj, double h
       if (!(depth > 0) || !(r > 0)) continue;
       const double mu = 1 / (model.inv_mass[i] + model.inv_mass[j]);
       Vec3 f = Vec3::Zero();  // on j
-      add(rule.material, rule.penalty, mu, h, depth, d / r, p.v_at(j) - p.v_at(i), f);
+      add(rule.material, rule.penalty, mu, h, depth, d / r, p.v_at(j) - p.v_at(i), counts(i), f);
       sum_[i] -= f;
       sum_[j] += f;
       touched_[i] = touched_[j] = 1;
@@ -122,7 +124,7 @@ void PenaltyContact::evaluate(const Model& model, const Adjacency& adj, double h
       Vec3 normal;
       const double depth = ob.margin - ob.distance(p.x_at(q), normal);
       if (!(depth > 0)) continue;
-      add(ob.material, ob.penalty, model.mass[q], h, depth, normal, p.v_at(q), f);
+      add(ob.material, ob.penalty, model.mass[q], h, depth, normal, p.v_at(q), counts(i), f);
       touching = true;
     }
     if (touching) forces_.push_back({i, f});

@@ -21,6 +21,7 @@
 //
 // The springs hold U = ½ k δ² (the ledger's contact energy).
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "heuristics/spatial_hash.hpp"
@@ -65,10 +66,12 @@ class PenaltyContact {
   static bool used(const Model& model);
 
   // The contact forces at the points p for steps of length h, into forces() in increasing quanta
-  // order (a quanta's terms in a fixed order: its pairs, then its obstacles).
-  void evaluate(const Model& model, const Adjacency& adj, double h, const PointsView& p);
+  // order (a quanta's terms in a fixed order: its pairs, then its obstacles). `counted`: 1 for each
+  // quanta whose springs stored() sums (a pair's by its first end), empty for all.
+  void evaluate(const Model& model, const Adjacency& adj, double h, const PointsView& p,
+                std::span<const std::uint8_t> counted = {});
   const std::vector<Force>& forces() const { return forces_; }
-  // The springs' energy U = Σ ½ k δ² at the positions of the last evaluate [J].
+  // The counted springs' energy U = Σ ½ k δ² at the positions of the last evaluate [J].
   double stored() const { return stored_; }
 
  private:
@@ -76,9 +79,10 @@ class PenaltyContact {
   // when a quanta has moved more than half the skin since, so that every pair within 2R is listed.
   void update_pairs(const Model& model, const Adjacency& adj, const PointsView& p);
   // The normal and friction force of a contact of mass m (reduced, for a pair) at depth δ along n
-  // with velocity w (relative, for a pair) added to f; its spring's energy added to stored_.
+  // with velocity w (relative, for a pair) added to f; its spring's energy added to stored_ when
+  // `counted`.
   void add(const ContactMaterial& mat, double kappa, double m, double h, double depth, const Vec3& n,
-             const Vec3& w, Vec3& f);
+           const Vec3& w, bool counted, Vec3& f);
 
   // The damping ratio ζ for restitution e at penalty κ, computed once for each pair of them.
   double damping_ratio(double e, double kappa);

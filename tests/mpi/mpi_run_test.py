@@ -3,7 +3,7 @@
 
 Usage: mpi_run_test.py QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC [--mpiexec-flag F ...]
                        [--run-arg A ...] [--expect-migration] [--expect-recut] [--expect-blowup]
-                       [--expect-breaks]
+                       [--expect-breaks] [--expect-retakes]
 
 Runs the scene alone, then twice over N ranks, and checks:
   - the two runs over N ranks wrote the same bytes (diagnostics.csv and every frame);
@@ -13,6 +13,7 @@ Runs the scene alone, then twice over N ranks, and checks:
   - with N = 1, the run writes the same bytes as the run alone;
   - with --expect-migration, quanta moved between ranks during the run; with --expect-recut, the
     boxes were cut anew when the ranks' loads drifted apart;
+  - with --expect-retakes, steps were taken again after a quanta moved past its contact halo;
   - with --expect-blowup, every run stops with exit 3 (a blow-up) at the same step with the same
     message, keeping the state before that step;
   - with --expect-breaks, bonds broke, events.csv lists the run alone's breaks (step, bond, ends,
@@ -43,6 +44,7 @@ p.add_argument("--expect-migration", action="store_true")
 p.add_argument("--expect-recut", action="store_true")
 p.add_argument("--expect-blowup", action="store_true")
 p.add_argument("--expect-breaks", action="store_true")
+p.add_argument("--expect-retakes", action="store_true")
 a = p.parse_args()
 
 REL = 1e-12
@@ -138,5 +140,9 @@ if a.expect_migration and (not moved or int(moved.group(1)) == 0):
     sys.exit(f"no quanta moved between ranks:\n{log}")
 if a.expect_recut and (not moved or int(moved.group(2)) == 0):
     sys.exit(f"the boxes were never cut anew:\n{log}")
+halos = re.search(r"contact halos built anew (\d+) times, steps taken again (\d+) times", log)
+if a.expect_retakes and (not halos or int(halos.group(2)) == 0):
+    sys.exit(f"no step was taken again:\n{log}")
 print(f"{a.ranks} ranks: largest difference {worst:.3g} of scale; "
-      f"{moved.group(1) if moved else 0} steps with migrations, {moved.group(2) if moved else 0} new cuts")
+      f"{moved.group(1) if moved else 0} steps with migrations, {moved.group(2) if moved else 0} new cuts"
+      + (f"; contact halos built anew {halos.group(1)} times, steps taken again {halos.group(2)}" if halos else ""))

@@ -45,11 +45,12 @@ struct Projection {
   /// lengths): the step then drops a carry-over that does not hold after it (drop_after_bond_edit).
   bool bonds_edited = false;
   /// The energy of the contacts the step's solve held (Model::obstacles), for the ledger:
-  /// what they removed over the step, −Σ J·(v + v₁)/2 − ΔU (J each quanta's contact impulse),
-  /// and their springs' energy U at x + dx [J].
+  /// what they removed over the step, max(0, −Σ J·(v + v₁)/2 − ΔU) (J each quanta's contact
+  /// impulse), and their springs' energy U at x + dx [J].
   struct ContactEnergy {
     double dissipated = 0;
     double stored = 0;
+    double stored_start = 0;  ///< the springs' energy U at the step's start [J]
     double work = 0;  ///< the contact impulses' work Σ J·(v + v₁)/2 [J] (the energy guard's balance)
     bool charged = false;  ///< set by an integrator that solved contacts this step
   } contact;
