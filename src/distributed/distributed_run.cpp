@@ -26,16 +26,24 @@ void check_distributable(const Scene& scene, int ranks) {
   const IntegratorType t = scene.integrator.type;
 #ifdef QBOND_DISTRIBUTED_IMPLICIT
   const bool implicit = t == IntegratorType::coupled_implicit;
-  const char* taken = "takes coupled_implicit, velocity_verlet, explicit_euler or symplectic_euler, not ";
+  const char* taken =
+      "takes coupled_implicit, velocity_verlet, explicit_euler, symplectic_euler or hybrid_implicit (frozen "
+      "neighbours), not ";
 #else
   const bool implicit = false;
   const char* taken =
-      "takes velocity_verlet, explicit_euler or symplectic_euler (this qbond was built without PETSc, "
-      "which solves coupled_implicit over ranks), not ";
+      "takes velocity_verlet, explicit_euler, symplectic_euler or hybrid_implicit (frozen neighbours) (this qbond "
+      "was built without PETSc, which solves coupled_implicit over ranks), not ";
 #endif
-  if (!implicit && t != IntegratorType::velocity_verlet && t != IntegratorType::explicit_euler &&
+  const bool hybrid = t == IntegratorType::hybrid_implicit;
+  if (!implicit && !hybrid && t != IntegratorType::velocity_verlet && t != IntegratorType::explicit_euler &&
       t != IntegratorType::symplectic_euler)
     throw std::invalid_argument(over + taken + std::string(to_string(t)) + one);
+  // Frozen neighbours: each quanta's solve reads its neighbours' start state alone. The sweeps and
+  // Jacobi iterations would exchange the ghosts between passes and sum residuals over the ranks.
+  if (hybrid && scene.integrator.neighbours != NeighbourModel::frozen)
+    throw std::invalid_argument(over + "takes hybrid_implicit with its neighbours frozen (--neighbours frozen), not " +
+                                std::string(to_string(scene.integrator.neighbours)) + one);
   if (implicit && scene.integrator.solver != CoupledSolver::cg)
     throw std::invalid_argument(over + "solves coupled_implicit with PETSc's CG (solver cg), not solver " +
                                 std::string(to_string(scene.integrator.solver)) + one);
@@ -221,6 +229,7 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
   if (r.runner && r.dist) {
     r.runner->set_stepper([&r] { return r.step(r.runner->simulation().world()); });
     r.runner->set_event_source([&r]() -> const std::vector<BondEvent>& { return r.dist->events(); });
+    r.runner->set_stats_source([&r] { return r.dist->solve_stats(); });
   }
 }
 

@@ -48,6 +48,9 @@ class DistributedStep {
   // them in the whole world's bond order from the same generator, as a run on one rank draws.
   // The breaks are then shared, so that every rank's topology stays the same.
   void set_break_rules(std::vector<BreakRule> rules);
+  // The last step's solve as rank's piece took it (the implicit solve's iterations and residual
+  // are the whole system's, the same on every rank); empty on a rank without quanta.
+  SolveStats solve_stats() const { return sim_ ? sim_->integrator().stats() : SolveStats{}; }
   // The bonds the last step broke (whole-world indices), in the order a run on one rank records them.
   const std::vector<BondEvent>& events() const { return events_; }
   // Breaks the last step's bonds in `w` (a world of the same quanta and bonds), called before its

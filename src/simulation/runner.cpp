@@ -221,6 +221,7 @@ struct Runner::Impl {
 
   std::function<StepReport()> stepper;  ///< set_stepper's, else the simulation's own step
   std::function<const std::vector<BondEvent>&()> event_source;  ///< set_event_source's, else the simulation's
+  std::function<SolveStats()> stats_source;                     ///< set_stats_source's, else the simulation's
 
   StepReport step() {
     if (stepper) return stepper();
@@ -269,7 +270,7 @@ struct Runner::Impl {
     const World& w = sim.world();
     const std::uint64_t step = w.state.step;
     if (step == last_row) return;
-    csv->write_line(diagnostics.row(w.model, w.state, sim.integrator().stats(), last_h));
+    csv->write_line(diagnostics.row(w.model, w.state, stats_source ? stats_source() : sim.integrator().stats(), last_h));
     last_row = step;
     if (!settings.vtk) return;
     const std::string name = frame_name(step, static_cast<bool>(settings.write_frame));
@@ -566,5 +567,6 @@ void Runner::set_stepper(std::function<StepReport()> step) { impl_->stepper = st
 void Runner::set_event_source(std::function<const std::vector<BondEvent>&()> events) {
   impl_->event_source = std::move(events);
 }
+void Runner::set_stats_source(std::function<SolveStats()> stats) { impl_->stats_source = std::move(stats); }
 
 }  // namespace qbond

@@ -17,7 +17,7 @@ scale (energies are quadratic in v). The scene's frames are written every step, 
 is over every step. Checks:
   - the two runs over N ranks wrote the same bytes (diagnostics.csv and every frame);
   - every frame holds every quanta and bond of the run alone, at its positions and velocities to
-    the bounds above; every diagnostics column but the solver's (iterations, residual: 0 over ranks) to
+    the bounds above; every diagnostics column but the solver's (iterations, residual: PETSc's over ranks) to
     twice the relative bound plus round-off, of its scale (the energy columns of the energy's, a
     vector's components of the vector's);
   - the ledger over ranks closes: total − total at the start = work − dissipated − numerical to

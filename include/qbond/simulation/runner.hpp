@@ -113,6 +113,9 @@ class Runner {
   /// Replaces where each step's bond events come from (events.csv): with set_stepper, the
   /// stepper's own events, the bonds of simulation().world() already broken or formed.
   void set_event_source(std::function<const std::vector<BondEvent>&()> events);
+  /// Replaces where the diagnostics' solver columns (iterations, residual) come from: with
+  /// set_stepper, the last step's solve as the stepper took it.
+  void set_stats_source(std::function<SolveStats()> stats);
 
  private:
   struct Impl;
