@@ -358,44 +358,16 @@ class CoupledOverRanks final : public StepIntegrator {
     if (!system_) system_ = std::make_unique<RanksSystem>(layout_, state, adj, config_, takes_matrix(config_));
     system_->load(layout_, model, state.bonds, adj, sys_);
     system_->solve(layout_, sys_, guessed, y_, stats_);
-    if (config_.restore_momentum) restore_momentum(model, f_ext, ctx.h);
+    if (config_.restore_momentum) restore_momentum_over_ranks(layout_, model, f_ext, ctx.h, y_);
     keep_guess(config_.warm_start, y_, ctx.h, state.carry, threads, out);
     // The ghosts' rows are their owners' to write: the exchange after the step brings them.
     write_free_rows(model, state, ctx.h, y_, threads, out);
   }
 
  private:
-  // restore_component_momentum over the whole world's free components: each rank's sums over its
-  // owned members, added in rank order (the same shift on every rank).
-  void restore_momentum(const Model& model, const std::vector<Vec3>& f_ext, double h) {
-    const std::size_t nc = layout_.component_mass.size();
-    sums_.assign(6 * nc, 0.0);
-    for (std::size_t c = 0; c < nc; ++c)
-      for (Index k = layout_.component_offset[c]; k < layout_.component_offset[c + 1]; ++k) {
-        const Index i = layout_.component_owned[k];
-        const Vec3 wanted = h * external_force(model, f_ext, i), got = model.mass[i] * y_[i];
-        for (int j = 0; j < 3; ++j) {
-          sums_[6 * c + static_cast<std::size_t>(j)] += wanted[j];
-          sums_[6 * c + 3 + static_cast<std::size_t>(j)] += got[j];
-        }
-      }
-    const std::vector<double> all = all_gather(sums_);
-    for (std::size_t c = 0; c < nc; ++c) {
-      Vec3 wanted = Vec3::Zero(), got = Vec3::Zero();
-      for (std::size_t r = 0; r + 6 * nc <= all.size(); r += 6 * nc) {
-        wanted += Vec3(all[r + 6 * c], all[r + 6 * c + 1], all[r + 6 * c + 2]);
-        got += Vec3(all[r + 6 * c + 3], all[r + 6 * c + 4], all[r + 6 * c + 5]);
-      }
-      const Vec3 shift = (wanted - got) / layout_.component_mass[c];
-      for (Index k = layout_.component_offset[c]; k < layout_.component_offset[c + 1]; ++k)
-        y_[layout_.component_owned[k]] += shift;
-    }
-  }
-
   SolveLayout layout_;
   ImplicitSystem sys_;
   std::vector<Vec3> y_;
-  std::vector<double> sums_;
   std::unique_ptr<RanksSystem> system_;
 };
 

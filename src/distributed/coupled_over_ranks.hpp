@@ -44,6 +44,11 @@ SolveLayout solve_layout(const World& whole, std::span<const int> owner, int ran
                          std::span<const Index> global, std::span<const Index> owned,
                          const FreeComponents& components);
 
+// restore_component_momentum over the whole world's free components on the owned rows of dv: each
+// rank's sums over its owned members, added in rank order (the same shift on every rank; collective).
+void restore_momentum_over_ranks(const SolveLayout& layout, const Model& model, const std::vector<Vec3>& f_ext,
+                                 double h, std::vector<Vec3>& dv);
+
 // The coupled implicit integrator of one rank's piece, every rank taking each step together (its
 // projection is collective). `config`: coupled_implicit with the cg solver.
 std::unique_ptr<StepIntegrator> make_coupled_over_ranks(const IntegratorConfig& config, SolveLayout layout);

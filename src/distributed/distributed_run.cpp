@@ -27,23 +27,23 @@ void check_distributable(const Scene& scene, int ranks) {
 #ifdef QBOND_DISTRIBUTED_IMPLICIT
   const bool implicit = t == IntegratorType::coupled_implicit;
   const char* taken =
-      "takes coupled_implicit, velocity_verlet, explicit_euler, symplectic_euler or hybrid_implicit (frozen "
-      "neighbours), not ";
+      "takes coupled_implicit, hybrid_implicit, velocity_verlet, explicit_euler or symplectic_euler, not ";
 #else
   const bool implicit = false;
   const char* taken =
-      "takes velocity_verlet, explicit_euler, symplectic_euler or hybrid_implicit (frozen neighbours) (this qbond "
-      "was built without PETSc, which solves coupled_implicit over ranks), not ";
+      "takes hybrid_implicit, velocity_verlet, explicit_euler or symplectic_euler (this qbond was built without "
+      "PETSc, which solves coupled_implicit over ranks), not ";
 #endif
   const bool hybrid = t == IntegratorType::hybrid_implicit;
   if (!implicit && !hybrid && t != IntegratorType::velocity_verlet && t != IntegratorType::explicit_euler &&
       t != IntegratorType::symplectic_euler)
     throw std::invalid_argument(over + taken + std::string(to_string(t)) + one);
-  // Frozen neighbours: each quanta's solve reads its neighbours' start state alone. The sweeps and
-  // Jacobi iterations would exchange the ghosts between passes and sum residuals over the ranks.
-  if (hybrid && scene.integrator.neighbours != NeighbourModel::frozen)
-    throw std::invalid_argument(over + "takes hybrid_implicit with its neighbours frozen (--neighbours frozen), not " +
-                                std::string(to_string(scene.integrator.neighbours)) + one);
+  // The sweeps' guess from the last steps does not survive the pieces' rebuilds yet.
+  const WarmStart w = scene.integrator.warm_start;
+  if (hybrid && scene.integrator.neighbours != NeighbourModel::frozen &&
+      (w == WarmStart::previous || w == WarmStart::extrapolated))
+    throw std::invalid_argument(over + "starts the hybrid's sweeps from a zero or external guess, not from the last "
+                                "steps' (warm_start " + std::string(to_string(w)) + ")" + one);
   if (implicit && scene.integrator.solver != CoupledSolver::cg)
     throw std::invalid_argument(over + "solves coupled_implicit with PETSc's CG (solver cg), not solver " +
                                 std::string(to_string(scene.integrator.solver)) + one);

@@ -14,6 +14,7 @@
 #include "integrators/advance.hpp"
 #include "integrators/bond_forces.hpp"
 #include "integrators/bond_partition.hpp"
+#include "integrators/integrator_common.hpp"
 #include "ledger/step_work.hpp"
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/distributed/distributed.hpp"
@@ -60,6 +61,7 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       limits_(limits),
       verlet_(config.type == IntegratorType::velocity_verlet),
       implicit_(config.type == IntegratorType::coupled_implicit),
+      linked_(config.type == IntegratorType::hybrid_implicit && config.neighbours != NeighbourModel::frozen),
       rank_(mpi_rank()),
       ranks_(mpi_ranks()),
       start_books_(whole.state.energy) {
@@ -89,10 +91,29 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
 DistributedStep::~DistributedStep() = default;
 
 void DistributedStep::find_components() {
-  if (!implicit_) return;
+  if (!implicit_ && !linked_) return;
   Adjacency adj;
   build_adjacency(whole_.model, whole_.state, adj);
   free_components(whole_.model, adj, components_);
+  if (linked_) color_free_quanta(whole_.model, adj, whole_coloring_);
+}
+
+void DistributedStep::exchange(std::vector<Vec3>& y) {
+  halo_.exchange(
+      plan_, 3, [&](Index q, double* out) { std::copy_n(y[q].data(), 3, out); },
+      [&](Index q, const double* in) { std::copy_n(in, 3, y[q].data()); });
+}
+
+void DistributedStep::sum(std::span<double> sums) {
+  const std::vector<double> all = all_gather(sums);
+  std::fill(sums.begin(), sums.end(), 0.0);
+  for (std::size_t r = 0; r + sums.size() <= all.size(); r += sums.size())
+    for (std::size_t k = 0; k < sums.size(); ++k) sums[k] += all[r + k];
+}
+
+void DistributedStep::restore_momentum(const Model& model, const std::vector<Vec3>& f_ext, double h,
+                                       std::vector<Vec3>& dv) {
+  restore_momentum_over_ranks(layout_, model, f_ext, h, dv);
 }
 
 ContactHalo DistributedStep::contact_halo() const {
@@ -151,11 +172,11 @@ void DistributedStep::build(const std::vector<double>* forces) {
     if (total != static_cast<double>(piece.whole_alive_bonds))
       throw std::logic_error("the ranks' pieces hold " + std::to_string(total) + " bonds of " +
                              std::to_string(piece.whole_alive_bonds));
-    if (implicit_ && fewest == 0)
+    if ((implicit_ || linked_) && fewest == 0)
       throw std::invalid_argument("a run of " + std::to_string(whole_.num_quanta()) + " quanta over " +
-                                  std::to_string(ranks_) +
-                                  " ranks leaves a rank without quanta, which the implicit solve over ranks "
-                                  "cannot take; run it on fewer ranks");
+                                  std::to_string(ranks_) + " ranks leaves a rank without quanta, which the " +
+                                  (implicit_ ? "implicit solve" : "hybrid's sweeps") +
+                                  " over ranks cannot take; run it on fewer ranks");
   }
   if (verlet_) {
     // The carried forces: the whole world's, or this piece's own for its owned quanta (whose
@@ -186,6 +207,20 @@ void DistributedStep::build(const std::vector<double>* forces) {
   sim_ = std::make_unique<Simulation>(std::move(w), config_, h_);
   sim_->limits() = limits_;
   sim_->set_track_energy(false);  // the ledger is charged here, over the owned bonds
+  if (linked_) {
+    // The whole world's colour classes, restricted to this piece's quanta, in local order.
+    std::vector<Index> local(whole_.num_quanta(), ~Index{0});
+    for (std::size_t l = 0; l < global_.size(); ++l) local[global_[l]] = static_cast<Index>(l);
+    coloring_ = {};
+    coloring_.offset.push_back(0);
+    for (std::size_t c = 0; c < whole_coloring_.num_colors(); ++c) {
+      for (Index k = whole_coloring_.offset[c]; k < whole_coloring_.offset[c + 1]; ++k)
+        if (const Index l = local[whole_coloring_.quanta[k]]; l != ~Index{0}) coloring_.quanta.push_back(l);
+      coloring_.offset.push_back(static_cast<Index>(coloring_.quanta.size()));
+    }
+    layout_ = solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_);
+    replace_step_integrator(*sim_, make_hybrid_over_ranks(config_, *this));
+  }
   if (contacts_) {
     // The contacts' books of the owned quanta, added up over the ranks in agree().
     std::unique_ptr<StepIntegrator> counting = make_step_integrator(config_);
@@ -236,6 +271,32 @@ SolveLayout solve_layout(const World& whole, std::span<const int> owner, int ran
   return layout;
 }
 
+void restore_momentum_over_ranks(const SolveLayout& layout, const Model& model, const std::vector<Vec3>& f_ext,
+                                 double h, std::vector<Vec3>& dv) {
+  const std::size_t nc = layout.component_mass.size();
+  std::vector<double> sums(6 * nc, 0.0);
+  for (std::size_t c = 0; c < nc; ++c)
+    for (Index k = layout.component_offset[c]; k < layout.component_offset[c + 1]; ++k) {
+      const Index i = layout.component_owned[k];
+      const Vec3 wanted = h * external_force(model, f_ext, i), got = model.mass[i] * dv[i];
+      for (int j = 0; j < 3; ++j) {
+        sums[6 * c + static_cast<std::size_t>(j)] += wanted[j];
+        sums[6 * c + 3 + static_cast<std::size_t>(j)] += got[j];
+      }
+    }
+  const std::vector<double> all = all_gather(sums);
+  for (std::size_t c = 0; c < nc; ++c) {
+    Vec3 wanted = Vec3::Zero(), got = Vec3::Zero();
+    for (std::size_t r = 0; r + 6 * nc <= all.size(); r += 6 * nc) {
+      wanted += Vec3(all[r + 6 * c], all[r + 6 * c + 1], all[r + 6 * c + 2]);
+      got += Vec3(all[r + 6 * c + 3], all[r + 6 * c + 4], all[r + 6 * c + 5]);
+    }
+    const Vec3 shift = (wanted - got) / layout.component_mass[c];
+    for (Index k = layout.component_offset[c]; k < layout.component_offset[c + 1]; ++k)
+      dv[layout.component_owned[k]] += shift;
+  }
+}
+
 namespace {
 // CPU time of this process [s].
 double cpu_seconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
@@ -262,6 +323,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     ledger_.x = s.x;
     ledger_.v = s.v;
     report = sim_->step();
+    solve_stats_ = sim_->integrator().stats();  // before a rebuild makes a new integrator
     if (report.status == StepReport::Status::ok)
       for (Index q : owned_)
         if (cuts_.part_of(s.x[q]) != rank_) {

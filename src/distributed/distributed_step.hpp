@@ -14,21 +14,25 @@
 #include "distributed/partition.hpp"
 #include "heuristics/break_criteria.hpp"
 #include "integrators/penalty_contact.hpp"
+#include "integrators/ranks_link.hpp"
 #include "ledger/step_work.hpp"
 #include "qbond/simulation/simulation.hpp"
 #include "solvers/coloring.hpp"
 
 namespace qbond::distributed {
 
-class DistributedStep {
+class DistributedStep : private RanksLink {
  public:
   // Splits `whole` (the same on every rank) over the job's ranks; config.type must be an explicit
   // integrator that takes one force evaluation per step (velocity_verlet, explicit_euler,
-  // symplectic_euler), with the model's penalty contacts if any, or, built with PETSc,
-  // coupled_implicit with the cg solver and no contact (the caller checks). Velocity Verlet's carried forces come from whole.state.carry when it holds them,
+  // symplectic_euler), with the model's penalty contacts if any, hybrid_implicit (its sweeps and
+  // Jacobi iterations from a zero or external guess), or, built with PETSc, coupled_implicit with
+  // the cg solver and no contact (the caller checks). Velocity Verlet's carried forces come from whole.state.carry when it holds them,
   // else are evaluated once here. Throws when the implicit solve would leave a rank without quanta.
   DistributedStep(const World& whole, const IntegratorConfig& config, double h, const BlowupLimits& limits);
   ~DistributedStep();
+  DistributedStep(const DistributedStep&) = delete;  // the pieces' integrators link to it
+  DistributedStep& operator=(const DistributedStep&) = delete;
 
   // One step on every rank. `stop`: this rank asks that the run stop after it (stop_agreed()). On
   // a blow-up on any rank every rank keeps the state before the step and returns the report of
@@ -48,9 +52,9 @@ class DistributedStep {
   // them in the whole world's bond order from the same generator, as a run on one rank draws.
   // The breaks are then shared, so that every rank's topology stays the same.
   void set_break_rules(std::vector<BreakRule> rules);
-  // The last step's solve as rank's piece took it (the implicit solve's iterations and residual
-  // are the whole system's, the same on every rank); empty on a rank without quanta.
-  SolveStats solve_stats() const { return sim_ ? sim_->integrator().stats() : SolveStats{}; }
+  // The last step's solve as this rank's piece took it (the solves over ranks' iterations and
+  // residual are the whole system's, the same on every rank); empty on a rank without quanta.
+  const SolveStats& solve_stats() const { return solve_stats_; }
   // The bonds the last step broke (whole-world indices), in the order a run on one rank records them.
   const std::vector<BondEvent>& events() const { return events_; }
   // Breaks the last step's bonds in `w` (a world of the same quanta and bonds), called before its
@@ -132,8 +136,16 @@ class DistributedStep {
   void share_breaks();
   // The rules with their selections in this piece's local indices.
   void localise_rules();
-  // coupled_implicit: components_ from whole_'s topology.
+  // coupled_implicit and the hybrid's sweeps: components_ (and for the sweeps whole_coloring_)
+  // from whole_'s topology.
   void find_components();
+  // RanksLink, for the hybrid's sweeps and Jacobi iterations: each piece's passes linked to the others'.
+  const std::vector<std::uint8_t>& owned() const override { return owned_mask_; }
+  const Coloring& coloring() const override { return coloring_; }
+  void exchange(std::vector<Vec3>& y) override;
+  void sum(std::span<double> sums) override;
+  void restore_momentum(const Model& model, const std::vector<Vec3>& f_ext, double h,
+                        std::vector<Vec3>& dv) override;
   // The owned quanta's [index, x, v, f] rows, 10 doubles each.
   std::vector<double> owned_rows() const;
 
@@ -143,6 +155,7 @@ class DistributedStep {
   BlowupLimits limits_;
   bool verlet_;
   bool implicit_;  // coupled_implicit: the pieces' steps solve one system over the ranks
+  bool linked_;    // hybrid_implicit with sweeps or Jacobi iterations: the pieces' passes are linked
   int rank_, ranks_;
   Bisection cuts_;
   std::vector<int> owner_;
@@ -180,9 +193,13 @@ class DistributedStep {
   std::vector<double> broken_;          // this rank's breaks of the step: [rule, bond, i, j, reason, strain, tension]
   std::vector<BondEvent> events_;
   EnergyLedger start_books_;          // the whole ledger when the run started (opened if it was not)
-  // coupled_implicit: the whole world's free components, found anew when bonds break.
+  // coupled_implicit and the hybrid's sweeps: the whole world's free components, found anew when
+  // bonds break; the sweeps': the whole world's colouring, and this piece's share of both.
   FreeComponents components_;
+  Coloring whole_coloring_, coloring_;
+  SolveLayout layout_;
   Times times_;
+  SolveStats solve_stats_;
   bool stop_agreed_ = false;
   std::uint64_t migrations_ = 0;
   std::uint64_t recuts_ = 0;

@@ -111,8 +111,17 @@ bool DirectSolver::solve_lu(const Model& model, const State& state, const Implic
   return true;
 }
 
+double residual_sum(const std::vector<double>& res, const Coloring& col, int threads, RanksLink* link) {
+  if (!link) return deterministic_sum(res.size(), threads, [&](std::size_t k) { return res[k]; });
+  const std::vector<std::uint8_t>& owned = link->owned();
+  double r2 = deterministic_sum(res.size(), threads, [&](std::size_t k) { return owned[col.quanta[k]] ? res[k] : 0.0; });
+  link->sum({&r2, 1});
+  return r2;
+}
+
 void GaussSeidel::solve(const Adjacency& adj, const ImplicitSystem& sys, const Coloring& col, int sweeps,
-                        double tolerance, double rho, int threads, std::vector<Vec3>& y, SolveStats& stats) {
+                        double tolerance, double rho, int threads, std::vector<Vec3>& y, SolveStats& stats,
+                        RanksLink* link) {
   double omega = 1;
   if (rho > 0) older = y;
   res.resize(col.quanta.size());
@@ -129,6 +138,7 @@ void GaussSeidel::solve(const Adjacency& adj, const ImplicitSystem& sys, const C
         res[k] = (r - sys.diag[i] * y[i]).squaredNorm();
         y[i] = sys.diag_inv[i] * r;
       });
+      if (link) link->exchange(y);
     }
     if (rho > 0) {
       // Chebyshev semi-iteration: y ← ω (ŷ - y_{k-1}) + y_{k-1}.
@@ -140,7 +150,7 @@ void GaussSeidel::solve(const Adjacency& adj, const ImplicitSystem& sys, const C
       older.swap(prev);
     }
     stats.iterations = it + 1;
-    const double r2 = deterministic_sum(res.size(), threads, [&](std::size_t k) { return res[k]; });
+    const double r2 = residual_sum(res, col, threads, link);
     stats.residual = sys.rhs_norm > 0 ? std::sqrt(r2) / sys.rhs_norm : std::sqrt(r2);
     if (tolerance > 0 && stats.residual <= tolerance) break;
   }

@@ -17,6 +17,7 @@
 #include "integrators/advance.hpp"
 #include "integrators/bond_partition.hpp"
 #include "integrators/prescribed.hpp"
+#include "integrators/ranks_link.hpp"
 #include "solvers/coloring.hpp"
 #include "qbond/model/world.hpp"
 #include "qbond/integrators/integrators.hpp"
@@ -261,12 +262,18 @@ class SystemProduct {
 // Block Gauss–Seidel sweeps in graph-colour order (quanta of one colour share no bond, so their
 // 3×3 updates run in parallel), from the initial guess in y, at most `sweeps` or until the
 // in-sweep residual estimate ‖b − A y‖/‖b‖ ≤ tolerance (tolerance > 0); optional Chebyshev
-// semi-iteration (Wang 2015) when rho > 0; fills stats.
+// semi-iteration (Wang 2015) when rho > 0; fills stats. Over ranks (`link`), the ghosts' rows
+// are brought from their owners after each colour, and the residual is the owned rows' summed
+// over the ranks.
 struct GaussSeidel {
   std::vector<Vec3> prev, older;
   std::vector<double> res;  // residual² of each free quanta's block, in colour order
   void solve(const Adjacency& adj, const ImplicitSystem& sys, const Coloring& col, int sweeps, double tolerance,
-             double rho, int threads, std::vector<Vec3>& y, SolveStats& stats);
+             double rho, int threads, std::vector<Vec3>& y, SolveStats& stats, RanksLink* link = nullptr);
 };
+
+// Σ res[k] over the rows of col.quanta a solve counts: every one alone, the owned ones summed
+// over the ranks with a link (collective then).
+double residual_sum(const std::vector<double>& res, const Coloring& col, int threads, RanksLink* link);
 
 }  // namespace qbond

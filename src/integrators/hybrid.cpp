@@ -7,6 +7,7 @@
 
 #include "integrators/backward_euler.hpp"
 #include "integrators/integrator_common.hpp"
+#include "integrators/ranks_link.hpp"
 #include "core/parallel.hpp"
 
 namespace qbond {
@@ -15,7 +16,8 @@ namespace {
 class HybridIntegrator final : public StepIntegrator {
  public:
   // Dampers at the end-of-step velocity (backward Euler).
-  explicit HybridIntegrator(const IntegratorConfig& c) : StepIntegrator(c, {.damping_theta = 1.0}) {}
+  explicit HybridIntegrator(const IntegratorConfig& c, RanksLink* link = nullptr)
+      : StepIntegrator(c, {.damping_theta = 1.0}), link_(link) {}
 
   bool forms_gravity() const override { return config_.neighbours == NeighbourModel::frozen; }
 
@@ -53,14 +55,31 @@ class HybridIntegrator final : public StepIntegrator {
              const StepContext& ctx, Projection& out) {
     const int threads = config_.threads;
     begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/true, threads, out, sys_);
-    topo_.update(model, adj);
+    if (link_) {
+      // ‖b‖ of the whole system: the owned rows', summed over the ranks.
+      const std::vector<std::uint8_t>& owned = link_->owned();
+      double b2 = deterministic_sum(model.num_quanta(), threads,
+                                    [&](std::size_t i) { return owned[i] ? sys_.rhs[i].squaredNorm() : 0.0; });
+      link_->sum({&b2, 1});
+      sys_.rhs_norm = std::sqrt(b2);
+    } else {
+      topo_.update(model, adj);
+    }
+    const Coloring& col = link_ ? link_->coloring() : topo_.coloring;
     initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, threads, y_);
     if (config_.neighbours == NeighbourModel::sweep)
-      gs_.solve(adj, sys_, topo_.coloring, config_.iterations, config_.tolerance, config_.chebyshev_rho, threads,
-                y_, stats_);
+      gs_.solve(adj, sys_, col, config_.iterations, config_.tolerance, config_.chebyshev_rho, threads, y_, stats_,
+                link_);
     else
-      jacobi(adj);
-    if (config_.restore_momentum) restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
+      jacobi(adj, col);
+    if (config_.restore_momentum) {
+      if (link_) {
+        link_->restore_momentum(model, f_ext, ctx.h, y_);
+        link_->exchange(y_);
+      } else {
+        restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
+      }
+    }
     keep_guess(config_.warm_start, y_, ctx.h, state.carry, threads, out);
   }
 
@@ -74,13 +93,8 @@ class HybridIntegrator final : public StepIntegrator {
     return config_.tolerance > 0 && stats_.residual <= config_.tolerance;
   }
 
-  // Σ of the per-block residuals res_[k], k over the free quanta in colour order.
-  double residual2() const {
-    return deterministic_sum(res_.size(), config_.threads, [&](std::size_t k) { return res_[k]; });
-  }
-
-  void jacobi(const Adjacency& adj) {
-    const std::vector<Index>& free = topo_.coloring.quanta;
+  void jacobi(const Adjacency& adj, const Coloring& col) {
+    const std::vector<Index>& free = col.quanta;
     res_.resize(free.size());
     for (int it = 0; it < config_.iterations; ++it) {
       next_ = y_;
@@ -90,9 +104,10 @@ class HybridIntegrator final : public StepIntegrator {
         res_[k] = (r - sys_.diag[i] * y_[i]).squaredNorm();
         next_[i] = sys_.diag_inv[i] * r;
       });
+      if (link_) link_->exchange(next_);
       y_.swap(next_);
       stats_.iterations = it + 1;
-      if (converged(residual2())) break;
+      if (converged(residual_sum(res_, col, config_.threads, link_))) break;
     }
   }
 
@@ -103,6 +118,7 @@ class HybridIntegrator final : public StepIntegrator {
   std::vector<Vec3> y_, next_;
   std::vector<double> res_;  // jacobi: residual² of each free quanta's block
   PrescribedAt placed_;      // apply_solved's
+  RanksLink* link_;          // over ranks: the other pieces' passes
 };
 
 std::unique_ptr<StepIntegrator> make_hybrid(const IntegratorConfig& config) {
@@ -110,6 +126,12 @@ std::unique_ptr<StepIntegrator> make_hybrid(const IntegratorConfig& config) {
 }
 
 }  // namespace
+
+std::unique_ptr<StepIntegrator> make_hybrid_over_ranks(const IntegratorConfig& config, RanksLink& link) {
+  IntegratorConfig c = config;
+  c.warm_start = resolved_warm_start(c);  // as make_step_integrator does
+  return std::make_unique<HybridIntegrator>(c, &link);
+}
 
 const IntegratorInfo hybrid_implicit_integrator = {
     IntegratorType::hybrid_implicit, "hybrid_implicit", "Eqs. 11-12: one 3x3 solve per quanta (see neighbours)", {},
