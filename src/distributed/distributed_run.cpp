@@ -27,16 +27,16 @@ void check_distributable(const Scene& scene, int ranks) {
 #ifdef QBOND_DISTRIBUTED_IMPLICIT
   const bool implicit = t == IntegratorType::coupled_implicit;
   const char* taken =
-      "takes coupled_implicit, hybrid_implicit, velocity_verlet, explicit_euler or symplectic_euler, not ";
+      "takes coupled_implicit, hybrid_implicit, velocity_verlet, symplectic_euler, explicit_euler or rk4, not ";
 #else
   const bool implicit = false;
   const char* taken =
-      "takes hybrid_implicit, velocity_verlet, explicit_euler or symplectic_euler (this qbond was built without "
-      "PETSc, which solves coupled_implicit over ranks), not ";
+      "takes hybrid_implicit, velocity_verlet, symplectic_euler, explicit_euler or rk4 (this qbond was built "
+      "without PETSc, which solves coupled_implicit over ranks), not ";
 #endif
   const bool hybrid = t == IntegratorType::hybrid_implicit;
   if (!implicit && !hybrid && t != IntegratorType::velocity_verlet && t != IntegratorType::explicit_euler &&
-      t != IntegratorType::symplectic_euler)
+      t != IntegratorType::symplectic_euler && t != IntegratorType::rk4)
     throw std::invalid_argument(over + taken + std::string(to_string(t)) + one);
   // The sweeps' guess from the last steps does not survive the pieces' rebuilds yet.
   const WarmStart w = scene.integrator.warm_start;

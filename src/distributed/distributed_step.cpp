@@ -61,7 +61,8 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       limits_(limits),
       verlet_(config.type == IntegratorType::velocity_verlet),
       implicit_(config.type == IntegratorType::coupled_implicit),
-      linked_(config.type == IntegratorType::hybrid_implicit && config.neighbours != NeighbourModel::frozen),
+      sweeps_(config.type == IntegratorType::hybrid_implicit && config.neighbours != NeighbourModel::frozen),
+      linked_(sweeps_ || config.type == IntegratorType::rk4),
       rank_(mpi_rank()),
       ranks_(mpi_ranks()),
       start_books_(whole.state.energy) {
@@ -91,11 +92,11 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
 DistributedStep::~DistributedStep() = default;
 
 void DistributedStep::find_components() {
-  if (!implicit_ && !linked_) return;
+  if (!implicit_ && !sweeps_) return;
   Adjacency adj;
   build_adjacency(whole_.model, whole_.state, adj);
   free_components(whole_.model, adj, components_);
-  if (linked_) color_free_quanta(whole_.model, adj, whole_coloring_);
+  if (sweeps_) color_free_quanta(whole_.model, adj, whole_coloring_);
 }
 
 void DistributedStep::exchange(std::vector<Vec3>& y) {
@@ -175,7 +176,7 @@ void DistributedStep::build(const std::vector<double>* forces) {
     if ((implicit_ || linked_) && fewest == 0)
       throw std::invalid_argument("a run of " + std::to_string(whole_.num_quanta()) + " quanta over " +
                                   std::to_string(ranks_) + " ranks leaves a rank without quanta, which the " +
-                                  (implicit_ ? "implicit solve" : "hybrid's sweeps") +
+                                  (implicit_ ? "implicit solve" : sweeps_ ? "hybrid's sweeps" : "rk4 step") +
                                   " over ranks cannot take; run it on fewer ranks");
   }
   if (verlet_) {
@@ -207,7 +208,7 @@ void DistributedStep::build(const std::vector<double>* forces) {
   sim_ = std::make_unique<Simulation>(std::move(w), config_, h_);
   sim_->limits() = limits_;
   sim_->set_track_energy(false);  // the ledger is charged here, over the owned bonds
-  if (linked_) {
+  if (sweeps_) {
     // The whole world's colour classes, restricted to this piece's quanta, in local order.
     std::vector<Index> local(whole_.num_quanta(), ~Index{0});
     for (std::size_t l = 0; l < global_.size(); ++l) local[global_[l]] = static_cast<Index>(l);
@@ -219,14 +220,15 @@ void DistributedStep::build(const std::vector<double>* forces) {
       coloring_.offset.push_back(static_cast<Index>(coloring_.quanta.size()));
     }
     layout_ = solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_);
-    replace_step_integrator(*sim_, make_hybrid_over_ranks(config_, *this));
   }
-  if (contacts_) {
-    // The contacts' books of the owned quanta, added up over the ranks in agree().
-    std::unique_ptr<StepIntegrator> counting = make_step_integrator(config_);
-    counting->count_contact_books_of(owned_mask_);
+  if (linked_ || contacts_) {
+    // The piece's step linked to the other ranks', its contacts' books those of the owned quanta
+    // (added up over the ranks in agree()).
+    std::unique_ptr<StepIntegrator> linked = make_step_integrator(config_);
+    linked->link_to_ranks(*this);
+    linked->count_contact_books_of(owned_mask_);
     Carry carry = std::move(sim_->world().state.carry);
-    replace_step_integrator(*sim_, std::move(counting));
+    replace_step_integrator(*sim_, std::move(linked));
     sim_->world().state.carry = std::move(carry);
   }
 #ifdef QBOND_DISTRIBUTED_IMPLICIT

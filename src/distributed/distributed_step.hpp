@@ -24,8 +24,8 @@ namespace qbond::distributed {
 class DistributedStep : private RanksLink {
  public:
   // Splits `whole` (the same on every rank) over the job's ranks; config.type must be an explicit
-  // integrator that takes one force evaluation per step (velocity_verlet, explicit_euler,
-  // symplectic_euler), with the model's penalty contacts if any, hybrid_implicit (its sweeps and
+  // integrator (velocity_verlet, explicit_euler, symplectic_euler, rk4), with the model's penalty
+  // contacts if any, hybrid_implicit (its sweeps and
   // Jacobi iterations from a zero or external guess), or, built with PETSc, coupled_implicit with
   // the cg solver and no contact (the caller checks). Velocity Verlet's carried forces come from whole.state.carry when it holds them,
   // else are evaluated once here. Throws when the implicit solve would leave a rank without quanta.
@@ -139,7 +139,7 @@ class DistributedStep : private RanksLink {
   // coupled_implicit and the hybrid's sweeps: components_ (and for the sweeps whole_coloring_)
   // from whole_'s topology.
   void find_components();
-  // RanksLink, for the hybrid's sweeps and Jacobi iterations: each piece's passes linked to the others'.
+  // RanksLink, for the hybrid's sweeps and rk4's stages: each piece's passes linked to the others'.
   const std::vector<std::uint8_t>& owned() const override { return owned_mask_; }
   const Coloring& coloring() const override { return coloring_; }
   void exchange(std::vector<Vec3>& y) override;
@@ -155,7 +155,8 @@ class DistributedStep : private RanksLink {
   BlowupLimits limits_;
   bool verlet_;
   bool implicit_;  // coupled_implicit: the pieces' steps solve one system over the ranks
-  bool linked_;    // hybrid_implicit with sweeps or Jacobi iterations: the pieces' passes are linked
+  bool sweeps_;    // hybrid_implicit with sweeps or Jacobi iterations
+  bool linked_;    // the sweeps and rk4: the pieces' passes (stages) are linked to each other
   int rank_, ranks_;
   Bisection cuts_;
   std::vector<int> owner_;

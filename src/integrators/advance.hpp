@@ -22,6 +22,8 @@
 
 namespace qbond {
 
+class RanksLink;  // integrators/ranks_link.hpp
+
 class Simulation;
 
 // The state a step applies and its blow-up check.
@@ -94,6 +96,9 @@ class StepIntegrator : public Integrator {
   // 1 each, or empty for all: a run over ranks counts each rank's owned quanta (a pair's spring by
   // its first end) and adds the ranks' books up.
   void count_contact_books_of(std::vector<std::uint8_t> quanta) { counted_ = std::move(quanta); }
+  // Links the step of one rank's piece to the other ranks' (`link` must outlive it): the hybrid's
+  // sweeps and RK4's stages then bring the ghosts' values from their owners between passes.
+  void link_to_ranks(RanksLink& link) { ranks_ = &link; }
 
  protected:
   using Integrator::Integrator;
@@ -105,6 +110,7 @@ class StepIntegrator : public Integrator {
 
   SubstepLedger* substeps_ = nullptr;
   std::vector<std::uint8_t> counted_;  // count_contact_books_of's
+  RanksLink* ranks_ = nullptr;         // link_to_ranks's; null alone
 
  private:
   PrescribedAt placed_;  // the default advance's

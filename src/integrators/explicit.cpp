@@ -10,6 +10,7 @@
 #include "integrators/bond_forces.hpp"
 #include "integrators/integrator_common.hpp"
 #include "integrators/penalty_contact.hpp"
+#include "integrators/ranks_link.hpp"
 #include "core/parallel.hpp"
 #include "core/simd.hpp"
 
@@ -186,20 +187,25 @@ class ExplicitIntegrator final : public StepIntegrator {
         break;
       case IntegratorType::rk4: {
         // Classical RK4 on (x' = v, v' = a(x, v)); kinematic quanta sit on their prescribed
-        // path, interpolated linearly over the step.
+        // path, interpolated linearly over the step. Over ranks a ghost's stage velocity is its
+        // owner's (its own acceleration here lacks its bonds off the piece); its stage position
+        // follows from the velocities alone.
         stage(model, state, out, 0.5, [&](std::size_t i) {
           return std::pair{Vec3(0.5 * h * state.v[i]), Vec3(0.5 * h * a1_[i])};
         });
+        if (ranks_) ranks_->exchange(vs_);
         v2_ = vs_;
         forces_at(xs_, vs_, 1.0 / 3, a2_);
         stage(model, state, out, 0.5, [&](std::size_t i) {
           return std::pair{Vec3(0.5 * h * v2_[i]), Vec3(0.5 * h * a2_[i])};
         });
+        if (ranks_) ranks_->exchange(vs_);
         v3_ = vs_;
         forces_at(xs_, vs_, 1.0 / 3, a3_);
         stage(model, state, out, 1.0, [&](std::size_t i) {
           return std::pair{Vec3(h * v3_[i]), Vec3(h * a3_[i])};
         });
+        if (ranks_) ranks_->exchange(vs_);
         forces_at(xs_, vs_, 1.0 / 6, a4_);
         for_free(model, [&](std::size_t i) {
           set_free(out, i, (h / 6) * (state.v[i] + 2 * v2_[i] + 2 * v3_[i] + vs_[i]),

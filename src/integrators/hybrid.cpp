@@ -16,8 +16,7 @@ namespace {
 class HybridIntegrator final : public StepIntegrator {
  public:
   // Dampers at the end-of-step velocity (backward Euler).
-  explicit HybridIntegrator(const IntegratorConfig& c, RanksLink* link = nullptr)
-      : StepIntegrator(c, {.damping_theta = 1.0}), link_(link) {}
+  explicit HybridIntegrator(const IntegratorConfig& c) : StepIntegrator(c, {.damping_theta = 1.0}) {}
 
   bool forms_gravity() const override { return config_.neighbours == NeighbourModel::frozen; }
 
@@ -55,27 +54,27 @@ class HybridIntegrator final : public StepIntegrator {
              const StepContext& ctx, Projection& out) {
     const int threads = config_.threads;
     begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/true, threads, out, sys_);
-    if (link_) {
+    if (ranks_) {
       // ‖b‖ of the whole system: the owned rows', summed over the ranks.
-      const std::vector<std::uint8_t>& owned = link_->owned();
+      const std::vector<std::uint8_t>& owned = ranks_->owned();
       double b2 = deterministic_sum(model.num_quanta(), threads,
                                     [&](std::size_t i) { return owned[i] ? sys_.rhs[i].squaredNorm() : 0.0; });
-      link_->sum({&b2, 1});
+      ranks_->sum({&b2, 1});
       sys_.rhs_norm = std::sqrt(b2);
     } else {
       topo_.update(model, adj);
     }
-    const Coloring& col = link_ ? link_->coloring() : topo_.coloring;
+    const Coloring& col = ranks_ ? ranks_->coloring() : topo_.coloring;
     initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, threads, y_);
     if (config_.neighbours == NeighbourModel::sweep)
       gs_.solve(adj, sys_, col, config_.iterations, config_.tolerance, config_.chebyshev_rho, threads, y_, stats_,
-                link_);
+                ranks_);
     else
       jacobi(adj, col);
     if (config_.restore_momentum) {
-      if (link_) {
-        link_->restore_momentum(model, f_ext, ctx.h, y_);
-        link_->exchange(y_);
+      if (ranks_) {
+        ranks_->restore_momentum(model, f_ext, ctx.h, y_);
+        ranks_->exchange(y_);
       } else {
         restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_);
       }
@@ -104,10 +103,10 @@ class HybridIntegrator final : public StepIntegrator {
         res_[k] = (r - sys_.diag[i] * y_[i]).squaredNorm();
         next_[i] = sys_.diag_inv[i] * r;
       });
-      if (link_) link_->exchange(next_);
+      if (ranks_) ranks_->exchange(next_);
       y_.swap(next_);
       stats_.iterations = it + 1;
-      if (converged(residual_sum(res_, col, config_.threads, link_))) break;
+      if (converged(residual_sum(res_, col, config_.threads, ranks_))) break;
     }
   }
 
@@ -118,7 +117,6 @@ class HybridIntegrator final : public StepIntegrator {
   std::vector<Vec3> y_, next_;
   std::vector<double> res_;  // jacobi: residual² of each free quanta's block
   PrescribedAt placed_;      // apply_solved's
-  RanksLink* link_;          // over ranks: the other pieces' passes
 };
 
 std::unique_ptr<StepIntegrator> make_hybrid(const IntegratorConfig& config) {
@@ -127,11 +125,6 @@ std::unique_ptr<StepIntegrator> make_hybrid(const IntegratorConfig& config) {
 
 }  // namespace
 
-std::unique_ptr<StepIntegrator> make_hybrid_over_ranks(const IntegratorConfig& config, RanksLink& link) {
-  IntegratorConfig c = config;
-  c.warm_start = resolved_warm_start(c);  // as make_step_integrator does
-  return std::make_unique<HybridIntegrator>(c, &link);
-}
 
 const IntegratorInfo hybrid_implicit_integrator = {
     IntegratorType::hybrid_implicit, "hybrid_implicit", "Eqs. 11-12: one 3x3 solve per quanta (see neighbours)", {},

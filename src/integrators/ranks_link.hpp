@@ -1,14 +1,13 @@
 #pragma once
-// What the hybrid's iterative solve of one rank's piece of the world needs from the other ranks
-// when a run is spread over MPI ranks (src/distributed/distributed_step.cpp): with it, each piece
-// takes the passes a run alone takes, in the whole world's colour order, the ghosts' unknowns
-// brought from their owners between them. Alone there is none.
+// What the step of one rank's piece of the world needs from the other ranks between its passes
+// when a run is spread over MPI ranks (src/distributed/distributed_step.cpp): with it, the
+// hybrid's sweeps take the passes a run alone takes, in the whole world's colour order, and RK4
+// its stages, the ghosts' values brought from their owners between them
+// (StepIntegrator::link_to_ranks). Alone there is none.
 #include <cstdint>
-#include <memory>
 #include <span>
 #include <vector>
 
-#include "integrators/advance.hpp"
 #include "qbond/model/world.hpp"
 #include "solvers/coloring.hpp"
 
@@ -32,9 +31,5 @@ class RanksLink {
  protected:
   ~RanksLink() = default;
 };
-
-// hybrid_implicit with sweeps or Jacobi iterations on one rank's piece, its passes linked to the
-// other ranks' by `link` (which must outlive it).
-std::unique_ptr<StepIntegrator> make_hybrid_over_ranks(const IntegratorConfig& config, RanksLink& link);
 
 }  // namespace qbond
