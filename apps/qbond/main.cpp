@@ -405,6 +405,7 @@ class Progress {
 void print_ranks(const qbond::RanksStats& s) {
   std::printf("over %d ranks: quanta moved between ranks after %llu steps; boxes cut anew %llu times", s.ranks,
               static_cast<unsigned long long>(s.migrations), static_cast<unsigned long long>(s.recuts));
+  if (s.halved) std::printf("; steps taken again in halves %llu times", static_cast<unsigned long long>(s.halved));
   if (s.halo_rebuilds || s.retakes)
     std::printf("; contact halos built anew %llu times, steps taken again %llu times",
                 static_cast<unsigned long long>(s.halo_rebuilds), static_cast<unsigned long long>(s.retakes));

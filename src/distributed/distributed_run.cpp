@@ -119,6 +119,7 @@ struct RanksRun::Impl {
     stats.recuts = dist->recuts();
     stats.halo_rebuilds = dist->halo_rebuilds();
     stats.retakes = dist->retakes();
+    stats.halved = dist->halved();
     stats.steps = t.steps;
     for (std::size_t k = 0; k + 6 <= all.size(); k += 6) {
       stats.owned.push_back(static_cast<std::size_t>(all[k]));

@@ -51,6 +51,11 @@ VerletForces carried(const State& s, const std::vector<double>& f) {
 // much more than the mean.
 constexpr double kImbalance = 1.1;
 
+// The run alone's energy guard (guard_energy.cpp, coupled.cpp): a step creating more than this
+// fraction of its energy terms' magnitudes is taken again in halves, at most kMaxDepth deep.
+constexpr double kGainTolerance = 1e-9;
+constexpr int kMaxDepth = 10;
+
 }  // namespace
 
 DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& config, double h,
@@ -67,6 +72,7 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       ranks_(mpi_ranks()),
       start_books_(whole.state.energy) {
   open_ledger(whole_.model, whole_.state, start_books_);  // as a run on one rank's Simulation does
+  if (implicit_) energy_start_ = energies(whole_.model, whole_.state);
   contacts_ = PenaltyContact::used(whole_.model);
   contact_stored_ = start_books_.contact_stored;
   if (const QuantaContactRule& rule = whole_.model.quanta_contact;
@@ -342,9 +348,9 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
   const Rng rng0 = whole_.state.rng;
   // (A piece that refused its step tests it too: the draws are collective; the step is undone.)
   const double fractured = rules_.empty() ? 0.0 : decide_breaks();
-  const StepWork work = charge_ledger();
+  const StepWork work = charge_ledger(h_);
   times_.bookkeeping += cpu_seconds() - cpu1;
-  Verdict v = agree(report, left, stop, work.bonds_after, contacts_ ? contact_stored_after() : 0.0);
+  Verdict v = agree(report, left, stop, work, contacts_ ? contact_stored_after() : 0.0);
   auto undo = [&] {
     if (sim_) roll_back(work);
     fracture_ -= fractured;
@@ -372,6 +378,14 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
   if (v.report.status != StepReport::Status::ok) {
     undo();
     return v.report;
+  }
+  if (implicit_) {
+    if (gains(v, true)) {
+      undo();
+      ++halved_;
+      return split_step(stop, cpu0);
+    }
+    energy_start_ = v.after;
   }
   stop_agreed_ = v.stop;
   if (contacts_) {
@@ -417,18 +431,111 @@ double DistributedStep::contact_stored_after() {
   return contact_after_.stored();
 }
 
+bool DistributedStep::gains(const Verdict& v, bool whole) const {
+  const bool credit = whole && rules_.empty();
+  const Energies& e0 = energy_start_;
+  const double lost = credit ? v.damping : 0.0;
+  const double gain = v.after.total() - e0.total() - v.work + lost;
+  const double scale = e0.kinetic + e0.bonds + v.after.kinetic + v.after.bonds +
+                       std::abs(v.after.gravity - e0.gravity) + std::abs(v.work) + std::abs(lost);
+  return gain > kGainTolerance * scale + (credit ? limits_.energy_floor : 0.0);
+}
+
+StepReport DistributedStep::split_step(bool stop, double cpu0) {
+  const double t0 = whole_.state.time;
+  // The pieces' state and this rank's books at the step's start, for a blow-up in a half.
+  std::vector<Vec3> x0, v0;
+  if (sim_) {
+    x0 = sim_->world().state.x;
+    v0 = sim_->world().state.v;
+  }
+  const double anchors0 = anchors_, damping0 = damping_, loads0 = loads_;
+  const Energies e0 = energy_start_;
+  solve_stats_ = {};
+  Verdict last;
+  const bool ok = half(t0, t0 + 0.5 * h_, 1, stop, last) && half(t0 + 0.5 * h_, t0 + h_, 1, stop, last);
+  times_.stepping += cpu_seconds() - cpu0;
+  if (!ok) {
+    if (sim_) {
+      State& s = sim_->world().state;
+      s.x = std::move(x0);
+      s.v = std::move(v0);
+      s.time = t0;
+      s.step = whole_.state.step;
+    }
+    anchors_ = anchors0;
+    damping_ = damping0;
+    loads_ = loads0;
+    energy_start_ = e0;
+    rebuild_after_roll_back();
+    return last.report;
+  }
+  // The breaks follow the whole step, as the run alone's heuristics follow its integrator; the
+  // energy they take leaves the next step's start.
+  if (!rules_.empty()) {
+    const double mine[1] = {decide_breaks()};
+    for (double fractured : all_gather(mine)) energy_start_.bonds -= fractured;
+  }
+  int flags[1] = {0};  // a quanta left its rank's box
+  if (sim_) {
+    State& s = sim_->world().state;
+    s.time = t0 + h_;
+    s.step = whole_.state.step + 1;
+    for (Index q : owned_) flags[0] = flags[0] || cuts_.part_of(s.x[q]) != rank_;
+  }
+  max_over_ranks(flags);
+  stop_agreed_ = last.stop;
+  if (!rules_.empty()) share_breaks();
+  whole_.state.time = t0 + h_;
+  whole_.state.step += 1;
+  if (flags[0] || !events_.empty()) migrate(flags[0] != 0, !events_.empty());
+  return {};
+}
+
+bool DistributedStep::half(double t_a, double t_b, int depth, bool stop, Verdict& last) {
+  const double H = t_b - t_a;
+  StepReport report;
+  if (sim_) {
+    State& s = sim_->world().state;
+    ledger_.x = s.x;
+    ledger_.v = s.v;
+    s.time = t_a;
+    sim_->set_timestep(H);
+    report = sim_->step();
+    sim_->set_timestep(h_);
+    const SolveStats& taken = sim_->integrator().stats();
+    solve_stats_.iterations += taken.iterations;
+    solve_stats_.residual = std::max(solve_stats_.residual, taken.residual);
+  }
+  exchange_ghosts();
+  const StepWork work = charge_ledger(H);
+  last = agree(report, false, stop, work, 0.0);
+  const bool ok = last.report.status == StepReport::Status::ok;
+  if (ok && !(depth < kMaxDepth && gains(last, false))) {
+    energy_start_ = last.after;
+    return true;
+  }
+  if (sim_) {
+    roll_back(work);
+    sim_->world().state.time = t_a;
+  }
+  if (!ok) return false;
+  const double tm = t_a + 0.5 * H;
+  return half(t_a, tm, depth + 1, stop, last) && half(tm, t_b, depth + 1, stop, last);
+}
+
 DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool left, bool stop,
-                                                double bonds_after, double contact_after) const {
+                                                const StepWork& work, double contact_after) const {
   // Each rank's flags (its step refused, a quanta out of its box, a stop asked for) and its sums
   // over its owned quanta and bonds (kinetic energy, gravity's potential, the impulse allowance,
   // the bonds' energy, the anchors' work, its fastest free quanta's speed and index, and the loads'
   // work; with penalty contacts, the farthest an owned quanta has moved since the pieces were
   // built and its index, and the contacts' books of the step), then every rank's, added in rank
   // order: the same on every rank.
-  constexpr std::size_t kFields = 16;
+  constexpr std::size_t kFields = 18;
   const bool refused = report.status != StepReport::Status::ok;
-  double mine[kFields] = {refused ? 1.0 : 0.0,  left ? 1.0 : 0.0, stop ? 1.0 : 0.0, 0, 0, 0, bonds_after,
-                          anchors_,            -1,                0, loads_,          0, 0, 0, 0, 0};
+  double mine[kFields] = {refused ? 1.0 : 0.0, left ? 1.0 : 0.0, stop ? 1.0 : 0.0, 0, 0, 0, work.bonds_after,
+                          anchors_, -1, 0, loads_, 0, 0, 0, 0, 0, work.loads + work.anchors, work.damping};
   if (refused) mine[9] = static_cast<double>(global_[report.worst]);
   if (sim_ && !refused) {
     const World& w = sim_->world();
@@ -476,11 +583,14 @@ DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool l
     v.contact.work += a[13];
     v.contact.stored += a[14];
     v.contact.stored_start += a[15];
+    v.work += a[16];
+    v.damping += a[17];
     if (a[8] > speed) {
       speed = a[8];
       who = a[9];
     }
   }
+  v.after = {.kinetic = sum[0], .bonds = sum[3], .gravity = sum[1]};
   if (first_refused >= 0) {
     // The step's own check refused it on some piece: that piece's report, the first by rank.
     v.report.status = StepReport::Status::blowup;
@@ -535,7 +645,7 @@ void DistributedStep::exchange_ghosts() {
       });
 }
 
-StepWork DistributedStep::charge_ledger() {
+StepWork DistributedStep::charge_ledger(double H) {
   if (!sim_) return {};
   const World& w = sim_->world();
   const std::size_t n = global_.size();
@@ -543,7 +653,7 @@ StepWork DistributedStep::charge_ledger() {
     moved_.dx[q] = w.state.x[q] - ledger_.x[q];
     moved_.dv[q] = w.state.v[q] - ledger_.v[q];
   }
-  StepWork work = step_work(w.model, ledger_, ledger_adj_, moved_, {w.state.x, w.state.v}, gravity_, h_,
+  StepWork work = step_work(w.model, ledger_, ledger_adj_, moved_, {w.state.x, w.state.v}, gravity_, H,
                                   sim_->integrator().ledger_hints(), config_.threads);
   anchors_ += work.anchors;
   damping_ += work.damping;

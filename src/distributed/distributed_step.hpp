@@ -16,6 +16,7 @@
 #include "integrators/penalty_contact.hpp"
 #include "integrators/ranks_link.hpp"
 #include "ledger/step_work.hpp"
+#include "qbond/analysis/analysis.hpp"
 #include "qbond/simulation/simulation.hpp"
 #include "solvers/coloring.hpp"
 
@@ -78,6 +79,8 @@ class DistributedStep : private RanksLink {
   // often a step was taken again because a quanta had moved past its halo in it.
   std::uint64_t halo_rebuilds() const { return halo_rebuilds_; }
   std::uint64_t retakes() const { return retakes_; }
+  // coupled_implicit: how often the energy guard took a step again in halves.
+  std::uint64_t halved() const { return halved_; }
   // Doubles this rank has sent in ghost exchanges.
   std::size_t doubles_sent() const { return halo_.doubles_sent(); }
   // Where this rank's time went over the steps taken: the CPU time of its own step (the piece's
@@ -101,21 +104,37 @@ class DistributedStep : private RanksLink {
   // The ghosts' positions and velocities (and carried forces) from their owners.
   void exchange_ghosts();
   // The anchors' and dampers' work over the owned bonds and the loads' on the owned quanta, from
-  // the state before the step; returns the step's work and the owned bonds' energy after it [J].
-  StepWork charge_ledger();
+  // the state before the step (of length H); returns the step's work and the owned bonds' energy
+  // after it [J].
+  StepWork charge_ledger(double H);
   // What every rank decides after a step, from one all-gather: a blow-up (the first refusal of a
   // piece's own step check, by rank, else the energy runaway check of a run on one rank,
   // Simulation's check_energy, over every rank's quanta and bonds), whether quanta left their
   // boxes, whether a stop was asked for.
   // With penalty contacts, the step's contact books added over the ranks, and the farthest any
-  // quanta has moved since the pieces were built.
+  // quanta has moved since the pieces were built; the energies after the step and the step's
+  // work and dampers' loss over every rank, for the energy guard.
   struct Verdict {
     StepReport report;
     bool migrate = false, stop = false;
     Projection::ContactEnergy contact;
     double moved = 0;  // [m]
+    Energies after;
+    double work = 0, damping = 0;  // [J]
   };
-  Verdict agree(const StepReport& report, bool left, bool stop, double bonds_after, double contact_after) const;
+  Verdict agree(const StepReport& report, bool left, bool stop, const StepWork& work, double contact_after) const;
+  // coupled_implicit: whether the step the verdict judges created energy beyond its books, as the
+  // run alone's energy guard decides: a whole step of a run without break rules with its dampers'
+  // loss credited and the energy floor (retake_gaining_step), else without either (the guard of
+  // the projection before heuristics, and the coupled step's halves).
+  bool gains(const Verdict& v, bool whole) const;
+  // coupled_implicit: the step just undone, taken again as two halves, each again in halves
+  // while it creates energy, as the run alone's energy guard takes it; breaks decided after the
+  // last half (collective). cpu0 as step_timed's.
+  StepReport split_step(bool stop, double cpu0);
+  // One substep [t_a, t_b] of split_step from the state the pieces hold, split again while it
+  // creates energy and depth < kMaxDepth: false, the pieces back at t_a, when it blew up.
+  bool half(double t_a, double t_b, int depth, bool stop, Verdict& last);
   // The counted springs' energy of the penalty contacts at the step's end, from the exchanged
   // state (a ghost's end in the piece's own step lacks its bonds and contacts off the piece) [J].
   double contact_stored_after();
@@ -201,11 +220,13 @@ class DistributedStep : private RanksLink {
   SolveLayout layout_;
   Times times_;
   SolveStats solve_stats_;
+  Energies energy_start_;  // coupled_implicit: the energies over every rank at the step's start
   bool stop_agreed_ = false;
   std::uint64_t migrations_ = 0;
   std::uint64_t recuts_ = 0;
   std::uint64_t halo_rebuilds_ = 0;
   std::uint64_t retakes_ = 0;
+  std::uint64_t halved_ = 0;
 };
 
 }  // namespace qbond::distributed

@@ -3,7 +3,7 @@
 (docs/distributed.md).
 
 Usage: mpi_implicit_test.py QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC [--mpiexec-flag F ...]
-                            [--expect-breaks]
+                            [--expect-breaks] [--expect-halves]
 
 The run alone solves each step's system with qbond's CG, the run over ranks with PETSc's CG; both
 stop at ‖b − A Δv‖ ≤ τ ‖b‖ (τ the scene's `tolerance`), so each step's Δv is within κ τ ‖Δv*‖ of
@@ -22,6 +22,8 @@ is over every step. Checks:
     vector's components of the vector's);
   - the ledger over ranks closes: total − total at the start = work − dissipated − numerical to
     round-off;
+  - with --expect-halves, the energy guard took steps again in halves over the ranks (where the
+    linearised step would create energy, as the run alone takes them);
   - with --expect-breaks, bonds broke, and events.csv lists the run alone's breaks in its order
     (step, bond, ends and reason exactly); a bond's strain within 2 B_x / r₀ and its tension
     within 2 k B_x + 2 c (B_v + 2 max‖v‖ B_x / r₀) (B_x, B_v the positions' and velocities'
@@ -51,6 +53,7 @@ p.add_argument("--ranks", type=int, required=True)
 p.add_argument("--mpiexec", required=True)
 p.add_argument("--mpiexec-flag", action="append", default=[])
 p.add_argument("--expect-breaks", action="store_true")
+p.add_argument("--expect-halves", action="store_true")
 a = p.parse_args()
 
 ROUND_OFF = 1e-12
@@ -98,7 +101,7 @@ os.makedirs(a.work, exist_ok=True)
 alone = os.path.join(a.work, "alone")
 first, second = os.path.join(a.work, "ranks_a"), os.path.join(a.work, "ranks_b")
 run(alone, 0)
-run(first, a.ranks)
+log = run(first, a.ranks)
 run(second, a.ranks)
 
 # The same rank count, the same bits.
@@ -180,6 +183,9 @@ if total0 is not None:
             sys.exit(f"diagnostics step {rn[0]}: the ledger over {a.ranks} ranks does not close "
                      f"({got!r} vs {want!r})")
 
+halves = re.search(r"steps taken again in halves (\d+) times", log)
+if a.expect_halves and not halves:
+    sys.exit(f"no step was taken again in halves:\n{log}")
 broke = ""
 if a.expect_breaks:
     b_x, b_v = h * steps * REL_V * vmax, REL_V * vmax
@@ -191,4 +197,4 @@ if a.expect_breaks:
 
 print(f"{a.ranks} ranks: κ ≤ {kappa:.4g}, τ = {tau:g}, S = {steps}: velocities differ by {worst_v:.3g} of "
       f"max‖v‖ (bound {REL_V:.3g}), positions by {worst_x:.3g} of h S max‖v‖, diagnostics by {worst_d:.3g} "
-      f"of their scale{broke}")
+      f"of their scale{broke}" + (f"; {halves.group(1)} steps taken again in halves" if halves else ""))

@@ -42,6 +42,7 @@ struct RanksStats {
   std::uint64_t recuts = 0;           ///< migrations after which the boxes were cut anew (load drift)
   std::uint64_t halo_rebuilds = 0;    ///< pieces built anew for their quanta contact halos
   std::uint64_t retakes = 0;          ///< steps taken again after a quanta moved past its contact halo
+  std::uint64_t halved = 0;           ///< steps the energy guard took again in halves (coupled_implicit)
   std::vector<std::size_t> owned;     ///< quanta each rank owns at the end
   std::vector<std::size_t> ghosts;    ///< ghost quanta each rank holds at the end
   std::vector<double> bytes_sent;     ///< bytes each rank sent in ghost exchanges over the run
