@@ -350,7 +350,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
   const double fractured = rules_.empty() ? 0.0 : decide_breaks();
   const StepWork work = charge_ledger(h_);
   times_.bookkeeping += cpu_seconds() - cpu1;
-  Verdict v = agree(report, left, stop, work, contacts_ ? contact_stored_after() : 0.0);
+  Verdict v = agree(report, left, stop, work, contacts_ ? contact_stored_after() : 0.0, fractured);
   auto undo = [&] {
     if (sim_) roll_back(work);
     fracture_ -= fractured;
@@ -435,8 +435,8 @@ bool DistributedStep::gains(const Verdict& v, bool whole) const {
   const bool credit = whole && rules_.empty();
   const Energies& e0 = energy_start_;
   const double lost = credit ? v.damping : 0.0;
-  const double gain = v.after.total() - e0.total() - v.work + lost;
-  const double scale = e0.kinetic + e0.bonds + v.after.kinetic + v.after.bonds +
+  const double gain = v.after.total() + v.released - e0.total() - v.work + lost;
+  const double scale = e0.kinetic + e0.bonds + v.after.kinetic + v.after.bonds + std::abs(v.released) +
                        std::abs(v.after.gravity - e0.gravity) + std::abs(v.work) + std::abs(lost);
   return gain > kGainTolerance * scale + (credit ? limits_.energy_floor : 0.0);
 }
@@ -509,7 +509,7 @@ bool DistributedStep::half(double t_a, double t_b, int depth, bool stop, Verdict
   }
   exchange_ghosts();
   const StepWork work = charge_ledger(H);
-  last = agree(report, false, stop, work, 0.0);
+  last = agree(report, false, stop, work, 0.0, 0.0);
   const bool ok = last.report.status == StepReport::Status::ok;
   if (ok && !(depth < kMaxDepth && gains(last, false))) {
     energy_start_ = last.after;
@@ -525,17 +525,19 @@ bool DistributedStep::half(double t_a, double t_b, int depth, bool stop, Verdict
 }
 
 DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool left, bool stop,
-                                                const StepWork& work, double contact_after) const {
+                                                const StepWork& work, double contact_after,
+                                                double released) const {
   // Each rank's flags (its step refused, a quanta out of its box, a stop asked for) and its sums
   // over its owned quanta and bonds (kinetic energy, gravity's potential, the impulse allowance,
   // the bonds' energy, the anchors' work, its fastest free quanta's speed and index, and the loads'
   // work; with penalty contacts, the farthest an owned quanta has moved since the pieces were
-  // built and its index, and the contacts' books of the step), then every rank's, added in rank
-  // order: the same on every rank.
-  constexpr std::size_t kFields = 18;
+  // built and its index, and the contacts' books of the step; the step's work, dampers' loss and
+  // broken bonds' energy), then every rank's, added in rank order: the same on every rank.
+  constexpr std::size_t kFields = 19;
   const bool refused = report.status != StepReport::Status::ok;
   double mine[kFields] = {refused ? 1.0 : 0.0, left ? 1.0 : 0.0, stop ? 1.0 : 0.0, 0, 0, 0, work.bonds_after,
-                          anchors_, -1, 0, loads_, 0, 0, 0, 0, 0, work.loads + work.anchors, work.damping};
+                          anchors_, -1, 0, loads_, 0, 0, 0, 0, 0, work.loads + work.anchors, work.damping,
+                          released};
   if (refused) mine[9] = static_cast<double>(global_[report.worst]);
   if (sim_ && !refused) {
     const World& w = sim_->world();
@@ -585,6 +587,7 @@ DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool l
     v.contact.stored_start += a[15];
     v.work += a[16];
     v.damping += a[17];
+    v.released += a[18];
     if (a[8] > speed) {
       speed = a[8];
       who = a[9];

@@ -121,12 +121,16 @@ class DistributedStep : private RanksLink {
     double moved = 0;  // [m]
     Energies after;
     double work = 0, damping = 0;  // [J]
+    double released = 0;  // what the step's breaks took out of its state [J]
   };
-  Verdict agree(const StepReport& report, bool left, bool stop, const StepWork& work, double contact_after) const;
+  // `released`: the energy of the bonds this rank broke in the step [J].
+  Verdict agree(const StepReport& report, bool left, bool stop, const StepWork& work, double contact_after,
+                double released) const;
   // coupled_implicit: whether the step the verdict judges created energy beyond its books, as the
-  // run alone's energy guard decides: a whole step of a run without break rules with its dampers'
-  // loss credited and the energy floor (retake_gaining_step), else without either (the guard of
-  // the projection before heuristics, and the coupled step's halves).
+  // run alone's energy guard decides, on the state before its breaks: a whole step of a run
+  // without break rules with its dampers' loss credited and the energy floor
+  // (retake_gaining_step), else without either (the guard of the projection before heuristics,
+  // and the coupled step's halves).
   bool gains(const Verdict& v, bool whole) const;
   // coupled_implicit: the step just undone, taken again as two halves, each again in halves
   // while it creates energy, as the run alone's energy guard takes it; breaks decided after the
