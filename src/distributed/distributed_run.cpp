@@ -38,12 +38,6 @@ void check_distributable(const Scene& scene, int ranks) {
   if (!implicit && !hybrid && t != IntegratorType::velocity_verlet && t != IntegratorType::explicit_euler &&
       t != IntegratorType::symplectic_euler && t != IntegratorType::rk4)
     throw std::invalid_argument(over + taken + std::string(to_string(t)) + one);
-  // The sweeps' guess from the last steps does not survive the pieces' rebuilds yet.
-  const WarmStart w = scene.integrator.warm_start;
-  if (hybrid && scene.integrator.neighbours != NeighbourModel::frozen &&
-      (w == WarmStart::previous || w == WarmStart::extrapolated))
-    throw std::invalid_argument(over + "starts the hybrid's sweeps from a zero or external guess, not from the last "
-                                "steps' (warm_start " + std::string(to_string(w)) + ")" + one);
   if (implicit && scene.integrator.solver != CoupledSolver::cg)
     throw std::invalid_argument(over + "solves coupled_implicit with PETSc's CG (solver cg), not solver " +
                                 std::string(to_string(scene.integrator.solver)) + one);

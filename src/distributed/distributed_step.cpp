@@ -24,28 +24,77 @@ namespace qbond::distributed {
 
 namespace {
 
-// Writes the rows of owned_rows() of every rank into x, v and f (3 per quanta) by whole index;
-// throws unless every quanta of n appears exactly once.
-void unpack_rows(const std::vector<double>& rows, std::size_t n, std::vector<Vec3>& x, std::vector<Vec3>& v,
-                 std::vector<double>& f);
+// What a step carries to the next per quanta, kCarried numbers a quanta: velocity Verlet's
+// forces, or an iterative solve's last Δv (SolverGuess), and the one before (SolverGuessPair),
+// zeros where there are fewer. A row of owned_rows() is a quanta's whole index, x, v and these.
+constexpr std::size_t kCarried = 6;
+constexpr std::size_t kRow = 7 + kCarried;
 
-// Velocity Verlet's carried forces for the quanta of a world, f (3 per quanta) with the state's
-// own positions and velocities: what its step left, so that the next step takes them.
-VerletForces carried(const State& s, const std::vector<double>& f) {
-  VerletForces c;
-  const std::size_t n = s.x.size();
-  c.resize(n);
-  c.topology_version = s.topology_version();
-  const std::size_t stride = c.stride();
-  for (std::size_t q = 0; q < n; ++q) {
-    for (std::size_t k = 0; k < 3; ++k) {
-      c.f[k * stride + q] = f[3 * q + k];
-      c.x[k * stride + q] = s.x[q][static_cast<Eigen::Index>(k)];
-    }
-    c.v[q] = s.v[q];
+// Quanta q's carried numbers in `c` into out (kCarried of them).
+void carried_row(const Carry& c, std::size_t q, double* out) {
+  std::fill_n(out, kCarried, 0.0);
+  if (const auto* f = std::get_if<VerletForces>(&c)) {
+    for (std::size_t k = 0; k < 3; ++k) out[k] = f->f[k * f->stride() + q];
+  } else if (const auto* g = std::get_if<SolverGuess>(&c)) {
+    std::copy_n(g->dv[q].data(), 3, out);
+  } else if (const auto* p = std::get_if<SolverGuessPair>(&c)) {
+    std::copy_n(p->dv[q].data(), 3, out);
+    std::copy_n(p->dv_before[q].data(), 3, out + 3);
   }
-  return c;
 }
+
+CarryKind kind_of(const Carry& c) {
+  using enum CarryKind::Kind;
+  if (std::holds_alternative<VerletForces>(c)) return {.kind = forces};
+  if (std::holds_alternative<SolverGuess>(c)) return {.kind = guess};
+  if (const auto* p = std::get_if<SolverGuessPair>(&c)) return {.kind = guesses, .h = p->h, .h_before = p->h_before};
+  return {};
+}
+
+// The carry-over of `kind` for the quanta of a state from their carried numbers c (kCarried a
+// quanta, in the state's order): velocity Verlet's forces with the state's own positions and
+// velocities (what its step left, so that the next step takes them), or a solve's guesses.
+Carry carry_from(const State& s, const std::vector<double>& c, const CarryKind& kind) {
+  using enum CarryKind::Kind;
+  const std::size_t n = s.x.size();
+  auto vec = [&](std::size_t q, std::size_t at) { return Vec3(&c[kCarried * q + at]); };
+  if (kind.kind == forces) {
+    VerletForces f;
+    f.resize(n);
+    f.topology_version = s.topology_version();
+    const std::size_t stride = f.stride();
+    for (std::size_t q = 0; q < n; ++q) {
+      for (std::size_t k = 0; k < 3; ++k) {
+        f.f[k * stride + q] = c[kCarried * q + k];
+        f.x[k * stride + q] = s.x[q][static_cast<Eigen::Index>(k)];
+      }
+      f.v[q] = s.v[q];
+    }
+    return f;
+  }
+  if (kind.kind == guess) {
+    SolverGuess g;
+    g.dv.resize(n);
+    for (std::size_t q = 0; q < n; ++q) g.dv[q] = vec(q, 0);
+    return g;
+  }
+  if (kind.kind == guesses) {
+    SolverGuessPair p{.dv = {}, .dv_before = {}, .h = kind.h, .h_before = kind.h_before};
+    p.dv.resize(n);
+    p.dv_before.resize(n);
+    for (std::size_t q = 0; q < n; ++q) {
+      p.dv[q] = vec(q, 0);
+      p.dv_before[q] = vec(q, 3);
+    }
+    return p;
+  }
+  return std::monostate{};
+}
+
+// Writes the rows of owned_rows() of every rank into x, v and c (kCarried per quanta) by whole
+// index; throws unless every quanta of n appears exactly once.
+void unpack_rows(const std::vector<double>& rows, std::size_t n, std::vector<Vec3>& x, std::vector<Vec3>& v,
+                 std::vector<double>& c);
 
 // Load per rank beyond which a migration cuts the boxes anew: the most loaded rank holds this
 // much more than the mean.
@@ -83,16 +132,23 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
   find_components();
   cuts_ = bisect(whole_.state.x, ranks_);
   owner_ = parts_of(cuts_, whole_.state.x);
-  std::vector<double> f;
-  const auto* c = std::get_if<VerletForces>(&whole_.state.carry);
-  if (verlet_ && c && c->holds_for(whole_.num_quanta(), whole_.state.topology_version())) {
-    const std::size_t n = whole_.num_quanta(), stride = c->stride();
-    f.resize(3 * n);
-    for (std::size_t q = 0; q < n; ++q)
-      for (std::size_t k = 0; k < 3; ++k) f[3 * q + k] = c->f[k * stride + q];
+  // What the whole world's step carries (a resumed run's), when it holds for this world and
+  // integrator: velocity Verlet's forces, a solve's guesses.
+  const Carry& c = whole_.state.carry;
+  const std::size_t n = whole_.num_quanta();
+  const auto* forces = std::get_if<VerletForces>(&c);
+  const auto* guess = std::get_if<SolverGuess>(&c);
+  const auto* guesses = std::get_if<SolverGuessPair>(&c);
+  const bool holds = verlet_ ? forces && forces->holds_for(n, whole_.state.topology_version())
+                             : (guess && guess->fits(n)) || (guesses && guesses->fits(n));
+  std::vector<double> carried;
+  if (holds) {
+    carried.resize(kCarried * n);
+    for (std::size_t q = 0; q < n; ++q) carried_row(c, q, &carried[kCarried * q]);
   }
+  const CarryKind kind = holds ? kind_of(c) : CarryKind{};
   whole_.state.carry = std::monostate{};
-  build(f.empty() ? nullptr : &f);
+  build(holds ? &carried : nullptr, kind);
 }
 
 DistributedStep::~DistributedStep() = default;
@@ -136,7 +192,7 @@ ContactHalo DistributedStep::contact_halo() const {
   return halo;
 }
 
-void DistributedStep::build(const std::vector<double>* forces) {
+void DistributedStep::build(const std::vector<double>* carried, const CarryKind& kind) {
   const ContactHalo halo = contact_halo();
   Piece piece = make_piece(whole_, owner_, rank_, halo);
   plan_ = halo_plan(whole_, owner_, rank_, piece, halo);
@@ -185,14 +241,17 @@ void DistributedStep::build(const std::vector<double>* forces) {
                                   (implicit_ ? "implicit solve" : sweeps_ ? "hybrid's sweeps" : "rk4 step") +
                                   " over ranks cannot take; run it on fewer ranks");
   }
-  if (verlet_) {
-    // The carried forces: the whole world's, or this piece's own for its owned quanta (whose
-    // bonds it holds all of) and the owners' for its ghosts.
-    std::vector<double> f(3 * n);
-    if (forces) {
-      for (std::size_t q = 0; q < n; ++q)
-        for (std::size_t k = 0; k < 3; ++k) f[3 * q + k] = (*forces)[3 * global_[q] + k];
-    } else if (n > 0) {
+  // What the piece's step carries: the whole world's for its quanta, or velocity Verlet's forces
+  // of this piece for its owned quanta (whose bonds it holds all of) and the owners' for its ghosts.
+  std::vector<double> local(kCarried * n, 0.0);
+  if (carried)
+    for (std::size_t q = 0; q < n; ++q)
+      std::copy_n(&(*carried)[kCarried * global_[q]], kCarried, &local[kCarried * q]);
+  Carry carry;
+  if (carried) {
+    carry = carry_from(w.state, local, kind);
+  } else if (verlet_) {
+    if (n > 0) {
       Adjacency adj;
       build_adjacency(w.model, w.state, adj);
       BondPartition part;
@@ -201,13 +260,12 @@ void DistributedStep::build(const std::vector<double>* forces) {
       const ForceRows rows = bond_force_rows(w.model, w.state, part, w.state.x.data(), w.state.v.data(),
                                              config_.threads, work);
       for (std::size_t q = 0; q < n; ++q)
-        for (std::size_t k = 0; k < 3; ++k) f[3 * q + k] = rows.f[k][q];
+        for (std::size_t k = 0; k < 3; ++k) local[kCarried * q + k] = rows.f[k][q];
     }
-    if (!forces)
-      halo_.exchange(
-          plan_, 3, [&](Index q, double* out) { std::copy_n(&f[3 * q], 3, out); },
-          [&](Index q, const double* in) { std::copy_n(in, 3, &f[3 * q]); });
-    w.state.carry = carried(w.state, f);
+    halo_.exchange(
+        plan_, 3, [&](Index q, double* out) { std::copy_n(&local[kCarried * q], 3, out); },
+        [&](Index q, const double* in) { std::copy_n(in, 3, &local[kCarried * q]); });
+    carry = carry_from(w.state, local, {.kind = CarryKind::Kind::forces});
   }
   sim_.reset();
   if (n == 0) return;
@@ -233,16 +291,17 @@ void DistributedStep::build(const std::vector<double>* forces) {
     std::unique_ptr<StepIntegrator> linked = make_step_integrator(config_);
     linked->link_to_ranks(*this);
     linked->count_contact_books_of(owned_mask_);
-    Carry carry = std::move(sim_->world().state.carry);
     replace_step_integrator(*sim_, std::move(linked));
-    sim_->world().state.carry = std::move(carry);
   }
 #ifdef QBOND_DISTRIBUTED_IMPLICIT
   if (implicit_)
     replace_step_integrator(
         *sim_, make_coupled_over_ranks(config_, solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_)));
 #endif
+  sim_->world().state.carry = std::move(carry);  // after the integrators are replaced, which drop it
 }
+
+CarryKind DistributedStep::carry_kind() const { return sim_ ? kind_of(sim_->world().state.carry) : CarryKind{}; }
 
 SolveLayout solve_layout(const World& whole, std::span<const int> owner, int rank, int ranks,
                          std::span<const Index> global, std::span<const Index> owned,
@@ -420,7 +479,7 @@ void DistributedStep::rebuild_after_roll_back() {
   // before it, with forces evaluated afresh by their owners.
   std::vector<double> unused;
   unpack_rows(all_gather(owned_rows()), whole_.num_quanta(), whole_.state.x, whole_.state.v, unused);
-  build(nullptr);
+  build(nullptr, {});
 }
 
 double DistributedStep::contact_stored_after() {
@@ -676,32 +735,34 @@ std::vector<double> DistributedStep::owned_rows() const {
   std::vector<double> rows;
   if (!sim_) return rows;
   const State& s = sim_->world().state;
-  const auto* c = std::get_if<VerletForces>(&s.carry);
-  const std::size_t stride = c ? c->stride() : 0;
-  rows.reserve(10 * owned_.size());
+  rows.resize(kRow * owned_.size());
+  double* row = rows.data();
   for (Index q : owned_) {
-    rows.push_back(static_cast<double>(global_[q]));
-    for (int k = 0; k < 3; ++k) rows.push_back(s.x[q][k]);
-    for (int k = 0; k < 3; ++k) rows.push_back(s.v[q][k]);
-    for (std::size_t k = 0; k < 3; ++k) rows.push_back(c ? c->f[k * stride + q] : 0.0);
+    row[0] = static_cast<double>(global_[q]);
+    for (int k = 0; k < 3; ++k) {
+      row[1 + k] = s.x[q][k];
+      row[4 + k] = s.v[q][k];
+    }
+    carried_row(s.carry, q, row + 7);
+    row += kRow;
   }
   return rows;
 }
 
 namespace {
 void unpack_rows(const std::vector<double>& rows, std::size_t n, std::vector<Vec3>& x, std::vector<Vec3>& v,
-                 std::vector<double>& f) {
+                 std::vector<double>& c) {
   std::vector<std::uint8_t> seen(n, 0);
   std::size_t count = 0;
-  f.assign(3 * n, 0.0);
-  for (std::size_t r = 0; r + 10 <= rows.size(); r += 10) {
+  c.assign(kCarried * n, 0.0);
+  for (std::size_t r = 0; r + kRow <= rows.size(); r += kRow) {
     const auto q = static_cast<std::size_t>(rows[r]);
     if (q >= n || seen[q]) throw std::logic_error("quanta " + std::to_string(q) + " is held by two ranks");
     seen[q] = 1;
     ++count;
     x[q] = Vec3(rows[r + 1], rows[r + 2], rows[r + 3]);
     v[q] = Vec3(rows[r + 4], rows[r + 5], rows[r + 6]);
-    for (std::size_t k = 0; k < 3; ++k) f[3 * q + k] = rows[r + 7 + k];
+    std::copy_n(&rows[r + 7], kCarried, &c[kCarried * q]);
   }
   if (count != n)
     throw std::logic_error("the ranks hold " + std::to_string(count) + " quanta of " + std::to_string(n));
@@ -709,11 +770,15 @@ void unpack_rows(const std::vector<double>& rows, std::size_t n, std::vector<Vec
 }  // namespace
 
 void DistributedStep::migrate(bool moved, bool broke) {
-  std::vector<double> f;
-  unpack_rows(all_gather(owned_rows()), whole_.num_quanta(), whole_.state.x, whole_.state.v, f);
+  std::vector<double> c;
+  unpack_rows(all_gather(owned_rows()), whole_.num_quanta(), whole_.state.x, whole_.state.v, c);
   if (broke) find_components();  // a break may have split a free component
+  // After a break velocity Verlet's carried forces were the old topology's: evaluated afresh, as
+  // on one rank; a solve's guesses hold on.
+  const CarryKind kind = carry_kind();
+  const bool keep = kind.kind != CarryKind::Kind::none && !(verlet_ && broke);
   if (!moved) {
-    build(verlet_ && !broke ? &f : nullptr);
+    build(keep ? &c : nullptr, kind);
     return;
   }
   ++migrations_;
@@ -726,8 +791,7 @@ void DistributedStep::migrate(bool moved, bool broke) {
     owner_ = parts_of(cuts_, whole_.state.x);
     ++recuts_;
   }
-  // After a break the carried forces were the old topology's: evaluated afresh, as on one rank.
-  build(verlet_ && !broke ? &f : nullptr);
+  build(keep ? &c : nullptr, kind);
 }
 
 void DistributedStep::write_piece(const std::filesystem::path& file) const {
@@ -855,12 +919,13 @@ void DistributedStep::gather(World& into) {
   const std::vector<double> books = gather_to_root(mine);
   if (rank_ != 0) return;
   State& s = into.state;
-  std::vector<double> f;
-  unpack_rows(rows, into.num_quanta(), s.x, s.v, f);
+  std::vector<double> c;
+  unpack_rows(rows, into.num_quanta(), s.x, s.v, c);
   s.time = whole_.state.time;
   s.step = whole_.state.step;
-  // The carried forces (after a blow-up, evaluated afresh at the state before it).
-  s.carry = verlet_ ? Carry(carried(s, f)) : Carry(std::monostate{});
+  // The carried forces (after a blow-up, evaluated afresh at the state before it), or the solve's
+  // guesses (after a blow-up, none).
+  s.carry = carry_from(s, c, verlet_ ? CarryKind{.kind = CarryKind::Kind::forces} : carry_kind());
   double anchors = 0, damping = 0, fracture = 0, loads = 0;
   for (std::size_t r = 0; r + 4 <= books.size(); r += 4) {
     anchors += books[r];

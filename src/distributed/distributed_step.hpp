@@ -22,14 +22,21 @@
 
 namespace qbond::distributed {
 
+// The kind of carry-over the pieces' steps hold (every rank's the same): velocity Verlet's
+// forces, a solve's guess or guesses with the lengths of the steps they were taken over, or none.
+struct CarryKind {
+  enum class Kind : std::uint8_t { none, forces, guess, guesses } kind = Kind::none;
+  double h = 0, h_before = 0;  // guesses: the steps' lengths
+};
+
 class DistributedStep : private RanksLink {
  public:
   // Splits `whole` (the same on every rank) over the job's ranks; config.type must be an explicit
   // integrator (velocity_verlet, explicit_euler, symplectic_euler, rk4), with the model's penalty
-  // contacts if any, hybrid_implicit (its sweeps and
-  // Jacobi iterations from a zero or external guess), or, built with PETSc, coupled_implicit with
-  // the cg solver and no contact (the caller checks). Velocity Verlet's carried forces come from whole.state.carry when it holds them,
-  // else are evaluated once here. Throws when the implicit solve would leave a rank without quanta.
+  // contacts if any, hybrid_implicit, or, built with PETSc, coupled_implicit with the cg solver
+  // and no contact (the caller checks). What the steps carry (velocity Verlet's forces, a solve's
+  // guesses) comes from whole.state.carry when it holds it; velocity Verlet's forces are else
+  // evaluated once here. Throws when a solve over ranks would leave a rank without quanta.
   DistributedStep(const World& whole, const IntegratorConfig& config, double h, const BlowupLimits& limits);
   ~DistributedStep();
   DistributedStep(const DistributedStep&) = delete;  // the pieces' integrators link to it
@@ -98,9 +105,11 @@ class DistributedStep : private RanksLink {
   StepReport step_timed(bool stop, double cpu0, bool retaken = false);
   // The quanta pairs the pieces' contact halos hold, from the whole state (none without quanta contact).
   ContactHalo contact_halo() const;
-  // Builds this rank's piece from whole_ and owner_, with the whole world's carried forces
-  // (3 per quanta, by whole index) or, when null, with forces evaluated here and exchanged.
-  void build(const std::vector<double>* forces);
+  // Builds this rank's piece from whole_ and owner_ with what the whole world's step carries
+  // (`carried`: kCarried numbers a quanta by whole index, of `kind`: velocity Verlet's forces or
+  // the solve's guesses); when null, velocity Verlet's forces evaluated here and exchanged, and
+  // no guess.
+  void build(const std::vector<double>* carried, const CarryKind& kind);
   // The ghosts' positions and velocities (and carried forces) from their owners.
   void exchange_ghosts();
   // The anchors' and dampers' work over the owned bonds and the loads' on the owned quanta, from
@@ -169,8 +178,10 @@ class DistributedStep : private RanksLink {
   void sum(std::span<double> sums) override;
   void restore_momentum(const Model& model, const std::vector<Vec3>& f_ext, double h,
                         std::vector<Vec3>& dv) override;
-  // The owned quanta's [index, x, v, f] rows, 10 doubles each.
+  // The owned quanta's [index, x, v, carried] rows (kRow doubles each).
   std::vector<double> owned_rows() const;
+  // The kind of carry-over the pieces hold.
+  CarryKind carry_kind() const;
 
   World whole_;  // the model and topology (all ranks), the state as of the last migration
   IntegratorConfig config_;
