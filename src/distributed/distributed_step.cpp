@@ -274,13 +274,13 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
   sim_->set_track_energy(false);  // the ledger is charged here, over the owned bonds
   if (sweeps_) {
     // The whole world's colour classes, restricted to this piece's quanta, in local order.
-    std::vector<Index> local(whole_.num_quanta(), ~Index{0});
-    for (std::size_t l = 0; l < global_.size(); ++l) local[global_[l]] = static_cast<Index>(l);
+    std::vector<Index> local_index(whole_.num_quanta(), ~Index{0});
+    for (std::size_t l = 0; l < global_.size(); ++l) local_index[global_[l]] = static_cast<Index>(l);
     coloring_ = {};
     coloring_.offset.push_back(0);
     for (std::size_t c = 0; c < whole_coloring_.num_colors(); ++c) {
       for (Index k = whole_coloring_.offset[c]; k < whole_coloring_.offset[c + 1]; ++k)
-        if (const Index l = local[whole_coloring_.quanta[k]]; l != ~Index{0}) coloring_.quanta.push_back(l);
+        if (const Index l = local_index[whole_coloring_.quanta[k]]; l != ~Index{0}) coloring_.quanta.push_back(l);
       coloring_.offset.push_back(static_cast<Index>(coloring_.quanta.size()));
     }
     layout_ = solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_);
@@ -442,7 +442,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     if (gains(v, true)) {
       undo();
       ++halved_;
-      return split_step(stop, cpu0);
+      return split_step(stop, cpu_seconds());
     }
     energy_start_ = v.after;
   }

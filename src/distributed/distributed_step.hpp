@@ -143,7 +143,7 @@ class DistributedStep : private RanksLink {
   bool gains(const Verdict& v, bool whole) const;
   // coupled_implicit: the step just undone, taken again as two halves, each again in halves
   // while it creates energy, as the run alone's energy guard takes it; breaks decided after the
-  // last half (collective). cpu0 as step_timed's.
+  // last half (collective). cpu0: the CPU time when the halves began.
   StepReport split_step(bool stop, double cpu0);
   // One substep [t_a, t_b] of split_step from the state the pieces hold, split again while it
   // creates energy and depth < kMaxDepth: false, the pieces back at t_a, when it blew up.
