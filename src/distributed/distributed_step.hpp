@@ -29,7 +29,7 @@ struct CarryKind {
   double h = 0, h_before = 0;  // guesses: the steps' lengths
 };
 
-class DistributedStep : private RanksLink {
+class DistributedStep final : private RanksLink {
  public:
   // Splits `whole` (the same on every rank) over the job's ranks; config.type must be an explicit
   // integrator (velocity_verlet, explicit_euler, symplectic_euler, rk4), with the model's penalty
