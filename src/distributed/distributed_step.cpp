@@ -301,6 +301,11 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
   sim_->world().state.carry = std::move(carry);  // after the integrators are replaced, which drop it
 }
 
+bool DistributedStep::left_box() const {
+  const State& s = sim_->world().state;
+  return std::any_of(owned_.begin(), owned_.end(), [&](Index q) { return cuts_.part_of(s.x[q]) != rank_; });
+}
+
 CarryKind DistributedStep::carry_kind() const { return sim_ ? kind_of(sim_->world().state.carry) : CarryKind{}; }
 
 SolveLayout solve_layout(const World& whole, std::span<const int> owner, int rank, int ranks,
@@ -391,12 +396,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     ledger_.v = s.v;
     report = sim_->step();
     solve_stats_ = sim_->integrator().stats();  // before a rebuild makes a new integrator
-    if (report.status == StepReport::Status::ok)
-      for (Index q : owned_)
-        if (cuts_.part_of(s.x[q]) != rank_) {
-          left = true;
-          break;
-        }
+    left = report.status == StepReport::Status::ok && left_box();
   }
   times_.stepping += cpu_seconds() - cpu0;
   // A piece that refused its step sends its state before it: the step is then undone everywhere.
@@ -540,7 +540,7 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
     State& s = sim_->world().state;
     s.time = t0 + h_;
     s.step = whole_.state.step + 1;
-    for (Index q : owned_) flags[0] = flags[0] || cuts_.part_of(s.x[q]) != rank_;
+    flags[0] = left_box();
   }
   max_over_ranks(flags);
   stop_agreed_ = last.stop;

@@ -180,6 +180,8 @@ class DistributedStep final : private RanksLink {
                         std::vector<Vec3>& dv) override;
   // The owned quanta's [index, x, v, carried] rows (kRow doubles each).
   std::vector<double> owned_rows() const;
+  // Whether an owned quanta of this rank's piece (which it must have) has left the rank's box.
+  bool left_box() const;
   // The kind of carry-over the pieces hold.
   CarryKind carry_kind() const;
 
