@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "distributed/collectives.hpp"
 #include "heuristics/breaking.hpp"
@@ -18,6 +19,7 @@
 #include "ledger/step_work.hpp"
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/distributed/distributed.hpp"
+#include "qbond/heuristics/contacts.hpp"
 #include "qbond/io/vtk.hpp"
 
 namespace qbond::distributed {
@@ -251,27 +253,14 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
   if (carried) {
     carry = carry_from(w.state, local, kind);
   } else if (verlet_) {
-    if (n > 0) {
-      Adjacency adj;
-      build_adjacency(w.model, w.state, adj);
-      BondPartition part;
-      part.update(w.model, w.state.bonds, adj, config_.threads);
-      ForceArrays work;
-      const ForceRows rows = bond_force_rows(w.model, w.state, part, w.state.x.data(), w.state.v.data(),
-                                             config_.threads, work);
-      for (std::size_t q = 0; q < n; ++q)
-        for (std::size_t k = 0; k < 3; ++k) local[kCarried * q + k] = rows.f[k][q];
-    }
-    halo_.exchange(
-        plan_, 3, [&](Index q, double* out) { std::copy_n(&local[kCarried * q], 3, out); },
-        [&](Index q, const double* in) { std::copy_n(in, 3, &local[kCarried * q]); });
-    carry = carry_from(w.state, local, {.kind = CarryKind::Kind::forces});
+    carry = carry_from(w.state, fresh_forces(w), {.kind = CarryKind::Kind::forces});
   }
   sim_.reset();
   if (n == 0) return;
   sim_ = std::make_unique<Simulation>(std::move(w), config_, h_);
   sim_->limits() = limits_;
   sim_->set_track_energy(false);  // the ledger is charged here, over the owned bonds
+  add_obstacles();
   if (sweeps_) {
     // The whole world's colour classes, restricted to this piece's quanta, in local order.
     std::vector<Index> local_index(whole_.num_quanta(), ~Index{0});
@@ -299,6 +288,56 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
         *sim_, make_coupled_over_ranks(config_, solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_)));
 #endif
   sim_->world().state.carry = std::move(carry);  // after the integrators are replaced, which drop it
+}
+
+std::vector<double> DistributedStep::fresh_forces(const World& w) {
+  const std::size_t n = global_.size();
+  std::vector<double> local(kCarried * n, 0.0);
+  if (n > 0) {
+    Adjacency adj;
+    build_adjacency(w.model, w.state, adj);
+    BondPartition part;
+    part.update(w.model, w.state.bonds, adj, config_.threads);
+    ForceArrays work;
+    const ForceRows rows =
+        bond_force_rows(w.model, w.state, part, w.state.x.data(), w.state.v.data(), config_.threads, work);
+    for (std::size_t q = 0; q < n; ++q)
+      for (std::size_t k = 0; k < 3; ++k) local[kCarried * q + k] = rows.f[k][q];
+  }
+  halo_.exchange(
+      plan_, 3, [&](Index q, double* out) { std::copy_n(&local[kCarried * q], 3, out); },
+      [&](Index q, const double* in) { std::copy_n(in, 3, &local[kCarried * q]); });
+  return local;
+}
+
+StepReport DistributedStep::piece_step() {
+  if (obstacles_.empty()) return sim_->step();
+  sim_->begin_step();
+  Projection& p = sim_->projection();
+  halo_.exchange(
+      plan_, 6,
+      [&](Index q, double* out) {
+        std::copy_n(p.dx[q].data(), 3, out);
+        std::copy_n(p.dv[q].data(), 3, out + 3);
+      },
+      [&](Index q, const double* in) {
+        std::copy_n(in, 3, p.dx[q].data());
+        std::copy_n(in + 3, 3, p.dv[q].data());
+      });
+  return sim_->end_step();
+}
+
+bool DistributedStep::edited() const {
+  if (!sim_ || obstacles_.empty()) return false;
+  const State& s = sim_->world().state;
+  const auto* c = std::get_if<VerletForces>(&s.carry);
+  if (!c) return false;
+  const std::size_t stride = c->stride();
+  return std::any_of(owned_.begin(), owned_.end(), [&](Index q) {
+    for (std::size_t k = 0; k < 3; ++k)
+      if (c->x[k * stride + q] != s.x[q][static_cast<Eigen::Index>(k)]) return true;
+    return c->v[q] != s.v[q];
+  });
 }
 
 bool DistributedStep::left_box() const {
@@ -394,7 +433,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     State& s = sim_->world().state;
     ledger_.x = s.x;
     ledger_.v = s.v;
-    report = sim_->step();
+    report = piece_step();
     solve_stats_ = sim_->integrator().stats();  // before a rebuild makes a new integrator
     left = report.status == StepReport::Status::ok && left_box();
   }
@@ -452,6 +491,21 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     const Projection::ContactEnergy& c = v.contact;
     contact_dissipated_ += std::max(0.0, -c.work - (c.stored - c.stored_start));
     contact_stored_ = c.stored;
+  }
+  if (sim_ && !obstacles_.empty()) {
+    // This rank's obstacles' books of the step, kept here: a piece built anew starts from none.
+    State& s = sim_->world().state;
+    fracture_ += std::exchange(s.energy.dissipated_heuristics, 0.0);
+    for (std::size_t k = 0; k < impulse_.size(); ++k) {
+      impulse_[k].total += s.obstacle_impulse[k].total;
+      impulse_[k].normal += s.obstacle_impulse[k].normal;
+      s.obstacle_impulse[k] = {};
+    }
+  }
+  if (v.edited) {
+    State& s = sim_ ? sim_->world().state : whole_.state;
+    const std::vector<double> forces = fresh_forces(sim_ ? sim_->world() : whole_);
+    if (sim_) s.carry = carry_from(s, forces, {.kind = CarryKind::Kind::forces});
   }
   if (!rules_.empty()) share_breaks();  // at the step's start time, as the run alone breaks them
   whole_.state.time = t0 + h_;  // as every piece's step sets it
@@ -560,7 +614,7 @@ bool DistributedStep::half(double t_a, double t_b, int depth, bool stop, Verdict
     ledger_.v = s.v;
     s.time = t_a;
     sim_->set_timestep(H);
-    report = sim_->step();
+    report = piece_step();
     sim_->set_timestep(h_);
     const SolveStats& taken = sim_->integrator().stats();
     solve_stats_.iterations += taken.iterations;
@@ -592,11 +646,11 @@ DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool l
   // work; with penalty contacts, the farthest an owned quanta has moved since the pieces were
   // built and its index, and the contacts' books of the step; the step's work, dampers' loss and
   // broken bonds' energy), then every rank's, added in rank order: the same on every rank.
-  constexpr std::size_t kFields = 19;
+  constexpr std::size_t kFields = 20;
   const bool refused = report.status != StepReport::Status::ok;
   double mine[kFields] = {refused ? 1.0 : 0.0, left ? 1.0 : 0.0, stop ? 1.0 : 0.0, 0, 0, 0, work.bonds_after,
                           anchors_, -1, 0, loads_, 0, 0, 0, 0, 0, work.loads + work.anchors, work.damping,
-                          released};
+                          released, !refused && verlet_ && edited() ? 1.0 : 0.0};
   if (refused) mine[9] = static_cast<double>(global_[report.worst]);
   if (sim_ && !refused) {
     const World& w = sim_->world();
@@ -647,6 +701,7 @@ DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool l
     v.work += a[16];
     v.damping += a[17];
     v.released += a[18];
+    v.edited = v.edited || a[19] != 0;
     if (a[8] > speed) {
       speed = a[8];
       who = a[9];
@@ -808,6 +863,25 @@ void DistributedStep::write_piece(const std::filesystem::path& file) const {
   write_vtp_piece(file, w.model, w.state, owned, shown);
 }
 
+void DistributedStep::set_obstacles(std::vector<Obstacle> obstacles) {
+  obstacles_ = std::move(obstacles);
+  std::size_t records = 0;
+  for (const Obstacle& o : obstacles_) records = std::max(records, static_cast<std::size_t>(o.record + 1));
+  start_impulse_ = whole_.state.obstacle_impulse;
+  start_impulse_.resize(std::max(records, start_impulse_.size()));
+  impulse_.assign(start_impulse_.size(), ObstacleImpulse{});
+  add_obstacles();
+}
+
+void DistributedStep::add_obstacles() {
+  if (!sim_ || obstacles_.empty()) return;
+  State& s = sim_->world().state;
+  s.energy.dissipated_heuristics = 0;  // this rank's share, added to fracture_ after each step
+  s.obstacle_impulse.assign(impulse_.size(), ObstacleImpulse{});
+  for (const Obstacle& o : obstacles_) sim_->add_heuristic(make_heuristic(o));
+  sim_->count_edits_of(owned_mask_);
+}
+
 void DistributedStep::set_break_rules(std::vector<BreakRule> rules) {
   rules_ = std::move(rules);
   localise_rules();
@@ -915,7 +989,10 @@ void DistributedStep::apply_events(World& w) const {
 
 void DistributedStep::gather(World& into) {
   const std::vector<double> rows = gather_to_root(owned_rows());
-  const double mine[4] = {anchors_, damping_, fracture_, loads_};
+  // Each rank's books: anchors, dampers, heuristics, loads, then per obstacle its impulse.
+  const std::size_t fields = 4 + 4 * impulse_.size();
+  std::vector<double> mine{anchors_, damping_, fracture_, loads_};
+  for (const ObstacleImpulse& J : impulse_) mine.insert(mine.end(), {J.total.x(), J.total.y(), J.total.z(), J.normal});
   const std::vector<double> books = gather_to_root(mine);
   if (rank_ != 0) return;
   State& s = into.state;
@@ -927,11 +1004,17 @@ void DistributedStep::gather(World& into) {
   // guesses (after a blow-up, none).
   s.carry = carry_from(s, c, verlet_ ? CarryKind{.kind = CarryKind::Kind::forces} : carry_kind());
   double anchors = 0, damping = 0, fracture = 0, loads = 0;
-  for (std::size_t r = 0; r + 4 <= books.size(); r += 4) {
+  s.obstacle_impulse = start_impulse_;
+  for (std::size_t r = 0; r + fields <= books.size(); r += fields) {
     anchors += books[r];
     damping += books[r + 1];
     fracture += books[r + 2];
     loads += books[r + 3];
+    for (std::size_t k = 0; k < impulse_.size(); ++k) {
+      const double* J = &books[r + 4 + 4 * k];
+      s.obstacle_impulse[k].total += Vec3(J[0], J[1], J[2]);
+      s.obstacle_impulse[k].normal += J[3];
+    }
   }
   s.energy.work_anchors = start_books_.work_anchors + anchors;
   s.energy.work_loads = start_books_.work_loads + loads;

@@ -60,6 +60,13 @@ class DistributedStep final : private RanksLink {
   // them in the whole world's bond order from the same generator, as a run on one rank draws.
   // The breaks are then shared, so that every rank's topology stays the same.
   void set_break_rules(std::vector<BreakRule> rules);
+  // Obstacles as projection rules (one heuristic each, in the scene's order, before the break
+  // rules): every piece edits its quanta's projection after the ghosts' rows came from their
+  // owners, so that an owned quanta's edit and its bonds' energy read the run alone's numbers;
+  // the books and the obstacles' impulses count the owned quanta and bonds alone. Velocity
+  // Verlet's forces after a step that any rank edited are evaluated afresh by their owners, as
+  // the run alone evaluates them when the state is not the one its carried forces were left for.
+  void set_obstacles(std::vector<Obstacle> obstacles);
   // The last step's solve as this rank's piece took it (the solves over ranks' iterations and
   // residual are the whole system's, the same on every rank); empty on a rank without quanta.
   const SolveStats& solve_stats() const { return solve_stats_; }
@@ -112,6 +119,15 @@ class DistributedStep final : private RanksLink {
   void build(const std::vector<double>* carried, const CarryKind& kind);
   // The ghosts' positions and velocities (and carried forces) from their owners.
   void exchange_ghosts();
+  // The piece's step (of its timestep); with obstacles, the ghosts' projection rows come from
+  // their owners before the obstacles edit it.
+  StepReport piece_step();
+  // Velocity Verlet's forces a(x, v) at the piece's state w, kCarried numbers a quanta: the
+  // owned quanta's evaluated here (the piece holds all their bonds), the ghosts' from their owners.
+  std::vector<double> fresh_forces(const World& w);
+  // Whether the obstacles edited an owned quanta in the last step: its state is not the one
+  // velocity Verlet's carried forces were left for.
+  bool edited() const;
   // The anchors' and dampers' work over the owned bonds and the loads' on the owned quanta, from
   // the state before the step (of length H); returns the step's work and the owned bonds' energy
   // after it [J].
@@ -131,6 +147,7 @@ class DistributedStep final : private RanksLink {
     Energies after;
     double work = 0, damping = 0;  // [J]
     double released = 0;  // what the step's breaks took out of its state [J]
+    bool edited = false;  // the obstacles edited some rank's quanta (velocity Verlet)
   };
   // `released`: the energy of the bonds this rank broke in the step [J].
   Verdict agree(const StepReport& report, bool left, bool stop, const StepWork& work, double contact_after,
@@ -166,6 +183,8 @@ class DistributedStep final : private RanksLink {
   void break_owned(std::size_t rule, std::size_t b, std::uint8_t why);
   // Every rank's breaks of the step into events_ (in a run on one rank's order) and whole_'s topology.
   void share_breaks();
+  // The obstacles' heuristics on this rank's piece, its books of them from none.
+  void add_obstacles();
   // The rules with their selections in this piece's local indices.
   void localise_rules();
   // coupled_implicit and the hybrid's sweeps: components_ (and for the sweeps whole_coloring_)
@@ -209,7 +228,11 @@ class DistributedStep final : private RanksLink {
   Projection moved_;
   std::vector<Vec3> gravity_;   // m g per local quanta
   double anchors_ = 0, damping_ = 0, loads_ = 0;  // this rank's share since the run started [J]
-  double fracture_ = 0;               // the energy of the bonds this rank broke since the run started [J]
+  // What this rank's heuristics took out since the run started (the bonds it broke, its
+  // obstacles' edits) [J], and its obstacles' impulses on its owned quanta.
+  double fracture_ = 0;
+  std::vector<ObstacleImpulse> impulse_, start_impulse_;  // start: the whole run's when this one started
+  std::vector<Obstacle> obstacles_;
   // Penalty contacts: whether the model has them, and the energy they took out since the run
   // started and their springs' energy now, over every rank [J].
   bool contacts_ = false;

@@ -35,11 +35,15 @@ class EditLedger {
     old_dx_.push_back(p.dx[i]);
     old_dv_.push_back(p.dv[i]);
   }
-  // Energy the edits removed [J]; clears the marks.
-  double released(const Model& m, const State& s, const Projection& p, const Adjacency& adj) {
+  // Energy the edits removed [J] from the `counted` quanta and the bonds whose first end is
+  // counted (HeuristicContext::counted; empty: all); clears the marks.
+  double released(const Model& m, const State& s, const Projection& p, const Adjacency& adj,
+                  std::span<const std::uint8_t> counted) {
+    auto charged = [&](Index i) { return counted.empty() || counted[i] != 0; };
     double e = 0;
     for (std::size_t k = 0; k < list_.size(); ++k) {
       const Index i = list_[k];
+      if (!charged(i)) continue;
       const Vec3 v_old = s.v[i] + old_dv_[k], v_new = s.v[i] + p.dv[i];
       e += 0.5 * m.mass[i] * (v_old.squaredNorm() - v_new.squaredNorm());
       e -= m.mass[i] * m.gravity.dot(old_dx_[k] - p.dx[i]);
@@ -50,7 +54,7 @@ class EditLedger {
       const Index i = list_[k];
       for (Index a = adj.offset[i]; a < adj.offset[i + 1]; ++a) {
         const Index b = adj.bond[a], j = adj.other[a];
-        if (!s.bonds.alive[b] || (touched_[j] && j < i)) continue;  // each bond once
+        if (!s.bonds.alive[b] || (touched_[j] && j < i) || !charged(s.bonds.i[b])) continue;  // each bond once
         const double r_old = (old_pos(j) - (s.x[i] + old_dx_[k])).norm();
         const double r_new = (projected(s, p, j) - projected(s, p, i)).norm();
         e += s.bonds.law_at(m.shapes, b, r_old, s.bonds.rest[b]).U -
@@ -242,7 +246,7 @@ class ObstacleHeuristic final : public Heuristic {
         const Vec3 v1 = s.v[i] + p.dv[i];
         const Vec3 dv = contact_velocity_change(v1, brought(s, ctx, i, v1), n, o.material);
         p.dv[i] += dv;
-        if (o.record >= 0) {
+        if (o.record >= 0 && (ctx.counted.empty() || ctx.counted[i])) {
           // The obstacle's impulse on the quanta is its momentum change; its normal part
           // (toward the free side) is what pushes on the wall: pressure × area × time.
           auto& rec = state.obstacle_impulse;
@@ -254,7 +258,7 @@ class ObstacleHeuristic final : public Heuristic {
         }
       }
     }
-    if (!ledger_.touched().empty()) state.energy.dissipated_heuristics += ledger_.released(m, s, p, ctx.adj);
+    if (!ledger_.touched().empty()) state.energy.dissipated_heuristics += ledger_.released(m, s, p, ctx.adj, ctx.counted);
   }
 
  private:
@@ -313,7 +317,7 @@ class QuantaContactHeuristic final : public Heuristic {
       p.dx[i] = pos_[i] - s.x[i];
       p.dv[i] = vel_[i] - s.v[i];
     }
-    state.energy.dissipated_heuristics += ledger_.released(m, s, p, ctx.adj);
+    state.energy.dissipated_heuristics += ledger_.released(m, s, p, ctx.adj, ctx.counted);
   }
 
  private:

@@ -125,6 +125,10 @@ void replace_step_integrator(Simulation& sim, std::unique_ptr<StepIntegrator> in
 const Adjacency& Simulation::adjacency() { return scratch_->adjacency(world_.model, world_.state); }
 
 const Projection& Simulation::projection() const { return scratch_->projection; }
+Projection& Simulation::projection() { return scratch_->projection; }
+void Simulation::count_edits_of(std::span<const std::uint8_t> counted) {
+  scratch_->counted.assign(counted.begin(), counted.end());
+}
 
 const std::vector<BondEvent>& Simulation::events() const { return scratch_->events; }
 

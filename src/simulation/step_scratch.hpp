@@ -27,6 +27,7 @@ struct StepScratch {
   PrescribedAt prescribed;      // where the check stage places the prescribed quanta
   std::vector<BondEvent> events;    // topology changes the heuristics and failures made this step
   std::vector<Vec3> dv_forces;      // the projection's dv before the heuristics [m/s] (n)
+  std::vector<std::uint8_t> counted;  // HeuristicContext::counted (empty: every quanta)
   LedgerStage ledger;           // with the substeps of a step taken in substeps
   double bonds_after = 0;       // the bonds' energy after the step, from the ledger [J]
   EnergyLedger books;           // the ledger before the step (energy restoration)

@@ -40,6 +40,10 @@ struct HeuristicContext {
   /// to get the one it brought into the step plus what earlier contacts gave it: the approach
   /// speed restitution returns (a gas's quanta meets a wall and another quanta in one step).
   std::span<const Vec3> dv_forces = {};
+  /// 1 for each quanta whose edits this simulation charges to its books (n; empty: every quanta).
+  /// A piece of a run over ranks charges its owned quanta's and bonds (those whose first end it
+  /// owns) alone, each once over the ranks.
+  std::span<const std::uint8_t> counted = {};
 };
 
 /// One rule of the step pipeline. Implementations must be deterministic given State::rng and

@@ -81,6 +81,8 @@ class Simulation {
     h->bind(world_.model);
     heuristics_.push_back(std::move(h));
   }
+  /// The quanta whose heuristic edits the books charge (HeuristicContext::counted; empty: all).
+  void count_edits_of(std::span<const std::uint8_t> counted);
   /// Removes every heuristic (a viewer turning them off).
   void clear_heuristics() { heuristics_.clear(); }
   void add_observer(Observer* o) { observers_.push_back(o); }
@@ -98,6 +100,8 @@ class Simulation {
   /// The last projection: dx and dv after begin_step; after step() with no heuristic and no
   /// energy ledger they may be empty, the integrator having written the state to apply instead.
   const Projection& projection() const;
+  /// The projection between begin_step and end_step, for the caller to edit.
+  Projection& projection();
   /// Topology changes the heuristics made during the last step (cleared when a step begins).
   const std::vector<BondEvent>& events() const;
   double timestep() const { return h_; }
