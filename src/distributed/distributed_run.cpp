@@ -47,32 +47,27 @@ void check_distributable(const Scene& scene, int ranks) {
     throw std::invalid_argument(over + "does not distribute contact inside the implicit solve yet (\"method\": "
                                 "\"implicit\"); over ranks, obstacles and quanta contact take \"method\": "
                                 "\"penalty\" with an explicit integrator" + one);
-  // Obstacles as projection rules (each quanta's edit its own, on its owner's piece) with the
-  // explicit integrators and the hybrid; fracture by strain, compression and tension (each bond
-  // tested by one rank at the step's end positions, so after the obstacles' edits); the stress
-  // limits need the ghosts' neighbours, the other heuristics are not distributed.
+  // Obstacles and quanta contact as projection rules with the explicit integrators and the
+  // hybrid (an obstacle's edit of a quanta its own, on its owner's piece; the contacts' passes
+  // over every quanta in contact, on every rank); fracture by strain, compression and tension
+  // (each bond tested by one rank at the step's end positions, so after the rules' edits); the
+  // stress limits need the ghosts' neighbours, the other heuristics are not distributed.
   bool broke_before = false;  // a break rule came before this heuristic
   for (const HeuristicSpec& spec : scene.heuristics) {
     const auto* rule = std::get_if<BreakRule>(&spec);
-    if (std::holds_alternative<Obstacle>(spec)) {
+    if (std::holds_alternative<Obstacle>(spec) || std::holds_alternative<QuantaContactRule>(spec)) {
       if (implicit)
-        throw std::invalid_argument(over + "does not distribute obstacles with coupled_implicit yet (its energy "
-                                    "guard judges the step before they edit it); take an explicit integrator or "
-                                    "hybrid_implicit, or \"method\": \"penalty\" obstacles with an explicit one" +
-                                    one);
+        throw std::invalid_argument(over + "does not distribute obstacles and quanta contact as projection rules "
+                                    "with coupled_implicit yet (its energy guard judges the step before they edit "
+                                    "it); take an explicit integrator or hybrid_implicit" + one);
       if (broke_before)
-        throw std::invalid_argument(over + "tests the break rules after the obstacles' edits: list the obstacles "
-                                    "before the 'break' rules in \"heuristics\"" + one);
+        throw std::invalid_argument(over + "tests the break rules after the projection rules' edits: list the "
+                                    "obstacles and contact before the 'break' rules in \"heuristics\"" + one);
       continue;
     }
     if (!rule)
-      throw std::invalid_argument(over + "does not distribute heuristics yet other than obstacles and 'break' (not '" +
-                                  std::string(make_heuristic(spec)->name()) + "')" +
-                                  (std::holds_alternative<QuantaContactRule>(spec)
-                                       ? "; over ranks, quanta contact takes \"method\": \"penalty\" with an "
-                                         "explicit integrator"
-                                       : "") +
-                                  one);
+      throw std::invalid_argument(over + "does not distribute heuristics yet other than obstacles, contact and "
+                                  "'break' (not '" + std::string(make_heuristic(spec)->name()) + "')" + one);
     broke_before = true;
     if (std::isfinite(rule->max_stress) || std::isfinite(rule->max_von_mises))
       throw std::invalid_argument(over + "does not distribute the break heuristic's stress limits (max_stress, "
@@ -213,12 +208,13 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
     r.dist = std::make_unique<distributed::DistributedStep>(scene.world, scene.integrator, scene.timestep,
                                                             scene.limits);
     std::vector<BreakRule> rules;
-    std::vector<Obstacle> obstacles;
+    std::vector<distributed::ProjectionRule> projection;
     for (const HeuristicSpec& spec : scene.heuristics) {
-      if (const auto* o = std::get_if<Obstacle>(&spec)) obstacles.push_back(*o);
+      if (const auto* o = std::get_if<Obstacle>(&spec)) projection.emplace_back(*o);
+      else if (const auto* c = std::get_if<QuantaContactRule>(&spec)) projection.emplace_back(*c);
       else rules.push_back(std::get<BreakRule>(spec));
     }
-    if (!obstacles.empty()) r.dist->set_obstacles(std::move(obstacles));
+    if (!projection.empty()) r.dist->set_projection_rules(std::move(projection));
     if (!rules.empty()) r.dist->set_break_rules(std::move(rules));
   }
   r.settings = run_settings;

@@ -184,7 +184,10 @@ void DistributedStep::restore_momentum(const Model& model, const std::vector<Vec
 ContactHalo DistributedStep::contact_halo() const {
   ContactHalo halo;
   if (reach_ == 0) return halo;
-  halo.layers = verlet_ ? 2 : 1;
+  // Velocity Verlet with penalty contact moves a ghost by its own contacts before the owned
+  // quanta's read it: a second layer. A projection rule reads the ghosts' projection, exchanged.
+  const QuantaContactRule& penalty = whole_.model.quanta_contact;
+  halo.layers = verlet_ && penalty.radius > 0 && penalty.method == ContactMethod::penalty ? 2 : 1;
   const std::vector<Vec3>& x = whole_.state.x;
   SpatialHash grid;
   grid.build(x, reach_);
@@ -260,7 +263,7 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
   sim_ = std::make_unique<Simulation>(std::move(w), config_, h_);
   sim_->limits() = limits_;
   sim_->set_track_energy(false);  // the ledger is charged here, over the owned bonds
-  add_obstacles();
+  add_projection_rules();
   if (sweeps_) {
     // The whole world's colour classes, restricted to this piece's quanta, in local order.
     std::vector<Index> local_index(whole_.num_quanta(), ~Index{0});
@@ -311,7 +314,7 @@ std::vector<double> DistributedStep::fresh_forces(const World& w) {
 }
 
 StepReport DistributedStep::piece_step() {
-  if (obstacles_.empty()) return sim_->step();
+  if (projection_rules_.empty()) return sim_->step();
   sim_->begin_step();
   Projection& p = sim_->projection();
   halo_.exchange(
@@ -324,11 +327,21 @@ StepReport DistributedStep::piece_step() {
         std::copy_n(in, 3, p.dx[q].data());
         std::copy_n(in + 3, 3, p.dv[q].data());
       });
+  // Quanta contact finds its pairs at these ends: the piece holds them while none is slack_ away.
+  projected_moved_ = 0;
+  if (gathers_contacts_) {
+    const State& s = sim_->world().state;
+    for (std::size_t k = 0; k < built_at_.size(); ++k) {
+      const Index q = owned_[k];
+      const double d = (s.x[q] + p.dx[q] - built_at_[k]).norm();
+      if (d > projected_moved_) projected_moved_ = d, projected_worst_ = global_[q];
+    }
+  }
   return sim_->end_step();
 }
 
 bool DistributedStep::edited() const {
-  if (!sim_ || obstacles_.empty()) return false;
+  if (!sim_ || projection_rules_.empty()) return false;
   const State& s = sim_->world().state;
   const auto* c = std::get_if<VerletForces>(&s.carry);
   if (!c) return false;
@@ -436,6 +449,8 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     report = piece_step();
     solve_stats_ = sim_->integrator().stats();  // before a rebuild makes a new integrator
     left = report.status == StepReport::Status::ok && left_box();
+  } else if (gathers_contacts_) {
+    gather({});  // the pieces' contact rules gather the quanta in contact every step
   }
   times_.stepping += cpu_seconds() - cpu0;
   // A piece that refused its step sends its state before it: the step is then undone everywhere.
@@ -492,7 +507,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     contact_dissipated_ += std::max(0.0, -c.work - (c.stored - c.stored_start));
     contact_stored_ = c.stored;
   }
-  if (sim_ && !obstacles_.empty()) {
+  if (sim_ && !projection_rules_.empty()) {
     // This rank's obstacles' books of the step, kept here: a piece built anew starts from none.
     State& s = sim_->world().state;
     fracture_ += std::exchange(s.energy.dissipated_heuristics, 0.0);
@@ -654,6 +669,7 @@ DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool l
   if (refused) mine[9] = static_cast<double>(global_[report.worst]);
   if (sim_ && !refused) {
     const World& w = sim_->world();
+    if (gathers_contacts_) mine[11] = projected_moved_, mine[12] = static_cast<double>(projected_worst_);
     for (std::size_t k = 0; k < built_at_.size(); ++k) {
       const double d = (w.state.x[owned_[k]] - built_at_[k]).norm();
       if (d > mine[11]) {
@@ -863,24 +879,47 @@ void DistributedStep::write_piece(const std::filesystem::path& file) const {
   write_vtp_piece(file, w.model, w.state, owned, shown);
 }
 
-void DistributedStep::set_obstacles(std::vector<Obstacle> obstacles) {
-  obstacles_ = std::move(obstacles);
+void DistributedStep::set_projection_rules(std::vector<ProjectionRule> rules) {
+  projection_rules_ = std::move(rules);
   std::size_t records = 0;
-  for (const Obstacle& o : obstacles_) records = std::max(records, static_cast<std::size_t>(o.record + 1));
+  for (const ProjectionRule& rule : projection_rules_) {
+    if (const auto* o = std::get_if<Obstacle>(&rule)) {
+      records = std::max(records, static_cast<std::size_t>(o->record + 1));
+    } else {
+      // The pieces' ghosts: every quanta an owned one can touch while none has moved slack_.
+      gathers_contacts_ = true;
+      slack_ = std::max(slack_, std::get<QuantaContactRule>(rule).radius);
+      reach_ = 4 * slack_;
+    }
+  }
   start_impulse_ = whole_.state.obstacle_impulse;
   start_impulse_.resize(std::max(records, start_impulse_.size()));
   impulse_.assign(start_impulse_.size(), ObstacleImpulse{});
-  add_obstacles();
+  if (gathers_contacts_) {
+    migrate(false);  // the pieces built anew, with their contact halos
+  } else {
+    add_projection_rules();
+  }
 }
 
-void DistributedStep::add_obstacles() {
-  if (!sim_ || obstacles_.empty()) return;
+void DistributedStep::add_projection_rules() {
+  if (!sim_ || projection_rules_.empty()) return;
   State& s = sim_->world().state;
   s.energy.dissipated_heuristics = 0;  // this rank's share, added to fracture_ after each step
   s.obstacle_impulse.assign(impulse_.size(), ObstacleImpulse{});
-  for (const Obstacle& o : obstacles_) sim_->add_heuristic(make_heuristic(o));
+  if (gathers_contacts_) {
+    build_adjacency(whole_.model, whole_.state, whole_adj_);
+    local_of_.assign(whole_.num_quanta(), ~Index{0});
+    for (std::size_t l = 0; l < global_.size(); ++l) local_of_[global_[l]] = static_cast<Index>(l);
+  }
+  for (const ProjectionRule& rule : projection_rules_) {
+    if (const auto* o = std::get_if<Obstacle>(&rule)) sim_->add_heuristic(make_heuristic(*o));
+    else sim_->add_heuristic(make_heuristic(std::get<QuantaContactRule>(rule), static_cast<ContactRanks&>(*this)));
+  }
   sim_->count_edits_of(owned_mask_);
 }
+
+std::vector<double> DistributedStep::gather(std::span<const double> mine) { return all_gather(mine); }
 
 void DistributedStep::set_break_rules(std::vector<BreakRule> rules) {
   rules_ = std::move(rules);

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <variant>
 #include <vector>
 
 #include "distributed/coupled_over_ranks.hpp"
@@ -13,6 +14,7 @@
 #include "distributed/local_world.hpp"
 #include "distributed/partition.hpp"
 #include "heuristics/break_criteria.hpp"
+#include "heuristics/contact_ranks.hpp"
 #include "integrators/penalty_contact.hpp"
 #include "integrators/ranks_link.hpp"
 #include "ledger/step_work.hpp"
@@ -29,7 +31,10 @@ struct CarryKind {
   double h = 0, h_before = 0;  // guesses: the steps' lengths
 };
 
-class DistributedStep final : private RanksLink {
+// A heuristic that edits the projected step, distributed: an obstacle or quanta contact.
+using ProjectionRule = std::variant<Obstacle, QuantaContactRule>;
+
+class DistributedStep final : private RanksLink, private ContactRanks {
  public:
   // Splits `whole` (the same on every rank) over the job's ranks; config.type must be an explicit
   // integrator (velocity_verlet, explicit_euler, symplectic_euler, rk4), with the model's penalty
@@ -60,13 +65,15 @@ class DistributedStep final : private RanksLink {
   // them in the whole world's bond order from the same generator, as a run on one rank draws.
   // The breaks are then shared, so that every rank's topology stays the same.
   void set_break_rules(std::vector<BreakRule> rules);
-  // Obstacles as projection rules (one heuristic each, in the scene's order, before the break
-  // rules): every piece edits its quanta's projection after the ghosts' rows came from their
-  // owners, so that an owned quanta's edit and its bonds' energy read the run alone's numbers;
-  // the books and the obstacles' impulses count the owned quanta and bonds alone. Velocity
+  // Obstacles and quanta contact as projection rules (one heuristic each, in the scene's order,
+  // before the break rules): every piece edits its quanta's projection after the ghosts' rows
+  // came from their owners, so that an owned quanta's edit and its bonds' energy read the run
+  // alone's numbers; the books and the obstacles' impulses count the owned quanta and bonds
+  // alone. Quanta contact projects the whole world's pairs on every rank (contact_ranks.hpp),
+  // each piece holding as ghosts the quanta its own can touch (as for penalty contact). Velocity
   // Verlet's forces after a step that any rank edited are evaluated afresh by their owners, as
   // the run alone evaluates them when the state is not the one its carried forces were left for.
-  void set_obstacles(std::vector<Obstacle> obstacles);
+  void set_projection_rules(std::vector<ProjectionRule> rules);
   // The last step's solve as this rank's piece took it (the solves over ranks' iterations and
   // residual are the whole system's, the same on every rank); empty on a rank without quanta.
   const SolveStats& solve_stats() const { return solve_stats_; }
@@ -183,8 +190,14 @@ class DistributedStep final : private RanksLink {
   void break_owned(std::size_t rule, std::size_t b, std::uint8_t why);
   // Every rank's breaks of the step into events_ (in a run on one rank's order) and whole_'s topology.
   void share_breaks();
-  // The obstacles' heuristics on this rank's piece, its books of them from none.
-  void add_obstacles();
+  // The projection rules' heuristics on this rank's piece, its books of them from none.
+  void add_projection_rules();
+  // ContactRanks, for quanta contact as a projection rule.
+  const Model& whole_model() const override { return whole_.model; }
+  const Adjacency& whole_adjacency() const override { return whole_adj_; }
+  std::span<const Index> whole_index() const override { return global_; }
+  Index local_index(Index whole) const override { return local_of_[whole]; }
+  std::vector<double> gather(std::span<const double> mine) override;
   // The rules with their selections in this piece's local indices.
   void localise_rules();
   // coupled_implicit and the hybrid's sweeps: components_ (and for the sweeps whole_coloring_)
@@ -232,7 +245,15 @@ class DistributedStep final : private RanksLink {
   // obstacles' edits) [J], and its obstacles' impulses on its owned quanta.
   double fracture_ = 0;
   std::vector<ObstacleImpulse> impulse_, start_impulse_;  // start: the whole run's when this one started
-  std::vector<Obstacle> obstacles_;
+  std::vector<ProjectionRule> projection_rules_;
+  // With quanta contact as a projection rule: the whole world's adjacency, each whole quanta's
+  // index in the piece (~0: none), and how far an owned quanta's projection, before the rules
+  // edited it, lay from where it was when the pieces were built (and which quanta) [m].
+  bool gathers_contacts_ = false;
+  Adjacency whole_adj_;
+  std::vector<Index> local_of_;
+  double projected_moved_ = 0;
+  Index projected_worst_ = 0;
   // Penalty contacts: whether the model has them, and the energy they took out since the run
   // started and their springs' energy now, over every rank [J].
   bool contacts_ = false;

@@ -7,6 +7,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "heuristics/contact_ranks.hpp"
 #include "heuristics/spatial_hash.hpp"
 #include "integrators/penalty_contact.hpp"
 #include "io/scene/heuristic_entry.hpp"
@@ -269,7 +270,7 @@ class ObstacleHeuristic final : public Heuristic {
 
 class QuantaContactHeuristic final : public Heuristic {
  public:
-  explicit QuantaContactHeuristic(QuantaContactRule r) : rule_(r) {}
+  explicit QuantaContactHeuristic(QuantaContactRule r, ContactRanks* ranks = nullptr) : rule_(r), ranks_(ranks) {}
   std::string_view name() const override { return "contact"; }
 
   void apply(const Model& m, State& state, Projection& p, const HeuristicContext& ctx) override {
@@ -281,35 +282,15 @@ class QuantaContactHeuristic final : public Heuristic {
       pos_[i] = s.x[i] + p.dx[i];
       vel_[i] = s.v[i] + p.dv[i];
     }
-    find_pairs(m, ctx.adj);
-    if (pairs_.empty()) return;
+    find_pairs(m, ctx.adj, pos_, [](Index i) { return i; }, pairs_);
     ledger_.begin(n);
-    impulse_done_.assign(pairs_.size(), 0);
-    const double contact = 2 * rule_.radius;
-    for (int it = 0; it < rule_.iterations; ++it) {
-      for (std::size_t k = 0; k < pairs_.size(); ++k) {
-        const auto [i, j] = pairs_[k];
-        const Vec3 d = pos_[j] - pos_[i];
-        const double dist = d.norm();
-        if (dist >= contact) continue;
-        const double wi = m.inv_mass[i], wj = m.inv_mass[j], wsum = wi + wj;
-        // Coincident centres have no line between them: separate along z, deterministically.
-        const Vec3 nrm = dist > 0 ? Vec3(d / dist) : Vec3::UnitZ();
-        const double depth = contact - dist;
-        ledger_.touch(i, p);
-        ledger_.touch(j, p);
-        pos_[i] -= (wi / wsum * depth) * nrm;
-        pos_[j] += (wj / wsum * depth) * nrm;
-        if (impulse_done_[k]) continue;
-        impulse_done_[k] = 1;
-        // Velocity change of j relative to i, split as equal and opposite impulses.
-        const Vec3 dw = contact_velocity_change(vel_[j] - vel_[i],
-                                                brought(s, ctx, j, vel_[j]) - brought(s, ctx, i, vel_[i]), nrm,
-                                                rule_.material);
-        const Vec3 impulse = dw / wsum;
-        vel_[i] -= wi * impulse;
-        vel_[j] += wj * impulse;
-      }
+    if (ranks_) {
+      project_over_ranks(p, ctx);
+    } else {
+      if (pairs_.empty()) return;
+      project(
+          pairs_, pos_, vel_, [&](Index i) { return m.inv_mass[i]; },
+          [&](Index i, const Vec3& now) { return brought(s, ctx, i, now); }, [&](Index i) { ledger_.touch(i, p); });
     }
     if (ledger_.touched().empty()) return;
     for (Index i : ledger_.touched()) {
@@ -321,26 +302,125 @@ class QuantaContactHeuristic final : public Heuristic {
   }
 
  private:
-  // Pairs (i < j) closer than 2 radius at their projected positions that share no bond, in
-  // increasing i then scan order.
-  void find_pairs(const Model& m, const Adjacency& adj) {
-    pairs_.clear();
-    grid_.build(pos_, 2 * rule_.radius);
-    grid_.pairs(pos_, [&](Index i, Index j) {
+  // Pairs (a < b) closer than 2 radius at positions `pos` that share no bond, in increasing a
+  // then scan order; quanta a is quanta id(a) of `m` and `adj`.
+  template <class Id>
+  void find_pairs(const Model& m, const Adjacency& adj, const std::vector<Vec3>& pos, Id id,
+                  std::vector<std::pair<Index, Index>>& pairs) {
+    pairs.clear();
+    grid_.build(pos, 2 * rule_.radius);
+    grid_.pairs(pos, [&](Index a, Index b) {
+      const Index i = id(a), j = id(b);
       if (m.is_kinematic(i) && m.is_kinematic(j)) return;
       if (!rule_.same_body && m.body[i] == m.body[j]) return;
       for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e)
         if (adj.other[e] == j) return;
-      pairs_.emplace_back(i, j);
+      pairs.emplace_back(a, b);
     });
   }
 
+  // The rule's passes over `pairs` on positions `pos` and velocities `vel`: each touching pair
+  // pushed apart along its line by inverse mass, its impulse (restitution on the approach speed
+  // `brought(i, vel_i)` gave, friction) applied once; touch(i) before quanta i first moves.
+  template <class InvMass, class Brought, class Touch>
+  void project(const std::vector<std::pair<Index, Index>>& pairs, std::vector<Vec3>& pos, std::vector<Vec3>& vel,
+               InvMass inv_mass, Brought brought, Touch touch) {
+    impulse_done_.assign(pairs.size(), 0);
+    const double contact = 2 * rule_.radius;
+    for (int it = 0; it < rule_.iterations; ++it) {
+      for (std::size_t k = 0; k < pairs.size(); ++k) {
+        const auto [i, j] = pairs[k];
+        const Vec3 d = pos[j] - pos[i];
+        const double dist = d.norm();
+        if (dist >= contact) continue;
+        const double wi = inv_mass(i), wj = inv_mass(j), wsum = wi + wj;
+        // Coincident centres have no line between them: separate along z, deterministically.
+        const Vec3 nrm = dist > 0 ? Vec3(d / dist) : Vec3::UnitZ();
+        const double depth = contact - dist;
+        touch(i);
+        touch(j);
+        pos[i] -= (wi / wsum * depth) * nrm;
+        pos[j] += (wj / wsum * depth) * nrm;
+        if (impulse_done_[k]) continue;
+        impulse_done_[k] = 1;
+        // Velocity change of j relative to i, split as equal and opposite impulses.
+        const Vec3 dw = contact_velocity_change(vel[j] - vel[i], brought(j, vel[j]) - brought(i, vel[i]), nrm,
+                                                rule_.material);
+        const Vec3 impulse = dw / wsum;
+        vel[i] -= wi * impulse;
+        vel[j] += wj * impulse;
+      }
+    }
+  }
+
+  // A piece's share of the whole world's projection (contact_ranks.hpp): its owned quanta that
+  // touch something (pairs_, from the piece's quanta) gathered with every rank's as rows
+  // [whole index, position, velocity, the integrator's Δv], the whole world's pairs among them
+  // projected as the run alone projects them, and the results taken into pos_ and vel_.
+  void project_over_ranks(const Projection& p, const HeuristicContext& ctx) {
+    constexpr std::size_t kRow = 10;
+    const std::span<const Index> whole = ranks_->whole_index();
+    mine_.assign(whole.size(), 0);
+    for (const auto& [i, j] : pairs_) {
+      if (ctx.counted[i]) mine_[i] = 1;
+      if (ctx.counted[j]) mine_[j] = 1;
+    }
+    std::vector<double> rows;
+    for (std::size_t i = 0; i < whole.size(); ++i) {
+      if (!mine_[i]) continue;
+      rows.push_back(static_cast<double>(whole[i]));
+      for (const Vec3& v : {pos_[i], vel_[i], ctx.dv_forces[i]}) rows.insert(rows.end(), v.data(), v.data() + 3);
+    }
+    const std::vector<double> all = ranks_->gather(rows);
+    // In the whole world's order (each quanta sent by its owner alone).
+    const std::size_t count = all.size() / kRow;
+    order_.resize(count);
+    for (std::size_t r = 0; r < count; ++r) order_[r] = static_cast<Index>(r);
+    std::sort(order_.begin(), order_.end(), [&](Index a, Index b) { return all[kRow * a] < all[kRow * b]; });
+    ids_.resize(count);
+    gpos_.resize(count);
+    gvel_.resize(count);
+    gdv_.resize(count);
+    for (std::size_t g = 0; g < count; ++g) {
+      const double* row = &all[kRow * order_[g]];
+      ids_[g] = static_cast<Index>(row[0]);
+      gpos_[g] = Vec3(row[1], row[2], row[3]);
+      gvel_[g] = Vec3(row[4], row[5], row[6]);
+      gdv_[g] = Vec3(row[7], row[8], row[9]);
+    }
+    const Model& wm = ranks_->whole_model();
+    find_pairs(wm, ranks_->whole_adjacency(), gpos_, [&](Index g) { return ids_[g]; }, gpairs_);
+    if (gpairs_.empty()) return;
+    gtouched_.clear();
+    gmark_.assign(count, 0);
+    project(
+        gpairs_, gpos_, gvel_, [&](Index g) { return wm.inv_mass[ids_[g]]; },
+        [&](Index g, const Vec3& now) { return Vec3(now - gdv_[g]); },
+        [&](Index g) {
+          if (!gmark_[g]) gmark_[g] = 1, gtouched_.push_back(g);
+        });
+    for (Index g : gtouched_) {
+      const Index i = ranks_->local_index(ids_[g]);
+      if (i == ~Index{0}) continue;
+      ledger_.touch(i, p);
+      pos_[i] = gpos_[g];
+      vel_[i] = gvel_[g];
+    }
+  }
+
   QuantaContactRule rule_;
+  ContactRanks* ranks_;  // a piece's link to the other ranks, or null
   EditLedger ledger_;
   std::vector<Vec3> pos_, vel_;
   SpatialHash grid_;
   std::vector<std::pair<Index, Index>> pairs_;
   std::vector<std::uint8_t> impulse_done_;
+  // Over ranks: the piece's quanta it sends; the gathered quanta (their whole indices, rows and
+  // pairs, by increasing whole index), those the passes moved, in the order they first moved.
+  std::vector<std::uint8_t> mine_, gmark_;
+  std::vector<Index> order_, ids_, gtouched_;
+  std::vector<Vec3> gpos_, gvel_, gdv_;
+  std::vector<std::pair<Index, Index>> gpairs_;
 };
 
 // The signed distance of p from the solid shape o describes, positive outside it, and the unit
@@ -430,6 +510,10 @@ std::unique_ptr<Heuristic> make_heuristic(const Obstacle& obstacle) { return mak
 
 std::unique_ptr<Heuristic> make_heuristic(QuantaContactRule rule) {
   return std::make_unique<QuantaContactHeuristic>(rule);
+}
+
+std::unique_ptr<Heuristic> make_heuristic(QuantaContactRule rule, ContactRanks& ranks) {
+  return std::make_unique<QuantaContactHeuristic>(rule, &ranks);
 }
 
 }  // namespace qbond
