@@ -56,10 +56,6 @@ void check_distributable(const Scene& scene, int ranks) {
   for (const HeuristicSpec& spec : scene.heuristics) {
     const auto* rule = std::get_if<BreakRule>(&spec);
     if (std::holds_alternative<Obstacle>(spec) || std::holds_alternative<QuantaContactRule>(spec)) {
-      if (implicit)
-        throw std::invalid_argument(over + "does not distribute obstacles and quanta contact as projection rules "
-                                    "with coupled_implicit yet (its energy guard judges the step before they edit "
-                                    "it); take an explicit integrator or hybrid_implicit" + one);
       if (broke_before)
         throw std::invalid_argument(over + "tests the break rules after the projection rules' edits: list the "
                                     "obstacles and contact before the 'break' rules in \"heuristics\"" + one);

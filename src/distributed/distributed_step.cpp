@@ -337,7 +337,54 @@ StepReport DistributedStep::piece_step() {
       if (d > projected_moved_) projected_moved_ = d, projected_worst_ = global_[q];
     }
   }
+  if (implicit_ && projection_gains()) {
+    // The run alone's guard takes this projection again in halves before the rules edit it.
+    StepReport r;
+    r.status = StepReport::Status::blowup;
+    r.message = "at step " + std::to_string(whole_.state.step + 1) +
+                " the implicit step would create energy before the obstacles and contact edit it; the run alone "
+                "takes it again in halves, which over ranks is not distributed yet: take smaller steps, or run it "
+                "on one rank; the world keeps the state before this step";
+    return r;
+  }
   return sim_->end_step();
+}
+
+bool DistributedStep::projection_gains() {
+  const World& w = sim_->world();
+  const Projection& p = sim_->projection();
+  const std::size_t n = global_.size();
+  after_.resize(n);
+  after_v_.resize(n);
+  for (std::size_t q = 0; q < n; ++q) {
+    after_[q] = w.state.x[q] + p.dx[q];
+    after_v_[q] = w.state.v[q] + p.dv[q];
+  }
+  // This rank's kinetic energy, gravity's potential, bonds' energy and work, over its owned
+  // quanta and bonds, at the projected end (as charge_ledger and agree sum them after the step).
+  const StepWork work = step_work(w.model, ledger_, ledger_adj_, p, {after_, after_v_}, gravity_, h_,
+                                  sim_->integrator().ledger_hints(), config_.threads);
+  double mine[4] = {0, 0, work.bonds_after, work.anchors};
+  for (const Load& load : w.model.loads) {
+    const Vec3 share = load.share();
+    for (Index q : load.quanta)
+      if (owned_mask_[q] && !w.model.is_kinematic(q)) mine[3] += share.dot(p.dx[q]);
+  }
+  for (Index q : owned_) {
+    if (w.model.is_kinematic(q)) continue;
+    const double m = w.model.mass[q];
+    mine[0] += 0.5 * m * after_v_[q].squaredNorm();
+    mine[1] -= m * w.model.gravity.dot(after_[q]);
+  }
+  const std::vector<double> all = all_gather(mine);
+  Verdict v;
+  for (std::size_t r = 0; r + 4 <= all.size(); r += 4) {
+    v.after.kinetic += all[r];
+    v.after.gravity += all[r + 1];
+    v.after.bonds += all[r + 2];
+    v.work += all[r + 3];
+  }
+  return gains(v, false);
 }
 
 bool DistributedStep::edited() const {
@@ -493,7 +540,8 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     return v.report;
   }
   if (implicit_) {
-    if (gains(v, true)) {
+    // With projection rules the run alone guards the projection before their edits alone.
+    if (projection_rules_.empty() && gains(v, true)) {
       undo();
       ++halved_;
       return split_step(stop, cpu_seconds());

@@ -132,6 +132,9 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // Velocity Verlet's forces a(x, v) at the piece's state w, kCarried numbers a quanta: the
   // owned quanta's evaluated here (the piece holds all their bonds), the ghosts' from their owners.
   std::vector<double> fresh_forces(const World& w);
+  // coupled_implicit with projection rules: whether the piece's projection, before the rules
+  // edit it, creates energy, judged over every rank as the run alone's guard judges it (gains).
+  bool projection_gains();
   // Whether the obstacles edited an owned quanta in the last step: its state is not the one
   // velocity Verlet's carried forces were left for.
   bool edited() const;
@@ -269,6 +272,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   BreakCriteria criteria_;
   std::vector<Index> ledger_whole_;     // each ledger_ bond's whole index
   std::vector<Vec3> after_;             // the piece's positions after the step (the rules read them)
+  std::vector<Vec3> after_v_;           // projection_gains: the projected end's velocities
   Projection still_;                    // no change: the rules test the state after the step
   StepContext break_ctx_;               // the step the rules test
   std::vector<double> broken_;          // this rank's breaks of the step: [rule, bond, i, j, reason, strain, tension]
