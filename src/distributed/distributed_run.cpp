@@ -47,25 +47,27 @@ void check_distributable(const Scene& scene, int ranks) {
     throw std::invalid_argument(over + "does not distribute contact inside the implicit solve yet (\"method\": "
                                 "\"implicit\"); over ranks, obstacles and quanta contact take \"method\": "
                                 "\"penalty\" with an explicit integrator" + one);
-  // Obstacles and quanta contact as projection rules with the explicit integrators and the
-  // hybrid (an obstacle's edit of a quanta its own, on its owner's piece; the contacts' passes
-  // over every quanta in contact, on every rank); fracture by strain, compression and tension
-  // (each bond tested by one rank at the step's end positions, so after the rules' edits); the
-  // stress limits need the ghosts' neighbours, the other heuristics are not distributed.
-  bool broke_before = false;  // a break rule came before this heuristic
+  // After each step and in this order: obstacles and quanta contact as projection rules (an
+  // obstacle's edit of a quanta its own, on its owner's piece; the contacts' passes over every
+  // quanta in contact, on every rank); fracture by strain, compression and tension (each bond
+  // tested by one rank at the step's end positions, so after the rules' edits); formation (every
+  // rank forming the bonds among the quanta near others, after the breaks). The stress limits need
+  // the ghosts' neighbours; the other heuristics are not distributed.
+  int stage = 0;  // 0 projection rules, 1 break rules, 2 form rules, as far as the list has come
+  const char* order = "over ranks the heuristics take effect in this order: obstacles and contact, 'break', "
+                      "'form'; list them so in \"heuristics\"";
   for (const HeuristicSpec& spec : scene.heuristics) {
     const auto* rule = std::get_if<BreakRule>(&spec);
-    if (std::holds_alternative<Obstacle>(spec) || std::holds_alternative<QuantaContactRule>(spec)) {
-      if (broke_before)
-        throw std::invalid_argument(over + "tests the break rules after the projection rules' edits: list the "
-                                    "obstacles and contact before the 'break' rules in \"heuristics\"" + one);
-      continue;
-    }
-    if (!rule)
-      throw std::invalid_argument(over + "does not distribute heuristics yet other than obstacles, contact and "
-                                  "'break' (not '" + std::string(make_heuristic(spec)->name()) + "')" + one);
-    broke_before = true;
-    if (std::isfinite(rule->max_stress) || std::isfinite(rule->max_von_mises))
+    const int at = std::holds_alternative<Obstacle>(spec) || std::holds_alternative<QuantaContactRule>(spec) ? 0
+                   : rule                                       ? 1
+                   : std::holds_alternative<FormRule>(spec)     ? 2
+                                                                : -1;
+    if (at < 0)
+      throw std::invalid_argument(over + "does not distribute heuristics yet other than obstacles, contact, 'break' "
+                                  "and 'form' (not '" + std::string(make_heuristic(spec)->name()) + "')" + one);
+    if (at < stage) throw std::invalid_argument(over + "cannot keep the run alone's order: " + order + one);
+    stage = at;
+    if (rule && (std::isfinite(rule->max_stress) || std::isfinite(rule->max_von_mises)))
       throw std::invalid_argument(over + "does not distribute the break heuristic's stress limits (max_stress, "
                                   "max_von_mises) yet, only its strain, compression and tension ones" + one);
   }
@@ -205,12 +207,15 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
                                                             scene.limits);
     std::vector<BreakRule> rules;
     std::vector<distributed::ProjectionRule> projection;
+    std::vector<FormRule> forms;
     for (const HeuristicSpec& spec : scene.heuristics) {
       if (const auto* o = std::get_if<Obstacle>(&spec)) projection.emplace_back(*o);
       else if (const auto* c = std::get_if<QuantaContactRule>(&spec)) projection.emplace_back(*c);
+      else if (const auto* f = std::get_if<FormRule>(&spec)) forms.push_back(*f);
       else rules.push_back(std::get<BreakRule>(spec));
     }
     if (!projection.empty()) r.dist->set_projection_rules(std::move(projection));
+    if (!forms.empty()) r.dist->set_form_rules(std::move(forms));
     if (!rules.empty()) r.dist->set_break_rules(std::move(rules));
   }
   r.settings = run_settings;

@@ -204,6 +204,8 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
   global_ = std::move(piece.global);
   owned_ = std::move(piece.owned_quanta);
   owned_mask_ = std::move(piece.owned);
+  local_of_.assign(whole_.num_quanta(), ~Index{0});
+  for (std::size_t l = 0; l < global_.size(); ++l) local_of_[global_[l]] = static_cast<Index>(l);
   contact_after_ = PenaltyContact{};
   built_at_.clear();
   if (reach_ > 0)
@@ -266,13 +268,11 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
   add_projection_rules();
   if (sweeps_) {
     // The whole world's colour classes, restricted to this piece's quanta, in local order.
-    std::vector<Index> local_index(whole_.num_quanta(), ~Index{0});
-    for (std::size_t l = 0; l < global_.size(); ++l) local_index[global_[l]] = static_cast<Index>(l);
     coloring_ = {};
     coloring_.offset.push_back(0);
     for (std::size_t c = 0; c < whole_coloring_.num_colors(); ++c) {
       for (Index k = whole_coloring_.offset[c]; k < whole_coloring_.offset[c + 1]; ++k)
-        if (const Index l = local_index[whole_coloring_.quanta[k]]; l != ~Index{0}) coloring_.quanta.push_back(l);
+        if (const Index l = local_of_[whole_coloring_.quanta[k]]; l != ~Index{0}) coloring_.quanta.push_back(l);
       coloring_.offset.push_back(static_cast<Index>(coloring_.quanta.size()));
     }
     layout_ = solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_);
@@ -571,6 +571,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     if (sim_) s.carry = carry_from(s, forces, {.kind = CarryKind::Kind::forces});
   }
   if (!rules_.empty()) share_breaks();  // at the step's start time, as the run alone breaks them
+  if (!form_rules_.empty()) energy_start_.bonds += decide_forms();
   whole_.state.time = t0 + h_;  // as every piece's step sets it
   whole_.state.step += 1;
   // Pieces built anew before a quanta can move past their contact halos.
@@ -662,6 +663,7 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
   max_over_ranks(flags);
   stop_agreed_ = last.stop;
   if (!rules_.empty()) share_breaks();
+  if (!form_rules_.empty()) energy_start_.bonds += decide_forms();
   whole_.state.time = t0 + h_;
   whole_.state.step += 1;
   if (flags[0] || !events_.empty()) migrate(flags[0] != 0, !events_.empty());
@@ -955,11 +957,7 @@ void DistributedStep::add_projection_rules() {
   State& s = sim_->world().state;
   s.energy.dissipated_heuristics = 0;  // this rank's share, added to fracture_ after each step
   s.obstacle_impulse.assign(impulse_.size(), ObstacleImpulse{});
-  if (gathers_contacts_) {
-    build_adjacency(whole_.model, whole_.state, whole_adj_);
-    local_of_.assign(whole_.num_quanta(), ~Index{0});
-    for (std::size_t l = 0; l < global_.size(); ++l) local_of_[global_[l]] = static_cast<Index>(l);
-  }
+  if (gathers_contacts_) build_adjacency(whole_.model, whole_.state, whole_adj_);
   for (const ProjectionRule& rule : projection_rules_) {
     if (const auto* o = std::get_if<Obstacle>(&rule)) sim_->add_heuristic(make_heuristic(*o));
     else sim_->add_heuristic(make_heuristic(std::get<QuantaContactRule>(rule), static_cast<ContactRanks&>(*this)));
@@ -1067,8 +1065,96 @@ void DistributedStep::share_breaks() {
   apply_events(whole_);
 }
 
+void DistributedStep::set_form_rules(std::vector<FormRule> rules) {
+  form_rules_ = std::move(rules);
+  form_laws_.clear();
+  double capture = 0;
+  for (const FormRule& rule : form_rules_) {
+    form_laws_.push_back(bond_law(whole_.model, rule.bond));
+    capture = std::max(capture, rule.capture_radius);
+  }
+  // The pieces' ghosts: every quanta within the capture radius of an owned one while none has
+  // moved slack_ (the pairs are found at the step's end, which agree() measures).
+  slack_ = std::max(slack_, capture);
+  reach_ = 4 * slack_;
+  migrate(false);
+}
+
+double DistributedStep::decide_forms() {
+  // This rank's owned quanta within a capture radius of any quanta of its piece, at the step's
+  // end (exchanged for the ghosts): rows [whole index, x].
+  constexpr std::size_t kWidth = 4;
+  std::vector<double> mine;
+  if (sim_) {
+    const std::vector<Vec3>& x = sim_->world().state.x;
+    std::vector<std::uint8_t> near(x.size(), 0);
+    SpatialHash grid;
+    grid.build(x, slack_);
+    grid.pairs(x, [&](Index i, Index j) { near[i] = near[j] = 1; });
+    for (Index q : owned_)
+      if (near[q]) mine.insert(mine.end(), {static_cast<double>(global_[q]), x[q].x(), x[q].y(), x[q].z()});
+  }
+  // Every rank forms the whole world's bonds among them in whole_, as the run alone's rules do.
+  const std::vector<double> all = all_gather(mine);
+  if (rules_.empty()) events_.clear();  // else the step's breaks, which the new bonds follow
+  std::vector<std::size_t> rows(all.size() / kWidth);
+  for (std::size_t r = 0; r < rows.size(); ++r) rows[r] = kWidth * r;
+  std::sort(rows.begin(), rows.end(), [&](std::size_t a, std::size_t b) { return all[a] < all[b]; });
+  std::vector<Index> ids;
+  std::vector<Vec3> pos;
+  for (std::size_t r : rows) {
+    ids.push_back(static_cast<Index>(all[r]));
+    pos.emplace_back(all[r + 1], all[r + 2], all[r + 3]);
+  }
+  State& s = whole_.state;
+  const double before = s.energy.dissipated_heuristics;
+  const StepContext ctx{.h = h_, .t = s.time, .step = s.step};
+  Adjacency adj;
+  for (std::size_t k = 0; k < form_rules_.size(); ++k) {
+    if (k == 0 || adj.version != s.topology_version()) build_adjacency(whole_.model, s, adj);
+    former_.run(form_rules_[k], form_laws_[k], whole_.model, s, adj, pos, ids, ctx, events_);
+  }
+  // The energy the new bonds hold, which the rules added: charged once, by rank 0.
+  const double added = before - s.energy.dissipated_heuristics;
+  s.energy.dissipated_heuristics = before;
+  if (rank_ == 0) fracture_ -= added;
+  charge_formed();
+  return added;
+}
+
+void DistributedStep::charge_formed() {
+  if (!sim_) return;
+  // The run alone charges the step's ledger after its heuristics, over the bonds they leave: a
+  // bond formed in the step is charged its dampers' and anchors' work over it. Here by the rank
+  // that owns its first end, which holds its other (within the capture radius) in its piece.
+  State formed;
+  Bonds& fb = formed.edit_bonds();
+  for (const BondEvent& e : events_)
+    if (e.kind == BondEvent::Kind::formed && owner_[e.i] == rank_)
+      append_bond(whole_.state.bonds, e.bond, local_of_[e.i], local_of_[e.j], fb);
+  if (fb.size() == 0) return;
+  fb.first_formed = 0;
+  formed.x = ledger_.x;
+  formed.v = ledger_.v;
+  const World& w = sim_->world();
+  Adjacency adj;
+  build_adjacency(w.model, formed, adj);
+  const StepWork work = step_work(w.model, formed, adj, moved_, {w.state.x, w.state.v}, gravity_, h_,
+                                  sim_->integrator().ledger_hints(), config_.threads);
+  anchors_ += work.anchors;
+  damping_ += work.damping;
+}
+
 void DistributedStep::apply_events(World& w) const {
   for (const BondEvent& e : events_) {
+    if (e.kind == BondEvent::Kind::formed) {
+      if (&w == &whole_) continue;  // formed there
+      const Bonds& b = whole_.state.bonds;
+      const BondLaw law{.law = b.law[e.bond], .damping_model = b.damping_model[e.bond], .strength = b.strength[e.bond],
+                        .damping = b.damping[e.bond], .shape = b.shape[e.bond]};
+      w.state.form_bond(e.i, e.j, law, b.rest0[e.bond], e.bond);
+      continue;
+    }
     if (!w.state.bonds.alive[e.bond]) throw std::logic_error("bond " + std::to_string(e.bond) + " broke twice");
     w.state.break_bond(e.bond);
   }

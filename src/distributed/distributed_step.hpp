@@ -15,6 +15,7 @@
 #include "distributed/partition.hpp"
 #include "heuristics/break_criteria.hpp"
 #include "heuristics/contact_ranks.hpp"
+#include "heuristics/formation_pass.hpp"
 #include "integrators/penalty_contact.hpp"
 #include "integrators/ranks_link.hpp"
 #include "ledger/step_work.hpp"
@@ -65,6 +66,12 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // them in the whole world's bond order from the same generator, as a run on one rank draws.
   // The breaks are then shared, so that every rank's topology stays the same.
   void set_break_rules(std::vector<BreakRule> rules);
+  // Formation over ranks: form rules (after the break rules and the projection rules), in the
+  // scene's order. After each step's breaks each rank sends its owned quanta that lie within a
+  // capture radius of another (its piece holds every quanta that near, as for quanta contact),
+  // and every rank forms the whole world's bonds among them as the run alone's rules do, in the
+  // whole world's order; the pieces are then built anew.
+  void set_form_rules(std::vector<FormRule> rules);
   // Obstacles and quanta contact as projection rules (one heuristic each, in the scene's order,
   // before the break rules): every piece edits its quanta's projection after the ghosts' rows
   // came from their owners, so that an owned quanta's edit and its bonds' energy read the run
@@ -77,10 +84,10 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // The last step's solve as this rank's piece took it (the solves over ranks' iterations and
   // residual are the whole system's, the same on every rank); empty on a rank without quanta.
   const SolveStats& solve_stats() const { return solve_stats_; }
-  // The bonds the last step broke (whole-world indices), in the order a run on one rank records them.
+  // The bonds the last step broke and formed (whole-world indices), in the order a run on one rank records them.
   const std::vector<BondEvent>& events() const { return events_; }
-  // Breaks the last step's bonds in `w` (a world of the same quanta and bonds), called before its
-  // time moves on to the step's end (a broken bond records the step's start, as on one rank).
+  // Breaks and forms the last step's bonds in `w` (a world of the same quanta and bonds), called
+  // before its time moves on to the step's end (a bond records the step's start, as on one rank).
   void apply_events(World& w) const;
 
   // Writes this rank's piece of a frame (write_vtp_piece): the quanta it owns and the bonds whose
@@ -186,6 +193,11 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // to the ranks whose boxes hold them, the boxes cut anew when the ranks' loads drifted apart;
   // with `broke` (the topology changed), velocity Verlet's forces are evaluated afresh.
   void migrate(bool moved = true, bool broke = false);
+  // The step's formation (set_form_rules), into whole_ and events_; returns the energy the new
+  // bonds hold, which the rules added [J] (the same on every rank).
+  double decide_forms();
+  // This rank's charges for the bonds the step formed whose first end it owns, over the step.
+  void charge_formed();
   // This rank's breaks of the step: the rules on its owned bonds (ledger_) at the step's end
   // positions, the draws in the whole world's order. Returns the energy they charged [J].
   double decide_breaks();
@@ -249,12 +261,12 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   double fracture_ = 0;
   std::vector<ObstacleImpulse> impulse_, start_impulse_;  // start: the whole run's when this one started
   std::vector<ProjectionRule> projection_rules_;
-  // With quanta contact as a projection rule: the whole world's adjacency, each whole quanta's
-  // index in the piece (~0: none), and how far an owned quanta's projection, before the rules
+  // Each whole quanta's index in the piece (~0: none). With quanta contact as a projection rule:
+  // the whole world's adjacency, and how far an owned quanta's projection, before the rules
   // edited it, lay from where it was when the pieces were built (and which quanta) [m].
+  std::vector<Index> local_of_;
   bool gathers_contacts_ = false;
   Adjacency whole_adj_;
-  std::vector<Index> local_of_;
   double projected_moved_ = 0;
   Index projected_worst_ = 0;
   // Penalty contacts: whether the model has them, and the energy they took out since the run
@@ -277,6 +289,9 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   StepContext break_ctx_;               // the step the rules test
   std::vector<double> broken_;          // this rank's breaks of the step: [rule, bond, i, j, reason, strain, tension]
   std::vector<BondEvent> events_;
+  std::vector<FormRule> form_rules_;
+  std::vector<BondLaw> form_laws_;  // each rule's bond law in whole_'s shapes
+  FormationPass former_;
   EnergyLedger start_books_;          // the whole ledger when the run started (opened if it was not)
   // coupled_implicit and the hybrid's sweeps: the whole world's free components, found anew when
   // bonds break; the sweeps': the whole world's colouring, and this piece's share of both.

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <unordered_set>
 
-#include "heuristics/spatial_hash.hpp"
+#include "heuristics/formation_pass.hpp"
 #include "io/scene/heuristic_entry.hpp"
 
 namespace qbond {
@@ -21,83 +21,91 @@ class FormHeuristic final : public Heuristic {
   void bind(Model& model) override { law_ = bond_law(model, rule_.bond); }
 
   void apply(const Model& m, State& s, Projection& p, const HeuristicContext& ctx) override {
-    const std::size_t n = m.num_quanta();
-    const Bonds& bonds = s.bonds;
     // Earlier rules of this step may have changed the bonds: count from the current ones.
     const Adjacency* adj = &ctx.adj;
     if (ctx.adj.version != s.topology_version()) {
       build_adjacency(m, s, own_adj_);
       adj = &own_adj_;
     }
-    // Per quanta, its alive formed bonds; pairs whose bond broke within min_age; the broken
-    // formed slots to reuse, in order.
-    degree_.assign(n, 0);
-    recent_.clear();
-    free_.clear();
-    for (std::size_t b = 0; b < bonds.size(); ++b) {
-      if (bonds.alive[b]) {
-        if (b >= bonds.first_formed) {
-          ++degree_[bonds.i[b]];
-          ++degree_[bonds.j[b]];
-        }
-        continue;
-      }
-      if (rule_.min_age > 0 && bonds.time[b] > s.time - rule_.min_age) recent_.insert(pair_key(bonds.i[b], bonds.j[b]));
-      if (b >= bonds.first_formed) free_.push_back(static_cast<Index>(b));
-    }
-    pos_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) pos_[i] = projected(s, p, static_cast<Index>(i));
-    pairs_.clear();
-    grid_.build(pos_, rule_.capture_radius);
-    grid_.pairs(pos_, [&](Index i, Index j) {
-      if (!rule_.quanta.empty() && !(rule_.quanta[i] && rule_.quanta[j])) return;
-      if (m.is_kinematic(i) && m.is_kinematic(j)) return;
-      if (rule_.pairs == FormPairs::same_body && m.body[i] != m.body[j]) return;
-      if (rule_.pairs == FormPairs::other_body && m.body[i] == m.body[j]) return;
-      for (Index e = adj->offset[i]; e < adj->offset[i + 1]; ++e)
-        if (adj->other[e] == j) return;
-      if (!recent_.empty() && recent_.count(pair_key(i, j))) return;
-      pairs_.emplace_back(i, j);
-    });
-    std::size_t next_free = 0;
-    for (const auto& [i, j] : pairs_) {
-      if (rule_.max_bonds > 0 && (degree_[i] >= static_cast<Index>(rule_.max_bonds) ||
-                                  degree_[j] >= static_cast<Index>(rule_.max_bonds)))
-        continue;
-      const double r = (pos_[j] - pos_[i]).norm();
-      const double L = rule_.rest_length >= 0 ? rule_.rest_length : r;
-      const Index slot = next_free < free_.size() ? free_[next_free++] : static_cast<Index>(bonds.size());
-      const Index b = s.form_bond(i, j, law_, L, slot);
-      ++degree_[i];
-      ++degree_[j];
-      const LawValue lv = bonds.law_at(m.shapes, b, r, L);
-      s.energy.dissipated_heuristics -= lv.U;  // energy the new bond holds was added by the rule
-      BondEvent e;
-      e.kind = BondEvent::Kind::formed;
-      e.reason = BondEvent::Reason::capture;
-      e.step = ctx.step.step;
-      e.time = ctx.step.t + ctx.step.h;
-      e.bond = b;
-      e.i = i;
-      e.j = j;
-      e.strain = L > 0 ? (r - L) / L : 0.0;
-      e.tension = lv.T;
-      ctx.events.push_back(e);
-    }
+    pos_.resize(m.num_quanta());
+    for (std::size_t i = 0; i < pos_.size(); ++i) pos_[i] = projected(s, p, static_cast<Index>(i));
+    pass_.run(rule_, law_, m, s, *adj, pos_, {}, ctx.step, ctx.events);
   }
 
  private:
   FormRule rule_;
   BondLaw law_;  // rule_.bond with its shape's row in the model (bind)
   Adjacency own_adj_;
-  SpatialHash grid_;
   std::vector<Vec3> pos_;
-  std::vector<Index> degree_, free_;
-  std::vector<std::pair<Index, Index>> pairs_;
-  std::unordered_set<std::uint64_t> recent_;
+  FormationPass pass_;
 };
 
 }  // namespace
+
+std::size_t FormationPass::run(const FormRule& rule, const BondLaw& law, const Model& m, State& s,
+                               const Adjacency& adj, const std::vector<Vec3>& pos, std::span<const Index> ids,
+                               const StepContext& step, std::vector<BondEvent>& events) {
+  const std::size_t n = m.num_quanta();
+  const Bonds& bonds = s.bonds;
+  auto id = [&](Index a) { return ids.empty() ? a : ids[a]; };
+  // Per quanta, its alive formed bonds; pairs whose bond broke within min_age; the broken formed
+  // slots to reuse, in order.
+  degree_.assign(n, 0);
+  recent_.clear();
+  free_.clear();
+  for (std::size_t b = 0; b < bonds.size(); ++b) {
+    if (bonds.alive[b]) {
+      if (b >= bonds.first_formed) {
+        ++degree_[bonds.i[b]];
+        ++degree_[bonds.j[b]];
+      }
+      continue;
+    }
+    if (rule.min_age > 0 && bonds.time[b] > s.time - rule.min_age) recent_.insert(pair_key(bonds.i[b], bonds.j[b]));
+    if (b >= bonds.first_formed) free_.push_back(static_cast<Index>(b));
+  }
+  pairs_.clear();
+  grid_.build(pos, rule.capture_radius);
+  grid_.pairs(pos, [&](Index a, Index c) {
+    const Index i = id(a), j = id(c);
+    if (!rule.quanta.empty() && !(rule.quanta[i] && rule.quanta[j])) return;
+    if (m.is_kinematic(i) && m.is_kinematic(j)) return;
+    if (rule.pairs == FormPairs::same_body && m.body[i] != m.body[j]) return;
+    if (rule.pairs == FormPairs::other_body && m.body[i] == m.body[j]) return;
+    for (Index e = adj.offset[i]; e < adj.offset[i + 1]; ++e)
+      if (adj.other[e] == j) return;
+    if (!recent_.empty() && recent_.count(pair_key(i, j))) return;
+    pairs_.emplace_back(a, c);
+  });
+  std::size_t next_free = 0, made = 0;
+  for (const auto& [a, c] : pairs_) {
+    const Index i = id(a), j = id(c);
+    if (rule.max_bonds > 0 &&
+        (degree_[i] >= static_cast<Index>(rule.max_bonds) || degree_[j] >= static_cast<Index>(rule.max_bonds)))
+      continue;
+    const double r = (pos[c] - pos[a]).norm();
+    const double L = rule.rest_length >= 0 ? rule.rest_length : r;
+    const Index slot = next_free < free_.size() ? free_[next_free++] : static_cast<Index>(bonds.size());
+    const Index b = s.form_bond(i, j, law, L, slot);
+    ++made;
+    ++degree_[i];
+    ++degree_[j];
+    const LawValue lv = bonds.law_at(m.shapes, b, r, L);
+    s.energy.dissipated_heuristics -= lv.U;  // energy the new bond holds was added by the rule
+    BondEvent e;
+    e.kind = BondEvent::Kind::formed;
+    e.reason = BondEvent::Reason::capture;
+    e.step = step.step;
+    e.time = step.t + step.h;
+    e.bond = b;
+    e.i = i;
+    e.j = j;
+    e.strain = L > 0 ? (r - L) / L : 0.0;
+    e.tension = lv.T;
+    events.push_back(e);
+  }
+  return made;
+}
 
 std::unique_ptr<Heuristic> make_heuristic(FormRule rule) {
   if (!(rule.capture_radius > 0)) throw std::invalid_argument("form: capture_radius must be > 0");

@@ -3,7 +3,7 @@
 
 Usage: mpi_run_test.py QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC [--mpiexec-flag F ...]
                        [--run-arg A ...] [--expect-migration] [--expect-recut] [--expect-blowup]
-                       [--expect-breaks] [--expect-retakes]
+                       [--expect-breaks] [--expect-retakes] [--expect-forms]
 
 Runs the scene alone, then twice over N ranks, and checks:
   - the two runs over N ranks wrote the same bytes (diagnostics.csv and every frame);
@@ -19,7 +19,9 @@ Runs the scene alone, then twice over N ranks, and checks:
     message, keeping the state before that step;
   - with --expect-breaks, bonds broke, events.csv lists the run alone's breaks (step, bond, ends,
     reason; strain and tension to 1e-12 of their scale) in its order, and in every frame the
-    bonds shown plus those broken by then are every bond of the scene: none lost, none twice.
+    bonds shown plus those broken by then are every bond of the scene and those formed by then:
+    none lost, none twice;
+  - with --expect-forms, bonds formed, and events.csv lists the run alone's events in its order.
 Exits non-zero with a message naming the file, the column or quanta and the difference.
 """
 import argparse
@@ -31,7 +33,7 @@ import sys
 
 from vtk.util.numpy_support import vtk_to_numpy
 
-from run_outputs import frames, poly, read, rows, same_breaks
+from run_outputs import frames, poly, read, rows, same_breaks, same_events
 
 p = argparse.ArgumentParser()
 p.add_argument("qbond")
@@ -46,6 +48,7 @@ p.add_argument("--expect-recut", action="store_true")
 p.add_argument("--expect-blowup", action="store_true")
 p.add_argument("--expect-breaks", action="store_true")
 p.add_argument("--expect-retakes", action="store_true")
+p.add_argument("--expect-forms", action="store_true")
 a = p.parse_args()
 
 REL = 1e-12
@@ -143,6 +146,11 @@ for name in frames(alone):
 if a.expect_breaks:
     broke = same_breaks(alone, first, a.ranks, lambda column, scale: REL * scale)
     print(f"{broke} bonds broke, the same over {a.ranks} ranks")
+
+if a.expect_forms:
+    kind = same_events(alone, first, a.ranks, lambda column, scale: REL * scale, "formed")
+    formed = sum(1 for r in kind[1:] if r[kind[0].index("event")] == "formed")
+    print(f"{formed} bonds formed, the same over {a.ranks} ranks")
 
 if a.expect_blowup and not (len(blowups[0]) == 1 and blowups[0] == blowups[1] == blowups[2]):
     sys.exit(f"the blow-up messages differ: {blowups}")

@@ -38,15 +38,14 @@ def events(out):
 MEASURED = ("time", "strain", "tension")
 
 
-def same_breaks(alone, many, ranks, bound):
-    """The breaks of the run over ranks in `many` against the run alone's in `alone`: events.csv
-    lists the same rows in the same order, every column but time, strain and tension exactly,
-    those within bound(column, scale) (scale: the column's largest magnitude alone); and in every
-    frame over ranks the bonds shown plus those broken before it are every bond of the scene, none
-    lost, none twice. Returns the breaks' count; exits with a message otherwise."""
+def same_events(alone, many, ranks, bound, kind):
+    """events.csv of the run over ranks in `many` against the run alone's in `alone`: the same
+    rows in the same order, every column but time, strain and tension exactly, those within
+    bound(column, scale) (scale: the column's largest magnitude alone), and rows of `kind`
+    (broken, formed) among them. Returns the rows of `many`; exits with a message otherwise."""
     e1, en = events(alone), events(many)
-    if len(e1) < 2:
-        sys.exit("no bond broke in the run alone")
+    if not any(r[e1[0].index("event")] == kind for r in e1[1:]):
+        sys.exit(f"no bond {kind} in the run alone")
     if len(e1) != len(en) or e1[0] != en[0]:
         sys.exit(f"events.csv: {len(e1) - 1} rows alone, {len(en) - 1} over {ranks} ranks")
     header = e1[0]
@@ -58,13 +57,26 @@ def same_breaks(alone, many, ranks, bound):
             if h in MEASURED and abs(float(r1[k]) - float(rn[k])) > bound(h, scale[h]):
                 sys.exit(f"events.csv: {h} {r1[k]} alone, {rn[k]} over {ranks} ranks ({r1}; "
                          f"bound {bound(h, scale[h]):g})")
+    return en
+
+
+def same_breaks(alone, many, ranks, bound):
+    """The breaks of the run over ranks in `many` against the run alone's in `alone`: the same
+    events (same_events), and in every frame over ranks the bonds shown plus those broken before
+    it are every bond of the scene and those formed before it, none lost, none twice. Returns the
+    breaks' count; exits with a message otherwise."""
+    en = same_events(alone, many, ranks, bound, "broken")
     diag = rows(alone)
     total = int(diag[1][diag[0].index("bonds_alive")]) + int(diag[1][diag[0].index("bonds_broken")])
-    steps = [int(r[0]) for r in en[1:]]
+    kind = en[0].index("event")
+    broken_at = [int(r[0]) for r in en[1:] if r[kind] == "broken"]
+    formed_at = [int(r[0]) for r in en[1:] if r[kind] == "formed"]
     for name in frames(many):
         step = int(re.search(r"(\d+)", name).group(1))
         shown = poly(os.path.join(many, "frames", name)).GetNumberOfLines()
-        broken = sum(1 for s in steps if s < step)
-        if shown + broken != total:
-            sys.exit(f"{name}: {shown} bonds shown and {broken} broken before step {step}, of {total}")
-    return len(e1) - 1
+        broken = sum(1 for s in broken_at if s < step)
+        formed = sum(1 for s in formed_at if s < step)
+        if shown + broken != total + formed:
+            sys.exit(f"{name}: {shown} bonds shown, {broken} broken and {formed} formed before step {step}, "
+                     f"of {total}")
+    return len(broken_at)
