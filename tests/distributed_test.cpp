@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <set>
 
@@ -51,6 +52,37 @@ TEST(Bisection, IsTheSameForTheSamePointsAndKeepsPointsThatCannotBeSplit) {
   const std::vector<Vec3> same(7, Vec3(1, 2, 3));
   const std::vector<std::size_t> one = counts(parts_of(bisect(same, 3), same), 3);
   EXPECT_EQ(*std::max_element(one.begin(), one.end()), 7u);
+}
+
+// A checkpoint keeps the boxes as JSON: read back, every cut (a cut that sends every point right
+// included) and so every point's part are the same bits; text that is not a bisection is refused.
+TEST(Bisection, TravelsThroughJsonToTheBitAndRefusesWhatIsNotOne) {
+  const World w = canonical_lattice(6).world;
+  std::vector<Vec3> x = w.state.x;
+  x.resize(20);
+  for (int parts : {1, 2, 3, 5}) {
+    const distributed::Bisection b = bisect(x, parts);
+    const distributed::Bisection back = distributed::bisection_from_json(distributed::bisection_json(b));
+    ASSERT_EQ(back.parts, b.parts);
+    ASSERT_EQ(back.nodes.size(), b.nodes.size());
+    for (std::size_t k = 0; k < b.nodes.size(); ++k) {
+      EXPECT_EQ(back.nodes[k].part, b.nodes[k].part);
+      EXPECT_EQ(back.nodes[k].axis, b.nodes[k].axis);
+      EXPECT_EQ(back.nodes[k].cut, b.nodes[k].cut);  // bit for bit, +inf included
+      EXPECT_EQ(back.nodes[k].left, b.nodes[k].left);
+      EXPECT_EQ(back.nodes[k].right, b.nodes[k].right);
+    }
+    EXPECT_EQ(parts_of(back, x), parts_of(b, x));
+  }
+  const std::vector<Vec3> same(4, Vec3(1, 2, 3));
+  EXPECT_FALSE(std::isfinite(bisect(same, 2).nodes[0].cut));
+  EXPECT_EQ(distributed::bisection_from_json(distributed::bisection_json(bisect(same, 2))).nodes[0].cut, HUGE_VAL);
+  for (const char* bad : {"", "[]", R"({"parts": 2})", R"({"parts": 2, "nodes": []})",
+                          R"({"parts": 2, "nodes": [[-1, 0, 0.5, 1, 2], [0, 0, 0, -1, -1], [0, 0, 0, -1, -1]]})",
+                          R"({"parts": 2, "nodes": [[-1, 0, 0.5, 0, 2], [0, 0, 0, -1, -1], [1, 0, 0, -1, -1]]})",
+                          R"({"parts": 2, "nodes": [[-1, 3, 0.5, 1, 2], [0, 0, 0, -1, -1], [1, 0, 0, -1, -1]]})",
+                          R"({"parts": 1, "nodes": [[0, 0, "x", -1, -1]]})"})
+    EXPECT_THROW(distributed::bisection_from_json(bad), std::invalid_argument) << bad;
 }
 
 // A world with anchors, a prescribed motion, a load, two bodies and a broken bond, cut into `ranks`.

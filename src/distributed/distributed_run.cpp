@@ -13,6 +13,7 @@
 #include "distributed/collectives.hpp"
 #include "distributed/distributed_step.hpp"
 #include "qbond/distributed/distributed.hpp"
+#include "qbond/io/checkpoint.hpp"
 #include "qbond/io/vtk.hpp"
 
 namespace qbond {
@@ -141,12 +142,13 @@ struct RanksRun::Impl {
            (settings.checkpoint_every && s % settings.checkpoint_every == 0) || s >= settings.steps;
   }
 
-  // Splits `scene` over the ranks (refusing what is not distributed) and, on rank 0, starts the
-  // outputs with make_runner (a new run or a resumed one), giving it the frame writer when the
-  // ranks write pieces.
-  using FrameWriter = std::function<void(const std::filesystem::path&)>;
+  // Splits `scene` over the ranks (refusing what is not distributed; a resumed run over as many
+  // ranks as its checkpoint's cut as it was) and, on rank 0, starts the outputs with make_runner
+  // (a new run or a resumed one), which gives its settings the ranks' outputs (`outfit`): the
+  // frame writer when the ranks write pieces, the boxes for its checkpoints.
+  using Outfit = std::function<void(RunSettings&)>;
   void start(Scene scene, RunSettings run_settings, bool resumed,
-             const std::function<Runner(Scene, RunSettings, const FrameWriter&)>& make_runner);
+             const std::function<Runner(Scene, RunSettings, const Outfit&)>& make_runner);
 
   // One step, and the gather when it is due, into `world` (rank 0's outputs read it).
   StepReport step(World& world) {
@@ -166,8 +168,8 @@ struct RanksRun::Impl {
 };
 
 RanksRun::RanksRun(Scene scene, RunSettings settings) : impl_(std::make_unique<Impl>()) {
-  impl_->start(std::move(scene), std::move(settings), false, [](Scene s, RunSettings rs, const Impl::FrameWriter& w) {
-    rs.write_frame = w;
+  impl_->start(std::move(scene), std::move(settings), false, [](Scene s, RunSettings rs, const Impl::Outfit& outfit) {
+    outfit(rs);
     return Runner(std::move(s), std::move(rs));
   });
 }
@@ -178,24 +180,33 @@ RanksRun::RanksRun(const std::filesystem::path& checkpoint, const std::function<
   // Every rank reads the checkpoint (the whole state, whatever the rank count that wrote it);
   // rank 0 resumes its outputs in its directory.
   auto [scene, settings] = Runner::read_checkpoint(checkpoint, adjust, max_memory);
-  impl_->start(std::move(scene), std::move(settings), true, [&](Scene, RunSettings, const Impl::FrameWriter& w) {
+  if (!settings.resumed_ranks.empty()) {
+    try {
+      (void)distributed::bisection_from_json(settings.resumed_ranks);
+    } catch (const std::invalid_argument& e) {
+      throw CheckpointError(checkpoint.string() + ": metadata: " + e.what());
+    }
+  }
+  impl_->start(std::move(scene), std::move(settings), true, [&](Scene, RunSettings, const Impl::Outfit& outfit) {
     return Runner::resume(
         checkpoint,
         [&](Scene& s, RunSettings& rs) {
           if (adjust) adjust(s, rs);
-          rs.write_frame = w;
+          outfit(rs);
         },
         max_memory);
   });
 }
 
 void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
-                           const std::function<Runner(Scene, RunSettings, const FrameWriter&)>& make_runner) {
+                           const std::function<Runner(Scene, RunSettings, const Outfit&)>& make_runner) {
   Impl& r = *this;
   const int ranks = mpi_ranks();
   r.pieces = ranks > 1 && run_settings.frame_pieces && run_settings.vtk;
-  FrameWriter writer;
-  if (r.pieces) writer = [&r](const std::filesystem::path& file) { r.write_frame(file); };
+  const Outfit outfit = [&r](RunSettings& rs) {
+    if (r.pieces) rs.write_frame = [&r](const std::filesystem::path& file) { r.write_frame(file); };
+    if (r.dist) rs.ranks_layout = [&r] { return r.dist->layout(); };
+  };
   if (ranks > 1) {
     check_distributable(scene, ranks);
     if (run_settings.every == 0) throw std::invalid_argument("output interval must be >= 1 step");
@@ -205,6 +216,10 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
       scene.integrator.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / on_node);
     r.dist = std::make_unique<distributed::DistributedStep>(scene.world, scene.integrator, scene.timestep,
                                                             scene.limits);
+    if (resumed && !run_settings.resumed_ranks.empty())
+      if (distributed::Bisection cuts = distributed::bisection_from_json(run_settings.resumed_ranks);
+          cuts.parts == ranks)
+        r.dist->take_cuts(std::move(cuts));
     std::vector<BreakRule> rules;
     std::vector<distributed::ProjectionRule> projection;
     std::vector<FormRule> forms;
@@ -223,7 +238,7 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
   int failed[1] = {0};
   if (mpi_rank() == 0) {
     try {
-      r.runner.emplace(make_runner(std::move(scene), std::move(run_settings), writer));
+      r.runner.emplace(make_runner(std::move(scene), std::move(run_settings), outfit));
     } catch (const std::exception&) {
       failed[0] = 1;
       if (ranks > 1) distributed::max_over_ranks(failed);

@@ -609,7 +609,7 @@ double DistributedStep::contact_stored_after() {
 }
 
 bool DistributedStep::gains(const Verdict& v, bool whole) const {
-  const bool credit = whole && rules_.empty();
+  const bool credit = whole && rules_.empty() && form_rules_.empty();  // no heuristics: the step guard
   const Energies& e0 = energy_start_;
   const double lost = credit ? v.damping : 0.0;
   const double gain = v.after.total() + v.released - e0.total() - v.work + lost;
@@ -913,6 +913,12 @@ void DistributedStep::migrate(bool moved, bool broke) {
     ++recuts_;
   }
   build(keep ? &c : nullptr, kind);
+}
+
+void DistributedStep::take_cuts(Bisection cuts) {
+  cuts_ = std::move(cuts);
+  owner_ = parts_of(cuts_, whole_.state.x);
+  migrate(false);
 }
 
 void DistributedStep::write_piece(const std::filesystem::path& file) const {

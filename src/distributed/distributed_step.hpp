@@ -52,6 +52,11 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // a blow-up on any rank every rank keeps the state before the step and returns the report of
   // the first rank that found one (its quanta as a whole-world index).
   StepReport step(bool stop);
+  // The boxes the ranks hold (bisection_json), for a checkpoint.
+  std::string layout() const { return bisection_json(cuts_); }
+  // Cuts the world as `cuts` does (a checkpoint's, over as many ranks) and builds the pieces anew:
+  // a resumed run then takes the uninterrupted run's pieces and sums.
+  void take_cuts(Bisection cuts);
   // Whether some rank asked, during the last step, that the run stop.
   bool stop_agreed() const { return stop_agreed_; }
   // The whole state on rank 0, into `into` (a world of the same quanta and bonds): positions,
@@ -171,7 +176,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
                 double released) const;
   // coupled_implicit: whether the step the verdict judges created energy beyond its books, as the
   // run alone's energy guard decides, on the state before its breaks: a whole step of a run
-  // without break rules with its dampers' loss credited and the energy floor
+  // without heuristics with its dampers' loss credited and the energy floor
   // (retake_gaining_step), else without either (the guard of the projection before heuristics,
   // and the coupled step's halves).
   bool gains(const Verdict& v, bool whole) const;

@@ -4,6 +4,9 @@
 #include <array>
 #include <cmath>
 #include <numeric>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
 
 namespace qbond::distributed {
 
@@ -82,6 +85,46 @@ std::vector<int> parts_of(const Bisection& b, std::span<const Vec3> x) {
   std::vector<int> p(x.size());
   for (std::size_t i = 0; i < x.size(); ++i) p[i] = b.part_of(x[i]);
   return p;
+}
+
+std::string bisection_json(const Bisection& b) {
+  nlohmann::json nodes = nlohmann::json::array();
+  for (const Bisection::Node& n : b.nodes)
+    nodes.push_back({n.part, n.axis, std::isfinite(n.cut) ? nlohmann::json(n.cut) : nlohmann::json(), n.left, n.right});
+  return nlohmann::json{{"parts", b.parts}, {"nodes", nodes}}.dump();
+}
+
+Bisection bisection_from_json(const std::string& text) {
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  auto fail = [](const std::string& why) { throw std::invalid_argument("ranks: " + why); };
+  if (!j.is_object() || !j.contains("parts") || !j.contains("nodes") || !j["parts"].is_number_integer() ||
+      !j["nodes"].is_array())
+    fail("expected {\"parts\": N, \"nodes\": [...]}");
+  Bisection b;
+  b.parts = j["parts"].get<int>();
+  const nlohmann::json& nodes = j["nodes"];
+  if (b.parts < 1 || nodes.size() != 2 * static_cast<std::size_t>(b.parts) - 1)
+    fail("a bisection into " + std::to_string(b.parts) + " parts has 2 parts - 1 nodes, not " +
+         std::to_string(nodes.size()));
+  const int count = static_cast<int>(nodes.size());
+  std::vector<int> leaves(static_cast<std::size_t>(b.parts), 0);
+  for (int k = 0; k < count; ++k) {
+    const nlohmann::json& n = nodes[static_cast<std::size_t>(k)];
+    const std::string at = "nodes[" + std::to_string(k) + "]: ";
+    if (!n.is_array() || n.size() != 5 || !n[0].is_number_integer() || !n[1].is_number_integer() ||
+        !(n[2].is_number() || n[2].is_null()) || !n[3].is_number_integer() || !n[4].is_number_integer())
+      fail(at + "expected [part, axis, cut, left, right]");
+    Bisection::Node node{n[0].get<int>(), n[1].get<int>(), n[2].is_null() ? HUGE_VAL : n[2].get<double>(),
+                         n[3].get<int>(), n[4].get<int>()};
+    // Nodes come parent before children (no cycle); a leaf is one part, each part one leaf.
+    const bool leaf = node.part >= 0;
+    if (leaf ? node.part >= b.parts || leaves[static_cast<std::size_t>(node.part)]++ > 0
+             : node.part != -1 || node.axis < 0 || node.axis > 2 || !(node.cut > -HUGE_VAL) || node.left <= k ||
+                   node.right <= k || node.left >= count || node.right >= count)
+      fail(at + "not a node of a bisection");
+    b.nodes.push_back(node);
+  }
+  return b;
 }
 
 }  // namespace qbond::distributed

@@ -4,6 +4,7 @@
 // coordinates, so that its two halves hold points in proportion to their ranks; a point's part is
 // then found by walking the tree (part_of), which is how quanta that moved find their new owner.
 #include <span>
+#include <string>
 #include <vector>
 
 #include "qbond/core/math.hpp"
@@ -31,5 +32,11 @@ Bisection bisect(std::span<const Vec3> x, int parts);
 
 // The part of every point (Bisection::part_of).
 std::vector<int> parts_of(const Bisection& b, std::span<const Vec3> x);
+
+// The bisection as JSON, {"parts": N, "nodes": [[part, axis, cut, left, right], ...]} (a cut
+// that sends every point right is null), and back; bisection_from_json throws
+// std::invalid_argument saying what is wrong when the text is not one.
+std::string bisection_json(const Bisection& b);
+Bisection bisection_from_json(const std::string& text);
 
 }  // namespace qbond::distributed

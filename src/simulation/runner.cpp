@@ -239,6 +239,7 @@ struct Runner::Impl {
     // The adaptive controller's state: the step it proposes next, and the one it took last (the
     // diagnostics' timestep column). Doubles print and parse back to the same bits.
     if (scene.adaptive.enabled) j["adaptive"] = {{"next_step", sim.timestep()}, {"last_step", last_h}};
+    if (settings.ranks_layout) j["ranks"] = json::parse(settings.ranks_layout());
     return j.dump();
   }
 
@@ -386,10 +387,11 @@ Resumed read_resumed(const fs::path& checkpoint, const std::function<void(Scene&
   try {
     using namespace scene_detail;
     meta = parse_json_strict(ck.metadata);
-    Obj top(meta, "", {"format", "qbond_version", "scene", "run", "adaptive"});
+    Obj top(meta, "", {"format", "qbond_version", "scene", "run", "adaptive", "ranks"});
     if (string(top.required("format"), "format") != "qbond-run") bad("format", "expected 'qbond-run'");
     if (!top.required("scene").is_object()) bad("scene", "expected an object, got " + type_name(top["scene"]));
     settings = settings_from_json(top.required("run"));
+    if (top.has("ranks")) settings.resumed_ranks = top["ranks"].dump();  // checked by the run over ranks
     if (top.has("adaptive")) {
       Obj a(top["adaptive"], "adaptive", {"next_step", "last_step"});
       out.adaptive_state.emplace(positive(a.required("next_step"), a.at("next_step")),

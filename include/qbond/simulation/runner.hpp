@@ -29,6 +29,11 @@ struct RunSettings {
   /// When set, writes each frame, to the file it is given (frames/frame_<step>.pvtp), instead of
   /// a whole-world .vtp: RanksRun's, whose ranks write a piece each.
   std::function<void(const std::filesystem::path&)> write_frame;
+  /// Over MPI ranks (RanksRun): the ranks' boxes as JSON, written into each checkpoint's metadata
+  /// as `ranks`, so that a run resumed over as many ranks cuts the world where this one did.
+  std::function<std::string()> ranks_layout;
+  /// The `ranks` of the checkpoint a run resumes from (read_checkpoint), as JSON; empty if none.
+  std::string resumed_ranks;
 };
 
 /// The file of a step's frame, relative to the output directory: frames/frame_<step, 10
