@@ -513,7 +513,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
   Verdict v = agree(report, left, stop, work, contacts_ ? contact_stored_after() : 0.0, fractured);
   auto undo = [&] {
     if (sim_) roll_back(work);
-    fracture_ -= fractured;
+    heuristics_loss_ -= fractured;
     whole_.state.rng = rng0;
     events_.clear();
     rebuild_after_roll_back();
@@ -556,9 +556,9 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     contact_stored_ = c.stored;
   }
   if (sim_ && !projection_rules_.empty()) {
-    // This rank's obstacles' books of the step, kept here: a piece built anew starts from none.
+    // This rank's projection rules' books of the step, kept here: a piece built anew starts from none.
     State& s = sim_->world().state;
-    fracture_ += std::exchange(s.energy.dissipated_heuristics, 0.0);
+    heuristics_loss_ += std::exchange(s.energy.dissipated_heuristics, 0.0);
     for (std::size_t k = 0; k < impulse_.size(); ++k) {
       impulse_[k].total += s.obstacle_impulse[k].total;
       impulse_[k].normal += s.obstacle_impulse[k].normal;
@@ -961,7 +961,7 @@ void DistributedStep::set_projection_rules(std::vector<ProjectionRule> rules) {
 void DistributedStep::add_projection_rules() {
   if (!sim_ || projection_rules_.empty()) return;
   State& s = sim_->world().state;
-  s.energy.dissipated_heuristics = 0;  // this rank's share, added to fracture_ after each step
+  s.energy.dissipated_heuristics = 0;  // this rank's share, added to heuristics_loss_ after each step
   s.obstacle_impulse.assign(impulse_.size(), ObstacleImpulse{});
   if (gathers_contacts_) build_adjacency(whole_.model, whole_.state, whole_adj_);
   for (const ProjectionRule& rule : projection_rules_) {
@@ -1041,7 +1041,7 @@ double DistributedStep::decide_breaks() {
   if (!sim_) return 0.0;
   ledger_.x.swap(after_);
   if (!broken_.empty()) build_adjacency(sim_->world().model, ledger_, ledger_adj_);
-  fracture_ += ledger_.energy.dissipated_heuristics;
+  heuristics_loss_ += ledger_.energy.dissipated_heuristics;
   return ledger_.energy.dissipated_heuristics;
 }
 
@@ -1123,7 +1123,7 @@ double DistributedStep::decide_forms() {
   // The energy the new bonds hold, which the rules added: charged once, by rank 0.
   const double added = before - s.energy.dissipated_heuristics;
   s.energy.dissipated_heuristics = before;
-  if (rank_ == 0) fracture_ -= added;
+  if (rank_ == 0) heuristics_loss_ -= added;
   charge_formed();
   return added;
 }
@@ -1170,7 +1170,7 @@ void DistributedStep::gather(World& into) {
   const std::vector<double> rows = gather_to_root(owned_rows());
   // Each rank's books: anchors, dampers, heuristics, loads, then per obstacle its impulse.
   const std::size_t fields = 4 + 4 * impulse_.size();
-  std::vector<double> mine{anchors_, damping_, fracture_, loads_};
+  std::vector<double> mine{anchors_, damping_, heuristics_loss_, loads_};
   for (const ObstacleImpulse& J : impulse_) mine.insert(mine.end(), {J.total.x(), J.total.y(), J.total.z(), J.normal});
   const std::vector<double> books = gather_to_root(mine);
   if (rank_ != 0) return;

@@ -40,9 +40,10 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // Splits `whole` (the same on every rank) over the job's ranks; config.type must be an explicit
   // integrator (velocity_verlet, explicit_euler, symplectic_euler, rk4), with the model's penalty
   // contacts if any, hybrid_implicit, or, built with PETSc, coupled_implicit with the cg solver
-  // and no contact (the caller checks). What the steps carry (velocity Verlet's forces, a solve's
-  // guesses) comes from whole.state.carry when it holds it; velocity Verlet's forces are else
-  // evaluated once here. Throws when a solve over ranks would leave a rank without quanta.
+  // and no contact in its solve (the caller checks). What the steps carry (velocity Verlet's
+  // forces, a solve's guesses) comes from whole.state.carry when it holds it; velocity Verlet's
+  // forces are else evaluated once here. Throws when a solve over ranks would leave a rank
+  // without quanta.
   DistributedStep(const World& whole, const IntegratorConfig& config, double h, const BlowupLimits& limits);
   ~DistributedStep();
   DistributedStep(const DistributedStep&) = delete;  // the pieces' integrators link to it
@@ -138,8 +139,8 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   void build(const std::vector<double>* carried, const CarryKind& kind);
   // The ghosts' positions and velocities (and carried forces) from their owners.
   void exchange_ghosts();
-  // The piece's step (of its timestep); with obstacles, the ghosts' projection rows come from
-  // their owners before the obstacles edit it.
+  // The piece's step (of its timestep); with projection rules, the ghosts' projection rows come
+  // from their owners before the rules edit it.
   StepReport piece_step();
   // Velocity Verlet's forces a(x, v) at the piece's state w, kCarried numbers a quanta: the
   // owned quanta's evaluated here (the piece holds all their bonds), the ghosts' from their owners.
@@ -147,8 +148,8 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // coupled_implicit with projection rules: whether the piece's projection, before the rules
   // edit it, creates energy, judged over every rank as the run alone's guard judges it (gains).
   bool projection_gains();
-  // Whether the obstacles edited an owned quanta in the last step: its state is not the one
-  // velocity Verlet's carried forces were left for.
+  // Whether the projection rules edited an owned quanta in the last step: its state is not the
+  // one velocity Verlet's carried forces were left for.
   bool edited() const;
   // The anchors' and dampers' work over the owned bonds and the loads' on the owned quanta, from
   // the state before the step (of length H); returns the step's work and the owned bonds' energy
@@ -169,7 +170,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
     Energies after;
     double work = 0, damping = 0;  // [J]
     double released = 0;  // what the step's breaks took out of its state [J]
-    bool edited = false;  // the obstacles edited some rank's quanta (velocity Verlet)
+    bool edited = false;  // the projection rules edited some rank's quanta (velocity Verlet)
   };
   // `released`: the energy of the bonds this rank broke in the step [J].
   Verdict agree(const StepReport& report, bool left, bool stop, const StepWork& work, double contact_after,
@@ -262,8 +263,9 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   std::vector<Vec3> gravity_;   // m g per local quanta
   double anchors_ = 0, damping_ = 0, loads_ = 0;  // this rank's share since the run started [J]
   // What this rank's heuristics took out since the run started (the bonds it broke, its
-  // obstacles' edits) [J], and its obstacles' impulses on its owned quanta.
-  double fracture_ = 0;
+  // projection rules' edits, less on rank 0 what the formed bonds hold) [J], and its obstacles'
+  // impulses on its owned quanta.
+  double heuristics_loss_ = 0;
   std::vector<ObstacleImpulse> impulse_, start_impulse_;  // start: the whole run's when this one started
   std::vector<ProjectionRule> projection_rules_;
   // Each whole quanta's index in the piece (~0: none). With quanta contact as a projection rule:
