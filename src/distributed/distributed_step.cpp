@@ -125,6 +125,8 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
   open_ledger(whole_.model, whole_.state, start_books_);  // as a run on one rank's Simulation does
   if (implicit_) energy_start_ = energies(whole_.model, whole_.state);
   contacts_ = PenaltyContact::used(whole_.model);
+  const Bonds& wb = whole_.state.bonds;
+  for (std::size_t b = 0; b < wb.size() && !fails_; ++b) fails_ = wb.alive[b] && law_breaks(wb.law[b]);
   contact_stored_ = start_books_.contact_stored;
   if (const QuantaContactRule& rule = whole_.model.quanta_contact;
       rule.radius > 0 && rule.method == ContactMethod::penalty) {
@@ -265,6 +267,7 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
   sim_ = std::make_unique<Simulation>(std::move(w), config_, h_);
   sim_->limits() = limits_;
   sim_->set_track_energy(false);  // the ledger is charged here, over the owned bonds
+  sim_->leave_failures_to_caller();  // decide_breaks, each bond by one rank
   add_projection_rules();
   if (sweeps_) {
     // The whole world's colour classes, restricted to this piece's quanta, in local order.
@@ -507,7 +510,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
   // ledger: a bond broken in the step is not charged for it, as on one rank.
   const Rng rng0 = whole_.state.rng;
   // (A piece that refused its step tests it too: the draws are collective; the step is undone.)
-  const double fractured = rules_.empty() ? 0.0 : decide_breaks();
+  const double fractured = breaks() ? decide_breaks() : 0.0;
   const StepWork work = charge_ledger(h_);
   times_.bookkeeping += cpu_seconds() - cpu1;
   Verdict v = agree(report, left, stop, work, contacts_ ? contact_stored_after() : 0.0, fractured);
@@ -570,7 +573,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     const std::vector<double> forces = fresh_forces(sim_ ? sim_->world() : whole_);
     if (sim_) s.carry = carry_from(s, forces, {.kind = CarryKind::Kind::forces});
   }
-  if (!rules_.empty()) share_breaks();  // at the step's start time, as the run alone breaks them
+  if (breaks()) share_breaks();  // at the step's start time, as the run alone breaks them
   if (!form_rules_.empty()) energy_start_.bonds += decide_forms();
   whole_.state.time = t0 + h_;  // as every piece's step sets it
   whole_.state.step += 1;
@@ -609,7 +612,7 @@ double DistributedStep::contact_stored_after() {
 }
 
 bool DistributedStep::gains(const Verdict& v, bool whole) const {
-  const bool credit = whole && rules_.empty() && form_rules_.empty();  // no heuristics: the step guard
+  const bool credit = whole && !breaks() && form_rules_.empty();  // no heuristics: the step guard
   const Energies& e0 = energy_start_;
   const double lost = credit ? v.damping : 0.0;
   const double gain = v.after.total() + v.released - e0.total() - v.work + lost;
@@ -649,7 +652,7 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
   }
   // The breaks follow the whole step, as the run alone's heuristics follow its integrator; the
   // energy they take leaves the next step's start.
-  if (!rules_.empty()) {
+  if (breaks()) {
     const double mine[1] = {decide_breaks()};
     for (double fractured : all_gather(mine)) energy_start_.bonds -= fractured;
   }
@@ -662,7 +665,7 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
   }
   max_over_ranks(flags);
   stop_agreed_ = last.stop;
-  if (!rules_.empty()) share_breaks();
+  if (breaks()) share_breaks();
   if (!form_rules_.empty()) energy_start_.bonds += decide_forms();
   whole_.state.time = t0 + h_;
   whole_.state.step += 1;
@@ -1038,6 +1041,14 @@ double DistributedStep::decide_breaks() {
         break_owned(k, static_cast<std::size_t>(all[r + 2]), static_cast<std::uint8_t>(all[r + 3]));
     }
   }
+  // Bonds past their law's failure stretch, after the rules, in bond order (break_failed_bonds).
+  if (sim_ && fails_) {
+    const Model& m = sim_->world().model;
+    const Bonds& lb = ledger_.bonds;
+    for (std::size_t b = 0; b < lb.size(); ++b)
+      if (lb.alive[b] && law_breaks(lb.law[b]) && past_failure(m, ledger_, b, stretch(m, ledger_, still_, b)))
+        break_owned(rules_.size(), b, static_cast<std::uint8_t>(BondEvent::Reason::failure));
+  }
   if (!sim_) return 0.0;
   ledger_.x.swap(after_);
   if (!broken_.empty()) build_adjacency(sim_->world().model, ledger_, ledger_adj_);
@@ -1102,7 +1113,7 @@ double DistributedStep::decide_forms() {
   }
   // Every rank forms the whole world's bonds among them in whole_, as the run alone's rules do.
   const std::vector<double> all = all_gather(mine);
-  if (rules_.empty()) events_.clear();  // else the step's breaks, which the new bonds follow
+  if (!breaks()) events_.clear();  // else the step's breaks, which the new bonds follow
   std::vector<std::size_t> rows(all.size() / kWidth);
   for (std::size_t r = 0; r < rows.size(); ++r) rows[r] = kWidth * r;
   std::sort(rows.begin(), rows.end(), [&](std::size_t a, std::size_t b) { return all[a] < all[b]; });

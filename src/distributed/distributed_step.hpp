@@ -204,8 +204,11 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   double decide_forms();
   // This rank's charges for the bonds the step formed whose first end it owns, over the step.
   void charge_formed();
+  // Whether the step's end tests bonds: break rules, or bonds that fail at their law's stretch.
+  bool breaks() const { return !rules_.empty() || fails_; }
   // This rank's breaks of the step: the rules on its owned bonds (ledger_) at the step's end
-  // positions, the draws in the whole world's order. Returns the energy they charged [J].
+  // positions, the draws in the whole world's order, then the bonds past their law's failure
+  // stretch. Returns the energy they charged [J].
   double decide_breaks();
   // Breaks bond b of ledger_ by rule `rule` (reason `why`), recorded in whole indices.
   void break_owned(std::size_t rule, std::size_t b, std::uint8_t why);
@@ -286,6 +289,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // were built (built_at_, per owned quanta), every pair that touches is in the piece of each of its ends.
   double reach_ = 0, slack_ = 0;  // [m]; 0 without quanta contact
   std::vector<Vec3> built_at_;
+  bool fails_ = false;                  // some bond's law fails at its stretch (cohesive)
   std::vector<BreakRule> rules_;        // selections by whole index
   std::vector<BreakRule> local_rules_;  // selections by local index
   BreakCriteria criteria_;

@@ -126,6 +126,7 @@ const Adjacency& Simulation::adjacency() { return scratch_->adjacency(world_.mod
 
 const Projection& Simulation::projection() const { return scratch_->projection; }
 Projection& Simulation::projection() { return scratch_->projection; }
+void Simulation::leave_failures_to_caller() { scratch_->leave_failures = true; }
 void Simulation::count_edits_of(std::span<const std::uint8_t> counted) {
   scratch_->counted.assign(counted.begin(), counted.end());
 }

@@ -55,7 +55,9 @@ struct StepScratch {
   }
   // Whether an alive bond follows a law with a failure stretch (then break_failed_bonds runs),
   // found again only when the topology version changed.
+  bool leave_failures = false;  // Simulation::leave_failures_to_caller
   bool bonds_can_fail(const State& state) {
+    if (leave_failures) return false;
     if (fail_version != state.topology_version()) {
       const Bonds& b = state.bonds;
       can_fail = false;

@@ -81,6 +81,9 @@ class Simulation {
     h->bind(world_.model);
     heuristics_.push_back(std::move(h));
   }
+  /// Makes the step leave bonds past their law's failure stretch unbroken: the caller breaks them
+  /// (a piece of a run over ranks, whose ranks decide each bond once).
+  void leave_failures_to_caller();
   /// The quanta whose heuristic edits the books charge (HeuristicContext::counted; empty: all).
   void count_edits_of(std::span<const std::uint8_t> counted);
   /// Removes every heuristic (a viewer turning them off).
