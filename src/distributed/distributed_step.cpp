@@ -367,12 +367,7 @@ bool DistributedStep::projection_gains() {
   // quanta and bonds, at the projected end (as charge_ledger and agree sum them after the step).
   const StepWork work = step_work(w.model, ledger_, ledger_adj_, p, {after_, after_v_}, gravity_, h_,
                                   sim_->integrator().ledger_hints(), config_.threads);
-  double mine[4] = {0, 0, work.bonds_after, work.anchors};
-  for (const Load& load : w.model.loads) {
-    const Vec3 share = load.share();
-    for (Index q : load.quanta)
-      if (owned_mask_[q] && !w.model.is_kinematic(q)) mine[3] += share.dot(p.dx[q]);
-  }
+  double mine[4] = {0, 0, work.bonds_after, work.anchors + owned_loads_work(w.model, p.dx)};
   for (Index q : owned_) {
     if (w.model.is_kinematic(q)) continue;
     const double m = w.model.mass[q];
@@ -388,6 +383,17 @@ bool DistributedStep::projection_gains() {
     v.work += all[r + 3];
   }
   return gains(v, false);
+}
+
+double DistributedStep::owned_loads_work(const Model& m, const std::vector<Vec3>& dx) const {
+  double work = 0;
+  for (const Load& load : m.loads) {
+    if (load.quanta.empty()) continue;
+    const Vec3 share = load.share();
+    for (Index q : load.quanta)
+      if (owned_mask_[q] && !m.is_kinematic(q)) work += share.dot(dx[q]);
+  }
+  return work;
 }
 
 bool DistributedStep::edited() const {
@@ -843,14 +849,7 @@ StepWork DistributedStep::charge_ledger(double H) {
                                   sim_->integrator().ledger_hints(), config_.threads);
   anchors_ += work.anchors;
   damping_ += work.damping;
-  // The loads' work on the owned quanta, each load's share times the step's displacement, as
-  // step_work charges it on one rank.
-  for (const Load& load : w.model.loads) {
-    if (load.quanta.empty()) continue;
-    const Vec3 share = load.share();
-    for (Index q : load.quanta)
-      if (owned_mask_[q] && !w.model.is_kinematic(q)) work.loads += share.dot(moved_.dx[q]);
-  }
+  work.loads += owned_loads_work(w.model, moved_.dx);
   loads_ += work.loads;
   return work;
 }

@@ -148,6 +148,9 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // coupled_implicit with projection rules: whether the piece's projection, before the rules
   // edit it, creates energy, judged over every rank as the run alone's guard judges it (gains).
   bool projection_gains();
+  // The loads' work on the owned quanta over displacements dx: each load's share times a quanta's
+  // displacement, as step_work charges it on one rank [J].
+  double owned_loads_work(const Model& m, const std::vector<Vec3>& dx) const;
   // Whether the projection rules edited an owned quanta in the last step: its state is not the
   // one velocity Verlet's carried forces were left for.
   bool edited() const;
