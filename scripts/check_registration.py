@@ -39,15 +39,20 @@ import sys
 # rule beside its form rule, and the Python module offers it as a method; the gas builder's doc
 # names the contact its quanta need; the viewer draws quanta at the contact radius. A run over MPI
 # ranks tests the break rule on the bonds each rank owns and draws in the whole world's order
-# (its criteria apart from the heuristic's draws, in break_criteria.hpp), and forms the whole
-# world's bonds on every rank with the form rule's pass (apart from its heuristic, in
-# formation_pass.hpp).
+# (its criteria apart from the heuristic's draws, in break_criteria.hpp), flows them with the
+# plastic rule's flow (apart from its ductile breaks, in plastic_flow.hpp), forms the whole world's
+# bonds on every rank with the form rule's pass (apart from its heuristic, in formation_pass.hpp),
+# and takes damping zones, like obstacles, as projection rules of each piece.
 CONSUMERS = {
     "BreakRule": {"src/heuristics/formation.cpp", "python/simulation.cpp", "src/heuristics/break_criteria.hpp",
                   "src/distributed/distributed_run.cpp", "src/distributed/distributed_step.cpp",
                   "src/distributed/distributed_step.hpp"},
     "FormRule": {"src/heuristics/formation_pass.hpp", "src/distributed/distributed_run.cpp",
                  "src/distributed/distributed_step.cpp", "src/distributed/distributed_step.hpp"},
+    "PlasticRule": {"src/heuristics/plastic_flow.hpp", "src/distributed/distributed_run.cpp",
+                    "src/distributed/distributed_step.cpp", "src/distributed/distributed_step.hpp"},
+    "DampingZone": {"src/distributed/distributed_run.cpp", "src/distributed/distributed_step.cpp",
+                    "src/distributed/distributed_step.hpp"},
     "QuantaContactRule": {"include/qbond/builders/gas.hpp", "apps/viewer/viewer_draw.cpp"},
 }
 # Files that use a law for their own purpose: the linear law is the default bond's and has the

@@ -48,24 +48,21 @@ void check_distributable(const Scene& scene, int ranks) {
     throw std::invalid_argument(over + "does not distribute contact inside the implicit solve yet (\"method\": "
                                 "\"implicit\"); over ranks, obstacles and quanta contact take \"method\": "
                                 "\"penalty\" with an explicit integrator" + one);
-  // After each step and in this order: obstacles and quanta contact as projection rules (an
-  // obstacle's edit of a quanta its own, on its owner's piece; the contacts' passes over every
-  // quanta in contact, on every rank); fracture by strain, compression and tension (each bond
-  // tested by one rank at the step's end positions, so after the rules' edits); formation (every
-  // rank forming the bonds among the quanta near others, after the breaks). The stress limits need
-  // the ghosts' neighbours; the other heuristics are not distributed.
-  int stage = 0;  // 0 projection rules, 1 break rules, 2 form rules, as far as the list has come
-  const char* order = "over ranks the heuristics take effect in this order: obstacles and contact, 'break', "
-                      "'form'; list them so in \"heuristics\"";
+  // After each step and in this order: obstacles, quanta contact and damping zones as projection
+  // rules (an obstacle's or zone's edit of a quanta its own, on its owner's piece; the contacts'
+  // passes over every quanta in contact, on every rank); plasticity and fracture by strain,
+  // compression and tension (each bond flowed and tested by one rank at the step's end positions,
+  // so after the rules' edits); formation (every rank forming the bonds among the quanta near
+  // others, after the breaks). The stress limits need the ghosts' neighbours.
+  int stage = 0;  // 0 projection rules, 1 plastic, 2 break, 3 form rules, as far as the list has come
+  const char* order = "over ranks the heuristics take effect in this order: obstacles, contact and damping zones, "
+                      "'plastic', 'break', 'form'; list them so in \"heuristics\"";
   for (const HeuristicSpec& spec : scene.heuristics) {
     const auto* rule = std::get_if<BreakRule>(&spec);
-    const int at = std::holds_alternative<Obstacle>(spec) || std::holds_alternative<QuantaContactRule>(spec) ? 0
-                   : rule                                       ? 1
-                   : std::holds_alternative<FormRule>(spec)     ? 2
-                                                                : -1;
-    if (at < 0)
-      throw std::invalid_argument(over + "does not distribute heuristics yet other than obstacles, contact, 'break' "
-                                  "and 'form' (not '" + std::string(make_heuristic(spec)->name()) + "')" + one);
+    const int at = std::holds_alternative<PlasticRule>(spec) ? 1
+                   : rule                                    ? 2
+                   : std::holds_alternative<FormRule>(spec)  ? 3
+                                                             : 0;
     if (at < stage) throw std::invalid_argument(over + "cannot keep the run alone's order: " + order + one);
     stage = at;
     if (rule && (std::isfinite(rule->max_stress) || std::isfinite(rule->max_von_mises)))
@@ -76,7 +73,7 @@ void check_distributable(const Scene& scene, int ranks) {
   // tests them after its form rules too, which over ranks follow the breaks.
   const Bonds& b = scene.world.state.bonds;
   for (std::size_t k = 0; k < b.size(); ++k)
-    if (law_breaks(b.law[k]) && stage == 2)
+    if (law_breaks(b.law[k]) && stage == 3)
       throw std::invalid_argument(over + "does not distribute bonds that break at their law's failure stretch (" +
                                   std::string(to_string(b.law[k])) + ") beside 'form' rules yet" + one);
   if (scene.adaptive.enabled) throw std::invalid_argument(over + "does not adapt its step yet" + one);
@@ -222,16 +219,20 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
           cuts.parts == ranks)
         r.dist->take_cuts(std::move(cuts));
     std::vector<BreakRule> rules;
+    std::vector<PlasticRule> plastic;
     std::vector<distributed::ProjectionRule> projection;
     std::vector<FormRule> forms;
     for (const HeuristicSpec& spec : scene.heuristics) {
       if (const auto* o = std::get_if<Obstacle>(&spec)) projection.emplace_back(*o);
       else if (const auto* c = std::get_if<QuantaContactRule>(&spec)) projection.emplace_back(*c);
+      else if (const auto* z = std::get_if<DampingZone>(&spec)) projection.emplace_back(*z);
       else if (const auto* f = std::get_if<FormRule>(&spec)) forms.push_back(*f);
+      else if (const auto* p = std::get_if<PlasticRule>(&spec)) plastic.push_back(*p);
       else rules.push_back(std::get<BreakRule>(spec));
     }
     if (!projection.empty()) r.dist->set_projection_rules(std::move(projection));
     if (!forms.empty()) r.dist->set_form_rules(std::move(forms));
+    if (!plastic.empty()) r.dist->set_plastic_rules(std::move(plastic));
     if (!rules.empty()) r.dist->set_break_rules(std::move(rules));
   }
   r.settings = run_settings;

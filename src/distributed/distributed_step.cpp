@@ -20,6 +20,7 @@
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/distributed/distributed.hpp"
 #include "qbond/heuristics/contacts.hpp"
+#include "qbond/integrators/carry.hpp"
 #include "qbond/io/vtk.hpp"
 
 namespace qbond::distributed {
@@ -219,6 +220,8 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
   Bonds& lb = ledger_.edit_bonds();
   const Bonds& pb = w.state.bonds;
   ledger_whole_.clear();
+  local_bond_of_.assign(whole_.state.bonds.size(), ~Index{0});
+  for (std::size_t b = 0; b < piece.whole_bond.size(); ++b) local_bond_of_[piece.whole_bond[b]] = static_cast<Index>(b);
   for (Index b : piece.owned_bonds) {
     append_bond(pb, b, pb.i[b], pb.j[b], lb);
     ledger_whole_.push_back(piece.whole_bond[b]);
@@ -574,7 +577,9 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
       s.obstacle_impulse[k] = {};
     }
   }
-  if (v.edited) {
+  // The flow's rest lengths into every piece holding the bonds, before their forces are read.
+  const bool flowed = !plastic_.empty() && share_rests();
+  if (v.edited || (verlet_ && flowed)) {
     State& s = sim_ ? sim_->world().state : whole_.state;
     const std::vector<double> forces = fresh_forces(sim_ ? sim_->world() : whole_);
     if (sim_) s.carry = carry_from(s, forces, {.kind = CarryKind::Kind::forces});
@@ -661,6 +666,7 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
   if (breaks()) {
     const double mine[1] = {decide_breaks()};
     for (double fractured : all_gather(mine)) energy_start_.bonds -= fractured;
+    if (!plastic_.empty()) share_rests();
   }
   int flags[1] = {0};  // a quanta left its rank's box
   if (sim_) {
@@ -943,7 +949,7 @@ void DistributedStep::set_projection_rules(std::vector<ProjectionRule> rules) {
   for (const ProjectionRule& rule : projection_rules_) {
     if (const auto* o = std::get_if<Obstacle>(&rule)) {
       records = std::max(records, static_cast<std::size_t>(o->record + 1));
-    } else {
+    } else if (std::holds_alternative<QuantaContactRule>(rule)) {
       // The pieces' ghosts: every quanta an owned one can touch while none has moved slack_.
       gathers_contacts_ = true;
       slack_ = std::max(slack_, std::get<QuantaContactRule>(rule).radius);
@@ -968,6 +974,7 @@ void DistributedStep::add_projection_rules() {
   if (gathers_contacts_) build_adjacency(whole_.model, whole_.state, whole_adj_);
   for (const ProjectionRule& rule : projection_rules_) {
     if (const auto* o = std::get_if<Obstacle>(&rule)) sim_->add_heuristic(make_heuristic(*o));
+    else if (const auto* z = std::get_if<DampingZone>(&rule)) sim_->add_heuristic(make_heuristic(localised(*z)));
     else sim_->add_heuristic(make_heuristic(std::get<QuantaContactRule>(rule), static_cast<ContactRanks&>(*this)));
   }
   sim_->count_edits_of(owned_mask_);
@@ -980,14 +987,25 @@ void DistributedStep::set_break_rules(std::vector<BreakRule> rules) {
   localise_rules();
 }
 
+void DistributedStep::set_plastic_rules(std::vector<PlasticRule> rules) {
+  plastic_ = std::move(rules);
+  localise_rules();
+}
+
+template <class Rule>
+Rule DistributedStep::localised(Rule rule) const {
+  if (rule.quanta.empty()) return rule;
+  std::vector<std::uint8_t> mask(global_.size());
+  for (std::size_t q = 0; q < global_.size(); ++q) mask[q] = rule.quanta[global_[q]];
+  rule.quanta = std::move(mask);
+  return rule;
+}
+
 void DistributedStep::localise_rules() {
-  local_rules_ = rules_;
-  for (BreakRule& r : local_rules_) {
-    if (r.quanta.empty()) continue;
-    std::vector<std::uint8_t> mask(global_.size());
-    for (std::size_t q = 0; q < global_.size(); ++q) mask[q] = r.quanta[global_[q]];
-    r.quanta = std::move(mask);
-  }
+  local_rules_.clear();
+  for (const BreakRule& r : rules_) local_rules_.push_back(localised(r));
+  local_plastic_.clear();
+  for (const PlasticRule& r : plastic_) local_plastic_.push_back(localised(r));
 }
 
 void DistributedStep::break_owned(std::size_t rule, std::size_t b, std::uint8_t why) {
@@ -1002,6 +1020,7 @@ void DistributedStep::break_owned(std::size_t rule, std::size_t b, std::uint8_t 
 
 double DistributedStep::decide_breaks() {
   broken_.clear();
+  flowed_.clear();
   break_ctx_ = {.h = h_, .t = whole_.state.time, .step = whole_.state.step};
   // The rules read ledger_ (the owned bonds) with the positions after the step, exchanged for
   // the ghosts: the state a run on one rank projects, to the bit.
@@ -1011,6 +1030,17 @@ double DistributedStep::decide_breaks() {
     ledger_.time = whole_.state.time;
     ledger_.energy.dissipated_heuristics = 0;
   }
+  for (std::size_t k = 0; k < plastic_.size() && sim_; ++k) {
+    // Each owned bond flows as the run alone's rule flows it; its ductile breaks follow, in bond order.
+    const std::vector<std::uint8_t>& edit =
+        flow_.flow(local_plastic_[k], sim_->world().model, ledger_, still_, config_.threads);
+    for (std::size_t b = 0; b < edit.size(); ++b)
+      if (edit[b] != PlasticFlow::kKept)
+        flowed_.insert(flowed_.end(), {static_cast<double>(ledger_whole_[b]), ledger_.bonds.rest[b]});
+    for (std::size_t b = 0; b < edit.size(); ++b)
+      if (edit[b] == PlasticFlow::kDuctile) break_owned(k, b, static_cast<std::uint8_t>(BondEvent::Reason::ductility));
+  }
+  const std::size_t first = plastic_.size();  // the break rules' numbers
   for (std::size_t k = 0; k < rules_.size(); ++k) {
     const BreakRule& rule = local_rules_[k];
     const bool draws = rule.probability < 1;
@@ -1021,7 +1051,7 @@ double DistributedStep::decide_breaks() {
       for (std::size_t b = 0; b < why.size(); ++b) {
         if (why[b] == BreakCriteria::kNone) continue;
         if (!draws) {
-          break_owned(k, b, why[b]);
+          break_owned(first + k, b, why[b]);
           continue;
         }
         over.insert(over.end(), {static_cast<double>(ledger_whole_[b]), static_cast<double>(rank_),
@@ -1037,7 +1067,7 @@ double DistributedStep::decide_breaks() {
     for (std::size_t r : rows) {
       if (!(whole_.state.rng.uniform() < rule.probability)) continue;
       if (static_cast<int>(all[r + 1]) == rank_)
-        break_owned(k, static_cast<std::size_t>(all[r + 2]), static_cast<std::uint8_t>(all[r + 3]));
+        break_owned(first + k, static_cast<std::size_t>(all[r + 2]), static_cast<std::uint8_t>(all[r + 3]));
     }
   }
   // Bonds past their law's failure stretch, after the rules, in bond order (break_failed_bonds).
@@ -1046,7 +1076,7 @@ double DistributedStep::decide_breaks() {
     const Bonds& lb = ledger_.bonds;
     for (std::size_t b = 0; b < lb.size(); ++b)
       if (lb.alive[b] && law_breaks(lb.law[b]) && past_failure(m, ledger_, b, stretch(m, ledger_, still_, b)))
-        break_owned(rules_.size(), b, static_cast<std::uint8_t>(BondEvent::Reason::failure));
+        break_owned(first + rules_.size(), b, static_cast<std::uint8_t>(BondEvent::Reason::failure));
   }
   if (!sim_) return 0.0;
   ledger_.x.swap(after_);
@@ -1079,6 +1109,20 @@ void DistributedStep::share_breaks() {
     events_.push_back(e);
   }
   apply_events(whole_);
+}
+
+bool DistributedStep::share_rests() {
+  const std::vector<double> all = all_gather(flowed_);
+  if (all.empty()) return false;
+  Bonds& wb = whole_.state.bonds;  // rest lengths only: no topology change
+  for (std::size_t r = 0; r + 2 <= all.size(); r += 2) {
+    const auto b = static_cast<std::size_t>(all[r]);
+    wb.rest[b] = all[r + 1];
+    if (sim_)
+      if (const Index l = local_bond_of_[b]; l != ~Index{0}) sim_->world().state.bonds.rest[l] = all[r + 1];
+  }
+  if (sim_) drop_after_bond_edit(sim_->world().state.carry);  // as the run alone's heuristics stage does
+  return true;
 }
 
 void DistributedStep::set_form_rules(std::vector<FormRule> rules) {
@@ -1212,6 +1256,7 @@ void DistributedStep::gather(World& into) {
   s.energy.dissipated_contact = start_books_.dissipated_contact + contact_dissipated_;
   s.energy.contact_stored = contact_stored_;
   s.rng = whole_.state.rng;  // the break rules' draws
+  if (!plastic_.empty()) s.bonds.rest = whole_.state.bonds.rest;  // the plastic flow's
 }
 
 }  // namespace qbond::distributed

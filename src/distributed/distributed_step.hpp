@@ -16,10 +16,12 @@
 #include "heuristics/break_criteria.hpp"
 #include "heuristics/contact_ranks.hpp"
 #include "heuristics/formation_pass.hpp"
+#include "heuristics/plastic_flow.hpp"
 #include "integrators/penalty_contact.hpp"
 #include "integrators/ranks_link.hpp"
 #include "ledger/step_work.hpp"
 #include "qbond/analysis/analysis.hpp"
+#include "qbond/heuristics/damping_zone.hpp"
 #include "qbond/simulation/simulation.hpp"
 #include "solvers/coloring.hpp"
 
@@ -32,8 +34,9 @@ struct CarryKind {
   double h = 0, h_before = 0;  // guesses: the steps' lengths
 };
 
-// A heuristic that edits the projected step, distributed: an obstacle or quanta contact.
-using ProjectionRule = std::variant<Obstacle, QuantaContactRule>;
+// A heuristic that edits the projected step, distributed: an obstacle, quanta contact or a
+// damping zone.
+using ProjectionRule = std::variant<Obstacle, QuantaContactRule, DampingZone>;
 
 class DistributedStep final : private RanksLink, private ContactRanks {
  public:
@@ -72,14 +75,20 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // them in the whole world's bond order from the same generator, as a run on one rank draws.
   // The breaks are then shared, so that every rank's topology stays the same.
   void set_break_rules(std::vector<BreakRule> rules);
+  // Plasticity over ranks: plastic rules (after the projection rules, before the break rules), in
+  // the scene's order. After each step every rank flows the bonds it owns at the step's end
+  // positions (PlasticFlow) and breaks those past their ductility limit; the new rest lengths are
+  // then shared, so that every piece holding a bond holds its rest length, and velocity Verlet's
+  // forces are evaluated afresh after a step that flowed any bond, as the run alone's are.
+  void set_plastic_rules(std::vector<PlasticRule> rules);
   // Formation over ranks: form rules (after the break rules and the projection rules), in the
   // scene's order. After each step's breaks each rank sends its owned quanta that lie within a
   // capture radius of another (its piece holds every quanta that near, as for quanta contact),
   // and every rank forms the whole world's bonds among them as the run alone's rules do, in the
   // whole world's order; the pieces are then built anew.
   void set_form_rules(std::vector<FormRule> rules);
-  // Obstacles and quanta contact as projection rules (one heuristic each, in the scene's order,
-  // before the break rules): every piece edits its quanta's projection after the ghosts' rows
+  // Obstacles, quanta contact and damping zones as projection rules (one heuristic each, in the
+  // scene's order, before the plastic and break rules): every piece edits its quanta's projection after the ghosts' rows
   // came from their owners, so that an owned quanta's edit and its bonds' energy read the run
   // alone's numbers; the books and the obstacles' impulses count the owned quanta and bonds
   // alone. Quanta contact projects the whole world's pairs on every rank (contact_ranks.hpp),
@@ -207,14 +216,18 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   double decide_forms();
   // This rank's charges for the bonds the step formed whose first end it owns, over the step.
   void charge_formed();
-  // Whether the step's end tests bonds: break rules, or bonds that fail at their law's stretch.
-  bool breaks() const { return !rules_.empty() || fails_; }
-  // This rank's breaks of the step: the rules on its owned bonds (ledger_) at the step's end
-  // positions, the draws in the whole world's order, then the bonds past their law's failure
-  // stretch. Returns the energy they charged [J].
+  // Whether the step's end edits bonds: plastic or break rules, or bonds that fail at their law's stretch.
+  bool breaks() const { return !plastic_.empty() || !rules_.empty() || fails_; }
+  // This rank's edits of its owned bonds (ledger_) at the step's end positions: the plastic rules'
+  // flow and ductile breaks, the break rules' breaks (the draws in the whole world's order), then
+  // the bonds past their law's failure stretch. Returns the energy they charged [J].
   double decide_breaks();
-  // Breaks bond b of ledger_ by rule `rule` (reason `why`), recorded in whole indices.
+  // Breaks bond b of ledger_ by rule `rule` (the plastic rules, then the break rules, numbered in
+  // that order; reason `why`), recorded in whole indices.
   void break_owned(std::size_t rule, std::size_t b, std::uint8_t why);
+  // Every rank's rest lengths that the step's plastic flow changed into whole_ and the piece;
+  // returns whether any bond flowed (the same on every rank).
+  bool share_rests();
   // Every rank's breaks of the step into events_ (in a run on one rank's order) and whole_'s topology.
   void share_breaks();
   // The projection rules' heuristics on this rank's piece, its books of them from none.
@@ -227,6 +240,9 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   std::vector<double> gather(std::span<const double> mine) override;
   // The rules with their selections in this piece's local indices.
   void localise_rules();
+  // `rule` with its selection (by whole index) in this piece's local indices.
+  template <class Rule>
+  Rule localised(Rule rule) const;
   // coupled_implicit and the hybrid's sweeps: components_ (and for the sweeps whole_coloring_)
   // from whole_'s topology.
   void find_components();
@@ -295,6 +311,10 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   bool fails_ = false;                  // some bond's law fails at its stretch (cohesive)
   std::vector<BreakRule> rules_;        // selections by whole index
   std::vector<BreakRule> local_rules_;  // selections by local index
+  std::vector<PlasticRule> plastic_, local_plastic_;  // likewise
+  PlasticFlow flow_;
+  std::vector<double> flowed_;          // this rank's flowed bonds of the step: [whole bond, rest length]
+  std::vector<Index> local_bond_of_;    // each whole bond's index in the piece (~0: none)
   BreakCriteria criteria_;
   std::vector<Index> ledger_whole_;     // each ledger_ bond's whole index
   std::vector<Vec3> after_;             // the piece's positions after the step (the rules read them)

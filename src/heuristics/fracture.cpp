@@ -5,6 +5,7 @@
 #include "core/parallel.hpp"
 #include "heuristics/break_criteria.hpp"
 #include "heuristics/breaking.hpp"
+#include "heuristics/plastic_flow.hpp"
 #include "io/scene/heuristic_entry.hpp"
 #include "qbond/analysis/stress.hpp"
 
@@ -44,33 +45,17 @@ class PlasticHeuristic final : public Heuristic {
   std::string_view name() const override { return "plastic"; }
 
   void apply(const Model& m, State& s, Projection& p, const HeuristicContext& ctx) override {
-    Bonds& bonds = s.bonds;  // rest lengths only: no topology change
-    const std::size_t nb = bonds.size();
-    edit_.resize(nb);
-    // Each bond's flow is its own; the energy it releases is summed in a fixed order.
-    const double released =
-        deterministic_sum(nb, bond_pass_threads(m.num_quanta(), ctx.threads), [&](std::size_t b) {
-          edit_[b] = kKept;
-          if (!bonds.alive[b] || !applies(rule_.quanta, bonds, b)) return 0.0;
-          const double L0 = bonds.rest0[b], L = bonds.rest[b];
-          const Stretch st = stretch(m, s, p, b);
-          const double L1 = plastic_rest_length(rule_, st.r, L, L0);
-          if (L1 == L) return 0.0;
-          bonds.rest[b] = L1;
-          edit_[b] = std::abs(L1 - L0) > rule_.max_plastic_strain * L0 ? kDuctile : kFlowed;
-          return bonds.law_at(m.shapes, b, st.r, L).U - bonds.law_at(m.shapes, b, st.r, L1).U;
-        });
-    s.energy.dissipated_heuristics += released;
-    for (std::size_t b = 0; b < nb; ++b) {
-      p.bonds_edited |= edit_[b] != kKept;
-      if (edit_[b] == kDuctile) break_now(m, s, ctx.step, ctx.events, b, stretch(m, s, p, b), BondEvent::Reason::ductility);
+    const std::vector<std::uint8_t>& edit = flow_.flow(rule_, m, s, p, ctx.threads);
+    for (std::size_t b = 0; b < edit.size(); ++b) {
+      p.bonds_edited |= edit[b] != PlasticFlow::kKept;
+      if (edit[b] == PlasticFlow::kDuctile)
+        break_now(m, s, ctx.step, ctx.events, b, stretch(m, s, p, b), BondEvent::Reason::ductility);
     }
   }
 
  private:
-  enum : std::uint8_t { kKept, kFlowed, kDuctile };
   PlasticRule rule_;
-  std::vector<std::uint8_t> edit_;  // per bond this step: rest length kept, flowed, or past the ductility limit
+  PlasticFlow flow_;
 };
 
 }  // namespace
@@ -114,6 +99,27 @@ const std::vector<std::uint8_t>& BreakCriteria::evaluate(const BreakRule& rule, 
     }
   });
   return why_;
+}
+
+const std::vector<std::uint8_t>& PlasticFlow::flow(const PlasticRule& rule, const Model& m, State& s,
+                                                   const Projection& p, int threads) {
+  Bonds& bonds = s.bonds;  // rest lengths only: no topology change
+  const std::size_t nb = bonds.size();
+  edit_.resize(nb);
+  // Each bond's flow is its own; the energy it releases is summed in a fixed order.
+  s.energy.dissipated_heuristics +=
+      deterministic_sum(nb, bond_pass_threads(m.num_quanta(), threads), [&](std::size_t b) {
+        edit_[b] = kKept;
+        if (!bonds.alive[b] || !applies(rule.quanta, bonds, b)) return 0.0;
+        const double L0 = bonds.rest0[b], L = bonds.rest[b];
+        const Stretch st = stretch(m, s, p, b);
+        const double L1 = plastic_rest_length(rule, st.r, L, L0);
+        if (L1 == L) return 0.0;
+        bonds.rest[b] = L1;
+        edit_[b] = std::abs(L1 - L0) > rule.max_plastic_strain * L0 ? kDuctile : kFlowed;
+        return bonds.law_at(m.shapes, b, st.r, L).U - bonds.law_at(m.shapes, b, st.r, L1).U;
+      });
+  return edit_;
 }
 
 double plastic_rest_length(const PlasticRule& rule, double r, double L, double L0) {

@@ -64,7 +64,7 @@ class DampingZoneHeuristic final : public Heuristic {
       if (((projected(s, p, i) - zone_.center).cwiseAbs() - half_).maxCoeff() > 0) continue;
       const Vec3 v1 = s.v[q] + p.dv[q];
       p.dv[q] = keep * v1 - s.v[q];
-      removed += 0.5 * m.mass[q] * v1.squaredNorm();
+      if (ctx.counted.empty() || ctx.counted[q]) removed += 0.5 * m.mass[q] * v1.squaredNorm();
     }
     // 1 − keep², without cancellation at small rate h
     s.energy.dissipated_heuristics += removed * -std::expm1(-2 * zone_.rate * ctx.step.h);
