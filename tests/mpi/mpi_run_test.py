@@ -3,7 +3,7 @@
 
 Usage: mpi_run_test.py QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC [--mpiexec-flag F ...]
                        [--run-arg A ...] [--expect-migration] [--expect-recut] [--expect-blowup]
-                       [--expect-breaks] [--expect-retakes] [--expect-forms]
+                       [--expect-breaks] [--expect-retakes] [--expect-forms] [--expect-reasons R,...]
 
 Runs the scene alone, then twice over N ranks, and checks:
   - the two runs over N ranks wrote the same bytes (diagnostics.csv and every frame);
@@ -21,10 +21,12 @@ Runs the scene alone, then twice over N ranks, and checks:
     reason; strain and tension to 1e-12 of their scale) in its order, and in every frame the
     bonds shown plus those broken by then are every bond of the scene and those formed by then:
     none lost, none twice;
-  - with --expect-forms, bonds formed, and events.csv lists the run alone's events in its order.
+  - with --expect-forms, bonds formed, and events.csv lists the run alone's events in its order;
+  - with --expect-reasons, the run alone broke bonds for each reason listed (e.g. ductility,strain).
 Exits non-zero with a message naming the file, the column or quanta and the difference.
 """
 import argparse
+import csv
 import os
 import re
 import shutil
@@ -49,6 +51,7 @@ p.add_argument("--expect-blowup", action="store_true")
 p.add_argument("--expect-breaks", action="store_true")
 p.add_argument("--expect-retakes", action="store_true")
 p.add_argument("--expect-forms", action="store_true")
+p.add_argument("--expect-reasons", default="")
 a = p.parse_args()
 
 REL = 1e-12
@@ -146,6 +149,13 @@ for name in frames(alone):
 if a.expect_breaks:
     broke = same_breaks(alone, first, a.ranks, lambda column, scale: REL * scale)
     print(f"{broke} bonds broke, the same over {a.ranks} ranks")
+
+if a.expect_reasons:
+    with open(os.path.join(alone, "events.csv")) as f:
+        found = {r["reason"] for r in csv.DictReader(f) if r["event"] == "broken"}
+    missing = set(a.expect_reasons.split(",")) - found
+    if missing:
+        sys.exit(f"the run alone broke no bond for {sorted(missing)} (its reasons: {sorted(found)})")
 
 if a.expect_forms:
     kind = same_events(alone, first, a.ranks, lambda column, scale: REL * scale, "formed")
