@@ -9,7 +9,11 @@
 
 namespace qbond::cli {
 
-void use_huge_pages(char** argv) {
+void use_huge_pages(int argc, char** argv) {
+  // Only the commands that build worlds: another start costs the others a tenth of a second or more.
+  const std::string command = argc > 1 ? argv[1] : "";
+  if (command != "run" && command != "bench" && command != "view" && command != "experiment" && command != "statics")
+    return;
   if (std::getenv("GLIBC_TUNABLES") || std::getenv("QBOND_NO_HUGE_PAGES")) return;  // the user's choice
   if (const char* preload = std::getenv("LD_PRELOAD"); preload && std::strstr(preload, "vgpreload")) return;
   std::ifstream in("/sys/kernel/mm/transparent_hugepage/enabled");

@@ -624,7 +624,7 @@ int experiment(const ExperimentArgs& a) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  qbond::cli::use_huge_pages(argv);  // first: it may start the program again
+  qbond::cli::use_huge_pages(argc, argv);  // first: it may start the program again
   const qbond::MpiSession mpi(argc, argv);  // when mpirun or srun started this program as a rank
   CLI::App app{"qbond: the quanta-bond method. Deformable, breakable solids, stepped implicitly."};
   app.formatter(std::make_shared<HelpFormatter>());  // before the subcommands, which copy it
