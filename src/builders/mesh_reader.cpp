@@ -45,12 +45,6 @@ class Welder {
 
 bool degenerate(const std::array<Index, 3>& t) { return t[0] == t[1] || t[1] == t[2] || t[0] == t[2]; }
 
-std::string lower_extension(const std::string& name) {
-  std::string ext = std::filesystem::path(name).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 }  // namespace
 
 TriangleMesh parse_obj(std::string_view text, const std::string& name) {
@@ -205,7 +199,7 @@ TriangleMesh parse_stl(std::string_view bytes, const std::string& name) {
 }
 
 TriangleMesh parse_mesh(std::string_view bytes, const std::string& name) {
-  const std::string ext = lower_extension(name);
+  const std::string ext = text::lower_extension(name);
   if (ext == ".obj") return parse_obj(bytes, name);
   if (ext == ".stl") return parse_stl(bytes, name);
   throw std::runtime_error(name + ": unknown mesh format '" + ext + "' (accepted: .obj, .stl)");
@@ -214,7 +208,7 @@ TriangleMesh parse_mesh(std::string_view bytes, const std::string& name) {
 TriangleMesh read_obj(const std::filesystem::path& file) { return parse_obj(read_file(file), file.string()); }
 TriangleMesh read_stl(const std::filesystem::path& file) { return parse_stl(read_file(file), file.string()); }
 TriangleMesh read_mesh(const std::filesystem::path& file) {
-  const std::string ext = lower_extension(file.string());
+  const std::string ext = text::lower_extension(file.string());
   if (ext != ".obj" && ext != ".stl")
     throw std::runtime_error(file.string() + ": unknown mesh format '" + ext + "' (accepted: .obj, .stl)");
   return parse_mesh(read_file(file), file.string());

@@ -2,7 +2,6 @@
 #include "qbond/builders/tet_mesh.hpp"
 
 #include <algorithm>
-#include <cctype>
 #include <limits>
 
 #include "io/text_fields.hpp"
@@ -13,12 +12,6 @@ namespace qbond {
 namespace {
 
 constexpr Index kUnused = std::numeric_limits<Index>::max();
-
-std::string lower_extension(const std::string& name) {
-  std::string ext = std::filesystem::path(name).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
 
 /// Leaves out the nodes no tetrahedron uses (a Gmsh file's geometry points, say), keeping the
 /// order of the others.
@@ -42,12 +35,12 @@ void drop_unused_nodes(TetMesh& mesh) {
 }  // namespace
 
 bool is_tet_mesh_file(const std::string& name) {
-  const std::string ext = lower_extension(name);
+  const std::string ext = text::lower_extension(name);
   return ext == ".msh" || ext == ".vtu";
 }
 
 TetMesh parse_tet_mesh(std::string_view bytes, const std::string& name) {
-  const std::string ext = lower_extension(name);
+  const std::string ext = text::lower_extension(name);
   TetMesh mesh;
   if (ext == ".msh")
     mesh = parse_gmsh(bytes, name);

@@ -2,9 +2,11 @@
 // What the readers of other programs' text files share (meshes, CSV tables, LAMMPS data): lines,
 // whitespace-separated fields, strict numbers, and errors that name the file and line.
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstddef>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -15,6 +17,13 @@ namespace qbond::text {
 /// Throws std::runtime_error "NAME:LINE: rule" ("NAME: rule" for line 0: the whole file).
 [[noreturn]] inline void malformed(const std::string& name, std::size_t line, const std::string& rule) {
   throw std::runtime_error(name + (line ? ":" + std::to_string(line) : "") + ": " + rule);
+}
+
+/// The extension of a file's name in lower case (".obj"), which says its format.
+inline std::string lower_extension(const std::string& name) {
+  std::string ext = std::filesystem::path(name).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
 }
 
 inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
