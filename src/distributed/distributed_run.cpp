@@ -50,11 +50,13 @@ void check_distributable(const Scene& scene, int ranks) {
                                 "\"penalty\" with an explicit integrator" + one);
   // After each step and in this order: obstacles, quanta contact and damping zones as projection
   // rules (an obstacle's or zone's edit of a quanta its own, on its owner's piece; the contacts'
-  // passes over every quanta in contact, on every rank); plasticity and fracture by strain,
-  // compression and tension (each bond flowed and tested by one rank at the step's end positions,
-  // so after the rules' edits); formation (every rank forming the bonds among the quanta near
-  // others, after the breaks). The stress limits need the ghosts' neighbours.
+  // passes over every quanta in contact, on every rank); plasticity and fracture (each bond
+  // flowed and tested by one rank at the step's end positions, so after the rules' edits, the
+  // stress limits reading each end's stress from its owner); formation (every rank forming the
+  // bonds among the quanta near others, after the breaks).
   int stage = 0;  // 0 projection rules, 1 plastic, 2 break, 3 form rules, as far as the list has come
+  // The pieces take the plastic flow's rest lengths after the breaks: their stresses would miss it.
+  bool plastic = false;
   const char* order = "over ranks the heuristics take effect in this order: obstacles, contact and damping zones, "
                       "'plastic', 'break', 'form'; list them so in \"heuristics\"";
   for (const HeuristicSpec& spec : scene.heuristics) {
@@ -65,9 +67,10 @@ void check_distributable(const Scene& scene, int ranks) {
                                                              : 0;
     if (at < stage) throw std::invalid_argument(over + "cannot keep the run alone's order: " + order + one);
     stage = at;
-    if (rule && (std::isfinite(rule->max_stress) || std::isfinite(rule->max_von_mises)))
+    plastic = plastic || std::holds_alternative<PlasticRule>(spec);
+    if (plastic && rule && (std::isfinite(rule->max_stress) || std::isfinite(rule->max_von_mises)))
       throw std::invalid_argument(over + "does not distribute the break heuristic's stress limits (max_stress, "
-                                  "max_von_mises) yet, only its strain, compression and tension ones" + one);
+                                  "max_von_mises) beside 'plastic' rules yet" + one);
   }
   // Bonds that fail at their law's stretch break after the break rules, as alone; the run alone
   // tests them after its form rules too, which over ranks follow the breaks.

@@ -18,6 +18,7 @@
 #include "integrators/integrator_common.hpp"
 #include "ledger/step_work.hpp"
 #include "qbond/analysis/analysis.hpp"
+#include "qbond/analysis/stress.hpp"
 #include "qbond/distributed/distributed.hpp"
 #include "qbond/heuristics/contacts.hpp"
 #include "qbond/integrators/carry.hpp"
@@ -984,6 +985,9 @@ std::vector<double> DistributedStep::gather(std::span<const double> mine) { retu
 
 void DistributedStep::set_break_rules(std::vector<BreakRule> rules) {
   rules_ = std::move(rules);
+  stress_limits_ = std::any_of(rules_.begin(), rules_.end(), [](const BreakRule& r) {
+    return std::isfinite(r.max_stress) || std::isfinite(r.max_von_mises);
+  });
   localise_rules();
 }
 
@@ -1041,13 +1045,22 @@ double DistributedStep::decide_breaks() {
       if (edit[b] == PlasticFlow::kDuctile) break_owned(k, b, static_cast<std::uint8_t>(BondEvent::Reason::ductility));
   }
   const std::size_t first = plastic_.size();  // the break rules' numbers
+  if (sim_ && stress_limits_) {
+    // Each end's virial stress at the step's end: an owned quanta's from its piece, which holds
+    // all its bonds (summed in the run alone's order), a ghost's from its owner.
+    const World& w = sim_->world();
+    virial_stress(w.model, w.state, stress_);
+    halo_.exchange(
+        plan_, 9, [&](Index q, double* out) { std::copy_n(stress_[q].data(), 9, out); },
+        [&](Index q, const double* in) { std::copy_n(in, 9, stress_[q].data()); });
+  }
   for (std::size_t k = 0; k < rules_.size(); ++k) {
     const BreakRule& rule = local_rules_[k];
     const bool draws = rule.probability < 1;
     std::vector<double> over;  // [whole bond, rank, ledger bond, reason] of the owned bonds over a threshold
     if (sim_) {
       const std::vector<std::uint8_t>& why =
-          criteria_.evaluate(rule, sim_->world().model, ledger_, still_, config_.threads);
+          criteria_.evaluate(rule, sim_->world().model, ledger_, still_, config_.threads, stress_);
       for (std::size_t b = 0; b < why.size(); ++b) {
         if (why[b] == BreakCriteria::kNone) continue;
         if (!draws) {

@@ -68,9 +68,9 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // dampers and loads. Throws when a quanta is missing or held twice.
   void gather(World& into);
 
-  // Fracture over ranks: break rules (strain, compression and tension limits; the caller refuses
-  // the stress ones), in the scene's order. After each step every rank tests the bonds it owns
-  // (those whose first end it owns) at the step's end positions, each bond once over the ranks;
+  // Fracture over ranks: break rules, in the scene's order. After each step every rank tests the
+  // bonds it owns (those whose first end it owns) at the step's end positions, each bond once
+  // over the ranks (the stress limits with each end's virial stress from the piece that owns it);
   // rules with a probability below 1 gather the bonds over a threshold and every rank draws for
   // them in the whole world's bond order from the same generator, as a run on one rank draws.
   // The breaks are then shared, so that every rank's topology stays the same.
@@ -316,6 +316,8 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   std::vector<double> flowed_;          // this rank's flowed bonds of the step: [whole bond, rest length]
   std::vector<Index> local_bond_of_;    // each whole bond's index in the piece (~0: none)
   BreakCriteria criteria_;
+  bool stress_limits_ = false;          // some break rule has a stress limit
+  std::vector<Mat3> stress_;            // with those: each local quanta's virial stress at the step's end
   std::vector<Index> ledger_whole_;     // each ledger_ bond's whole index
   std::vector<Vec3> after_;             // the piece's positions after the step (the rules read them)
   std::vector<Vec3> after_v_;           // projection_gains: the projected end's velocities

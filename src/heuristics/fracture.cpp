@@ -61,7 +61,8 @@ class PlasticHeuristic final : public Heuristic {
 }  // namespace
 
 const std::vector<std::uint8_t>& BreakCriteria::evaluate(const BreakRule& rule, const Model& m, const State& s,
-                                                         const Projection& p, int threads) {
+                                                         const Projection& p, int threads,
+                                                         std::span<const Mat3> stress) {
   const Bonds& bonds = s.bonds;
   const std::size_t nb = bonds.size();
   why_.resize(nb);
@@ -74,7 +75,10 @@ const std::vector<std::uint8_t>& BreakCriteria::evaluate(const BreakRule& rule, 
       x_[i] = s.x[i] + p.dx[i];
       v_[i] = s.v[i] + p.dv[i];
     }
-    virial_stress(m, s, x_, v_, sigma_);
+    if (stress.empty()) {
+      virial_stress(m, s, x_, v_, sigma_);
+      stress = sigma_;
+    }
   }
   parallel_for(nb, bond_pass_threads(m.num_quanta(), threads), [&](std::size_t b) {
     why_[b] = kNone;
@@ -92,9 +96,9 @@ const std::vector<std::uint8_t>& BreakCriteria::evaluate(const BreakRule& rule, 
     else if (by_stress) {
       const Index i = bonds.i[b], j = bonds.j[b];
       const Vec3 n = (x_[j] - x_[i]).normalized();
-      if (0.5 * n.dot((sigma_[i] + sigma_[j]) * n) > rule.max_stress)
+      if (0.5 * n.dot((stress[i] + stress[j]) * n) > rule.max_stress)
         why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::stress);
-      else if (0.5 * (von_mises(sigma_[i]) + von_mises(sigma_[j])) > rule.max_von_mises)
+      else if (0.5 * (von_mises(stress[i]) + von_mises(stress[j])) > rule.max_von_mises)
         why_[b] = static_cast<std::uint8_t>(BondEvent::Reason::von_mises);
     }
   });
