@@ -70,12 +70,10 @@ const std::vector<std::uint8_t>& BreakCriteria::evaluate(const BreakRule& rule, 
   if (by_stress) {
     const std::size_t n = m.num_quanta();
     x_.resize(n);
-    v_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      x_[i] = s.x[i] + p.dx[i];
-      v_[i] = s.v[i] + p.dv[i];
-    }
+    for (std::size_t i = 0; i < n; ++i) x_[i] = s.x[i] + p.dx[i];
     if (stress.empty()) {
+      v_.resize(n);
+      for (std::size_t i = 0; i < n; ++i) v_[i] = s.v[i] + p.dv[i];
       virial_stress(m, s, x_, v_, sigma_);
       stress = sigma_;
     }
