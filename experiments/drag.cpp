@@ -14,7 +14,7 @@
 namespace qbond::experiments {
 namespace {
 
-std::vector<Method> methods() {
+std::vector<Method> drag_methods() {
   IntegratorConfig frozen, sweep, verlet;
   frozen.type = sweep.type = IntegratorType::hybrid_implicit;
   frozen.neighbours = NeighbourModel::frozen;
@@ -64,7 +64,7 @@ void drag(const Options& opt, Report& rep) {
            "at v = M g / (h Σ K_zz) = " + num(terminal, 4) + " m/s.\n");
   rep.table("fall.csv", "method,time,velocity");
   std::vector<double> fall_end, fall_err;
-  for (const Method& m : methods()) {
+  for (const Method& m : drag_methods()) {
     Simulation sim(fall0, m.config, h);
     double worst = 0;
     for (int n = 1; n <= steps; ++n) {
@@ -89,7 +89,7 @@ void drag(const Options& opt, Report& rep) {
   std::vector<double> thrown_end;
   const World thrown0 = cube(Vec3::Zero(), Vec3(1, 0, 0));
   const double tau = M / (h * stiffness_along(thrown0, Vec3::UnitX()));
-  for (const Method& m : methods()) {
+  for (const Method& m : drag_methods()) {
     Simulation sim(thrown0, m.config, h);
     for (int n = 1; n <= steps; ++n) {
       sim.step();
@@ -112,7 +112,7 @@ void drag(const Options& opt, Report& rep) {
   rep.note("|---|---|---|");
   std::vector<double> keep;
   for (double hp : {1e-4, 1.0 / 60}) {
-    for (const Method& m : methods()) {
+    for (const Method& m : drag_methods()) {
       if (m.config.type == IntegratorType::velocity_verlet && hp > 1e-3) continue;  // unstable there
       Scene s = builtin_scene("pendulum");
       // The swing's energy: above the pendulum hanging at rest (its static equilibrium).

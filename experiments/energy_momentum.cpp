@@ -48,7 +48,7 @@ World lattice_block() {
 }
 
 
-std::vector<Method> methods() {
+std::vector<Method> conserving_methods() {
   IntegratorConfig em;
   em.type = IntegratorType::energy_momentum;
   em.solver = CoupledSolver::ldlt;
@@ -111,7 +111,7 @@ void energy_momentum(const Options& opt, Report& rep) {
   };
   const Case cases[] = {{"four_quanta", tetrahedron, 10}, {"four_quanta", tetrahedron, 100},
                         {"lattice_3x3x3", lattice_block, 10}, {"lattice_3x3x3", lattice_block, 100}};
-  const auto ms = methods();
+  const auto ms = conserving_methods();
   std::vector<std::vector<Outcome>> out;
   for (const Case& c : cases) {
     const World w0 = c.make();

@@ -11,7 +11,7 @@
 namespace qbond::experiments {
 namespace {
 
-std::vector<Method> methods() {
+std::vector<Method> figure_methods() {
   auto with = [](IntegratorType t) {
     IntegratorConfig c;
     c.type = t;
@@ -87,7 +87,7 @@ void fig4_5(const Options&, Report& rep) {
       if (t <= steps * h) rep.row({t, -amp * std::sin(omega * t)});
     }
     rep.table("fig" + fig + "_velocity.csv", "method,time,relative_velocity,exact");
-    for (const Method& m : methods()) {
+    for (const Method& m : figure_methods()) {
       Simulation sim(two_quanta(), m.config, h);
       sim.set_keep_last_good(false);
       double err2 = 0, last_peak = 0, t_peak = 0;
@@ -119,7 +119,7 @@ void fig4_5(const Options&, Report& rep) {
     }
   }
   rep.note("");
-  const auto ms = methods();
+  const auto ms = figure_methods();
   const auto fe = index_of(ms, "explicit_euler"), rk = index_of(ms, "rk4"), fr = index_of(ms, "hybrid_frozen"),
              cd = index_of(ms, "coupled_dense"), qd = index_of(ms, "qbond_default");
   rep.check("small step: the paper's implicit methods (hybrid, coupled) and qbond's track the exact solution (RMS "
@@ -202,7 +202,7 @@ void fig6_7(const Options&, Report& rep) {
     const int steps = static_cast<int>(std::round(duration / h));
     const int every = std::max(1, steps / 1000);
     rep.table(std::string("fig") + (c == 0 ? "6" : "7") + "_energy.csv", "method,time,total_energy");
-    for (const Method& m : methods()) {
+    for (const Method& m : figure_methods()) {
       Simulation sim(four_quanta(), m.config, h);
       sim.set_keep_last_good(false);
       double E = E0, Emax = E0;
@@ -227,7 +227,7 @@ void fig6_7(const Options&, Report& rep) {
     }
   }
   rep.note("");
-  const auto ms = methods();
+  const auto ms = figure_methods();
   const auto fe = index_of(ms, "explicit_euler"), vv = index_of(ms, "velocity_verlet"),
              fr = index_of(ms, "hybrid_frozen"), cd = index_of(ms, "coupled_dense"), qd = index_of(ms, "qbond_default");
   const double cm = E_cm / E0;

@@ -53,7 +53,6 @@ Piece make_piece(const World& whole, std::span<const int> owner, int rank, const
   const std::size_t n = wm.num_quanta();
   const std::vector<std::uint8_t> wanted = local_quanta(whole, owner, rank, contact);
   Piece p;
-  constexpr Index kNone = ~Index{0};
   std::vector<Index> local(n, kNone);
   for (std::size_t q = 0; q < n; ++q)
     if (wanted[q]) {

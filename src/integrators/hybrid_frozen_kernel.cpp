@@ -163,7 +163,6 @@ QBOND_VECTOR_INLINE void measure_run(const Model& model, const State& state, con
 // are too. One per part, on its thread.
 struct BondStretch {
   static constexpr int N = 9;
-  static constexpr Index kNone = ~Index{0};
   Index q = kNone;  // whose stretch
   Index next = 0;   // the bond that would go on with it
   double sum[N] = {};

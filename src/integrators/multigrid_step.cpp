@@ -10,7 +10,6 @@
 namespace qbond {
 
 namespace {
-constexpr Index kNone = ~Index{0};
 
 double thread_cpu_seconds() {
   timespec t{};

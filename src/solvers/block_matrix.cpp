@@ -89,7 +89,6 @@ void gemm_add_any(const double* a, const double* b, double* c, int R, int K, int
       for (int j = 0; j < C; ++j) c[r * C + j] += ark * b[k * C + j];
     }
 }
-constexpr Index kNone = ~Index{0};
 // Block rows a thread takes at a time in the packed products: a vector-clone call each.
 constexpr std::size_t kRowRange = 64;
 

@@ -6,7 +6,6 @@ namespace qbond {
 
 void color_free_quanta(const Model& model, const Adjacency& adj, Coloring& out) {
   const std::size_t n = model.num_quanta();
-  constexpr Index kNone = ~Index{0};
   std::vector<Index> color(n, kNone);
   std::vector<std::uint8_t> used;
   Index num_colors = 0;
