@@ -1176,13 +1176,13 @@ def test_twist_and_hold_scene():
     twisted and come to rest, needs opposite torques about its axis from its two supports (their
     sum is the rate of change of its angular momentum)."""
     import math
-    import vtk
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
     out = fresh("twist_and_hold")
     qbond("run", os.path.join(SOURCE, "scenes", "twist_and_hold.json"), "--every", "125", "-o", out, "-q",
           check_code=0)
 
     def points(step):
-        r = vtk.vtkXMLPolyDataReader()
+        r = vtkXMLPolyDataReader()
         r.SetFileName(os.path.join(out, "frames", f"frame_{step:010d}.vtp"))
         r.Update()
         data = r.GetOutput()

@@ -132,9 +132,9 @@ def test_block_colouring():
 
 
 def vtp_points(path):
-    import vtk
-    from vtk.util.numpy_support import vtk_to_numpy
-    r = vtk.vtkXMLPolyDataReader()
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+    r = vtkXMLPolyDataReader()
     r.SetFileName(path)
     r.Update()
     return vtk_to_numpy(r.GetOutput().GetPoints().GetData()).astype(float)

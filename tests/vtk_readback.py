@@ -10,7 +10,7 @@ import os
 import sys
 import xml.etree.ElementTree as ET
 
-import vtk
+from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
 
 p = argparse.ArgumentParser()
 p.add_argument("pvd")
@@ -29,7 +29,7 @@ if times != sorted(times):
     sys.exit(f"{a.pvd}: frame times not increasing: {times}")
 for d in datasets:
     path = os.path.join(os.path.dirname(a.pvd), d.get("file"))
-    r = vtk.vtkXMLPolyDataReader()
+    r = vtkXMLPolyDataReader()
     r.SetFileName(path)
     r.Update()
     if r.GetErrorCode() != 0:

@@ -23,8 +23,8 @@ import sys
 import xml.etree.ElementTree as ET
 
 import numpy as np
-import vtk
-from vtk.util.numpy_support import vtk_to_numpy
+from vtkmodules.util.numpy_support import vtk_to_numpy
+from vtkmodules.vtkIOXML import vtkXMLPPolyDataReader, vtkXMLPolyDataReader
 
 p = argparse.ArgumentParser()
 p.add_argument("qbond")
@@ -89,7 +89,7 @@ def cell_bonds(d):
 
 worst = 0.0
 for (_, whole), (_, parallel) in zip(one, many):
-    ref = poly(os.path.join(alone, whole), vtk.vtkXMLPolyDataReader)
+    ref = poly(os.path.join(alone, whole), vtkXMLPolyDataReader)
     ids = vtk_to_numpy(ref.GetPointData().GetArray("id"))
     x_ref = vtk_to_numpy(ref.GetPoints().GetData())[np.argsort(ids)]
     v_ref = vtk_to_numpy(ref.GetPointData().GetArray("velocity"))[np.argsort(ids)]
@@ -127,7 +127,7 @@ for (_, whole), (_, parallel) in zip(one, many):
         for s, t in (("PPointData", "PointData"), ("PCellData", "CellData"), ("PPoints", "Points")):
             if declared(head, t) != want[s]:
                 sys.exit(f"{src}: its {t} arrays {declared(head, t)} are not those {parallel} declares {want[s]}")
-        d = poly(piece, vtk.vtkXMLPolyDataReader)
+        d = poly(piece, vtkXMLPolyDataReader)
         pid = vtk_to_numpy(d.GetPointData().GetArray("id"))
         ghost = vtk_to_numpy(d.GetPointData().GetArray("vtkGhostType"))
         x = vtk_to_numpy(d.GetPoints().GetData())
@@ -155,7 +155,7 @@ for (_, whole), (_, parallel) in zip(one, many):
             sys.exit(f"{parallel}: {what}s differ from the run alone's by {diff:g} (scale {s:g})")
         worst = max(worst, diff / s)
     # ParaView's reader (VTK's) reads the whole: every piece's points and lines.
-    whole_file = poly(path, vtk.vtkXMLPPolyDataReader)
+    whole_file = poly(path, vtkXMLPPolyDataReader)
     if whole_file.GetNumberOfLines() != len(ends_ref):
         sys.exit(f"{parallel}: VTK's parallel reader reads {whole_file.GetNumberOfLines()} lines of {len(ends_ref)}")
 print(f"{len(many)} frames in {a.ranks} pieces each hold the run alone's quanta and bonds once; "

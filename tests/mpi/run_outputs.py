@@ -5,7 +5,7 @@ import os
 import re
 import sys
 
-import vtk
+from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
 
 
 def read(path):
@@ -22,8 +22,17 @@ def rows(out):
         return list(csv.reader(f))
 
 
+def same_bytes(first, second, what):
+    """Exits unless two runs' outputs (diagnostics.csv and every frame) are the same bytes."""
+    if frames(first) != frames(second):
+        sys.exit(f"{what} wrote different frames")
+    for name in ["diagnostics.csv"] + [os.path.join("frames", f) for f in frames(first)]:
+        if read(os.path.join(first, name)) != read(os.path.join(second, name)):
+            sys.exit(f"{name}: {what} wrote different bytes")
+
+
 def poly(path):
-    r = vtk.vtkXMLPolyDataReader()
+    r = vtkXMLPolyDataReader()
     r.SetFileName(path)
     r.Update()
     return r.GetOutput()
