@@ -478,7 +478,7 @@ int run(const Options& o) {
                    "qbond: warning: the energy exceeded its initial value plus the external work by %.3g J "
                    "(%.3g of what the system could hold; limit %.3g) from step %llu (t = %.6g s): the integrator "
                    "made energy (events.csv, run.json; limits.stop_on_energy_gain ends such a run)\n",
-                   r.energy_gain.largest, r.energy_gain.relative, runner->simulation().limits().energy_gain,
+                   r.energy_gain.largest, r.energy_gain.relative, scene.limits.energy_gain,
                    static_cast<unsigned long long>(r.energy_gain.first_step), r.energy_gain.first_time);
   }
   switch (r.status) {

@@ -82,6 +82,10 @@ void check_distributable(const Scene& scene, int ranks) {
   if (scene.adaptive.enabled) throw std::invalid_argument(over + "does not adapt its step yet" + one);
   if (scene.integrator.restore_energy)
     throw std::invalid_argument(over + "does not restore energy yet (restore_energy)" + one);
+  // The gain is known once the step's heuristics are done, when the step can no longer be undone.
+  if (scene.limits.stop_on_energy_gain)
+    throw std::invalid_argument(over + "reports the energy gained but does not stop on it (stop_on_energy_gain)" +
+                                one);
 }
 
 }  // namespace
@@ -259,9 +263,10 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
   // A new run's first frame, which rank 0's Runner has written (after it cleared the directory).
   if (r.pieces && !r.runner && !resumed) r.write_piece();
   if (r.runner && r.dist) {
-    r.runner->set_stepper([&r] { return r.step(r.runner->simulation().world()); });
-    r.runner->set_event_source([&r]() -> const std::vector<BondEvent>& { return r.dist->events(); });
-    r.runner->set_stats_source([&r] { return r.dist->solve_stats(); });
+    r.runner->set_stepper({.step = [&r] { return r.step(r.runner->simulation().world()); },
+                           .events = [&r]() -> const std::vector<BondEvent>& { return r.dist->events(); },
+                           .stats = [&r] { return r.dist->solve_stats(); },
+                           .energy_gain = [&r]() -> const EnergyGain& { return r.dist->energy_gain(); }});
   }
 }
 

@@ -23,6 +23,7 @@
 #include "qbond/heuristics/contacts.hpp"
 #include "qbond/integrators/carry.hpp"
 #include "qbond/io/vtk.hpp"
+#include "simulation/stages.hpp"
 
 namespace qbond::distributed {
 
@@ -586,7 +587,9 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     if (sim_) s.carry = carry_from(s, forces, {.kind = CarryKind::Kind::forces});
   }
   if (breaks()) share_breaks();  // at the step's start time, as the run alone breaks them
-  if (!form_rules_.empty()) energy_start_.bonds += decide_forms();
+  const double formed = form_rules_.empty() ? 0.0 : decide_forms();
+  energy_start_.bonds += formed;
+  record_gain(v, formed);
   whole_.state.time = t0 + h_;  // as every piece's step sets it
   whole_.state.step += 1;
   // Pieces built anew before a quanta can move past their contact halos.
@@ -633,6 +636,10 @@ bool DistributedStep::gains(const Verdict& v, bool whole) const {
   return gain > kGainTolerance * scale + (credit ? limits_.energy_floor : 0.0);
 }
 
+void DistributedStep::record_gain(const Verdict& v, double bonds) {
+  stage::record_gain(v.gain + bonds, v.available, whole_.state.step + 1, whole_.state.time + h_, limits_, gain_);
+}
+
 StepReport DistributedStep::split_step(bool stop, double cpu0) {
   const double t0 = whole_.state.time;
   // The pieces' state and this rank's books at the step's start, for a blow-up in a half.
@@ -664,9 +671,10 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
   }
   // The breaks follow the whole step, as the run alone's heuristics follow its integrator; the
   // energy they take leaves the next step's start.
+  double bonds = 0;  // the change of the bonds' energy after the last half: broken, formed
   if (breaks()) {
     const double mine[1] = {decide_breaks()};
-    for (double fractured : all_gather(mine)) energy_start_.bonds -= fractured;
+    for (double fractured : all_gather(mine)) bonds -= fractured;
     if (!plastic_.empty()) share_rests();
   }
   int flags[1] = {0};  // a quanta left its rank's box
@@ -679,7 +687,9 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
   max_over_ranks(flags);
   stop_agreed_ = last.stop;
   if (breaks()) share_breaks();
-  if (!form_rules_.empty()) energy_start_.bonds += decide_forms();
+  if (!form_rules_.empty()) bonds += decide_forms();
+  energy_start_.bonds += bonds;
+  record_gain(last, bonds);
   whole_.state.time = t0 + h_;
   whole_.state.step += 1;
   if (flags[0] || !events_.empty()) migrate(flags[0] != 0, !events_.empty());
@@ -804,6 +814,8 @@ DistributedStep::Verdict DistributedStep::agree(const StepReport& report, bool l
   const double available = (l.initial_total - l.initial_gravity) + std::abs(sum[1] - l.initial_gravity) +
                            std::abs(l.work_loads + loads) + std::abs(work_anchors) + sum[2];
   const double held = sum[0] + sum[3];
+  v.available = available;
+  v.gain = v.after.total() - l.initial_total - (l.work_loads + loads) - work_anchors;
   if (held <= limits_.energy_growth * available + limits_.energy_floor) return v;
   const auto q = static_cast<Index>(who);
   std::ostringstream msg;

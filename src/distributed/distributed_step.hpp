@@ -99,6 +99,8 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // The last step's solve as this rank's piece took it (the solves over ranks' iterations and
   // residual are the whole system's, the same on every rank); empty on a rank without quanta.
   const SolveStats& solve_stats() const { return solve_stats_; }
+  /// E(t) − E(0) beyond the external work so far, as Simulation::energy_gain records it.
+  const EnergyGain& energy_gain() const { return gain_; }
   // The bonds the last step broke and formed (whole-world indices), in the order a run on one rank records them.
   const std::vector<BondEvent>& events() const { return events_; }
   // Breaks and forms the last step's bonds in `w` (a world of the same quanta and bonds), called
@@ -183,6 +185,8 @@ class DistributedStep final : private RanksLink, private ContactRanks {
     double work = 0, damping = 0;  // [J]
     double released = 0;  // what the step's breaks took out of its state [J]
     bool edited = false;  // the projection rules edited some rank's quanta (velocity Verlet)
+    // E(t) − E(0) beyond the external work, and what the system could hold (check_energy's) [J].
+    double gain = 0, available = 0;
   };
   // `released`: the energy of the bonds this rank broke in the step [J].
   Verdict agree(const StepReport& report, bool left, bool stop, const StepWork& work, double contact_after,
@@ -193,6 +197,9 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // (retake_gaining_step), else without either (the guard of the projection before heuristics,
   // and the coupled step's halves).
   bool gains(const Verdict& v, bool whole) const;
+  // The run alone's record of the energy gained (stage::record_gain) at the end of the step the
+  // verdict judged, whose bonds' energy then changed by `bonds` (formed less broken after it).
+  void record_gain(const Verdict& v, double bonds);
   // coupled_implicit: the step just undone, taken again as two halves, each again in halves
   // while it creates energy, as the run alone's energy guard takes it; breaks decided after the
   // last half (collective). cpu0: the CPU time when the halves began.
@@ -338,6 +345,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   SolveStats solve_stats_;
   Energies energy_start_;  // coupled_implicit: the energies over every rank at the step's start
   bool stop_agreed_ = false;
+  EnergyGain gain_;
   std::uint64_t migrations_ = 0;
   std::uint64_t recuts_ = 0;
   std::uint64_t halo_rebuilds_ = 0;

@@ -7,13 +7,8 @@
 
 namespace qbond::stage {
 
-namespace {
-
-// E(t) - E(0) beyond the loads' and anchors' work: energy the integrator (or a heuristic) made.
-StepReport check_gain(const Model& m, const State& s, const BlowupLimits& limits, const Energies& e, double available,
-                      EnergyGain& gain) {
-  const EnergyLedger& l = s.energy;
-  const double g = e.total() - l.initial_total - l.work_loads - l.work_anchors;
+StepReport record_gain(double g, double available, std::uint64_t step, double time, const BlowupLimits& limits,
+                       EnergyGain& gain) {
   if (g > gain.largest) {
     gain.largest = g;
     gain.relative = available > 0 ? g / available : HUGE_VAL;
@@ -21,23 +16,20 @@ StepReport check_gain(const Model& m, const State& s, const BlowupLimits& limits
   if (g <= limits.energy_gain * available + limits.energy_floor) return {};
   if (!gain.exceeded) {
     gain.exceeded = true;
-    gain.first_step = s.step;
-    gain.first_time = s.time;
+    gain.first_step = step;
+    gain.first_time = time;
   }
   if (!limits.stop_on_energy_gain) return {};
   std::ostringstream msg;
   msg.precision(6);
-  msg << "energy gained at step " << s.step << " (t = " << s.time << " s): the energy exceeds its initial value plus "
+  msg << "energy gained at step " << step << " (t = " << time << " s): the energy exceeds its initial value plus "
       << "the external work by " << g << " J, more than " << limits.energy_gain << " x the " << available
       << " J the system could hold (limits.stop_on_energy_gain)";
   StepReport r;
   r.status = StepReport::Status::blowup;
   r.message = msg.str();
-  r.worst = max_speed(m, s).second;
   return r;
 }
-
-}  // namespace
 
 StepReport check_energy(const Model& m, const State& s, const BlowupLimits& limits, bool restored, int threads,
                         EnergyGain& gain, StepScratch& k) {
@@ -60,7 +52,13 @@ StepReport check_energy(const Model& m, const State& s, const BlowupLimits& limi
   const double available = (l.initial_total - l.initial_gravity) + std::abs(e.gravity - l.initial_gravity) +
                            std::abs(l.work_loads) + std::abs(l.work_anchors) + impulse;
   const double held = e.kinetic + e.bonds;
-  if (held <= limits.energy_growth * available + limits.energy_floor) return check_gain(m, s, limits, e, available, gain);
+  if (held <= limits.energy_growth * available + limits.energy_floor) {
+    // E(t) - E(0) beyond the loads' and anchors' work: energy the integrator (or a heuristic) made.
+    r = record_gain(e.total() - l.initial_total - l.work_loads - l.work_anchors, available, s.step, s.time, limits,
+                    gain);
+    if (r.status != StepReport::Status::ok) r.worst = max_speed(m, s).second;
+    return r;
+  }
   const auto [speed, who] = max_speed(m, s);
   std::ostringstream msg;
   msg.precision(6);

@@ -218,13 +218,12 @@ struct Runner::Impl {
     return scene.adaptive.enabled ? s.time >= end_time() : s.step >= settings.steps;
   }
   double end_time() const { return static_cast<double>(settings.steps) * scene.timestep; }
+  const EnergyGain& energy_gain() const { return stepper ? stepper->energy_gain() : sim.energy_gain(); }
 
-  std::function<StepReport()> stepper;  ///< set_stepper's, else the simulation's own step
-  std::function<const std::vector<BondEvent>&()> event_source;  ///< set_event_source's, else the simulation's
-  std::function<SolveStats()> stats_source;                     ///< set_stats_source's, else the simulation's
+  std::optional<Stepper> stepper;  ///< set_stepper's, else the simulation's own
 
   StepReport step() {
-    if (stepper) return stepper();
+    if (stepper) return stepper->step();
     if (!scene.adaptive.enabled) return sim.step();
     const AdaptiveReport a = adaptive_step(sim, scene.adaptive, end_time());
     last_h = a.h;
@@ -271,7 +270,7 @@ struct Runner::Impl {
     const World& w = sim.world();
     const std::uint64_t step = w.state.step;
     if (step == last_row) return;
-    csv->write_line(diagnostics.row(w.model, w.state, stats_source ? stats_source() : sim.integrator().stats(), last_h));
+    csv->write_line(diagnostics.row(w.model, w.state, stepper ? stepper->stats() : sim.integrator().stats(), last_h));
     last_row = step;
     if (!settings.vtk) return;
     const std::string name = frame_name(step, static_cast<bool>(settings.write_frame));
@@ -504,7 +503,7 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
   p.first_step = start;
   p.last_step = r.settings.steps;
   p.adaptive = r.scene.adaptive.enabled;
-  bool gain_reported = r.sim.energy_gain().exceeded;
+  bool gain_reported = r.energy_gain().exceeded;
   try {
   while (!r.finished()) {
     const StepReport rep = r.step();
@@ -513,10 +512,10 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
       result.message = rep.message;
       break;
     }
-    for (const BondEvent& e : r.event_source ? r.event_source() : r.sim.events())
+    for (const BondEvent& e : r.stepper ? r.stepper->events() : r.sim.events())
       r.events->write_line(event_row(e, r.sim.world()));
-    if (r.sim.energy_gain().exceeded && !gain_reported) {
-      r.events->write_line(gain_row(r.sim.energy_gain()));
+    if (r.energy_gain().exceeded && !gain_reported) {
+      r.events->write_line(gain_row(r.energy_gain()));
       gain_reported = true;
     }
     const State& s = r.sim.world().state;
@@ -543,7 +542,7 @@ RunResult Runner::run(const std::function<bool()>& stop, const std::function<voi
   }
   result.steps_taken = r.sim.world().state.step - start;
   result.wall_seconds = wall();
-  result.energy_gain = r.sim.energy_gain();
+  result.energy_gain = r.energy_gain();
   // The state the run ends with (the last good one after a blow-up) is always saved.
   r.output();
   r.write_series();
@@ -565,10 +564,6 @@ std::string frame_file(std::uint64_t step, std::string_view extension) {
   return buf + std::string(extension);
 }
 
-void Runner::set_stepper(std::function<StepReport()> step) { impl_->stepper = std::move(step); }
-void Runner::set_event_source(std::function<const std::vector<BondEvent>&()> events) {
-  impl_->event_source = std::move(events);
-}
-void Runner::set_stats_source(std::function<SolveStats()> stats) { impl_->stats_source = std::move(stats); }
+void Runner::set_stepper(Stepper stepper) { impl_->stepper = std::move(stepper); }
 
 }  // namespace qbond

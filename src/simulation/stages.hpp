@@ -84,6 +84,12 @@ void restore_energy(const Model& model, State& state, int threads, StepScratch& 
 StepReport check_energy(const Model& model, const State& state, const BlowupLimits& limits, bool restored,
                         int threads, EnergyGain& gain, StepScratch& k);
 
+// E(t) − E(0) beyond the external work, `g`, recorded in `gain` (its largest, relative to
+// `available`, what the system could hold, and the first step past limits.energy_gain); past it
+// with limits.stop_on_energy_gain, a blow-up report naming `step` and `time` (its quanta unset).
+StepReport record_gain(double g, double available, std::uint64_t step, double time, const BlowupLimits& limits,
+                       EnergyGain& gain);
+
 // Hands the applied step to the observers, in order. Reads model, state, k.ctx.
 void observe(const Model& model, const State& state, std::span<Observer* const> observers, const StepScratch& k);
 

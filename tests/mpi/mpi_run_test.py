@@ -4,6 +4,7 @@
 Usage: mpi_run_test.py QBOND SCENE WORKDIR --ranks N [--repeat] --mpiexec MPIEXEC [--mpiexec-flag F ...]
                        [--run-arg A ...] [--expect-migration] [--expect-recut] [--expect-blowup]
                        [--expect-breaks] [--expect-retakes] [--expect-forms] [--expect-reasons R,...]
+                       [--expect-gain]
 
 Runs the scene alone, then over N ranks (twice with --repeat), and checks:
   - with --repeat, the two runs over N ranks wrote the same bytes (diagnostics.csv and every frame);
@@ -22,11 +23,19 @@ Runs the scene alone, then over N ranks (twice with --repeat), and checks:
     bonds shown plus those broken by then are every bond of the scene and those formed by then:
     none lost, none twice;
   - with --expect-forms, bonds formed, and events.csv lists the run alone's events in its order;
-  - with --expect-reasons, the run alone broke bonds for each reason listed (e.g. ductility,strain).
+  - with --expect-reasons, the run alone broke bonds for each reason listed (e.g. ductility,strain);
+  - with --expect-gain, the run alone's energy exceeded its initial value plus the external work
+    (limits.energy_gain), and the run over ranks reports it alike: events.csv's energy_gain row at
+    the same step and time, and run.json's record (the first step and time exactly; the largest
+    gain g = E - E0 - W within 2e-12 of the energy scale E*, two energy columns' round-off; its
+    value relative to what the system could hold, r = g / A, within r (2e-12 E* / g + 1e-12), A
+    being a sum of magnitudes, exact to 1e-12). The diagnostics must be written every step: the
+    row's g is read from them at its step.
 Exits non-zero with a message naming the file, the column or quanta and the difference.
 """
 import argparse
 import csv
+import json
 import os
 import re
 import shutil
@@ -35,7 +44,7 @@ import sys
 
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
-from run_outputs import frames, poly, rows, same_breaks, same_bytes, same_events
+from run_outputs import events, frames, poly, rows, same_breaks, same_bytes, same_events
 
 p = argparse.ArgumentParser()
 p.add_argument("qbond")
@@ -53,6 +62,7 @@ p.add_argument("--expect-breaks", action="store_true")
 p.add_argument("--expect-retakes", action="store_true")
 p.add_argument("--expect-forms", action="store_true")
 p.add_argument("--expect-reasons", default="")
+p.add_argument("--expect-gain", action="store_true")
 a = p.parse_args()
 
 REL = 1e-12
@@ -157,6 +167,34 @@ if a.expect_forms:
     kind = same_events(alone, first, a.ranks, lambda column, scale: REL * scale, "formed")
     formed = sum(1 for r in kind[1:] if r[kind[0].index("event")] == "formed")
     print(f"{formed} bonds formed, the same over {a.ranks} ranks")
+
+if a.expect_gain:
+    def gain_rows(out):
+        e = events(out)
+        return [dict(zip(e[0], r)) for r in e[1:] if r[e[0].index("event")] == "energy_gain"]
+
+    def relative_bound(r, g):
+        return r * (2 * REL * energy_scale / abs(g) + REL)
+
+    g1, gn = gain_rows(alone), gain_rows(first)
+    if len(g1) != 1:
+        sys.exit(f"the run alone wrote {len(g1)} energy_gain rows, not one")
+    if len(gn) != 1 or (gn[0]["step"], gn[0]["time"]) != (g1[0]["step"], g1[0]["time"]):
+        sys.exit(f"energy_gain rows: {g1} alone, {gn} over {a.ranks} ranks")
+    at = next(r for r in values if r[header.index("step")] == float(g1[0]["step"]))
+    g = at[header.index("total")] - values[0][header.index("total")] - at[header.index("work")]
+    r1, rn = float(g1[0]["strain"]), float(gn[0]["strain"])
+    if abs(r1 - rn) > relative_bound(r1, g):
+        sys.exit(f"energy_gain row: relative gain {r1!r} alone, {rn!r} over {a.ranks} ranks "
+                 f"(bound {relative_bound(r1, g):g})")
+    j1, jn = (json.load(open(os.path.join(out, "run.json")))["energy_gain"] for out in (alone, first))
+    if any(j1[k] != jn[k] for k in ("exceeded", "first_step", "first_time", "limit")):
+        sys.exit(f"run.json's energy_gain: {j1} alone, {jn} over {a.ranks} ranks")
+    if abs(j1["largest"] - jn["largest"]) > 2 * REL * energy_scale:
+        sys.exit(f"run.json's largest gain: {j1['largest']!r} alone, {jn['largest']!r} over {a.ranks} ranks")
+    if abs(j1["relative"] - jn["relative"]) > relative_bound(j1["relative"], j1["largest"]):
+        sys.exit(f"run.json's relative gain: {j1['relative']!r} alone, {jn['relative']!r} over {a.ranks} ranks")
+    print(f"the energy gained past its limit at step {g1[0]['step']}, alone and over {a.ranks} ranks")
 
 if a.expect_blowup and not (len(blowups[0]) == 1 and all(b == blowups[0] for b in blowups)):
     sys.exit(f"the blow-up messages differ: {blowups}")

@@ -112,15 +112,18 @@ class Runner {
   const Scene& scene() const;
   const RunSettings& settings() const;
   Simulation& simulation();
-  /// Replaces how each step is taken: `step` advances simulation().world() by one step and
-  /// reports it (a run over MPI ranks steps its pieces and gathers the state here, RanksRun).
-  void set_stepper(std::function<StepReport()> step);
-  /// Replaces where each step's bond events come from (events.csv): with set_stepper, the
-  /// stepper's own events, the bonds of simulation().world() already broken or formed.
-  void set_event_source(std::function<const std::vector<BondEvent>&()> events);
-  /// Replaces where the diagnostics' solver columns (iterations, residual) come from: with
-  /// set_stepper, the last step's solve as the stepper took it.
-  void set_stats_source(std::function<SolveStats()> stats);
+  /// How each step is taken and what it reports, in place of simulation()'s own (a run over MPI
+  /// ranks steps its pieces and gathers the state into simulation().world(), RanksRun).
+  struct Stepper {
+    std::function<StepReport()> step;  ///< advances simulation().world() by one step and reports it
+    /// The step's bond events (events.csv), the bonds of simulation().world() already broken or formed.
+    std::function<const std::vector<BondEvent>&()> events;
+    std::function<SolveStats()> stats;  ///< the step's solve (the diagnostics' iterations, residual)
+    /// E(t) − E(0) beyond the external work so far (events.csv's energy_gain row, run.json).
+    std::function<const EnergyGain&()> energy_gain;
+  };
+  /// Replaces how each step is taken and what it reports; every member must be set.
+  void set_stepper(Stepper stepper);
 
  private:
   struct Impl;
