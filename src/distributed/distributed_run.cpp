@@ -68,7 +68,7 @@ void check_distributable(const Scene& scene, int ranks) {
     if (at < stage) throw std::invalid_argument(over + "cannot keep the run alone's order: " + order + one);
     stage = at;
     plastic = plastic || std::holds_alternative<PlasticRule>(spec);
-    if (plastic && rule && (std::isfinite(rule->max_stress) || std::isfinite(rule->max_von_mises)))
+    if (plastic && rule && rule->reads_stress())
       throw std::invalid_argument(over + "does not distribute the break heuristic's stress limits (max_stress, "
                                   "max_von_mises) beside 'plastic' rules yet" + one);
   }

@@ -209,7 +209,7 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
   global_ = std::move(piece.global);
   owned_ = std::move(piece.owned_quanta);
   owned_mask_ = std::move(piece.owned);
-  local_of_.assign(whole_.num_quanta(), ~Index{0});
+  local_of_.assign(whole_.num_quanta(), kNone);
   for (std::size_t l = 0; l < global_.size(); ++l) local_of_[global_[l]] = static_cast<Index>(l);
   contact_after_ = PenaltyContact{};
   built_at_.clear();
@@ -222,7 +222,7 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
   Bonds& lb = ledger_.edit_bonds();
   const Bonds& pb = w.state.bonds;
   ledger_whole_.clear();
-  local_bond_of_.assign(whole_.state.bonds.size(), ~Index{0});
+  local_bond_of_.assign(whole_.state.bonds.size(), kNone);
   for (std::size_t b = 0; b < piece.whole_bond.size(); ++b) local_bond_of_[piece.whole_bond[b]] = static_cast<Index>(b);
   for (Index b : piece.owned_bonds) {
     append_bond(pb, b, pb.i[b], pb.j[b], lb);
@@ -280,7 +280,7 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
     coloring_.offset.push_back(0);
     for (std::size_t c = 0; c < whole_coloring_.num_colors(); ++c) {
       for (Index k = whole_coloring_.offset[c]; k < whole_coloring_.offset[c + 1]; ++k)
-        if (const Index l = local_of_[whole_coloring_.quanta[k]]; l != ~Index{0}) coloring_.quanta.push_back(l);
+        if (const Index l = local_of_[whole_coloring_.quanta[k]]; l != kNone) coloring_.quanta.push_back(l);
       coloring_.offset.push_back(static_cast<Index>(coloring_.quanta.size()));
     }
     layout_ = solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_);
@@ -437,7 +437,7 @@ SolveLayout solve_layout(const World& whole, std::span<const int> owner, int ran
   std::vector<std::int64_t> rows(n, -1);
   for (std::size_t q = 0; q < n; ++q)
     if (!whole.model.is_kinematic(static_cast<Index>(q))) rows[q] = next[static_cast<std::size_t>(owner[q])]++;
-  std::vector<Index> local(n, ~Index{0});
+  std::vector<Index> local(n, kNone);
   layout.row.resize(global.size());
   for (std::size_t l = 0; l < global.size(); ++l) {
     local[global[l]] = static_cast<Index>(l);
@@ -997,9 +997,7 @@ std::vector<double> DistributedStep::gather(std::span<const double> mine) { retu
 
 void DistributedStep::set_break_rules(std::vector<BreakRule> rules) {
   rules_ = std::move(rules);
-  stress_limits_ = std::any_of(rules_.begin(), rules_.end(), [](const BreakRule& r) {
-    return std::isfinite(r.max_stress) || std::isfinite(r.max_von_mises);
-  });
+  stress_limits_ = std::any_of(rules_.begin(), rules_.end(), [](const BreakRule& r) { return r.reads_stress(); });
   localise_rules();
 }
 
@@ -1144,7 +1142,7 @@ bool DistributedStep::share_rests() {
     const auto b = static_cast<std::size_t>(all[r]);
     wb.rest[b] = all[r + 1];
     if (sim_)
-      if (const Index l = local_bond_of_[b]; l != ~Index{0}) sim_->world().state.bonds.rest[l] = all[r + 1];
+      if (const Index l = local_bond_of_[b]; l != kNone) sim_->world().state.bonds.rest[l] = all[r + 1];
   }
   if (sim_) drop_after_bond_edit(sim_->world().state.carry);  // as the run alone's heuristics stage does
   return true;

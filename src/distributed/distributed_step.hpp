@@ -297,7 +297,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   double heuristics_loss_ = 0;
   std::vector<ObstacleImpulse> impulse_, start_impulse_;  // start: the whole run's when this one started
   std::vector<ProjectionRule> projection_rules_;
-  // Each whole quanta's index in the piece (~0: none). With quanta contact as a projection rule:
+  // Each whole quanta's index in the piece (kNone: none). With quanta contact as a projection rule:
   // the whole world's adjacency, and how far an owned quanta's projection, before the rules
   // edited it, lay from where it was when the pieces were built (and which quanta) [m].
   std::vector<Index> local_of_;
@@ -321,7 +321,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   std::vector<PlasticRule> plastic_, local_plastic_;  // likewise
   PlasticFlow flow_;
   std::vector<double> flowed_;          // this rank's flowed bonds of the step: [whole bond, rest length]
-  std::vector<Index> local_bond_of_;    // each whole bond's index in the piece (~0: none)
+  std::vector<Index> local_bond_of_;    // each whole bond's index in the piece (kNone: none)
   BreakCriteria criteria_;
   bool stress_limits_ = false;          // some break rule has a stress limit
   std::vector<Mat3> stress_;            // with those: each local quanta's virial stress at the step's end

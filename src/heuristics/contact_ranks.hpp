@@ -20,7 +20,7 @@ class ContactRanks {
   // The whole world's model (masses, bodies) and the adjacency of its bonds.
   virtual const Model& whole_model() const = 0;
   virtual const Adjacency& whole_adjacency() const = 0;
-  // The whole index of each of the piece's quanta, and the piece's index of a whole one (~0: none).
+  // The whole index of each of the piece's quanta, and the piece's index of a whole one (kNone: none).
   virtual std::span<const Index> whole_index() const = 0;
   virtual Index local_index(Index whole) const = 0;
   // Every rank's `mine`, in rank order, on every rank.

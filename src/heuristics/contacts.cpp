@@ -401,7 +401,7 @@ class QuantaContactHeuristic final : public Heuristic {
         });
     for (Index g : gtouched_) {
       const Index i = ranks_->local_index(ids_[g]);
-      if (i == ~Index{0}) continue;
+      if (i == kNone) continue;
       ledger_.touch(i, p);
       pos_[i] = gpos_[g];
       vel_[i] = gvel_[g];

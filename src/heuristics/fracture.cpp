@@ -66,7 +66,7 @@ const std::vector<std::uint8_t>& BreakCriteria::evaluate(const BreakRule& rule, 
   const Bonds& bonds = s.bonds;
   const std::size_t nb = bonds.size();
   why_.resize(nb);
-  const bool by_stress = std::isfinite(rule.max_stress) || std::isfinite(rule.max_von_mises);
+  const bool by_stress = rule.reads_stress();
   if (by_stress) {
     const std::size_t n = m.num_quanta();
     x_.resize(n);

@@ -10,7 +10,6 @@ namespace qbond {
 
 namespace {
 
-
 // A contact starts sliding when the quanta moves along the surface faster than this many times
 // the speed gravity gives in a step (below it, a stick trial decides).
 constexpr double kSlideSpeed = 0.5;

@@ -10,7 +10,6 @@ namespace {
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Block = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor, 6, 6>;
 
-
 // [e]× w = e × w.
 Mat3 cross_matrix(const Vec3& e) {
   Mat3 m;

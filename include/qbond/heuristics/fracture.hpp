@@ -1,6 +1,7 @@
 #pragma once
 /// Fracture and plasticity (docs/heuristics.md): heuristics that edit bonds from their projected
 /// end-of-step length, so that a step never applies a state a rule forbids.
+#include <cmath>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -28,6 +29,8 @@ struct BreakRule {
   double probability = 1;  ///< chance per step that an over-threshold bond breaks, in (0, 1]
   /// Per quanta: 1 when selected; the rule applies to bonds with both ends selected (empty: all).
   std::vector<std::uint8_t> quanta{};
+  /// Whether a stress limit is set: the rule then reads the quanta's virial stress.
+  bool reads_stress() const { return std::isfinite(max_stress) || std::isfinite(max_von_mises); }
 };
 
 /// Bilinear elastoplastic bonds with linear kinematic hardening. In strain units from the
