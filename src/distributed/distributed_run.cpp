@@ -80,8 +80,6 @@ void check_distributable(const Scene& scene, int ranks) {
       throw std::invalid_argument(over + "does not distribute bonds that break at their law's failure stretch (" +
                                   std::string(to_string(b.law[k])) + ") beside 'form' rules yet" + one);
   if (scene.adaptive.enabled) throw std::invalid_argument(over + "does not adapt its step yet" + one);
-  if (scene.integrator.restore_energy)
-    throw std::invalid_argument(over + "does not restore energy yet (restore_energy)" + one);
   // The gain is known once the step's heuristics are done, when the step can no longer be undone.
   if (scene.limits.stop_on_energy_gain)
     throw std::invalid_argument(over + "reports the energy gained but does not stop on it (stop_on_energy_gain)" +

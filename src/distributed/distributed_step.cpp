@@ -120,13 +120,15 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       limits_(limits),
       verlet_(config.type == IntegratorType::velocity_verlet),
       implicit_(config.type == IntegratorType::coupled_implicit),
+      restore_(config.restore_energy),
       sweeps_(config.type == IntegratorType::hybrid_implicit && config.neighbours != NeighbourModel::frozen),
       linked_(sweeps_ || config.type == IntegratorType::rk4),
       rank_(mpi_rank()),
       ranks_(mpi_ranks()),
       start_books_(whole.state.energy) {
   open_ledger(whole_.model, whole_.state, start_books_);  // as a run on one rank's Simulation does
-  if (implicit_) energy_start_ = energies(whole_.model, whole_.state);
+  energy_start_ = energies(whole_.model, whole_.state);
+  config_.restore_energy = false;  // restored here, over the ranks, not by each piece
   contacts_ = PenaltyContact::used(whole_.model);
   const Bonds& wb = whole_.state.bonds;
   for (std::size_t b = 0; b < wb.size() && !fails_; ++b) fails_ = wb.alive[b] && law_breaks(wb.law[b]);
@@ -156,6 +158,7 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
   const CarryKind kind = holds ? kind_of(c) : CarryKind{};
   whole_.state.carry = std::monostate{};
   build(holds ? &carried : nullptr, kind);
+  if (restore_) net_books_ = net_books();
 }
 
 DistributedStep::~DistributedStep() = default;
@@ -553,15 +556,13 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     undo();
     return v.report;
   }
-  if (implicit_) {
-    // With projection rules the run alone guards the projection before their edits alone.
-    if (projection_rules_.empty() && gains(v, true)) {
-      undo();
-      ++halved_;
-      return split_step(stop, cpu_seconds());
-    }
-    energy_start_ = v.after;
+  // With projection rules the run alone guards the projection before their edits alone.
+  if (implicit_ && projection_rules_.empty() && gains(v, true)) {
+    undo();
+    ++halved_;
+    return split_step(stop, cpu_seconds());
   }
+  const double e_start = std::exchange(energy_start_, v.after).total();
   stop_agreed_ = v.stop;
   if (contacts_) {
     // As a run on one rank charges them (the explicit integrators' finish_contact).
@@ -581,15 +582,16 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
   }
   // The flow's rest lengths into every piece holding the bonds, before their forces are read.
   const bool flowed = !plastic_.empty() && share_rests();
-  if (v.edited || (verlet_ && flowed)) {
+  if (breaks()) share_breaks();  // at the step's start time, as the run alone breaks them
+  const double formed = form_rules_.empty() ? 0.0 : decide_forms();
+  energy_start_.bonds += formed;
+  const double restored = restore_ ? restore_energy(e_start) : 0.0;
+  if (v.edited || (verlet_ && (flowed || restored != 0))) {
     State& s = sim_ ? sim_->world().state : whole_.state;
     const std::vector<double> forces = fresh_forces(sim_ ? sim_->world() : whole_);
     if (sim_) s.carry = carry_from(s, forces, {.kind = CarryKind::Kind::forces});
   }
-  if (breaks()) share_breaks();  // at the step's start time, as the run alone breaks them
-  const double formed = form_rules_.empty() ? 0.0 : decide_forms();
-  energy_start_.bonds += formed;
-  record_gain(v, formed);
+  record_gain(v, formed + restored);
   whole_.state.time = t0 + h_;  // as every piece's step sets it
   whole_.state.step += 1;
   // Pieces built anew before a quanta can move past their contact halos.
@@ -634,6 +636,43 @@ bool DistributedStep::gains(const Verdict& v, bool whole) const {
   const double scale = e0.kinetic + e0.bonds + v.after.kinetic + v.after.bonds + std::abs(v.released) +
                        std::abs(v.after.gravity - e0.gravity) + std::abs(v.work) + std::abs(lost);
   return gain > kGainTolerance * scale + (credit ? limits_.energy_floor : 0.0);
+}
+
+double DistributedStep::net_books() {
+  const double mine[3] = {anchors_ + loads_, damping_, heuristics_loss_};
+  const std::vector<double> all = all_gather(mine);
+  double net = -contact_dissipated_ - contact_stored_;
+  for (std::size_t r = 0; r + 3 <= all.size(); r += 3) net += all[r] - all[r + 1] - all[r + 2];
+  return net;
+}
+
+double DistributedStep::restore_energy(double e_start) {
+  // The run alone's stage::restore_energy: E(end) should be E(start) plus the step's change of the
+  // books; what is missing the integrator removed (or made).
+  const double net = net_books();
+  const double delta = e_start + (net - net_books_) - energy_start_.total();
+  net_books_ = net;
+  if (motion_version_ != whole_.state.topology_version()) {
+    Adjacency adj;
+    build_adjacency(whole_.model, whole_.state, adj);
+    motion_ = motion_components(whole_.model, adj);
+    motion_version_ = whole_.state.topology_version();
+  }
+  std::vector<Index> quanta, component;
+  if (sim_)
+    for (Index q : owned_)
+      if (const Index c = motion_.of[global_[q]]; c != kNone) {
+        quanta.push_back(q);
+        component.push_back(c);
+      }
+  World& w = sim_ ? sim_->world() : whole_;  // a rank without quanta only adds its zeros
+  const InternalScaling r = scale_internal_velocities(w.model, quanta, component, motion_.anchored, w.state, delta,
+                                                      [this](std::span<double> sums) { sum(sums); });
+  if (r.lambda == 1) return 0;
+  exchange_ghosts();
+  const double added = (r.lambda * r.lambda - 1) * r.internal_kinetic;
+  energy_start_.kinetic += added;
+  return added;
 }
 
 void DistributedStep::record_gain(const Verdict& v, double bonds) {
@@ -689,7 +728,8 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
   if (breaks()) share_breaks();
   if (!form_rules_.empty()) bonds += decide_forms();
   energy_start_.bonds += bonds;
-  record_gain(last, bonds);
+  const double restored = restore_ ? restore_energy(e0.total()) : 0.0;
+  record_gain(last, bonds + restored);
   whole_.state.time = t0 + h_;
   whole_.state.step += 1;
   if (flags[0] || !events_.empty()) migrate(flags[0] != 0, !events_.empty());

@@ -17,6 +17,7 @@
 #include "heuristics/contact_ranks.hpp"
 #include "heuristics/formation_pass.hpp"
 #include "heuristics/plastic_flow.hpp"
+#include "integrators/energy_restore.hpp"
 #include "integrators/penalty_contact.hpp"
 #include "integrators/ranks_link.hpp"
 #include "ledger/step_work.hpp"
@@ -200,6 +201,15 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // The run alone's record of the energy gained (stage::record_gain) at the end of the step the
   // verdict judged, whose bonds' energy then changed by `bonds` (formed less broken after it).
   void record_gain(const Verdict& v, double bonds);
+  // The whole run's books over every rank: the external work less what the dampers, heuristics
+  // and contacts took out and what the contacts' springs hold [J] (collective).
+  double net_books();
+  // restore_energy over the ranks (scale_internal_velocities, each rank scaling its owned quanta,
+  // the whole world's components summed over the ranks), after the step's breaks and forms, its
+  // energy then energy_start_: E(end) made E(start) plus the step's change of net_books(), as
+  // the run alone's stage::restore_energy does. Returns the kinetic energy added, the same on
+  // every rank, and adds it to energy_start_ (collective).
+  double restore_energy(double e_start);
   // coupled_implicit: the step just undone, taken again as two halves, each again in halves
   // while it creates energy, as the run alone's energy guard takes it; breaks decided after the
   // last half (collective). cpu0: the CPU time when the halves began.
@@ -273,6 +283,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   BlowupLimits limits_;
   bool verlet_;
   bool implicit_;  // coupled_implicit: the pieces' steps solve one system over the ranks
+  bool restore_;   // restore_energy, done over the ranks (the pieces' configs have it off)
   bool sweeps_;    // hybrid_implicit with sweeps or Jacobi iterations
   bool linked_;    // the sweeps and rk4: the pieces' passes (stages) are linked to each other
   int rank_, ranks_;
@@ -343,7 +354,12 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   SolveLayout layout_;
   Times times_;
   SolveStats solve_stats_;
-  Energies energy_start_;  // coupled_implicit: the energies over every rank at the step's start
+  Energies energy_start_;  // the energies over every rank at the step's start
+  // restore_energy: net_books() when the last step ended, and the whole world's components (of
+  // topology version motion_version_).
+  double net_books_ = 0;
+  MotionComponents motion_;
+  std::uint64_t motion_version_ = ~0ull;
   bool stop_agreed_ = false;
   EnergyGain gain_;
   std::uint64_t migrations_ = 0;

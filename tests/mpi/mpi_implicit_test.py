@@ -3,7 +3,7 @@
 (docs/distributed.md).
 
 Usage: mpi_implicit_test.py QBOND SCENE WORKDIR --ranks N [--repeat] --mpiexec MPIEXEC [--mpiexec-flag F ...]
-                            [--expect-breaks] [--expect-halves]
+                            [--expect-breaks] [--expect-halves] [--expect-restored]
 
 The run alone solves each step's system with qbond's CG, the run over ranks with PETSc's CG; both
 stop at ‖b − A Δv‖ ≤ τ ‖b‖ (τ the scene's `tolerance`), so each step's Δv is within κ τ ‖Δv*‖ of
@@ -31,6 +31,9 @@ is over every step. Checks:
     bounds above, r₀ the lattice spacing, the shortest bond: the strain moves with its ends'
     distance, the axial damper with their relative velocity and its direction); in every frame
     the bonds shown plus those broken by then are every bond.
+  - with --expect-restored (a scene with restore_energy), every diagnostics row's `numerical`
+    stays within 1e-12 of the energy scale alone and over the ranks (the restoration puts back
+    what the step lost, whatever the solve's error);
 Exits non-zero with a message naming the file, the column or quanta and the difference.
 """
 import argparse
@@ -44,7 +47,7 @@ import sys
 import numpy as np
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
-from run_outputs import frames, poly, rows, same_breaks, same_bytes
+from run_outputs import frames, poly, restored, rows, same_breaks, same_bytes
 
 p = argparse.ArgumentParser()
 p.add_argument("qbond")
@@ -56,6 +59,7 @@ p.add_argument("--mpiexec", required=True)
 p.add_argument("--mpiexec-flag", action="append", default=[])
 p.add_argument("--expect-breaks", action="store_true")
 p.add_argument("--expect-halves", action="store_true")
+p.add_argument("--expect-restored", action="store_true")
 a = p.parse_args()
 
 ROUND_OFF = 1e-12
@@ -181,6 +185,9 @@ if total0 is not None:
         if abs(got - want) > ROUND_OFF * energy_scale * 10:
             sys.exit(f"diagnostics step {rn[0]}: the ledger over {a.ranks} ranks does not close "
                      f"({got!r} vs {want!r})")
+
+if a.expect_restored:
+    restored([("alone", one), (f"over {a.ranks} ranks", many)], ROUND_OFF * energy_scale)
 
 halves = re.search(r"steps taken again in halves (\d+) times", log)
 if a.expect_halves and not halves:

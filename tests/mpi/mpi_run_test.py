@@ -4,7 +4,7 @@
 Usage: mpi_run_test.py QBOND SCENE WORKDIR --ranks N [--repeat] --mpiexec MPIEXEC [--mpiexec-flag F ...]
                        [--run-arg A ...] [--expect-migration] [--expect-recut] [--expect-blowup]
                        [--expect-breaks] [--expect-retakes] [--expect-forms] [--expect-reasons R,...]
-                       [--expect-gain]
+                       [--expect-gain] [--expect-restored]
 
 Runs the scene alone, then over N ranks (twice with --repeat), and checks:
   - with --repeat, the two runs over N ranks wrote the same bytes (diagnostics.csv and every frame);
@@ -31,6 +31,9 @@ Runs the scene alone, then over N ranks (twice with --repeat), and checks:
     value relative to what the system could hold, r = g / A, within r (2e-12 E* / g + 1e-12), A
     being a sum of magnitudes, exact to 1e-12). The diagnostics must be written every step: the
     row's g is read from them at its step.
+  - with --expect-restored (a scene with restore_energy), every diagnostics row's `numerical`
+    stays within 1e-12 of the energy scale alone and over the ranks: the restoration closes the
+    ledger each step from the books summed over the ranks;
 Exits non-zero with a message naming the file, the column or quanta and the difference.
 """
 import argparse
@@ -44,7 +47,7 @@ import sys
 
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
-from run_outputs import events, frames, poly, rows, same_breaks, same_bytes, same_events
+from run_outputs import events, frames, poly, restored, rows, same_breaks, same_bytes, same_events
 
 p = argparse.ArgumentParser()
 p.add_argument("qbond")
@@ -63,6 +66,7 @@ p.add_argument("--expect-retakes", action="store_true")
 p.add_argument("--expect-forms", action="store_true")
 p.add_argument("--expect-reasons", default="")
 p.add_argument("--expect-gain", action="store_true")
+p.add_argument("--expect-restored", action="store_true")
 a = p.parse_args()
 
 REL = 1e-12
@@ -121,6 +125,9 @@ for group in VECTORS:
 # terms, whose round-off is of ‖b‖'s order, not of the residual's.
 if "residual" in scale:
     scale["residual"] = max(scale["residual"], 1.0)
+if a.expect_restored:
+    restored([("alone", one), (f"over {a.ranks} ranks", many)], REL * energy_scale)
+    print(f"numerical within {REL:g} of the energy scale {energy_scale:g} on every row, alone and over {a.ranks} ranks")
 worst = 0.0
 for r1, rn in zip(one[1:], many[1:]):
     for k, h in enumerate(header):

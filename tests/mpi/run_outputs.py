@@ -89,3 +89,14 @@ def same_breaks(alone, many, ranks, bound):
             sys.exit(f"{name}: {shown} bonds shown, {broken} broken and {formed} formed before step {step}, "
                      f"of {total}")
     return len(broken_at)
+
+
+def restored(tables, bound):
+    """Exits unless every diagnostics row of each (label, rows) table keeps |numerical| within
+    `bound` [J]: restore_energy closes the ledger each step."""
+    for label, table in tables:
+        at = table[0].index("numerical")
+        for r in table[1:]:
+            if abs(float(r[at])) > bound:
+                sys.exit(f"diagnostics step {r[0]}: numerical {r[at]} {label}, restore_energy should keep it "
+                         f"within {bound:g}")
