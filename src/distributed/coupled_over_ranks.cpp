@@ -69,8 +69,8 @@ class RanksSystem {
     check(KSPSetType(ksp_, KSPCG), "KSPSetType(KSPCG)");
     // qbond's CG criterion: the true (unpreconditioned) residual against ‖b‖.
     check(KSPSetNormType(ksp_, KSP_NORM_UNPRECONDITIONED), "KSPSetNormType");
-    const int cap = config.max_iterations > 0 ? config.max_iterations : static_cast<int>(3 * layout.rows);
-    check(KSPSetTolerances(ksp_, config.tolerance, 0.0, PETSC_DEFAULT, cap), "KSPSetTolerances");
+    cap_ = config.max_iterations > 0 ? config.max_iterations : static_cast<int>(3 * layout.rows);
+    set_tolerance(config.tolerance);
     PC pc;
     check(KSPGetPC(ksp_, &pc), "KSPGetPC");
     if (!assembled_) {
@@ -135,6 +135,11 @@ class RanksSystem {
     }
     check(MatAssemblyBegin(A_, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
     check(MatAssemblyEnd(A_, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+  }
+
+  // CG stops at ‖b − A y‖ ≤ tolerance ‖b‖.
+  void set_tolerance(double tolerance) {
+    check(KSPSetTolerances(ksp_, tolerance, 0.0, PETSC_DEFAULT, cap_), "KSPSetTolerances");
   }
 
   // Solves the loaded system for the owned free quanta's rows of y (right-hand side sys.rhs),
@@ -316,6 +321,7 @@ class RanksSystem {
 
   bool assembled_;
   int threads_;
+  int cap_ = 0;  // CG's iterations at most
   Mat A_ = nullptr;
   Vec x_ = nullptr, b_ = nullptr;
   KSP ksp_ = nullptr;
@@ -371,7 +377,29 @@ class CoupledOverRanks final : public StepIntegrator {
   std::unique_ptr<RanksSystem> system_;
 };
 
+class PetscRanksSolve final : public RanksSolve {
+ public:
+  PetscRanksSolve(const SolveLayout& layout, const State& state, const Adjacency& adj, const IntegratorConfig& config)
+      : layout_(layout), system_(layout, state, adj, config, takes_matrix(config)) {}
+
+  void solve(const Model& model, const Bonds& bonds, const Adjacency& adj, const ImplicitSystem& sys,
+             double tolerance, std::vector<Vec3>& y, SolveStats& stats) override {
+    system_.set_tolerance(tolerance);
+    system_.load(layout_, model, bonds, adj, sys);
+    system_.solve(layout_, sys, false, y, stats);
+  }
+
+ private:
+  const SolveLayout& layout_;
+  RanksSystem system_;
+};
+
 }  // namespace
+
+std::unique_ptr<RanksSolve> make_ranks_solve(const SolveLayout& layout, const State& state, const Adjacency& adj,
+                                             const IntegratorConfig& config) {
+  return std::make_unique<PetscRanksSolve>(layout, state, adj, config);
+}
 
 std::unique_ptr<StepIntegrator> make_coupled_over_ranks(const IntegratorConfig& config, SolveLayout layout) {
   IntegratorConfig c = config;

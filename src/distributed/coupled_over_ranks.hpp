@@ -62,6 +62,22 @@ void apply_both_operators(const SolveLayout& layout, const Model& model, const S
                           const ImplicitSystem& sys, const IntegratorConfig& config, const std::vector<double>& y,
                           std::vector<double>& matrix_free, std::vector<double>& assembled);
 
+// CG over the ranks, as coupled_implicit's, on a system a piece's integrator builds itself (the
+// Newton integrators' (M + Σ B_b) δ = −R each iteration).
+class RanksSolve {
+ public:
+  virtual ~RanksSolve() = default;
+  // The owned free quanta's rows of y solving sys (built on the piece: model, bonds, adj) from
+  // zero, to ‖b − A y‖ ≤ tolerance ‖b‖; stats gets the iterations (collective).
+  virtual void solve(const Model& model, const Bonds& bonds, const Adjacency& adj, const ImplicitSystem& sys,
+                     double tolerance, std::vector<Vec3>& y, SolveStats& stats) = 0;
+};
+
+// The solve over the rows `layout` gives this rank (which must outlive it), for the piece's state
+// and adjacency (the pattern holds while they do).
+std::unique_ptr<RanksSolve> make_ranks_solve(const SolveLayout& layout, const State& state, const Adjacency& adj,
+                                             const IntegratorConfig& config);
+
 // Ends PETSc when a run over ranks started it (before MPI ends); nothing otherwise.
 void end_petsc();
 

@@ -25,23 +25,31 @@ void check_distributable(const Scene& scene, int ranks) {
   const std::string over = "a run over " + std::to_string(ranks) + " ranks ";
   const std::string one = "; run it on one rank (without mpirun)";
   const IntegratorType t = scene.integrator.type;
+  const bool newton = t == IntegratorType::energy_momentum || t == IntegratorType::implicit_midpoint ||
+                      t == IntegratorType::bdf2;
 #ifdef QBOND_DISTRIBUTED_IMPLICIT
-  const bool implicit = t == IntegratorType::coupled_implicit;
+  const bool implicit = t == IntegratorType::coupled_implicit || newton;
   const char* taken =
-      "takes coupled_implicit, hybrid_implicit, velocity_verlet, symplectic_euler, explicit_euler or rk4, not ";
+      "takes coupled_implicit, energy_momentum, implicit_midpoint, bdf2, hybrid_implicit, velocity_verlet, "
+      "symplectic_euler, explicit_euler or rk4, not ";
 #else
   const bool implicit = false;
   const char* taken =
       "takes hybrid_implicit, velocity_verlet, symplectic_euler, explicit_euler or rk4 (this qbond was built "
-      "without PETSc, which solves coupled_implicit over ranks), not ";
+      "without PETSc, which solves coupled_implicit and the Newton integrators over ranks), not ";
 #endif
   const bool hybrid = t == IntegratorType::hybrid_implicit;
   if (!implicit && !hybrid && t != IntegratorType::velocity_verlet && t != IntegratorType::explicit_euler &&
       t != IntegratorType::symplectic_euler && t != IntegratorType::rk4)
     throw std::invalid_argument(over + taken + std::string(to_string(t)) + one);
   if (implicit && scene.integrator.solver != CoupledSolver::cg)
-    throw std::invalid_argument(over + "solves coupled_implicit with PETSc's CG (solver cg), not solver " +
+    throw std::invalid_argument(over + "solves " + std::string(to_string(t)) +
+                                " with PETSc's CG (solver cg), not solver " +
                                 std::string(to_string(scene.integrator.solver)) + one);
+  // Exact Newton factors the whole Jacobian (sparse LU), which a run over ranks does not.
+  if (newton && scene.integrator.newton_polish)
+    throw std::invalid_argument(over + "does not polish Newton's steps (newton_polish), which takes exact Newton's "
+                                "factorisation of the whole Jacobian" + one);
   // Penalty contacts are forces of the explicit step; those inside the implicit solve and the
   // projection heuristics (below) are not distributed.
   if (scene.world.model.solves_contact() && scene.world.model.step_contact_method() != ContactMethod::penalty)

@@ -30,8 +30,9 @@ namespace qbond::distributed {
 namespace {
 
 // What a step carries to the next per quanta, kCarried numbers a quanta: velocity Verlet's
-// forces, or an iterative solve's last Δv (SolverGuess), and the one before (SolverGuessPair),
-// zeros where there are fewer. A row of owned_rows() is a quanta's whole index, x, v and these.
+// forces, or an iterative solve's last Δv (SolverGuess), and the one before (SolverGuessPair), or
+// BDF2's state a step back (Bdf2History: x and v), zeros where there are fewer. A row of
+// owned_rows() is a quanta's whole index, x, v and these.
 constexpr std::size_t kCarried = 6;
 constexpr std::size_t kRow = 7 + kCarried;
 
@@ -45,6 +46,9 @@ void carried_row(const Carry& c, std::size_t q, double* out) {
   } else if (const auto* p = std::get_if<SolverGuessPair>(&c)) {
     std::copy_n(p->dv[q].data(), 3, out);
     std::copy_n(p->dv_before[q].data(), 3, out + 3);
+  } else if (const auto* b = std::get_if<Bdf2History>(&c)) {
+    std::copy_n(b->x[q].data(), 3, out);
+    std::copy_n(b->v[q].data(), 3, out + 3);
   }
 }
 
@@ -53,6 +57,7 @@ CarryKind kind_of(const Carry& c) {
   if (std::holds_alternative<VerletForces>(c)) return {.kind = forces};
   if (std::holds_alternative<SolverGuess>(c)) return {.kind = guess};
   if (const auto* p = std::get_if<SolverGuessPair>(&c)) return {.kind = guesses, .h = p->h, .h_before = p->h_before};
+  if (const auto* b = std::get_if<Bdf2History>(&c)) return {.kind = history, .h = b->h, .t = b->t, .step = b->step};
   return {};
 }
 
@@ -93,6 +98,14 @@ Carry carry_from(const State& s, const std::vector<double>& c, const CarryKind& 
     }
     return p;
   }
+  if (kind.kind == history) {
+    Bdf2History b{.x = std::vector<Vec3>(n), .v = std::vector<Vec3>(n), .t = kind.t, .h = kind.h, .step = kind.step};
+    for (std::size_t q = 0; q < n; ++q) {
+      b.x[q] = vec(q, 0);
+      b.v[q] = vec(q, 3);
+    }
+    return b;
+  }
   return std::monostate{};
 }
 
@@ -121,8 +134,10 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       verlet_(config.type == IntegratorType::velocity_verlet),
       implicit_(config.type == IntegratorType::coupled_implicit),
       restore_(config.restore_energy),
+      newton_(config.type == IntegratorType::energy_momentum || config.type == IntegratorType::implicit_midpoint ||
+              config.type == IntegratorType::bdf2),
       sweeps_(config.type == IntegratorType::hybrid_implicit && config.neighbours != NeighbourModel::frozen),
-      linked_(sweeps_ || config.type == IntegratorType::rk4),
+      linked_(sweeps_ || newton_ || config.type == IntegratorType::rk4),
       rank_(mpi_rank()),
       ranks_(mpi_ranks()),
       start_books_(whole.state.energy) {
@@ -148,8 +163,10 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
   const auto* forces = std::get_if<VerletForces>(&c);
   const auto* guess = std::get_if<SolverGuess>(&c);
   const auto* guesses = std::get_if<SolverGuessPair>(&c);
+  const auto* history = std::get_if<Bdf2History>(&c);
   const bool holds = verlet_ ? forces && forces->holds_for(n, whole_.state.topology_version())
-                             : (guess && guess->fits(n)) || (guesses && guesses->fits(n));
+                             : (guess && guess->fits(n)) || (guesses && guesses->fits(n)) ||
+                                   (history && history->x.size() == n);
   std::vector<double> carried;
   if (holds) {
     carried.resize(kCarried * n);
@@ -164,7 +181,7 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
 DistributedStep::~DistributedStep() = default;
 
 void DistributedStep::find_components() {
-  if (!implicit_ && !sweeps_) return;
+  if (!implicit_ && !sweeps_ && !newton_) return;
   Adjacency adj;
   build_adjacency(whole_.model, whole_.state, adj);
   free_components(whole_.model, adj, components_);
@@ -187,6 +204,17 @@ void DistributedStep::sum(std::span<double> sums) {
 void DistributedStep::restore_momentum(const Model& model, const std::vector<Vec3>& f_ext, double h,
                                        std::vector<Vec3>& dv) {
   restore_momentum_over_ranks(layout_, model, f_ext, h, dv);
+}
+
+void DistributedStep::solve(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
+                            double tolerance, std::vector<Vec3>& y, SolveStats& stats) {
+#ifdef QBOND_DISTRIBUTED_IMPLICIT
+  if (!ranks_solve_) ranks_solve_ = make_ranks_solve(layout_, state, adj, config_);
+  ranks_solve_->solve(model, state.bonds, adj, sys, tolerance, y, stats);
+#else
+  (void)model, (void)state, (void)adj, (void)sys, (void)tolerance, (void)y, (void)stats;
+  throw std::logic_error("a solve over ranks needs PETSc: check_distributable refuses the integrators that take one");
+#endif
 }
 
 ContactHalo DistributedStep::contact_halo() const {
@@ -255,7 +283,10 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
     if ((implicit_ || linked_) && fewest == 0)
       throw std::invalid_argument("a run of " + std::to_string(whole_.num_quanta()) + " quanta over " +
                                   std::to_string(ranks_) + " ranks leaves a rank without quanta, which the " +
-                                  (implicit_ ? "implicit solve" : sweeps_ ? "hybrid's sweeps" : "rk4 step") +
+                                  (implicit_  ? "implicit solve"
+                                   : sweeps_  ? "hybrid's sweeps"
+                                   : newton_  ? "Newton iteration"
+                                              : "rk4 step") +
                                   " over ranks cannot take; run it on fewer ranks");
   }
   // What the piece's step carries: the whole world's for its quanta, or velocity Verlet's forces
@@ -286,8 +317,9 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
         if (const Index l = local_of_[whole_coloring_.quanta[k]]; l != kNone) coloring_.quanta.push_back(l);
       coloring_.offset.push_back(static_cast<Index>(coloring_.quanta.size()));
     }
-    layout_ = solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_);
   }
+  if (sweeps_ || newton_) layout_ = solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_);
+  ranks_solve_.reset();  // made for this layout on the first solve
   if (linked_ || contacts_) {
     // The piece's step linked to the other ranks', its contacts' books those of the owned quanta
     // (added up over the ranks in agree()).
@@ -512,6 +544,14 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     ledger_.v = s.v;
     report = piece_step();
     solve_stats_ = sim_->integrator().stats();  // before a rebuild makes a new integrator
+    if (newton_ && config_.type != IntegratorType::bdf2 && report.status == StepReport::Status::ok &&
+        solve_stats_.unconverged > 0) {
+      // The run alone takes the step again in halves (newton.hpp), which over ranks it does not.
+      report.status = StepReport::Status::blowup;
+      report.message = "at step " + std::to_string(whole_.state.step + 1) + " Newton's iteration did not converge; "
+                       "the run alone takes such a step again in halves, which over ranks is not distributed yet: "
+                       "take smaller steps, or run it on one rank; the world keeps the state before this step";
+    }
     left = report.status == StepReport::Status::ok && left_box();
   } else if (gathers_contacts_) {
     gather({});  // the pieces' contact rules gather the quanta in contact every step

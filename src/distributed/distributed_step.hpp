@@ -31,8 +31,10 @@ namespace qbond::distributed {
 // The kind of carry-over the pieces' steps hold (every rank's the same): velocity Verlet's
 // forces, a solve's guess or guesses with the lengths of the steps they were taken over, or none.
 struct CarryKind {
-  enum class Kind : std::uint8_t { none, forces, guess, guesses } kind = Kind::none;
-  double h = 0, h_before = 0;  // guesses: the steps' lengths
+  enum class Kind : std::uint8_t { none, forces, guess, guesses, history } kind = Kind::none;
+  double h = 0, h_before = 0;  // guesses: the steps' lengths; history: the step's
+  double t = 0;                // history: the time of its state
+  std::uint64_t step = 0;      // history: the index of its step
 };
 
 // A heuristic that edits the projected step, distributed: an obstacle, quanta contact or a
@@ -270,6 +272,8 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   void sum(std::span<double> sums) override;
   void restore_momentum(const Model& model, const std::vector<Vec3>& f_ext, double h,
                         std::vector<Vec3>& dv) override;
+  void solve(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
+             double tolerance, std::vector<Vec3>& y, SolveStats& stats) override;
   // The owned quanta's [index, x, v, carried] rows (kRow doubles each).
   std::vector<double> owned_rows() const;
   // Whether an owned quanta of this rank's piece (which it must have) has left the rank's box.
@@ -284,6 +288,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   bool verlet_;
   bool implicit_;  // coupled_implicit: the pieces' steps solve one system over the ranks
   bool restore_;   // restore_energy, done over the ranks (the pieces' configs have it off)
+  bool newton_;    // energy_momentum, implicit_midpoint, bdf2: Newton's iterations linked over the ranks
   bool sweeps_;    // hybrid_implicit with sweeps or Jacobi iterations
   bool linked_;    // the sweeps and rk4: the pieces' passes (stages) are linked to each other
   int rank_, ranks_;
@@ -352,6 +357,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   FreeComponents components_;
   Coloring whole_coloring_, coloring_;
   SolveLayout layout_;
+  std::unique_ptr<RanksSolve> ranks_solve_;  // the Newton integrators' linear solves (for layout_)
   Times times_;
   SolveStats solve_stats_;
   Energies energy_start_;  // the energies over every rank at the step's start

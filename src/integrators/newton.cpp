@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "integrators/integrator_common.hpp"
+#include "integrators/ranks_link.hpp"
 #include "core/parallel.hpp"
 
 namespace qbond {
@@ -284,9 +285,10 @@ class NewtonIntegrator final : public StepIntegrator {
     double residual = 0;
     const bool converged = solve(model, state, adj, f_ext, scheme, out, h, residual);
     stats_.residual = residual;
-    if (converged || bdf2) {
+    if (converged || bdf2 || ranks_) {
       // bdf2 (and its backward-Euler start) is never split: its step reads the state one whole
-      // step back (Bdf2History), which a substep does not have (docs/integrators.md).
+      // step back (Bdf2History), which a substep does not have (docs/integrators.md). Over ranks
+      // no step is: the run stops at an unconverged one (distributed_step.cpp).
       if (!converged) ++stats_.unconverged;
       for (std::size_t i = 0; i < n; ++i) {
         if (model.is_kinematic(static_cast<Index>(i))) continue;
@@ -386,8 +388,10 @@ class NewtonIntegrator final : public StepIntegrator {
     const double tol = config_.tolerance;
     double r = 0, ref = 0;
     auto evaluate = [&] {
+      if (ranks_) ranks_->exchange(y_);  // the ghosts' rows, for their bonds to owned quanta
       newton_bonds(model, state, step_, y_, threads, force_, &sys_);
-      const ResidualNorms nr = newton_residual(model, state.bonds, adj, step_, f_ext, force_, y_, threads, R_, scale_);
+      ResidualNorms nr = newton_residual(model, state.bonds, adj, step_, f_ext, force_, y_, threads, R_, scale_);
+      if (ranks_) nr = owned_norms();
       r = std::sqrt(nr.r2);
       ref = std::sqrt(nr.ref2);
       residual = ref > 0 ? r / ref : 0.0;
@@ -412,7 +416,7 @@ class NewtonIntegrator final : public StepIntegrator {
         if (done || r < (1 - 1e-4 * alpha) * r_old) break;
       }
       if (!done && !(r < (1 - 1e-4 * alpha) * r_old)) {
-        step_.exact = !step_.exact;  // this direction is exhausted: the other matrix from here
+        step_.exact = !step_.exact && !ranks_;  // this direction is exhausted: the other matrix from here
         ++stats_.switches;
         if (++failed == 2 && restarts < kRestarts) {
           // Both matrices stall: a local minimum of ‖R‖ with R ≠ 0 (J singular there). Start
@@ -428,7 +432,7 @@ class NewtonIntegrator final : public StepIntegrator {
         failed = 0;
         // The modified matrix converges linearly; slower than halving ‖R‖ per iteration, exact
         // Newton (quadratic near the root this iteration approaches) takes over.
-        if (!step_.exact && r > 0.5 * r_old) {
+        if (!step_.exact && !ranks_ && r > 0.5 * r_old) {
           step_.exact = true;
           done = evaluate();
         }
@@ -444,7 +448,7 @@ class NewtonIntegrator final : public StepIntegrator {
       y_ = y_best_;
       done = evaluate();
     }
-    if (done && config_.newton_polish && polishes(scheme))
+    if (done && config_.newton_polish && polishes(scheme) && !ranks_)
       polish(model, state, adj, evaluate, r, ref, residual);
     if (config_.restore_momentum &&
         (config_.solver == CoupledSolver::cg || config_.solver == CoupledSolver::sweep)) {
@@ -454,7 +458,10 @@ class NewtonIntegrator final : public StepIntegrator {
       impulse_.resize(n);
       for (std::size_t i = 0; i < n; ++i)
         impulse_[i] = step_.s * f_ext[i] + (model.mass[i] / h) * step_.e[i];
-      restore_component_momentum(model, topo_.components, impulse_, h, y_);
+      if (ranks_)
+        ranks_->restore_momentum(model, impulse_, h, y_);
+      else
+        restore_component_momentum(model, topo_.components, impulse_, h, y_);
     }
     return done;
   }
@@ -509,14 +516,36 @@ class NewtonIntegrator final : public StepIntegrator {
     }
   }
 
+  // Over ranks: ‖R‖² and its terms' squared scale over the owned free quanta, added over the
+  // ranks (the same on every rank, so every rank takes the same decisions).
+  ResidualNorms owned_norms() const {
+    const std::vector<std::uint8_t>& owned = ranks_->owned();
+    double sums[2] = {0, 0};
+    for (std::size_t i = 0; i < R_.size(); ++i)
+      if (owned[i]) {
+        sums[0] += R_[i].squaredNorm();
+        sums[1] += scale_[i] * scale_[i];
+      }
+    ranks_->sum(sums);
+    return {.r2 = sums[0], .ref2 = sums[1]};
+  }
+
   // (M + Σ B_b) δ = −R: with the exact blocks (sys_.exact) by sparse LU when `exact` (and the
-  // factorisation succeeds), otherwise the modified system with the configured solver.
+  // factorisation succeeds), otherwise the modified system with the configured solver (over
+  // ranks: CG over the whole world's rows, the modified system alone).
   void solve_linear(const Model& model, const State& state, const Adjacency& adj, double eta, bool exact) {
     const std::size_t n = model.num_quanta();
     const int threads = config_.threads;
     assemble_blocks(model, state.bonds, adj, threads, config_.solver == CoupledSolver::sweep, sys_);
     sys_.rhs.resize(n);
     parallel_for(n, threads, [&](std::size_t i) { sys_.rhs[i] = -R_[i]; });  // kinematic rows of R are 0
+    if (ranks_) {
+      delta_.assign(n, Vec3::Zero());  // the ghosts' rows stay 0: evaluate brings y's
+      SolveStats inner;
+      ranks_->solve(model, state, adj, sys_, eta, delta_, inner);
+      stats_.linear_iterations += inner.iterations;
+      return;
+    }
     sys_.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return R_[i].squaredNorm(); }));
     if (exact) {
       ++stats_.exact_iterations;

@@ -1,9 +1,10 @@
 #pragma once
 // What the step of one rank's piece of the world needs from the other ranks between its passes
 // when a run is spread over MPI ranks (src/distributed/distributed_step.cpp): with it, the
-// hybrid's sweeps take the passes a run alone takes, in the whole world's colour order, and RK4
-// its stages, the ghosts' values brought from their owners between them
-// (StepIntegrator::link_to_ranks). Alone there is none.
+// hybrid's sweeps take the passes a run alone takes, in the whole world's colour order, RK4 its
+// stages, the ghosts' values brought from their owners between them, and the Newton integrators
+// their iterations, each linear solve over the whole world (StepIntegrator::link_to_ranks).
+// Alone there is none.
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -12,6 +13,9 @@
 #include "solvers/coloring.hpp"
 
 namespace qbond {
+
+struct ImplicitSystem;
+struct SolveStats;
 
 class RanksLink {
  public:
@@ -27,6 +31,11 @@ class RanksLink {
   // (collective).
   virtual void restore_momentum(const Model& model, const std::vector<Vec3>& f_ext, double h,
                                 std::vector<Vec3>& dv) = 0;
+  // The owned rows of y solving the whole world's system whose rows of the piece's free quanta
+  // sys holds (built on the piece: state's bonds, adj), by CG from zero to ‖b − A y‖ ≤ tolerance
+  // ‖b‖ (collective).
+  virtual void solve(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
+                     double tolerance, std::vector<Vec3>& y, SolveStats& stats) = 0;
 
  protected:
   ~RanksLink() = default;

@@ -1,9 +1,11 @@
 #!/usr/bin/python3
-"""A scene stepped by coupled_implicit over MPI ranks against the same scene run alone
-(docs/distributed.md).
+"""A scene stepped by coupled_implicit or a Newton integrator (energy_momentum, implicit_midpoint,
+bdf2) over MPI ranks against the same scene run alone (docs/distributed.md).
 
 Usage: mpi_implicit_test.py QBOND SCENE WORKDIR --ranks N [--repeat] --mpiexec MPIEXEC [--mpiexec-flag F ...]
-                            [--expect-breaks] [--expect-halves] [--expect-restored]
+                            [--integrator NAME] [--expect-breaks] [--expect-halves] [--expect-restored]
+
+--integrator runs the scene with that integrator instead of its own (qbond run --integrator).
 
 The run alone solves each step's system with qbond's CG, the run over ranks with PETSc's CG; both
 stop at ‖b − A Δv‖ ≤ τ ‖b‖ (τ the scene's `tolerance`), so each step's Δv is within κ τ ‖Δv*‖ of
@@ -14,7 +16,17 @@ over S steps, with ‖Δv‖ ≤ 2 max ‖v‖ (a step's change of velocity), th
     ‖v₁ − v_N‖₂ ≤ 4 κ τ S max ‖v‖₂,
 the positions by h S times that, and the energy columns by twice that relative error of their
 scale (energies are quadratic in v). The scene's frames are written every step, so that max ‖v‖
-is over every step. Checks:
+is over every step.
+
+The Newton integrators stop at ‖R(y)‖ ≤ τ ref, ref² = Σ_i (m_i |y_i − e_i| + s h (|f_ext,i| +
+Σ_b |f_b|))² (newton.hpp), with y = Δv; alone their linear solves may take the exact Jacobian,
+over ranks the modified one, so the two iterates differ, each within ‖J⁻¹‖ τ ref of the step's
+solution. J = M + s h (c K + θ C) is M to within the same Gershgorin bound (κ − 1) m, so
+‖J⁻¹‖ ≤ 1 / (m (2 − κ)), and ref ≤ √N (3 m max ‖v‖ + h (m g + z T)) (N free quanta; |y − e| ≤
+|Δv| + |Δv_before| / 3 ≤ 3 max ‖v‖, e being bdf2's (v − v₋₁)/3; s ≤ 1; T the largest tension in
+the run alone's frames). Summed over S steps, the velocities differ by at most
+    ‖v₁ − v_N‖₂ ≤ 2 S τ ref / (m (2 − κ)),
+and the positions by h S times that. Checks:
   - with --repeat, the scene run twice over N ranks wrote the same bytes (diagnostics.csv and
     every frame);
   - every frame holds every quanta and bond of the run alone, at its positions and velocities to
@@ -57,6 +69,7 @@ p.add_argument("--ranks", type=int, required=True)
 p.add_argument("--repeat", action="store_true")
 p.add_argument("--mpiexec", required=True)
 p.add_argument("--mpiexec-flag", action="append", default=[])
+p.add_argument("--integrator")
 p.add_argument("--expect-breaks", action="store_true")
 p.add_argument("--expect-halves", action="store_true")
 p.add_argument("--expect-restored", action="store_true")
@@ -74,8 +87,10 @@ with open(a.scene) as f:
 h = scene["timestep"]
 steps = scene["steps"]
 tau = scene["integrator"]["tolerance"]
-if scene["integrator"].get("type", "coupled_implicit") != "coupled_implicit":
-    sys.exit(f"{a.scene}: the bound is coupled_implicit's")
+NEWTON = {"energy_momentum", "implicit_midpoint", "bdf2"}
+integrator = a.integrator or scene["integrator"].get("type", "coupled_implicit")
+if integrator != "coupled_implicit" and integrator not in NEWTON:
+    sys.exit(f"{a.scene}: the bounds are coupled_implicit's and the Newton integrators'")
 if scene["output"].get("every") != 1:
     sys.exit(f"{a.scene}: the bound needs a frame every step")
 kappa = 1.0
@@ -94,7 +109,7 @@ REL_V = 4 * kappa * tau * steps
 def run(out, ranks):
     if os.path.exists(out):
         shutil.rmtree(out)
-    cmd = [a.qbond, "run", a.scene, "-o", out]
+    cmd = [a.qbond, "run", a.scene, "-o", out] + (["--integrator", a.integrator] if a.integrator else [])
     if ranks:
         cmd = [a.mpiexec] + a.mpiexec_flag + ["-n", str(ranks)] + cmd
     r = subprocess.run(cmd, capture_output=True, text=True)
@@ -131,14 +146,29 @@ for name in frames(alone):
 vmax = max(np.linalg.norm(v1) for _, _, _, v1, _ in data)
 if not vmax > 0:
     sys.exit("the scene does not move: nothing to compare")
+if integrator in NEWTON:
+    if kappa >= 2:
+        sys.exit(f"{a.scene}: κ = {kappa:g}: J is not within M's reach of the bound")
+    tension = free = 0
+    for name in frames(alone):
+        p1 = poly(os.path.join(alone, "frames", name))
+        tension = max(tension, np.abs(vtk_to_numpy(p1.GetCellData().GetArray("tension"))).max())
+        moving = vtk_to_numpy(p1.GetPointData().GetArray("kinematic")) == 0
+        mass = vtk_to_numpy(p1.GetPointData().GetArray("mass"))[moving]
+        free = moving.sum()
+    g = np.linalg.norm(scene.get("gravity", [0, 0, 0]))
+    z = max(BONDS_PER_QUANTA[b.get("neighbors", "face_diagonal")] for b in scene["bodies"])
+    ref = np.sqrt(free) * (mass.max() * 3 * vmax + h * (mass.max() * g + z * tension))
+    REL_V = 2 * steps * tau * ref / (mass.min() * (2 - kappa)) / vmax
 worst_v = worst_x = 0.0
 for name, x1, xn, v1, vn in data:
     dv, dx = np.linalg.norm(v1 - vn), np.linalg.norm(x1 - xn)
     if dv > REL_V * vmax:
-        sys.exit(f"{name}: velocities differ by {dv:g}, beyond 4 κ τ S max‖v‖ = {REL_V * vmax:g} "
+        sys.exit(f"{name}: velocities differ by {dv:g}, beyond the bound {REL_V * vmax:g} "
                  f"(κ ≤ {kappa:g}, τ = {tau:g}, S = {steps})")
     if dx > h * steps * REL_V * vmax + ROUND_OFF * np.abs(x1).max():
-        sys.exit(f"{name}: positions differ by {dx:g}, beyond h S 4 κ τ S max‖v‖ = {h * steps * REL_V * vmax:g}")
+        sys.exit(f"{name}: positions differ by {dx:g}, beyond h S times the velocities' bound = "
+                 f"{h * steps * REL_V * vmax:g}")
     worst_v, worst_x = max(worst_v, dv / vmax), max(worst_x, dx / (h * steps * vmax))
 
 # Diagnostics: every column but the solver's, within twice the bound of its scale.
