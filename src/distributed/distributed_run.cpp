@@ -88,10 +88,13 @@ void check_distributable(const Scene& scene, int ranks) {
       throw std::invalid_argument(over + "does not distribute bonds that break at their law's failure stretch (" +
                                   std::string(to_string(b.law[k])) + ") beside 'form' rules yet" + one);
   if (scene.adaptive.enabled) throw std::invalid_argument(over + "does not adapt its step yet" + one);
-  // The gain is known once the step's heuristics are done, when the step can no longer be undone.
-  if (scene.limits.stop_on_energy_gain)
-    throw std::invalid_argument(over + "reports the energy gained but does not stop on it (stop_on_energy_gain)" +
-                                one);
+  // The gain is judged before the step's breaks are shared, while the step can still be undone:
+  // formed bonds and the restoration change the energy after that.
+  bool forms = false;
+  for (const HeuristicSpec& spec : scene.heuristics) forms = forms || std::holds_alternative<FormRule>(spec);
+  if (scene.limits.stop_on_energy_gain && (forms || scene.integrator.restore_energy))
+    throw std::invalid_argument(over + "does not stop on the energy gained (stop_on_energy_gain) beside 'form' rules "
+                                "or restore_energy, which change the energy after the step can be undone" + one);
 }
 
 }  // namespace

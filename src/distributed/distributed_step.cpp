@@ -602,6 +602,14 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     ++halved_;
     return split_step(stop, cpu_seconds());
   }
+  // limits.stop_on_energy_gain: judged before the step's breaks are shared, while it can still be
+  // undone (check_distributable refuses it beside form rules and restore_energy, whose energy
+  // comes after them).
+  if (limits_.stop_on_energy_gain)
+    if (StepReport r = record_gain(v, 0.0); r.status != StepReport::Status::ok) {
+      undo();
+      return kept_before(std::move(r));
+    }
   const double e_start = std::exchange(energy_start_, v.after).total();
   stop_agreed_ = v.stop;
   if (contacts_) {
@@ -631,7 +639,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     const std::vector<double> forces = fresh_forces(sim_ ? sim_->world() : whole_);
     if (sim_) s.carry = carry_from(s, forces, {.kind = CarryKind::Kind::forces});
   }
-  record_gain(v, formed + restored);
+  if (!limits_.stop_on_energy_gain) record_gain(v, formed + restored);
   whole_.state.time = t0 + h_;  // as every piece's step sets it
   whole_.state.step += 1;
   // Pieces built anew before a quanta can move past their contact halos.
@@ -715,8 +723,14 @@ double DistributedStep::restore_energy(double e_start) {
   return added;
 }
 
-void DistributedStep::record_gain(const Verdict& v, double bonds) {
-  stage::record_gain(v.gain + bonds, v.available, whole_.state.step + 1, whole_.state.time + h_, limits_, gain_);
+StepReport DistributedStep::kept_before(StepReport r) {
+  r.message += "; the world keeps the state before this step";  // as the run alone's roll_back says
+  return r;
+}
+
+StepReport DistributedStep::record_gain(const Verdict& v, double bonds) {
+  return stage::record_gain(v.gain + bonds, v.available, whole_.state.step + 1, whole_.state.time + h_, limits_,
+                            gain_);
 }
 
 StepReport DistributedStep::split_step(bool stop, double cpu0) {
@@ -733,7 +747,7 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
   Verdict last;
   const bool ok = half(t0, t0 + 0.5 * h_, 1, stop, last) && half(t0 + 0.5 * h_, t0 + h_, 1, stop, last);
   times_.stepping += cpu_seconds() - cpu0;
-  if (!ok) {
+  auto undo = [&] {
     if (sim_) {
       State& s = sim_->world().state;
       s.x = std::move(x0);
@@ -746,16 +760,27 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
     loads_ = loads0;
     energy_start_ = e0;
     rebuild_after_roll_back();
+  };
+  if (!ok) {
+    undo();
     return last.report;
   }
   // The breaks follow the whole step, as the run alone's heuristics follow its integrator; the
   // energy they take leaves the next step's start.
   double bonds = 0;  // the change of the bonds' energy after the last half: broken, formed
-  if (breaks()) {
-    const double mine[1] = {decide_breaks()};
+  const Rng rng0 = whole_.state.rng;
+  const double mine[1] = {breaks() ? decide_breaks() : 0.0};
+  if (breaks())
     for (double fractured : all_gather(mine)) bonds -= fractured;
-    if (!plastic_.empty()) share_rests();
-  }
+  if (limits_.stop_on_energy_gain)
+    if (StepReport r = record_gain(last, bonds); r.status != StepReport::Status::ok) {
+      heuristics_loss_ -= mine[0];
+      whole_.state.rng = rng0;
+      events_.clear();
+      undo();
+      return kept_before(std::move(r));
+    }
+  if (breaks() && !plastic_.empty()) share_rests();
   int flags[1] = {0};  // a quanta left its rank's box
   if (sim_) {
     State& s = sim_->world().state;
@@ -769,7 +794,7 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
   if (!form_rules_.empty()) bonds += decide_forms();
   energy_start_.bonds += bonds;
   const double restored = restore_ ? restore_energy(e0.total()) : 0.0;
-  record_gain(last, bonds + restored);
+  if (!limits_.stop_on_energy_gain) record_gain(last, bonds + restored);
   whole_.state.time = t0 + h_;
   whole_.state.step += 1;
   if (flags[0] || !events_.empty()) migrate(flags[0] != 0, !events_.empty());

@@ -201,8 +201,11 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // and the coupled step's halves).
   bool gains(const Verdict& v, bool whole) const;
   // The run alone's record of the energy gained (stage::record_gain) at the end of the step the
-  // verdict judged, whose bonds' energy then changed by `bonds` (formed less broken after it).
-  void record_gain(const Verdict& v, double bonds);
+  // verdict judged, whose bonds' energy then changed by `bonds` (formed less broken after it);
+  // with limits.stop_on_energy_gain, the report that stops the run when the gain is past it.
+  StepReport record_gain(const Verdict& v, double bonds);
+  // A report of a step undone, saying so as the run alone's does.
+  static StepReport kept_before(StepReport r);
   // The whole run's books over every rank: the external work less what the dampers, heuristics
   // and contacts took out and what the contacts' springs hold [J] (collective).
   double net_books();

@@ -16,8 +16,9 @@ Runs the scene alone, then over N ranks (twice with --repeat), and checks:
   - with --expect-migration, quanta moved between ranks during the run; with --expect-recut, the
     boxes were cut anew when the ranks' loads drifted apart;
   - with --expect-retakes, steps were taken again after a quanta moved past its contact halo;
-  - with --expect-blowup, every run stops with exit 3 (a blow-up) at the same step with the same
-    message, keeping the state before that step;
+  - with --expect-blowup, every run stops with exit 3 (a blow-up, or an energy gain past
+    limits.stop_on_energy_gain) at the same step with the same message, keeping the state before
+    that step;
   - with --expect-breaks, bonds broke, events.csv lists the run alone's breaks (step, bond, ends,
     reason; strain and tension to 1e-12 of their scale) in its order, and in every frame the
     bonds shown plus those broken by then are every bond of the scene and those formed by then:
@@ -84,7 +85,8 @@ def run(out, ranks):
     if r.returncode != (3 if a.expect_blowup else 0):
         sys.exit(f"{' '.join(cmd)}: exit {r.returncode}\n{r.stdout}\n{r.stderr}")
     if a.expect_blowup:
-        blowups.append([line for line in r.stderr.splitlines() if "blow-up at step" in line])
+        blowups.append([line for line in r.stderr.splitlines()
+                        if "blow-up at step" in line or "energy gained at step" in line])
     return r.stdout
 
 
