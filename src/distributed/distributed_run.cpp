@@ -63,22 +63,15 @@ void check_distributable(const Scene& scene, int ranks) {
   // stress limits reading each end's stress from its owner); formation (every rank forming the
   // bonds among the quanta near others, after the breaks).
   int stage = 0;  // 0 projection rules, 1 plastic, 2 break, 3 form rules, as far as the list has come
-  // The pieces take the plastic flow's rest lengths after the breaks: their stresses would miss it.
-  bool plastic = false;
   const char* order = "over ranks the heuristics take effect in this order: obstacles, contact and damping zones, "
                       "'plastic', 'break', 'form'; list them so in \"heuristics\"";
   for (const HeuristicSpec& spec : scene.heuristics) {
-    const auto* rule = std::get_if<BreakRule>(&spec);
     const int at = std::holds_alternative<PlasticRule>(spec) ? 1
-                   : rule                                    ? 2
+                   : std::holds_alternative<BreakRule>(spec) ? 2
                    : std::holds_alternative<FormRule>(spec)  ? 3
                                                              : 0;
     if (at < stage) throw std::invalid_argument(over + "cannot keep the run alone's order: " + order + one);
     stage = at;
-    plastic = plastic || std::holds_alternative<PlasticRule>(spec);
-    if (plastic && rule && rule->reads_stress())
-      throw std::invalid_argument(over + "does not distribute the break heuristic's stress limits (max_stress, "
-                                  "max_von_mises) beside 'plastic' rules yet" + one);
   }
   // Bonds that fail at their law's stretch break after the break rules, as alone; the run alone
   // tests them after its form rules too, which over ranks follow the breaks.

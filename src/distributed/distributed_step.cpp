@@ -1160,14 +1160,36 @@ double DistributedStep::decide_breaks() {
       if (edit[b] == PlasticFlow::kDuctile) break_owned(k, b, static_cast<std::uint8_t>(BondEvent::Reason::ductility));
   }
   const std::size_t first = plastic_.size();  // the break rules' numbers
-  if (sim_ && stress_limits_) {
+  if (stress_limits_) {
     // Each end's virial stress at the step's end: an owned quanta's from its piece, which holds
-    // all its bonds (summed in the run alone's order), a ghost's from its owner.
-    const World& w = sim_->world();
-    virial_stress(w.model, w.state, stress_);
-    halo_.exchange(
-        plan_, 9, [&](Index q, double* out) { std::copy_n(stress_[q].data(), 9, out); },
-        [&](Index q, const double* in) { std::copy_n(in, 9, stress_[q].data()); });
+    // all its bonds (summed in the run alone's order), a ghost's from its owner. After plastic
+    // rules, with every rank's flowed rest lengths and ductile breaks of the step, as the run
+    // alone's break rules read them: on a copy of the piece's bonds, so that an undone step
+    // leaves the pieces as they were.
+    std::vector<double> edits;  // [whole bond, new rest length, or −1: broken]
+    if (!plastic_.empty()) {
+      edits = flowed_;
+      for (std::size_t r = 0; r + 7 <= broken_.size(); r += 7) edits.insert(edits.end(), {broken_[r + 1], -1.0});
+      edits = all_gather(edits);
+    }
+    if (sim_) {
+      const World& w = sim_->world();
+      if (!edits.empty()) {
+        stressed_.edit_bonds() = w.state.bonds;
+        for (std::size_t r = 0; r + 2 <= edits.size(); r += 2) {
+          const Index l = local_bond_of_[static_cast<std::size_t>(edits[r])];
+          if (l == kNone) continue;
+          if (edits[r + 1] < 0)
+            stressed_.break_bond(l);
+          else
+            stressed_.edit_bonds().rest[l] = edits[r + 1];
+        }
+      }
+      virial_stress(w.model, edits.empty() ? w.state : stressed_, w.state.x, w.state.v, stress_);
+      halo_.exchange(
+          plan_, 9, [&](Index q, double* out) { std::copy_n(stress_[q].data(), 9, out); },
+          [&](Index q, const double* in) { std::copy_n(in, 9, stress_[q].data()); });
+    }
   }
   for (std::size_t k = 0; k < rules_.size(); ++k) {
     const BreakRule& rule = local_rules_[k];

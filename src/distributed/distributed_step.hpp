@@ -344,6 +344,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   BreakCriteria criteria_;
   bool stress_limits_ = false;          // some break rule has a stress limit
   std::vector<Mat3> stress_;            // with those: each local quanta's virial stress at the step's end
+  State stressed_;                      // with those and plastic rules: the piece's bonds the stress reads
   std::vector<Index> ledger_whole_;     // each ledger_ bond's whole index
   std::vector<Vec3> after_;             // the piece's positions after the step (the rules read them)
   std::vector<Vec3> after_v_;           // projection_gains: the projected end's velocities
