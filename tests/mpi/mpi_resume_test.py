@@ -3,7 +3,7 @@
 alone had never stopped.
 
 Usage: mpi_resume_test.py QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC [--mpiexec-flag F ...]
-                          [--resume-ranks R ...] [--stop-at K] [--reference-ranks M]
+                          [--resume-ranks R ...] [--stop-at K] [--reference-ranks M] [--integrator NAME]
 
 Runs SCENE alone to its end, and over N ranks to half its steps (or to step K), then resumes a copy of that
 run's directory from its checkpoint to the end for each R (0, the default: alone, without the
@@ -12,7 +12,8 @@ alone's (the state, velocity Verlet's carried forces included, travels whole thr
 checkpoint), and its diagnostics match to 1e-12 of the energy's scale (the ledger's sums,
 added rank by rank, differ in the last digits). With --reference-ranks M the run it must match is
 the scene run over M ranks without stopping (coupled_implicit, whose solve over ranks is not the
-run alone's: the checkpoint carries the solve's last solutions, the next steps' guesses).
+run alone's: the checkpoint carries the solve's last solutions, the next steps' guesses; bdf2 its
+history). --integrator runs the scene with that integrator instead of its own (a checkpoint keeps it).
 """
 import argparse
 import csv
@@ -32,6 +33,7 @@ p.add_argument("--mpiexec-flag", action="append", default=[])
 p.add_argument("--resume-ranks", type=int, action="append", default=[])
 p.add_argument("--stop-at", type=int)
 p.add_argument("--reference-ranks", type=int, default=0)
+p.add_argument("--integrator")
 a = p.parse_args()
 a.resume_ranks = a.resume_ranks or [0]
 
@@ -45,10 +47,11 @@ def run(cmd):
 shutil.rmtree(a.work, ignore_errors=True)
 alone, split = os.path.join(a.work, "alone"), os.path.join(a.work, "split")
 steps = json.load(open(a.scene))["steps"]
-reference = [a.qbond, "run", a.scene, "-o", alone, "--quiet"]
+chosen = ["--integrator", a.integrator] if a.integrator else []
+reference = [a.qbond, "run", a.scene, "-o", alone, "--quiet"] + chosen
 run(reference if not a.reference_ranks else [a.mpiexec] + a.mpiexec_flag + ["-n", str(a.reference_ranks)] + reference)
 run([a.mpiexec] + a.mpiexec_flag + ["-n", str(a.ranks), a.qbond, "run", a.scene, "-o", split, "--quiet",
-                                     "--steps", str(a.stop_at or steps // 2)])
+                                     "--steps", str(a.stop_at or steps // 2)] + chosen)
 whom = f"run over {a.reference_ranks} ranks" if a.reference_ranks else "run alone"
 frames = sorted(os.listdir(os.path.join(alone, "frames")))
 one = list(csv.reader(open(os.path.join(alone, "diagnostics.csv"))))
