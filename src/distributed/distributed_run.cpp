@@ -25,8 +25,7 @@ void check_distributable(const Scene& scene, int ranks) {
   const std::string over = "a run over " + std::to_string(ranks) + " ranks ";
   const std::string one = "; run it on one rank (without mpirun)";
   const IntegratorType t = scene.integrator.type;
-  const bool newton = t == IntegratorType::energy_momentum || t == IntegratorType::implicit_midpoint ||
-                      t == IntegratorType::bdf2;
+  const bool newton = distributed::newton_integrator(t);
 #ifdef QBOND_DISTRIBUTED_IMPLICIT
   const bool implicit = t == IntegratorType::coupled_implicit || newton;
   const char* taken =

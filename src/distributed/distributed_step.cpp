@@ -134,8 +134,7 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       verlet_(config.type == IntegratorType::velocity_verlet),
       implicit_(config.type == IntegratorType::coupled_implicit),
       restore_(config.restore_energy),
-      newton_(config.type == IntegratorType::energy_momentum || config.type == IntegratorType::implicit_midpoint ||
-              config.type == IntegratorType::bdf2),
+      newton_(newton_integrator(config.type)),
       sweeps_(config.type == IntegratorType::hybrid_implicit && config.neighbours != NeighbourModel::frozen),
       linked_(sweeps_ || newton_ || config.type == IntegratorType::rk4),
       rank_(mpi_rank()),
@@ -547,10 +546,11 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     if (newton_ && config_.type != IntegratorType::bdf2 && report.status == StepReport::Status::ok &&
         solve_stats_.unconverged > 0) {
       // The run alone takes the step again in halves (newton.hpp), which over ranks it does not.
-      report.status = StepReport::Status::blowup;
-      report.message = "at step " + std::to_string(whole_.state.step + 1) + " Newton's iteration did not converge; "
-                       "the run alone takes such a step again in halves, which over ranks is not distributed yet: "
-                       "take smaller steps, or run it on one rank; the world keeps the state before this step";
+      report = kept_before({.status = StepReport::Status::blowup,
+                            .message = "at step " + std::to_string(whole_.state.step + 1) +
+                                       " Newton's iteration did not converge; the run alone takes such a step "
+                                       "again in halves, which over ranks is not distributed yet: take smaller "
+                                       "steps, or run it on one rank"});
     }
     left = report.status == StepReport::Status::ok && left_box();
   } else if (gathers_contacts_) {

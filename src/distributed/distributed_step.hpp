@@ -41,6 +41,12 @@ struct CarryKind {
 // damping zone.
 using ProjectionRule = std::variant<Obstacle, QuantaContactRule, DampingZone>;
 
+// Whether `t` is a Newton integrator (newton.hpp), whose iterations a run over ranks links and
+// whose linear solves go over the ranks.
+inline bool newton_integrator(IntegratorType t) {
+  return t == IntegratorType::energy_momentum || t == IntegratorType::implicit_midpoint || t == IntegratorType::bdf2;
+}
+
 class DistributedStep final : private RanksLink, private ContactRanks {
  public:
   // Splits `whole` (the same on every rank) over the job's ranks; config.type must be an explicit
