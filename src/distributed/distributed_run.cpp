@@ -79,14 +79,15 @@ void check_distributable(const Scene& scene, int ranks) {
     if (law_breaks(b.law[k]) && stage == 3)
       throw std::invalid_argument(over + "does not distribute bonds that break at their law's failure stretch (" +
                                   std::string(to_string(b.law[k])) + ") beside 'form' rules yet" + one);
-  if (scene.adaptive.enabled) throw std::invalid_argument(over + "does not adapt its step yet" + one);
-  // The gain is judged before the step's breaks are shared, while the step can still be undone:
-  // formed bonds and the restoration change the energy after that.
+  // The gain and an adaptive step's energy drift are judged before the step's breaks are shared,
+  // while the step can still be undone: formed bonds and the restoration change the energy after that.
   bool forms = false;
   for (const HeuristicSpec& spec : scene.heuristics) forms = forms || std::holds_alternative<FormRule>(spec);
+  const char* later = " beside 'form' rules or restore_energy, which change the energy after the step can be undone";
   if (scene.limits.stop_on_energy_gain && (forms || scene.integrator.restore_energy))
-    throw std::invalid_argument(over + "does not stop on the energy gained (stop_on_energy_gain) beside 'form' rules "
-                                "or restore_energy, which change the energy after the step can be undone" + one);
+    throw std::invalid_argument(over + "does not stop on the energy gained (stop_on_energy_gain)" + later + one);
+  if (scene.adaptive.enabled && (forms || scene.integrator.restore_energy))
+    throw std::invalid_argument(over + "does not adapt its step" + later + one);
 }
 
 }  // namespace
@@ -145,8 +146,14 @@ struct RanksRun::Impl {
   bool due(const StepReport& r) const {
     const std::uint64_t s = dist->step_count();
     return r.status != StepReport::Status::ok || dist->stop_agreed() || s % settings.every == 0 ||
-           (settings.checkpoint_every && s % settings.checkpoint_every == 0) || s >= settings.steps;
+           (settings.checkpoint_every && s % settings.checkpoint_every == 0) || finished();
   }
+  // Whether the run has come to its end, as the Runner's: a time with adaptive steps, else a step.
+  bool finished() const {
+    return adaptive ? dist->time() >= end_time : dist->step_count() >= settings.steps;
+  }
+  bool adaptive = false;
+  double end_time = 0;  // [s]
 
   // Splits `scene` over the ranks (refusing what is not distributed; a resumed run over as many
   // ranks as its checkpoint's cut as it was) and, on rank 0, starts the outputs with make_runner
@@ -222,6 +229,15 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
       scene.integrator.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / on_node);
     r.dist = std::make_unique<distributed::DistributedStep>(scene.world, scene.integrator, scene.timestep,
                                                             scene.limits);
+    if (scene.adaptive.enabled) {
+      // As the Runner alone: the run ends at steps × timestep; a resumed one goes on from its
+      // controller's state.
+      r.adaptive = true;
+      r.end_time = static_cast<double>(run_settings.steps) * scene.timestep;
+      const bool held = run_settings.resumed_next_step > 0;
+      r.dist->set_adaptive(scene.adaptive, r.end_time, held ? run_settings.resumed_next_step : scene.timestep,
+                           held ? run_settings.resumed_last_step : scene.timestep);
+    }
     if (resumed && !run_settings.resumed_ranks.empty())
       if (distributed::Bisection cuts = distributed::bisection_from_json(run_settings.resumed_ranks);
           cuts.parts == ranks)
@@ -267,7 +283,8 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
     r.runner->set_stepper({.step = [&r] { return r.step(r.runner->simulation().world()); },
                            .events = [&r]() -> const std::vector<BondEvent>& { return r.dist->events(); },
                            .stats = [&r] { return r.dist->solve_stats(); },
-                           .energy_gain = [&r]() -> const EnergyGain& { return r.dist->energy_gain(); }});
+                           .energy_gain = [&r]() -> const EnergyGain& { return r.dist->energy_gain(); },
+                           .steps = [&r] { return std::pair(r.dist->last_step(), r.dist->next_step()); }});
   }
 }
 
@@ -286,14 +303,14 @@ RunResult RanksRun::run(const std::function<bool()>& stop, const std::function<v
     const auto t0 = std::chrono::steady_clock::now();
     RunResult result;
     const std::uint64_t start = r.dist->step_count();
-    while (r.dist->step_count() < r.settings.steps) {
+    while (!r.finished()) {
       const StepReport rep = r.step(r.scene.world);
       if (rep.status != StepReport::Status::ok) {
         result.status = RunStatus::blowup;
         result.message = rep.message;
         break;
       }
-      if (r.dist->stop_agreed() && r.dist->step_count() < r.settings.steps) {
+      if (r.dist->stop_agreed() && !r.finished()) {
         result.status = RunStatus::stopped;
         break;
       }

@@ -123,6 +123,10 @@ constexpr double kImbalance = 1.1;
 constexpr double kGainTolerance = 1e-9;
 constexpr int kMaxDepth = 10;
 
+// What a step's penalty contacts took out: their impulses' negative work less what their springs
+// gained, as a run on one rank's explicit integrators charge it (finish_contact) [J].
+double contact_loss(const Projection::ContactEnergy& c) { return std::max(0.0, -c.work - (c.stored - c.stored_start)); }
+
 }  // namespace
 
 DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& config, double h,
@@ -142,6 +146,7 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
       start_books_(whole.state.energy) {
   open_ledger(whole_.model, whole_.state, start_books_);  // as a run on one rank's Simulation does
   energy_start_ = energies(whole_.model, whole_.state);
+  last_h_ = h;
   config_.restore_energy = false;  // restored here, over the ranks, not by each piece
   contacts_ = PenaltyContact::used(whole_.model);
   const Bonds& wb = whole_.state.bonds;
@@ -356,8 +361,8 @@ std::vector<double> DistributedStep::fresh_forces(const World& w) {
 }
 
 StepReport DistributedStep::piece_step() {
-  if (projection_rules_.empty()) return sim_->step();
-  sim_->begin_step();
+  if (whole_piece()) return sim_->step();
+  if (projection_rules_.empty()) return sim_->end_step();
   Projection& p = sim_->projection();
   halo_.exchange(
       plan_, 6,
@@ -527,7 +532,7 @@ double wall_seconds() {
 
 StepReport DistributedStep::step(bool stop) {
   const double wall0 = wall_seconds(), cpu0 = cpu_seconds();
-  StepReport r = step_timed(stop, cpu0);
+  StepReport r = adaptive_ ? adaptive_step(stop) : step_timed(stop, cpu0);
   times_.wall += wall_seconds() - wall0;
   ++times_.steps;
   return r;
@@ -541,6 +546,11 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     State& s = sim_->world().state;
     ledger_.x = s.x;
     ledger_.v = s.v;
+    if (undoable()) carry0_ = s.carry;
+    if (!whole_piece()) sim_->begin_step();
+  }
+  if (try_ && rejects_error()) return {};  // before anything changed: nothing to undo
+  if (sim_) {
     report = piece_step();
     solve_stats_ = sim_->integrator().stats();  // before a rebuild makes a new integrator
     if (newton_ && config_.type != IntegratorType::bdf2 && report.status == StepReport::Status::ok &&
@@ -569,7 +579,10 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
   times_.bookkeeping += cpu_seconds() - cpu1;
   Verdict v = agree(report, left, stop, work, contacts_ ? contact_stored_after() : 0.0, fractured);
   auto undo = [&] {
-    if (sim_) roll_back(work);
+    if (sim_) {
+      roll_back(work);
+      restore_carry();
+    }
     heuristics_loss_ -= fractured;
     whole_.state.rng = rng0;
     events_.clear();
@@ -610,13 +623,23 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
       undo();
       return kept_before(std::move(r));
     }
+  // Adaptive steps: the books as the step leaves them, this rank's projection rules' loss and the
+  // contacts' charges below included.
+  if (try_ && !try_->at.at_min) {
+    const double pending = sim_ && !projection_rules_.empty() ? sim_->world().state.energy.dissipated_heuristics : 0.0;
+    const double books = contacts_ ? net_books(pending, contact_dissipated_ + contact_loss(v.contact), v.contact.stored)
+                                   : net_books(pending, contact_dissipated_, contact_stored_);
+    if (drifted(energy_start_.total(), v.after, books)) {
+      undo();
+      return {};
+    }
+  }
   const double e_start = std::exchange(energy_start_, v.after).total();
   stop_agreed_ = v.stop;
   if (contacts_) {
     // As a run on one rank charges them (the explicit integrators' finish_contact).
-    const Projection::ContactEnergy& c = v.contact;
-    contact_dissipated_ += std::max(0.0, -c.work - (c.stored - c.stored_start));
-    contact_stored_ = c.stored;
+    contact_dissipated_ += contact_loss(v.contact);
+    contact_stored_ = v.contact.stored;
   }
   if (sim_ && !projection_rules_.empty()) {
     // This rank's projection rules' books of the step, kept here: a piece built anew starts from none.
@@ -649,6 +672,59 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
   return {};
 }
 
+void DistributedStep::set_adaptive(const AdaptiveConfig& config, double t_end, double proposal, double last) {
+  adaptive_ = config;
+  t_end_ = t_end;
+  proposal_ = proposal;
+  last_h_ = last;
+}
+
+StepReport DistributedStep::adaptive_step(bool stop) {
+  // As adaptive_step alone: the books and energy when the step began give its drift.
+  try_.emplace(Try{.control = AdaptiveController(*adaptive_, proposal_), .at = {}, .books0 = net_books()});
+  for (;;) {
+    Try& t = *try_;
+    t.at = t.control.next_try(whole_.state.time, t_end_);
+    t.rejected = false;
+    h_ = t.at.step;
+    if (sim_) sim_->set_timestep(h_);
+    StepReport r = step_timed(stop, cpu_seconds());
+    if (t.rejected) continue;
+    if (r.status != StepReport::Status::ok && !t.at.at_min) {  // undone by step_timed
+      t.control.reject_undone(t.at);
+      continue;
+    }
+    if (r.status == StepReport::Status::ok && t.at.last) {
+      // t + (t_end − t) may miss t_end by an ulp
+      whole_.state.time = t_end_;
+      if (sim_) sim_->world().state.time = t_end_;
+    }
+    last_h_ = t.at.step;
+    proposal_ = t.control.next_proposal(t.at, t.error);
+    try_.reset();
+    return r;
+  }
+}
+
+bool DistributedStep::rejects_error() {
+  const double mine[1] = {sim_ ? step_error(sim_->world().model, sim_->world().state, sim_->projection(), h_, owned_)
+                               : 0.0};
+  double e = 0;
+  for (double x : all_gather(mine)) e = std::max(e, x);
+  try_->error = e;
+  return try_->rejected = try_->control.rejects_error(try_->at, e);
+}
+
+bool DistributedStep::drifted(double e_before, const Energies& after, double books) {
+  Try& t = *try_;
+  // The budget's `numerical` is the books less E − E(0): its change over the step.
+  const double change = (books - t.books0) - (after.total() - e_before);
+  const double scale = std::max(std::abs(start_books_.initial_total), std::abs(after.kinetic) + std::abs(after.bonds));
+  if (!t.control.drifts(t.at, change, scale)) return false;
+  t.control.reject_undone(t.at);
+  return t.rejected = true;
+}
+
 void DistributedStep::roll_back(const StepWork& work) {
   State& s = sim_->world().state;
   s.x = ledger_.x;
@@ -660,12 +736,19 @@ void DistributedStep::roll_back(const StepWork& work) {
   loads_ -= work.loads;
 }
 
+void DistributedStep::restore_carry() {
+  if (carry0_) sim_->world().state.carry = std::move(*carry0_);
+  carry0_.reset();
+}
+
 void DistributedStep::rebuild_after_roll_back() {
-  // Velocity Verlet's carried forces were the step's: the pieces are rebuilt from the state
-  // before it, with forces evaluated afresh by their owners.
-  std::vector<double> unused;
-  unpack_rows(all_gather(owned_rows()), whole_.num_quanta(), whole_.state.x, whole_.state.v, unused);
-  build(nullptr, {});
+  // The pieces are rebuilt from the state before the step with what it carried when the step may
+  // be undone (restore_carry); else velocity Verlet's forces are evaluated afresh by their owners
+  // and a solve starts without a guess.
+  std::vector<double> c;
+  unpack_rows(all_gather(owned_rows()), whole_.num_quanta(), whole_.state.x, whole_.state.v, c);
+  const CarryKind kind = undoable() ? carry_kind() : CarryKind{};
+  build(kind.kind != CarryKind::Kind::none ? &c : nullptr, kind);
 }
 
 double DistributedStep::contact_stored_after() {
@@ -686,10 +769,10 @@ bool DistributedStep::gains(const Verdict& v, bool whole) const {
   return gain > kGainTolerance * scale + (credit ? limits_.energy_floor : 0.0);
 }
 
-double DistributedStep::net_books() {
-  const double mine[3] = {anchors_ + loads_, damping_, heuristics_loss_};
+double DistributedStep::net_books(double pending, double contact_dissipated, double contact_stored) {
+  const double mine[3] = {anchors_ + loads_, damping_, heuristics_loss_ + pending};
   const std::vector<double> all = all_gather(mine);
-  double net = -contact_dissipated_ - contact_stored_;
+  double net = -contact_dissipated - contact_stored;
   for (std::size_t r = 0; r + 3 <= all.size(); r += 3) net += all[r] - all[r + 1] - all[r + 2];
   return net;
 }
@@ -740,6 +823,7 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
   if (sim_) {
     x0 = sim_->world().state.x;
     v0 = sim_->world().state.v;
+    if (undoable()) carry0_ = sim_->world().state.carry;
   }
   const double anchors0 = anchors_, damping0 = damping_, loads0 = loads_;
   const Energies e0 = energy_start_;
@@ -754,6 +838,7 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
       s.v = std::move(v0);
       s.time = t0;
       s.step = whole_.state.step;
+      restore_carry();
     }
     anchors_ = anchors0;
     damping_ = damping0;
@@ -772,14 +857,25 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
   const double mine[1] = {breaks() ? decide_breaks() : 0.0};
   if (breaks())
     for (double fractured : all_gather(mine)) bonds -= fractured;
+  auto undo_breaks = [&] {
+    heuristics_loss_ -= mine[0];
+    whole_.state.rng = rng0;
+    events_.clear();
+    undo();
+  };
   if (limits_.stop_on_energy_gain)
     if (StepReport r = record_gain(last, bonds); r.status != StepReport::Status::ok) {
-      heuristics_loss_ -= mine[0];
-      whole_.state.rng = rng0;
-      events_.clear();
-      undo();
+      undo_breaks();
       return kept_before(std::move(r));
     }
+  if (try_ && !try_->at.at_min) {
+    Energies after = last.after;
+    after.bonds += bonds;
+    if (drifted(e0.total(), after, net_books())) {
+      undo_breaks();
+      return {};
+    }
+  }
   if (breaks() && !plastic_.empty()) share_rests();
   int flags[1] = {0};  // a quanta left its rank's box
   if (sim_) {
@@ -810,6 +906,7 @@ bool DistributedStep::half(double t_a, double t_b, int depth, bool stop, Verdict
     ledger_.v = s.v;
     s.time = t_a;
     sim_->set_timestep(H);
+    if (!whole_piece()) sim_->begin_step();
     report = piece_step();
     sim_->set_timestep(h_);
     const SolveStats& taken = sim_->integrator().stats();

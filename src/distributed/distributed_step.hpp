@@ -23,6 +23,7 @@
 #include "ledger/step_work.hpp"
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/heuristics/damping_zone.hpp"
+#include "qbond/integrators/adaptive.hpp"
 #include "qbond/simulation/simulation.hpp"
 #include "solvers/coloring.hpp"
 
@@ -105,6 +106,16 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // Verlet's forces after a step that any rank edited are evaluated afresh by their owners, as
   // the run alone evaluates them when the state is not the one its carried forces were left for.
   void set_projection_rules(std::vector<ProjectionRule> rules);
+  // Adaptive steps over ranks, with the run alone's controller (adaptive_step): each step is
+  // tried from the proposal until accepted, ending exactly at t_end; the error estimate is the
+  // largest over every rank's owned quanta, and the energy drift is the change of the books summed
+  // over the ranks less the energy's. `proposal`: the first try's length [s]; `last`: the step
+  // that led to the current state [s].
+  void set_adaptive(const AdaptiveConfig& config, double t_end, double proposal, double last);
+  // The step that led to the current state and the one the next step tries first [s] (both the
+  // timestep without adaptive steps).
+  double last_step() const { return last_h_; }
+  double next_step() const { return adaptive_ ? proposal_ : h_; }
   // The last step's solve as this rank's piece took it (the solves over ranks' iterations and
   // residual are the whole system's, the same on every rank); empty on a rank without quanta.
   const SolveStats& solve_stats() const { return solve_stats_; }
@@ -150,6 +161,15 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // step() but for its timing (cpu0: the CPU time when the step began); `retaken`: the step is
   // taken again from pieces built anew, after a quanta moved past the contact halo in it.
   StepReport step_timed(bool stop, double cpu0, bool retaken = false);
+  // step() with adaptive steps (set_adaptive): tries until one is accepted, or one at min_step.
+  StepReport adaptive_step(bool stop);
+  // Adaptive steps: whether the try's error estimate, the largest over the ranks, rejects it
+  // before the pieces finish their steps (collective).
+  bool rejects_error();
+  // Adaptive steps: whether the step just taken, from energies e_before (the step's start) to
+  // `after` with the books then `books`, drifts past the controller's bound; the controller then
+  // shortens the next try.
+  bool drifted(double e_before, const Energies& after, double books);
   // The quanta pairs the pieces' contact halos hold, from the whole state (none without quanta contact).
   ContactHalo contact_halo() const;
   // Builds this rank's piece from whole_ and owner_ with what the whole world's step carries
@@ -162,6 +182,9 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // The piece's step (of its timestep); with projection rules, the ghosts' projection rows come
   // from their owners before the rules edit it.
   StepReport piece_step();
+  // Whether the piece takes its step whole (Simulation::step, which may advance in place): no
+  // projection rules edit its projection and no adaptive try reads it first.
+  bool whole_piece() const { return projection_rules_.empty() && !adaptive_; }
   // Velocity Verlet's forces a(x, v) at the piece's state w, kCarried numbers a quanta: the
   // owned quanta's evaluated here (the piece holds all their bonds), the ghosts' from their owners.
   std::vector<double> fresh_forces(const World& w);
@@ -214,7 +237,10 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   static StepReport kept_before(StepReport r);
   // The whole run's books over every rank: the external work less what the dampers, heuristics
   // and contacts took out and what the contacts' springs hold [J] (collective).
-  double net_books();
+  double net_books() { return net_books(0, contact_dissipated_, contact_stored_); }
+  // The same with this rank's `pending` heuristics' loss not yet in heuristics_loss_ and the
+  // contacts' books as given [J] (collective).
+  double net_books(double pending, double contact_dissipated, double contact_stored);
   // restore_energy over the ranks (scale_internal_velocities, each rank scaling its owned quanta,
   // the whole world's components summed over the ranks), after the step's breaks and forms, its
   // energy then energy_start_: E(end) made E(start) plus the step's change of net_books(), as
@@ -233,7 +259,14 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   double contact_stored_after();
   // This piece back to the state before the step, its ledger charges `work` taken back.
   void roll_back(const StepWork& work);
-  // Every piece rebuilt from the state the ranks hold (after roll_back), with fresh carried forces.
+  // Whether a step the pieces took may still be undone (an adaptive try, stop_on_energy_gain, a
+  // retake for quanta contact): the pieces then keep what their step carried in (carry0_), for
+  // the run alone's undo restores it (velocity Verlet's damped forces a(x, ṽ) are not a(x, v)).
+  bool undoable() const { return try_ || limits_.stop_on_energy_gain || reach_ > 0; }
+  // The piece's carry-over back to carry0_, when kept.
+  void restore_carry();
+  // Every piece rebuilt from the state the ranks hold (after roll_back), with what the step
+  // carried in when restore_carry kept it, else fresh carried forces.
   void rebuild_after_roll_back();
   // Every piece rebuilt from every owned quanta's state (one all-gather): with `moved`, quanta go
   // to the ranks whose boxes hold them, the boxes cut anew when the ranks' loads drifted apart;
@@ -377,6 +410,19 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   MotionComponents motion_;
   std::uint64_t motion_version_ = ~0ull;
   bool stop_agreed_ = false;
+  // Adaptive steps: the controller's settings, the run's end and the next try's length [s]; the
+  // try in progress (its length, the error estimate, whether it was rejected) and the books when
+  // its step began.
+  std::optional<AdaptiveConfig> adaptive_;
+  double t_end_ = 0, proposal_ = 0, last_h_ = 0;
+  struct Try {
+    AdaptiveController control;
+    AdaptiveController::Try at;
+    double books0 = 0, error = 0;
+    bool rejected = false;
+  };
+  std::optional<Try> try_;
+  std::optional<Carry> carry0_;  // the piece's carry-over when the step began (undoable())
   EnergyGain gain_;
   std::uint64_t migrations_ = 0;
   std::uint64_t recuts_ = 0;

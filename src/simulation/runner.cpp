@@ -223,7 +223,11 @@ struct Runner::Impl {
   std::optional<Stepper> stepper;  ///< set_stepper's, else the simulation's own
 
   StepReport step() {
-    if (stepper) return stepper->step();
+    if (stepper) {
+      StepReport r = stepper->step();
+      last_h = stepper->steps().first;
+      return r;
+    }
     if (!scene.adaptive.enabled) return sim.step();
     const AdaptiveReport a = adaptive_step(sim, scene.adaptive, end_time());
     last_h = a.h;
@@ -237,7 +241,8 @@ struct Runner::Impl {
               {"run", to_json(settings)}};
     // The adaptive controller's state: the step it proposes next, and the one it took last (the
     // diagnostics' timestep column). Doubles print and parse back to the same bits.
-    if (scene.adaptive.enabled) j["adaptive"] = {{"next_step", sim.timestep()}, {"last_step", last_h}};
+    if (scene.adaptive.enabled)
+      j["adaptive"] = {{"next_step", stepper ? stepper->steps().second : sim.timestep()}, {"last_step", last_h}};
     if (settings.ranks_layout) j["ranks"] = json::parse(settings.ranks_layout());
     return j.dump();
   }
@@ -364,25 +369,17 @@ Runner::Runner(Scene scene, RunSettings settings)
   }
 }
 
-namespace {
-// What a checkpoint resumes: its scene with the checkpoint's state, its run's settings (adjusted)
-// and, for adaptive steps, the next and last step.
-struct Resumed {
-  Scene scene;
-  RunSettings settings;
-  std::optional<std::pair<double, double>> adaptive_state;  // next step, last step
-};
-
-Resumed read_resumed(const fs::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
-                     std::uint64_t max_memory) {
+std::pair<Scene, RunSettings> Runner::read_checkpoint(const fs::path& checkpoint,
+                                                      const std::function<void(Scene&, RunSettings&)>& adjust,
+                                                      std::uint64_t max_memory) {
   const std::uint64_t limit = max_memory > 0 ? max_memory : default_memory_limit();
   Checkpoint ck = load_checkpoint(checkpoint, limit);
   const std::string name = checkpoint.string();
   // The metadata is checked like a scene: the checksum only says the bytes are the ones written,
   // not that whoever wrote them wrote sense.
   json meta;
-  Resumed out;
-  RunSettings& settings = out.settings;
+  std::pair<Scene, RunSettings> out;
+  auto& [scene, settings] = out;
   try {
     using namespace scene_detail;
     meta = parse_json_strict(ck.metadata);
@@ -393,47 +390,36 @@ Resumed read_resumed(const fs::path& checkpoint, const std::function<void(Scene&
     if (top.has("ranks")) settings.resumed_ranks = top["ranks"].dump();  // checked by the run over ranks
     if (top.has("adaptive")) {
       Obj a(top["adaptive"], "adaptive", {"next_step", "last_step"});
-      out.adaptive_state.emplace(positive(a.required("next_step"), a.at("next_step")),
-                                 positive(a.required("last_step"), a.at("last_step")));
+      settings.resumed_next_step = positive(a.required("next_step"), a.at("next_step"));
+      settings.resumed_last_step = positive(a.required("last_step"), a.at("last_step"));
     }
   } catch (const JsonTextError& e) {
     throw CheckpointError(name + ": metadata: " + e.what());
   } catch (const scene_detail::Bad& b) {
     throw CheckpointError(name + ": metadata: " + (b.path.empty() ? "" : b.path + ": ") + b.rule);
   }
-  out.scene = parse_scene(meta["scene"].dump(), name + ", its scene", {.max_memory = max_memory});
+  scene = parse_scene(meta["scene"].dump(), name + ", its scene", {.max_memory = max_memory});
   settings.out_dir = fs::absolute(checkpoint).parent_path();
-  if (adjust) adjust(out.scene, settings);
+  if (adjust) adjust(scene, settings);
   try {
-    adopt_scene_bonds(ck, out.scene.world);
+    adopt_scene_bonds(ck, scene.world);
   } catch (const CheckpointError& e) {
     throw CheckpointError(name + ": " + e.what());
   }
-  out.scene.world.state = std::move(ck.state);
-  refuse_nothing_to_run(name, out.scene, settings);
+  scene.world.state = std::move(ck.state);
+  refuse_nothing_to_run(name, scene, settings);
   return out;
-}
-}  // namespace
-
-std::pair<Scene, RunSettings> Runner::read_checkpoint(const fs::path& checkpoint,
-                                                      const std::function<void(Scene&, RunSettings&)>& adjust,
-                                                      std::uint64_t max_memory) {
-  Resumed r = read_resumed(checkpoint, adjust, max_memory);
-  return {std::move(r.scene), std::move(r.settings)};
 }
 
 Runner Runner::resume(const fs::path& checkpoint, const std::function<void(Scene&, RunSettings&)>& adjust,
                       std::uint64_t max_memory) {
-  Resumed resumed = read_resumed(checkpoint, adjust, max_memory);
-  Scene& scene = resumed.scene;
-  RunSettings& settings = resumed.settings;
-  const auto& adaptive_state = resumed.adaptive_state;
+  auto [scene, settings] = read_checkpoint(checkpoint, adjust, max_memory);
   auto impl = std::make_unique<Impl>(std::move(scene), std::move(settings));
   Impl& r = *impl;
   r.resumed_from = fs::absolute(checkpoint).string();
-  if (adaptive_state && r.scene.adaptive.enabled) {
-    r.sim.set_timestep(adaptive_state->first);
-    r.last_h = adaptive_state->second;
+  if (r.settings.resumed_next_step > 0 && r.scene.adaptive.enabled) {
+    r.sim.set_timestep(r.settings.resumed_next_step);
+    r.last_h = r.settings.resumed_last_step;
   }
   r.claim_output_dir();
 

@@ -14,6 +14,8 @@ added rank by rank, differ in the last digits). With --reference-ranks M the run
 the scene run over M ranks without stopping (coupled_implicit, whose solve over ranks is not the
 run alone's: the checkpoint carries the solve's last solutions, the next steps' guesses; bdf2 its
 history). --integrator runs the scene with that integrator instead of its own (a checkpoint keeps it).
+With adaptive steps (the steps then a time, steps × timestep) the run alone stops where the run over
+ranks stops and is resumed alone, for a run stopped at a time takes a step that ends there.
 """
 import argparse
 import csv
@@ -46,10 +48,18 @@ def run(cmd):
 
 shutil.rmtree(a.work, ignore_errors=True)
 alone, split = os.path.join(a.work, "alone"), os.path.join(a.work, "split")
-steps = json.load(open(a.scene))["steps"]
+scene = json.load(open(a.scene))
+adaptive = "adaptive" in scene
+steps = scene["steps"] if "steps" in scene else round(scene["duration"] / scene["timestep"])
 chosen = ["--integrator", a.integrator] if a.integrator else []
 reference = [a.qbond, "run", a.scene, "-o", alone, "--quiet"] + chosen
+if adaptive:
+    # An adaptive run stopped at a time takes a step that ends there: the reference stops there too,
+    # alone, and is resumed alone.
+    reference += ["--steps", str(a.stop_at or steps // 2)]
 run(reference if not a.reference_ranks else [a.mpiexec] + a.mpiexec_flag + ["-n", str(a.reference_ranks)] + reference)
+if adaptive:
+    run([a.qbond, "run", "--resume", os.path.join(alone, "checkpoint.qbc"), "--steps", str(steps), "--quiet"])
 run([a.mpiexec] + a.mpiexec_flag + ["-n", str(a.ranks), a.qbond, "run", a.scene, "-o", split, "--quiet",
                                      "--steps", str(a.stop_at or steps // 2)] + chosen)
 whom = f"run over {a.reference_ranks} ranks" if a.reference_ranks else "run alone"

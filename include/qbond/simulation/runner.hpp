@@ -34,6 +34,9 @@ struct RunSettings {
   std::function<std::string()> ranks_layout;
   /// The `ranks` of the checkpoint a run resumes from (read_checkpoint), as JSON; empty if none.
   std::string resumed_ranks;
+  /// The adaptive controller's state in the checkpoint a run resumes from (read_checkpoint): the
+  /// step it proposes next and the one that led to its state [s]; 0 when it has none.
+  double resumed_next_step = 0, resumed_last_step = 0;
 };
 
 /// The file of a step's frame, relative to the output directory: frames/frame_<step, 10
@@ -121,6 +124,9 @@ class Runner {
     std::function<SolveStats()> stats;  ///< the step's solve (the diagnostics' iterations, residual)
     /// E(t) − E(0) beyond the external work so far (events.csv's energy_gain row, run.json).
     std::function<const EnergyGain&()> energy_gain;
+    /// The step just taken and the one proposed next [s] (the diagnostics' timestep column, and
+    /// an adaptive run's checkpoints).
+    std::function<std::pair<double, double>()> steps;
   };
   /// Replaces how each step is taken and what it reports; every member must be set.
   void set_stepper(Stepper stepper);
