@@ -8,6 +8,7 @@
 
 #include "distributed/collectives.hpp"
 #include "integrators/backward_euler.hpp"
+#include "integrators/contact_solve.hpp"
 #include "integrators/integrator_common.hpp"
 
 namespace qbond::distributed {
@@ -349,8 +350,13 @@ bool takes_matrix(const IntegratorConfig& config) {
 class CoupledOverRanks final : public StepIntegrator {
  public:
   // Dampers at the end-of-step velocity (backward Euler), as the coupled integrator on one rank.
-  CoupledOverRanks(const IntegratorConfig& c, SolveLayout layout)
-      : StepIntegrator(c, {.damping_theta = 1.0}), layout_(std::move(layout)) {}
+  // Obstacle contacts are each owned quanta's, solved by its rank (contact_solve.hpp).
+  CoupledOverRanks(const IntegratorConfig& c, SolveLayout layout, const double& whole_h)
+      : StepIntegrator(c, {.damping_theta = 1.0}), layout_(std::move(layout)), whole_h_(whole_h) {
+    std::vector<std::uint8_t> owned(layout_.row.size(), 0);
+    for (Index i : layout_.owned_free) owned[i] = 1;
+    contact_.only_quanta(std::move(owned));
+  }
 
   bool forms_gravity() const override { return true; }
 
@@ -359,20 +365,39 @@ class CoupledOverRanks final : public StepIntegrator {
     stats_ = {};
     const int threads = config_.threads;
     begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/false, threads, out, sys_);
+    const bool contacts =
+        contact_.begin(model, state, adj, f_ext, ctx.h, whole_h_ > 0 ? whole_h_ : ctx.h, threads, sys_);
     const bool guessed = initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, threads, y_);
     if (!guessed) y_.assign(model.num_quanta(), Vec3::Zero());
     if (!system_) system_ = std::make_unique<RanksSystem>(layout_, state, adj, config_, takes_matrix(config_));
     system_->load(layout_, model, state.bonds, adj, sys_);
     system_->solve(layout_, sys_, guessed, y_, stats_);
-    if (config_.restore_momentum) restore_momentum_over_ranks(layout_, model, f_ext, ctx.h, y_);
+    // Contacts: solved again, from the last solution, while some rank's active set changes, as
+    // the run alone's coupled step.
+    for (int pass = 1; contacts && pass < ContactSolve::kPasses; ++pass) {
+      int changed[1] = {contact_.update(model, state, ctx.h, threads, pass + 1 == ContactSolve::kPasses, y_, sys_) ? 1 : 0};
+      max_over_ranks(changed);
+      if (!changed[0]) break;
+      system_->load(layout_, model, state.bonds, adj, sys_);
+      system_->solve(layout_, sys_, true, y_, stats_);
+    }
+    if (config_.restore_momentum) restore_momentum_over_ranks(layout_, model, f_ext, ctx.h, y_, contact_.touching());
     keep_guess(config_.warm_start, y_, ctx.h, state.carry, threads, out);
     // The ghosts' rows are their owners' to write: the exchange after the step brings them.
     write_free_rows(model, state, ctx.h, y_, threads, out);
+    if (model.gravity != Vec3::Zero())
+      for (std::size_t c = 0; c < layout_.component_size.size(); ++c)
+        if (layout_.component_size[c] == 1)  // a lone quanta, on its owner's rank
+          for (Index k = layout_.component_offset[c]; k < layout_.component_offset[c + 1]; ++k)
+            fall_freely(model, layout_.component_owned[k], f_ext, ctx.h, contact_.touching(), out);
+    if (contacts) contact_.finish(model, state, adj, ctx.h, y_, out);
   }
 
  private:
   SolveLayout layout_;
+  const double& whole_h_;
   ImplicitSystem sys_;
+  ContactSolve contact_;
   std::vector<Vec3> y_;
   std::unique_ptr<RanksSystem> system_;
 };
@@ -401,10 +426,11 @@ std::unique_ptr<RanksSolve> make_ranks_solve(const SolveLayout& layout, const St
   return std::make_unique<PetscRanksSolve>(layout, state, adj, config);
 }
 
-std::unique_ptr<StepIntegrator> make_coupled_over_ranks(const IntegratorConfig& config, SolveLayout layout) {
+std::unique_ptr<StepIntegrator> make_coupled_over_ranks(const IntegratorConfig& config, SolveLayout layout,
+                                                        const double& whole_h) {
   IntegratorConfig c = config;
   c.warm_start = resolved_warm_start(c);  // as make_step_integrator does
-  return std::make_unique<CoupledOverRanks>(c, std::move(layout));
+  return std::make_unique<CoupledOverRanks>(c, std::move(layout), whole_h);
 }
 
 void apply_both_operators(const SolveLayout& layout, const Model& model, const State& state, const Adjacency& adj,

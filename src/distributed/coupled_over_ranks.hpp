@@ -35,6 +35,7 @@ struct SolveLayout {
   std::vector<Index> component_offset;  // (components + 1)
   std::vector<Index> component_owned;
   std::vector<double> component_mass;
+  std::vector<Index> component_size;  // each component's quanta over the whole world
 };
 
 // Rank `rank`'s layout (of `ranks`) given every quanta's owner, its piece's quanta (`global`: each
@@ -45,13 +46,17 @@ SolveLayout solve_layout(const World& whole, std::span<const int> owner, int ran
                          const FreeComponents& components);
 
 // restore_component_momentum over the whole world's free components on the owned rows of dv: each
-// rank's sums over its owned members, added in rank order (the same shift on every rank; collective).
+// rank's sums over its owned members, added in rank order (the same shift on every rank), the
+// components with a member `skip` flags on any rank left alone (collective).
 void restore_momentum_over_ranks(const SolveLayout& layout, const Model& model, const std::vector<Vec3>& f_ext,
-                                 double h, std::vector<Vec3>& dv);
+                                 double h, std::vector<Vec3>& dv, const std::vector<std::uint8_t>& skip = {});
 
 // The coupled implicit integrator of one rank's piece, every rank taking each step together (its
-// projection is collective). `config`: coupled_implicit with the cg solver.
-std::unique_ptr<StepIntegrator> make_coupled_over_ranks(const IntegratorConfig& config, SolveLayout layout);
+// projection is collective). `config`: coupled_implicit with the cg solver. `whole_h`: while a
+// step is taken in halves, its whole length, which sets the obstacle contacts' springs as alone
+// (0: the step's own); it must outlive the integrator.
+std::unique_ptr<StepIntegrator> make_coupled_over_ranks(const IntegratorConfig& config, SolveLayout layout,
+                                                        const double& whole_h);
 
 // A y for this rank's rows (3 per owned free quanta, in layout.owned_free's order) by both of the
 // solve's operators, to check one against the other: `matrix_free` by the block-Jacobi solve's

@@ -148,7 +148,10 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
   energy_start_ = energies(whole_.model, whole_.state);
   last_h_ = h;
   config_.restore_energy = false;  // restored here, over the ranks, not by each piece
-  contacts_ = PenaltyContact::used(whole_.model);
+  solved_contacts_ = implicit_ && whole_.model.solves_contact() &&
+                    whole_.model.step_contact_method() == ContactMethod::implicit;
+  rubs_ = stage::solved_contacts_rub(whole_.model);
+  contacts_ = PenaltyContact::used(whole_.model) || solved_contacts_;
   const Bonds& wb = whole_.state.bonds;
   for (std::size_t b = 0; b < wb.size() && !fails_; ++b) fails_ = wb.alive[b] && law_breaks(wb.law[b]);
   contact_stored_ = start_books_.contact_stored;
@@ -335,7 +338,8 @@ void DistributedStep::build(const std::vector<double>* carried, const CarryKind&
 #ifdef QBOND_DISTRIBUTED_IMPLICIT
   if (implicit_)
     replace_step_integrator(
-        *sim_, make_coupled_over_ranks(config_, solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_)));
+        *sim_, make_coupled_over_ranks(config_, solve_layout(whole_, owner_, rank_, ranks_, global_, owned_, components_),
+                                       split_h_));
 #endif
   sim_->world().state.carry = std::move(carry);  // after the integrators are replaced, which drop it
 }
@@ -411,7 +415,8 @@ bool DistributedStep::projection_gains() {
   // quanta and bonds, at the projected end (as charge_ledger and agree sum them after the step).
   const StepWork work = step_work(w.model, ledger_, ledger_adj_, p, {after_, after_v_}, gravity_, h_,
                                   sim_->integrator().ledger_hints(), config_.threads);
-  double mine[4] = {0, 0, work.bonds_after, work.anchors + owned_loads_work(w.model, p.dx)};
+  double mine[7] = {0, 0, work.bonds_after, work.anchors + owned_loads_work(w.model, p.dx), 0, 0, 0};
+  if (p.contact.charged) mine[4] = p.contact.work, mine[5] = p.contact.stored, mine[6] = p.contact.stored_start;
   for (Index q : owned_) {
     if (w.model.is_kinematic(q)) continue;
     const double m = w.model.mass[q];
@@ -420,13 +425,16 @@ bool DistributedStep::projection_gains() {
   }
   const std::vector<double> all = all_gather(mine);
   Verdict v;
-  for (std::size_t r = 0; r + 4 <= all.size(); r += 4) {
+  for (std::size_t r = 0; r + 7 <= all.size(); r += 7) {
     v.after.kinetic += all[r];
     v.after.gravity += all[r + 1];
     v.after.bonds += all[r + 2];
     v.work += all[r + 3];
+    v.contact.work += all[r + 4];
+    v.contact.stored += all[r + 5];
+    v.contact.stored_start += all[r + 6];
   }
-  return gains(v, false);
+  return gains(v, Guard::projection);
 }
 
 double DistributedStep::owned_loads_work(const Model& m, const std::vector<Vec3>& dx) const {
@@ -492,29 +500,37 @@ SolveLayout solve_layout(const World& whole, std::span<const int> owner, int ran
     layout.component_offset.push_back(static_cast<Index>(layout.component_owned.size()));
   }
   layout.component_mass = c.mass;
+  for (std::size_t k = 0; k + 1 < c.offset.size(); ++k) layout.component_size.push_back(c.offset[k + 1] - c.offset[k]);
   return layout;
 }
 
 void restore_momentum_over_ranks(const SolveLayout& layout, const Model& model, const std::vector<Vec3>& f_ext,
-                                 double h, std::vector<Vec3>& dv) {
+                                 double h, std::vector<Vec3>& dv, const std::vector<std::uint8_t>& skip) {
+  // Per component: the external impulse wanted, the momentum change got, and the members skipped.
+  constexpr std::size_t kSums = 7;
   const std::size_t nc = layout.component_mass.size();
-  std::vector<double> sums(6 * nc, 0.0);
+  std::vector<double> sums(kSums * nc, 0.0);
   for (std::size_t c = 0; c < nc; ++c)
     for (Index k = layout.component_offset[c]; k < layout.component_offset[c + 1]; ++k) {
       const Index i = layout.component_owned[k];
       const Vec3 wanted = h * external_force(model, f_ext, i), got = model.mass[i] * dv[i];
       for (int j = 0; j < 3; ++j) {
-        sums[6 * c + static_cast<std::size_t>(j)] += wanted[j];
-        sums[6 * c + 3 + static_cast<std::size_t>(j)] += got[j];
+        sums[kSums * c + static_cast<std::size_t>(j)] += wanted[j];
+        sums[kSums * c + 3 + static_cast<std::size_t>(j)] += got[j];
       }
+      if (!skip.empty() && skip[i]) sums[kSums * c + 6] = 1;
     }
   const std::vector<double> all = all_gather(sums);
   for (std::size_t c = 0; c < nc; ++c) {
     Vec3 wanted = Vec3::Zero(), got = Vec3::Zero();
-    for (std::size_t r = 0; r + 6 * nc <= all.size(); r += 6 * nc) {
-      wanted += Vec3(all[r + 6 * c], all[r + 6 * c + 1], all[r + 6 * c + 2]);
-      got += Vec3(all[r + 6 * c + 3], all[r + 6 * c + 4], all[r + 6 * c + 5]);
+    bool held = false;
+    for (std::size_t r = 0; r + kSums * nc <= all.size(); r += kSums * nc) {
+      const double* a = &all[r + kSums * c];
+      wanted += Vec3(a[0], a[1], a[2]);
+      got += Vec3(a[3], a[4], a[5]);
+      held = held || a[6] != 0;
     }
+    if (held) continue;
     const Vec3 shift = (wanted - got) / layout.component_mass[c];
     for (Index k = layout.component_offset[c]; k < layout.component_offset[c + 1]; ++k)
       dv[layout.component_owned[k]] += shift;
@@ -610,7 +626,7 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     return v.report;
   }
   // With projection rules the run alone guards the projection before their edits alone.
-  if (implicit_ && projection_rules_.empty() && gains(v, true)) {
+  if (implicit_ && projection_rules_.empty() && gains(v, Guard::step)) {
     undo();
     ++halved_;
     return split_step(stop, cpu_seconds());
@@ -753,19 +769,27 @@ void DistributedStep::rebuild_after_roll_back() {
 
 double DistributedStep::contact_stored_after() {
   if (!sim_) return 0;
+  if (solved_contacts_) return sim_->projection().contact.stored;  // the owned quanta's, at the step's end
   const State& s = sim_->world().state;
   contact_after_.evaluate(sim_->world().model, sim_->adjacency(), h_, PointsView::of(s.x.data(), s.v.data()),
                           owned_mask_);
   return contact_after_.stored();
 }
 
-bool DistributedStep::gains(const Verdict& v, bool whole) const {
-  const bool credit = whole && !breaks() && form_rules_.empty();  // no heuristics: the step guard
+bool DistributedStep::gains(const Verdict& v, Guard guard) const {
+  // Contacts solved with friction that hold or took energy keep a step, as alone (the ledger then
+  // holds the step's end springs' energy for a whole step, its start's before the rules).
+  const Projection::ContactEnergy& c = v.contact;
+  if (guard != Guard::half && solved_contacts_ && rubs_ &&
+      (c.stored > 0 || contact_loss(c) > 0 || (guard == Guard::projection && contact_stored_ > 0)))
+    return false;
+  const bool credit = guard == Guard::step && !breaks() && form_rules_.empty();  // no heuristics
   const Energies& e0 = energy_start_;
   const double lost = credit ? v.damping : 0.0;
-  const double gain = v.after.total() + v.released - e0.total() - v.work + lost;
+  // The solved contacts' impulses' work is theirs: their springs and dampers are the ledger's.
+  const double gain = v.after.total() + v.released - e0.total() - v.work - c.work + lost;
   const double scale = e0.kinetic + e0.bonds + v.after.kinetic + v.after.bonds + std::abs(v.released) +
-                       std::abs(v.after.gravity - e0.gravity) + std::abs(v.work) + std::abs(lost);
+                       std::abs(v.after.gravity - e0.gravity) + std::abs(v.work) + std::abs(c.work) + std::abs(lost);
   return gain > kGainTolerance * scale + (credit ? limits_.energy_floor : 0.0);
 }
 
@@ -826,10 +850,13 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
     if (undoable()) carry0_ = sim_->world().state.carry;
   }
   const double anchors0 = anchors_, damping0 = damping_, loads0 = loads_;
+  const double contact_dissipated0 = contact_dissipated_, contact_stored0 = contact_stored_;
   const Energies e0 = energy_start_;
   solve_stats_ = {};
   Verdict last;
+  split_h_ = h_;  // the contacts' springs keep the whole step's stiffness
   const bool ok = half(t0, t0 + 0.5 * h_, 1, stop, last) && half(t0 + 0.5 * h_, t0 + h_, 1, stop, last);
+  split_h_ = 0;
   times_.stepping += cpu_seconds() - cpu0;
   auto undo = [&] {
     if (sim_) {
@@ -843,6 +870,8 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
     anchors_ = anchors0;
     damping_ = damping0;
     loads_ = loads0;
+    contact_dissipated_ = contact_dissipated0;
+    contact_stored_ = contact_stored0;
     energy_start_ = e0;
     rebuild_after_roll_back();
   };
@@ -915,10 +944,14 @@ bool DistributedStep::half(double t_a, double t_b, int depth, bool stop, Verdict
   }
   exchange_ghosts();
   const StepWork work = charge_ledger(H);
-  last = agree(report, false, stop, work, 0.0, 0.0);
+  last = agree(report, false, stop, work, solved_contacts_ ? contact_stored_after() : 0.0, 0.0);
   const bool ok = last.report.status == StepReport::Status::ok;
-  if (ok && !(depth < kMaxDepth && gains(last, false))) {
+  if (ok && !(depth < kMaxDepth && gains(last, Guard::half))) {
     energy_start_ = last.after;
+    if (solved_contacts_) {  // each half's contacts charged as the run alone's substeps are
+      contact_dissipated_ += contact_loss(last.contact);
+      contact_stored_ = last.contact.stored;
+    }
     return true;
   }
   if (sim_) {

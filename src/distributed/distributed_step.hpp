@@ -53,7 +53,7 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // Splits `whole` (the same on every rank) over the job's ranks; config.type must be an explicit
   // integrator (velocity_verlet, explicit_euler, symplectic_euler, rk4), with the model's penalty
   // contacts if any, hybrid_implicit, or, built with PETSc, coupled_implicit with the cg solver
-  // and no contact in its solve (the caller checks). What the steps carry (velocity Verlet's
+  // and no quanta–quanta contact in its solve (the caller checks). What the steps carry (velocity Verlet's
   // forces, a solve's guesses) comes from whole.state.carry when it holds it; velocity Verlet's
   // forces are else evaluated once here. Throws when a solve over ranks would leave a rank
   // without quanta.
@@ -224,11 +224,13 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   Verdict agree(const StepReport& report, bool left, bool stop, const StepWork& work, double contact_after,
                 double released) const;
   // coupled_implicit: whether the step the verdict judges created energy beyond its books, as the
-  // run alone's energy guard decides, on the state before its breaks: a whole step of a run
-  // without heuristics with its dampers' loss credited and the energy floor
-  // (retake_gaining_step), else without either (the guard of the projection before heuristics,
-  // and the coupled step's halves).
-  bool gains(const Verdict& v, bool whole) const;
+  // run alone's energy guard decides, on the state before its breaks, the solved contacts' work
+  // credited: a whole step (retake_gaining_step: of a run without heuristics with its dampers'
+  // loss credited and the energy floor), the projection before the heuristics
+  // (retake_gaining_projection), both kept with friction in the contacts, or a half of a step
+  // taken in halves (the coupled step's substeps).
+  enum class Guard : std::uint8_t { step, projection, half };
+  bool gains(const Verdict& v, Guard guard) const;
   // The run alone's record of the energy gained (stage::record_gain) at the end of the step the
   // verdict judged, whose bonds' energy then changed by `bonds` (formed less broken after it);
   // with limits.stop_on_energy_gain, the report that stops the run when the gain is past it.
@@ -363,9 +365,13 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   Adjacency whole_adj_;
   double projected_moved_ = 0;
   Index projected_worst_ = 0;
-  // Penalty contacts: whether the model has them, and the energy they took out since the run
-  // started and their springs' energy now, over every rank [J].
+  // Penalty contacts or contacts solved in the step: whether the model has them, and the energy
+  // they took out since the run started and their springs' energy now, over every rank [J].
   bool contacts_ = false;
+  // coupled_implicit's obstacle contacts inside the solve (each owned quanta's, on its rank), and
+  // whether they have friction.
+  bool solved_contacts_ = false, rubs_ = false;
+  double split_h_ = 0;  // while split_step takes its halves, the whole step's length [s]; else 0
   double contact_dissipated_ = 0, contact_stored_ = 0;
   PenaltyContact contact_after_;  // contact_stored_after's
   // Quanta–quanta contact: the pieces hold as ghosts the quanta within reach_ = 2 radius + 2 slack_

@@ -305,7 +305,7 @@ bool ContactSolve::begin(const Model& model, const State& state, const Adjacency
   }
   for (std::size_t q = 0; q < n; ++q) {
     const auto i = static_cast<Index>(q);
-    if (model.is_kinematic(i)) continue;
+    if (model.is_kinematic(i) || !mine(i)) continue;
     for (std::uint32_t o = 0; o < model.obstacles.size(); ++o) {
       Contact c;
       if (make(model, state, h, i, o, x1_[q], c)) contacts_.push_back(c);
@@ -415,7 +415,7 @@ bool ContactSolve::update(const Model& model, const State& state, double h, int 
   auto released = [&](Index i, std::uint32_t o) { return released_[i * nob + o] >= 2; };
   for (std::size_t q = 0; q < n && nob > 0; ++q) {
     const auto i = static_cast<Index>(q);
-    if (model.is_kinematic(i)) continue;
+    if (model.is_kinematic(i) || !mine(i)) continue;
     const Vec3 v1 = state.v[i] + y[i];
     const Vec3 x1 = state.x[i] + h * v1;
     for (std::uint32_t o = 0; o < model.obstacles.size(); ++o) {
@@ -478,7 +478,7 @@ bool ContactSolve::update(const Model& model, const State& state, double h, int 
 double ContactSolve::stored(const Model& model, const std::vector<Vec3>& x) const {
   double u = 0;
   for (std::size_t q = 0; q < model.num_quanta() && !model.obstacles.empty(); ++q) {
-    if (model.is_kinematic(static_cast<Index>(q))) continue;
+    if (model.is_kinematic(static_cast<Index>(q)) || !mine(static_cast<Index>(q))) continue;
     for (const Obstacle& ob : model.obstacles) {
       Vec3 n;
       const double g = ob.distance(x[q], n) - ob.margin;

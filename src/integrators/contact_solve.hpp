@@ -45,6 +45,8 @@ namespace qbond {
 
 class ContactSolve {
  public:
+  // Active-set passes of a step at most (each a solve).
+  static constexpr int kPasses = 8;
   // Finds the contacts of the step predicted from x + h v + h² f_ext/m and adds their terms to
   // sys. False (sys untouched) when the model has no such obstacle. The springs' stiffness is
   // κ m / spring_h²: spring_h is the whole step's length, so that a substep of it (energy guard)
@@ -60,6 +62,10 @@ class ContactSolve {
   // Quanta with a contact (1), for the momentum restoration to leave their components alone:
   // the obstacle's impulse is part of their momentum change. Empty when there is none.
   const std::vector<std::uint8_t>& touching() const { return touching_; }
+  // Over MPI ranks: contacts with obstacles for the quanta with owned[i] set alone (a rank's own;
+  // the others' are their owners'), and the springs' energy of those alone. Quanta–quanta
+  // contact is not solved so (a pair's ends may have two owners).
+  void only_quanta(std::vector<std::uint8_t> owned) { owned_ = std::move(owned); }
   // After the last solve and write_free_rows: the end normal velocity e v_in of a lone quanta's
   // impact (no bonds) in out.dv, and out.contact's energies (the contact impulses' work at the
   // mean velocity, the springs' energy).
@@ -113,6 +119,8 @@ class ContactSolve {
   // within 2R plus one radius, in increasing i then j.
   void find_candidates(const Model& model, const State& state, const Adjacency& adj,
                        const std::vector<Vec3>& x1);
+  // Whether quanta i's obstacle contacts are this solve's (only_quanta).
+  bool mine(Index i) const { return owned_.empty() || owned_[i] != 0; }
   // The row of quanta i saved before the contacts were first written.
   void save_row(Index i, const ImplicitSystem& sys);
   // The contact of quanta i with obstacle o, given that its path x → x1 enters it; false when it does not.
@@ -130,6 +138,7 @@ class ContactSolve {
   std::vector<Contact> next_;           // update's new set (scratch)
   std::vector<std::uint8_t> released_;  // per quanta and obstacle: times its contact was dropped this step
   std::vector<std::uint8_t> touching_;
+  std::vector<std::uint8_t> owned_;  // only_quanta's; empty: every quanta
   std::vector<Index> saved_;  // quanta whose diagonal block and rhs are saved
   std::vector<Index> slot_;   // per quanta: its index in saved_, or -1
   std::vector<Mat3> base_diag_;

@@ -69,9 +69,6 @@ class CoupledIntegrator final : public StepIntegrator {
   }
 
  private:
-  // Active-set passes of a step with contacts at most (each a solve).
-  static constexpr int kContactPasses = 8;
-
   // One linearised backward-Euler step of length ctx.h from `state` into `out`, with the
   // obstacles' contacts in its system. A whole step starts CG from the warm start and may use the
   // multigrid hierarchy; a substep starts from zero with block Jacobi (a hierarchy is kept for the
@@ -85,8 +82,8 @@ class CoupledIntegrator final : public StepIntegrator {
     linear_solve(model, state, adj, f_ext, ctx, whole, /*warm=*/false, step);
     // Contacts: solved again, from the last solution, while the active set changes.
     for (int pass = 1;
-         contacts && pass < kContactPasses &&
-         contact_.update(model, state, ctx.h, config_.threads, pass + 1 == kContactPasses, y_, sys_);
+         contacts && pass < ContactSolve::kPasses &&
+         contact_.update(model, state, ctx.h, config_.threads, pass + 1 == ContactSolve::kPasses, y_, sys_);
          ++pass)
       linear_solve(model, state, adj, f_ext, ctx, whole, /*warm=*/true, step);
     if (config_.solver == CoupledSolver::cg) {

@@ -83,6 +83,9 @@ inline int cg_cap(const IntegratorConfig& c, const TopologyCache& topo) {
 // keep backward Euler's step, whose damping their contacts' active sets rely on.
 void fall_freely(const Model& model, const FreeComponents& comps, const std::vector<Vec3>& f_ext, double h,
                  const std::vector<std::uint8_t>& touching, Projection& out);
+/// fall_freely's move of one lone quanta i, when in free fall.
+void fall_freely(const Model& model, Index i, const std::vector<Vec3>& f_ext, double h,
+                 const std::vector<std::uint8_t>& touching, Projection& out);
 
 // Gives every free component (no bond to a kinematic quanta) its exact momentum change over the
 // step, h Σ f_ext, by a uniform velocity shift: an iterative solve stopped early leaves a small

@@ -364,13 +364,14 @@ void restore_component_momentum(const Model& model, const FreeComponents& comps,
 void fall_freely(const Model& model, const FreeComponents& comps, const std::vector<Vec3>& f_ext, double h,
                  const std::vector<std::uint8_t>& touching, Projection& out) {
   if (model.gravity == Vec3::Zero()) return;
-  const Vec3 lag = 0.5 * h * h * model.gravity;
-  for (std::size_t c = 0; c + 1 < comps.offset.size(); ++c) {
-    if (comps.offset[c + 1] - comps.offset[c] != 1) continue;
-    const Index i = comps.quanta[comps.offset[c]];
-    if ((touching.empty() || !touching[i]) && (f_ext.empty() || f_ext[i] == model.mass[i] * model.gravity))
-      out.dx[i] -= lag;
-  }
+  for (std::size_t c = 0; c + 1 < comps.offset.size(); ++c)
+    if (comps.offset[c + 1] - comps.offset[c] == 1) fall_freely(model, comps.quanta[comps.offset[c]], f_ext, h, touching, out);
+}
+
+void fall_freely(const Model& model, Index i, const std::vector<Vec3>& f_ext, double h,
+                 const std::vector<std::uint8_t>& touching, Projection& out) {
+  if ((touching.empty() || !touching[i]) && (f_ext.empty() || f_ext[i] == model.mass[i] * model.gravity))
+    out.dx[i] -= 0.5 * h * h * model.gravity;
 }
 
 void write_free_rows(const Model& model, const State& state, double h, const std::vector<Vec3>& dv,

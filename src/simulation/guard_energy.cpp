@@ -16,14 +16,18 @@ constexpr double kStepGainTolerance = 1e-9;
 // scene whose solved contacts have friction: such steps are not retaken. A sticking contact's
 // spring is anchored at its (sub)step's start, so halves would let it creep twice as far.
 bool friction_in_step(const Model& m, const State& s, const StepScratch& k) {
-  auto rubs = [](const ContactMaterial& c) { return c.friction > 0 || c.static_coefficient() > 0; };
-  bool friction = m.quanta_contact.radius > 0 && rubs(m.quanta_contact.material);
-  for (const Obstacle& o : m.obstacles) friction = friction || rubs(o.material);
   const auto& c = k.projection.contact;
-  return friction && c.charged && (c.stored > 0 || c.dissipated > 0 || s.energy.contact_stored > 0);
+  return solved_contacts_rub(m) && c.charged && (c.stored > 0 || c.dissipated > 0 || s.energy.contact_stored > 0);
 }
 
 }  // namespace
+
+bool solved_contacts_rub(const Model& m) {
+  auto rubs = [](const ContactMaterial& c) { return c.friction > 0 || c.static_coefficient() > 0; };
+  bool friction = m.quanta_contact.radius > 0 && rubs(m.quanta_contact.material);
+  for (const Obstacle& o : m.obstacles) friction = friction || rubs(o.material);
+  return friction;
+}
 
 bool retake_gaining_step(const Model& m, State& s, StepIntegrator& integrator, double h, const BlowupLimits& limits,
                          StepScratch& k) {
