@@ -81,8 +81,32 @@ TEST(Bisection, TravelsThroughJsonToTheBitAndRefusesWhatIsNotOne) {
                           R"({"parts": 2, "nodes": [[-1, 0, 0.5, 1, 2], [0, 0, 0, -1, -1], [0, 0, 0, -1, -1]]})",
                           R"({"parts": 2, "nodes": [[-1, 0, 0.5, 0, 2], [0, 0, 0, -1, -1], [1, 0, 0, -1, -1]]})",
                           R"({"parts": 2, "nodes": [[-1, 3, 0.5, 1, 2], [0, 0, 0, -1, -1], [1, 0, 0, -1, -1]]})",
-                          R"({"parts": 1, "nodes": [[0, 0, "x", -1, -1]]})"})
+                          R"({"parts": 1, "nodes": [[0, 0, "x", -1, -1]]})",
+                          R"({"parts": 1, "nodes": [[0, 0, 0, -1, -1]], "strays": [[3, 1]]})",
+                          R"({"parts": 1, "nodes": [[0, 0, 0, -1, -1]], "strays": [[-3, 0]]})",
+                          R"({"parts": 1, "nodes": [[0, 0, 0, -1, -1]], "owners": []})"})
     EXPECT_THROW(distributed::bisection_from_json(bad), std::invalid_argument) << bad;
+  // The quanta owned outside their box travel with it.
+  const distributed::Strays strays{{4, 0}, {11, 2}};
+  distributed::Strays back;
+  (void)distributed::bisection_from_json(distributed::bisection_json(bisect(x, 3), strays), &back);
+  EXPECT_EQ(back, strays);
+}
+
+// A part's box holds exactly the points the bisection gives that part: [lo, hi) on each axis.
+TEST(Bisection, APartsBoxHoldsItsPoints) {
+  const World w = canonical_lattice(6).world;
+  const distributed::Bisection b = bisect(w.state.x, 5);
+  const std::vector<int> part = parts_of(b, w.state.x);
+  for (int p = 0; p < 5; ++p) {
+    Vec3 lo, hi;
+    b.box(p, lo, hi);
+    for (std::size_t q = 0; q < part.size(); ++q) {
+      const Vec3& x = w.state.x[q];
+      const bool inside = (x.array() >= lo.array()).all() && (x.array() < hi.array()).all();
+      EXPECT_EQ(inside, part[q] == p) << "part " << p << ", point " << q;
+    }
+  }
 }
 
 // A world with anchors, a prescribed motion, a load, two bodies and a broken bond, cut into `ranks`.

@@ -197,7 +197,12 @@ RanksRun::RanksRun(const std::filesystem::path& checkpoint, const std::function<
   auto [scene, settings] = Runner::read_checkpoint(checkpoint, adjust, max_memory);
   if (!settings.resumed_ranks.empty()) {
     try {
-      (void)distributed::bisection_from_json(settings.resumed_ranks);
+      distributed::Strays strays;
+      (void)distributed::bisection_from_json(settings.resumed_ranks, &strays);
+      for (const auto& [q, part] : strays)
+        if (q >= scene.world.num_quanta())
+          throw std::invalid_argument("ranks: strays: quanta " + std::to_string(q) + " of a world of " +
+                                      std::to_string(scene.world.num_quanta()));
     } catch (const std::invalid_argument& e) {
       throw CheckpointError(checkpoint.string() + ": metadata: " + e.what());
     }
@@ -220,7 +225,8 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
   r.pieces = ranks > 1 && run_settings.frame_pieces && run_settings.vtk;
   const Outfit outfit = [&r](RunSettings& rs) {
     if (r.pieces) rs.write_frame = [&r](const std::filesystem::path& file) { r.write_frame(file); };
-    if (r.dist) rs.ranks_layout = [&r] { return r.dist->layout(); };
+    // At a checkpoint rank 0's world holds the whole state, gathered for it.
+    if (r.dist) rs.ranks_layout = [&r] { return r.dist->layout(r.runner->simulation().world().state.x); };
   };
   if (ranks > 1) {
     check_distributable(scene, ranks);
@@ -240,10 +246,11 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
       r.dist->set_adaptive(scene.adaptive, r.end_time, held ? run_settings.resumed_next_step : scene.timestep,
                            held ? run_settings.resumed_last_step : scene.timestep);
     }
-    if (resumed && !run_settings.resumed_ranks.empty())
-      if (distributed::Bisection cuts = distributed::bisection_from_json(run_settings.resumed_ranks);
-          cuts.parts == ranks)
-        r.dist->take_cuts(std::move(cuts));
+    if (resumed && !run_settings.resumed_ranks.empty()) {
+      distributed::Strays strays;
+      distributed::Bisection cuts = distributed::bisection_from_json(run_settings.resumed_ranks, &strays);
+      if (cuts.parts == ranks) r.dist->take_cuts(std::move(cuts), strays);
+    }
     std::vector<BreakRule> rules;
     std::vector<PlasticRule> plastic;
     std::vector<distributed::ProjectionRule> projection;

@@ -1,6 +1,7 @@
 #include "distributed/distributed_step.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <ctime>
 #include <cmath>
@@ -160,6 +161,8 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
     slack_ = rule.radius;
     reach_ = 2 * rule.radius + 2 * slack_;
   }
+  for (std::size_t b = 0; b < wb.size(); ++b)
+    if (wb.alive[b]) margin_ = std::max(margin_, wb.rest[b]);
   find_components();
   cuts_ = bisect(whole_.state.x, ranks_);
   owner_ = parts_of(cuts_, whole_.state.x);
@@ -463,7 +466,20 @@ bool DistributedStep::edited() const {
 
 bool DistributedStep::left_box() const {
   const State& s = sim_->world().state;
-  return std::any_of(owned_.begin(), owned_.end(), [&](Index q) { return cuts_.part_of(s.x[q]) != rank_; });
+  Vec3 lo, hi;
+  cuts_.box(rank_, lo, hi);
+  return std::any_of(owned_.begin(), owned_.end(), [&](Index q) {
+    for (int k = 0; k < 3; ++k)
+      if (s.x[q][k] < lo[k] - margin_ || s.x[q][k] >= hi[k] + margin_) return true;
+    return false;
+  });
+}
+
+std::string DistributedStep::layout(std::span<const Vec3> x) const {
+  Strays strays;
+  for (std::size_t q = 0; q < x.size(); ++q)
+    if (const int p = cuts_.part_of(x[q]); p != owner_[q]) strays.emplace_back(static_cast<Index>(q), owner_[q]);
+  return bisection_json(cuts_, strays);
 }
 
 CarryKind DistributedStep::carry_kind() const { return sim_ ? kind_of(sim_->world().state.carry) : CarryKind{}; }
@@ -1171,9 +1187,13 @@ void DistributedStep::migrate(bool moved, bool broke) {
   build(keep ? &c : nullptr, kind);
 }
 
-void DistributedStep::take_cuts(Bisection cuts) {
+void DistributedStep::take_cuts(Bisection cuts, const Strays& strays) {
   cuts_ = std::move(cuts);
   owner_ = parts_of(cuts_, whole_.state.x);
+  for (const auto& [q, p] : strays) {
+    assert(q < owner_.size());  // RanksRun checks the checkpoint's
+    owner_[q] = p;
+  }
   migrate(false);
 }
 

@@ -66,11 +66,13 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // a blow-up on any rank every rank keeps the state before the step and returns the report of
   // the first rank that found one (its quanta as a whole-world index).
   StepReport step(bool stop);
-  // The boxes the ranks hold (bisection_json), for a checkpoint.
-  std::string layout() const { return bisection_json(cuts_); }
-  // Cuts the world as `cuts` does (a checkpoint's, over as many ranks) and builds the pieces anew:
-  // a resumed run then takes the uninterrupted run's pieces and sums.
-  void take_cuts(Bisection cuts);
+  // The boxes the ranks hold and the quanta owned outside theirs at positions x (the whole
+  // state now: bisection_json with its strays), for a checkpoint.
+  std::string layout(std::span<const Vec3> x) const;
+  // Cuts the world as `cuts` does (a checkpoint's, over as many ranks), gives the strays to
+  // their owners and builds the pieces anew: a resumed run then takes the uninterrupted run's
+  // pieces and sums. Each stray must be a quanta of the world.
+  void take_cuts(Bisection cuts, const Strays& strays);
   // Whether some rank asked, during the last step, that the run stop.
   bool stop_agreed() const { return stop_agreed_; }
   // The whole state on rank 0, into `into` (a world of the same quanta and bonds): positions,
@@ -320,7 +322,8 @@ class DistributedStep final : private RanksLink, private ContactRanks {
              double tolerance, std::vector<Vec3>& y, SolveStats& stats) override;
   // The owned quanta's [index, x, v, carried] rows (kRow doubles each).
   std::vector<double> owned_rows() const;
-  // Whether an owned quanta of this rank's piece (which it must have) has left the rank's box.
+  // Whether an owned quanta of this rank's piece (which it must have) lies farther than margin_
+  // outside the rank's box: it then moves to the rank whose box holds it (migrate).
   bool left_box() const;
   // The kind of carry-over the pieces hold.
   CarryKind carry_kind() const;
@@ -337,7 +340,11 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   bool linked_;    // the sweeps and rk4: the pieces' passes (stages) are linked to each other
   int rank_, ranks_;
   Bisection cuts_;
+  // Each quanta's owner: the rank whose box held it when the owners were last assigned (it stays
+  // while it lies within margin_ of its owner's box, so that a body vibrating across a cut does
+  // not move quanta between ranks every few steps).
   std::vector<int> owner_;
+  double margin_ = 0;  // the longest bond's rest length [m]; 0 without bonds
   std::vector<Index> global_;            // local quanta → whole index
   std::vector<Index> owned_;             // local indices of the owned quanta
   std::vector<std::uint8_t> owned_mask_;  // 1 for each owned local quanta, 0 for ghosts

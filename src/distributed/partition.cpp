@@ -16,6 +16,26 @@ int Bisection::part_of(const Vec3& x) const {
   return nodes[k].part;
 }
 
+void Bisection::box(int p, Vec3& lo, Vec3& hi) const {
+  lo = Vec3::Constant(-HUGE_VAL);
+  hi = Vec3::Constant(HUGE_VAL);
+  // Down the path to p's leaf: each cut on it bounds p's box on one side.
+  auto holds = [&](auto&& self, int k) -> bool {
+    const Node& n = nodes[static_cast<std::size_t>(k)];
+    if (n.part >= 0) return n.part == p;
+    if (self(self, n.left)) {
+      hi[n.axis] = std::min(hi[n.axis], n.cut);  // the left box is x[axis] < cut
+      return true;
+    }
+    if (self(self, n.right)) {
+      lo[n.axis] = std::max(lo[n.axis], n.cut);
+      return true;
+    }
+    return false;
+  };
+  holds(holds, 0);
+}
+
 namespace {
 
 // Builds the subtree of parts [first, first + parts) over the points `idx`; returns its node.
@@ -87,19 +107,23 @@ std::vector<int> parts_of(const Bisection& b, std::span<const Vec3> x) {
   return p;
 }
 
-std::string bisection_json(const Bisection& b) {
+std::string bisection_json(const Bisection& b, const Strays& strays) {
   nlohmann::json nodes = nlohmann::json::array();
   for (const Bisection::Node& n : b.nodes)
     nodes.push_back({n.part, n.axis, std::isfinite(n.cut) ? nlohmann::json(n.cut) : nlohmann::json(), n.left, n.right});
-  return nlohmann::json{{"parts", b.parts}, {"nodes", nodes}}.dump();
+  nlohmann::json j{{"parts", b.parts}, {"nodes", nodes}};
+  if (!strays.empty()) j["strays"] = strays;
+  return j.dump();
 }
 
-Bisection bisection_from_json(const std::string& text) {
+Bisection bisection_from_json(const std::string& text, Strays* strays) {
   const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
   auto fail = [](const std::string& why) { throw std::invalid_argument("ranks: " + why); };
   if (!j.is_object() || !j.contains("parts") || !j.contains("nodes") || !j["parts"].is_number_integer() ||
       !j["nodes"].is_array())
     fail("expected {\"parts\": N, \"nodes\": [...]}");
+  for (const auto& [key, value] : j.items())
+    if (key != "parts" && key != "nodes" && key != "strays") fail("unknown key '" + key + "'");
   Bisection b;
   b.parts = j["parts"].get<int>();
   const nlohmann::json& nodes = j["nodes"];
@@ -123,6 +147,17 @@ Bisection bisection_from_json(const std::string& text) {
                    node.right <= k || node.left >= count || node.right >= count)
       fail(at + "not a node of a bisection");
     b.nodes.push_back(node);
+  }
+  if (j.contains("strays")) {
+    const nlohmann::json& s = j["strays"];
+    if (!s.is_array()) fail("strays: expected [[point, part], ...]");
+    for (std::size_t k = 0; k < s.size(); ++k) {
+      const nlohmann::json& e = s[k];
+      if (!e.is_array() || e.size() != 2 || !e[0].is_number_unsigned() || !e[1].is_number_integer() ||
+          e[1].get<int>() < 0 || e[1].get<int>() >= b.parts)
+        fail("strays[" + std::to_string(k) + "]: expected [point, part] with a part below " + std::to_string(b.parts));
+      if (strays) strays->emplace_back(e[0].get<Index>(), e[1].get<int>());
+    }
   }
   return b;
 }

@@ -24,7 +24,12 @@ struct Bisection {
 
   // The part whose box holds x.
   int part_of(const Vec3& x) const;
+  // Part p's box, [lo, hi) on each axis (infinite where no cut bounds it).
+  void box(int p, Vec3& lo, Vec3& hi) const;
 };
+
+// Points held by another part than the one whose box holds them: [point, part] each.
+using Strays = std::vector<std::pair<Index, int>>;
 
 // The bisection of the points x into `parts` parts (>= 1): the same for the same points, whatever
 // their count per part. Parts may be empty when the points cannot be split (all at one place).
@@ -34,9 +39,10 @@ Bisection bisect(std::span<const Vec3> x, int parts);
 std::vector<int> parts_of(const Bisection& b, std::span<const Vec3> x);
 
 // The bisection as JSON, {"parts": N, "nodes": [[part, axis, cut, left, right], ...]} (a cut
-// that sends every point right is null), and back; bisection_from_json throws
+// that sends every point right is null), with "strays": [[point, part], ...] when there are
+// any, and back (the strays into `strays` when given); bisection_from_json throws
 // std::invalid_argument saying what is wrong when the text is not one.
-std::string bisection_json(const Bisection& b);
-Bisection bisection_from_json(const std::string& text);
+std::string bisection_json(const Bisection& b, const Strays& strays = {});
+Bisection bisection_from_json(const std::string& text, Strays* strays = nullptr);
 
 }  // namespace qbond::distributed
