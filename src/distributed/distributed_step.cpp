@@ -124,8 +124,8 @@ constexpr double kImbalance = 1.1;
 constexpr double kGainTolerance = 1e-9;
 constexpr int kMaxDepth = 10;
 
-// What a step's penalty contacts took out: their impulses' negative work less what their springs
-// gained, as a run on one rank's explicit integrators charge it (finish_contact) [J].
+// What a step's contacts took out: their impulses' negative work less what their springs gained,
+// as a run on one rank charges it (the explicit integrators' finish_contact, ContactSolve::finish) [J].
 double contact_loss(const Projection::ContactEnergy& c) { return std::max(0.0, -c.work - (c.stored - c.stored_start)); }
 
 }  // namespace
