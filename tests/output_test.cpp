@@ -464,6 +464,23 @@ TEST(Vtk, PiecesHoldEveryQuantaAndBondOnce) {
   const std::string text = read_file(dir / "frame.pvtp");
   EXPECT_NE(text.find("<VTKFile type=\"PPolyData\""), std::string::npos);
   EXPECT_NE(text.find("<Piece Source=\"piece_1.vtp\"/>"), std::string::npos);
+  // Read back, the pieces are the whole frame (the viewer replays either), field by field.
+  write_vtp(dir / "whole.vtp", w.model, w.state);
+  const VtpFrame whole = read_vtp(dir / "whole.vtp"), joined = read_vtp(dir / "frame.pvtp");
+  EXPECT_EQ(joined.x, whole.x);
+  EXPECT_EQ(joined.v, whole.v);
+  EXPECT_EQ(joined.mass, whole.mass);
+  EXPECT_EQ(joined.body, whole.body);
+  EXPECT_EQ(joined.kinematic, whole.kinematic);
+  EXPECT_EQ(joined.von_mises, whole.von_mises);
+  EXPECT_EQ(joined.lines, whole.lines);
+  EXPECT_EQ(joined.strain, whole.strain);
+  EXPECT_EQ(joined.tension, whole.tension);
+  // A quanta held by no piece, or by two, is refused.
+  write_pvtp(dir / "half.pvtp", std::vector<std::string>{"piece_0.vtp"});
+  EXPECT_THROW(read_vtp(dir / "half.pvtp"), VtkReadError);
+  write_pvtp(dir / "twice.pvtp", std::vector<std::string>{"piece_0.vtp", "piece_0.vtp", "piece_1.vtp"});
+  EXPECT_THROW(read_vtp(dir / "twice.pvtp"), VtkReadError);
 }
 
 // The reader gets back what the writer wrote: points by user id, lines by bond id with their

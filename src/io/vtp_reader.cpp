@@ -133,16 +133,24 @@ std::vector<double> values(std::string_view block, const ArrayRef& a, std::size_
   return out;
 }
 
-}  // namespace
 
-VtpFrame read_vtp(const fs::path& path) {
-  const std::string file = path.string();
-  std::string text;
+std::string read_text(const fs::path& path) {
   try {
-    text = read_file(path, std::uint64_t{1} << 40);
+    return read_file(path, std::uint64_t{1} << 40);
   } catch (const std::exception& e) {
     throw VtkReadError(e.what());
   }
+}
+
+/// A .vtp file's frame, and a piece's point ids, ghost flags (vtkGhostType) and lines' bond ids
+/// (each empty when the file has none).
+struct PieceFrame {
+  VtpFrame frame;
+  std::vector<double> id, ghost, bond;
+};
+
+PieceFrame read_piece(const fs::path& path, const std::string& text) {
+  const std::string file = path.string();
   // The appended block starts after the '_' that follows <AppendedData ...>.
   const std::size_t appended = text.find("<AppendedData");
   if (appended == std::string::npos) throw VtkReadError(file + ": no <AppendedData> block (only binary appended frames are read)");
@@ -210,7 +218,10 @@ VtpFrame read_vtp(const fs::path& path) {
     return out;
   };
 
-  VtpFrame f;
+  PieceFrame out;
+  VtpFrame& f = out.frame;
+  out.id = read("PointData/id", n, 1);
+  out.ghost = read("PointData/vtkGhostType", n, 1);
   // The points array has no name.
   const std::vector<double> points = read("Points/", n, 3);
   if (points.size() != 3 * n) throw VtkReadError(file + ": no <Points> array");
@@ -243,11 +254,101 @@ VtpFrame read_vtp(const fs::path& path) {
     }
   }
   // Cell arrays cover the vertex cells first, then the lines (vtk.hpp): keep the lines' values.
-  for (auto [key, out] : {std::pair{"CellData/strain", &f.strain}, std::pair{"CellData/tension", &f.tension}}) {
+  for (auto [key, to] : {std::pair{"CellData/strain", &f.strain}, std::pair{"CellData/tension", &f.tension},
+                         std::pair{"CellData/bond", &out.bond}}) {
     std::vector<double> cells = read(key, verts + nlines, 1);
-    if (!cells.empty()) out->assign(cells.begin() + static_cast<std::ptrdiff_t>(verts), cells.end());
+    if (!cells.empty()) to->assign(cells.begin() + static_cast<std::ptrdiff_t>(verts), cells.end());
+  }
+  return out;
+}
+
+/// A .pvtp file's frame: its pieces (write_vtp_piece's) put together as write_vtp writes a whole
+/// frame, point k the quanta of id k (each owned by one piece), lines in bond-id order.
+VtpFrame read_pieces(const fs::path& path, const std::string& text) {
+  const std::string file = path.string();
+  std::vector<PieceFrame> pieces;
+  for (const Tag& t : tags_of(text, file))
+    if (t.name == "Piece") {
+      if (!t.attr.count("Source")) throw VtkReadError(file + ": a <Piece> without its Source");
+      const fs::path source = path.parent_path() / unescape(t.attr.at("Source"));
+      pieces.push_back(read_piece(source, read_text(source)));
+    }
+  if (pieces.empty()) throw VtkReadError(file + ": no <Piece>");
+  auto missing = [&](const std::string& what) { throw VtkReadError(file + ": a piece without " + what); };
+  std::size_t n = 0;
+  for (const PieceFrame& p : pieces) {
+    const std::size_t m = p.frame.x.size();
+    if (m > 0 && (p.id.size() != m || p.ghost.size() != m)) missing("its points' id and vtkGhostType");
+    if (!p.frame.lines.empty() && p.bond.size() != p.frame.lines.size()) missing("its lines' bond ids");
+    for (double g : p.ghost) n += g == 0;
+  }
+  // An array is the frame's when every piece with points (lines) has it.
+  auto all_have = [&](auto member, bool lines) {
+    return std::all_of(pieces.begin(), pieces.end(), [&](const PieceFrame& p) {
+      const std::size_t m = lines ? p.frame.lines.size() : p.frame.x.size();
+      return m == 0 || (p.frame.*member).size() == m;
+    });
+  };
+  VtpFrame f;
+  f.x.resize(n);
+  f.v.resize(n);
+  f.body.resize(n);
+  f.kinematic.resize(n);
+  const bool mass = all_have(&VtpFrame::mass, false), von_mises = all_have(&VtpFrame::von_mises, false);
+  if (mass) f.mass.resize(n);
+  if (von_mises) f.von_mises.resize(n);
+  std::vector<std::uint8_t> seen(n, 0);
+  for (const PieceFrame& p : pieces)
+    for (std::size_t k = 0; k < p.frame.x.size(); ++k) {
+      if (p.ghost[k] != 0) continue;
+      const double id = p.id[k];
+      if (!(id >= 0 && id < static_cast<double>(n)) || seen[static_cast<std::size_t>(id)]++)
+        throw VtkReadError(file + ": its pieces do not hold quanta 0 to " + std::to_string(n) + " once each (id " +
+                           std::to_string(id) + ")");
+      const auto q = static_cast<std::size_t>(id);
+      f.x[q] = p.frame.x[k];
+      f.v[q] = p.frame.v[k];
+      f.body[q] = p.frame.body[k];
+      f.kinematic[q] = p.frame.kinematic[k];
+      if (mass) f.mass[q] = p.frame.mass[k];
+      if (von_mises) f.von_mises[q] = p.frame.von_mises[k];
+    }
+  struct Line {
+    double bond;
+    Index i, j;
+    double strain, tension;
+  };
+  const bool strain = all_have(&VtpFrame::strain, true), tension = all_have(&VtpFrame::tension, true);
+  std::vector<Line> lines;
+  for (const PieceFrame& p : pieces)
+    for (std::size_t c = 0; c < p.frame.lines.size(); ++c) {
+      const auto [a, b] = p.frame.lines[c];
+      // A line's ends by id: a ghost end is the point its owner's piece holds.
+      lines.push_back({p.bond[c], static_cast<Index>(p.id[a]), static_cast<Index>(p.id[b]),
+                       strain ? p.frame.strain[c] : 0.0, tension ? p.frame.tension[c] : 0.0});
+      if (!(p.id[a] >= 0 && p.id[a] < static_cast<double>(n) && p.id[b] >= 0 && p.id[b] < static_cast<double>(n)))
+        throw VtkReadError(file + ": bond " + std::to_string(p.bond[c]) + " ends at a quanta no piece holds");
+    }
+  std::sort(lines.begin(), lines.end(), [](const Line& a, const Line& b) { return a.bond < b.bond; });
+  for (std::size_t c = 0; c < lines.size(); ++c) {
+    if (c > 0 && lines[c].bond == lines[c - 1].bond)
+      throw VtkReadError(file + ": bond " + std::to_string(lines[c].bond) + " is in two pieces");
+    f.lines.emplace_back(lines[c].i, lines[c].j);
+    if (strain) f.strain.push_back(lines[c].strain);
+    if (tension) f.tension.push_back(lines[c].tension);
   }
   return f;
+}
+
+}  // namespace
+
+VtpFrame read_vtp(const fs::path& path) {
+  const std::string text = read_text(path);
+  // A ParaView parallel file lists its pieces (a run over MPI ranks with --frame-pieces).
+  const std::size_t head = text.find("<VTKFile");
+  if (head != std::string::npos && text.find("type=\"PPolyData\"", head) < text.find('>', head))
+    return read_pieces(path, text);
+  return read_piece(path, text).frame;
 }
 
 std::vector<PvdEntry> read_pvd(const fs::path& path) {
