@@ -713,9 +713,9 @@ void DistributedStep::set_adaptive(const AdaptiveConfig& config, double t_end, d
 
 StepReport DistributedStep::adaptive_step(bool stop) {
   // As adaptive_step alone: the books and energy when the step began give its drift.
-  try_.emplace(Try{.control = AdaptiveController(*adaptive_, proposal_), .at = {}, .books0 = net_books()});
+  try_.emplace(AdaptiveTry{.control = AdaptiveController(*adaptive_, proposal_), .at = {}, .books0 = net_books()});
   for (;;) {
-    Try& t = *try_;
+    AdaptiveTry& t = *try_;
     t.at = t.control.next_try(whole_.state.time, t_end_);
     t.rejected = false;
     h_ = t.at.step;
@@ -748,7 +748,7 @@ bool DistributedStep::rejects_error() {
 }
 
 bool DistributedStep::drifted(double e_before, const Energies& after, double books) {
-  Try& t = *try_;
+  AdaptiveTry& t = *try_;
   // The budget's `numerical` is the books less E − E(0): its change over the step.
   const double change = (books - t.books0) - (after.total() - e_before);
   const double scale = std::max(std::abs(start_books_.initial_total), std::abs(after.kinetic) + std::abs(after.bonds));

@@ -428,13 +428,13 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // its step began.
   std::optional<AdaptiveConfig> adaptive_;
   double t_end_ = 0, proposal_ = 0, last_h_ = 0;
-  struct Try {
+  struct AdaptiveTry {
     AdaptiveController control;
     AdaptiveController::Try at;
     double books0 = 0, error = 0;
     bool rejected = false;
   };
-  std::optional<Try> try_;
+  std::optional<AdaptiveTry> try_;
   std::optional<Carry> carry0_;  // the piece's carry-over when the step began (undoable())
   EnergyGain gain_;
   std::uint64_t migrations_ = 0;
