@@ -386,10 +386,7 @@ class CoupledOverRanks final : public StepIntegrator {
     // The ghosts' rows are their owners' to write: the exchange after the step brings them.
     write_free_rows(model, state, ctx.h, y_, threads, out);
     if (model.gravity != Vec3::Zero())
-      for (std::size_t c = 0; c < layout_.component_size.size(); ++c)
-        if (layout_.component_size[c] == 1)  // a lone quanta, on its owner's rank
-          for (Index k = layout_.component_offset[c]; k < layout_.component_offset[c + 1]; ++k)
-            fall_freely(model, layout_.component_owned[k], f_ext, ctx.h, contact_.touching(), out);
+      for (Index i : layout_.lone) fall_freely(model, i, f_ext, ctx.h, contact_.touching(), out);
     if (contacts) contact_.finish(model, state, adj, ctx.h, y_, out);
   }
 

@@ -35,7 +35,7 @@ struct SolveLayout {
   std::vector<Index> component_offset;  // (components + 1)
   std::vector<Index> component_owned;
   std::vector<double> component_mass;
-  std::vector<Index> component_size;  // each component's quanta over the whole world
+  std::vector<Index> lone;  // the owned quanta that are a free component alone (no bonds)
 };
 
 // Rank `rank`'s layout (of `ranks`) given every quanta's owner, its piece's quanta (`global`: each

@@ -516,7 +516,9 @@ SolveLayout solve_layout(const World& whole, std::span<const int> owner, int ran
     layout.component_offset.push_back(static_cast<Index>(layout.component_owned.size()));
   }
   layout.component_mass = c.mass;
-  for (std::size_t k = 0; k + 1 < c.offset.size(); ++k) layout.component_size.push_back(c.offset[k + 1] - c.offset[k]);
+  for (std::size_t k = 0; k + 1 < c.offset.size(); ++k)
+    if (const Index q = c.quanta[c.offset[k]]; c.offset[k + 1] - c.offset[k] == 1 && owner[q] == rank)
+      layout.lone.push_back(local[q]);
   return layout;
 }
 

@@ -133,7 +133,6 @@ std::vector<double> values(std::string_view block, const ArrayRef& a, std::size_
   return out;
 }
 
-
 std::string read_text(const fs::path& path) {
   try {
     return read_file(path, std::uint64_t{1} << 40);
@@ -323,11 +322,11 @@ VtpFrame read_pieces(const fs::path& path, const std::string& text) {
   for (const PieceFrame& p : pieces)
     for (std::size_t c = 0; c < p.frame.lines.size(); ++c) {
       const auto [a, b] = p.frame.lines[c];
+      if (!(p.id[a] >= 0 && p.id[a] < static_cast<double>(n) && p.id[b] >= 0 && p.id[b] < static_cast<double>(n)))
+        throw VtkReadError(file + ": bond " + std::to_string(p.bond[c]) + " ends at a quanta no piece holds");
       // A line's ends by id: a ghost end is the point its owner's piece holds.
       lines.push_back({p.bond[c], static_cast<Index>(p.id[a]), static_cast<Index>(p.id[b]),
                        strain ? p.frame.strain[c] : 0.0, tension ? p.frame.tension[c] : 0.0});
-      if (!(p.id[a] >= 0 && p.id[a] < static_cast<double>(n) && p.id[b] >= 0 && p.id[b] < static_cast<double>(n)))
-        throw VtkReadError(file + ": bond " + std::to_string(p.bond[c]) + " ends at a quanta no piece holds");
     }
   std::sort(lines.begin(), lines.end(), [](const Line& a, const Line& b) { return a.bond < b.bond; });
   for (std::size_t c = 0; c < lines.size(); ++c) {
