@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "integrators/backward_euler.hpp"
 #include "integrators/multigrid_step.hpp"
@@ -139,7 +141,7 @@ TEST(Multigrid, DeepHierarchyMatchesLdlt) {
   mg.mg.coarsest = 12;  // coarsen as far as the body allows
   std::vector<Vec3> y;
   SolveStats stats;
-  mg.solve(w.model, w.state, s.adj, s.sys, kH, kTol, 1000, 1, y, true, stats);
+  mg.solve(w.model, w.state, s.adj, s.sys, /*contacts=*/false, kH, kTol, 1000, 1, y, true, stats);
   EXPECT_GE(mg.mg.levels(), 3u);
   EXPECT_LT(s.mismatch(w, y), kAgree);
 }
@@ -153,7 +155,7 @@ TEST(Multigrid, CycleIsSymmetricPositiveDefinite) {
   MultigridStep step;
   std::vector<Vec3> y;
   SolveStats stats;
-  step.solve(w.model, w.state, s.adj, s.sys, kH, 1e-6, 1000, 1, y, true, stats);
+  step.solve(w.model, w.state, s.adj, s.sys, /*contacts=*/false, kH, 1e-6, 1000, 1, y, true, stats);
   const std::size_t n = step.mg.unknowns()[0];
   Rng rng{3};
   std::vector<double> r(n), q(n), Mr(n), Mq(n);
@@ -176,6 +178,45 @@ TEST(Multigrid, CycleIsSymmetricPositiveDefinite) {
   }
 }
 
+// Contacts come and go from solve to solve under a kept hierarchy: a sticking contact adds
+// κ m (n nᵀ + 100 P) to its quanta's diagonal block (contact_solve.hpp: the normal spring and the
+// sticking damper h² k_t P, k_t = 100 k; obstacle.hpp's default κ), far beyond the built blocks.
+// Told so, the kept hierarchy's fine smoother takes the system's blocks: the same solution, in
+// fewer iterations, and without the update of the whole hierarchy that the stale one needs.
+TEST(Multigrid, KeptHierarchySmoothsWithTheContactsDiagonal) {
+  World w = builtin_scene("mesh_drop").world;
+  StepSystem s;
+  s.build(w);
+  const std::vector<Mat3> plain = s.sys.diag;
+  std::vector<Mat3> touching = plain;
+  const double kappa = Obstacle{}.penalty;
+  const Vec3 n = Vec3(0.3, 0, 1).normalized();  // a tilted ground under the lowest 3 cm
+  const Mat3 nn = n * n.transpose();
+  double lowest = INFINITY;
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) lowest = std::min(lowest, w.state.x[i].z());
+  for (std::size_t i = 0; i < w.num_quanta(); ++i)
+    if (!w.model.is_kinematic(static_cast<Index>(i)) && w.state.x[i].z() < lowest + 0.03)
+      touching[i] += kappa * w.model.mass[i] * (nn + 100 * (Mat3::Identity() - nn));
+  int iterations[2] = {};
+  for (const bool contacts : {false, true}) {
+    MultigridStep mg;
+    std::vector<Vec3> y;
+    SolveStats stats;
+    s.sys.diag = plain;  // the hierarchy built without contacts
+    mg.solve(w.model, w.state, s.adj, s.sys, /*contacts=*/false, kH, kTol, 1000, 1, y, true, stats);
+    s.sys.diag = touching;
+    mg.solve(w.model, w.state, s.adj, s.sys, contacts, kH, kTol, 1000, 1, y, true, stats);
+    EXPECT_LE(stats.residual, kTol);
+    EXPECT_LT(s.mismatch(w, y), kAgree);
+    EXPECT_EQ(mg.builds, 1);
+    if (contacts) {
+      EXPECT_EQ(mg.updates, 0);
+    }
+    iterations[contacts] = stats.iterations;
+  }
+  EXPECT_LT(iterations[true], iterations[false]);
+}
+
 TEST(Multigrid, HierarchyKeptThenRebuiltAsBondsBreakAndForm) {
   World w = moving_lattice(12, 6, 6, true);
   MultigridStep mg;
@@ -185,7 +226,7 @@ TEST(Multigrid, HierarchyKeptThenRebuiltAsBondsBreakAndForm) {
     StepSystem s;
     build_adjacency(w.model, w.state, s.adj);
     begin_implicit_step(w.model, w.state, s.adj, gravity_forces(w), {.h = h}, false, 1, s.kin, s.sys);
-    mg.solve(w.model, w.state, s.adj, s.sys, h, kTol, 1000, 1, y, true, stats);
+    mg.solve(w.model, w.state, s.adj, s.sys, /*contacts=*/false, h, kTol, 1000, 1, y, true, stats);
     return s.mismatch(w, y);
   };
   EXPECT_LT(solve(kH), kAgree);
@@ -261,7 +302,7 @@ TEST(Multigrid, TwoBondAggregatesCoarsenFasterAtTheSameIterations) {
     mg.mg.fine_aggregate_radius = radius;
     std::vector<Vec3> y;
     SolveStats stats;
-    mg.solve(w.model, w.state, s.adj, s.sys, kH, 1e-6, 1000, 1, y, true, stats);
+    mg.solve(w.model, w.state, s.adj, s.sys, /*contacts=*/false, kH, 1e-6, 1000, 1, y, true, stats);
     EXPECT_LE(stats.residual, 1e-6);
     coarse.push_back(mg.mg.unknowns().at(1));
     iterations.push_back(stats.iterations);
@@ -295,6 +336,36 @@ TEST(Multigrid, AutomaticTurnsToMultigridWhenBlockJacobiIsSlow) {
   sim.step();
   EXPECT_LE(sim.integrator().stats().iterations, 25);  // multigrid's
   EXPECT_LE(sim.integrator().stats().residual, 1e-6);
+}
+
+// mesh_drop with its ground held in the step at h = 1/60 s lands in one step on stiff contact
+// springs. Under `automatic` that step's first solve is block Jacobi's (the falling steps before it
+// took few iterations); it takes more than kMultigridAfter iterations, so the step's remaining
+// active-set solves run multigrid: the step costs less than a quarter of block Jacobi's iterations.
+TEST(Multigrid, AutomaticTurnsToMultigridWithinALandingStep) {
+  std::ifstream f(std::string(QBOND_SOURCE_DIR) + "/scenes/mesh_drop.json");
+  nlohmann::json j = nlohmann::json::parse(f);
+  j["heuristics"][0]["method"] = "implicit";
+  j["timestep"] = kH;
+  j.erase("output");
+  const Scene s = parse_scene(j.dump(), "mesh_drop", {.dir = std::string(QBOND_SOURCE_DIR) + "/scenes"});
+  ASSERT_GE(s.world.num_quanta(), kMultigridQuanta);
+  IntegratorConfig c = s.integrator;
+  c.threads = 1;
+  ASSERT_EQ(c.preconditioner, Preconditioner::automatic);
+  IntegratorConfig jacobi = c;
+  jacobi.preconditioner = Preconditioner::block_jacobi;
+  Simulation a(s.world, c, kH), b(s.world, jacobi, kH);
+  bool landed = false;
+  for (int step = 0; step < 8 && !landed; ++step) {
+    ASSERT_EQ(a.step().status, StepReport::Status::ok);
+    ASSERT_EQ(b.step().status, StepReport::Status::ok);
+    landed = b.integrator().stats().iterations > 4 * kMultigridAfter;
+    if (landed) {
+      EXPECT_LT(4 * a.integrator().stats().iterations, b.integrator().stats().iterations) << step;
+    }
+  }
+  EXPECT_TRUE(landed);
 }
 
 // `automatic`'s choice from each step's iterations: to multigrid after a slow block-Jacobi step;
@@ -466,7 +537,7 @@ TEST(Multigrid, StaleHierarchyRefreshedWithinTheStep) {
     StepSystem s;
     build_adjacency(w.model, w.state, s.adj);
     begin_implicit_step(w.model, w.state, s.adj, gravity_forces(w), {.h = kH}, false, 1, s.kin, s.sys);
-    mg.solve(w.model, w.state, s.adj, s.sys, kH, kTol, 100000, 1, y, true, stats);
+    mg.solve(w.model, w.state, s.adj, s.sys, /*contacts=*/false, kH, kTol, 100000, 1, y, true, stats);
     return s.mismatch(w, y);
   };
   EXPECT_LT(solve(), kAgree);

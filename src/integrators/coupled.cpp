@@ -78,22 +78,28 @@ class CoupledIntegrator final : public StepIntegrator {
     begin_implicit_step(model, state, adj, f_ext, ctx, /*edges=*/false, config_.threads, out, sys_);
     const bool contacts =
         contact_.begin(model, state, adj, f_ext, ctx.h, whole ? ctx.h : whole_h_, config_.threads, sys_);
-    SolveStats step{};
-    linear_solve(model, state, adj, f_ext, ctx, whole, /*warm=*/false, step);
+    Iterations step;
+    linear_solve(model, state, adj, f_ext, ctx, whole, contacts, /*warm=*/false, step);
     // Contacts: solved again, from the last solution, while the active set changes.
     for (int pass = 1;
          contacts && pass < ContactSolve::kPasses &&
          contact_.update(model, state, ctx.h, config_.threads, pass + 1 == ContactSolve::kPasses, y_, sys_);
-         ++pass)
-      linear_solve(model, state, adj, f_ext, ctx, whole, /*warm=*/true, step);
+         ++pass) {
+      // A block-Jacobi pass that took long (an impact's stiff springs) may turn `automatic` to
+      // multigrid for the step's remaining passes.
+      if (whole && automatic() && !step.jacobi_judged && step.jacobi_mean() > kMultigridAfter &&
+          !choice_.multigrid(model.num_quanta())) {
+        choice_.after_jacobi(step.jacobi_mean());
+        step.jacobi_judged = choice_.multigrid(model.num_quanta());
+      }
+      linear_solve(model, state, adj, f_ext, ctx, whole, contacts, /*warm=*/true, step);
+    }
     if (config_.solver == CoupledSolver::cg) {
-      // `automatic` compares whole steps, all their contact passes' solves together (the hierarchy
-      // is kept if it turns to block Jacobi).
-      if (whole && config_.preconditioner == Preconditioner::automatic) {
-        if (choice_.multigrid(model.num_quanta()))
-          choice_.after_multigrid(step.iterations);
-        else
-          choice_.after_jacobi(step.iterations);
+      // `automatic` compares a whole step's solves with each preconditioner, their mean iterations
+      // (the hierarchy is kept if it turns to block Jacobi).
+      if (whole && automatic()) {
+        if (step.jacobi_solves > 0 && !step.jacobi_judged) choice_.after_jacobi(step.jacobi_mean());
+        if (step.multigrid_solves > 0) choice_.after_multigrid(step.multigrid_mean());
       }
       if (config_.restore_momentum)
         restore_component_momentum(model, topo_.components, f_ext, ctx.h, y_, contact_.touching());
@@ -103,15 +109,28 @@ class CoupledIntegrator final : public StepIntegrator {
     topo_.update(model, adj);
     fall_freely(model, topo_.components, f_ext, ctx.h, contact_.touching(), out);
     if (contacts) contact_.finish(model, state, adj, ctx.h, y_, out);
-    stats_.iterations += step.iterations;
+    stats_.iterations += step.jacobi + step.multigrid;
     stats_.residual = std::max(stats_.residual, step.residual);
   }
 
-  // One solve of the step's system into y_, its iterations added to `total`; `warm`: from y_
-  // itself (a contact pass).
+  // A step's solves: CG's iterations and solves by preconditioner, the last solve's residual.
+  struct Iterations {
+    int jacobi = 0, multigrid = 0, jacobi_solves = 0, multigrid_solves = 0;
+    double residual = 0;
+    bool jacobi_judged = false;  // `automatic` has seen the block-Jacobi passes (and turned to multigrid)
+    // A solve's iterations on average, rounded up.
+    int jacobi_mean() const { return (jacobi + jacobi_solves - 1) / std::max(jacobi_solves, 1); }
+    int multigrid_mean() const { return (multigrid + multigrid_solves - 1) / std::max(multigrid_solves, 1); }
+  };
+
+  bool automatic() const { return config_.preconditioner == Preconditioner::automatic; }
+
+  // One solve of the step's system into y_, its iterations added to `total`; `contacts`: sys_
+  // holds contact springs; `warm`: from y_ itself (a contact pass).
   void linear_solve(const Model& model, const State& state, const Adjacency& adj, const std::vector<Vec3>& f_ext,
-                    const StepContext& ctx, bool whole, bool warm, SolveStats& total) {
+                    const StepContext& ctx, bool whole, bool contacts, bool warm, Iterations& total) {
     SolveStats step{};
+    bool multigrid = false;
     switch (config_.solver) {
       case CoupledSolver::dense:
       case CoupledSolver::ldlt:
@@ -122,10 +141,11 @@ class CoupledIntegrator final : public StepIntegrator {
         const bool guessed = warm || (whole && initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry,
                                                              config_.threads, y_));
         if (!guessed) y_.assign(model.num_quanta(), Vec3::Zero());
-        if (whole && use_multigrid(model)) {
+        multigrid = whole && use_multigrid(model);
+        if (multigrid) {
           if (!multigrid_) multigrid_.emplace();
-          multigrid_->solve(model, state, adj, sys_, ctx.h, config_.tolerance, cg_cap(config_, topo_), config_.threads,
-                           y_, !guessed, step);
+          multigrid_->solve(model, state, adj, sys_, contacts, ctx.h, config_.tolerance, cg_cap(config_, topo_),
+                            config_.threads, y_, !guessed, step);
         } else {
           conjugate_gradient(model, state.bonds, sys_, config_.tolerance, cg_cap(config_, topo_), config_.threads, y_,
                              !guessed, step);
@@ -136,7 +156,8 @@ class CoupledIntegrator final : public StepIntegrator {
         assert(false && "make_integrator rejects coupled_implicit with sweep");
         break;
     }
-    total.iterations += step.iterations;
+    (multigrid ? total.multigrid : total.jacobi) += step.iterations;
+    ++(multigrid ? total.multigrid_solves : total.jacobi_solves);
     total.residual = step.residual;
   }
 

@@ -76,8 +76,8 @@ std::size_t MultigridStep::changed_blocks() const {
 }
 
 void MultigridStep::solve(const Model& model, const State& state, const Adjacency& adj,
-                          const ImplicitSystem& sys, double h, double tolerance, int cap, int threads,
-                          std::vector<Vec3>& y, bool y_zero, SolveStats& stats) {
+                          const ImplicitSystem& sys, bool contacts, double h, double tolerance, int cap,
+                          int threads, std::vector<Vec3>& y, bool y_zero, SolveStats& stats) {
   const std::size_t n = model.num_quanta();
   bool same_free = n == num_quanta;
   for (std::size_t r = 0; same_free && r < quanta.size(); ++r) same_free = !model.is_kinematic(quanta[r]);
@@ -152,6 +152,13 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     mg.update(A, threads);
     ++updates;
     built_h = h;
+  }
+  if (contacts && !build && !update) {
+    diag_blocks.resize(9 * quanta.size());
+    parallel_for(quanta.size(), threads, [&](std::size_t r) {
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(diag_blocks.data() + 9 * r) = sys.diag[quanta[r]];
+    });
+    mg.refresh_fine_diagonal(diag_blocks.data(), threads);
   }
   const auto t1 = std::chrono::steady_clock::now();
   const double c1 = thread_cpu_seconds();

@@ -9,7 +9,8 @@
 // quarter (an adaptive step's small changes keep it) or when a solve takes more than 1.5 × (plus
 // 2) the iterations the solve right after the last build took. After bonds break or form it is
 // rebuilt only once more than a tenth of A's blocks differ from the built pattern, or when an
-// update did not bring the iterations back down.
+// update did not bring the iterations back down. While the system holds contact springs, its
+// fine smoother takes each solve's diagonal blocks (Multigrid::refresh_fine_diagonal).
 #include <cstdint>
 #include <vector>
 
@@ -20,10 +21,12 @@ namespace qbond {
 
 struct MultigridStep {
   /// Solves A y = sys.rhs over the free quanta (y's kinematic rows 0) from the guess in y (y_zero:
-  /// zero), to a relative residual of `tolerance` or `cap` iterations; fills stats.
+  /// zero), to a relative residual of `tolerance` or `cap` iterations; fills stats. `contacts`: sys
+  /// holds contact springs, which come and go from solve to solve and stiffen their quanta's
+  /// diagonal blocks far beyond the kept hierarchy's: its fine smoother then takes sys's blocks.
   void solve(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
-             double h, double tolerance, int cap, int threads, std::vector<Vec3>& y, bool y_zero,
-             SolveStats& stats);
+             bool contacts, double h, double tolerance, int cap, int threads, std::vector<Vec3>& y,
+             bool y_zero, SolveStats& stats);
 
   Multigrid mg;
   int builds = 0, updates = 0;  ///< hierarchy builds and numeric updates so far
@@ -52,6 +55,7 @@ struct MultigridStep {
   int base_iterations = -1, last_iterations = 0;
   bool updated_since_check = false;
   std::vector<double> b, x;
+  std::vector<double> diag_blocks;  // sys's diagonal blocks by block row, for the smoother (contacts)
 };
 
 }  // namespace qbond

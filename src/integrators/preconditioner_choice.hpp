@@ -19,13 +19,14 @@ inline constexpr int kJacobiTryBelow = 2;
 inline constexpr int kJacobiTryWaitMost = 64;
 
 /// Block Jacobi first; multigrid once a block-Jacobi step needs more than kMultigridAfter
-/// iterations on a world of at least kMultigridQuanta quanta. Then each step (its solves together:
-/// a step with contacts solves again while its active set changes) is compared with the other
-/// preconditioner's last step, a multigrid iteration counted as kMultigridIterationCost
-/// block-Jacobi ones: block Jacobi turns to multigrid when its step cost more than multigrid's
-/// last; a multigrid step that cost more than block Jacobi's last (a hierarchy that fits the
-/// system badly, as with many contacts changing from step to step), or took at most
-/// kJacobiTryBelow iterations (the steps may have become small), tries block Jacobi next. Each
+/// iterations a solve on a world of at least kMultigridQuanta quanta. Then each step's solves (a
+/// step with contacts solves again while its active set changes), their mean iterations, are
+/// compared with the other preconditioner's last step's, a multigrid iteration counted as
+/// kMultigridIterationCost block-Jacobi ones: block Jacobi turns to multigrid when its solves cost
+/// more than multigrid's last; a multigrid step whose solves cost more than block Jacobi's last (a
+/// hierarchy that fits the system badly, as with many contacts changing from step to step), or
+/// took at most kJacobiTryBelow iterations (the steps may have become small), tries block Jacobi
+/// next. A step may report both (its first solves by block Jacobi, the rest by multigrid). Each
 /// return to multigrid after such a try doubles the multigrid steps before the next try (at most
 /// kJacobiTryWaitMost): a settled body whose multigrid solves take two iterations and block
 /// Jacobi's fifty does not alternate between the two.
@@ -38,7 +39,7 @@ class PreconditionerChoice {
     return multigrid_;
   }
 
-  /// A whole step's block-Jacobi solves took `iterations` together.
+  /// A whole step's block-Jacobi solves took `iterations` each on average.
   void after_jacobi(int iterations) {
     jacobi_iterations_ = std::max(iterations, 1);
     if (quanta_ < kMultigridQuanta) return;
@@ -51,7 +52,7 @@ class PreconditionerChoice {
     }
   }
 
-  /// A whole step's multigrid solves took `iterations` together.
+  /// A whole step's multigrid solves took `iterations` each on average.
   void after_multigrid(int iterations) {
     multigrid_iterations_ = std::max(iterations, 1);
     if (iterations > kJacobiTryBelow && kMultigridIterationCost * iterations <= jacobi_iterations_) return;

@@ -150,6 +150,11 @@ void Multigrid::smoother(Level& L, bool symmetric, int threads) {
   L.lambda = lambda;
 }
 
+void Multigrid::refresh_fine_diagonal(const double* blocks, int threads) {
+  Level& L = levels_[0];
+  parallel_for(L.A.rows, threads, [&](std::size_t i) { invert_block<3>(blocks + 9 * i, L.Dinv.data() + 9 * i); });
+}
+
 void Multigrid::galerkin(std::size_t l, int threads) {
   Level& L = levels_[l];
   multiply(L.A, L.P, L.AP, threads);
