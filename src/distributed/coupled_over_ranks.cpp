@@ -177,6 +177,18 @@ class RanksSystem {
     check(VecRestoreArrayRead(x_, &px), "VecRestoreArrayRead");
   }
 
+  // The ghosts' rows of y from the last solve's solution, scattered from their owners (the
+  // shell's; collective).
+  void ghost_rows(const SolveLayout& layout, std::vector<Vec3>& y) {
+    check(VecScatterBegin(scatter_, x_, local_, INSERT_VALUES, SCATTER_FORWARD), "VecScatterBegin");
+    check(VecScatterEnd(scatter_, x_, local_, INSERT_VALUES, SCATTER_FORWARD), "VecScatterEnd");
+    const PetscScalar* in = nullptr;
+    check(VecGetArrayRead(local_, &in), "VecGetArrayRead");
+    for (std::size_t k = layout.owned_free.size(); k < quanta_.size(); ++k)
+      y[quanta_[k]] = Vec3(in[3 * k], in[3 * k + 1], in[3 * k + 2]);
+    check(VecRestoreArrayRead(local_, &in), "VecRestoreArrayRead");
+  }
+
   // out = A y for this rank's rows (3 per owned free quanta; collective).
   void apply(const std::vector<double>& y, std::vector<double>& out) {
     {
@@ -350,7 +362,9 @@ bool takes_matrix(const IntegratorConfig& config) {
 class CoupledOverRanks final : public StepIntegrator {
  public:
   // Dampers at the end-of-step velocity (backward Euler), as the coupled integrator on one rank.
-  // Obstacle contacts are each owned quanta's, solved by its rank (contact_solve.hpp).
+  // Obstacle contacts are each owned quanta's, solved by its rank (contact_solve.hpp); quanta–quanta
+  // contacts every rank's, whose piece is then the whole world, each solve's ghost rows brought
+  // from their owners before the active set reads them.
   CoupledOverRanks(const IntegratorConfig& c, SolveLayout layout, const double& whole_h)
       : StepIntegrator(c, {.damping_theta = 1.0}), layout_(std::move(layout)), whole_h_(whole_h) {
     std::vector<std::uint8_t> owned(layout_.row.size(), 0);
@@ -369,17 +383,29 @@ class CoupledOverRanks final : public StepIntegrator {
         contact_.begin(model, state, adj, f_ext, ctx.h, whole_h_ > 0 ? whole_h_ : ctx.h, threads, sys_);
     const bool guessed = initial_guess(config_.warm_start, model, f_ext, ctx.h, state.carry, threads, y_);
     if (!guessed) y_.assign(model.num_quanta(), Vec3::Zero());
-    if (!system_) system_ = std::make_unique<RanksSystem>(layout_, state, adj, config_, takes_matrix(config_));
-    system_->load(layout_, model, state.bonds, adj, sys_);
-    system_->solve(layout_, sys_, guessed, y_, stats_);
+    const bool pairs = contacts && model.quanta_contact.radius > 0;
+    if (!system_) {
+      const bool matrix = takes_matrix(config_);
+      // The assembled matrix holds the bonds' blocks, not the contact pairs' (the shell's product does).
+      if (matrix && pairs)
+        throw std::invalid_argument(
+            "over ranks, quanta contact inside the implicit solve takes the block-Jacobi solve: PETSC_OPTIONS "
+            "names a preconditioner (-pc_type), which would take the assembled matrix without the contacts");
+      system_ = std::make_unique<RanksSystem>(layout_, state, adj, config_, matrix);
+    }
+    auto solve = [&](bool from_y) {
+      system_->load(layout_, model, state.bonds, adj, sys_);
+      system_->solve(layout_, sys_, from_y, y_, stats_);
+      if (pairs) system_->ghost_rows(layout_, y_);
+    };
+    solve(guessed);
     // Contacts: solved again, from the last solution, while some rank's active set changes, as
     // the run alone's coupled step.
     for (int pass = 1; contacts && pass < ContactSolve::kPasses; ++pass) {
       int changed[1] = {contact_.update(model, state, ctx.h, threads, pass + 1 == ContactSolve::kPasses, y_, sys_) ? 1 : 0};
       max_over_ranks(changed);
       if (!changed[0]) break;
-      system_->load(layout_, model, state.bonds, adj, sys_);
-      system_->solve(layout_, sys_, true, y_, stats_);
+      solve(true);
     }
     if (config_.restore_momentum) restore_momentum_over_ranks(layout_, model, f_ext, ctx.h, y_, contact_.touching());
     keep_guess(config_.warm_start, y_, ctx.h, state.carry, threads, out);

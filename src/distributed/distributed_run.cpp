@@ -50,13 +50,14 @@ void check_distributable(const Scene& scene, int ranks) {
     throw std::invalid_argument(over + "does not polish Newton's steps (newton_polish), which takes exact Newton's "
                                 "factorisation of the whole Jacobian" + one);
   // Penalty contacts are forces of the explicit step; obstacles inside coupled_implicit's solve
-  // are each owned quanta's; quanta–quanta contact inside the solve is not distributed.
+  // are each owned quanta's; quanta–quanta contact inside it every rank's, in the shell operator's
+  // product (hypre's multigrid takes the assembled matrix, which holds the bonds alone).
   const Model& model = scene.world.model;
   if (model.solves_contact() && model.step_contact_method() == ContactMethod::implicit &&
-      model.quanta_contact.radius > 0)
-    throw std::invalid_argument(over + "does not distribute quanta contact inside the implicit solve yet (\"method\": "
-                                "\"implicit\"); over ranks, quanta contact takes \"method\": \"penalty\" with an "
-                                "explicit integrator, or the projection rule" + one);
+      model.quanta_contact.radius > 0 && scene.integrator.preconditioner == Preconditioner::multigrid)
+    throw std::invalid_argument(over + "solves quanta contact inside the implicit step (\"method\": \"implicit\") "
+                                "with the block-Jacobi CG, not preconditioner multigrid (hypre's, on the assembled "
+                                "matrix, which holds no contacts)" + one);
   // After each step and in this order: obstacles, quanta contact and damping zones as projection
   // rules (an obstacle's or zone's edit of a quanta its own, on its owner's piece; the contacts'
   // passes over every quanta in contact, on every rank); plasticity and fracture (each bond

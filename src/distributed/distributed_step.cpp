@@ -229,6 +229,11 @@ void DistributedStep::solve(const Model& model, const State& state, const Adjace
 
 ContactHalo DistributedStep::contact_halo() const {
   ContactHalo halo;
+  if (solved_contacts_ && whole_.model.quanta_contact.radius > 0) {
+    halo.everything = true;
+    halo.layers = 1;
+    return halo;
+  }
   if (reach_ == 0) return halo;
   // Velocity Verlet with penalty contact moves a ghost by its own contacts before the owned
   // quanta's read it: a second layer. A projection rule reads the ghosts' projection, exchanged.

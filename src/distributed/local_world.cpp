@@ -24,6 +24,7 @@ std::vector<std::uint8_t> local_quanta(const World& whole, std::span<const int> 
                                        const ContactHalo& contact) {
   const Bonds& wb = whole.state.bonds;
   const std::size_t n = whole.model.num_quanta();
+  if (contact.everything) return std::vector<std::uint8_t>(n, 1);
   std::vector<std::uint8_t> wanted(n, 0);
   for (std::size_t q = 0; q < n; ++q)
     if (owner[q] == rank) wanted[q] = 1;

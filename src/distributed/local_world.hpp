@@ -30,10 +30,14 @@ struct Piece {
 // near its ghosts too (velocity Verlet moves a ghost by its own contacts' forces at the step's
 // start before the owned quanta's contacts read where it went).
 // A piece with quanta contact also holds the bonds between its ghosts: a pair of local quanta
-// touches only when no bond joins them.
+// touches only when no bond joins them. Quanta contact inside the implicit solve takes the whole
+// world instead (`everything`): its pairs are found along the step's predicted paths, which a
+// frame-sized step makes long, and each rank then solves every pair's active set as the run
+// alone does.
 struct ContactHalo {
   std::vector<std::pair<Index, Index>> near;  // pairs (i < j) of the whole world closer than the reach
   int layers = 0;                             // 0: no quanta contact; 1 or 2
+  bool everything = false;                    // every quanta of the whole world is local
 };
 
 // The quanta rank `rank` holds (1 each): those it owns, the other ends of their alive bonds, and

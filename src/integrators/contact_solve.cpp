@@ -487,6 +487,7 @@ double ContactSolve::stored(const Model& model, const std::vector<Vec3>& x) cons
   }
   const QuantaContactRule& rule = model.quanta_contact;
   for (const auto& [i, j] : candidates_) {
+    if (!mine(model.is_kinematic(i) ? j : i)) continue;  // a pair's energy is its first free end's rank's
     const double g = (x[j] - x[i]).norm() - 2 * rule.radius;
     if (g < 0) u += 0.5 * (rule.penalty / ((model.inv_mass[i] + model.inv_mass[j]) * spring_h_ * spring_h_)) * g * g;
   }
@@ -542,7 +543,7 @@ void ContactSolve::finish(const Model& model, const State& state, const Adjacenc
   double work = 0;
   for (std::size_t q = 0; q < n; ++q) {
     const auto i = static_cast<Index>(q);
-    if (touching_.size() != n || !touching_[q] || model.is_kinematic(i)) continue;
+    if (touching_.size() != n || !touching_[q] || model.is_kinematic(i) || !mine(i)) continue;
     if (adj.offset[i] == adj.offset[i + 1])
       work += 0.5 * model.mass[q] * ((state.v[q] + out.dv[q]).squaredNorm() - state.v[q].squaredNorm()) -
               external_force(model, *f_ext_, i).dot(out.dx[q]);

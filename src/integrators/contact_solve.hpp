@@ -63,8 +63,10 @@ class ContactSolve {
   // the obstacle's impulse is part of their momentum change. Empty when there is none.
   const std::vector<std::uint8_t>& touching() const { return touching_; }
   // Over MPI ranks: contacts with obstacles for the quanta with owned[i] set alone (a rank's own;
-  // the others' are their owners'), and the springs' energy of those alone. Quanta–quanta
-  // contact is not solved so (a pair's ends may have two owners).
+  // the others' are their owners'). Quanta–quanta contacts are every pair's, each rank holding the
+  // whole world (a pair's ends may have two owners, and its active set reads both). The books
+  // (finish) count the owned quanta's impulses and the springs of the owned quanta's obstacle
+  // contacts and of the pairs whose first free end is owned.
   void only_quanta(std::vector<std::uint8_t> owned) { owned_ = std::move(owned); }
   // After the last solve and write_free_rows: the end normal velocity e v_in of a lone quanta's
   // impact (no bonds) in out.dv, and out.contact's energies (the contact impulses' work at the

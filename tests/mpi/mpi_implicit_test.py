@@ -19,9 +19,9 @@ the positions by h S times that, and the energy columns by twice that relative e
 scale (energies are quadratic in v). The scene's frames are written every step, so that max ‖v‖
 is over every step.
 
-Obstacles inside the solve (method implicit) add to κ's bound what their contacts add to a quanta's
-diagonal block (below); the bound holds while both runs take the same active-set decisions, each
-from its own solution.
+Contact inside the solve (method implicit, obstacles and quanta–quanta pairs) adds to κ's bound what
+its contacts add to a quanta's row (below); the bound holds while both runs take the same active-set
+decisions, each from its own solution.
 
 The Newton integrators stop at ‖R(y)‖ ≤ τ ref, ref² = Σ_i (m_i |y_i − e_i| + s h (|f_ext,i| +
 Σ_b |f_b|))² (newton.hpp), with y = Δv; alone their linear solves may take the exact Jacobian,
@@ -133,13 +133,17 @@ for body in scene["bodies"]:
     kappa = max(kappa, 1 + 2 * z * (h * mat.get("damping", 0) + h * h * mat["stiffness"]) / body["quanta_mass"])
     spacing = min(spacing, body["spacing"])
     stiffness, damping = max(stiffness, mat["stiffness"]), max(damping, mat.get("damping", 0))
-# Obstacles inside the solve: a contact adds h² k n nᵀ = κ_c m n nᵀ to its quanta's diagonal block
-# (k = κ_c m / h², κ_c the obstacle's `penalty`) and, with friction, a damper h c P of at most
-# h (100 k h) = 100 κ_c m (a sticking contact's): the eigenvalues stay at least m.
+# Contact inside the solve: an obstacle's contact adds h² k n nᵀ = κ_c m n nᵀ to its quanta's
+# diagonal block (k = κ_c m / h², κ_c the rule's `penalty`) and, with friction, a damper h c P of
+# at most h (100 k h) = 100 κ_c m (a sticking contact's): the eigenvalues stay at least m. A pair of
+# quanta in contact adds such a block, of the reduced mass μ ≤ m, to both ends' diagonal blocks
+# and its negative off the diagonal: at most 2 κ_c m (1 + 100) to a row's Gershgorin sum, for each
+# of the at most 12 equal spheres that touch one.
 for rule in scene.get("heuristics", []):
     if rule.get("method") == "implicit":
         rubs = rule.get("friction", 0) > 0 or rule.get("static_friction", 0) > 0
-        kappa += rule.get("penalty", 1000) * (1 + (100 if rubs else 0))
+        per_contact = rule.get("penalty", 1000) * (1 + (100 if rubs else 0))
+        kappa += per_contact * (2 * 12 if rule.get("type") == "contact" else 1)
 REL_V = 4 * kappa * tau * steps
 log = run(first, a.ranks)
 
