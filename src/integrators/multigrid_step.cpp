@@ -11,6 +11,9 @@ namespace qbond {
 
 namespace {
 
+// The relative change (Frobenius norm) of a diagonal block beyond which the smoother takes it anew.
+constexpr double kDiagonalMoved = 0.1;
+
 double thread_cpu_seconds() {
   timespec t{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
@@ -120,6 +123,18 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
       update = !build;
     }
   }
+  // Contacts: the rows whose diagonal block moved a tenth or more from the one the fine smoother
+  // inverts (a sticking contact's damper came or went). Once none moves after some did, the
+  // contacts have settled: the hierarchy is made anew beside them, once.
+  moved.assign(quanta.size(), 0);
+  if (contacts && !build && !update) {
+    parallel_for(quanta.size(), threads, [&](std::size_t r) {
+      const Mat3& d = sys.diag[quanta[r]];
+      moved[r] = (d - smoothed[r]).norm() > kDiagonalMoved * smoothed[r].norm();
+    });
+    const bool any = std::find(moved.begin(), moved.end(), 1) != moved.end();
+    update = !any && smoothed_moved;
+  }
   updated_since_check = update;
   const auto t0 = std::chrono::steady_clock::now();
   const double c0 = thread_cpu_seconds();
@@ -153,12 +168,20 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     ++updates;
     built_h = h;
   }
-  if (contacts && !build && !update) {
-    diag_blocks.resize(9 * quanta.size());
+  if (build || update) {
+    smoothed.resize(quanta.size());
+    parallel_for(quanta.size(), threads, [&](std::size_t r) { smoothed[r] = sys.diag[quanta[r]]; });
+    smoothed_moved = false;
+  } else {
+    // The moved rows' blocks taken anew; the others, which bonds turning or normal springs move a
+    // little, stay with the coarse levels made beside them. Diagonal blocks are symmetric: either
+    // storage order is the row-major block the smoother takes.
     parallel_for(quanta.size(), threads, [&](std::size_t r) {
-      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(diag_blocks.data() + 9 * r) = sys.diag[quanta[r]];
+      if (!moved[r]) return;
+      smoothed[r] = sys.diag[quanta[r]];
+      mg.set_fine_diagonal(r, smoothed[r].data());
+      smoothed_moved = true;
     });
-    mg.refresh_fine_diagonal(diag_blocks.data(), threads);
   }
   const auto t1 = std::chrono::steady_clock::now();
   const double c1 = thread_cpu_seconds();

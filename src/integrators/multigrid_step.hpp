@@ -10,7 +10,9 @@
 // 2) the iterations the solve right after the last build took. After bonds break or form it is
 // rebuilt only once more than a tenth of A's blocks differ from the built pattern, or when an
 // update did not bring the iterations back down. While the system holds contact springs, its
-// fine smoother takes each solve's diagonal blocks (Multigrid::refresh_fine_diagonal).
+// fine smoother takes the diagonal blocks that moved far from those it inverts (a sticking
+// contact's damper came or went: Multigrid::set_fine_diagonal), and once they stop moving the
+// hierarchy is updated beside them.
 #include <cstdint>
 #include <vector>
 
@@ -22,8 +24,8 @@ namespace qbond {
 struct MultigridStep {
   /// Solves A y = sys.rhs over the free quanta (y's kinematic rows 0) from the guess in y (y_zero:
   /// zero), to a relative residual of `tolerance` or `cap` iterations; fills stats. `contacts`: sys
-  /// holds contact springs, which come and go from solve to solve and stiffen their quanta's
-  /// diagonal blocks far beyond the kept hierarchy's: its fine smoother then takes sys's blocks.
+  /// holds contact springs, which come and go from solve to solve and can stiffen their quanta's
+  /// diagonal blocks far beyond the kept hierarchy's: its fine smoother then takes those blocks.
   void solve(const Model& model, const State& state, const Adjacency& adj, const ImplicitSystem& sys,
              bool contacts, double h, double tolerance, int cap, int threads, std::vector<Vec3>& y,
              bool y_zero, SolveStats& stats);
@@ -55,7 +57,9 @@ struct MultigridStep {
   int base_iterations = -1, last_iterations = 0;
   bool updated_since_check = false;
   std::vector<double> b, x;
-  std::vector<double> diag_blocks;  // sys's diagonal blocks by block row, for the smoother (contacts)
+  std::vector<Mat3> smoothed;       // the diagonal blocks the fine smoother inverts, by block row
+  std::vector<std::uint8_t> moved;  // rows whose block in sys moved far from `smoothed` (contacts)
+  bool smoothed_moved = false;      // some row of `smoothed` taken anew since the last build or update
 };
 
 }  // namespace qbond

@@ -150,9 +150,8 @@ void Multigrid::smoother(Level& L, bool symmetric, int threads) {
   L.lambda = lambda;
 }
 
-void Multigrid::refresh_fine_diagonal(const double* blocks, int threads) {
-  Level& L = levels_[0];
-  parallel_for(L.A.rows, threads, [&](std::size_t i) { invert_block<3>(blocks + 9 * i, L.Dinv.data() + 9 * i); });
+void Multigrid::set_fine_diagonal(std::size_t row, const double* block) {
+  invert_block<3>(block, levels_[0].Dinv.data() + 9 * row);
 }
 
 void Multigrid::galerkin(std::size_t l, int threads) {

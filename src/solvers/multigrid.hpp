@@ -40,10 +40,10 @@ class Multigrid {
   /// The same aggregates and prolongators with A's values (its block rows the built ones; its
   /// pattern may differ, after bonds break or form): operators, smoothers and coarse solve anew.
   void update(const BlockMatrix& A, int threads);
-  /// The fine level's smoother takes A's diagonal blocks anew (3×3, row-major, one a block row;
-  /// the rest of the hierarchy kept): where the system's diagonal moved since the build or
-  /// update (contacts' springs come and go), smoothing with the old blocks hardly acts.
-  void refresh_fine_diagonal(const double* blocks, int threads);
+  /// The fine level's smoother takes `block` (3×3, row-major) as block row `row`'s diagonal block
+  /// (the rest of the hierarchy kept): where the system's diagonal moved far since the build or
+  /// update (contacts' springs come and go), smoothing with the old block hardly acts there.
+  void set_fine_diagonal(std::size_t row, const double* block);
   bool built() const { return !levels_.empty(); }
   std::size_t levels() const { return levels_.size(); }
   /// Unknowns on each level.
