@@ -17,6 +17,7 @@
 #include "integrators/bond_forces.hpp"
 #include "integrators/bond_partition.hpp"
 #include "integrators/integrator_common.hpp"
+#include "integrators/newton.hpp"
 #include "ledger/step_work.hpp"
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/analysis/stress.hpp"
@@ -592,19 +593,11 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
   if (sim_) {
     report = piece_step();
     solve_stats_ = sim_->integrator().stats();  // before a rebuild makes a new integrator
-    if (newton_ && config_.type != IntegratorType::bdf2 && report.status == StepReport::Status::ok &&
-        solve_stats_.unconverged > 0) {
-      // The run alone takes the step again in halves (newton.hpp), which over ranks it does not.
-      report = kept_before({.status = StepReport::Status::blowup,
-                            .message = "at step " + std::to_string(whole_.state.step + 1) +
-                                       " Newton's iteration did not converge; the run alone takes such a step "
-                                       "again in halves, which over ranks is not distributed yet: take smaller "
-                                       "steps, or run it on one rank"});
-    }
     left = report.status == StepReport::Status::ok && left_box();
   } else if (gathers_contacts_) {
     gather({});  // the pieces' contact rules gather the quanta in contact every step
   }
+  const bool unconverged = newton_unconverged();
   times_.stepping += cpu_seconds() - cpu0;
   // A piece that refused its step sends its state before it: the step is then undone everywhere.
   exchange_ghosts();
@@ -648,8 +641,9 @@ StepReport DistributedStep::step_timed(bool stop, double cpu0, bool retaken) {
     undo();
     return v.report;
   }
-  // With projection rules the run alone guards the projection before their edits alone.
-  if (implicit_ && projection_rules_.empty() && gains(v, Guard::step)) {
+  // With projection rules the run alone guards the projection before their edits alone. A Newton
+  // step that did not converge is taken in halves, as the run alone's integrator takes it.
+  if ((implicit_ && projection_rules_.empty() && gains(v, Guard::step)) || unconverged) {
     undo();
     ++halved_;
     return split_step(stop, cpu_seconds());
@@ -797,6 +791,16 @@ double DistributedStep::contact_stored_after() {
   contact_after_.evaluate(sim_->world().model, sim_->adjacency(), h_, PointsView::of(s.x.data(), s.v.data()),
                           owned_mask_);
   return contact_after_.stored();
+}
+
+bool DistributedStep::newton_unconverged() {
+  // bdf2 is never split (its step reads the state one whole step back); the iterations' decisions
+  // are taken over every rank, so each piece's verdict is the same: the flag over the ranks only
+  // keeps a rank without a piece in step.
+  if (!newton_ || config_.type == IntegratorType::bdf2) return false;
+  int flags[1] = {sim_ && sim_->integrator().stats().unconverged > 0 ? 1 : 0};
+  max_over_ranks(flags);
+  return flags[0] != 0;
 }
 
 bool DistributedStep::gains(const Verdict& v, Guard guard) const {
@@ -965,11 +969,16 @@ bool DistributedStep::half(double t_a, double t_b, int depth, bool stop, Verdict
     solve_stats_.iterations += taken.iterations;
     solve_stats_.residual = std::max(solve_stats_.residual, taken.residual);
   }
+  const bool unconverged = newton_unconverged();
   exchange_ghosts();
   const StepWork work = charge_ledger(H);
   last = agree(report, false, stop, work, solved_contacts_ ? contact_stored_after() : 0.0, 0.0);
   const bool ok = last.report.status == StepReport::Status::ok;
-  if (ok && !(depth < kMaxDepth && gains(last, Guard::half))) {
+  // A Newton half is split again while its iteration does not converge, the coupled step's while
+  // it creates energy, each to its integrator's depth, as alone.
+  const bool again = newton_ ? unconverged && depth < kNewtonSplitDepth : depth < kMaxDepth && gains(last, Guard::half);
+  if (ok && !again) {
+    if (unconverged) ++solve_stats_.unconverged;  // the smallest half, taken anyway
     energy_start_ = last.after;
     if (solved_contacts_) {  // each half's contacts charged as the run alone's substeps are
       contact_dissipated_ += contact_loss(last.contact);

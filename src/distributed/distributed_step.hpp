@@ -251,12 +251,18 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   // the run alone's stage::restore_energy does. Returns the kinetic energy added, the same on
   // every rank, and adds it to energy_start_ (collective).
   double restore_energy(double e_start);
-  // coupled_implicit: the step just undone, taken again as two halves, each again in halves
-  // while it creates energy, as the run alone's energy guard takes it; breaks decided after the
-  // last half (collective). cpu0: the CPU time when the halves began.
+  // The step just undone, taken again as two halves: coupled_implicit's each again in halves
+  // while it creates energy, as the run alone's energy guard takes it; energy_momentum's and
+  // implicit_midpoint's while Newton's iteration does not converge, as their integrator alone
+  // takes it; breaks decided after the last half (collective). cpu0: the CPU time when the
+  // halves began.
   StepReport split_step(bool stop, double cpu0);
+  // Whether the piece's Newton step (energy_momentum, implicit_midpoint) did not converge, which
+  // the run alone takes again in halves (collective).
+  bool newton_unconverged();
   // One substep [t_a, t_b] of split_step from the state the pieces hold, split again while it
-  // creates energy and depth < kMaxDepth: false, the pieces back at t_a, when it blew up.
+  // creates energy (a Newton half: does not converge), to its integrator's depth: false, the
+  // pieces back at t_a, when it blew up.
   bool half(double t_a, double t_b, int depth, bool stop, Verdict& last);
   // The counted springs' energy of the penalty contacts at the step's end, from the exchanged
   // state (a ghost's end in the piece's own step lacks its bonds and contacts off the piece) [J].

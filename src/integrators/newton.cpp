@@ -242,9 +242,6 @@ constexpr int kMaxHalvings = 12;
 // Restarts of a stalled step and their initial guesses y = −β v.
 constexpr int kRestarts = 4;
 constexpr double kRestartBeta[kRestarts] = {1, 2, 0.5, 1.5};
-// Substepping fallback: a step whose Newton iteration does not converge is split in halves, at
-// most this many times (2^kMaxDepth substeps of h / 2^kMaxDepth).
-constexpr int kMaxDepth = 8;
 // Polishing a converged step (NewtonIntegrator::polish): at most this many exact corrections
 // (one or two are taken: from the tolerance exact Newton reaches round-off in one).
 constexpr int kPolishIterations = 3;
@@ -299,7 +296,7 @@ class NewtonIntegrator final : public StepIntegrator {
       // Substepping fallback: a composition of energy-momentum (or midpoint) steps keeps what each
       // step keeps, so the halves, solved each from the state the one before reached, give a step
       // with the scheme's conservation properties; halves that do not converge split again, down
-      // to h / 2^kMaxDepth. Kinematic rows keep the whole step's prescribed motion.
+      // to h / 2^kNewtonSplitDepth. Kinematic rows keep the whole step's prescribed motion.
       sub_ = state;
       stats_.residual = 0;  // the largest of the substeps' from here
       const double t0 = ctx.t, t1 = ctx.t + h, tm = t0 + 0.5 * h;
@@ -328,7 +325,7 @@ class NewtonIntegrator final : public StepIntegrator {
 
  private:
   // Takes sub_ (the state at t0) to t1: one Newton solve over [t0, t1] or, when it does not
-  // converge and depth < kMaxDepth, two halves. Hands each substep taken to the ledger, when on.
+  // converge and depth < kNewtonSplitDepth, two halves. Hands each substep taken to the ledger, when on.
   void substep(const Model& model, const Adjacency& adj, const std::vector<Vec3>& f_ext, NewtonScheme scheme,
                double t0, double t1, std::uint64_t step, int depth) {
     const std::size_t n = model.num_quanta();
@@ -342,7 +339,7 @@ class NewtonIntegrator final : public StepIntegrator {
                   f_ext, H, no_history_, config_.threads, y_);
     double residual = 0;
     const bool converged = solve(model, sub_, adj, f_ext, scheme, sub_out_, H, residual);
-    if (!converged && depth < kMaxDepth) {
+    if (!converged && depth < kNewtonSplitDepth) {
       const double tm = t0 + 0.5 * H;
       substep(model, adj, f_ext, scheme, t0, tm, step, depth + 1);
       substep(model, adj, f_ext, scheme, tm, t1, step, depth + 1);

@@ -49,6 +49,11 @@
 
 namespace qbond {
 
+// Substepping fallback of energy_momentum and implicit_midpoint: a step whose Newton iteration does
+// not converge is split in halves, at most this many times (2^kNewtonSplitDepth substeps of
+// h / 2^kNewtonSplitDepth), the smallest taken anyway; over MPI ranks as alone (distributed_step.cpp).
+inline constexpr int kNewtonSplitDepth = 8;
+
 enum class NewtonScheme : std::uint8_t { energy_momentum, implicit_midpoint, bdf2, backward_euler };
 
 // The map from y to the step (see the header comment).
