@@ -53,7 +53,6 @@ and the positions by h S times that. Checks:
     what the step lost, whatever the solve's error);
 Exits non-zero with a message naming the file, the column or quanta and the difference.
 """
-import argparse
 import json
 import os
 import re
@@ -64,16 +63,10 @@ import sys
 import numpy as np
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
-from run_outputs import frames, poly, restored, rows, same_breaks, same_bytes
+from run_outputs import frames, poly, ranks_arguments, restored, rows, same_breaks, same_bytes
 
-p = argparse.ArgumentParser()
-p.add_argument("qbond")
-p.add_argument("scene")
-p.add_argument("work")
-p.add_argument("--ranks", type=int, required=True)
+p = ranks_arguments()
 p.add_argument("--repeat", action="store_true")
-p.add_argument("--mpiexec", required=True)
-p.add_argument("--mpiexec-flag", action="append", default=[])
 p.add_argument("--integrator")
 p.add_argument("--expect-breaks", action="store_true")
 p.add_argument("--expect-halves", action="store_true")

@@ -20,7 +20,6 @@ S − K + K 2^8 substeps (kNewtonSplitDepth). Checks:
     within their bounds above summed over the substeps, plus the round-off of the sums.
 Exits non-zero with a message naming the row, the column and the difference.
 """
-import argparse
 import json
 import math
 import os
@@ -29,15 +28,9 @@ import shutil
 import subprocess
 import sys
 
-from run_outputs import rows, same_bytes
+from run_outputs import ranks_arguments, rows, same_bytes
 
-p = argparse.ArgumentParser()
-p.add_argument("qbond")
-p.add_argument("scene")
-p.add_argument("work")
-p.add_argument("--ranks", type=int, required=True)
-p.add_argument("--mpiexec", required=True)
-p.add_argument("--mpiexec-flag", action="append", default=[])
+p = ranks_arguments()
 a = p.parse_args()
 
 ROUND_OFF = 1e-12

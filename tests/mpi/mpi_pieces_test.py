@@ -14,7 +14,6 @@ Runs SCENE alone (whole-world .vtp frames) and over N ranks with --frame-pieces,
     exactly once, between the same quanta.
 Exits non-zero with a message naming the frame and what differs.
 """
-import argparse
 import os
 import re
 import shutil
@@ -26,13 +25,9 @@ import numpy as np
 from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.vtkIOXML import vtkXMLPPolyDataReader, vtkXMLPolyDataReader
 
-p = argparse.ArgumentParser()
-p.add_argument("qbond")
-p.add_argument("scene")
-p.add_argument("work")
-p.add_argument("--ranks", type=int, required=True)
-p.add_argument("--mpiexec", required=True)
-p.add_argument("--mpiexec-flag", action="append", default=[])
+from run_outputs import ranks_arguments
+
+p = ranks_arguments()
 a = p.parse_args()
 REL = 1e-12
 

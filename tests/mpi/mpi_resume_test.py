@@ -17,7 +17,6 @@ history). --integrator runs the scene with that integrator instead of its own (a
 With adaptive steps (the steps then a time, steps × timestep) the run alone stops where the run over
 ranks stops and is resumed alone, for a run stopped at a time takes a step that ends there.
 """
-import argparse
 import csv
 import json
 import os
@@ -25,13 +24,9 @@ import shutil
 import subprocess
 import sys
 
-p = argparse.ArgumentParser()
-p.add_argument("qbond")
-p.add_argument("scene")
-p.add_argument("work")
-p.add_argument("--ranks", type=int, required=True)
-p.add_argument("--mpiexec", required=True)
-p.add_argument("--mpiexec-flag", action="append", default=[])
+from run_outputs import ranks_arguments
+
+p = ranks_arguments()
 p.add_argument("--resume-ranks", type=int, action="append", default=[])
 p.add_argument("--stop-at", type=int)
 p.add_argument("--reference-ranks", type=int, default=0)

@@ -37,7 +37,6 @@ Runs the scene alone, then over N ranks (twice with --repeat), and checks:
     ledger each step from the books summed over the ranks;
 Exits non-zero with a message naming the file, the column or quanta and the difference.
 """
-import argparse
 import csv
 import json
 import os
@@ -48,16 +47,10 @@ import sys
 
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
-from run_outputs import events, frames, poly, restored, rows, same_breaks, same_bytes, same_events
+from run_outputs import events, frames, poly, ranks_arguments, restored, rows, same_breaks, same_bytes, same_events
 
-p = argparse.ArgumentParser()
-p.add_argument("qbond")
-p.add_argument("scene")
-p.add_argument("work")
-p.add_argument("--ranks", type=int, required=True)
+p = ranks_arguments()
 p.add_argument("--repeat", action="store_true")
-p.add_argument("--mpiexec", required=True)
-p.add_argument("--mpiexec-flag", action="append", default=[])
 p.add_argument("--run-arg", action="append", default=[])
 p.add_argument("--expect-migration", action="store_true")
 p.add_argument("--expect-recut", action="store_true")

@@ -1,11 +1,25 @@
 """Reading a qbond run's outputs, for the tests under mpiexec: raw files, frames, diagnostics rows
 and ParaView frames, and the bond breaks of a run over ranks against the run alone's."""
+import argparse
 import csv
 import os
 import re
 import sys
 
 from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+
+
+def ranks_arguments():
+    """The arguments every test over ranks takes: QBOND SCENE WORKDIR --ranks N --mpiexec MPIEXEC
+    [--mpiexec-flag F ...]; the caller adds its own and parses."""
+    p = argparse.ArgumentParser()
+    p.add_argument("qbond")
+    p.add_argument("scene")
+    p.add_argument("work")
+    p.add_argument("--ranks", type=int, required=True)
+    p.add_argument("--mpiexec", required=True)
+    p.add_argument("--mpiexec-flag", action="append", default=[])
+    return p
 
 
 def read(path):
