@@ -125,15 +125,16 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
   }
   // Contacts: the rows whose diagonal block moved a tenth or more from the one the fine smoother
   // inverts (a sticking contact's damper came or went). Once none moves after some did, the
-  // contacts have settled: the hierarchy is made anew beside them, once.
-  moved.assign(quanta.size(), 0);
+  // contacts have settled: the hierarchy is updated beside them, once.
+  bool any_moved = false;
   if (contacts && !build && !update) {
+    moved.assign(quanta.size(), 0);
     parallel_for(quanta.size(), threads, [&](std::size_t r) {
       const Mat3& d = sys.diag[quanta[r]];
       moved[r] = (d - smoothed[r]).norm() > kDiagonalMoved * smoothed[r].norm();
     });
-    const bool any = std::find(moved.begin(), moved.end(), 1) != moved.end();
-    update = !any && smoothed_moved;
+    any_moved = std::find(moved.begin(), moved.end(), 1) != moved.end();
+    update = !any_moved && smoothed_moved;
   }
   updated_since_check = update;
   const auto t0 = std::chrono::steady_clock::now();
@@ -168,20 +169,24 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     ++updates;
     built_h = h;
   }
-  if (build || update) {
+  // The blocks the smoother inverts: all of sys's after a build or update; else the moved rows'
+  // taken anew, the others (which bonds turning or normal springs move a little) staying with the
+  // coarse levels made beside them. Diagonal blocks are symmetric: either storage order is the
+  // row-major block the smoother takes.
+  auto keep_smoothed = [&] {
     smoothed.resize(quanta.size());
     parallel_for(quanta.size(), threads, [&](std::size_t r) { smoothed[r] = sys.diag[quanta[r]]; });
     smoothed_moved = false;
-  } else {
-    // The moved rows' blocks taken anew; the others, which bonds turning or normal springs move a
-    // little, stay with the coarse levels made beside them. Diagonal blocks are symmetric: either
-    // storage order is the row-major block the smoother takes.
+  };
+  if (build || update) {
+    keep_smoothed();
+  } else if (any_moved) {
     parallel_for(quanta.size(), threads, [&](std::size_t r) {
       if (!moved[r]) return;
       smoothed[r] = sys.diag[quanta[r]];
       mg.set_fine_diagonal(r, smoothed[r].data());
-      smoothed_moved = true;
     });
+    smoothed_moved = true;
   }
   const auto t1 = std::chrono::steady_clock::now();
   const double c1 = thread_cpu_seconds();
@@ -196,6 +201,7 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
   if (stats.residual > tolerance && kept_cap < cap) {
     fill_values();
     mg.update(A, threads);
+    keep_smoothed();
     ++updates;
     built_h = h;
     updated_since_check = true;

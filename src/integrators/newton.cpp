@@ -285,7 +285,8 @@ class NewtonIntegrator final : public StepIntegrator {
     if (converged || bdf2 || ranks_) {
       // bdf2 (and its backward-Euler start) is never split: its step reads the state one whole
       // step back (Bdf2History), which a substep does not have (docs/integrators.md). Over ranks
-      // no step is: the run stops at an unconverged one (distributed_step.cpp).
+      // the run takes an unconverged step again in halves, each a step over the ranks of its own
+      // (distributed_step.cpp).
       if (!converged) ++stats_.unconverged;
       for (std::size_t i = 0; i < n; ++i) {
         if (model.is_kinematic(static_cast<Index>(i))) continue;
