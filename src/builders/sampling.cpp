@@ -63,7 +63,7 @@ class DiskGrid {
   std::array<std::int64_t, 3> cell_of(const Vec3& p) const {
     std::array<std::int64_t, 3> c{};
     for (int d = 0; d < 3; ++d)
-      c[d] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor(p[d] / cell_)), 0, n_[d] - 1);
+      c[d] = std::clamp<std::int64_t>(clamped_floor(p[d] / cell_, static_cast<double>(n_[d])), 0, n_[d] - 1);
     return c;
   }
   std::size_t slot(std::int64_t i, std::int64_t j, std::int64_t k) const {

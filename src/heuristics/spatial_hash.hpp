@@ -187,16 +187,25 @@ class SpatialHash {
   std::vector<Index> start_, fill_, bucket_;
 };
 
+/// floor(v) as a cell's index, v first clamped to [−most, most] (NaN to −most), so that no cast
+/// overflows whatever the coordinate and the cell (a point far out, a cell of 1e-44 m).
+inline std::int64_t clamped_floor(double v, double most) {
+  if (!(v >= -most)) return static_cast<std::int64_t>(-most);
+  if (v >= most) return static_cast<std::int64_t>(most);
+  return static_cast<std::int64_t>(std::floor(v));
+}
+
 /// Visits every pair (a, b) with a from `from`, b from `to`, a != b and |x_a − x_b| <= radius,
 /// using a uniform grid of cell `radius` (cost linear in the quanta for bounded density). Pairs
 /// come in increasing a, then increasing b.
 template <class F>
 void pairs_within(const std::vector<Vec3>& x, const std::vector<Index>& from, const std::vector<Index>& to,
                   double radius, F&& visit) {
+  // Far cells clamped together stay correct (each pair is tested by its distance), only slower.
+  constexpr double kMost = double(std::int64_t{1} << 62);
   auto cell = [&](const Vec3& p) {
-    return std::array<std::int64_t, 3>{static_cast<std::int64_t>(std::floor(p.x() / radius)),
-                                       static_cast<std::int64_t>(std::floor(p.y() / radius)),
-                                       static_cast<std::int64_t>(std::floor(p.z() / radius))};
+    return std::array<std::int64_t, 3>{clamped_floor(p.x() / radius, kMost), clamped_floor(p.y() / radius, kMost),
+                                       clamped_floor(p.z() / radius, kMost)};
   };
   auto key = [](std::int64_t a, std::int64_t b, std::int64_t c) {
     return static_cast<std::uint64_t>(a) * 73856093u ^ static_cast<std::uint64_t>(b) * 19349663u ^
