@@ -87,18 +87,16 @@ class CoupledIntegrator final : public StepIntegrator {
          ++pass) {
       // A block-Jacobi pass that took long (an impact's stiff springs) may turn `automatic` to
       // multigrid for the step's remaining passes.
-      if (whole && automatic() && !step.jacobi_judged && step.jacobi_mean() > kMultigridAfter &&
-          !choice_.multigrid(model.num_quanta())) {
+      if (whole && automatic() && step.jacobi_mean() > kMultigridAfter && !choice_.multigrid(model.num_quanta()))
         choice_.after_jacobi(step.jacobi_mean());
-        step.jacobi_judged = choice_.multigrid(model.num_quanta());
-      }
       linear_solve(model, state, adj, f_ext, ctx, whole, contacts, /*warm=*/true, step);
     }
     if (config_.solver == CoupledSolver::cg) {
       // `automatic` compares a whole step's solves with each preconditioner, their mean iterations
-      // (the hierarchy is kept if it turns to block Jacobi).
+      // (the hierarchy is kept if it turns to block Jacobi). A step that has both turned to
+      // multigrid within it, where its block-Jacobi solves were judged.
       if (whole && automatic()) {
-        if (step.jacobi_solves > 0 && !step.jacobi_judged) choice_.after_jacobi(step.jacobi_mean());
+        if (step.jacobi_solves > 0 && step.multigrid_solves == 0) choice_.after_jacobi(step.jacobi_mean());
         if (step.multigrid_solves > 0) choice_.after_multigrid(step.multigrid_mean());
       }
       if (config_.restore_momentum)
@@ -117,7 +115,6 @@ class CoupledIntegrator final : public StepIntegrator {
   struct Iterations {
     int jacobi = 0, multigrid = 0, jacobi_solves = 0, multigrid_solves = 0;
     double residual = 0;
-    bool jacobi_judged = false;  // `automatic` has seen the block-Jacobi passes (and turned to multigrid)
     // A solve's iterations on average, rounded up.
     int jacobi_mean() const { return (jacobi + jacobi_solves - 1) / std::max(jacobi_solves, 1); }
     int multigrid_mean() const { return (multigrid + multigrid_solves - 1) / std::max(multigrid_solves, 1); }
