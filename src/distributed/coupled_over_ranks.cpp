@@ -3,6 +3,7 @@
 #include <petscksp.h>
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -138,9 +139,11 @@ class RanksSystem {
     check(MatAssemblyEnd(A_, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
   }
 
-  // CG stops at ‖b − A y‖ ≤ tolerance ‖b‖.
-  void set_tolerance(double tolerance) {
-    check(KSPSetTolerances(ksp_, tolerance, 0.0, PETSC_DEFAULT, cap_), "KSPSetTolerances");
+  // CG stops at ‖b − A y‖ ≤ tolerance max(‖b‖, scale), scale the whole system's h‖f_ext‖ for
+  // coupled steps (ImplicitSystem::load_norm), 0 for Newton's.
+  void set_tolerance(double tolerance, double scale = 0) {
+    check(KSPSetTolerances(ksp_, tolerance, tolerance * scale, PETSC_DEFAULT, cap_), "KSPSetTolerances");
+    scale_ = scale;
   }
 
   // Solves the loaded system for the owned free quanta's rows of y (right-hand side sys.rhs),
@@ -169,6 +172,7 @@ class RanksSystem {
     check(KSPGetResidualNorm(ksp_, &rnorm), "KSPGetResidualNorm");
     check(VecNorm(b_, NORM_2, &bnorm), "VecNorm");
     stats.iterations += static_cast<int>(its);
+    bnorm = std::max(bnorm, scale_);
     stats.residual = bnorm > 0 ? rnorm / bnorm : rnorm;
     const PetscScalar* px = nullptr;
     check(VecGetArrayRead(x_, &px), "VecGetArrayRead");
@@ -335,6 +339,7 @@ class RanksSystem {
   bool assembled_;
   int threads_;
   int cap_ = 0;  // CG's iterations at most
+  double scale_ = 0;  // the residual's scale besides ‖b‖ (set_tolerance)
   Mat A_ = nullptr;
   Vec x_ = nullptr, b_ = nullptr;
   KSP ksp_ = nullptr;
@@ -393,6 +398,12 @@ class CoupledOverRanks final : public StepIntegrator {
             "names a preconditioner (-pc_type), which would take the assembled matrix without the contacts");
       system_ = std::make_unique<RanksSystem>(layout_, state, adj, config_, matrix);
     }
+    // The residual's scale over the whole system (the piece's load_norm counts ghosts too).
+    double load2 = 0;
+    for (Index i : layout_.owned_free) load2 += external_force(model, f_ext, i).squaredNorm();
+    double whole_load2 = 0;
+    for (double part : all_gather({&load2, 1})) whole_load2 += part;
+    system_->set_tolerance(config_.tolerance, ctx.h * std::sqrt(whole_load2));
     auto solve = [&](bool from_y) {
       system_->load(layout_, model, state.bonds, adj, sys_);
       system_->solve(layout_, sys_, from_y, y_, stats_);

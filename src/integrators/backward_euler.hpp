@@ -118,6 +118,12 @@ struct ImplicitSystem {
   std::vector<Mat3> diag_inv;  // A_ii⁻¹ (n)
   std::vector<Vec3> rhs;       // b (n); 0 for kinematic quanta
   double rhs_norm = 0;         // ‖b‖ over free quanta
+  // h‖f_ext‖ over free quanta (begin_implicit_step; 0 where no build sets it): where the forces
+  // balance, b → 0, and a residual relative to ‖b‖ alone would ask for ever more digits of that
+  // balance; relative to max(‖b‖, h‖f_ext‖) a body at rest is solved as well as a falling one.
+  double load_norm = 0;
+  // The scale of the relative residual ‖b − A Δv‖ / residual_scale() at which the solves stop.
+  double residual_scale() const { return std::max(rhs_norm, load_norm); }
   // The Newton integrators' exact Jacobian (exact Newton iterations): each bond's B_b as a full 3×3 block
   // (non-symmetric, indefinite), which then replaces `bonds`' a u uᵀ + b I in assemble_system;
   // empty otherwise.

@@ -307,6 +307,9 @@ void begin_implicit_step(const Model& model, const State& state, const Adjacency
   });
   finish_rows(model, a, threads, true, sys);
   sys.rhs_norm = std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) { return sys.rhs[i].squaredNorm(); }));
+  sys.load_norm = h * std::sqrt(deterministic_sum(n, threads, [&](std::size_t i) {
+    return model.inv_mass[i] != 0 ? external_force(model, f_ext, static_cast<Index>(i)).squaredNorm() : 0.0;
+  }));
   if (edges) gather_edges(model, adj, threads, sys);
 }
 

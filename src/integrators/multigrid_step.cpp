@@ -194,7 +194,7 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
   // far): its solve is cut off at a few times the iterations it took when made, then the
   // hierarchy's values are refreshed and the solve goes on from where it stopped.
   const int kept_cap = build || update || base_iterations < 0 ? cap : std::min(cap, 4 * base_iterations + 20);
-  mg.solve(fine, b, tolerance, kept_cap, threads, x, y_zero, stats);
+  mg.solve(fine, b, tolerance, kept_cap, threads, x, y_zero, stats, sys.load_norm);
   const auto t2 = std::chrono::steady_clock::now();
   const double c2 = thread_cpu_seconds();
   double refresh_seconds = 0, refresh_cpu_seconds = 0;
@@ -209,7 +209,7 @@ void MultigridStep::solve(const Model& model, const State& state, const Adjacenc
     refresh_seconds = std::chrono::duration<double>(t3 - t2).count();
     refresh_cpu_seconds = thread_cpu_seconds() - c2;
     SolveStats more;
-    mg.solve(fine, b, tolerance, cap - stats.iterations, threads, x, false, more);
+    mg.solve(fine, b, tolerance, cap - stats.iterations, threads, x, false, more, sys.load_norm);
     stats.iterations += more.iterations;
     stats.residual = more.residual;
   }

@@ -438,7 +438,7 @@ void conjugate_gradient(const Model& model, const Bonds& bonds, ImplicitSystem& 
   });
   // Dot products over free quanta: kinematic rows of r, z, p and Ap are 0.
   double rz = dot(n, threads, a.r, a.z);
-  const double bnorm = sys.rhs_norm;
+  const double bnorm = sys.residual_scale();
   auto rel = [&](double r2) { return bnorm > 0 ? std::sqrt(r2) / bnorm : std::sqrt(r2); };
   stats.residual = rel(dot(n, threads, a.r, a.r));
   // An iteration in four passes, so four parallel regions: p's new direction with A_qq p (after

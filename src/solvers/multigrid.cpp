@@ -342,11 +342,11 @@ void Multigrid::apply_swapping(std::vector<double>& r, std::vector<double>& z, i
 }
 
 void Multigrid::solve(const Operator& A, const std::vector<double>& b, double tolerance, int cap, int threads,
-                      std::vector<double>& y, bool y_zero, SolveStats& stats) {
+                      std::vector<double>& y, bool y_zero, SolveStats& stats, double scale) {
   const std::size_t n = b.size();
   for (std::vector<double>* v : {&r_, &z_, &p_, &q_}) v->resize(n);
   y.resize(n);
-  const double bnorm = std::sqrt(dot(n, b.data(), b.data(), threads));
+  const double bnorm = std::max(std::sqrt(dot(n, b.data(), b.data(), threads)), scale);
   auto rel = [&](double r2) { return bnorm > 0 ? std::sqrt(r2) / bnorm : std::sqrt(r2); };
   if (y_zero) {
     std::fill(y.begin(), y.end(), 0.0);

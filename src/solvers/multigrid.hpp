@@ -54,10 +54,10 @@ class Multigrid {
 
   /// Conjugate gradient on A y = b (A with the built block rows, not necessarily the built
   /// values), preconditioned by apply, from y (scaled by yᵀb / yᵀA y first, as the
-  /// block-Jacobi CG does; y_zero: y is 0) until ‖b − A y‖/‖b‖ ≤ tolerance (CG's recurrence) or `cap`
-  /// iterations.
+  /// block-Jacobi CG does; y_zero: y is 0) until ‖b − A y‖/max(‖b‖, scale) ≤ tolerance (CG's
+  /// recurrence) or `cap` iterations.
   void solve(const Operator& A, const std::vector<double>& b, double tolerance, int cap, int threads,
-             std::vector<double>& y, bool y_zero, SolveStats& stats);
+             std::vector<double>& y, bool y_zero, SolveStats& stats, double scale = 0);
 
   /// Chebyshev degree of the smoother before and after each coarse correction.
   int smoothing_degree = 2;

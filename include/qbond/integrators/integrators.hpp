@@ -166,7 +166,7 @@ struct IntegratorConfig {
   Preconditioner preconditioner = Preconditioner::automatic;  ///< coupled_implicit with cg
   int iterations = 1;        ///< sweep/jacobi: sweeps per step (≥ 1)
   int max_iterations = 0;    ///< cg: iteration cap (0: three times the free unknowns)
-  double tolerance = 1e-6;   ///< relative residual ‖b - A dv‖/‖b‖ at which sweeps and cg stop;
+  double tolerance = 1e-6;   ///< relative residual at which sweeps (‖b - A dv‖/‖b‖) and cg (‖b - A dv‖/max(‖b‖, h‖f_ext‖)) stop;
                              ///< Newton integrators: relative residual of the nonlinear step
   int newton_iterations = 20;  ///< Newton integrators: iteration cap per step (≥ 1)
   /// energy_momentum, implicit_midpoint: once Newton meets `tolerance`, take exact-Newton
@@ -204,7 +204,7 @@ IntegratorConfig default_integrator();
 /// Statistics of the last projection (iterative solvers fill them).
 struct SolveStats {
   int iterations = 0;        ///< sweeps or CG iterations taken
-  double residual = 0;       ///< final relative residual ‖b - A dv‖ / ‖b‖ (0 for direct solvers);
+  double residual = 0;       ///< final relative residual (the tolerance's; 0 for direct solvers);
                              ///< Newton integrators: of the nonlinear step (see newton.hpp)
   int linear_iterations = 0; ///< Newton integrators: CG iterations or sweeps summed over the step
   int exact_iterations = 0;  ///< Newton integrators: iterations solved with the exact Jacobian (LU)
@@ -418,7 +418,8 @@ inline constexpr IntegratorOptionInfo rows[] = {
     {.option = O::tolerance,
      .key = "tolerance",
      .description = "relative residual at which sweeps, CG and Newton stop",
-     .doc = "relative residual at which sweeps and CG stop; for the Newton integrators, of the nonlinear step",
+     .doc = "relative residual at which sweeps and CG stop (CG's against the larger of ‖b‖ and the step's external "
+            "impulse h‖f_ext‖); for the Newton integrators, of the nonlinear step",
      .read_by = kSolvingIntegrators,
      .holds = H::number,
      .number = &C::tolerance,
