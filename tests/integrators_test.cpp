@@ -508,6 +508,44 @@ TEST(CoupledImplicit, CgStopsAtItsTolerance) {
   EXPECT_GT(tight.integrator().stats().iterations, sim.integrator().stats().iterations);
 }
 
+// CG stops at ‖b − AΔv‖ ≤ τ max(‖b‖, h‖f_ext‖): a body settled under gravity, whose forces balance
+// so that b → 0, is solved in a few iterations a step, and stays within what the criterion allows
+// of the direct solve's run: a step's Δv within κ τ ‖Δv*‖ + τ h ‖f_ext‖/m of the exact one (A's
+// eigenvalues at least m, κ ≤ 1 + 2 z (h c + h² k)/m by Gershgorin), summed over the S steps
+// (backward Euler's step does not amplify an error).
+TEST(CoupledImplicit, CgAtRestStopsAgainstTheExternalImpulse) {
+  constexpr double kTau = 1e-6, kH = 1.0 / 60, kM = 1e-3, kK = 50, kC = 0.5, kG = 9.81;
+  constexpr int kSteps = 240, kZ = 18;
+  const World w = test::lattice(8, 4, 4, kK, kM, kC, true, Vec3(0, 0, -kG));
+  IntegratorConfig cg = coupled(CoupledSolver::cg, kTau);
+  cg.preconditioner = Preconditioner::block_jacobi;
+  cg.restore_momentum = false;  // the comparison is with the linear systems' own solutions
+  IntegratorConfig direct = coupled(CoupledSolver::ldlt);
+  direct.restore_momentum = false;
+  Simulation a(w, cg, kH), b(w, direct, kH);
+  double vmax = 0;
+  int resting_iterations = 0;
+  for (int s = 0; s < kSteps; ++s) {
+    a.step();
+    b.step();
+    EXPECT_LE(a.integrator().stats().residual, kTau);
+    if (s >= kSteps - 60) resting_iterations = std::max(resting_iterations, a.integrator().stats().iterations);
+    double v2 = 0;
+    for (const Vec3& v : b.world().state.v) v2 += v.squaredNorm();
+    vmax = std::max(vmax, std::sqrt(v2));
+  }
+  double kinetic = 0;
+  for (const Vec3& v : b.world().state.v) kinetic += 0.5 * kM * v.squaredNorm();
+  ASSERT_LT(kinetic, 1e-12);  // settled: b is the small difference of balancing forces
+  EXPECT_LE(resting_iterations, 3);
+  const double kappa = 1 + 2 * kZ * (kH * kC + kH * kH * kK) / kM;
+  const double free = static_cast<double>(w.num_quanta() - 32);  // the x = 0 face is anchored
+  const double bound = kSteps * (2 * kappa * kTau * vmax + kTau * kH * std::sqrt(free) * kG);
+  double dv2 = 0;
+  for (std::size_t i = 0; i < w.num_quanta(); ++i) dv2 += (a.world().state.v[i] - b.world().state.v[i]).squaredNorm();
+  EXPECT_LE(std::sqrt(dv2), bound);
+}
+
 // WarmStart::automatic, the default: extrapolated from the last two steps' Δv for CG (the coupled
 // integrator's default solver), zero for the sweeps (which blow up from it) and every other solver.
 TEST(WarmStart, AutomaticIsExtrapolatedForCgAndZeroOtherwise) {
