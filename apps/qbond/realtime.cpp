@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <numeric>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
@@ -204,10 +205,10 @@ int bench_realtime(const RealtimeArgs& a) {
       "1),\n"
       "median of up to %d frames (the lattice: %d, settling under gravity, then its free face pulled up by %g "
       "weights from frame %d;\ntol=1e-4: CG to a relative residual of 1e-4) after %d warm-up frames, at most %g s "
-      "measured per row; keeps up: median <= 1/60 s\n\n",
+      "measured per row; keeps up: mean <= 1/60 s (x real: 1/60 s over the mean)\n\n",
       a.frames, kLatticeFrames, kPullWeights, kSettleFrames, kWarmupFrames, a.budget);
-  std::printf("%-26s %8s %8s %7s %11s %6s %10s %10s %10s %8s %9s %s\n", "workload", "quanta", "bonds",
-              "threads", "h [s]", "steps", "frame ms", "max ms", "cpu ms", "x real", "keeps up", "note");
+  std::printf("%-26s %8s %8s %7s %11s %6s %10s %10s %10s %10s %8s %9s %s\n", "workload", "quanta", "bonds",
+              "threads", "h [s]", "steps", "frame ms", "mean ms", "max ms", "cpu ms", "x real", "keeps up", "note");
   json rows = json::array();
   for (const Workload& w : work)
     for (int t : threads) {
@@ -218,9 +219,12 @@ int bench_realtime(const RealtimeArgs& a) {
       const PinToCore pin(t == 1 ? cores.fastest() : -1);
       const Measured m = run_frames(w.scene, w.pull, w.frames, t, a);
       const double med = median(m.frames), med_cpu = median(m.cpu);
+      // The mean is the run's throughput (frames over their total time), slow frames included.
+      const double mean =
+          m.frames.empty() ? NAN : std::accumulate(m.frames.begin(), m.frames.end(), 0.0) / static_cast<double>(m.frames.size());
       const double worst = m.frames.empty() ? NAN : *std::max_element(m.frames.begin(), m.frames.end());
       const int steps = std::max(1, static_cast<int>(std::lround(kFrame / w.scene.timestep)));
-      const bool keeps = !m.frames.empty() && m.failure.empty() && med <= kFrame;
+      const bool keeps = !m.frames.empty() && m.failure.empty() && mean <= kFrame;
       std::string note = !m.failure.empty() ? "blew up: " + m.failure
                          : m.warmup_only    ? "cut off by the budget: one warm-up frame measured"
                          : m.cut_off
@@ -232,9 +236,9 @@ int bench_realtime(const RealtimeArgs& a) {
                       cores.slowest());
         note += speeds;
       }
-      std::printf("%-26s %8zu %8zu %7d %11.4g %6d %10.3f %10.3f %10.3f %8.2f %9s %s\n", w.name.c_str(),
+      std::printf("%-26s %8zu %8zu %7d %11.4g %6d %10.3f %10.3f %10.3f %10.3f %8.2f %9s %s\n", w.name.c_str(),
                   w.scene.world.num_quanta(), w.scene.world.num_bonds(), t, w.scene.timestep, steps,
-                  med * 1e3, worst * 1e3, med_cpu * 1e3, kFrame / med, keeps ? "yes" : "no", note.c_str());
+                  med * 1e3, mean * 1e3, worst * 1e3, med_cpu * 1e3, kFrame / mean, keeps ? "yes" : "no", note.c_str());
       std::fflush(stdout);
       rows.push_back({{"workload", w.name},
                       {"kind", w.kind},
@@ -249,9 +253,10 @@ int bench_realtime(const RealtimeArgs& a) {
                       {"steps_per_frame", steps},
                       {"frames", m.frames.size()},
                       {"median_frame_seconds", m.frames.empty() ? json(nullptr) : json(med)},
+                      {"mean_frame_seconds", m.frames.empty() ? json(nullptr) : json(mean)},
                       {"max_frame_seconds", m.frames.empty() ? json(nullptr) : json(worst)},
                       {"median_frame_cpu_seconds", m.frames.empty() ? json(nullptr) : json(med_cpu)},
-                      {"real_time_factor", m.frames.empty() ? json(nullptr) : json(kFrame / med)},
+                      {"real_time_factor", m.frames.empty() ? json(nullptr) : json(kFrame / mean)},
                       {"keeps_up", keeps},
                       {"cut_off", m.cut_off},
                       {"warmup_only", m.warmup_only},
