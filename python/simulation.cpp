@@ -527,11 +527,16 @@ void bind_simulation(py::module_& m) {
             d["work_anchors"] = b.work_anchors;
             d["dissipated_damping"] = b.dissipated_damping;
             d["dissipated_heuristics"] = b.dissipated_heuristics;
+            d["dissipated_contact"] = b.dissipated_contact;
+            d["contact_stored"] = b.contact_stored;
+            d["numerical_damping"] = b.numerical_damping;
             d["dissipated_numerical"] = b.dissipated_numerical;
             return d;
           },
-          "The energy budget [J]: E − E(0) = work_loads + work_anchors − dissipated_damping − dissipated_heuristics − "
-          "dissipated_numerical.")
+          "The energy budget [J]: E + contact_stored − E(0) = work_loads + work_anchors − dissipated_damping − "
+          "dissipated_heuristics − dissipated_contact − numerical_damping − dissipated_numerical "
+          "(numerical_damping: backward Euler's own, in closed form; dissipated_numerical: the rest the "
+          "integrator lost).")
       // Checkpoints.
       .def(
           "save_checkpoint",

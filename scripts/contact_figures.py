@@ -78,6 +78,7 @@ LEDGER = [  # column, label, style
     ("work", "work", "--"),
     ("dissipated", "dissipated (all)", "-"),
     ("dissipated_contact", "dissipated by contact", ":"),
+    ("numerical_damping", "numerical damping", "-."),
     ("numerical", "numerical", "-"),
 ]
 

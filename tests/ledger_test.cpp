@@ -101,10 +101,25 @@ TEST(EnergyLedger, BondSumsMatchThePlainSumsOnARandomLattice) {
               h * s.bonds.damping[b] * (s.bonds.damping_model[b] == DampingModel::axial ? vu * vu : v.squaredNorm());
         }
         ASSERT_GT(damping, 0) << what;
-        const BondStepSums step = bond_step_sums(m, s, a.state(), h, theta, phi, 1);
+        const BondStepSums step = bond_step_sums(m, s, a.state(), h, theta, phi, false, 1);
         EXPECT_NEAR(step.damping, damping, sum_tolerance(w.num_bonds(), damping)) << what;
         EXPECT_NEAR(step.energy_after, energy_after, sum_tolerance(w.num_bonds(), energy_after)) << what;
+        EXPECT_EQ(step.stiffness_loss, 0.0) << what;
       }
+      // Backward Euler's: Δdᵀ K_c Δd − ½ Δdᵀ K Δd with the clamped stiffness block K_c and the
+      // bond's own K at the start's bond (the lattice's rest lengths compress some bonds).
+      double loss = 0;
+      for (std::size_t b = 0; b < w.num_bonds(); ++b) {
+        if (!s.bonds.alive[b]) continue;
+        const Index i = s.bonds.i[b], j = s.bonds.j[b];
+        const Vec3 d = s.x[j] - s.x[i], dd = p.dx[j] - p.dx[i];
+        const LawValue lv = s.bonds.law_at(m.shapes, b, d.norm(), s.bonds.rest[b]);
+        loss += dd.dot(stiffness_block(lv.T, lv.dT, d.norm(), d.normalized(), true) * dd) -
+                0.5 * dd.dot(stiffness_block(lv.T, lv.dT, d.norm(), d.normalized(), false) * dd);
+      }
+      ASSERT_GT(loss, 0) << where;
+      const BondStepSums step = bond_step_sums(m, s, a.state(), h, 1, 0, true, 1);
+      EXPECT_NEAR(step.stiffness_loss, loss, sum_tolerance(w.num_bonds(), loss)) << where;
     }
   }
 }
@@ -118,12 +133,13 @@ TEST(EnergyLedger, BondSumsGiveTheSameBitsAtAnyThreadCount) {
   const Projection p = random_projection(w, 4);
   const Applied a(w.state, p);
   const double e1 = bond_energy_sum(w.model, w.state, 1);
-  const BondStepSums s1 = bond_step_sums(w.model, w.state, a.state(), 1e-3, 1, 0, 1);
+  const BondStepSums s1 = bond_step_sums(w.model, w.state, a.state(), 1e-3, 1, 0, true, 1);
   for (int threads : {2, 3}) {
     EXPECT_EQ(bond_energy_sum(w.model, w.state, threads), e1) << threads << " threads";
-    const BondStepSums st = bond_step_sums(w.model, w.state, a.state(), 1e-3, 1, 0, threads);
+    const BondStepSums st = bond_step_sums(w.model, w.state, a.state(), 1e-3, 1, 0, true, threads);
     EXPECT_EQ(st.damping, s1.damping) << threads << " threads";
     EXPECT_EQ(st.energy_after, s1.energy_after) << threads << " threads";
+    EXPECT_EQ(st.stiffness_loss, s1.stiffness_loss) << threads << " threads";
   }
 }
 

@@ -375,7 +375,8 @@ TEST(Diagnostics, HeaderAndRowMatchTheAnalysis) {
   const Diagnostics d(w.model, {{"a", {0}, {}}, {"b", {1}, {}}});
   EXPECT_EQ(d.header(),
             "step,time,kinetic,potential,dissipated,total,px,py,pz,lx,ly,lz,max_speed,bonds_alive,bonds_broken,"
-            "a_x,a_y,a_z,a_fx,a_fy,a_fz,a_tx,a_ty,a_tz,b_x,b_y,b_z,work,numerical,iterations,residual,timestep");
+            "a_x,a_y,a_z,a_fx,a_fy,a_fz,a_tx,a_ty,a_tz,b_x,b_y,b_z,work,numerical_damping,numerical,iterations,residual,"
+            "timestep");
   const std::string row = d.row(w.model, w.state, {3, 1e-7}, 2.5e-4);
   std::vector<std::string> f;
   for (std::size_t p = 0, q; p <= row.size(); p = q + 1) {
@@ -383,14 +384,14 @@ TEST(Diagnostics, HeaderAndRowMatchTheAnalysis) {
     if (q == std::string::npos) q = row.size();
     f.push_back(row.substr(p, q - p));
   }
-  ASSERT_EQ(f.size(), 32u);
-  EXPECT_EQ(std::stod(f[31]), 2.5e-4);
+  ASSERT_EQ(f.size(), 33u);
+  EXPECT_EQ(std::stod(f[32]), 2.5e-4);
   const Energies e = energies(w.model, w.state);
   EXPECT_EQ(std::stod(f[2]), e.kinetic);
   EXPECT_EQ(std::stod(f[3]), e.bonds + e.gravity);
   EXPECT_NEAR(std::stod(f[18]), -10.0, 1e-12);  // a_fx: the stretched bond pulls the anchor by k s = 10 N
   EXPECT_EQ(f[13], "1");
-  EXPECT_EQ(f[29], "3");
+  EXPECT_EQ(f[30], "3");
 }
 
 TEST(Vtk, FrameDeclaresItsCountsAndSeriesListsFrames) {

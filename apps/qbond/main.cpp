@@ -468,10 +468,10 @@ int run(const Options& o) {
   progress.finish();
   if (!quiet) {
     const EnergyBudget b = energy_budget(w.model, w.state);
-    std::printf("%llu steps in %.3g s (%.4g steps/s); t = %.6g s; energy %.6g J (damping %.3g J, numerical %.3g J)\n",
+    std::printf("%llu steps in %.3g s (%.4g steps/s); t = %.6g s; energy %.6g J (damping %.3g J, numerical damping %.3g J, numerical %.3g J)\n",
                 static_cast<unsigned long long>(r.steps_taken), r.wall_seconds,
                 r.wall_seconds > 0 ? r.steps_taken / r.wall_seconds : 0.0, w.state.time, b.now.total(),
-                b.dissipated_damping, b.dissipated_numerical);
+                b.dissipated_damping, b.numerical_damping, b.dissipated_numerical);
     if (ranks) print_ranks(ranks->stats());
     if (r.energy_gain.exceeded)
       std::fprintf(stderr,

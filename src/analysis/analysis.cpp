@@ -98,8 +98,10 @@ EnergyBudget energy_budget(const Model& model, const State& state) {
   b.dissipated_heuristics = l.dissipated_heuristics;
   b.dissipated_contact = l.dissipated_contact;
   b.contact_stored = l.contact_stored;
+  b.numerical_damping = l.numerical_damping;
   b.dissipated_numerical = l.work_loads + l.work_anchors - l.dissipated_damping - l.dissipated_heuristics -
-                           l.dissipated_contact - (b.now.total() + l.contact_stored - l.initial_total);
+                           l.dissipated_contact - l.numerical_damping -
+                           (b.now.total() + l.contact_stored - l.initial_total);
   return b;
 }
 

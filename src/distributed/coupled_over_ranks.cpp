@@ -371,7 +371,7 @@ class CoupledOverRanks final : public StepIntegrator {
   // contacts every rank's, whose piece is then the whole world, each solve's ghost rows brought
   // from their owners before the active set reads them.
   CoupledOverRanks(const IntegratorConfig& c, SolveLayout layout, const double& whole_h)
-      : StepIntegrator(c, {.damping_theta = 1.0}), layout_(std::move(layout)), whole_h_(whole_h) {
+      : StepIntegrator(c, {.damping_theta = 1.0, .backward_euler = true}), layout_(std::move(layout)), whole_h_(whole_h) {
     std::vector<std::uint8_t> owned(layout_.row.size(), 0);
     for (Index i : layout_.owned_free) owned[i] = 1;
     contact_.only_quanta(std::move(owned));
@@ -425,6 +425,7 @@ class CoupledOverRanks final : public StepIntegrator {
     if (model.gravity != Vec3::Zero())
       for (Index i : layout_.lone) fall_freely(model, i, f_ext, ctx.h, contact_.touching(), out);
     if (contacts) contact_.finish(model, state, adj, ctx.h, y_, out);
+    out.kinetic_loss = kinetic_loss(model, adj, out, layout_.owned_free);
   }
 
  private:

@@ -767,6 +767,7 @@ void DistributedStep::roll_back(const StepWork& work) {
   anchors_ -= work.anchors;
   damping_ -= work.damping;
   loads_ -= work.loads;
+  numerical_damping_ -= charged_numerical_damping_;
 }
 
 void DistributedStep::restore_carry() {
@@ -834,6 +835,7 @@ double DistributedStep::restore_energy(double e_start) {
   const double net = net_books();
   const double delta = e_start + (net - net_books_) - energy_start_.total();
   net_books_ = net;
+  numerical_damping_ = 0;  // given back with the rest of what the integrator removed, as alone
   if (motion_version_ != whole_.state.topology_version()) {
     Adjacency adj;
     build_adjacency(whole_.model, whole_.state, adj);
@@ -876,7 +878,7 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
     v0 = sim_->world().state.v;
     if (undoable()) carry0_ = sim_->world().state.carry;
   }
-  const double anchors0 = anchors_, damping0 = damping_, loads0 = loads_;
+  const double anchors0 = anchors_, damping0 = damping_, loads0 = loads_, numerical_damping0 = numerical_damping_;
   const double contact_dissipated0 = contact_dissipated_, contact_stored0 = contact_stored_;
   const Energies e0 = energy_start_;
   solve_stats_ = {};
@@ -897,6 +899,7 @@ StepReport DistributedStep::split_step(bool stop, double cpu0) {
     anchors_ = anchors0;
     damping_ = damping0;
     loads_ = loads0;
+    numerical_damping_ = numerical_damping0;
     contact_dissipated_ = contact_dissipated0;
     contact_stored_ = contact_stored0;
     energy_start_ = e0;
@@ -1137,6 +1140,10 @@ StepWork DistributedStep::charge_ledger(double H) {
   damping_ += work.damping;
   work.loads += owned_loads_work(w.model, moved_.dx);
   loads_ += work.loads;
+  // Backward Euler's numerical damping: the owned bonds' share and the owned quanta's (the
+  // piece's projection holds those of its owned quanta only).
+  charged_numerical_damping_ = numerical_damping(work, sim_->projection());
+  numerical_damping_ += charged_numerical_damping_;
   return work;
 }
 
@@ -1519,6 +1526,7 @@ void DistributedStep::charge_formed() {
                                   sim_->integrator().ledger_hints(), config_.threads);
   anchors_ += work.anchors;
   damping_ += work.damping;
+  numerical_damping_ += work.bonds_loss;
 }
 
 void DistributedStep::apply_events(World& w) const {
@@ -1538,9 +1546,10 @@ void DistributedStep::apply_events(World& w) const {
 
 void DistributedStep::gather(World& into) {
   const std::vector<double> rows = gather_to_root(owned_rows());
-  // Each rank's books: anchors, dampers, heuristics, loads, then per obstacle its impulse.
-  const std::size_t fields = 4 + 4 * impulse_.size();
-  std::vector<double> mine{anchors_, damping_, heuristics_loss_, loads_};
+  // Each rank's books: anchors, dampers, heuristics, loads, numerical damping, then per obstacle
+  // its impulse.
+  const std::size_t fields = 5 + 4 * impulse_.size();
+  std::vector<double> mine{anchors_, damping_, heuristics_loss_, loads_, numerical_damping_};
   for (const ObstacleImpulse& J : impulse_) mine.insert(mine.end(), {J.total.x(), J.total.y(), J.total.z(), J.normal});
   const std::vector<double> books = gather_to_root(mine);
   if (rank_ != 0) return;
@@ -1552,15 +1561,16 @@ void DistributedStep::gather(World& into) {
   // The carried forces (after a blow-up, evaluated afresh at the state before it), or the solve's
   // guesses (after a blow-up, none).
   s.carry = carry_from(s, c, verlet_ ? CarryKind{.kind = CarryKind::Kind::forces} : carry_kind());
-  double anchors = 0, damping = 0, fracture = 0, loads = 0;
+  double anchors = 0, damping = 0, fracture = 0, loads = 0, numerical = 0;
   s.obstacle_impulse = start_impulse_;
   for (std::size_t r = 0; r + fields <= books.size(); r += fields) {
     anchors += books[r];
     damping += books[r + 1];
     fracture += books[r + 2];
     loads += books[r + 3];
+    numerical += books[r + 4];
     for (std::size_t k = 0; k < impulse_.size(); ++k) {
-      const double* J = &books[r + 4 + 4 * k];
+      const double* J = &books[r + 5 + 4 * k];
       s.obstacle_impulse[k].total += Vec3(J[0], J[1], J[2]);
       s.obstacle_impulse[k].normal += J[3];
     }
@@ -1570,6 +1580,7 @@ void DistributedStep::gather(World& into) {
   s.energy.dissipated_damping = start_books_.dissipated_damping + damping;
   s.energy.dissipated_heuristics = start_books_.dissipated_heuristics + fracture;
   s.energy.dissipated_contact = start_books_.dissipated_contact + contact_dissipated_;
+  s.energy.numerical_damping = start_books_.numerical_damping + numerical;
   s.energy.contact_stored = contact_stored_;
   s.rng = whole_.state.rng;  // the break rules' draws
   if (!plastic_.empty()) s.bonds.rest = whole_.state.bonds.rest;  // the plastic flow's

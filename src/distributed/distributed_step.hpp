@@ -364,6 +364,9 @@ class DistributedStep final : private RanksLink, private ContactRanks {
   Projection moved_;
   std::vector<Vec3> gravity_;   // m g per local quanta
   double anchors_ = 0, damping_ = 0, loads_ = 0;  // this rank's share since the run started [J]
+  // This rank's share of backward Euler's numerical damping since the run started (or since the
+  // last restore_energy gave it back), and charge_ledger's last charge of it [J].
+  double numerical_damping_ = 0, charged_numerical_damping_ = 0;
   // What this rank's heuristics took out since the run started (the bonds it broke, its
   // projection rules' edits, less on rank 0 what the formed bonds hold) [J], and its obstacles'
   // impulses on its owned quanta.

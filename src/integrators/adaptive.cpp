@@ -72,7 +72,7 @@ double AdaptiveController::next_proposal(const Try& t, double e) const {
 AdaptiveReport adaptive_step(Simulation& sim, const AdaptiveConfig& cfg, double t_end, const std::function<void()>& forces) {
   World& w = sim.world();
   const State saved = w.state;  // to undo a step the energy check or a blow-up rejects
-  const double numerical0 = energy_budget(w.model, w.state).dissipated_numerical;
+  const double numerical0 = energy_budget(w.model, w.state).integrator_loss();
   AdaptiveController control(cfg, sim.timestep());
   AdaptiveReport rep;
   for (;;) {
@@ -90,7 +90,7 @@ AdaptiveReport adaptive_step(Simulation& sim, const AdaptiveConfig& cfg, double 
     if (!undo) {  // one energy pass gives both the drift and its scale
       const EnergyBudget b = energy_budget(w.model, w.state);
       const double scale = std::max(std::abs(b.initial_total), std::abs(b.now.kinetic) + std::abs(b.now.bonds));
-      undo = control.drifts(t, b.dissipated_numerical - numerical0, scale);
+      undo = control.drifts(t, b.integrator_loss() - numerical0, scale);
     }
     if (undo && !t.at_min) {
       w.state = saved;

@@ -540,15 +540,17 @@ void ContactSolve::finish(const Model& model, const State& state, const Adjacenc
   // Σ J·(v + v₁)/2 over the free quanta in contact: the kinetic energy the impulses change. A lone
   // quanta's step is its flight and bounce, exactly: what its contact did is its kinetic energy's
   // change less its external force's work along the step it took.
-  double work = 0;
+  double work = 0, impulse_dv = 0;
   for (std::size_t q = 0; q < n; ++q) {
     const auto i = static_cast<Index>(q);
     if (touching_.size() != n || !touching_[q] || model.is_kinematic(i) || !mine(i)) continue;
     if (adj.offset[i] == adj.offset[i + 1])
       work += 0.5 * model.mass[q] * ((state.v[q] + out.dv[q]).squaredNorm() - state.v[q].squaredNorm()) -
               external_force(model, *f_ext_, i).dot(out.dx[q]);
-    else
+    else {
       work += impulse_[q].dot(state.v[q] + 0.5 * out.dv[q]);
+      impulse_dv += impulse_[q].dot(out.dv[q]);
+    }
   }
   for (std::size_t q = 0; q < n; ++q) x1_[q] = state.x[q] + out.dx[q];
   const double u0 = stored(model, state.x), u1 = stored(model, x1_);
@@ -558,6 +560,7 @@ void ContactSolve::finish(const Model& model, const State& state, const Adjacenc
   out.contact.stored = u1;
   out.contact.stored_start = u0;
   out.contact.work = work;
+  out.contact.impulse_dv = impulse_dv;
   out.contact.charged = true;
 }
 

@@ -30,7 +30,7 @@ constexpr int kMaxDepth = 10;
 class CoupledIntegrator final : public StepIntegrator {
  public:
   // Dampers at the end-of-step velocity (backward Euler).
-  explicit CoupledIntegrator(const IntegratorConfig& c) : StepIntegrator(c, {.damping_theta = 1.0}) {}
+  explicit CoupledIntegrator(const IntegratorConfig& c) : StepIntegrator(c, {.damping_theta = 1.0, .backward_euler = true}) {}
 
   bool forms_gravity() const override { return true; }
 
@@ -55,6 +55,7 @@ class CoupledIntegrator final : public StepIntegrator {
     project_kinematic(model, state, ctx, out);
     sub_ = state;
     split_contact_ = {};
+    split_kinetic_loss_ = 0;
     whole_h_ = ctx.h;
     const double t0 = ctx.t, t1 = ctx.t + ctx.h, tm = t0 + 0.5 * ctx.h;
     substep(model, adj, f_ext, t0, tm, ctx.step, 1);
@@ -65,6 +66,7 @@ class CoupledIntegrator final : public StepIntegrator {
       out.dv[i] = sub_.v[i] - state.v[i];
     }
     out.contact = split_contact_;  // the substeps' contacts: what they took, the springs' energy at the end
+    out.kinetic_loss = split_kinetic_loss_;
     if (config_.solver == CoupledSolver::cg) keep_guess(config_.warm_start, out.dv, ctx.h, state.carry, config_.threads, out);
   }
 
@@ -107,6 +109,7 @@ class CoupledIntegrator final : public StepIntegrator {
     topo_.update(model, adj);
     fall_freely(model, topo_.components, f_ext, ctx.h, contact_.touching(), out);
     if (contacts) contact_.finish(model, state, adj, ctx.h, y_, out);
+    out.kinetic_loss = kinetic_loss(model, adj, out, config_.threads);
     stats_.iterations += step.jacobi + step.multigrid;
     stats_.residual = std::max(stats_.residual, step.residual);
   }
@@ -177,9 +180,11 @@ class CoupledIntegrator final : public StepIntegrator {
     }
     ++stats_.substeps;
     if (gains) ++stats_.unconverged;
+    split_kinetic_loss_ += sub_out_.kinetic_loss;
     if (c.charged) {
       split_contact_.dissipated += c.dissipated;
       split_contact_.work += c.work;
+      split_contact_.impulse_dv += c.impulse_dv;
       split_contact_.stored = c.stored;
       split_contact_.charged = true;
     }
@@ -205,6 +210,7 @@ class CoupledIntegrator final : public StepIntegrator {
   State sub_;                          // substepping: the state the substeps have reached
   Projection sub_out_;                 // substepping: one substep's projection
   Projection::ContactEnergy split_contact_;  // substepping: the contacts' energy over the substeps taken
+  double split_kinetic_loss_ = 0;            // substepping: the substeps' Projection::kinetic_loss
   double whole_h_ = 0;                       // substepping: the whole step's length (the contacts' springs)
   std::vector<Vec3> sub_x1_, sub_v1_;  // substepping: the state a substep applies
 };

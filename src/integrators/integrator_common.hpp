@@ -1,6 +1,7 @@
 #pragma once
 // Pieces shared by the integrator implementations (not public API).
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "solvers/coloring.hpp"
@@ -95,6 +96,13 @@ void fall_freely(const Model& model, Index i, const std::vector<Vec3>& f_ext, do
 void restore_component_momentum(const Model& model, const FreeComponents& comps,
                                 const std::vector<Vec3>& f_ext, double h, std::vector<Vec3>& dv,
                                 const std::vector<std::uint8_t>& skip = {});
+
+// Backward Euler's kinetic share of its numerical damping (Projection::kinetic_loss):
+// ½ Σ m |Δv|² over the quanta that are free and have bonds in `adj`, less their contacts'
+// ½ Σ J·Δv (out.contact.impulse_dv, when charged). A quanta without bonds moves along its exact
+// flight and bounce, and loses nothing. Over every quanta, or over `quanta` (a rank's own).
+double kinetic_loss(const Model& model, const Adjacency& adj, const Projection& out, int threads);
+double kinetic_loss(const Model& model, const Adjacency& adj, const Projection& out, std::span<const Index> quanta);
 
 // Writes the free quanta's rows of a projection from Δv: dx = h (v + Δv) (Eq. 10).
 void write_free_rows(const Model& model, const State& state, double h, const std::vector<Vec3>& dv,

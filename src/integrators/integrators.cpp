@@ -374,6 +374,30 @@ void fall_freely(const Model& model, Index i, const std::vector<Vec3>& f_ext, do
     out.dx[i] -= 0.5 * h * h * model.gravity;
 }
 
+namespace {
+
+// kinetic_loss's term of quanta q.
+double kinetic_term(const Model& model, const Adjacency& adj, const Projection& out, std::size_t q) {
+  if (model.is_kinematic(static_cast<Index>(q)) || adj.offset[q] == adj.offset[q + 1]) return 0.0;
+  return 0.5 * model.mass[q] * out.dv[q].squaredNorm();
+}
+
+double contacts_share(const Projection& out) { return out.contact.charged ? 0.5 * out.contact.impulse_dv : 0.0; }
+
+}  // namespace
+
+double kinetic_loss(const Model& model, const Adjacency& adj, const Projection& out, int threads) {
+  return deterministic_sum(model.num_quanta(), threads,
+                           [&](std::size_t q) { return kinetic_term(model, adj, out, q); }) -
+         contacts_share(out);
+}
+
+double kinetic_loss(const Model& model, const Adjacency& adj, const Projection& out, std::span<const Index> quanta) {
+  double kinetic = 0;
+  for (Index q : quanta) kinetic += kinetic_term(model, adj, out, static_cast<std::size_t>(q));
+  return kinetic - contacts_share(out);
+}
+
 void write_free_rows(const Model& model, const State& state, double h, const std::vector<Vec3>& dv,
                      int threads, Projection& out) {
   parallel_for(model.num_quanta(), threads, [&](std::size_t i) {

@@ -144,11 +144,13 @@ std::string serialize_state(const State& s) {
   w.pod(s.topology_version());
   save_carry(w, s.carry);
   w.vec(s.obstacle_impulse);
-  // The solve's contact accounts, only when a run has them: other checkpoints keep their bytes.
-  if (e.dissipated_contact != 0 || e.contact_stored != 0) {
+  // The solve's contact accounts and backward Euler's numerical damping, only when a run has
+  // them: other checkpoints keep their bytes.
+  if (e.dissipated_contact != 0 || e.contact_stored != 0 || e.numerical_damping != 0) {
     w.pod(e.dissipated_contact);
     w.pod(e.contact_stored);
   }
+  if (e.numerical_damping != 0) w.pod(e.numerical_damping);
   return std::move(w.out);
 }
 
@@ -180,9 +182,10 @@ State deserialize(std::string_view bytes, std::uint32_t version, std::optional<s
   s.carry = version == 4 ? carry_from_version4(r.vec<Vec3, LineAllocator<Vec3>>(), s.x.size())
                          : load_carry(r, s.x.size());
   s.obstacle_impulse = r.vec<ObstacleImpulse>();
-  if (version >= 6 && r.bytes.size() == 2 * sizeof(double)) {
+  if (version >= 6 && (r.bytes.size() == 2 * sizeof(double) || r.bytes.size() == 3 * sizeof(double))) {
     e.dissipated_contact = r.pod<double>();
     e.contact_stored = r.pod<double>();
+    if (!r.bytes.empty()) e.numerical_damping = r.pod<double>();
   }
   if (!r.bytes.empty()) throw CheckpointError("state: " + std::to_string(r.bytes.size()) + " unexpected bytes at the end");
   return s;

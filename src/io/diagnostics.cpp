@@ -51,7 +51,7 @@ std::string Diagnostics::header() const {
     if (o.inside) h += "," + k + "_pressure";
   }
   if (contact_columns_) h += ",contact_energy,dissipated_contact";
-  return h + ",work,numerical,iterations,residual,timestep";
+  return h + ",work,numerical_damping,numerical,iterations,residual,timestep";
 }
 
 std::string Diagnostics::row(const Model& model, const State& state, const SolveStats& stats, double timestep) const {
@@ -99,6 +99,7 @@ std::string Diagnostics::row(const Model& model, const State& state, const Solve
     put(r, b.dissipated_contact);
   }
   put(r, b.work_loads + b.work_anchors);
+  put(r, b.numerical_damping);
   put(r, b.dissipated_numerical);
   put_count(r, static_cast<std::size_t>(stats.iterations));
   put(r, stats.residual);

@@ -208,10 +208,20 @@ QBOND_VECTOR_CLONES Sums<2> energy_change_chunk(const Model& m, const State& s, 
 // fewer arrays and do fewer operations a bond.
 enum class DamperPoint { start_end, start_start, start_any, any_any };
 
+// A bond's share of backward Euler's numerical damping, Δdᵀ K_c Δd − ½ Δdᵀ K Δd, from (u·Δd)² and
+// |Δd|²: K = axial u uᵀ + transverse (I − u uᵀ) the bond's stiffness, K_c the step's, clamped
+// (clamped_stiffness). Where nothing is clamped, ½ Δdᵀ K Δd; a clamped coefficient adds the
+// energy its linearisation leaves out. Never negative.
+[[gnu::always_inline]] inline double stiffness_loss(double axial, double transverse, double along2, double delta2) {
+  const StiffnessCoefficients c = clamped_stiffness(axial, transverse);
+  return (c.axial - 0.5 * axial) * along2 + (c.transverse - 0.5 * transverse) * (delta2 - along2);
+}
+
 // The dampers' work and the bonds' energy at the applied positions (bond_step_sums) over bonds
-// [b0, b1), the dampers evaluated at kPoint.
-template <DamperPoint kPoint>
-QBOND_VECTOR_INLINE Sums<2> step_chunk_at(const Model& m, const State& s, const double* x1, const double* v1,
+// [b0, b1), the dampers evaluated at kPoint; with kLoss (backward Euler: kPoint start_end) also
+// stiffness_loss at the start's bond d₀, Δd = d₁ − d₀.
+template <DamperPoint kPoint, bool kLoss = false, std::size_t N = kLoss ? 3 : 2>
+QBOND_VECTOR_INLINE Sums<N> step_chunk_at(const Model& m, const State& s, const double* x1, const double* v1,
                                           double h, double theta, double phi, std::size_t b0,
                                           std::size_t b1) {
   constexpr bool kStartBond = kPoint != DamperPoint::any_any;
@@ -222,10 +232,12 @@ QBOND_VECTOR_INLINE Sums<2> step_chunk_at(const Model& m, const State& s, const 
   const double* k = s.bonds.strength.data();
   const Law* law = s.bonds.law.data();
   const DampingModel* model = s.bonds.damping_model.data();
+  static_assert(!kLoss || kPoint == DamperPoint::start_end);
   // The damper's loss and the end length |x1_j − x1_i| from the bond d at which the damper is
-  // charged, the relative velocity w and the end bond d₁.
+  // charged, the relative velocity w and the end bond d₁; with kLoss, the start's length r0,
+  // (u·Δd)² and |Δd|² (u = d / r0).
   struct Term {
-    double loss, r1;
+    double loss, r1, r0 = 0, along2 = 0, delta2 = 0;
   };
   auto term = [=](const double (&d)[3], const double (&w)[3], const double (&d1)[3], double Db,
                   bool axial) QBOND_LAMBDA_INLINE {
@@ -241,7 +253,20 @@ QBOND_VECTOR_INLINE Sums<2> step_chunk_at(const Model& m, const State& s, const 
     // masked load); a zero-length bond's NaN is not selected.
     const double along = wd * wd / d2;
     const double loss = h * Db * (axial ? along : w2);
-    return Term{d2 > 0 ? loss : 0.0, std::sqrt(r2)};
+    Term t{d2 > 0 ? loss : 0.0, std::sqrt(r2)};
+    if constexpr (kLoss) {
+      double dd = 0, delta2 = 0;
+      QBOND_UNROLL(3)
+      for (std::size_t c = 0; c < 3; ++c) {
+        const double e = d1[c] - d[c];
+        dd += d[c] * e;
+        delta2 += e * e;
+      }
+      t.r0 = std::sqrt(d2);
+      t.along2 = d2 > 0 ? dd * dd / d2 : 0.0;
+      t.delta2 = d2 > 0 ? delta2 : 0.0;  // a zero-length bond has no stiffness block
+    }
+    return t;
   };
   // d, w and d₁ of the bond joining the triples at a and e (element offsets 3 i, 3 j), or of the
   // eight bonds of a block from them (k: element k of the eight ends' consecutive triples).
@@ -258,7 +283,7 @@ QBOND_VECTOR_INLINE Sums<2> step_chunk_at(const Model& m, const State& s, const 
       w = w0 + theta * ((v1[e] - v1[a]) - w0);
     }
   };
-  auto block = [=]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, double(&t)[2][kLanes])
+  auto block = [=]<std::size_t L>(std::size_t i, std::size_t j, std::size_t b, double(&t)[N][kLanes])
                    QBOND_LAMBDA_INLINE {
     // The ends' triples are contiguous: the differences are formed on them as stored, element by
     // element in contiguous vectors, and only d, w and d₁ are then split into their components
@@ -274,27 +299,41 @@ QBOND_VECTOR_INLINE Sums<2> step_chunk_at(const Model& m, const State& s, const 
       const Term bond = term(dl, wl, d1l, D[b + l], axial);
       t[0][l] = bond.loss;
       t[1][l] = linear_energy(k[b + l], bond.r1, rest[b + l]);
+      // The linear law's T = k (r0 − L), T' = k; a zero-length bond's NaN is not selected.
+      if constexpr (kLoss)
+        t[2][l] = bond.r0 > 0 ? stiffness_loss(k[b + l], k[b + l] * (bond.r0 - rest[b + l]) / bond.r0,
+                                               bond.along2, bond.delta2)
+                              : 0.0;
     }
   };
   auto bond = [&](std::size_t i, std::size_t j, std::size_t b) {
     double d[3], w[3], d1[3];
     for (std::size_t c = 0; c < 3; ++c) differences(3 * i + c, 3 * j + c, d[c], w[c], d1[c]);
     const Term t = term(d, w, d1, D[b], model[b] == DampingModel::axial);
-    return Sums<2>{t.loss, s.bonds.law_at(m.shapes, b, t.r1, rest[b]).U};
+    const double energy = s.bonds.law_at(m.shapes, b, t.r1, rest[b]).U;
+    if constexpr (kLoss) {
+      const LawValue lv = t.r0 > 0 ? s.bonds.law_at(m.shapes, b, t.r0, rest[b]) : LawValue{};
+      return Sums<N>{t.loss, energy, t.r0 > 0 ? stiffness_loss(lv.dT, lv.T / t.r0, t.along2, t.delta2) : 0.0};
+    } else {
+      return Sums<N>{t.loss, energy};
+    }
   };
   auto uniform = [=](std::size_t b, std::size_t count) QBOND_LAMBDA_INLINE {
     return law[b] == Law::linear && uniform_prefix(law, b, count) && uniform_prefix(model, b, count);
   };
-  return chunk_sums<2>(s, b0, b1, block, bond, uniform);
+  return chunk_sums<N>(s, b0, b1, block, bond, uniform);
 }
 
-QBOND_VECTOR_CLONES Sums<2> step_chunk(const Model& m, const State& s, const double* x1, const double* v1,
-                                       double h, double theta, double phi, std::size_t b0, std::size_t b1) {
+QBOND_VECTOR_CLONES Sums<3> step_chunk(const Model& m, const State& s, const double* x1, const double* v1,
+                                       double h, double theta, double phi, bool loss, std::size_t b0,
+                                       std::size_t b1) {
   using enum DamperPoint;
-  if (phi != 0) return step_chunk_at<any_any>(m, s, x1, v1, h, theta, phi, b0, b1);
-  if (theta == 1) return step_chunk_at<start_end>(m, s, x1, v1, h, theta, phi, b0, b1);
-  if (theta == 0) return step_chunk_at<start_start>(m, s, x1, v1, h, theta, phi, b0, b1);
-  return step_chunk_at<start_any>(m, s, x1, v1, h, theta, phi, b0, b1);
+  if (loss) return step_chunk_at<start_end, true>(m, s, x1, v1, h, theta, phi, b0, b1);
+  auto two = [](const Sums<2>& t) { return Sums<3>{t[0], t[1], 0.0}; };
+  if (phi != 0) return two(step_chunk_at<any_any>(m, s, x1, v1, h, theta, phi, b0, b1));
+  if (theta == 1) return two(step_chunk_at<start_end>(m, s, x1, v1, h, theta, phi, b0, b1));
+  if (theta == 0) return two(step_chunk_at<start_start>(m, s, x1, v1, h, theta, phi, b0, b1));
+  return two(step_chunk_at<start_any>(m, s, x1, v1, h, theta, phi, b0, b1));
 }
 
 }  // namespace
@@ -316,16 +355,17 @@ BondEnergyChange bond_energy_change(const Model& m, const State& s, std::span<co
 }
 
 BondStepSums bond_step_sums(const Model& m, const State& s, const AppliedState& a, double h, double theta,
-                            double phi, int threads) {
+                            double phi, bool backward_euler, int threads) {
   assert(a.x.size() == m.num_quanta() && a.v.size() == m.num_quanta());
+  assert(!backward_euler || (theta == 1 && phi == 0));
   auto chunk = [&](std::size_t b0, std::size_t b1) {  // a chunk has bonds, so quanta: the arrays have data
-    return step_chunk(m, s, a.x.data()->data(), a.v.data()->data(), h, theta, phi, b0, b1);
+    return step_chunk(m, s, a.x.data()->data(), a.v.data()->data(), h, theta, phi, backward_euler, b0, b1);
   };
-  const Sums<2> sums = reduce_chunks(s.bonds.size(), bond_pass_threads(m.num_quanta(), threads), Sums<2>{},
-                                     chunk, [](const Sums<2>& p, const Sums<2>& q) {
-                                       return Sums<2>{p[0] + q[0], p[1] + q[1]};
+  const Sums<3> sums = reduce_chunks(s.bonds.size(), bond_pass_threads(m.num_quanta(), threads), Sums<3>{},
+                                     chunk, [](const Sums<3>& p, const Sums<3>& q) {
+                                       return Sums<3>{p[0] + q[0], p[1] + q[1], p[2] + q[2]};
                                      });
-  return {sums[0], sums[1]};
+  return {sums[0], sums[1], sums[2]};
 }
 
 }  // namespace qbond

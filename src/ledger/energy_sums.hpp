@@ -43,12 +43,16 @@ struct BondStepSums {
   /// Σ U_b(|d₁|) (Eqs. 2–3) [J]: the bonds' energy after the step but for round-off where a
   /// prescribed quanta lands on its path instead.
   double energy_after = 0;
+  /// With `backward_euler` (θ = 1, φ = 0): Σ Δdᵀ K_c Δd − ½ Δdᵀ K Δd, Δd = d₁ − d₀, K the bond's
+  /// stiffness at d₀ and K_c the step's, clamped (laws.hpp); ½ Δdᵀ K Δd where nothing is clamped:
+  /// the bonds' share of backward Euler's numerical damping (step_work.hpp) [J]; else 0.
+  double stiffness_loss = 0;
 };
 
-/// Both sums of BondStepSums in one pass over the bonds. The dampers evaluated at the start's
+/// The sums of BondStepSums in one pass over the bonds. The dampers evaluated at the start's
 /// bond (φ = 0) and at the start's or end's velocities (θ = 0 or 1), as most integrators take
 /// them, read three of the four arrays.
 BondStepSums bond_step_sums(const Model& m, const State& s, const AppliedState& a, double h, double theta,
-                            double phi, int threads);
+                            double phi, bool backward_euler, int threads);
 
 }  // namespace qbond

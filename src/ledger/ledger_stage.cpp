@@ -8,7 +8,7 @@ void LedgerStage::begin(const LedgerHints& hints, int threads) {
   hints_ = hints;
   threads_ = threads;
   split_ = false;
-  anchors_ = damping_ = 0;
+  anchors_ = damping_ = numerical_damping_ = 0;
 }
 
 void LedgerStage::charge(const Model& model, const State& start, const Adjacency& adj, const Projection& p,
@@ -18,6 +18,7 @@ void LedgerStage::charge(const Model& model, const State& start, const Adjacency
   const StepWork w = step_work(model, start, adj, p, {x1, v1}, f_ext, h, hints_, threads_);
   anchors_ += w.anchors;
   damping_ += w.damping;
+  numerical_damping_ += numerical_damping(w, p);
   split_ = true;
 }
 
@@ -28,6 +29,7 @@ double LedgerStage::charge_step(const Model& model, State& s, const Adjacency& a
   l.work_loads += w.loads;
   l.work_anchors += split_ ? anchors_ : w.anchors;
   l.dissipated_damping += split_ ? damping_ : w.damping;
+  l.numerical_damping += split_ ? numerical_damping_ : numerical_damping(w, p);
   if (p.contact.charged) {
     l.dissipated_contact += p.contact.dissipated;
     l.contact_stored = p.contact.stored;

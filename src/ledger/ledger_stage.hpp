@@ -32,7 +32,7 @@ class LedgerStage final : public SubstepLedger {
   LedgerHints hints_;
   int threads_ = 1;
   bool split_ = false;  // a substep was charged
-  double anchors_ = 0, damping_ = 0;  // summed over the substeps [J]
+  double anchors_ = 0, damping_ = 0, numerical_damping_ = 0;  // summed over the substeps [J]
 };
 
 }  // namespace qbond

@@ -18,7 +18,7 @@ StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const P
   };
   // The bond at the fraction φ of the step where the integrator took the axial damper's direction.
   auto damper_bond = [&](Index i, Index j) -> Vec3 { return s.x[j] - s.x[i] + phi * (p.dx[j] - p.dx[i]); };
-  const BondStepSums bonds = bond_step_sums(m, s, a, h, theta, phi, threads);
+  const BondStepSums bonds = bond_step_sums(m, s, a, h, theta, phi, hints.backward_euler, threads);
   // Only bonds with a moving prescribed end do work on the anchors: found through those quanta's
   // adjacency, each bond once (from its first such end), summed in quanta order. A prescribed
   // quanta that stays put this step (an anchor) does none.
@@ -64,7 +64,7 @@ StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const P
     }
     return work;
   });
-  return {loads, anchors, bonds.damping, bonds.energy_after};
+  return {loads, anchors, bonds.damping, bonds.energy_after, bonds.stiffness_loss};
 }
 
 }  // namespace qbond

@@ -15,13 +15,15 @@ struct StepWork {
   double anchors = 0;  // work the prescribed quanta do on the structure through their bonds [J]
   double damping = 0;  // energy the dampers take out [J]
   double bonds_after = 0;  // the bonds' energy at x + Δx (BondStepSums::energy_after) [J]
+  // The bonds' share of backward Euler's numerical damping (hints.backward_euler; else 0):
+  // BondStepSums::stiffness_loss [J].
+  double bonds_loss = 0;
 };
 
-// Loads are constant over the step (their work is exact); anchors' bond forces use the trapezoid
-// rule, or the discrete gradient the integrator applied (hints.discrete_gradient); dampers are
-// charged at the velocity v + θ Δv along the bond d + φ Δd at which the integrator evaluated them
-// (hints.damping_theta, damping_direction_theta).
-// `adj` is the adjacency of the alive bonds; `a` the state the step applies (x + Δx, v + Δv).
+// Backward Euler's numerical damping of a step (docs/integrators.md): the bonds' share
+// (StepWork::bonds_loss) and the integrator's kinetic share, ½ Σ Δv·(m Δv − J) (Projection::kinetic_loss).
+inline double numerical_damping(const StepWork& w, const Projection& p) { return w.bonds_loss + p.kinetic_loss; }
+
 StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const Projection& p,
                    const AppliedState& a, const std::vector<Vec3>& f_ext, double h, const LedgerHints& hints,
                    int threads);

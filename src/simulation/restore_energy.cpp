@@ -20,6 +20,8 @@ void restore_energy(const Model& m, State& s, int threads, StepScratch& k) {
                         (l.dissipated_contact - books.dissipated_contact) - (l.contact_stored - books.contact_stored);
   const double e_end = energies(m, s, threads).total();
   scale_internal_velocities(m, k.adjacency(m, s), s, target - e_end);
+  // The integrator's numerical damping is given back with the rest of what it removed.
+  s.energy.numerical_damping = books.numerical_damping;
 }
 
 }  // namespace qbond::stage

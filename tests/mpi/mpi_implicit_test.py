@@ -40,7 +40,7 @@ and the positions by h S times that. Checks:
     the bounds above; every diagnostics column but the solver's (iterations, residual: PETSc's over ranks) to
     twice the relative bound plus round-off, of its scale (the energy columns of the energy's, a
     vector's components of the vector's);
-  - the ledger over ranks closes: total − total at the start = work − dissipated − numerical to
+  - the ledger over ranks closes: total − total at the start = work − dissipated − numerical_damping − numerical to
     round-off;
   - with --expect-halves, the energy guard took steps again in halves over the ranks (where the
     linearised step would create energy, as the run alone takes them);
@@ -77,7 +77,7 @@ a = p.parse_args()
 
 ROUND_OFF = 1e-12
 HUGE = float("inf")
-ENERGY = {"kinetic", "potential", "dissipated", "total", "work", "numerical"}
+ENERGY = {"kinetic", "potential", "dissipated", "total", "work", "numerical_damping", "numerical"}
 SOLVER = {"iterations", "residual"}
 # Bonds a quanta of a cubic lattice has at most, by its `neighbors`.
 BONDS_PER_QUANTA = {"nearest": 6, "face_diagonal": 18, "body_diagonal": 26}
@@ -231,12 +231,13 @@ for r1, rn in zip(one[1:], many[1:]):
         if s > 0:
             worst_d = max(worst_d, abs(x1 - xn) / s)
 
-# The ledger over ranks closes: total − total₀ = work − dissipated − numerical.
+# The ledger over ranks closes: total − total₀ = work − dissipated − numerical_damping − numerical.
 total0 = float(many[1][col["total"]]) if int(float(many[1][col["step"]])) == 0 else None
 if total0 is not None:
     for rn in many[1:]:
         got = float(rn[col["total"]]) - total0
-        want = float(rn[col["work"]]) - float(rn[col["dissipated"]]) - float(rn[col["numerical"]])
+        want = (float(rn[col["work"]]) - float(rn[col["dissipated"]]) - float(rn[col["numerical_damping"]]) -
+                float(rn[col["numerical"]]))
         if abs(got - want) > ROUND_OFF * energy_scale * 10:
             sys.exit(f"diagnostics step {rn[0]}: the ledger over {a.ranks} ranks does not close "
                      f"({got!r} vs {want!r})")

@@ -64,7 +64,7 @@ p.add_argument("--expect-restored", action="store_true")
 a = p.parse_args()
 
 REL = 1e-12
-ENERGY = {"kinetic", "potential", "dissipated", "total", "work", "numerical"}
+ENERGY = {"kinetic", "potential", "dissipated", "total", "work", "numerical_damping", "numerical"}
 VECTORS = [("px", "py", "pz"), ("lx", "ly", "lz")]
 
 

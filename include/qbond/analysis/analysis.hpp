@@ -42,9 +42,10 @@ std::pair<double, Index> max_speed(const Model& model, const State& state);
 void bond_tension_strain(const Model& model, const State& state, std::vector<double>& tension,
                          std::vector<double>& strain);
 
-/// The energy budget as one line of numbers [J]. `numerical` is what the integrator itself
-/// dissipated: work_loads + work_anchors - dissipated_damping - dissipated_heuristics
-/// - dissipated_contact - ΔE, E counting the contact springs' energy (contact_stored).
+/// The energy budget as one line of numbers [J]. What the integrator itself dissipated is
+/// numerical_damping (backward Euler's, in closed form) plus the remainder dissipated_numerical:
+/// work_loads + work_anchors - dissipated_damping - dissipated_heuristics - dissipated_contact
+/// - numerical_damping - ΔE, E counting the contact springs' energy (contact_stored).
 struct EnergyBudget {
   Energies now;
   double initial_total = 0;
@@ -54,7 +55,10 @@ struct EnergyBudget {
   double dissipated_heuristics = 0;
   double dissipated_contact = 0;
   double contact_stored = 0;
+  double numerical_damping = 0;
   double dissipated_numerical = 0;
+  /// Everything the integrator lost: numerical_damping + dissipated_numerical [J].
+  double integrator_loss() const { return numerical_damping + dissipated_numerical; }
 };
 EnergyBudget energy_budget(const Model& model, const State& state);
 

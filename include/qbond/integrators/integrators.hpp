@@ -52,8 +52,15 @@ struct Projection {
     double stored = 0;
     double stored_start = 0;  ///< the springs' energy U at the step's start [J]
     double work = 0;  ///< the contact impulses' work Σ J·(v + v₁)/2 [J] (the energy guard's balance)
+    /// Σ J·Δv over the bonded free quanta in contact [J]: the contacts' share of ½ Δvᵀ M Δv in
+    /// backward Euler's numerical damping (the ledger's `numerical_damping`).
+    double impulse_dv = 0;
     bool charged = false;  ///< set by an integrator that solved contacts this step
   } contact;
+  /// Backward Euler's ½ Σ Δv·(m Δv − J) over the free quanta with bonds (J their contact
+  /// impulses), from the integrator's own Δv before any heuristic edits it: the kinetic share of
+  /// the ledger's `numerical_damping` (set by coupled_implicit) [J].
+  double kinetic_loss = 0;
   /// Sizes for n quanta and clears the rest; dx and dv zeroed unless `zero` is false (for an
   /// integrator that writes every row).
   void resize(std::size_t n, bool zero = true) {
@@ -68,6 +75,7 @@ struct Projection {
     carry = std::monostate{};
     bonds_edited = false;
     contact = {};
+    kinetic_loss = 0;
   }
 
  private:
@@ -87,6 +95,9 @@ struct LedgerHints {
   /// bond (energy_momentum): the ledger then charges prescribed quanta that force, so that it
   /// closes exactly, instead of the trapezoid rule.
   bool discrete_gradient = false;
+  /// Whether the step is linearised backward Euler (coupled_implicit): the ledger then charges
+  /// its numerical damping in closed form (`numerical_damping`, docs/integrators.md).
+  bool backward_euler = false;
 };
 
 /// The integrators, one line each: X(name). An integrator is this line, its file of

@@ -120,7 +120,8 @@ struct Model {
 
 /// Running energy accounts (docs/integrators.md); with the current energies they close the budget
 /// E(t) + contact_stored - E(0) = work_loads + work_anchors - dissipated_damping
-///               - dissipated_heuristics - dissipated_contact - (numerical dissipation), see analysis.hpp.
+///               - dissipated_heuristics - dissipated_contact - numerical_damping
+///               - (numerical dissipation), see analysis.hpp.
 struct EnergyLedger {
   double initial_total = 0;         ///< E(0) = kinetic + bond + gravity potential [J]
   double initial_gravity = 0;       ///< gravity potential at t = 0 [J]
@@ -135,6 +136,10 @@ struct EnergyLedger {
   double dissipated_contact = 0;
   /// Energy the solve's contact penalty springs hold at the current state, Σ ½ k δ² [J]
   double contact_stored = 0;
+  /// Backward Euler's own numerical damping, in closed form for each linearised step
+  /// (coupled_implicit; 0 for the other integrators): ½ Δvᵀ M Δv + ½ Δxᵀ K Δx less the contacts'
+  /// share ½ Σ J·Δv, summed over the steps [J]
+  double numerical_damping = 0;
 
   bool operator==(const EnergyLedger&) const = default;
 };
