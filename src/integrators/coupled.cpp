@@ -184,7 +184,6 @@ class CoupledIntegrator final : public StepIntegrator {
     if (c.charged) {
       split_contact_.dissipated += c.dissipated;
       split_contact_.work += c.work;
-      split_contact_.impulse_dv += c.impulse_dv;
       split_contact_.stored = c.stored;
       split_contact_.charged = true;
     }
