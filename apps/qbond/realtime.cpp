@@ -203,7 +203,7 @@ int bench_realtime(const RealtimeArgs& a) {
   std::printf(
       "qbond bench --realtime: wall time of a 1/60 s frame (the viewer's steps: round(1/(60 h)), at least "
       "1),\n"
-      "median of up to %d frames (the lattice: %d, settling under gravity, then its free face pulled up by %g "
+      "median and mean of up to %d frames (the lattice: %d, settling under gravity, then its free face pulled up by %g "
       "weights from frame %d;\ntol=1e-4: CG to a relative residual of 1e-4) after %d warm-up frames, at most %g s "
       "measured per row; keeps up: mean <= 1/60 s (x real: 1/60 s over the mean)\n\n",
       a.frames, kLatticeFrames, kPullWeights, kSettleFrames, kWarmupFrames, a.budget);

@@ -262,9 +262,10 @@ QBOND_VECTOR_INLINE Sums<N> step_chunk_at(const Model& m, const State& s, const 
         dd += d[c] * e;
         delta2 += e * e;
       }
+      // A zero-length bond (r0 = 0) has no stiffness block: the callers select 0 for it.
       t.r0 = std::sqrt(d2);
-      t.along2 = d2 > 0 ? dd * dd / d2 : 0.0;
-      t.delta2 = d2 > 0 ? delta2 : 0.0;  // a zero-length bond has no stiffness block
+      t.along2 = dd * dd / d2;
+      t.delta2 = delta2;
     }
     return t;
   };
