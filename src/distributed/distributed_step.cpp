@@ -16,6 +16,7 @@
 #include "integrators/advance.hpp"
 #include "integrators/bond_forces.hpp"
 #include "integrators/bond_partition.hpp"
+#include "integrators/energy_guard.hpp"
 #include "integrators/integrator_common.hpp"
 #include "integrators/newton.hpp"
 #include "ledger/step_work.hpp"
@@ -152,7 +153,7 @@ DistributedStep::DistributedStep(const World& whole, const IntegratorConfig& con
   config_.restore_energy = false;  // restored here, over the ranks, not by each piece
   solved_contacts_ = implicit_ && whole_.model.solves_contact() &&
                     whole_.model.step_contact_method() == ContactMethod::implicit;
-  rubs_ = stage::solved_contacts_rub(whole_.model);
+  rubs_ = solved_contacts_rub(whole_.model);
   contacts_ = PenaltyContact::used(whole_.model) || solved_contacts_;
   const Bonds& wb = whole_.state.bonds;
   for (std::size_t b = 0; b < wb.size() && !fails_; ++b) fails_ = wb.alive[b] && law_breaks(wb.law[b]);
@@ -805,12 +806,11 @@ bool DistributedStep::newton_unconverged() {
 }
 
 bool DistributedStep::gains(const Verdict& v, Guard guard) const {
-  // Contacts solved with friction that hold or took energy keep a step, as alone (the ledger then
-  // holds the step's end springs' energy for a whole step, its start's before the rules).
-  const Projection::ContactEnergy& c = v.contact;
-  if (guard != Guard::half && solved_contacts_ && rubs_ &&
-      (c.stored > 0 || contact_loss(c) > 0 || (guard == Guard::projection && contact_stored_ > 0)))
-    return false;
+  // Contacts solved with friction may show a gain up to their energies, as alone.
+  Projection::ContactEnergy c = v.contact;
+  c.dissipated = contact_loss(c);
+  c.charged = solved_contacts_;
+  const double allowance = friction_allowance(c, rubs_);
   const bool credit = guard == Guard::step && !breaks() && form_rules_.empty();  // no heuristics
   const Energies& e0 = energy_start_;
   const double lost = credit ? v.damping : 0.0;
@@ -818,7 +818,7 @@ bool DistributedStep::gains(const Verdict& v, Guard guard) const {
   const double gain = v.after.total() + v.released - e0.total() - v.work - c.work + lost;
   const double scale = e0.kinetic + e0.bonds + v.after.kinetic + v.after.bonds + std::abs(v.released) +
                        std::abs(v.after.gravity - e0.gravity) + std::abs(v.work) + std::abs(c.work) + std::abs(lost);
-  return gain > kGainTolerance * scale + (credit ? limits_.energy_floor : 0.0);
+  return gain > kGainTolerance * scale + allowance + (credit ? limits_.energy_floor : 0.0);
 }
 
 double DistributedStep::net_books(double pending, double contact_dissipated, double contact_stored) {

@@ -170,7 +170,7 @@ class CoupledIntegrator final : public StepIntegrator {
     solve(model, sub_, adj, f_ext, ctx, /*whole=*/false, sub_out_);
     StepEnergyBalance balance = guard_.balance(model, sub_, adj, f_ext, sub_out_, H, ledger_hints(), config_.threads);
     const Projection::ContactEnergy& c = sub_out_.contact;
-    balance.credit_contacts(c);
+    balance.credit_contacts(c, solved_contacts_rub(model));
     const bool gains = balance.gains(kGainTolerance);
     if (gains && depth < kMaxDepth) {
       const double tm = t0 + 0.5 * H;
@@ -182,6 +182,7 @@ class CoupledIntegrator final : public StepIntegrator {
     if (gains) ++stats_.unconverged;
     split_kinetic_loss_ += sub_out_.kinetic_loss;
     if (c.charged) {
+      if (!split_contact_.charged) split_contact_.stored_start = c.stored_start;
       split_contact_.dissipated += c.dissipated;
       split_contact_.work += c.work;
       split_contact_.stored = c.stored;

@@ -55,4 +55,11 @@ StepEnergyBalance EnergyGuard::balance(const Model& model, const State& state, c
   return out;
 }
 
+bool solved_contacts_rub(const Model& m) {
+  auto rubs = [](const ContactMaterial& c) { return c.friction > 0 || c.static_coefficient() > 0; };
+  bool friction = m.quanta_contact.radius > 0 && rubs(m.quanta_contact.material);
+  for (const Obstacle& o : m.obstacles) friction = friction || rubs(o.material);
+  return friction;
+}
+
 }  // namespace qbond

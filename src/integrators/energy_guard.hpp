@@ -18,17 +18,31 @@
 
 namespace qbond {
 
+/// Whether the contacts the implicit step solves (obstacles', quanta pairs') have friction.
+bool solved_contacts_rub(const Model& model);
+
+/// The gain a step's solved contacts with friction may show without the linearisation failing
+/// [J]: a sticking contact's spring is anchored at its step's start, so the step's books move by
+/// up to its springs' energy at both ends and what they took, and halves would only let it creep
+/// twice as far. A gain beyond it (an impact's bonds turning far in one step) is retaken.
+inline double friction_allowance(const Projection::ContactEnergy& c, bool rubs) {
+  return rubs && c.charged ? c.stored_start + c.stored + c.dissipated : 0.0;
+}
+
 struct StepEnergyBalance {
-  double gain = 0;   // energy the step creates beyond the work done on it [J]
-  double scale = 0;  // Σ of the magnitudes of its terms, the size of its round-off [J]
-  // Whether the step creates energy beyond `relative` times its terms' size.
-  bool gains(double relative) const { return gain > relative * scale; }
+  double gain = 0;       // energy the step creates beyond the work done on it [J]
+  double scale = 0;      // Σ of the magnitudes of its terms, the size of its round-off [J]
+  double allowance = 0;  // the gain its contacts' friction may show (friction_allowance) [J]
+  // Whether the step creates energy beyond `relative` times its terms' size and the allowance.
+  bool gains(double relative) const { return gain > relative * scale + allowance; }
   // Counts the work of the contacts solved in the step as done on it: their springs and dampers
-  // are the ledger's contact columns, what is left is the bonds' and gravity's balance.
-  void credit_contacts(const Projection::ContactEnergy& c) {
+  // are the ledger's contact columns, what is left is the bonds' and gravity's balance. `rubs`:
+  // the contacts have friction.
+  void credit_contacts(const Projection::ContactEnergy& c, bool rubs) {
     if (!c.charged) return;
     gain -= c.work;
     scale += std::abs(c.work);
+    allowance = friction_allowance(c, rubs);
   }
 };
 

@@ -11,23 +11,7 @@ namespace {
 // energies' magnitudes is retaken in substeps: above the solver's own error (CG at its relative
 // tolerance) and round-off.
 constexpr double kStepGainTolerance = 1e-9;
-
-// Whether contacts solved in the step held energy at its start or end or took some out, in a
-// scene whose solved contacts have friction: such steps are not retaken. A sticking contact's
-// spring is anchored at its (sub)step's start, so halves would let it creep twice as far.
-bool friction_in_step(const Model& m, const State& s, const StepScratch& k) {
-  const auto& c = k.projection.contact;
-  return solved_contacts_rub(m) && c.charged && (c.stored > 0 || c.dissipated > 0 || s.energy.contact_stored > 0);
-}
-
 }  // namespace
-
-bool solved_contacts_rub(const Model& m) {
-  auto rubs = [](const ContactMaterial& c) { return c.friction > 0 || c.static_coefficient() > 0; };
-  bool friction = m.quanta_contact.radius > 0 && rubs(m.quanta_contact.material);
-  for (const Obstacle& o : m.obstacles) friction = friction || rubs(o.material);
-  return friction;
-}
 
 bool retake_gaining_step(const Model& m, State& s, StepIntegrator& integrator, double h, const BlowupLimits& limits,
                          StepScratch& k) {
@@ -44,7 +28,7 @@ bool retake_gaining_step(const Model& m, State& s, StepIntegrator& integrator, d
       [](const Pair& a, const Pair& b) { return Pair{a[0] + b[0], a[1] + b[1]}; });
   k.quanta_after = {.kinetic = kg[0], .bonds = 0, .gravity = kg[1]};
   k.quanta_after_valid = true;
-  if (!integrator.splits_gaining_steps() || friction_in_step(m, s, k)) return false;
+  if (!integrator.splits_gaining_steps()) return false;
   if (k.guard_step != s.step || k.guard_time != s.time) {
     k.guard_start = energies(m, s, threads);  // the first step, or the state was replaced
     k.guard_step = s.step;
@@ -62,7 +46,8 @@ bool retake_gaining_step(const Model& m, State& s, StepIntegrator& integrator, d
   const double gain = e1 - e0.total() - work - contact + lost;
   const double scale = e0.kinetic + e0.bonds + kg[0] + k.bonds_after + std::abs(kg[1] - e0.gravity) + std::abs(work) +
                        std::abs(contact) + std::abs(lost);
-  if (!(gain > kStepGainTolerance * scale + limits.energy_floor)) return false;
+  const double allowance = friction_allowance(k.projection.contact, solved_contacts_rub(m));
+  if (!(gain > kStepGainTolerance * scale + limits.energy_floor + allowance)) return false;
   s.energy = b;
   k.quanta_after_valid = false;
   integrator.split_next_step();
@@ -72,10 +57,10 @@ bool retake_gaining_step(const Model& m, State& s, StepIntegrator& integrator, d
 
 void retake_gaining_projection(const Model& m, const State& s, StepIntegrator& integrator, double h, double max_speed,
                                StepScratch& k) {
-  if (!integrator.splits_gaining_steps() || friction_in_step(m, s, k)) return;
+  if (!integrator.splits_gaining_steps()) return;
   StepEnergyBalance b = k.guard.balance(m, s, k.adjacency(m, s), k.f_ext, k.projection, h,
                                         integrator.ledger_hints(), integrator.config().threads);
-  b.credit_contacts(k.projection.contact);  // as retake_gaining_step
+  b.credit_contacts(k.projection.contact, solved_contacts_rub(m));  // as retake_gaining_step
   if (!b.gains(kStepGainTolerance)) return;
   integrator.split_next_step();
   integrate(m, s, integrator, h, max_speed, true, false, k);

@@ -58,10 +58,6 @@ void charge_ledger(const Model& model, State& state, StepScratch& k);
 // substeps. Reads model, state, k.next, k.bonds_after, k.guard_books. Writes k.quanta_after; when
 // it retakes, state.energy (back to k.guard_books) and what integrate writes. Returns whether it
 // retook the step (then check and charge_ledger run again).
-// Whether the contacts the step solves have friction (a sticking contact's spring is anchored at
-// its step's start, so the energy guard's halves would let it creep twice as far: such steps are
-// kept when their contacts hold or took energy).
-bool solved_contacts_rub(const Model& model);
 bool retake_gaining_step(const Model& model, State& state, StepIntegrator& integrator, double h,
                          const BlowupLimits& limits, StepScratch& k);
 
