@@ -208,18 +208,21 @@ QBOND_VECTOR_CLONES Sums<2> energy_change_chunk(const Model& m, const State& s, 
 // fewer arrays and do fewer operations a bond.
 enum class DamperPoint { start_end, start_start, start_any, any_any };
 
-// A bond's share of backward Euler's numerical damping, Δdᵀ K_c Δd − ½ Δdᵀ K Δd, from (u·Δd)² and
-// |Δd|²: K = axial u uᵀ + transverse (I − u uᵀ) the bond's stiffness, K_c the step's, clamped
-// (clamped_stiffness). Where nothing is clamped, ½ Δdᵀ K Δd; a clamped coefficient adds the
-// energy its linearisation leaves out. Never negative.
-[[gnu::always_inline]] inline double stiffness_loss(double axial, double transverse, double along2, double delta2) {
+// A bond's share of the linearised backward-Euler step's loss, exactly: Δdᵀ K_c Δd + T₀ u·Δd −
+// (U(r₁) − U(r₀)), from the step's clamped stiffness block K_c (clamped_stiffness of the bond's
+// axial and transverse coefficients at d₀), its tension T₀ and direction u at d₀, u·Δd, (u·Δd)²,
+// |Δd|² and the energy change dU. The solve's forces are f₀ − K_c Δd, linear in Δd; this is the
+// energy they leave out against the bond's own law: ½ Δdᵀ K Δd for a quadratic energy with nothing
+// clamped, more where the bond turns or stretches far within the step.
+[[gnu::always_inline]] inline double step_loss(double axial, double transverse, double tension, double along,
+                                               double along2, double delta2, double dU) {
   const StiffnessCoefficients c = clamped_stiffness(axial, transverse);
-  return (c.axial - 0.5 * axial) * along2 + (c.transverse - 0.5 * transverse) * (delta2 - along2);
+  return c.axial * along2 + c.transverse * (delta2 - along2) + tension * along - dU;
 }
 
 // The dampers' work and the bonds' energy at the applied positions (bond_step_sums) over bonds
 // [b0, b1), the dampers evaluated at kPoint; with kLoss (backward Euler: kPoint start_end) also
-// stiffness_loss at the start's bond d₀, Δd = d₁ − d₀.
+// step_loss, Δd = d₁ − d₀.
 template <DamperPoint kPoint, bool kLoss = false, std::size_t N = kLoss ? 3 : 2>
 QBOND_VECTOR_INLINE Sums<N> step_chunk_at(const Model& m, const State& s, const double* x1, const double* v1,
                                           double h, double theta, double phi, std::size_t b0,
@@ -235,9 +238,9 @@ QBOND_VECTOR_INLINE Sums<N> step_chunk_at(const Model& m, const State& s, const 
   static_assert(!kLoss || kPoint == DamperPoint::start_end);
   // The damper's loss and the end length |x1_j − x1_i| from the bond d at which the damper is
   // charged, the relative velocity w and the end bond d₁; with kLoss, the start's length r0,
-  // (u·Δd)² and |Δd|² (u = d / r0).
+  // u·Δd, (u·Δd)² and |Δd|² (u = d / r0).
   struct Term {
-    double loss, r1, r0 = 0, along2 = 0, delta2 = 0;
+    double loss, r1, r0 = 0, along = 0, along2 = 0, delta2 = 0;
   };
   auto term = [=](const double (&d)[3], const double (&w)[3], const double (&d1)[3], double Db,
                   bool axial) QBOND_LAMBDA_INLINE {
@@ -264,7 +267,8 @@ QBOND_VECTOR_INLINE Sums<N> step_chunk_at(const Model& m, const State& s, const 
       }
       // A zero-length bond (r0 = 0) has no stiffness block: the callers select 0 for it.
       t.r0 = std::sqrt(d2);
-      t.along2 = dd * dd / d2;
+      t.along = dd / t.r0;
+      t.along2 = t.along * t.along;
       t.delta2 = delta2;
     }
     return t;
@@ -301,10 +305,12 @@ QBOND_VECTOR_INLINE Sums<N> step_chunk_at(const Model& m, const State& s, const 
       t[0][l] = bond.loss;
       t[1][l] = linear_energy(k[b + l], bond.r1, rest[b + l]);
       // The linear law's T = k (r0 − L), T' = k; a zero-length bond's NaN is not selected.
-      if constexpr (kLoss)
-        t[2][l] = bond.r0 > 0 ? stiffness_loss(k[b + l], k[b + l] * (bond.r0 - rest[b + l]) / bond.r0,
-                                               bond.along2, bond.delta2)
+      if constexpr (kLoss) {
+        const double tension = k[b + l] * (bond.r0 - rest[b + l]);
+        t[2][l] = bond.r0 > 0 ? step_loss(k[b + l], tension / bond.r0, tension, bond.along, bond.along2, bond.delta2,
+                                          linear_energy_change(k[b + l], bond.r0, bond.r1, rest[b + l]))
                               : 0.0;
+      }
     }
   };
   auto bond = [&](std::size_t i, std::size_t j, std::size_t b) {
@@ -314,7 +320,8 @@ QBOND_VECTOR_INLINE Sums<N> step_chunk_at(const Model& m, const State& s, const 
     const double energy = s.bonds.law_at(m.shapes, b, t.r1, rest[b]).U;
     if constexpr (kLoss) {
       const LawValue lv = t.r0 > 0 ? s.bonds.law_at(m.shapes, b, t.r0, rest[b]) : LawValue{};
-      return Sums<N>{t.loss, energy, t.r0 > 0 ? stiffness_loss(lv.dT, lv.T / t.r0, t.along2, t.delta2) : 0.0};
+      return Sums<N>{t.loss, energy,
+                     t.r0 > 0 ? step_loss(lv.dT, lv.T / t.r0, lv.T, t.along, t.along2, t.delta2, energy - lv.U) : 0.0};
     } else {
       return Sums<N>{t.loss, energy};
     }

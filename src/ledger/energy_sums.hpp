@@ -43,10 +43,12 @@ struct BondStepSums {
   /// Σ U_b(|d₁|) (Eqs. 2–3) [J]: the bonds' energy after the step but for round-off where a
   /// prescribed quanta lands on its path instead.
   double energy_after = 0;
-  /// With `backward_euler` (θ = 1, φ = 0): Σ Δdᵀ K_c Δd − ½ Δdᵀ K Δd, Δd = d₁ − d₀, K the bond's
-  /// stiffness at d₀ and K_c the step's, clamped (laws.hpp); ½ Δdᵀ K Δd where nothing is clamped:
-  /// the bonds' share of backward Euler's numerical damping (step_work.hpp) [J]; else 0.
-  double stiffness_loss = 0;
+  /// With `backward_euler` (θ = 1, φ = 0): Σ Δdᵀ K_c Δd + T₀ u₀·Δd − (U_b(|d₁|) − U_b(|d₀|)),
+  /// Δd = d₁ − d₀, T₀ and u₀ the bond's tension and direction at d₀ and K_c the step's stiffness
+  /// block there, clamped (laws.hpp): what the solve's linear forces f₀ − K_c Δd leave out of the
+  /// bonds' energy change, the bonds' share of backward Euler's numerical damping (step_work.hpp);
+  /// ½ Δdᵀ K Δd for quadratic energies with nothing clamped [J]; else 0.
+  double step_loss = 0;
 };
 
 /// The sums of BondStepSums in one pass over the bonds. The dampers evaluated at the start's

@@ -64,7 +64,7 @@ StepWork step_work(const Model& m, const State& s, const Adjacency& adj, const P
     }
     return work;
   });
-  return {loads, anchors, bonds.damping, bonds.energy_after, bonds.stiffness_loss};
+  return {loads, anchors, bonds.damping, bonds.energy_after, bonds.step_loss};
 }
 
 }  // namespace qbond

@@ -16,7 +16,7 @@ struct StepWork {
   double damping = 0;  // energy the dampers take out [J]
   double bonds_after = 0;  // the bonds' energy at x + Δx (BondStepSums::energy_after) [J]
   // The bonds' share of backward Euler's numerical damping (hints.backward_euler; else 0):
-  // BondStepSums::stiffness_loss [J].
+  // BondStepSums::step_loss [J].
   double bonds_loss = 0;
 };
 
