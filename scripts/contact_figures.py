@@ -47,6 +47,8 @@ SCENES = [
      ((0.03, -0.2, 0.135), (0.0, 0.0, 0.105)), "trampoline: a 4×4×4 block on a 15×15 sheet held on its edges"),
     ("gap", [(0.2, "falling"), (3.0, "at rest wedged across the gap, not through it")],
      ((0.04, -0.18, 0.19), (0.0, 0.0, 0.155)), "gap: a 3×3×3 block onto ledges 1.5 cm apart"),
+    ("mesh_drop", [(0.05, "falling, tilted"), (0.1, "landing"), (1.5, "at rest on the ground")],
+     ((0.07, -0.3, 0.12), (0.07, 0.0, 0.02)), "mesh_drop: a voxelised torus and blob dropped on the ground at 1/60 s"),
 ]
 
 
