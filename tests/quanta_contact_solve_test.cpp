@@ -276,6 +276,14 @@ TEST(SolvedQuantaContact, ABlockRestsOnATrampolineAtFrameSizedSteps) {
   expect_rests("trampoline.json", {"block", "sheet"}, 4.0, own, "block", /*impact=*/true);
 }
 
+// The scene j at h = 1/per_second for `duration` s, without outputs.
+Scene scene_at(nlohmann::json j, int per_second, double duration) {
+  j["timestep"] = 1.0 / per_second;
+  j["duration"] = duration;
+  j.erase("output");
+  return parse_scene(j.dump());
+}
+
 TEST(SolvedQuantaContact, TheTrampolinesStateAndImpactLossConvergeAsTheStepShrinks) {
   // The block dropped 20 cm, at h = 1/60, 1/120, 1/240, 1/480 s, after 4 s (at rest at every h):
   // the block's and the sheet's mean heights, whose difference between successive steps shrinks
@@ -292,11 +300,7 @@ TEST(SolvedQuantaContact, TheTrampolinesStateAndImpactLossConvergeAsTheStepShrin
   j0["heuristics"][1].erase("friction");
   std::vector<double> block, sheet, numerical;
   for (int per_second : {60, 120, 240, 480}) {
-    nlohmann::json j = j0;
-    j["timestep"] = 1.0 / per_second;
-    j["duration"] = 4.0;
-    j.erase("output");
-    Scene s = parse_scene(j.dump());
+    Scene s = scene_at(j0, per_second, 4.0);
     Simulation sim(std::move(s.world), s.integrator, s.timestep);
     for (std::uint64_t n = 0; n < s.steps; ++n) ASSERT_EQ(sim.step().status, StepReport::Status::ok);
     block.push_back(mean_z(sim.world(), body_named(sim.world(), "block")));
@@ -320,11 +324,7 @@ TEST(SolvedQuantaContact, TheTrampolineWithFrictionCreatesNoEnergyAtAnyFrameSize
   std::ifstream f(std::string(QBOND_SOURCE_DIR) + "/scenes/trampoline.json");
   const nlohmann::json j0 = nlohmann::json::parse(f);
   for (int per_second : {60, 120}) {
-    nlohmann::json j = j0;
-    j["timestep"] = 1.0 / per_second;
-    j["duration"] = 0.5;
-    j.erase("output");
-    Scene s = parse_scene(j.dump());
+    Scene s = scene_at(j0, per_second, 0.5);
     Simulation sim(std::move(s.world), s.integrator, s.timestep);
     double worst = -1;
     for (std::uint64_t n = 0; n < s.steps; ++n) {
