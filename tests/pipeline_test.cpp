@@ -549,9 +549,9 @@ TEST(Samples, EveryBuiltInSceneRunsWithoutBlowup) {
     Simulation sim(std::move(scene.world), scene.integrator, scene.timestep);
     sim.limits() = scene.limits;
     for (const HeuristicSpec& h : scene.heuristics) sim.add_heuristic(make_heuristic(h));
-    // 50 steps, or a third of a second at frame-sized steps: through mesh_drop's landing, whose
+    // 50 steps, or a fifth of a second at frame-sized steps: through mesh_drop's landing, whose
     // settling steps each take a few solves of its contacts.
-    const int steps = std::min(50, static_cast<int>(std::ceil(0.35 / scene.timestep)));
+    const int steps = std::min(50, static_cast<int>(std::ceil(0.2 / scene.timestep)));
     for (int n = 0; n < steps; ++n) {
       // Scenes with an adaptive section need it (adaptive_pendulum blows up at its fixed step).
       const StepReport r = scene.adaptive.enabled ? adaptive_step(sim, scene.adaptive, scene.adaptive.horizon).step : sim.step();

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Runs a scene for 50 steps (30 at frame-sized steps, through mesh_drop's landing) and checks what
+"""Runs a scene for 50 steps (20 at frame-sized steps, through mesh_drop's landing) and checks what
 the run wrote, not only its exit code.
 
 Usage: scene_run.py QBOND_EXE SCENE OUT_DIR
@@ -21,7 +21,7 @@ import xml.etree.ElementTree as ET
 
 QBOND, SCENE, OUT = sys.argv[1:4]
 EVERY = 10
-STEPS = 30 if json.load(open(SCENE))["timestep"] >= 1 / 120 else 50
+STEPS = 20 if json.load(open(SCENE))["timestep"] >= 1 / 120 else 50
 
 
 def fail(msg):
