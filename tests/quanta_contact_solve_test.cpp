@@ -169,15 +169,19 @@ struct Ledger {
   }
 };
 
-double mean_z(const World& w, Index body) {
-  double z = 0, m = 0;
+// A body's centre of mass.
+Vec3 mean_position(const World& w, Index body) {
+  Vec3 x = Vec3::Zero();
+  double m = 0;
   for (std::size_t i = 0; i < w.num_quanta(); ++i)
     if (w.model.body[i] == body) {
-      z += w.model.mass[i] * w.state.x[i].z();
+      x += w.model.mass[i] * w.state.x[i];
       m += w.model.mass[i];
     }
-  return z / m;
+  return x / m;
 }
+
+double mean_z(const World& w, Index body) { return mean_position(w, body).z(); }
 
 Index body_named(const World& w, const std::string& name) {
   const auto it = std::find(w.model.body_names.begin(), w.model.body_names.end(), name);
@@ -316,6 +320,40 @@ TEST(SolvedQuantaContact, TheTrampolinesStateAndImpactLossConvergeAsTheStepShrin
   EXPECT_LT(std::abs(block[3] - block[2]), 0.01 * kRadius);
 }
 
+TEST(SolvedQuantaContact, TheTrampolineWithFrictionConvergesAsTheStepShrinks) {
+  // The scene with its pair friction 0.5 but the block dropped over the sheet's middle, its quanta
+  // over the hollows between the sheet's (as shipped it lands on their tops, where friction holds
+  // it perched as long as the steps damp the impact's vibration: docs/heuristics.md), at
+  // h = 1/60 ... 1/480 s, after 4 s: the block's mean height changes less from one h to the next
+  // than from the one before, and the block stays on the sheet's axis (symmetric: round-off
+  // amplified by its stuck contacts moves it < 0.004 radii). At 1/120 s the impact's active set
+  // used to cycle (a stick contact pulled once released) until the block passed into the sheet:
+  // the ledger's `numerical` stays within 1%.
+  std::ifstream f(std::string(QBOND_SOURCE_DIR) + "/scenes/trampoline.json");
+  nlohmann::json j0 = nlohmann::json::parse(f);
+  ASSERT_EQ(j0["bodies"][1]["name"], "block");
+  j0["bodies"][1]["origin"] = {-0.015, -0.015, 0.31};
+  std::vector<double> height;
+  for (int per_second : {60, 120, 240, 480}) {
+    Scene s = scene_at(j0, per_second, 4.0);
+    Simulation sim(std::move(s.world), s.integrator, s.timestep);
+    Ledger ledger;
+    ledger.see(sim.world());
+    for (std::uint64_t n = 0; n < s.steps; ++n) {
+      ASSERT_EQ(sim.step().status, StepReport::Status::ok);
+      ledger.see(sim.world());
+    }
+    EXPECT_GE(ledger.least_dissipated, 0.0) << per_second;
+    EXPECT_LE(ledger.worst_remainder, 0.01 * ledger.largest) << per_second;
+    const Index block = body_named(sim.world(), "block");
+    const Vec3 c = mean_position(sim.world(), block);
+    EXPECT_LT(std::hypot(c.x(), c.y()), 0.01 * kRadius) << per_second;
+    height.push_back(c.z());
+  }
+  for (std::size_t n = 2; n < height.size(); ++n)
+    EXPECT_LT(std::abs(height[n] - height[n - 1]), std::abs(height[n - 1] - height[n - 2])) << n;
+}
+
 TEST(SolvedQuantaContact, TheTrampolineWithFrictionCreatesNoEnergyAtAnyFrameSizedStep) {
   // The scene as shipped, friction included, at h = 1/60 and 1/120 s through its impact: no step
   // ends with more energy (kinetic, bonds', gravity's, the contact springs') than the start held
@@ -340,29 +378,35 @@ TEST(SolvedQuantaContact, TheTrampolineWithFrictionCreatesNoEnergyAtAnyFrameSize
 
 TEST(SolvedQuantaContact, TheMeshDropsLedgerClosesAtFrameSizedSteps) {
   // mesh_drop as shipped (its ground in the step with friction 0.5, h = 1/60 s) but voxelised at
-  // 1 cm, the ground's margin half the spacing as shipped: the bodies land from 10 cm at 1 m/s and
-  // more, and the ledger holds on every step: `dissipated` never negative, `numerical` within 1%
-  // of the largest energy; they end at rest.
+  // 1 cm: the bodies land from 10 cm at 1 m/s and more, and the ledger holds on every step:
+  // `dissipated` never negative, `numerical` within 1% of the largest energy; they end at rest.
+  // With the ground's margin half the spacing, as shipped, and with a quarter: there the active
+  // set of the landing step cycles (contacts released and entered again), and a quanta must not
+  // end it inside the ground with no spring holding it.
   std::ifstream f(std::string(QBOND_SOURCE_DIR) + "/scenes/mesh_drop.json");
-  nlohmann::json j = nlohmann::json::parse(f);
-  ASSERT_EQ(j["heuristics"][0]["method"], "implicit");
-  ASSERT_EQ(j["heuristics"][0]["margin"], 0.5 * j["bodies"][0]["spacing"].get<double>());
-  for (nlohmann::json& b : j["bodies"]) b["spacing"] = 0.01;
-  j["heuristics"][0]["margin"] = 0.005;
-  j.erase("output");
-  Scene s = parse_scene(j.dump(), "mesh_drop", {.dir = std::string(QBOND_SOURCE_DIR) + "/scenes"});
-  ASSERT_EQ(s.timestep, 1.0 / 60);
-  Simulation sim(std::move(s.world), s.integrator, s.timestep);
-  Ledger ledger;
-  ledger.see(sim.world());
-  for (std::uint64_t n = 0; n < s.steps; ++n) {
-    ASSERT_EQ(sim.step().status, StepReport::Status::ok) << n;
+  const nlohmann::json j0 = nlohmann::json::parse(f);
+  ASSERT_EQ(j0["heuristics"][0]["method"], "implicit");
+  ASSERT_EQ(j0["heuristics"][0]["margin"], 0.5 * j0["bodies"][0]["spacing"].get<double>());
+  for (double margin : {0.005, 0.0025}) {
+    SCOPED_TRACE(margin);
+    nlohmann::json j = j0;
+    for (nlohmann::json& b : j["bodies"]) b["spacing"] = 0.01;
+    j["heuristics"][0]["margin"] = margin;
+    j.erase("output");
+    Scene s = parse_scene(j.dump(), "mesh_drop", {.dir = std::string(QBOND_SOURCE_DIR) + "/scenes"});
+    ASSERT_EQ(s.timestep, 1.0 / 60);
+    Simulation sim(std::move(s.world), s.integrator, s.timestep);
+    Ledger ledger;
     ledger.see(sim.world());
+    for (std::uint64_t n = 0; n < s.steps; ++n) {
+      ASSERT_EQ(sim.step().status, StepReport::Status::ok) << n;
+      ledger.see(sim.world());
+    }
+    EXPECT_TRUE(ledger.touched);
+    EXPECT_GE(ledger.least_dissipated, 0.0);
+    EXPECT_LE(ledger.worst_remainder, 0.01 * ledger.largest);
+    EXPECT_LT(energies(sim.world().model, sim.world().state).kinetic, 1e-6 * ledger.largest);
   }
-  EXPECT_TRUE(ledger.touched);
-  EXPECT_GE(ledger.least_dissipated, 0.0);
-  EXPECT_LE(ledger.worst_remainder, 0.01 * ledger.largest);
-  EXPECT_LT(energies(sim.world().model, sim.world().state).kinetic, 1e-6 * ledger.largest);
 }
 
 TEST(SolvedQuantaContact, TheMeshDropsRestHeightsConvergeAsTheStepShrinks) {

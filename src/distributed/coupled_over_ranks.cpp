@@ -412,10 +412,19 @@ class CoupledOverRanks final : public StepIntegrator {
     solve(guessed);
     // Contacts: solved again, from the last solution, while some rank's active set changes, as
     // the run alone's coupled step.
+    // Contacts released twice return only once no rank's set changes otherwise (ContactSolve::admit).
     for (int pass = 1; contacts && pass < ContactSolve::kPasses; ++pass) {
-      int changed[1] = {contact_.update(model, state, ctx.h, threads, pass + 1 == ContactSolve::kPasses, y_, sys_) ? 1 : 0};
+      const bool last = pass + 1 == ContactSolve::kPasses;
+      int changed[1] = {contact_.update(model, state, ctx.h, threads, last, y_, sys_) ? 1 : 0};
       max_over_ranks(changed);
-      if (!changed[0]) break;
+      if (!changed[0]) {
+        int waiting[1] = {contact_.waiting() ? 1 : 0};
+        max_over_ranks(waiting);
+        if (!waiting[0]) break;
+        changed[0] = contact_.admit(model, state, ctx.h, threads, last, y_, sys_) ? 1 : 0;
+        max_over_ranks(changed);
+        if (!changed[0]) break;
+      }
       solve(true);
     }
     if (config_.restore_momentum) restore_momentum_over_ranks(layout_, model, f_ext, ctx.h, y_, contact_.touching());

@@ -401,47 +401,79 @@ bool update_friction(const ContactMaterial& mat, double stick, double h, bool la
   return true;
 }
 
+// Turns a contact's friction off: a sliding damper of no drag, which stays so while its normal
+// force is zero (update_friction) and takes Coulomb's drag again once it pushes.
+template <class C>
+void frictionless(C& c) {
+  c.slide = true;
+  c.push = false;
+  c.drag = 0;
+  c.unrubbed = true;
+}
+
 }  // namespace
 
 bool ContactSolve::update(const Model& model, const State& state, double h, int threads, bool last,
                           const std::vector<Vec3>& y, ImplicitSystem& sys) {
+  const bool changed = sweep(model, state, h, last, last, y);
+  if (changed) write(model, state, h, threads, sys);
+  return changed;
+}
+
+bool ContactSolve::admit(const Model& model, const State& state, double h, int threads, bool last,
+                         const std::vector<Vec3>& y, ImplicitSystem& sys) {
+  const bool changed = waiting_ && sweep(model, state, h, last, true, y);
+  if (changed) write(model, state, h, threads, sys);
+  return changed;
+}
+
+bool ContactSolve::sweep(const Model& model, const State& state, double h, bool last, bool admit,
+                         const std::vector<Vec3>& y) {
   bool changed = false;
+  waiting_ = false;
   std::vector<Contact>& next = next_;
   next.clear();
   std::size_t k = 0;
   const std::size_t n = model.num_quanta();
   const std::size_t nob = model.obstacles.size();
-  // A contact released twice in a step stays released: the active set cannot cycle.
-  auto released = [&](Index i, std::uint32_t o) { return released_[i * nob + o] >= 2; };
   for (std::size_t q = 0; q < n && nob > 0; ++q) {
     const auto i = static_cast<Index>(q);
     if (model.is_kinematic(i) || !mine(i)) continue;
     const Vec3 v1 = state.v[i] + y[i];
     const Vec3 x1 = state.x[i] + h * v1;
     for (std::uint32_t o = 0; o < model.obstacles.size(); ++o) {
+      std::uint8_t& released = released_[i * nob + o];
       if (k < contacts_.size() && contacts_[k].i == i && contacts_[k].obstacle == o) {
         Contact c = contacts_[k++];
         c.fn = normal_force(state, h, c, y[i]);
-        if (c.fn < 0) {  // the spring pulls: the quanta leaves the surface
-          ++released_[i * nob + o];
+        const ContactMaterial& mat = model.obstacles[o].material;
+        if (c.fn < 0 && !last && released < 2) {  // the spring pulls: the quanta leaves the surface
           changed = true;
+          if (has_friction(mat) && !c.unrubbed) {
+            frictionless(c);  // first without the friction a pull cannot hold (Coulomb: |f_t| ≤ μ f_n)
+            next.push_back(c);
+          } else {
+            ++released;
+          }
           continue;
         }
-        const ContactMaterial& mat = model.obstacles[o].material;
+        c.fn = std::max(0.0, c.fn);  // a pull kept holds no friction
         if (has_friction(mat) && update_friction(mat, stick_drag(c.k, h), h, last, tangential(c.n) * v1, c))
           changed = true;
         next.push_back(c);
         continue;
       }
-      if (released(i, o)) continue;
       Contact c;
-      if (make(model, state, h, i, o, x1, c)) {
-        next.push_back(c);
-        changed = true;
+      if (!make(model, state, h, i, o, x1, c)) continue;
+      if (released >= 2) {
+        waiting_ = true;
+        if (!admit) continue;
+        frictionless(c);
       }
+      next.push_back(c);
+      changed = true;
     }
   }
-  contacts_.swap(next);
   // Pairs, the same way over the candidates.
   std::vector<PairContact>& next_pairs = next_pairs_;
   next_pairs.clear();
@@ -449,29 +481,41 @@ bool ContactSolve::update(const Model& model, const State& state, double h, int 
   k = 0;
   for (std::uint32_t c = 0; c < candidates_.size(); ++c) {
     const auto [i, j] = candidates_[c];
+    std::uint8_t& released = pair_released_[c];
     const Vec3 w1 = state.v[j] + y[j] - state.v[i] - y[i];
     if (k < pairs_.size() && pairs_[k].candidate == c) {
       PairContact p = pairs_[k++];
       p.fn = pair_normal_force(state, h, p, y);
-      if (p.fn < 0) {
-        ++pair_released_[c];
+      if (p.fn < 0 && !last && released < 2) {
         changed = true;
+        if (has_friction(pmat) && !p.unrubbed) {
+          frictionless(p);
+          next_pairs.push_back(p);
+        } else {
+          ++released;
+        }
         continue;
       }
+      p.fn = std::max(0.0, p.fn);
       if (has_friction(pmat) && update_friction(pmat, stick_drag(p.k, h), h, last, tangential(p.n) * w1, p))
         changed = true;
       next_pairs.push_back(p);
       continue;
     }
-    if (pair_released_[c] >= 2) continue;
     PairContact p;
-    if (make_pair(model, state, h, c, state.x[j] - state.x[i] + h * w1, p)) {
-      next_pairs.push_back(p);
-      changed = true;
+    if (!make_pair(model, state, h, c, state.x[j] - state.x[i] + h * w1, p)) continue;
+    if (released >= 2) {
+      waiting_ = true;
+      if (!admit) continue;
+      frictionless(p);
     }
+    next_pairs.push_back(p);
+    changed = true;
   }
-  pairs_.swap(next_pairs);
-  if (changed) write(model, state, h, threads, sys);
+  if (changed) {
+    contacts_.swap(next);
+    pairs_.swap(next_pairs);
+  }
   return changed;
 }
 

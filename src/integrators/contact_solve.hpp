@@ -59,6 +59,12 @@ class ContactSolve {
   // (every sliding contact's friction is then a damper).
   bool update(const Model& model, const State& state, double h, int threads, bool last,
               const std::vector<Vec3>& y, ImplicitSystem& sys);
+  // After an update that changed nothing (over every rank): takes back the contacts released twice
+  // whose paths enter their obstacles again (sweep). True (and sys updated) when there were some.
+  bool admit(const Model& model, const State& state, double h, int threads, bool last,
+             const std::vector<Vec3>& y, ImplicitSystem& sys);
+  // Whether the last update left contacts released twice whose paths enter again (admit's work).
+  bool waiting() const { return waiting_; }
   // Quanta with a contact (1), for the momentum restoration to leave their components alone:
   // the obstacle's impulse is part of their momentum change. Empty when there is none.
   const std::vector<std::uint8_t>& touching() const { return touching_; }
@@ -93,6 +99,7 @@ class ContactSolve {
     double push_force = 0;
     Vec3 push_dir = Vec3::Zero();
     std::uint8_t reversals = 0;  // times this step it stuck again after sliding
+    bool unrubbed = false;       // its friction was turned off this step (sweep)
   };
   // A contact of quanta i and j (i < j): what Contact holds, for their relative motion.
   struct PairContact {
@@ -108,6 +115,7 @@ class ContactSolve {
     double push_force = 0;
     Vec3 push_dir = Vec3::Zero();
     std::uint8_t reversals = 0;
+    bool unrubbed = false;
   };
   // The contact of the pair of candidate c given that its relative path from the start to the end
   // separation d1 enters 2R (or ends inside it); false when it does not.
@@ -133,6 +141,14 @@ class ContactSolve {
   // The force the solve applied at Δv = y: normal, and the friction's damper.
   Vec3 contact_force(const Model& model, const State& s, double h, const Contact& c, const Vec3& y) const;
   void write(const Model& model, const State& state, double h, int threads, ImplicitSystem& sys);
+  // update's and admit's pass over the contacts: true, and the new set in contacts_ and pairs_,
+  // when it changed. A contact released twice in the step stays released while the set changes
+  // otherwise (it cannot cycle; waiting_ says one would enter again); once nothing else changes,
+  // or for the last solve (`admit`), it returns if its path enters the obstacle, without friction,
+  // and is never released again, even if its spring then pulls: no quanta may end the step deep
+  // inside an obstacle with no spring holding it (the next step's would push it out with energy
+  // from nowhere). The last solve releases nothing, for the same reason.
+  bool sweep(const Model& model, const State& state, double h, bool last, bool admit, const std::vector<Vec3>& y);
   // The springs' energy at positions x: Σ ½ k φ² over the obstacles' and the candidates' overlaps.
   double stored(const Model& model, const std::vector<Vec3>& x) const;
 
@@ -149,6 +165,7 @@ class ContactSolve {
   std::vector<std::pair<Index, Index>> candidates_;
   std::vector<PairContact> pairs_, next_pairs_;  // by candidate
   std::vector<std::uint8_t> pair_released_;      // per candidate: times its contact was dropped this step
+  bool waiting_ = false;                         // sweep: a contact released twice would enter again
   std::vector<Vec3> mid_;                        // the predicted paths' midpoints (scratch)
   std::vector<double> reach_;                    // half the predicted paths' lengths (scratch)
   std::vector<Vec3> impulse_;                    // per quanta: the contacts' impulse this step (finish)

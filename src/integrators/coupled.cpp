@@ -83,9 +83,11 @@ class CoupledIntegrator final : public StepIntegrator {
     Iterations step;
     linear_solve(model, state, adj, f_ext, ctx, whole, contacts, /*warm=*/false, step);
     // Contacts: solved again, from the last solution, while the active set changes.
-    for (int pass = 1;
-         contacts && pass < ContactSolve::kPasses &&
-         contact_.update(model, state, ctx.h, config_.threads, pass + 1 == ContactSolve::kPasses, y_, sys_);
+    auto changed = [&](bool last) {
+      return contact_.update(model, state, ctx.h, config_.threads, last, y_, sys_) ||
+             contact_.admit(model, state, ctx.h, config_.threads, last, y_, sys_);
+    };
+    for (int pass = 1; contacts && pass < ContactSolve::kPasses && changed(pass + 1 == ContactSolve::kPasses);
          ++pass) {
       // A block-Jacobi pass that took long (an impact's stiff springs) may turn `automatic` to
       // multigrid for the step's remaining passes.
