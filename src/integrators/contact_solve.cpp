@@ -411,6 +411,28 @@ void frictionless(C& c) {
   c.unrubbed = true;
 }
 
+// A contact whose spring pulls: true when it stays for another solve without its friction (a pull
+// holds none: |f_t| ≤ μ f_n), false when it is released (counted in `released`).
+template <class C>
+bool stays_unrubbed(C& c, bool rubs, std::uint8_t& released) {
+  if (rubs && !c.unrubbed) {
+    frictionless(c);
+    return true;
+  }
+  ++released;
+  return false;
+}
+
+// A contact made again after being released twice: true when it returns (admitted, without
+// friction), false while it waits (`waiting` set).
+template <class C>
+bool returns(C& c, std::uint8_t released, bool admit, bool& waiting) {
+  if (released < 2) return true;
+  waiting = true;
+  if (admit) frictionless(c);
+  return admit;
+}
+
 }  // namespace
 
 bool ContactSolve::update(const Model& model, const State& state, double h, int threads, bool last,
@@ -449,12 +471,7 @@ bool ContactSolve::sweep(const Model& model, const State& state, double h, bool 
         const ContactMaterial& mat = model.obstacles[o].material;
         if (c.fn < 0 && !last && released < 2) {  // the spring pulls: the quanta leaves the surface
           changed = true;
-          if (has_friction(mat) && !c.unrubbed) {
-            frictionless(c);  // first without the friction a pull cannot hold (Coulomb: |f_t| ≤ μ f_n)
-            next.push_back(c);
-          } else {
-            ++released;
-          }
+          if (stays_unrubbed(c, has_friction(mat), released)) next.push_back(c);
           continue;
         }
         c.fn = std::max(0.0, c.fn);  // a pull kept holds no friction
@@ -464,12 +481,7 @@ bool ContactSolve::sweep(const Model& model, const State& state, double h, bool 
         continue;
       }
       Contact c;
-      if (!make(model, state, h, i, o, x1, c)) continue;
-      if (released >= 2) {
-        waiting_ = true;
-        if (!admit) continue;
-        frictionless(c);
-      }
+      if (!make(model, state, h, i, o, x1, c) || !returns(c, released, admit, waiting_)) continue;
       next.push_back(c);
       changed = true;
     }
@@ -488,12 +500,7 @@ bool ContactSolve::sweep(const Model& model, const State& state, double h, bool 
       p.fn = pair_normal_force(state, h, p, y);
       if (p.fn < 0 && !last && released < 2) {
         changed = true;
-        if (has_friction(pmat) && !p.unrubbed) {
-          frictionless(p);
-          next_pairs.push_back(p);
-        } else {
-          ++released;
-        }
+        if (stays_unrubbed(p, has_friction(pmat), released)) next_pairs.push_back(p);
         continue;
       }
       p.fn = std::max(0.0, p.fn);
@@ -503,12 +510,8 @@ bool ContactSolve::sweep(const Model& model, const State& state, double h, bool 
       continue;
     }
     PairContact p;
-    if (!make_pair(model, state, h, c, state.x[j] - state.x[i] + h * w1, p)) continue;
-    if (released >= 2) {
-      waiting_ = true;
-      if (!admit) continue;
-      frictionless(p);
-    }
+    const bool entered = make_pair(model, state, h, c, state.x[j] - state.x[i] + h * w1, p);
+    if (!entered || !returns(p, released, admit, waiting_)) continue;
     next_pairs.push_back(p);
     changed = true;
   }

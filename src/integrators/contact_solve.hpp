@@ -148,7 +148,8 @@ class ContactSolve {
   // and is never released again, even if its spring then pulls: no quanta may end the step deep
   // inside an obstacle with no spring holding it (the next step's would push it out with energy
   // from nowhere). The last solve releases nothing, for the same reason.
-  bool sweep(const Model& model, const State& state, double h, bool last, bool admit, const std::vector<Vec3>& y);
+  bool sweep(const Model& model, const State& state, double h, bool last, bool admit,
+             const std::vector<Vec3>& y);
   // The springs' energy at positions x: Σ ½ k φ² over the obstacles' and the candidates' overlaps.
   double stored(const Model& model, const std::vector<Vec3>& x) const;
 
