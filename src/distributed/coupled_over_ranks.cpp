@@ -411,8 +411,8 @@ class CoupledOverRanks final : public StepIntegrator {
     };
     solve(guessed);
     // Contacts: solved again, from the last solution, while some rank's active set changes, as
-    // the run alone's coupled step.
-    // Contacts released twice return only once no rank's set changes otherwise (ContactSolve::admit).
+    // the run alone's coupled step; those released twice return only once no rank's set changes
+    // otherwise (ContactSolve::admit).
     for (int pass = 1; contacts && pass < ContactSolve::kPasses; ++pass) {
       const bool last = pass + 1 == ContactSolve::kPasses;
       int changed[1] = {contact_.update(model, state, ctx.h, threads, last, y_, sys_) ? 1 : 0};
