@@ -169,6 +169,15 @@ struct Ledger {
   }
 };
 
+// Steps sim `steps` times, each step ok, the ledger seeing the start and every step's end.
+void step_watched(Simulation& sim, std::uint64_t steps, Ledger& ledger) {
+  ledger.see(sim.world());
+  for (std::uint64_t n = 0; n < steps; ++n) {
+    ASSERT_EQ(sim.step().status, StepReport::Status::ok) << n;
+    ledger.see(sim.world());
+  }
+}
+
 // A body's centre of mass.
 Vec3 mean_position(const World& w, Index body) {
   Vec3 x = Vec3::Zero();
@@ -338,11 +347,7 @@ TEST(SolvedQuantaContact, TheTrampolineWithFrictionConvergesAsTheStepShrinks) {
     Scene s = scene_at(j0, per_second, 4.0);
     Simulation sim(std::move(s.world), s.integrator, s.timestep);
     Ledger ledger;
-    ledger.see(sim.world());
-    for (std::uint64_t n = 0; n < s.steps; ++n) {
-      ASSERT_EQ(sim.step().status, StepReport::Status::ok);
-      ledger.see(sim.world());
-    }
+    ASSERT_NO_FATAL_FAILURE(step_watched(sim, s.steps, ledger)) << per_second;
     EXPECT_GE(ledger.least_dissipated, 0.0) << per_second;
     EXPECT_LE(ledger.worst_remainder, 0.01 * ledger.largest) << per_second;
     const Index block = body_named(sim.world(), "block");
@@ -397,11 +402,7 @@ TEST(SolvedQuantaContact, TheMeshDropsLedgerClosesAtFrameSizedSteps) {
     ASSERT_EQ(s.timestep, 1.0 / 60);
     Simulation sim(std::move(s.world), s.integrator, s.timestep);
     Ledger ledger;
-    ledger.see(sim.world());
-    for (std::uint64_t n = 0; n < s.steps; ++n) {
-      ASSERT_EQ(sim.step().status, StepReport::Status::ok) << n;
-      ledger.see(sim.world());
-    }
+    ASSERT_NO_FATAL_FAILURE(step_watched(sim, s.steps, ledger));
     EXPECT_TRUE(ledger.touched);
     EXPECT_GE(ledger.least_dissipated, 0.0);
     EXPECT_LE(ledger.worst_remainder, 0.01 * ledger.largest);
