@@ -267,7 +267,8 @@ def peers_accuracy(name, data, machine):
                  "the end (runnable processes on the machine's cores; the searches ran two at a time).")
     for x in data.get("appended", []):
         if "accuracy_n" in x:
-            note += (f" The searches of n = {', '.join(map(str, x['accuracy_n']))} were run {x['date'][:10]} "
+            where = f" on {x['machine']}" if "machine" in x else ""
+            note += (f" The searches of n = {', '.join(map(str, x['accuracy_n']))} were run {x['date'][:10]}{where} "
                      f"at nice {x['nice']}, host load average {x['load_average'][0]:.1f} at the start, "
                      f"{x['load_average'][1]:.1f} at the end" +
                      ("." if x.get("finished", True) else "; that run was cut short: these are the searches it finished."))

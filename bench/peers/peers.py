@@ -69,6 +69,18 @@ def bullet(exe, n, h, steps):
     return float(kv["seconds_per_step"]), int(kv["links"]), math.isfinite(vmax) and vmax < 10
 
 
+def machine():
+    """The processor's model name and this machine's core count (an appended run's machine may not be
+    the first run's)."""
+    model = "unknown processor"
+    with open("/proc/cpuinfo") as f:
+        for line in f:
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    return f"{model} ({os.cpu_count()} cores)"
+
+
 def qbond_bench(build, n_list, integrators, dt=None):
     """{(integrator, n): seconds per step} from `qbond bench`."""
     with tempfile.TemporaryDirectory() as d:
@@ -185,7 +197,7 @@ def main():
                    if not any(r["method"].startswith(m) for m in rerun)]
             return {**rec, "rows": old + rec["rows"]}
         appended = {"command": command, "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-                    "nice": os.nice(0), "load_average": [os.getloadavg()[0]] * 2, "accuracy_n": sorted(ns),
+                    "machine": machine(), "nice": os.nice(0), "load_average": [os.getloadavg()[0]] * 2, "accuracy_n": sorted(ns),
                     "finished": False}
         doc.setdefault("appended", []).append(appended)
 
