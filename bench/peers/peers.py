@@ -197,8 +197,8 @@ def main():
                    if not any(r["method"].startswith(m) for m in rerun)]
             return {**rec, "rows": old + rec["rows"]}
         appended = {"command": command, "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-                    "machine": machine(), "nice": os.nice(0), "load_average": [os.getloadavg()[0]] * 2, "accuracy_n": sorted(ns),
-                    "finished": False}
+                    "machine": machine(), "nice": os.nice(0), "load_average": [os.getloadavg()[0]] * 2,
+                    "accuracy_n": sorted(ns), "finished": False}
         doc.setdefault("appended", []).append(appended)
 
         def save_appended(records):
