@@ -337,9 +337,9 @@ TEST(SolvedQuantaContact, TheTrampolineWithFrictionConvergesAsTheStepShrinks) {
   // than from the one before, and the block stays on the sheet's axis (symmetric: round-off
   // amplified by its stuck contacts moves it < 0.004 radii). At 1/120 s the impact's active set
   // used to cycle (a stick contact pulled once released) until the block passed into the sheet:
-  // the ledger's `numerical` stays within 1%. Solved by LDLᵀ: the active set is the solver's
-  // either way, CG takes 300–1000 iterations a step here, and the direct solve leaves CG's
-  // tolerance out of the heights compared.
+  // the ledger's `numerical` stays within 1%. Solved by LDLᵀ: the active-set rules are the same
+  // whatever the solver, CG takes 300–1000 iterations a step here, and the direct solve leaves
+  // CG's tolerance out of the heights compared.
   std::ifstream f(std::string(QBOND_SOURCE_DIR) + "/scenes/trampoline.json");
   nlohmann::json j0 = nlohmann::json::parse(f);
   ASSERT_EQ(j0["bodies"][1]["name"], "block");

@@ -37,6 +37,9 @@ import time
 import accuracy
 from workload import MASS, bond_count, lammps_header
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from ab import cpu_model  # noqa: E402  (bench/ab.py)
+
 
 def lammps(n, h, steps, work):
     """(seconds per step, stable) of LAMMPS's velocity-Verlet run of the workload."""
@@ -70,15 +73,9 @@ def bullet(exe, n, h, steps):
 
 
 def machine():
-    """The processor's model name and this machine's core count (an appended run's machine may not be
+    """The processor's name and this machine's core count (an appended run's machine may not be
     the first run's)."""
-    model = "unknown processor"
-    with open("/proc/cpuinfo") as f:
-        for line in f:
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    return f"{model} ({os.cpu_count()} cores)"
+    return f"{cpu_model()} ({os.cpu_count()} cores)"
 
 
 def qbond_bench(build, n_list, integrators, dt=None):
