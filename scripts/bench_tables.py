@@ -297,6 +297,15 @@ def peers_accuracy(name, data, machine):
     return lines
 
 
+# The accuracy searches' explicit qbond methods: velocity Verlet with and without the energy ledger.
+EXPLICIT = ("qbond velocity_verlet", "qbond velocity_verlet_no_ledger")
+
+
+def implicit(method):
+    """Whether an accuracy search's method is one of qbond's implicit integrators."""
+    return method.startswith("qbond") and method not in EXPLICIT
+
+
 def accuracy_finished(data, n):
     """Whether the accuracy searches of the n^3 lattice in a peers result all finished."""
     runs = [x for x in data.get("appended", []) if n in x.get("accuracy_n", [])]
@@ -316,10 +325,10 @@ def peers_frequencies(name, data, machine):
         tried = {r["method"] for r in acc["rows"] if r["criterion"] == "dynamic"}
         dyn = {r["method"]: r for r in acc["rows"] if r["criterion"] == "dynamic" and r["step"] is not None}
         vv = dyn.get("qbond velocity_verlet")
-        imp = [r for m, r in dyn.items() if m.startswith("qbond") and m != "qbond velocity_verlet"]
+        imp = [r for m, r in dyn.items() if implicit(m)]
         im = max(imp, key=lambda r: r["step"]) if imp else None
         vv_text = f"{vv['step']:.3g}" if vv else "never" if "qbond velocity_verlet" in tried else "not measured"
-        implicit_tried = any(m.startswith("qbond") and m != "qbond velocity_verlet" for m in tried)
+        implicit_tried = any(implicit(m) for m in tried)
         im_text = (f"{im['step']:.3g} ({im['method'].removeprefix('qbond ')}, {acc['omega1'] * im['step']:.2g})"
                    if im else "never" if implicit_tried else "not measured")
         ratio = (sig(im["seconds_per_simulated_second"] / vv["seconds_per_simulated_second"])
@@ -506,7 +515,7 @@ def targets(bench_dir, machines):
                      f"{q['method'].removeprefix('qbond ')} at h = {q['step']:.3g} s: " +
                      ", ".join(t for t, _ in peers_text), all(x >= need for _, x in peers_text), pname))
     vv = cost("dynamic", lambda m: m == "qbond velocity_verlet")
-    im = cost("dynamic", lambda m: m.startswith("qbond") and m != "qbond velocity_verlet")
+    im = cost("dynamic", implicit)
     if vv and im:
         rows.append((f"dynamic criterion, n = {n}: an implicit qbond integrator cheaper than qbond's velocity Verlet",
                      f"{im['method'].removeprefix('qbond ')} {sig(im['seconds_per_simulated_second'])} s, velocity Verlet "

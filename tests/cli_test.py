@@ -1374,6 +1374,50 @@ def test_default_never_gains_energy():
         fail(f"run.json: {run['status']}, {run['energy_gain']}")
 
 
+def test_no_ledger():
+    """--no-ledger steps the same bits (velocity Verlet: the ledger only watches it), writes the
+    ledger's columns as nan and run.json's run.ledger false, keeps that in its checkpoint, and is
+    refused, before anything is written, beside what reads the ledger every step."""
+    runs = {}
+    for name, extra in (("ledger", []), ("no_ledger", ["--no-ledger"])):
+        out = fresh("ledger_" + name)
+        qbond("run", "pendulum", "--integrator", "velocity_verlet", "--dt", "1e-4", "--steps", "200", "--every", "20",
+              "--out", out, "-q", *extra, check_code=0)
+        runs[name] = out
+    _, with_books = read_csv(os.path.join(runs["ledger"], "diagnostics.csv"))
+    _, without = read_csv(os.path.join(runs["no_ledger"], "diagnostics.csv"))
+    header = with_books[0]
+    books = {"dissipated", "work", "numerical_damping", "numerical"}
+    if not books <= set(header) or len(with_books) != len(without):
+        fail(f"diagnostics: header {header}, {len(with_books)} and {len(without)} rows")
+    for a, b in zip(with_books[1:], without[1:]):
+        for column, x, y in zip(header, a, b):
+            if column in books:
+                if y != "nan" or x == "nan":
+                    fail(f"step {a[0]} {column}: {x} with the ledger, {y} without")
+            elif x != y:
+                fail(f"step {a[0]} {column}: {x} with the ledger, {y} without: the steps differ")
+    if json.load(open(os.path.join(runs["no_ledger"], "run.json")))["run"]["ledger"] is not False:
+        fail("run.json: run.ledger is not false")
+    qbond("run", "--resume", os.path.join(runs["no_ledger"], "checkpoint.qbc"), "--steps", "240", "-q", check_code=0)
+    _, resumed = read_csv(os.path.join(runs["no_ledger"], "diagnostics.csv"))
+    if resumed[-1][0] != "240" or resumed[-1][header.index("numerical")] != "nan":
+        fail(f"resumed: last row {resumed[-1]}")
+    # Refused: the adaptive step and stop_on_energy_gain read the ledger every step.
+    d = fresh("ledger_refused")
+    os.makedirs(d)
+    scene = json.load(open(os.path.join(SOURCE, "scenes", "pendulum.json")))
+    scene["limits"] = {"stop_on_energy_gain": True}
+    stopping = os.path.join(d, "stopping.json")
+    json.dump(scene, open(stopping, "w"))
+    for path, why in ((os.path.join(SOURCE, "scenes", "adaptive_pendulum.json"), "the adaptive step"),
+                      (stopping, "limits.stop_on_energy_gain")):
+        out = os.path.join(d, "out")
+        r = qbond("run", path, "--no-ledger", "--out", out)
+        if r.returncode != 2 or "--no-ledger: " + why not in r.stderr or os.path.exists(out):
+            fail(f"{path} --no-ledger: exit {r.returncode}, stderr {r.stderr!r}")
+
+
 def test_energy_gain_is_reported():
     """hybrid_implicit (one sweep a step, its default) on the pendulum at 1/60 s pumps energy: the
     run warns, events.csv has an energy_gain row, run.json says exceeded; with

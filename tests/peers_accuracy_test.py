@@ -104,6 +104,12 @@ def main():
     for h in common:
         check(abs(lam[h]["error"] - vv[h]["error"]) <= 1e-3, f"h = {h}: LAMMPS's error {lam[h]['error']}, "
               f"qbond velocity Verlet's {vv[h]['error']}")
+    # Without the ledger velocity Verlet steps the same bits: the same steps tried, the same errors.
+    def tried(method, c):
+        return [(t["h"], repr(t["error"])) for t in rows[(method, c)]["tried"]]
+    for c in ("dynamic", "settled"):
+        check(tried("qbond velocity_verlet_no_ledger", c) == tried("qbond velocity_verlet", c),
+              f"{c}: velocity Verlet's searches with and without the ledger differ")
     be = rows[("qbond default", "settled")]["step"]
     vv_settled = rows[("qbond velocity_verlet", "settled")]["step"]
     check(be is not None and be >= 0.1, f"backward Euler settled only at h = {be}")

@@ -191,7 +191,7 @@ def main():
 
         def merged(rec):
             old = [r for r in earlier.get(rec["n"], {}).get("rows", [])
-                   if not any(r["method"].startswith(m) for m in rerun)]
+                   if not any(r["method"] == m or r["method"].startswith(m + " (") for m in rerun)]
             return {**rec, "rows": old + rec["rows"]}
         appended = {"command": command, "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
                     "machine": machine(), "nice": os.nice(0), "load_average": [os.getloadavg()[0]] * 2,

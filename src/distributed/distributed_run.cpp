@@ -231,6 +231,8 @@ void RanksRun::Impl::start(Scene scene, RunSettings run_settings, bool resumed,
   };
   if (ranks > 1) {
     check_distributable(scene, ranks);
+    // The ranks charge the ledger themselves, over their own bonds (distributed_step.cpp).
+    if (!run_settings.ledger) throw std::invalid_argument("--no-ledger: not over MPI ranks (run it alone)");
     if (run_settings.every == 0) throw std::invalid_argument("output interval must be >= 1 step");
     // Ranks on one machine share its cores: each takes its share unless told (OMP_NUM_THREADS).
     const int on_node = distributed::ranks_on_this_node();

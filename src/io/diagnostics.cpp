@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <limits>
 
 #include "qbond/analysis/analysis.hpp"
 #include "qbond/analysis/stress.hpp"
@@ -57,14 +58,16 @@ std::string Diagnostics::header() const {
 std::string Diagnostics::row(const Model& model, const State& state, const SolveStats& stats, double timestep) const {
   const EnergyBudget b = energy_budget(model, state);
   const double potential = b.now.bonds + b.now.gravity;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto books = [&](double v) { return ledger_ ? v : nan; };
   std::size_t alive = 0;
   for (std::uint8_t a : state.bonds.alive) alive += a;
   std::string r = std::to_string(state.step);
   put(r, state.time);
   put(r, b.now.kinetic);
   put(r, potential);
-  put(r, b.dissipated_damping + b.dissipated_heuristics + b.dissipated_contact);
-  put(r, b.now.kinetic + potential + b.contact_stored);
+  put(r, books(b.dissipated_damping + b.dissipated_heuristics + b.dissipated_contact));
+  put(r, contact_columns_ ? books(b.now.kinetic + potential + b.contact_stored) : b.now.kinetic + potential);
   put(r, linear_momentum(model, state));
   put(r, angular_momentum(model, state));
   put(r, max_speed(model, state).first);
@@ -95,12 +98,12 @@ std::string Diagnostics::row(const Model& model, const State& state, const Solve
     }
   }
   if (contact_columns_) {
-    put(r, b.contact_stored);
-    put(r, b.dissipated_contact);
+    put(r, books(b.contact_stored));
+    put(r, books(b.dissipated_contact));
   }
-  put(r, b.work_loads + b.work_anchors);
-  put(r, b.numerical_damping);
-  put(r, b.dissipated_numerical);
+  put(r, books(b.work_loads + b.work_anchors));
+  put(r, books(b.numerical_damping));
+  put(r, books(b.dissipated_numerical));
   put_count(r, static_cast<std::size_t>(stats.iterations));
   put(r, stats.residual);
   put(r, timestep);

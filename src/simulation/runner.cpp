@@ -93,12 +93,22 @@ std::string utc_now() {
   return buf;
 }
 
+// What reads the energy ledger every step cannot run without it.
+void refuse_without_ledger(const Scene& scene) {
+  const char* why = scene.adaptive.enabled             ? "the adaptive step is judged by the energy ledger"
+                    : scene.limits.stop_on_energy_gain ? "limits.stop_on_energy_gain reads the energy ledger"
+                    : scene.integrator.restore_energy  ? "integrator.restore_energy charges the energy ledger"
+                                                       : nullptr;
+  if (why) throw std::invalid_argument(std::string("--no-ledger: ") + why);
+}
+
 json to_json(const RunSettings& s) {
   return {{"out_dir", s.out_dir.string()},
           {"steps", s.steps},
           {"every", s.every},
           {"checkpoint_every", s.checkpoint_every},
-          {"vtk", s.vtk}};
+          {"vtk", s.vtk},
+          {"ledger", s.ledger}};
 }
 
 // A checkpoint's run settings, checked like a scene's (scene_detail's readers, which throw Bad
@@ -106,7 +116,7 @@ json to_json(const RunSettings& s) {
 // beside its checkpoint, or where the command line says.
 RunSettings settings_from_json(const json& j) {
   using namespace scene_detail;
-  Obj o(j, "run", {"out_dir", "steps", "every", "checkpoint_every", "vtk"});
+  Obj o(j, "run", {"out_dir", "steps", "every", "checkpoint_every", "vtk", "ledger"});
   RunSettings s;
   string(o.required("out_dir"), o.at("out_dir"));
   s.steps = integer(o.required("steps"), o.at("steps"), 0);
@@ -114,6 +124,7 @@ RunSettings settings_from_json(const json& j) {
   s.every = integer(o.required("every"), o.at("every"), 1);
   s.checkpoint_every = integer(o.required("checkpoint_every"), o.at("checkpoint_every"), 0);
   s.vtk = boolean(o.required("vtk"), o.at("vtk"));
+  if (o.has("ledger")) s.ledger = boolean(o["ledger"], o.at("ledger"));  // older checkpoints: on
   return s;
 }
 
@@ -204,9 +215,12 @@ struct Runner::Impl {
         sim(std::move(scene.world), scene.integrator, scene.timestep),  // the simulation owns the world
         diagnostics(sim.world().model, probes_of(scene), obstacles_of(scene)) {
     if (settings.every == 0) throw std::invalid_argument("output interval must be >= 1 step");
+    if (!settings.ledger) refuse_without_ledger(scene);
     settings.out_dir = fs::absolute(settings.out_dir);
     sim.limits() = scene.limits;
     sim.set_keep_last_good(true);
+    sim.set_track_energy(settings.ledger);
+    diagnostics.set_ledger(settings.ledger);
     for (const HeuristicSpec& h : scene.heuristics) sim.add_heuristic(make_heuristic(h));
     first_step = sim.world().state.step;
     last_h = scene.timestep;

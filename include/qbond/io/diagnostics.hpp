@@ -25,12 +25,17 @@ class Diagnostics {
   /// The row of a state (no newline); `timestep` is the step that led to it [s] (adaptive runs
   /// vary it).
   std::string row(const Model& model, const State& state, const SolveStats& stats, double timestep = 0) const;
+  /// Whether the run charges the energy ledger; without it the columns the ledger alone knows
+  /// (dissipated, work, numerical_damping, numerical, the contacts' energies, and total where
+  /// contact springs hold energy) are nan.
+  void set_ledger(bool on) { ledger_ = on; }
 
  private:
   std::vector<Probe> probes_;
   std::vector<bool> reaction_, stress_;
   std::vector<Obstacle> obstacles_;  // the recorded ones
   bool contact_columns_ = false;     // the model has obstacles in the step's solve
+  bool ledger_ = true;
 };
 
 }  // namespace qbond

@@ -23,6 +23,10 @@ struct RunSettings {
   std::uint64_t every = 1;                ///< steps between diagnostics rows and frames
   std::uint64_t checkpoint_every = 0;     ///< steps between checkpoints; 0: at the end and on stops only
   bool vtk = true;                        ///< write .vtp frames and the .pvd series
+  /// Charge the energy ledger every step (Simulation::set_track_energy). Off: a step costs one
+  /// pass over the bonds less, the ledger's columns are written as nan, and no energy gain is
+  /// checked or guarded against. Kept in checkpoints. Not over MPI ranks.
+  bool ledger = true;
   /// Over MPI ranks: each frame a .pvtp with one .vtp piece per rank (RanksRun); alone, no effect.
   /// Not kept in checkpoints: a resumed run takes it from its command line.
   bool frame_pieces = false;
