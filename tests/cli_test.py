@@ -1374,6 +1374,16 @@ def test_default_never_gains_energy():
         fail(f"run.json: {run['status']}, {run['energy_gain']}")
 
 
+def pendulum_stopping_on_energy_gain(d):
+    """The pendulum scene with limits.stop_on_energy_gain, written into the new directory d."""
+    os.makedirs(d)
+    scene = json.load(open(os.path.join(SOURCE, "scenes", "pendulum.json")))
+    scene["limits"] = {"stop_on_energy_gain": True}
+    path = os.path.join(d, "pendulum.json")
+    json.dump(scene, open(path, "w"))
+    return path
+
+
 def test_no_ledger():
     """--no-ledger steps the same bits (velocity Verlet: the ledger only watches it), writes the
     ledger's columns as nan and run.json's run.ledger false, keeps that in its checkpoint, and is
@@ -1405,11 +1415,7 @@ def test_no_ledger():
         fail(f"resumed: last row {resumed[-1]}")
     # Refused: the adaptive step and stop_on_energy_gain read the ledger every step.
     d = fresh("ledger_refused")
-    os.makedirs(d)
-    scene = json.load(open(os.path.join(SOURCE, "scenes", "pendulum.json")))
-    scene["limits"] = {"stop_on_energy_gain": True}
-    stopping = os.path.join(d, "stopping.json")
-    json.dump(scene, open(stopping, "w"))
+    stopping = pendulum_stopping_on_energy_gain(d)
     for path, why in ((os.path.join(SOURCE, "scenes", "adaptive_pendulum.json"), "the adaptive step"),
                       (stopping, "limits.stop_on_energy_gain")):
         out = os.path.join(d, "out")
@@ -1437,11 +1443,7 @@ def test_energy_gain_is_reported():
         fail(f"events.csv energy_gain rows: {hits}, run.json first_step {gain['first_step']}")
     # The same run told to stop at the gain, from a scene file with the key.
     d = fresh("gain_stop")
-    os.makedirs(d)
-    scene = json.load(open(os.path.join(SOURCE, "scenes", "pendulum.json")))
-    scene["limits"] = {"stop_on_energy_gain": True}
-    path = os.path.join(d, "pendulum.json")
-    json.dump(scene, open(path, "w"))
+    path = pendulum_stopping_on_energy_gain(d)
     r = qbond("run", path, "--integrator", "hybrid_implicit", "--neighbours", "sweep", "--dt", "0.0166667",
               "--steps", "180", "--out", os.path.join(d, "out"), "-q")
     if r.returncode != 3 or "energy gained at step" not in r.stderr:
