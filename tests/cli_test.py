@@ -105,9 +105,17 @@ def test_bad_scenes():
             fail(f"{name}: stderr lacks {text!r}:\n{r.stderr}")
         if os.path.exists(out):
             fail(f"{name}: {out} was created although the scene is bad")
-        v = qbond("validate", os.path.join(BAD_SCENES, name))
-        if v.returncode != 2 or text not in v.stderr:
-            fail(f"validate {name}: exit {v.returncode}\n{v.stderr}")
+    # validate takes them all at once: exit 2, and each scene's message, which starts with its file.
+    paths = [os.path.join(BAD_SCENES, name) for name in sorted(expected)]
+    v = qbond("validate", *paths)
+    messages = {}
+    for line in v.stderr.splitlines():
+        path = next((p for p in paths if line.startswith(f"qbond: {p}: ")), None)
+        if path:
+            messages[path] = line
+    for path, (name, text) in zip(paths, sorted(expected.items())):
+        if v.returncode != 2 or text not in messages.get(path, ""):
+            fail(f"validate {name}: exit {v.returncode}, message {messages.get(path)!r}")
 
 
 def test_bad_options():
