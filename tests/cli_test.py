@@ -839,6 +839,7 @@ def test_checkpoint_metadata_is_checked():
             ("every", lambda m: m["run"].update(every=-1), "run.every: must be >= 1, got -1"),
             ("checkpoint_every", lambda m: m["run"].update(checkpoint_every=-3),
              "run.checkpoint_every: must be >= 0, got -3"),
+            ("ledger", lambda m: m["run"].update(ledger="no"), "run.ledger: expected true or false, got a string"),
             ("threads", lambda m: m["scene"]["integrator"].update(threads=-2), "integrator.threads: must be >= 0"),
             ("no_scene", lambda m: m.pop("scene"), "metadata: scene: required key missing"),
             ("unknown", lambda m: m.update(extra=1), "metadata: extra: unknown key"),
